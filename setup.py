@@ -1,0 +1,43 @@
+"""ament_python build of steer_monitor; also installs with pip into a virtual environment."""
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = 'steer_monitor'
+
+setup(
+    name=PACKAGE,
+    version='0.1.0',
+    packages=find_packages(include=[PACKAGE, f'{PACKAGE}.*']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
+        (f'share/{PACKAGE}', ['package.xml']),
+        (f'share/{PACKAGE}/config', sorted(glob('config/*.yaml') + glob('config/*.dbc'))),
+    ],
+    python_requires='>=3.10',
+    install_requires=[
+        'setuptools',
+        'numpy>=1.24',
+        'scipy>=1.10',
+        'PyYAML>=6',
+        'matplotlib>=3.7',
+        'tqdm>=4.60',
+        'cantools>=39',
+        'python-can>=4.3',
+        'mcap>=1.1',
+        'mcap-ros2-support>=0.5',
+        'zstandard>=0.21',
+    ],
+    zip_safe=True,
+    maintainer='steer_monitor maintainers',
+    maintainer_email='steer-monitor@example.com',
+    description='Condition monitor for ram-type hydraulic steering gear (ROS 2).',
+    license='Apache-2.0',
+    tests_require=['pytest'],
+    entry_points={
+        'console_scripts': [
+            'steer-monitor = steer_monitor.cli.main:main',
+        ],
+    },
+)

@@ -1,0 +1,83 @@
+"""Tiller torque against rudder angle: a monotone PCHIP curve, odd in angle, scaled with
+the square of ship speed."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.interpolate import PchipInterpolator
+
+from steer_monitor.errors import ParameterError
+
+__all__ = ['TorqueCurve']
+
+
+@dataclass(frozen=True, eq=False)
+class TorqueCurve:
+    """Tiller torque M(alpha) at service speed, through given points.
+
+    Attributes:
+        angles: rudder angles of the points, shape (k,), strictly increasing, first 0 [rad].
+        torques: torque at those angles, shape (k,), first 0, non-decreasing [N m].
+        service_speed: ship speed at which the curve holds [m/s].
+
+    The curve is PCHIP (shape preserving, so monotone points give a monotone curve), odd in
+    alpha, held at its last value beyond the last point, and scales with (V / V_s)^2.
+    """
+
+    angles: NDArray[np.float64]
+    torques: NDArray[np.float64]
+    service_speed: float
+
+    def __post_init__(self) -> None:
+        angles = np.asarray(self.angles, dtype=float)
+        torques = np.asarray(self.torques, dtype=float)
+        if angles.ndim != 1 or angles.shape != torques.shape or angles.size < 2:
+            msg = (f'torque curve needs two equal-length lists of at least 2 points, got '
+                   f'{angles.shape} angles and {torques.shape} torques')
+            raise ParameterError(msg)
+        if not (np.all(np.isfinite(angles)) and np.all(np.isfinite(torques))):
+            msg = 'torque curve points must be finite numbers'
+            raise ParameterError(msg)
+        if angles[0] != 0.0 or torques[0] != 0.0:
+            msg = (f'torque curve must start at (0 deg, 0 kN m), got '
+                   f'({math.degrees(angles[0]):g} deg, {torques[0] / 1e3:g} kN m)')
+            raise ParameterError(msg)
+        if np.any(np.diff(angles) <= 0):
+            msg = 'torque curve angles must be strictly increasing'
+            raise ParameterError(msg)
+        if np.any(np.diff(torques) < 0):
+            msg = 'torque curve torques must not decrease with angle (the curve is monotone)'
+            raise ParameterError(msg)
+        if not (math.isfinite(self.service_speed) and self.service_speed > 0):
+            msg = f'service speed must be positive, got {self.service_speed!r} m/s'
+            raise ParameterError(msg)
+        object.__setattr__(self, 'angles', angles)
+        object.__setattr__(self, 'torques', torques)
+        object.__setattr__(self, '_pchip', PchipInterpolator(angles, torques, extrapolate=False))
+
+    @classmethod
+    def from_degrees_knm(cls, angles_deg: ArrayLike, torques_knm: ArrayLike,
+                         service_speed_kn: float) -> TorqueCurve:
+        """Build from engineers' units: degrees, kN m and knots."""
+        return cls(np.radians(np.asarray(angles_deg, dtype=float)),
+                   np.asarray(torques_knm, dtype=float) * 1e3,
+                   float(service_speed_kn) * 1852.0 / 3600.0)
+
+    def __call__(self, alpha: ArrayLike, speed: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Torque [N m] at rudder angle ``alpha`` [rad], optionally at ship speed [m/s].
+
+        Shapes broadcast; the sign follows alpha (the torque opposes the rudder's turn out of
+        the flow, so its magnitude is what the gear carries).
+        """
+        a = np.asarray(alpha, dtype=float)
+        mag = np.abs(a)
+        m = self._pchip(np.minimum(mag, self.angles[-1]))
+        m = np.where(mag > self.angles[-1], self.torques[-1], m)
+        m = np.sign(a) * m
+        if speed is not None:
+            m = m * (np.asarray(speed, dtype=float) / self.service_speed) ** 2
+        return m

@@ -1,0 +1,277 @@
+"""The parameters of steer_monitor: one table, read from a ROS 2 parameters file.
+
+The same table declares the node's ROS parameters (with descriptors) and validates the
+YAML file the CLI reads, so ``config/r18.yaml`` works for both::
+
+    steer_monitor:
+      ros__parameters:
+        gear:
+          stock_to_ram_m: 0.600
+          ...
+
+Names are dotted paths (``gear.stock_to_ram_m``) and carry their unit, as engineers write
+them; :func:`gear_from_params` converts to the SI records of :mod:`steer_monitor.model`.
+A value ROS 2 would reject (an integer where a double is declared) is rejected here too.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from steer_monitor.errors import ParameterError
+from steer_monitor.model.fits import parse_fit
+from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.torque import TorqueCurve
+
+__all__ = [
+    'NODE_NAME',
+    'PARAMETERS',
+    'ParamSpec',
+    'gaps_from_params',
+    'gear_from_params',
+    'load_params_file',
+    'validate_params',
+]
+
+NODE_NAME = 'steer_monitor'
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One parameter: dotted name, type, default (None: required), description and bounds.
+
+    ``kind`` is one of ``'double'``, ``'integer'``, ``'bool'``, ``'string'``,
+    ``'double_array'`` (the ROS 2 parameter types used here).
+    """
+
+    name: str
+    kind: str
+    default: Any
+    description: str
+    minimum: float | None = None
+    maximum: float | None = None
+    exclusive_minimum: bool = False
+
+
+PARAMETERS: tuple[ParamSpec, ...] = (
+    # Gear geometry and material (design doc section 1).
+    ParamSpec('gear.name', 'string', 'R-18', 'gear model, for reports'),
+    ParamSpec('gear.stock_to_ram_m', 'double', None, 'H: rudder-stock axis to ram axis [m]',
+              0.0, 10.0, True),
+    ParamSpec('gear.bushing_span_m', 'double', None,
+              'L: distance between the two cylinder bushings of one ram [m]', 0.0, 20.0, True),
+    ParamSpec('gear.ram_outer_diameter_m', 'double', None, 'd: ram outer diameter [m]',
+              0.0, 2.0, True),
+    ParamSpec('gear.ram_inner_diameter_m', 'double', 0.0,
+              'd1: ram inner diameter, 0 for a solid ram [m]', 0.0, 2.0),
+    ParamSpec('gear.youngs_modulus_pa', 'double', 2.1e11, 'E of ram and guide beam [Pa]',
+              0.0, 1e12, True),
+    ParamSpec('gear.guide_beam_inertia_mm4', 'double', None,
+              'J_gb: guide-beam section second moment of area [mm^4]', 0.0, 1e14, True),
+    ParamSpec('gear.guide_beam_span_m', 'double', None,
+              'L_gb: guide-beam span, both ends clamped [m]', 0.0, 20.0, True),
+    ParamSpec('gear.bushing_length_m', 'double', None, 'l_s: length of the ram bushing [m]',
+              0.0, 5.0, True),
+    ParamSpec('gear.rams', 'integer', 2, 'n: rams acting on the tiller', 1, 8),
+    ParamSpec('gear.max_rudder_deg', 'double', 35.0, 'largest rudder angle of the gear [deg]',
+              0.0, 60.0, True),
+    ParamSpec('gear.euler_amplification', 'bool', False,
+              'amplify ram compliance by 1/(1 - Fa/F_Eu); the paper neglects it (0.31 %)'),
+    # Tiller torque at service speed.
+    ParamSpec('torque.angle_deg', 'double_array', None,
+              'rudder angles of the tiller torque curve, from 0, increasing [deg]'),
+    ParamSpec('torque.torque_knm', 'double_array', None,
+              'tiller torque at those angles at service speed, from 0, monotone [kN m]'),
+    ParamSpec('torque.service_speed_kn', 'double', 16.0,
+              'ship speed at which the torque curve holds [kn]', 0.0, 60.0, True),
+    # Hydraulics.
+    ParamSpec('hydraulics.pumps', 'integer', 2, 'main pumps that can run together', 1, 4),
+    ParamSpec('hydraulics.ram_speed_per_pump_mm_s', 'double', 15.0,
+              'ram speed per running pump [mm/s]', 0.0, 1000.0, True),
+    # Clearances: current (configured) values and limits.
+    ParamSpec('clearances.gap_2z_mm', 'double', 0.6,
+              '2Z: diametral ram/bushing clearance used until estimated [mm]', 0.0, 5.0),
+    ParamSpec('clearances.gap_zgb_mm', 'double', 0.25,
+              'Z_gb: slipper/guide-beam clearance used until estimated [mm]', 0.0, 5.0),
+    ParamSpec('clearances.limit_2z_mm', 'double', 0.6, '[2Z]: wear limit of 2Z [mm]',
+              0.0, 5.0, True),
+    ParamSpec('clearances.limit_zgb_mm', 'double', 0.25, '[Z_gb]: wear limit of Z_gb [mm]',
+              0.0, 5.0, True),
+    ParamSpec('clearances.new_fit', 'string', '240 H9/f9',
+              'ISO 286 fit of ram and bushing when new'),
+)
+
+_BY_NAME = {p.name: p for p in PARAMETERS}
+
+
+def _flatten(tree: Mapping[str, Any], prefix: str = '') -> dict[str, Any]:
+    flat: dict[str, Any] = {}
+    for key, value in tree.items():
+        name = f'{prefix}{key}'
+        if isinstance(value, Mapping):
+            flat.update(_flatten(value, f'{name}.'))
+        else:
+            flat[name] = value
+    return flat
+
+
+def _check_value(spec: ParamSpec, value: Any) -> Any:
+    name = spec.name
+    if spec.kind == 'double':
+        if isinstance(value, bool) or not isinstance(value, float):
+            hint = f' (write {value}.0: ROS 2 reads {value} as an integer)' if isinstance(value, int) \
+                and not isinstance(value, bool) else ''
+            msg = f'parameter {name}: expected a floating-point number, got {value!r}{hint}'
+            raise ParameterError(msg)
+        if not math.isfinite(value):
+            msg = f'parameter {name}: must be finite, got {value!r}'
+            raise ParameterError(msg)
+        _check_bounds(spec, value)
+        return value
+    if spec.kind == 'integer':
+        if isinstance(value, bool) or not isinstance(value, int):
+            msg = f'parameter {name}: expected a whole number, got {value!r}'
+            raise ParameterError(msg)
+        _check_bounds(spec, value)
+        return value
+    if spec.kind == 'bool':
+        if not isinstance(value, bool):
+            msg = f'parameter {name}: expected true or false, got {value!r}'
+            raise ParameterError(msg)
+        return value
+    if spec.kind == 'string':
+        if not isinstance(value, str):
+            msg = f'parameter {name}: expected text, got {value!r}'
+            raise ParameterError(msg)
+        return value
+    if spec.kind == 'double_array':
+        if not isinstance(value, (list, tuple)) or not value:
+            msg = f'parameter {name}: expected a non-empty list of numbers, got {value!r}'
+            raise ParameterError(msg)
+        for i, item in enumerate(value):
+            if isinstance(item, bool) or not isinstance(item, float) or not math.isfinite(item):
+                msg = (f'parameter {name}[{i}]: expected a finite floating-point number, got '
+                       f'{item!r} (ROS 2 double arrays need every item written with a decimal point)')
+                raise ParameterError(msg)
+        return [float(v) for v in value]
+    raise AssertionError(f'unknown parameter kind {spec.kind}')
+
+
+def _check_bounds(spec: ParamSpec, value: float) -> None:
+    lo, hi = spec.minimum, spec.maximum
+    if lo is not None and (value < lo or (spec.exclusive_minimum and value == lo)):
+        op = '>' if spec.exclusive_minimum else '>='
+        msg = f'parameter {spec.name}: must be {op} {lo:g}, got {value!r}'
+        raise ParameterError(msg)
+    if hi is not None and value > hi:
+        msg = f'parameter {spec.name}: must be <= {hi:g}, got {value!r}'
+        raise ParameterError(msg)
+
+
+def validate_params(values: Mapping[str, Any]) -> dict[str, Any]:
+    """Check flat dotted parameters against :data:`PARAMETERS`; fill defaults.
+
+    Raises :class:`ParameterError` naming the first unknown, missing or bad parameter.
+    """
+    unknown = sorted(set(values) - set(_BY_NAME))
+    if unknown:
+        msg = f'unknown parameter {unknown[0]}' + (
+            f' (and {len(unknown) - 1} more)' if len(unknown) > 1 else '')
+        raise ParameterError(msg)
+    out: dict[str, Any] = {}
+    for spec in PARAMETERS:
+        if spec.name in values:
+            out[spec.name] = _check_value(spec, values[spec.name])
+        elif spec.default is None:
+            msg = f'missing parameter {spec.name}: {spec.description}'
+            raise ParameterError(msg)
+        else:
+            out[spec.name] = spec.default
+    # Cross-checks that give a clearer message than the records would.
+    if len(out['torque.angle_deg']) != len(out['torque.torque_knm']):
+        msg = (f'parameter torque.torque_knm: has {len(out["torque.torque_knm"])} values but '
+               f'torque.angle_deg has {len(out["torque.angle_deg"])}')
+        raise ParameterError(msg)
+    try:
+        parse_fit(out['clearances.new_fit'])
+    except ValueError as exc:
+        msg = f'parameter clearances.new_fit: {exc}'
+        raise ParameterError(msg) from exc
+    try:
+        gear_from_params(out)
+    except ParameterError as exc:
+        msg = f'parameters gear.* / torque.*: {exc}'
+        raise ParameterError(msg) from exc
+    return out
+
+
+def load_params_file(path: str | Path, node_name: str = NODE_NAME) -> dict[str, Any]:
+    """Read and validate a ROS 2 parameters file; returns flat dotted parameters.
+
+    The file holds ``<node_name>: ros__parameters: {...}`` (``/**`` is accepted too, and
+    merged under the node's own entry as ROS 2 does).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding='utf-8')
+    except OSError as exc:
+        msg = f'cannot read parameters file {path}: {exc.strerror or exc}'
+        raise ParameterError(msg) from exc
+    try:
+        doc = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        msg = f'parameters file {path} is not valid YAML: {exc}'
+        raise ParameterError(msg) from exc
+    if not isinstance(doc, Mapping):
+        msg = f'parameters file {path}: expected "{node_name}: ros__parameters:" at the top'
+        raise ParameterError(msg)
+    merged: dict[str, Any] = {}
+    found = False
+    for key in ('/**', node_name, f'/{node_name}'):
+        entry = doc.get(key)
+        if entry is None:
+            continue
+        if not isinstance(entry, Mapping) or not isinstance(entry.get('ros__parameters'), Mapping):
+            msg = f'parameters file {path}: "{key}" must hold a "ros__parameters" mapping'
+            raise ParameterError(msg)
+        merged.update(_flatten(entry['ros__parameters']))
+        found = True
+    if not found:
+        msg = f'parameters file {path}: no entry for node "{node_name}" (expected "{node_name}: ros__parameters:")'
+        raise ParameterError(msg)
+    try:
+        return validate_params(merged)
+    except ParameterError as exc:
+        msg = f'{path}: {exc}'
+        raise ParameterError(msg) from exc
+
+
+def gear_from_params(p: Mapping[str, Any]) -> GearParams:
+    """The SI gear record from validated parameters."""
+    torque = TorqueCurve.from_degrees_knm(p['torque.angle_deg'], p['torque.torque_knm'],
+                                          p['torque.service_speed_kn'])
+    return GearParams(
+        stock_to_ram=p['gear.stock_to_ram_m'],
+        bushing_span=p['gear.bushing_span_m'],
+        ram_outer_diameter=p['gear.ram_outer_diameter_m'],
+        ram_inner_diameter=p['gear.ram_inner_diameter_m'],
+        youngs_modulus=p['gear.youngs_modulus_pa'],
+        guide_beam_inertia=p['gear.guide_beam_inertia_mm4'] * 1e-12,
+        guide_beam_span=p['gear.guide_beam_span_m'],
+        bushing_length=p['gear.bushing_length_m'],
+        rams=p['gear.rams'],
+        torque=torque,
+        max_rudder=math.radians(p['gear.max_rudder_deg']),
+        euler_amplification=p['gear.euler_amplification'],
+    )
+
+
+def gaps_from_params(p: Mapping[str, Any]) -> Gaps:
+    """The configured clearances (SI) from validated parameters."""
+    return Gaps.from_mm(p['clearances.gap_2z_mm'], p['clearances.gap_zgb_mm'])

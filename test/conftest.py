@@ -1,0 +1,27 @@
+"""Shared fixtures: the R-18 gear from config/r18.yaml."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+os.environ.setdefault('MPLBACKEND', 'Agg')
+
+from steer_monitor.model import GearParams  # noqa: E402
+from steer_monitor.params import gear_from_params, load_params_file  # noqa: E402
+
+REPO = Path(__file__).resolve().parent.parent
+R18_YAML = REPO / 'config' / 'r18.yaml'
+
+
+@pytest.fixture(scope='session')
+def r18_params() -> dict:
+    return load_params_file(R18_YAML)
+
+
+@pytest.fixture(scope='session')
+def r18(r18_params) -> GearParams:
+    return gear_from_params(r18_params)

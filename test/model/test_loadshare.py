@@ -1,0 +1,191 @@
+"""The event-driven load-sharing solver: against the FE contact solution, the paper's six
+cases, and the R-18 landmarks of paper 004."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from steer_monitor.errors import ModelError
+from steer_monitor.model import (
+    STAGE_CLAMPED,
+    STAGE_GUIDE,
+    STAGE_PINNED,
+    Gaps,
+    load_sharing,
+    load_sharing_at,
+    ram_inertia,
+    rapson_state,
+)
+from steer_monitor.model.loadshare import compliances
+from test.model.beam_fem import contact_solution
+
+GAPS_MM = [(0.6, 0.25), (0.1, 0.25), (0.05, 0.05), (0.2, 0.1), (0.3, 0.0), (0.0, 0.3), (0.0, 0.0)]
+ANGLES_DEG = [2.5, 7.5, 10.0, 15.0, 21.0, 27.5, 35.0]
+
+
+@pytest.mark.parametrize('gap_2z_mm,gap_zgb_mm', GAPS_MM)
+@pytest.mark.parametrize('alpha_deg', ANGLES_DEG)
+def test_matches_fe_contact_solution(r18, alpha_deg, gap_2z_mm, gap_zgb_mm):
+    """Final state of the incremental solver = the unique solution of the contact problem."""
+    alpha = math.radians(alpha_deg)
+    gaps = Gaps.from_mm(gap_2z_mm, gap_zgb_mm)
+    res = load_sharing_at(r18, alpha, gaps)
+    st = rapson_state(r18, alpha, r18.torque(alpha))
+    fe = contact_solution(
+        r18.bushing_span, r18.youngs_modulus * r18.ram_inertia, float(st.near),
+        r18.guide_beam_span, r18.youngs_modulus * r18.guide_beam_inertia, float(st.guide_a),
+        float(st.lateral), gaps.two_z / r18.bushing_length, gaps.z_gb)
+    scale = float(st.lateral)
+    tol = dict(rel=1e-3, abs=1e-3 * scale)
+    assert float(res.ram_force) == pytest.approx(fe.ram_force, **tol)
+    assert float(res.guide_force) == pytest.approx(fe.guide_force, **tol)
+    assert float(res.r_a) == pytest.approx(fe.r_a, **tol)
+    assert float(res.r_e) == pytest.approx(fe.r_e, **tol)
+    assert float(res.m_a) == pytest.approx(fe.m_a, rel=1e-3, abs=1e-3 * scale * r18.bushing_span)
+    assert float(res.deflection) == pytest.approx(fe.deflection, rel=1e-3, abs=1e-9)
+    assert bool(res.stages & STAGE_GUIDE) == fe.guide_contact or fe.guide_force < 1e-6 * scale
+
+
+def _inputs_for(r18, alpha_deg, fl_kn, f_theta_kn, f_z_kn):
+    """Gaps and torque that put Fl, F_theta and F_Z where a case wants them."""
+    alpha = math.radians(alpha_deg)
+    st = rapson_state(r18, alpha, 1.0)
+    c = compliances(r18, st)
+    two_z = f_theta_kn * 1e3 * float(c.slope) * r18.bushing_length
+    z_gb = f_z_kn * 1e3 * float(c.pinned)
+    torque = fl_kn * 1e3 / float(st.lateral)  # lateral is linear in torque
+    return alpha, torque, two_z, z_gb
+
+
+I, II, III = STAGE_PINNED, STAGE_CLAMPED, STAGE_GUIDE
+
+
+@pytest.mark.parametrize('fl,f_theta,f_z,case,stages', [
+    (100, 200, 300, 1, I),
+    (100, 300, 200, 2, I),
+    (200, 100, 300, 3, I | II),
+    (200, 300, 100, 4, I | III),
+    (600, 100, 150, 5, I | II | III),     # clamps at 100 kN, then reaches the guide
+    (200, 100, 150, 5, I | II),           # clamped ram stiffer: guide never reached
+    (2000, 150, 100, 6, I | II | III),    # guide engages, then ram force reaches F_theta
+    (300, 150, 100, 6, I | III),          # guide takes most of the rest: ram never clamps
+], ids=['case1', 'case2', 'case3', 'case4', 'case5', 'case5-no-guide', 'case6', 'case6-no-clamp'])
+def test_six_cases(r18, fl, f_theta, f_z, case, stages):
+    alpha, torque, two_z, z_gb = _inputs_for(r18, 20.0, fl, f_theta, f_z)
+    res = load_sharing(r18, alpha, torque, two_z, z_gb)
+    assert int(res.case) == case
+    assert int(res.stages) == stages
+    assert float(res.lateral) == pytest.approx(fl * 1e3)
+    assert float(res.f_theta) == pytest.approx(f_theta * 1e3)
+    assert float(res.f_z) == pytest.approx(f_z * 1e3)
+    assert float(res.ram_force + res.guide_force) == pytest.approx(fl * 1e3)
+    if not stages & III:
+        assert float(res.guide_force) == 0.0
+    if not stages & II:
+        assert float(res.m_a) == 0.0
+    if stages & II:
+        assert float(res.m_a) > 0.0
+
+
+def test_case6_clamp_happens_exactly_at_f_theta(r18):
+    """In case 6 the ram clamps when its own force, not the applied load, reaches F_theta."""
+    alpha, torque, two_z, z_gb = _inputs_for(r18, 20.0, 2000, 150, 100)
+    st = rapson_state(r18, alpha, torque)
+    c = compliances(r18, st)
+    share = float(c.guide / (c.pinned + c.guide))
+    fl_clamp = 100e3 + (150e3 - 100e3) / share
+    just_below = load_sharing(r18, alpha, torque * (fl_clamp * 0.999) / 2000e3, two_z, z_gb)
+    just_above = load_sharing(r18, alpha, torque * (fl_clamp * 1.001) / 2000e3, two_z, z_gb)
+    assert int(just_below.stages) == I | III
+    assert int(just_above.stages) == I | II | III
+
+
+def test_vectorized_equals_per_sample(r18):
+    rng = np.random.default_rng(1)
+    alpha = rng.uniform(-0.6, 0.6, 300)
+    torque = r18.torque(alpha) * rng.uniform(0.2, 3.0, 300)
+    two_z = rng.uniform(0, 0.8e-3, 300)
+    z_gb = rng.uniform(0, 0.4e-3, 300)
+    vec = load_sharing(r18, alpha, torque, two_z, z_gb)
+    for i in range(0, 300, 7):
+        one = load_sharing(r18, alpha[i], torque[i], two_z[i], z_gb[i])
+        for field in ('ram_force', 'guide_force', 'k_gl', 'deflection', 'r_a', 'r_e', 'm_a'):
+            assert float(getattr(one, field)) == pytest.approx(float(getattr(vec, field)[i]), rel=1e-12, abs=1e-12)
+        assert int(one.case) == int(vec.case[i])
+        assert int(one.stages) == int(vec.stages[i])
+
+
+def test_sign_of_angle_and_torque_does_not_matter(r18):
+    gaps = Gaps.from_mm(0.6, 0.25)
+    a = math.radians(25.0)
+    pos = load_sharing_at(r18, a, gaps)
+    neg = load_sharing_at(r18, -a, gaps)
+    assert float(neg.k_gl) == pytest.approx(float(pos.k_gl))
+    assert float(neg.ram_force) == pytest.approx(float(pos.ram_force))
+
+
+@pytest.mark.parametrize('two_z,z_gb,msg', [
+    (-1e-4, 1e-4, 'clearance two_z must be finite and >= 0 m'),
+    (1e-4, float('nan'), 'clearance z_gb must be finite and >= 0 m'),
+])
+def test_bad_gaps_raise(r18, two_z, z_gb, msg):
+    with pytest.raises(ModelError, match=msg):
+        load_sharing(r18, 0.3, 5e5, two_z, z_gb)
+
+
+def test_buckling_is_an_error_with_euler_amplification(r18):
+    from dataclasses import replace
+    gear = replace(r18, euler_amplification=True)
+    with pytest.raises(ModelError, match='the ram buckles'):
+        load_sharing(gear, math.radians(30), 1e11, 0.6e-3, 0.25e-3)
+
+
+# --- the R-18 landmarks of paper 004 -------------------------------------------------------
+
+@pytest.fixture(scope='module')
+def sweep(r18):
+    alpha_deg = np.round(np.arange(0.0, 35.0001, 0.1), 4)
+    return alpha_deg, load_sharing_at(r18, np.radians(alpha_deg), Gaps.from_mm(0.600, 0.250))
+
+
+def test_ram_inertia_from_diameters():
+    assert ram_inertia(0.240, 0.160) * 1e12 == pytest.approx(130_690_254, abs=1)
+
+
+def test_euler_amplification_at_35_deg(r18):
+    st = rapson_state(r18, math.radians(35.0), 1000e3)
+    assert round(float(st.amplification), 4) == 1.0031
+
+
+def test_guide_to_ram_stiffness_ratio(r18):
+    alpha = np.radians(np.arange(0, 35.01, 0.5))
+    c = compliances(r18, rapson_state(r18, alpha, 1.0))
+    ratio = c.pinned / c.guide
+    assert np.all((ratio >= 7) & (ratio <= 15)), (ratio.min(), ratio.max())
+
+
+def test_guide_idle_up_to_10_deg_then_carries(sweep):
+    alpha_deg, res = sweep
+    assert np.all(res.k_gl[alpha_deg <= 10.0] == 0.0)
+    assert res.k_gl[np.isclose(alpha_deg, 11.0)][0] > 0.0
+    # Case 4 of the paper: ram pinned throughout, guide engaged above 10 deg.
+    assert set(np.unique(res.case[alpha_deg > 10.5])) == {4}
+
+
+def test_ram_equals_guide_near_21_deg(sweep):
+    alpha_deg, res = sweep
+    diff = res.ram_force - res.guide_force
+    crossing = alpha_deg[np.argmax((diff[:-1] > 0) & (diff[1:] <= 0)) + 1]
+    assert 20.0 <= crossing <= 22.0
+
+
+def test_k_gl_peak_near_27_5_deg(sweep):
+    alpha_deg, res = sweep
+    window = (alpha_deg >= 25.0) & (alpha_deg <= 30.0)
+    assert float(res.k_gl[window].max()) == pytest.approx(0.59, abs=0.02)
+    band = (alpha_deg >= 21.0) & (alpha_deg <= 35.0)
+    assert np.all((res.k_gl[band] >= 0.49) & (res.k_gl[band] <= 0.61))
+    assert float(res.k_gl[np.isclose(alpha_deg, 27.5)][0]) == pytest.approx(0.59, abs=0.01)
