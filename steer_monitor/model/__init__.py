@@ -43,6 +43,7 @@ from steer_monitor.model.loadshare import (
     load_sharing_at,
     paper_case,
 )
+from steer_monitor.model.study import GapSensitivity, Landmarks, gap_sensitivity, landmarks
 from steer_monitor.model.torque import TorqueCurve
 
 __all__ = [
@@ -52,8 +53,10 @@ __all__ = [
     'Clearance',
     'Fit',
     'Gaps',
+    'GapSensitivity',
     'GearParams',
     'GradeCheck',
+    'Landmarks',
     'LoadSharing',
     'RapsonState',
     'STAGE_CLAMPED',
@@ -68,9 +71,11 @@ __all__ = [
     'clearance_of',
     'critical_forces',
     'euler_force',
+    'gap_sensitivity',
     'grade_for_limit',
     'hole_tolerance',
     'it_value',
+    'landmarks',
     'load_sharing',
     'load_sharing_at',
     'paper_case',

@@ -1,0 +1,51 @@
+"""``steer-monitor fit "240 H9/f9"``: limits, mean and probable clearance of an ISO fit."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any, TextIO
+
+from steer_monitor.cli.output import dump_json
+from steer_monitor.model.fits import parse_fit
+
+__all__ = ['register', 'run']
+
+
+def fit_summary(designation: str) -> dict[str, Any]:
+    """The fit's tolerances and clearances in mm."""
+    fit = parse_fit(designation)
+    hole, shaft, cl = fit.hole, fit.shaft, fit.clearance
+    mm = 1e3
+    return {
+        'fit': fit.designation,
+        'hole_mm': {'upper': hole.upper * mm, 'lower': hole.lower * mm},
+        'shaft_mm': {'upper': shaft.upper * mm, 'lower': shaft.lower * mm},
+        'clearance_min_mm': cl.minimum * mm,
+        'clearance_max_mm': cl.maximum * mm,
+        'clearance_mean_mm': cl.mean * mm,
+        'probable_min_mm': cl.probable_min * mm,
+        'probable_max_mm': cl.probable_max * mm,
+    }
+
+
+def run(designation: str, as_json: bool = False, out: TextIO = sys.stdout) -> int:
+    s = fit_summary(designation)
+    if as_json:
+        dump_json(s, out)
+        return 0
+    out.write(f"fit {s['fit']}\n"
+              f"  hole  deviations  {s['hole_mm']['upper']:+.3f} / {s['hole_mm']['lower']:+.3f} mm\n"
+              f"  shaft deviations  {s['shaft_mm']['upper']:+.3f} / {s['shaft_mm']['lower']:+.3f} mm\n"
+              f"  clearance limits  {s['clearance_min_mm']:.3f} .. {s['clearance_max_mm']:.3f} mm (worst case)\n"
+              f"  mean clearance    {s['clearance_mean_mm']:.3f} mm\n"
+              f"  probable          {s['probable_min_mm']:.3f} .. {s['probable_max_mm']:.3f} mm (root-sum-square)\n")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser('fit', help='limits and probable clearance of an ISO 286 fit',
+                       description='Limits, mean and probable clearance of a hole-basis ISO 286 fit (seed 000).')
+    p.add_argument('designation', help='e.g. "240 H9/f9" (nominal mm, H hole, shaft letter and grade)')
+    p.add_argument('--json', action='store_true', help='print JSON')
+    p.set_defaults(handler=lambda a: run(a.designation, a.json))

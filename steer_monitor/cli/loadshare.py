@@ -1,0 +1,117 @@
+"""``steer-monitor loadshare``: ram / guide-beam load sharing over the rudder range."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from steer_monitor.cli.output import dump_json, table
+from steer_monitor.errors import ParameterError
+from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.loadshare import load_sharing_at
+from steer_monitor.model.study import landmarks
+from steer_monitor.params import gaps_from_params, gear_from_params, load_params_file
+from steer_monitor.resources import default_config
+
+__all__ = ['ROW_KEYS', 'loadshare_rows', 'register', 'run']
+
+ROW_KEYS = ('alpha_deg', 'torque_knm', 'f_lateral_n', 'f_ram_n', 'f_guide_n', 'k_gl',
+            'deflection_mm', 'case')
+KNOT = 1852.0 / 3600.0
+
+
+def _deg_or_none(x: float | None) -> float | None:
+    return None if x is None else math.degrees(x)
+
+
+def loadshare_rows(gear: GearParams, gaps: Gaps, speed_kn: float | None = None,
+                   step_deg: float = 0.5) -> dict[str, Any]:
+    """The sweep 0..max rudder angle as rows (engineers' units) plus its landmarks."""
+    if not (math.isfinite(step_deg) and 0 < step_deg <= 5):
+        msg = f'--step-deg must lie in (0, 5], got {step_deg!r}'
+        raise ParameterError(msg)
+    if speed_kn is not None and not (math.isfinite(speed_kn) and 0 <= speed_kn <= 60):
+        msg = f'--speed-kn must lie in [0, 60] kn, got {speed_kn!r}'
+        raise ParameterError(msg)
+    max_deg = math.degrees(gear.max_rudder)
+    deg = np.round(np.arange(0.0, max_deg + 1e-9, step_deg), 6)
+    alpha = np.radians(deg)
+    speed = None if speed_kn is None else speed_kn * KNOT
+    res = load_sharing_at(gear, alpha, gaps, speed)
+    torque = gear.torque(alpha, speed)
+    rows = [dict(zip(ROW_KEYS, (float(deg[i]), float(torque[i]) / 1e3, float(res.lateral[i]),
+                                float(res.ram_force[i]), float(res.guide_force[i]), float(res.k_gl[i]),
+                                float(res.deflection[i]) * 1e3, int(res.case[i]))))
+            for i in range(deg.size)]
+    marks = landmarks(alpha, res)
+    return {
+        'gap_2z_mm': gaps.two_z * 1e3,
+        'gap_zgb_mm': gaps.z_gb * 1e3,
+        'speed_kn': speed_kn if speed_kn is not None else gear.torque.service_speed / KNOT,
+        'landmarks': {
+            'guide_onset_deg': _deg_or_none(marks.guide_onset),
+            'crossover_deg': _deg_or_none(marks.crossover),
+            'k_gl_max': marks.k_gl_max,
+            'k_gl_max_deg': math.degrees(marks.k_gl_max_angle),
+            'clamp_onset_deg': _deg_or_none(marks.clamp_onset),
+        },
+        'rows': rows,
+        '_sweep': (alpha, res, marks),
+    }
+
+
+def run(config: str | Path | None = None, gap_2z_mm: float | None = None,
+        gap_zgb_mm: float | None = None, speed_kn: float | None = None,
+        plot: str | Path | None = None, step_deg: float = 0.5, as_json: bool = False,
+        out: TextIO = sys.stdout) -> int:
+    params = load_params_file(config or default_config())
+    gear = gear_from_params(params)
+    configured = gaps_from_params(params)
+    gaps = Gaps.from_mm(configured.two_z * 1e3 if gap_2z_mm is None else gap_2z_mm,
+                        configured.z_gb * 1e3 if gap_zgb_mm is None else gap_zgb_mm)
+    s = loadshare_rows(gear, gaps, speed_kn, step_deg)
+    alpha, res, marks = s.pop('_sweep')
+    if plot is not None:
+        from steer_monitor.plots import plot_load_sharing
+        title = (f"{params['gear.name']}: 2Z = {s['gap_2z_mm']:.3f} mm, "
+                 f"Z_gb = {s['gap_zgb_mm']:.3f} mm, {s['speed_kn']:.1f} kn")
+        s['plot'] = str(plot_load_sharing(alpha, res, plot, title, marks))
+    if as_json:
+        dump_json(s, out)
+        return 0
+    out.write(f"{params['gear.name']}: 2Z = {s['gap_2z_mm']:.3f} mm, Z_gb = {s['gap_zgb_mm']:.3f} mm, "
+              f"speed {s['speed_kn']:.1f} kn\n")
+    table(['alpha deg', 'M kN m', 'Fl kN', 'Fr kN', 'Fgb kN', 'K_gl', 'defl mm', 'case'],
+          [[f"{r['alpha_deg']:.1f}", f"{r['torque_knm']:.1f}", f"{r['f_lateral_n'] / 1e3:.1f}",
+            f"{r['f_ram_n'] / 1e3:.1f}", f"{r['f_guide_n'] / 1e3:.1f}", f"{r['k_gl']:.3f}",
+            f"{r['deflection_mm']:.4f}", r['case']] for r in s['rows']], out)
+    lm = s['landmarks']
+
+    def fmt(v: float | None) -> str:
+        return 'never' if v is None else f'{v:.1f} deg'
+    out.write(f"\nguide beam carries load from {fmt(lm['guide_onset_deg'])}; F_r = F_gb at "
+              f"{fmt(lm['crossover_deg'])}; max K_gl {lm['k_gl_max']:.3f} at {lm['k_gl_max_deg']:.1f} deg; "
+              f"ram clamps from {fmt(lm['clamp_onset_deg'])}\n")
+    if plot is not None:
+        out.write(f"plot: {s['plot']}\n")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser('loadshare', help='ram / guide-beam load sharing over the rudder range',
+                       description='Load sharing between ram and guide beam (paper 004), '
+                                   'a row per step from 0 to the largest rudder angle.')
+    p.add_argument('--config', help='ROS 2 parameters file (default: the packaged config/r18.yaml)')
+    p.add_argument('--gap-2z', type=float, help='ram/bushing diametral clearance 2Z [mm] (default: config)')
+    p.add_argument('--gap-zgb', type=float, help='slipper/guide-beam clearance Z_gb [mm] (default: config)')
+    p.add_argument('--speed-kn', type=float, help='ship speed [kn] (default: the service speed)')
+    p.add_argument('--step-deg', type=float, default=0.5, help='angle step [deg] (default 0.5)')
+    p.add_argument('--plot', help='write the Fig. 7 plot to this PNG')
+    p.add_argument('--json', action='store_true', help='print JSON')
+    p.set_defaults(handler=lambda a: run(a.config, a.gap_2z, a.gap_zgb, a.speed_kn, a.plot,
+                                         a.step_deg, a.json))

@@ -1,0 +1,40 @@
+"""Small helpers for CLI output: JSON for scripts, aligned tables for people."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from typing import Any, TextIO
+
+__all__ = ['dump_json', 'table']
+
+
+def _clean(obj: Any) -> Any:
+    """Make numpy scalars and non-finite floats JSON-safe (NaN/inf become null)."""
+    if isinstance(obj, dict):
+        return {str(k): _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    if hasattr(obj, 'item') and callable(obj.item):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def dump_json(obj: Any, out: TextIO) -> None:
+    """Write ``obj`` as indented JSON with a trailing newline."""
+    json.dump(_clean(obj), out, indent=2, allow_nan=False)
+    out.write('\n')
+
+
+def table(headers: Sequence[str], rows: Sequence[Sequence[Any]], out: TextIO) -> None:
+    """Write a text table: first column left-aligned (names), the rest right-aligned."""
+    cells = [[str(h) for h in headers]] + [[str(c) for c in r] for r in rows]
+    widths = [max(len(r[i]) for r in cells) for i in range(len(headers))]
+    for k, row in enumerate(cells):
+        line = [c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths))]
+        out.write('  '.join(line).rstrip() + '\n')
+        if k == 0:
+            out.write('  '.join('-' * w for w in widths) + '\n')

@@ -1,0 +1,111 @@
+"""The steer-monitor subcommands: JSON shapes, text output, and errors as messages."""
+
+from __future__ import annotations
+
+import io
+import json
+
+import pytest
+
+from steer_monitor.cli import backlash, demo, fit, loadshare
+from steer_monitor.cli.main import main
+from test.conftest import REPO
+
+CHAIN = REPO / 'config' / 'r18_chain.yaml'
+
+
+def _json(run, *args, **kwargs):
+    out = io.StringIO()
+    assert run(*args, as_json=True, out=out, **kwargs) == 0
+    return json.loads(out.getvalue())
+
+
+def test_fit_json():
+    s = _json(fit.run, '240 H9/f9')
+    assert (round(s['clearance_min_mm'], 3), round(s['clearance_max_mm'], 3)) == (0.050, 0.280)
+    assert (round(s['probable_min_mm'], 3), round(s['probable_max_mm'], 3)) == (0.084, 0.246)
+    assert s['hole_mm'] == {'upper': pytest.approx(0.115), 'lower': 0.0}
+
+
+def test_loadshare_json_rows_and_plot(tmp_path):
+    png = tmp_path / 'fig7.png'
+    s = _json(loadshare.run, None, 0.6, 0.25, None, png)
+    rows = s['rows']
+    assert len(rows) == 71
+    assert [r['alpha_deg'] for r in rows[:3]] == [0.0, 0.5, 1.0] and rows[-1]['alpha_deg'] == 35.0
+    assert set(rows[0]) == set(loadshare.ROW_KEYS)
+    r275 = next(r for r in rows if r['alpha_deg'] == 27.5)
+    assert r275['k_gl'] == pytest.approx(0.59, abs=0.01)
+    assert r275['torque_knm'] == pytest.approx(930.0)
+    assert r275['f_ram_n'] + r275['f_guide_n'] == pytest.approx(r275['f_lateral_n'])
+    assert s['landmarks']['guide_onset_deg'] == pytest.approx(10.0, abs=0.1)
+    assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b'\x89PNG'
+
+
+def test_loadshare_speed_scales_torque():
+    half = _json(loadshare.run, None, 0.6, 0.25, 8.0)
+    r = next(r for r in half['rows'] if r['alpha_deg'] == 35.0)
+    assert r['torque_knm'] == pytest.approx(250.0)
+
+
+def test_backlash_json_with_limit():
+    s = _json(backlash.run, CHAIN, 10.0, 8.0, 'worst')
+    assert len(s['joints']) == 4
+    assert s['limit']['coarsest_grade'] == 9
+    assert s['at_worst_angle_arcmin']['worst_max'] > s['at_angle_arcmin']['worst_max']
+
+
+@pytest.mark.parametrize('argv,msg', [
+    (['fit', '240 X9/f9'], "only hole-basis fits (hole H) are supported, got hole 'X'"),
+    (['loadshare', '--gap-2z', '-1'], 'clearance two_z must be a finite number >= 0 m'),
+    (['loadshare', '--speed-kn', '99'], '--speed-kn must lie in [0, 60] kn'),
+    (['loadshare', '--config', 'nope.yaml'], 'cannot read parameters file nope.yaml'),
+    (['backlash', str(CHAIN), '--angle-deg', '50'], "--angle-deg 50 is outside the chain's range"),
+])
+def test_errors_are_messages_not_tracebacks(capsys, argv, msg):
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f'steer-monitor {argv[0]}: error: ')
+    assert msg in err
+    assert 'Traceback' not in err
+
+
+@pytest.mark.parametrize('text,msg', [
+    ('chain: {stock_to_ram_m: 0.6, joints: []}', 'chain.joints: expected a non-empty list'),
+    ('chain: {stock_to_ram_m: 0.6, joints: [{name: a, fit: 180 H7/q7}]}', "chain.joints[0].fit: fit '180 H7/q7'"),
+    ('chain: {stock_to_ram_m: 0.6, joints: [{name: a, nominal_mm: 50.0, hole_mm: [0.1]}]}', 'chain.joints[0]: missing shaft_mm'),
+    ('chain: {stock_to_ram_m: 0.6, joints: [{name: a, fit: 50 H7/g6, colour: red}]}', "chain.joints[0]: unknown key 'colour'"),
+    ('chain: {joints: [{name: a, fit: 50 H7/g6}]}', 'chain.stock_to_ram_m: missing'),
+    ('chain: {stock_to_ram_m: 0.6, joints: [{name: a, nominal_mm: 50.0, hole_mm: [0.0, 0.1], shaft_mm: [0.0, -0.1]}]}',
+     'upper deviation 0.0000 mm is below lower deviation 0.1000 mm'),
+])
+def test_bad_chain_files(tmp_path, capsys, text, msg):
+    path = tmp_path / 'c.yaml'
+    path.write_text(text)
+    assert main(['backlash', str(path)]) == 1
+    assert msg in capsys.readouterr().err
+
+
+def test_demo_writes_plots_and_summary(tmp_path):
+    out = io.StringIO()
+    assert demo.run(tmp_path, None, out) == 0
+    text = out.getvalue()
+    assert "The paper's claim" in text and 'The model disagrees' in text
+    summary = json.loads((tmp_path / 'summary.json').read_text())
+    assert summary['loadshare_at_limits']['landmarks']['crossover_deg'] == pytest.approx(21.0, abs=1.0)
+    study = summary['gap_study']
+    j = study['z_gb_mm'].index(0.25)
+    kmax = [row[j] for row in study['k_gl_max']]
+    # The physics answer to the paper: K_gl never grows as 2Z shrinks.
+    assert all(a <= b + 1e-12 for a, b in zip(kmax, kmax[1:]))
+    for name in ('fig7_load_sharing.png', 'gap_study.png'):
+        assert (tmp_path / name).read_bytes()[:4] == b'\x89PNG'
+
+
+def test_console_script_help(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(['--help'])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    for command in ('fit', 'backlash', 'loadshare', 'demo'):
+        assert command in out

@@ -1,0 +1,42 @@
+"""The tiller torque curve: through its points, monotone, odd, speed squared."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from steer_monitor.errors import ParameterError
+from steer_monitor.model import TorqueCurve
+
+
+@pytest.fixture
+def curve():
+    return TorqueCurve.from_degrees_knm([0, 5, 10, 21, 27.5, 35], [0, 330, 584, 766, 930, 1000], 16.0)
+
+
+def test_through_points_and_monotone(curve):
+    pts = np.radians([0, 5, 10, 21, 27.5, 35])
+    assert curve(pts) / 1e3 == pytest.approx([0, 330, 584, 766, 930, 1000])
+    dense = curve(np.radians(np.linspace(0, 35, 3501)))
+    assert np.all(np.diff(dense) >= -1e-9)
+
+
+def test_odd_held_beyond_last_point_and_speed_squared(curve):
+    a = math.radians(20)
+    assert float(curve(-a)) == pytest.approx(-float(curve(a)))
+    assert float(curve(math.radians(40))) == pytest.approx(1000e3)
+    vs = curve.service_speed
+    assert float(curve(a, vs / 2)) == pytest.approx(float(curve(a)) / 4)
+
+
+@pytest.mark.parametrize('angles,torques,msg', [
+    ([0, 5], [0, 1, 2], 'two equal-length lists'),
+    ([0, 5, 5], [0, 1, 2], 'strictly increasing'),
+    ([0, 5, 10], [0, 2, 1], 'must not decrease'),
+    ([0, 5, 10], [1, 2, 3], 'must start at'),
+])
+def test_bad_curves(angles, torques, msg):
+    with pytest.raises(ParameterError, match=msg):
+        TorqueCurve.from_degrees_knm(angles, torques, 16.0)
