@@ -34,7 +34,7 @@ setup(
     maintainer_email='steer-monitor@example.com',
     description='Condition monitor for ram-type hydraulic steering gear (ROS 2).',
     license='Apache-2.0',
-    tests_require=['pytest'],
+    extras_require={'test': ['pytest', 'hypothesis', 'rosbags']},
     entry_points={
         'console_scripts': [
             'steer-monitor = steer_monitor.cli.main:main',

@@ -105,6 +105,46 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               0.0, 5.0, True),
     ParamSpec('clearances.new_fit', 'string', '240 H9/f9',
               'ISO 286 fit of ram and bushing when new'),
+    # The steering CAN bus (listen only).
+    ParamSpec('can.interface', 'string', 'socketcan',
+              'python-can interface: socketcan on a vessel, virtual in tests'),
+    ParamSpec('can.channel', 'string', 'can0', 'bus channel, e.g. can0 or vcan0'),
+    ParamSpec('can.bitrate', 'integer', 250000, 'bit rate [bit/s] (NMEA 2000: 250000)', 10000, 1000000),
+    ParamSpec('can.dbc_file', 'string', 'nmea2000_steering.dbc',
+              'DBC of the steering PGNs; relative paths are looked up in the config directory'),
+    ParamSpec('can.reopen_backoff_initial_s', 'double', 0.5,
+              'first wait before reopening a failed bus [s]', 0.0, 60.0, True),
+    ParamSpec('can.reopen_backoff_max_s', 'double', 10.0,
+              'longest wait between reopen attempts [s]', 0.0, 600.0, True),
+    ParamSpec('can.max_abs_rudder_deg', 'double', 45.0,
+              'rudder angles beyond this are physically impossible [deg]', 0.0, 90.0, True),
+    ParamSpec('can.min_pressure_bar', 'double', -1.0,
+              'cylinder pressures below this are physically impossible [bar]', -10.0, 0.0),
+    ParamSpec('can.max_pressure_bar', 'double', 400.0,
+              'cylinder pressures above this are physically impossible [bar]', 0.0, 2000.0, True),
+) + tuple(
+    spec
+    for name, (pgn, fld, instance, source, rate) in {
+        'rudder_angle': (127245, 'Position', 0, -1, 10.0),
+        'rudder_order': (127245, 'AngleOrder', 0, -1, 10.0),
+        'pressure_r1_stbd': (130314, 'Pressure', 0, 4, 20.0),
+        'pressure_r1_port': (130314, 'Pressure', 1, 4, 20.0),
+        'pressure_r2_stbd': (130314, 'Pressure', 2, 4, 20.0),
+        'pressure_r2_port': (130314, 'Pressure', 3, 4, 20.0),
+        'ship_speed': (128259, 'SpeedWaterReferenced', -1, -1, 1.0),
+        'oil_temperature': (130316, 'Temperature', 0, 3, 0.5),
+    }.items()
+    for spec in (
+        ParamSpec(f'signals.{name}.pgn', 'integer', pgn,
+                  f'PGN that carries {name} (0: not on this bus)', 0, 0x3FFFF),
+        ParamSpec(f'signals.{name}.field', 'string', fld, f'DBC signal of that PGN holding {name}'),
+        ParamSpec(f'signals.{name}.instance', 'integer', instance,
+                  'instance field to match (-1: any)', -1, 255),
+        ParamSpec(f'signals.{name}.source', 'integer', source,
+                  'source field to match (-1: any)', -1, 255),
+        ParamSpec(f'signals.{name}.rate_hz', 'double', rate, f'expected rate of {name} [Hz]',
+                  0.0, 1000.0, True),
+    )
 )
 
 _BY_NAME = {p.name: p for p in PARAMETERS}

@@ -50,10 +50,17 @@ def _check_installed(python: str, script: Path, env: dict[str, str], share: Path
     assert len(json.loads(out)['rows']) == 71
 
 
+def _installed_files() -> list[str]:
+    from importlib.metadata import distribution
+    return sorted(str(f) for f in (distribution('steer_monitor').files or []))
+
+
 def test_pip_install_layout(tmp_path):
+    before = _installed_files()
     src = _source_copy(tmp_path)
     prefix = tmp_path / 'prefix'
-    subprocess.run([sys.executable, '-m', 'pip', 'install', '--quiet', '--no-deps',
+    # --ignore-installed: install beside, never uninstall, the package in this environment.
+    subprocess.run([sys.executable, '-m', 'pip', 'install', '--quiet', '--no-deps', '--ignore-installed',
                     '--no-build-isolation', '--prefix', str(prefix), str(src)],
                    check=True, env=_env(), cwd=tmp_path)
     share = prefix / 'share' / 'steer_monitor'
@@ -70,6 +77,7 @@ def test_pip_install_layout(tmp_path):
     # real pip install into that venv gives; here the ament index tells where share/ is.
     env = _env(PYTHONPATH=str(site), AMENT_PREFIX_PATH=str(prefix))
     _check_installed(sys.executable, script, env, share)
+    assert _installed_files() == before, 'the test must not touch the environment it runs in'
 
 
 @pytest.mark.skipif(shutil.which('colcon', path=str(BIN)) is None, reason='colcon-core is not installed')

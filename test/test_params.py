@@ -27,11 +27,11 @@ def test_r18_file_loads_with_design_values(r18_params, r18):
 
 
 def test_every_spec_has_a_unit_or_is_unitless_by_nature():
-    units = ('_m', '_mm', '_pa', '_mm4', '_deg', '_knm', '_kn', '_mm_s')
-    unitless = {'gear.name', 'gear.rams', 'gear.euler_amplification', 'hydraulics.pumps',
-                'clearances.new_fit'}
+    units = ('_m', '_mm', '_pa', '_mm4', '_deg', '_knm', '_kn', '_mm_s', '_hz', '_s', '_bar')
+    unitless = ('.name', '.rams', '.euler_amplification', '.pumps', '.new_fit', '.interface',
+                '.channel', '.bitrate', '.dbc_file', '.pgn', '.field', '.instance', '.source')
     for spec in PARAMETERS:
-        assert spec.name in unitless or spec.name.endswith(units), spec.name
+        assert spec.name.endswith(unitless + units), spec.name
 
 
 def _write(tmp_path, mutate):

@@ -7,12 +7,12 @@ import sys
 from collections.abc import Sequence
 
 from steer_monitor import __version__
-from steer_monitor.cli import backlash, demo, fit, loadshare
+from steer_monitor.cli import backlash, demo, fit, inspect, loadshare, simulate
 from steer_monitor.errors import SteerMonitorError
 
 __all__ = ['build_parser', 'main']
 
-SUBCOMMANDS = (fit, backlash, loadshare, demo)
+SUBCOMMANDS = (fit, backlash, loadshare, simulate, inspect, demo)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -34,6 +34,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SteerMonitorError as exc:
         print(f'steer-monitor {args.command}: error: {exc}', file=sys.stderr)
         return 1
+    except BrokenPipeError:  # e.g. piped into head: not an error of ours
+        import os
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except KeyboardInterrupt:
         print(f'steer-monitor {args.command}: interrupted', file=sys.stderr)
         return 130

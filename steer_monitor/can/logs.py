@@ -1,0 +1,169 @@
+"""CAN log files: candump ``.log``, Vector ``.asc`` and ``.blf``, and MCAP.
+
+Reading yields :class:`~steer_monitor.can.frames.Frame` records (or columns for a whole
+file). Records that cannot be parsed are counted as ``malformed_record`` and skipped; a
+file that breaks off mid-way yields what came before and then raises :class:`LogError`, so
+nothing read is lost. candump files are parsed here (python-can's reader stops at the first
+bad line); ``.asc`` and ``.blf`` go through python-can. python-can gives float seconds:
+those are kept to the microsecond, the resolution every format here holds.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from steer_monitor.can.bus import frame_from_message, message_from_frame
+from steer_monitor.can.frames import Frame, FrameArrays
+from steer_monitor.can.mcapio import McapWriter, iter_mcap_frames
+from steer_monitor.can.rejects import RejectCounter
+from steer_monitor.errors import SteerMonitorError
+
+__all__ = ['READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'iter_log', 'read_log_arrays']
+
+READ_SUFFIXES = ('.log', '.asc', '.blf', '.mcap')
+WRITE_SUFFIXES = ('.log', '.blf', '.mcap', '.asc')
+
+CAN_ERR_FLAG = 0x20000000
+_CANDUMP = re.compile(r'^\((\d+)\.(\d{1,9})\)\s+(\S+)\s+([0-9A-Fa-f]{1,8})#(R?)([0-9A-Fa-f]*)\s*$')
+
+
+class LogError(SteerMonitorError):
+    """A log file cannot be opened, is of an unknown kind, or breaks off."""
+
+
+def _suffix(path: Path, allowed: tuple[str, ...]) -> str:
+    suffix = path.suffix.lower()
+    if suffix not in allowed:
+        msg = f'{path}: unsupported log format {suffix or "(no suffix)"!r} (supported: {", ".join(allowed)})'
+        raise LogError(msg)
+    return suffix
+
+
+def _candump_line(line: str, lineno: int, rejects: RejectCounter | None, path: Path) -> Frame | None:
+    m = _CANDUMP.match(line)
+    if m is None:
+        if line.strip() and rejects is not None:
+            rejects.add('malformed_record', f'{path.name} line {lineno}: {line.strip()[:60]!r}')
+        return None
+    sec, frac, channel, ident, rtr, data = m.groups()
+    if len(data) % 2 or len(data) > 16:
+        if rejects is not None:
+            rejects.add('malformed_record', f'{path.name} line {lineno}: payload {data!r}')
+        return None
+    t_ns = int(sec) * 1_000_000_000 + int(frac.ljust(9, '0'))
+    can_id = int(ident, 16)
+    is_error = bool(can_id & CAN_ERR_FLAG) and len(ident) == 8
+    return Frame(t_ns=t_ns, can_id=can_id & 0x1FFFFFFF, data=bytes.fromhex(data),
+                 is_extended=len(ident) == 8, is_error=is_error, is_remote=bool(rtr), channel=channel)
+
+
+def iter_log(path: str | Path, rejects: RejectCounter | None = None) -> Iterator[Frame]:
+    """Frames of a log file in file order. Bad records are counted in ``rejects``."""
+    path = Path(path)
+    suffix = _suffix(path, READ_SUFFIXES)
+    try:
+        fh = open(path, 'rb')
+    except OSError as exc:
+        msg = f'cannot open log {path}: {exc.strerror or exc}'
+        raise LogError(msg) from exc
+    with fh:
+        if suffix == '.log':
+            for lineno, raw in enumerate(fh, 1):
+                frame = _candump_line(raw.decode('ascii', 'replace'), lineno, rejects, path)
+                if frame is not None:
+                    yield frame
+            return
+        if suffix == '.mcap':
+            try:
+                yield from iter_mcap_frames(fh)
+            except Exception as exc:  # mcap raises its own record/CRC errors
+                msg = f'{path}: MCAP breaks off or is corrupt ({type(exc).__name__}: {exc}); frames before it were read'
+                raise LogError(msg) from exc
+            return
+    yield from _iter_python_can(path, suffix)
+
+
+def _iter_python_can(path: Path, suffix: str) -> Iterator[Frame]:
+    import can
+    reader_cls: Any = {'.asc': can.ASCReader, '.blf': can.BLFReader}[suffix]
+    try:
+        reader = reader_cls(str(path))
+    except Exception as exc:
+        msg = f'cannot read {path}: {type(exc).__name__}: {exc}'
+        raise LogError(msg) from exc
+    try:
+        for msg_ in reader:
+            yield frame_from_message(msg_)
+    except Exception as exc:
+        msg = f'{path}: log breaks off or is corrupt ({type(exc).__name__}: {exc}); frames before it were read'
+        raise LogError(msg) from exc
+    finally:
+        reader.stop()
+
+
+def read_log_arrays(path: str | Path, rejects: RejectCounter | None = None) -> FrameArrays:
+    """A whole log as columns."""
+    return FrameArrays.from_frames(iter_log(path, rejects))
+
+
+class LogWriter:
+    """Write frames to ``.log`` (candump -L), ``.blf``, ``.asc`` or ``.mcap``.
+
+    Context manager; :meth:`close` finishes the file and is idempotent. The candump and MCAP
+    outputs are byte-for-byte reproducible for the same frames.
+    """
+
+    def __init__(self, path: str | Path, channel: str = 'can0') -> None:
+        self.path = Path(path)
+        self.suffix = _suffix(self.path, WRITE_SUFFIXES)
+        self.channel = channel
+        self.count = 0
+        self._closed = False
+        try:
+            if self.suffix == '.log':
+                self._fh: Any = open(self.path, 'w', encoding='ascii', newline='\n')
+            elif self.suffix == '.mcap':
+                self._fh = McapWriter(self.path)
+            else:
+                import can
+                self._fh = can.Logger(str(self.path))
+        except OSError as exc:
+            msg = f'cannot write log {self.path}: {exc.strerror or exc}'
+            raise LogError(msg) from exc
+
+    def write(self, frame: Frame) -> None:
+        if self.suffix == '.log':
+            if frame.is_error:
+                ident = f'{CAN_ERR_FLAG | frame.can_id:08X}'
+            else:
+                ident = f'{frame.can_id:08X}' if frame.is_extended else f'{frame.can_id:03X}'
+            body = 'R' if frame.is_remote else frame.data.hex().upper()
+            sec, ns = divmod(frame.t_ns, 1_000_000_000)
+            self._fh.write(f'({sec}.{ns // 1000:06d}) {self.channel} {ident}#{body}\n')
+        elif self.suffix == '.mcap':
+            self._fh.write_frame(frame)
+        else:
+            m = message_from_frame(frame)
+            m.channel = self.channel
+            self._fh.on_message_received(m)
+        self.count += 1
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        if self.suffix == '.log':
+            self._fh.close()
+        elif self.suffix == '.mcap':
+            self._fh.close()
+        else:
+            self._fh.stop()
+
+    def __enter__(self) -> LogWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

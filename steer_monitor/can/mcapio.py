@@ -1,0 +1,138 @@
+"""Raw CAN frames in MCAP: ``can_msgs/msg/Frame``-compatible ROS 2 messages (profile ros2,
+cdr encoding, ros2msg schema), as the node records them and ``replay`` reads them."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+from typing import IO, Any
+
+from steer_monitor.can.frames import Frame
+
+__all__ = ['FRAME_DATATYPE', 'FRAME_MSGDEF', 'FRAME_TOPIC', 'DEFAULT_QOS', 'McapWriter',
+           'frame_message', 'iter_mcap_frames']
+
+FRAME_TOPIC = '/steering_can/rx'
+FRAME_DATATYPE = 'can_msgs/msg/Frame'
+# can_msgs/msg/Frame (ros-industrial ros_canopen), with its dependencies in ros2msg form.
+FRAME_MSGDEF = """std_msgs/Header header
+uint32 id
+bool is_rtr
+bool is_extended
+bool is_error
+uint8 dlc
+uint8[8] data
+================================================================================
+MSG: std_msgs/Header
+builtin_interfaces/Time stamp
+string frame_id
+================================================================================
+MSG: builtin_interfaces/Time
+int32 sec
+uint32 nanosec
+"""
+
+# offered_qos_profiles as rosbag2 writes them for a reliable, volatile publisher (history unknown).
+DEFAULT_QOS = ('- history: 3\n  depth: 0\n  reliability: 1\n  durability: 2\n'
+                   '  deadline:\n    sec: 9223372036\n    nsec: 854775807\n'
+                   '  lifespan:\n    sec: 9223372036\n    nsec: 854775807\n'
+                   '  liveliness: 1\n  liveliness_lease_duration:\n    sec: 9223372036\n'
+                   '    nsec: 854775807\n  avoid_ros_namespace_conventions: false\n')
+
+
+def frame_message(frame: Frame, frame_id: str = 'steering_can') -> dict[str, Any]:
+    """The can_msgs/msg/Frame fields of a frame."""
+    data = bytes(frame.data[:8]).ljust(8, b'\0')
+    return {
+        'header': {'stamp': {'sec': frame.t_ns // 1_000_000_000, 'nanosec': frame.t_ns % 1_000_000_000},
+                   'frame_id': frame_id},
+        'id': frame.can_id, 'is_rtr': frame.is_remote, 'is_extended': frame.is_extended,
+        'is_error': frame.is_error, 'dlc': min(len(frame.data), 8), 'data': list(data),
+    }
+
+
+class McapWriter:
+    """A ROS 2 MCAP writer (zstd chunks, CRCs) with per-channel QoS metadata.
+
+    Context manager; :meth:`close` finishes the file and is idempotent.
+    """
+
+    def __init__(self, output: str | Path | IO[bytes], chunk_size: int = 1024 * 1024,
+                 library: str = 'steer_monitor') -> None:
+        from mcap.writer import CompressionType
+        from mcap.writer import Writer as _Writer
+
+        self._own = not hasattr(output, 'write')
+        self._stream: IO[bytes] = open(output, 'wb') if self._own else output  # type: ignore[assignment]
+        self._writer = _Writer(self._stream, chunk_size=chunk_size, compression=CompressionType.ZSTD,
+                               enable_crcs=True)
+        self._writer.start(profile='ros2', library=library)
+        self._schemas: dict[str, tuple[int, Any]] = {}
+        self._channels: dict[str, tuple[int, Any]] = {}
+        self._closed = False
+
+    def add_schema(self, datatype: str, msgdef: str) -> None:
+        from mcap_ros2._dynamic import serialize_dynamic
+        if datatype not in self._schemas:
+            sid = self._writer.register_schema(datatype, 'ros2msg', msgdef.encode())
+            self._schemas[datatype] = (sid, serialize_dynamic(datatype, msgdef)[datatype])
+
+    def add_channel(self, topic: str, datatype: str, qos: str = DEFAULT_QOS) -> None:
+        if topic not in self._channels:
+            sid, encoder = self._schemas[datatype]
+            cid = self._writer.register_channel(topic, 'cdr', sid, {'offered_qos_profiles': qos})
+            self._channels[topic] = (cid, encoder)
+
+    def write(self, topic: str, message: Any, log_time_ns: int, publish_time_ns: int | None = None) -> None:
+        cid, encoder = self._channels[topic]
+        self._writer.add_message(cid, log_time=log_time_ns,
+                                 publish_time=log_time_ns if publish_time_ns is None else publish_time_ns,
+                                 data=encoder(message))
+
+    def write_frame(self, frame: Frame, topic: str = FRAME_TOPIC) -> None:
+        if topic not in self._channels:
+            self.add_schema(FRAME_DATATYPE, FRAME_MSGDEF)
+            self.add_channel(topic, FRAME_DATATYPE)
+        self.write(topic, frame_message(frame), frame.t_ns)
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._writer.finish()
+        finally:
+            if self._own:
+                self._stream.close()
+
+    def __enter__(self) -> McapWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def iter_mcap_frames(stream: IO[bytes], topic: str | None = None) -> Iterator[Frame]:
+    """Frames from every ``can_msgs/msg/Frame`` channel (or one topic) of an MCAP stream."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+    summary = reader.get_summary()
+    topics = None
+    if summary is not None:
+        topics = [c.topic for c in summary.channels.values()
+                  if summary.schemas.get(c.schema_id) is not None
+                  and summary.schemas[c.schema_id].name == FRAME_DATATYPE
+                  and (topic is None or c.topic == topic)]
+        if not topics:
+            return
+    for schema, _channel, message, msg in reader.iter_decoded_messages(topics=topics, log_time_order=False):
+        if schema is None or schema.name != FRAME_DATATYPE:
+            continue
+        stamp = msg.header.stamp
+        t_ns = stamp.sec * 1_000_000_000 + stamp.nanosec if (stamp.sec or stamp.nanosec) else message.log_time
+        dlc = min(int(msg.dlc), 8)
+        yield Frame(t_ns=int(t_ns), can_id=int(msg.id), data=bytes(msg.data)[:dlc],
+                    is_extended=bool(msg.is_extended), is_error=bool(msg.is_error),
+                    is_remote=bool(msg.is_rtr), channel=msg.header.frame_id)

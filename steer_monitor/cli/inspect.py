@@ -1,0 +1,119 @@
+"""``steer-monitor inspect LOG``: what a log holds: frames, samples per signal, rejects per
+reason, time span and gaps per signal.
+
+A gap is a silence more than 1 s longer than the signal's expected period (so a 20 Hz
+pressure silent for over 1.05 s, a 0.5 Hz temperature silent for over 3 s).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from steer_monitor.can.decoder import Decoder
+from steer_monitor.can.frames import Frame, FrameArrays
+from steer_monitor.can.logs import LogError, iter_log
+from steer_monitor.can.rejects import REASONS, RejectCounter
+from steer_monitor.can.setup import can_setup
+from steer_monitor.cli.output import dump_json, table
+from steer_monitor.params import load_params_file
+from steer_monitor.resources import default_config
+
+__all__ = ['inspect_log', 'register', 'run']
+
+GAP_NS = 1_000_000_000
+MAX_GAPS_LISTED = 50
+
+
+def _iso(t_ns: int) -> str:
+    return datetime.fromtimestamp(t_ns / 1e9, tz=timezone.utc).isoformat(timespec='milliseconds')
+
+
+def inspect_log(path: str | Path, config: str | Path | None = None) -> dict[str, Any]:
+    config_path = Path(config) if config else default_config()
+    params = load_params_file(config_path)
+    db, smap = can_setup(params, config_path)
+    rejects = RejectCounter()
+    frames: list[Frame] = []
+    read_error = None
+    try:
+        for frame in iter_log(path, rejects):
+            frames.append(frame)
+    except LogError as exc:
+        read_error = str(exc)  # keep what was read before it
+    fa = FrameArrays.from_frames(frames)
+    decoder = Decoder(db, smap, rejects)
+    series = decoder.decode_arrays(fa)
+    snap = rejects.snapshot()
+    signals: dict[str, Any] = {}
+    for spec in smap.specs:
+        s = series[spec.name]
+        t = np.sort(s.t_ns)
+        d = np.diff(t)
+        gap_idx = np.nonzero(d > GAP_NS + 1e9 / spec.rate_hz)[0]
+        signals[spec.name] = {
+            'pgn': spec.pgn, 'instance': spec.instance, 'source': spec.source,
+            'samples': len(s),
+            'first_ns': int(t[0]) if t.size else None,
+            'last_ns': int(t[-1]) if t.size else None,
+            'rate_hz': (float((t.size - 1) / ((t[-1] - t[0]) / 1e9)) if t.size > 1 and t[-1] > t[0] else None),
+            'expected_rate_hz': spec.rate_hz,
+            'gaps_over_1s': len(gap_idx),  # beyond the expected period
+            'gaps': [{'start_ns': int(t[i]), 'end_ns': int(t[i + 1]), 'length_s': float(d[i] / 1e9)}
+                     for i in gap_idx[:MAX_GAPS_LISTED]],
+            'rejects': {reason: n for (reason, name), n in snap.by_signal.items() if name == spec.name},
+        }
+    t_all = fa.t_ns
+    return {
+        'log': str(path),
+        'frames': len(fa),
+        'start_ns': int(t_all.min()) if len(fa) else None,
+        'end_ns': int(t_all.max()) if len(fa) else None,
+        'start': _iso(int(t_all.min())) if len(fa) else None,
+        'end': _iso(int(t_all.max())) if len(fa) else None,
+        'span_s': float((t_all.max() - t_all.min()) / 1e9) if len(fa) else 0.0,
+        'signals': signals,
+        'rejects': dict(sorted(snap.counts.items())),
+        'reject_reasons': {k: REASONS[k] for k in sorted(snap.counts)},
+        'reject_examples': dict(sorted(snap.last.items())),
+        'read_error': read_error,
+    }
+
+
+def run(path: str | Path, config: str | Path | None = None, as_json: bool = False,
+        out: TextIO = sys.stdout) -> int:
+    s = inspect_log(path, config)
+    if as_json:
+        dump_json(s, out)
+        return 0 if s['read_error'] is None else 1
+    out.write(f"{s['log']}: {s['frames']} frames, {s['span_s']:.1f} s"
+              + (f" ({s['start']} .. {s['end']})" if s['frames'] else '') + '\n')
+    table(['signal', 'PGN', 'inst', 'samples', 'rate Hz', 'expected', 'gaps>1s'],
+          [[name, v['pgn'], v['instance'], v['samples'],
+            '-' if v['rate_hz'] is None else f"{v['rate_hz']:.2f}", f"{v['expected_rate_hz']:g}",
+            v['gaps_over_1s']] for name, v in s['signals'].items()], out)
+    if s['rejects']:
+        out.write('\nrejects:\n')
+        table(['reason', 'count', 'latest'], [[k, n, s['reject_examples'].get(k, '')]
+                                               for k, n in s['rejects'].items()], out)
+    else:
+        out.write('\nno rejects\n')
+    if s['read_error']:
+        out.write(f"\nread error: {s['read_error']}\n")
+        return 1
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser('inspect', help='what a CAN log holds',
+                       description='Frames, samples per signal, rejects per reason, time span and '
+                                   'gaps over 1 s of a CAN log (.log, .asc, .blf, .mcap).')
+    p.add_argument('log', help='the log file')
+    p.add_argument('--config', help='ROS 2 parameters file with the DBC and signal map (default: packaged R-18)')
+    p.add_argument('--json', action='store_true', help='print JSON')
+    p.set_defaults(handler=lambda a: run(a.log, a.config, a.json))

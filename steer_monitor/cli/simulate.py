@@ -1,0 +1,144 @@
+"""``steer-monitor simulate``: the declared R-18 plant as NMEA 2000 frames, to a file (with a
+truth JSON beside it) or live onto a python-can bus."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, TextIO
+
+from steer_monitor.can.logs import LogError, LogWriter
+from steer_monitor.can.setup import can_setup
+from steer_monitor.cli.output import dump_json
+from steer_monitor.errors import ParameterError
+from steer_monitor.model.gear import Gaps
+from steer_monitor.params import gaps_from_params, load_params_file
+from steer_monitor.resources import default_config
+from steer_monitor import sim
+
+__all__ = ['parse_speed_profile', 'register', 'run', 'truth_path']
+
+
+def truth_path(out: Path) -> Path:
+    """``voyage.log`` -> ``voyage.truth.json``."""
+    return out.with_name(out.stem + '.truth.json')
+
+
+def parse_speed_profile(text: str) -> tuple[tuple[float, float], ...]:
+    """``'16'`` or ``'0:16,600:12'`` (seconds:knots) -> points."""
+    points = []
+    for part in text.split(','):
+        t, sep, v = part.strip().rpartition(':')
+        try:
+            point = (float(t) if sep else 0.0, float(v))
+        except ValueError:
+            msg = f'--speed-profile {text!r}: expected knots, or seconds:knots pairs like "0:16,600:12"'
+            raise ParameterError(msg) from None
+        points.append(point)
+    return tuple(points)
+
+
+def _progress(total: int, enabled: bool) -> Any:
+    from tqdm import tqdm
+    return tqdm(total=total, unit='frame', unit_scale=True, disable=not enabled, file=sys.stderr,
+                desc='writing')
+
+
+def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path: str | Path | None = None,
+        bus: str | None = None, speed_factor: float = 1.0, seed: int = 0,
+        gap_2z_mm: float | None = None, gap_zgb_mm: float | None = None,
+        speed_profile: str | None = None, effects: Sequence[str] = (), noise: bool = True,
+        max_duration_s: float = 7200.0, as_json: bool = False, out: TextIO = sys.stdout) -> int:
+    if (out_path is None) == (bus is None):
+        msg = 'give exactly one of --out FILE and --bus INTERFACE:CHANNEL'
+        raise ParameterError(msg)
+    if not (math.isfinite(speed_factor) and speed_factor >= 0):
+        msg = f'--speed-factor must be >= 0 (0: as fast as possible), got {speed_factor!r}'
+        raise ParameterError(msg)
+    config_path = Path(config) if config else default_config()
+    params = load_params_file(config_path)
+    db, smap = can_setup(params, config_path)
+    configured = gaps_from_params(params)
+    gaps = Gaps.from_mm(configured.two_z * 1e3 if gap_2z_mm is None else gap_2z_mm,
+                        configured.z_gb * 1e3 if gap_zgb_mm is None else gap_zgb_mm)
+    profile = parse_speed_profile(speed_profile) if speed_profile else ((0.0, params['torque.service_speed_kn']),)
+    cfg = sim.SimConfig(program=program, gaps=gaps, speed_profile=profile,
+                        effects=tuple(sim.parse_effect(e) for e in effects), noise=noise,
+                        max_duration_s=max_duration_s)
+    result = sim.run(params, cfg, db, smap, seed)
+    truth = sim.truth(params, cfg, result, seed)
+    if out_path is not None:
+        path = Path(out_path)
+        tpath = truth_path(path)
+        progress = _progress(len(result.frames), sys.stderr.isatty() and not as_json)
+        with LogWriter(path) as writer, progress:
+            for i, frame in enumerate(result.frames.frames(channel='can0')):
+                writer.write(frame)
+                if i % 4096 == 4095:
+                    progress.update(4096)
+            progress.update(len(result.frames) % 4096)
+        try:
+            tpath.write_text(json.dumps(truth, indent=2) + '\n', encoding='utf-8')
+        except OSError as exc:
+            msg = f'cannot write truth file {tpath}: {exc.strerror or exc}'
+            raise LogError(msg) from exc
+        truth['output'] = str(path)
+        truth['truth_file'] = str(tpath)
+    else:
+        import can
+
+        from steer_monitor.can.bus import BusError
+        from steer_monitor.sim.live import play
+        interface, sep, channel = bus.partition(':')
+        if not sep or not channel:
+            msg = f'--bus {bus!r}: expected INTERFACE:CHANNEL, e.g. virtual:steering or socketcan:vcan0'
+            raise ParameterError(msg)
+        try:
+            handle = can.Bus(interface=interface, channel=channel)
+        except (can.CanError, OSError, ValueError, ImportError) as exc:
+            msg = f'cannot open CAN bus {bus}: {exc}'
+            raise BusError(msg) from exc
+        try:
+            truth['sent'] = play(result.frames, handle, speed_factor)
+        finally:
+            handle.shutdown()
+        truth['output'] = bus
+    if as_json:
+        dump_json(truth, out)
+    else:
+        out.write(f"simulated {truth['program']} for {truth['duration_s']:.1f} s: {truth['frames']} frames "
+                  f"-> {truth['output']}" + (f" (truth: {truth['truth_file']})" if 'truth_file' in truth else '')
+                  + '\n')
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser('simulate', help='simulate the gear as NMEA 2000 frames (file or live bus)',
+                       description='Simulate the declared plant of the gear and encode it as NMEA 2000 '
+                                   'frames, to a file (.log, .blf, .mcap, with a truth JSON beside it) '
+                                   'or live onto a python-can bus.')
+    p.add_argument('--config', help='ROS 2 parameters file (default: the packaged config/r18.yaml)')
+    p.add_argument('--program', default='hard_over_2',
+                   help=f'helm programme, comma-separated steps from: {", ".join(sim.PROGRAMS)} '
+                        '(e.g. "hard_over_2,zigzag_10,autopilot:600"); default hard_over_2')
+    target = p.add_mutually_exclusive_group(required=True)
+    target.add_argument('--out', help='output file: .log (candump), .blf, .asc or .mcap')
+    target.add_argument('--bus', help='live output, INTERFACE:CHANNEL, e.g. virtual:steering')
+    p.add_argument('--speed-factor', type=float, default=1.0,
+                   help='live output pace relative to real time (0: as fast as possible)')
+    p.add_argument('--seed', type=int, default=0, help='random seed (same seed, same bytes)')
+    p.add_argument('--gap-2z', type=float, help='true 2Z [mm] (default: config)')
+    p.add_argument('--gap-zgb', type=float, help='true Z_gb [mm] (default: config)')
+    p.add_argument('--speed-profile', help='ship speed: knots, or "s:kn,s:kn" (default: service speed)')
+    p.add_argument('--effect', action='append', default=[], metavar='NAME[:k=v,...]',
+                   help=f'add an undeclared effect: {", ".join(sim.EFFECTS)}')
+    p.add_argument('--no-noise', action='store_true', help='no sensor noise (quantisation stays)')
+    p.add_argument('--max-duration', type=float, default=7200.0, help='cut the programme after this many seconds')
+    p.add_argument('--json', action='store_true', help='print the truth as JSON')
+    p.set_defaults(handler=lambda a: run(a.config, a.program, a.out, a.bus, a.speed_factor, a.seed,
+                                         a.gap_2z, a.gap_zgb, a.speed_profile, a.effect, not a.no_noise,
+                                         a.max_duration, a.json))

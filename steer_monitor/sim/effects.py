@@ -1,0 +1,86 @@
+"""Undeclared effects the simulator can add on request (design doc section 6).
+
+The declared model (section 4) is what the estimator assumes; these are what real gear adds
+and the analysis must find in the residual without being told. Each switches on by name
+with optional parameters, e.g. ``--effect viscous:c_ns_per_m=8e5``.
+
+===================== ================================================================
+name                  what it does (parameters, defaults)
+===================== ================================================================
+viscous               friction grows with ram speed: F_fr += c |v_ram|
+                      (c_ns_per_m = 1.0e6 N s/m: 30 kN at 30 mm/s)
+angle_delay           the rudder angle sensor reports alpha(t - tau) (tau_s = 0.25 s)
+pressure_offset       one pressure transducer reads high by a constant
+                      (input = pressure_r1_stbd, offset_bar = 3.0)
+temp_friction         friction rises with oil temperature:
+                      F_fr *= 1 + k (T - T_ref) (k_per_k = 0.02 /K, t_ref_c = 40 C)
+pressure_friction     seal friction rises with the driving chamber's pressure:
+                      F_fr += k A_r p_high (k = 0.03)
+stribeck              extra friction near zero ram speed (Stribeck):
+                      F_fr += F_st exp(-(|v| / v_s)^2) (f_st_n = 15e3 N, v_s_mm_s = 3.0)
+===================== ================================================================
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from steer_monitor.errors import ParameterError
+
+__all__ = ['EFFECTS', 'Effect', 'parse_effect']
+
+EFFECTS: dict[str, dict[str, float | str]] = {
+    'viscous': {'c_ns_per_m': 1.0e6},
+    'angle_delay': {'tau_s': 0.25},
+    'pressure_offset': {'input': 'pressure_r1_stbd', 'offset_bar': 3.0},
+    'temp_friction': {'k_per_k': 0.02, 't_ref_c': 40.0},
+    'pressure_friction': {'k': 0.03},
+    'stribeck': {'f_st_n': 15e3, 'v_s_mm_s': 3.0},
+}
+
+_PRESSURES = ('pressure_r1_stbd', 'pressure_r1_port', 'pressure_r2_stbd', 'pressure_r2_port')
+
+
+@dataclass(frozen=True)
+class Effect:
+    """An undeclared effect with its parameters (defaults filled in)."""
+
+    name: str
+    params: Mapping[str, float | str] = field(default_factory=dict)
+
+    def __getitem__(self, key: str) -> float | str:
+        return self.params[key]
+
+
+def parse_effect(text: str) -> Effect:
+    """``'name'`` or ``'name:key=value,key=value'`` -> Effect, with a clear error when wrong."""
+    name, _, rest = text.strip().partition(':')
+    if name not in EFFECTS:
+        msg = f'unknown effect {name!r} (choose from: {", ".join(EFFECTS)})'
+        raise ParameterError(msg)
+    params: dict[str, float | str] = dict(EFFECTS[name])
+    for item in filter(None, (s.strip() for s in rest.split(','))):
+        key, eq, value = item.partition('=')
+        if not eq or key not in params:
+            msg = f'effect {name}: unknown parameter {key!r} (parameters: {", ".join(params)})'
+            raise ParameterError(msg)
+        if isinstance(params[key], str):
+            params[key] = value
+        else:
+            try:
+                num = float(value)
+            except ValueError:
+                num = math.nan
+            if not math.isfinite(num):
+                msg = f'effect {name}: parameter {key} must be a number, got {value!r}'
+                raise ParameterError(msg)
+            params[key] = num
+    if name == 'pressure_offset' and params['input'] not in _PRESSURES:
+        msg = f'effect pressure_offset: input must be one of {", ".join(_PRESSURES)}, got {params["input"]!r}'
+        raise ParameterError(msg)
+    if name == 'angle_delay' and not 0 <= float(params['tau_s']) <= 5:
+        msg = f'effect angle_delay: tau_s must lie in 0..5 s, got {params["tau_s"]}'
+        raise ParameterError(msg)
+    return Effect(name, params)
