@@ -25,3 +25,20 @@ def r18_params() -> dict:
 @pytest.fixture(scope='session')
 def r18(r18_params) -> GearParams:
     return gear_from_params(r18_params)
+
+
+@pytest.fixture(scope='session')
+def can_db(r18_params):
+    """(DBC codec, signal map) of the packaged R-18 config."""
+    from steer_monitor.can.setup import can_setup
+    return can_setup(r18_params, R18_YAML)
+
+
+@pytest.fixture(scope='session')
+def db(can_db):
+    return can_db[0]
+
+
+@pytest.fixture(scope='session')
+def smap(can_db):
+    return can_db[1]

@@ -5,7 +5,9 @@ file). Records that cannot be parsed are counted as ``malformed_record`` and ski
 file that breaks off mid-way yields what came before and then raises :class:`LogError`, so
 nothing read is lost. candump files are parsed here (python-can's reader stops at the first
 bad line); ``.asc`` and ``.blf`` go through python-can. python-can gives float seconds:
-those are kept to the microsecond, the resolution every format here holds.
+those are kept to the microsecond, the resolution every format here holds. An ``.asc`` file
+carries its start time only to the millisecond (frame times relative to it are exact), so it
+is a read format here: writers produce ``.log``, ``.blf`` and ``.mcap``, byte-reproducible.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from steer_monitor.errors import SteerMonitorError
 __all__ = ['READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'iter_log', 'read_log_arrays']
 
 READ_SUFFIXES = ('.log', '.asc', '.blf', '.mcap')
-WRITE_SUFFIXES = ('.log', '.blf', '.mcap', '.asc')
+WRITE_SUFFIXES = ('.log', '.blf', '.mcap')
 
 CAN_ERR_FLAG = 0x20000000
 _CANDUMP = re.compile(r'^\((\d+)\.(\d{1,9})\)\s+(\S+)\s+([0-9A-Fa-f]{1,8})#(R?)([0-9A-Fa-f]*)\s*$')
@@ -54,6 +56,10 @@ def _candump_line(line: str, lineno: int, rejects: RejectCounter | None, path: P
             rejects.add('malformed_record', f'{path.name} line {lineno}: payload {data!r}')
         return None
     t_ns = int(sec) * 1_000_000_000 + int(frac.ljust(9, '0'))
+    if t_ns >= 1 << 63:
+        if rejects is not None:
+            rejects.add('malformed_record', f'{path.name} line {lineno}: timestamp ({sec}.{frac}) out of range')
+        return None
     can_id = int(ident, 16)
     is_error = bool(can_id & CAN_ERR_FLAG) and len(ident) == 8
     return Frame(t_ns=t_ns, can_id=can_id & 0x1FFFFFFF, data=bytes.fromhex(data),
@@ -88,20 +94,29 @@ def iter_log(path: str | Path, rejects: RejectCounter | None = None) -> Iterator
 
 def _iter_python_can(path: Path, suffix: str) -> Iterator[Frame]:
     import can
-    reader_cls: Any = {'.asc': can.ASCReader, '.blf': can.BLFReader}[suffix]
     try:
-        reader = reader_cls(str(path))
+        reader: Any = (can.ASCReader(str(path), relative_timestamp=False) if suffix == '.asc'
+                       else can.BLFReader(str(path)))
     except Exception as exc:
         msg = f'cannot read {path}: {type(exc).__name__}: {exc}'
         raise LogError(msg) from exc
+    n = 0
     try:
         for msg_ in reader:
+            n += 1
             yield frame_from_message(msg_)
     except Exception as exc:
         msg = f'{path}: log breaks off or is corrupt ({type(exc).__name__}: {exc}); frames before it were read'
         raise LogError(msg) from exc
     finally:
         reader.stop()
+    if suffix == '.blf':
+        # python-can stops quietly at a cut container; the header knows the real size.
+        size = path.stat().st_size
+        if reader.file_size and size < reader.file_size:
+            msg = (f'{path}: log breaks off or is corrupt (BLF is {size} bytes, its header says '
+                   f'{reader.file_size}); {n} frames before it were read')
+            raise LogError(msg)
 
 
 def read_log_arrays(path: str | Path, rejects: RejectCounter | None = None) -> FrameArrays:
@@ -110,7 +125,7 @@ def read_log_arrays(path: str | Path, rejects: RejectCounter | None = None) -> F
 
 
 class LogWriter:
-    """Write frames to ``.log`` (candump -L), ``.blf``, ``.asc`` or ``.mcap``.
+    """Write frames to ``.log`` (candump -L), ``.blf`` or ``.mcap``.
 
     Context manager; :meth:`close` finishes the file and is idempotent. The candump and MCAP
     outputs are byte-for-byte reproducible for the same frames.

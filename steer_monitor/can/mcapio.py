@@ -113,22 +113,15 @@ class McapWriter:
 
 
 def iter_mcap_frames(stream: IO[bytes], topic: str | None = None) -> Iterator[Frame]:
-    """Frames from every ``can_msgs/msg/Frame`` channel (or one topic) of an MCAP stream."""
+    """Frames from every ``can_msgs/msg/Frame`` channel (or one topic) of an MCAP stream, in
+    file order. Reads records sequentially (no summary needed), so a file cut short, e.g. by a
+    crash, yields every frame before the cut and then raises the reader's error."""
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
 
-    reader = make_reader(stream, decoder_factories=[DecoderFactory()])
-    summary = reader.get_summary()
-    topics = None
-    if summary is not None:
-        topics = [c.topic for c in summary.channels.values()
-                  if summary.schemas.get(c.schema_id) is not None
-                  and summary.schemas[c.schema_id].name == FRAME_DATATYPE
-                  and (topic is None or c.topic == topic)]
-        if not topics:
-            return
-    for schema, _channel, message, msg in reader.iter_decoded_messages(topics=topics, log_time_order=False):
-        if schema is None or schema.name != FRAME_DATATYPE:
+    reader = make_reader(_Sequential(stream), decoder_factories=[DecoderFactory()])
+    for schema, channel, message, msg in reader.iter_decoded_messages(log_time_order=False):
+        if schema is None or schema.name != FRAME_DATATYPE or (topic is not None and channel.topic != topic):
             continue
         stamp = msg.header.stamp
         t_ns = stamp.sec * 1_000_000_000 + stamp.nanosec if (stamp.sec or stamp.nanosec) else message.log_time
@@ -136,3 +129,16 @@ def iter_mcap_frames(stream: IO[bytes], topic: str | None = None) -> Iterator[Fr
         yield Frame(t_ns=int(t_ns), can_id=int(msg.id), data=bytes(msg.data)[:dlc],
                     is_extended=bool(msg.is_extended), is_error=bool(msg.is_error),
                     is_remote=bool(msg.is_rtr), channel=msg.header.frame_id)
+
+
+class _Sequential:
+    """A read-only view of a stream that says it cannot seek, so mcap reads record by record."""
+
+    def __init__(self, stream: IO[bytes]) -> None:
+        self._stream = stream
+
+    def read(self, n: int = -1) -> bytes:
+        return self._stream.read(n)
+
+    def seekable(self) -> bool:
+        return False

@@ -62,7 +62,8 @@ def backlash_summary(chain_path: str | Path, angle_deg: float = 0.0,
 
 
 def run(chain_path: str | Path, angle_deg: float = 0.0, limit_arcmin: float | None = None,
-        basis: str = 'worst', as_json: bool = False, out: TextIO = sys.stdout) -> int:
+        basis: str = 'worst', as_json: bool = False, out: TextIO | None = None) -> int:
+    out = out or sys.stdout
     s = backlash_summary(chain_path, angle_deg, limit_arcmin, basis)
     if as_json:
         dump_json(s, out)

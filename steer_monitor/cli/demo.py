@@ -35,7 +35,8 @@ PAPER = {'guide_onset_deg': 10.0, 'crossover_deg': 21.0, 'k_gl_max': 0.59, 'k_gl
 
 
 def run(out_dir: str | Path = 'out', config: str | Path | None = None,
-        out: TextIO = sys.stdout) -> int:
+        out: TextIO | None = None) -> int:
+    out = out or sys.stdout
     out_dir = Path(out_dir)
     try:
         out_dir.mkdir(parents=True, exist_ok=True)

@@ -29,7 +29,8 @@ def fit_summary(designation: str) -> dict[str, Any]:
     }
 
 
-def run(designation: str, as_json: bool = False, out: TextIO = sys.stdout) -> int:
+def run(designation: str, as_json: bool = False, out: TextIO | None = None) -> int:
+    out = out or sys.stdout
     s = fit_summary(designation)
     if as_json:
         dump_json(s, out)

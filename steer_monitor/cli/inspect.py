@@ -86,7 +86,8 @@ def inspect_log(path: str | Path, config: str | Path | None = None) -> dict[str,
 
 
 def run(path: str | Path, config: str | Path | None = None, as_json: bool = False,
-        out: TextIO = sys.stdout) -> int:
+        out: TextIO | None = None) -> int:
+    out = out or sys.stdout
     s = inspect_log(path, config)
     if as_json:
         dump_json(s, out)

@@ -68,7 +68,8 @@ def loadshare_rows(gear: GearParams, gaps: Gaps, speed_kn: float | None = None,
 def run(config: str | Path | None = None, gap_2z_mm: float | None = None,
         gap_zgb_mm: float | None = None, speed_kn: float | None = None,
         plot: str | Path | None = None, step_deg: float = 0.5, as_json: bool = False,
-        out: TextIO = sys.stdout) -> int:
+        out: TextIO | None = None) -> int:
+    out = out or sys.stdout
     params = load_params_file(config or default_config())
     gear = gear_from_params(params)
     configured = gaps_from_params(params)

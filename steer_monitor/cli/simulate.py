@@ -52,7 +52,8 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
         bus: str | None = None, speed_factor: float = 1.0, seed: int = 0,
         gap_2z_mm: float | None = None, gap_zgb_mm: float | None = None,
         speed_profile: str | None = None, effects: Sequence[str] = (), noise: bool = True,
-        max_duration_s: float = 7200.0, as_json: bool = False, out: TextIO = sys.stdout) -> int:
+        max_duration_s: float = 7200.0, as_json: bool = False, out: TextIO | None = None) -> int:
+    out = out or sys.stdout
     if (out_path is None) == (bus is None):
         msg = 'give exactly one of --out FILE and --bus INTERFACE:CHANNEL'
         raise ParameterError(msg)
@@ -126,7 +127,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help=f'helm programme, comma-separated steps from: {", ".join(sim.PROGRAMS)} '
                         '(e.g. "hard_over_2,zigzag_10,autopilot:600"); default hard_over_2')
     target = p.add_mutually_exclusive_group(required=True)
-    target.add_argument('--out', help='output file: .log (candump), .blf, .asc or .mcap')
+    target.add_argument('--out', help='output file: .log (candump), .blf or .mcap')
     target.add_argument('--bus', help='live output, INTERFACE:CHANNEL, e.g. virtual:steering')
     p.add_argument('--speed-factor', type=float, default=1.0,
                    help='live output pace relative to real time (0: as fast as possible)')

@@ -1,0 +1,178 @@
+"""Decoding with rejects counted per reason, frame by frame and in arrays (same answers)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from steer_monitor.can import Decoder, Frame, FrameArrays, RejectCounter, collect, make_id
+from steer_monitor.can.codec import CanDatabase
+from steer_monitor.can.rejects import REASONS
+
+T0 = 1_767_225_600_000_000_000
+
+
+def payload(db, pgn, **raw):
+    layout = db.message(pgn)
+    full = {name: np.array([raw.get(name, f.not_available)], np.int64) for name, f in layout.fields.items()}
+    return CanDatabase.encode(layout, full, 1)[0].tobytes()
+
+
+def rudder(db, t, position, order=0, instance=0, priority=2, source=0x10):
+    return Frame(t, make_id(priority, 127245, source),
+                 payload(db, 127245, Instance=instance, DirectionOrder=0, AngleOrder=order, Position=position))
+
+
+def pressure(db, t, instance, raw_0p1pa, source_field=4, priority=5, sa=0x20):
+    return Frame(t, make_id(priority, 130314, sa),
+                 payload(db, 130314, SID=1, Instance=instance, Source=source_field, Pressure=raw_0p1pa))
+
+
+def both(db, smap, frames):
+    """(samples, snapshot) from the per-frame path and from the array path."""
+    d1 = Decoder(db, smap)
+    per_frame = collect((s for f in frames for s in d1.decode(f)), smap.names)
+    d2 = Decoder(db, smap)
+    arrays = d2.decode_arrays(FrameArrays.from_frames(frames))
+    return (per_frame, d1.rejects.snapshot()), (arrays, d2.rejects.snapshot())
+
+
+def assert_same(a, b):
+    (sa, ra), (sb, rb) = a, b
+    assert ra.counts == rb.counts
+    assert ra.by_signal == rb.by_signal
+    for name in sa:
+        order_a = np.lexsort((sa[name].value, sa[name].t_ns))
+        order_b = np.lexsort((sb[name].value, sb[name].t_ns))
+        assert np.array_equal(sa[name].t_ns[order_a], sb[name].t_ns[order_b]), name
+        assert np.array_equal(sa[name].value[order_a], sb[name].value[order_b]), name
+
+
+def test_good_frames_become_samples(db, smap):
+    frames = [rudder(db, T0, 1000, order=1500), pressure(db, T0 + 1000, 0, 1_000_000),
+              pressure(db, T0 + 2000, 3, 12_345_678)]
+    a, b = both(db, smap, frames)
+    assert_same(a, b)
+    s, r = a
+    assert r.total == 0
+    assert s['rudder_angle'].value.tolist() == [pytest.approx(0.1)]
+    assert s['rudder_order'].value.tolist() == [pytest.approx(0.15)]
+    assert s['pressure_r1_stbd'].value.tolist() == [pytest.approx(1e5)]
+    assert s['pressure_r2_port'].value.tolist() == [pytest.approx(1_234_567.8)]
+    assert s['pressure_r2_port'].t_ns.tolist() == [T0 + 2000]
+
+
+@pytest.mark.parametrize('priority,source', [(0, 0), (2, 0x10), (3, 0x7F), (7, 0xFE)])
+def test_pgn_matches_whatever_priority_and_source(db, smap, priority, source):
+    (s, r), b = both(db, smap, [rudder(db, T0, -500, priority=priority, source=source)])
+    assert r.total == 0
+    assert s['rudder_angle'].value.tolist() == [pytest.approx(-0.05)]
+
+
+def _case(db, reason):
+    """Frames that produce exactly one reject of ``reason`` (plus good ones around it)."""
+    good = rudder(db, T0, 100)
+    if reason == 'error_frame':
+        return [good, Frame(T0 + 1, 0x1, b'', is_error=True)]
+    if reason == 'remote_frame':
+        return [good, Frame(T0 + 1, make_id(2, 127245, 0x10), b'', is_remote=True)]
+    if reason == 'not_extended':
+        return [good, Frame(T0 + 1, 0x123, b'\x01\x02', is_extended=False)]
+    if reason == 'unknown_id':
+        return [good, Frame(T0 + 1, make_id(3, 129025, 0x05), bytes(8))]
+    if reason == 'wrong_length':
+        return [good, Frame(T0 + 1, make_id(2, 127245, 0x10), good.data[:6])]
+    if reason == 'time_backwards':
+        return [good, rudder(db, T0 - 1000, 200)]
+    if reason == 'duplicate':
+        return [good, good]
+    if reason == 'unmapped':
+        return [good, pressure(db, T0 + 5, 7, 1000)]
+    if reason == 'not_available':
+        return [good, rudder(db, T0 + 100, 0x7FFF, order=0)]
+    if reason == 'error_value':
+        return [good, rudder(db, T0 + 100, 0x7FFE, order=0)]
+    if reason == 'out_of_range':
+        return [good, rudder(db, T0 + 100, round(math.radians(46) / 1e-4), order=0)]
+    raise AssertionError(reason)
+
+
+FRAME_REASONS = ['error_frame', 'remote_frame', 'not_extended', 'unknown_id', 'wrong_length',
+                 'time_backwards', 'duplicate', 'unmapped', 'not_available', 'error_value', 'out_of_range']
+
+
+@pytest.mark.parametrize('reason', FRAME_REASONS)
+def test_each_reject_reason_counted_with_text(db, smap, reason):
+    frames = _case(db, reason)
+    a, b = both(db, smap, frames)
+    assert_same(a, b)
+    for _, snap in (a, b):
+        assert snap.counts == {reason: 1}
+        assert snap.last[reason].startswith(REASONS[reason])
+    # The good frame before the bad one is never lost.
+    assert a[0]['rudder_angle'].value[0] == pytest.approx(0.01)
+
+
+def test_reject_text_names_the_frame(db, smap):
+    d = Decoder(db, smap)
+    d.decode(Frame(T0, make_id(3, 129025, 0x05), bytes(8)))
+    d.decode(rudder(db, T0 + 1, round(math.radians(50) / 1e-4)))
+    last = d.rejects.snapshot().last
+    assert last['unknown_id'] == 'unknown identifier: PGN not in the DBC: 0x0DF80105 (PGN 129025)'
+    assert 'rudder_angle = 0.8727 rad' in last['out_of_range'] and 'possible: -0.785398..0.785398' in last['out_of_range']
+
+
+@pytest.mark.parametrize('bar,ok', [(-1.5, False), (-0.9, True), (399.0, True), (401.0, False)])
+def test_pressure_plausibility(db, smap, bar, ok):
+    (s, r), b = both(db, smap, [pressure(db, T0, 1, round(bar * 1e5 / 0.1))])
+    assert (len(s['pressure_r1_port']) == 1) == ok
+    assert r.counts.get('out_of_range', 0) == (0 if ok else 1)
+
+
+def test_state_carries_across_calls(db, smap):
+    d = Decoder(db, smap)
+    first = FrameArrays.from_frames([rudder(db, T0 + 1000, 1)])
+    d.decode_arrays(first)
+    d.decode_arrays(FrameArrays.from_frames([rudder(db, T0, 2), rudder(db, T0 + 1000, 1)]))
+    assert d.rejects.snapshot().counts == {'time_backwards': 1, 'duplicate': 1}
+
+
+frame_strategy = st.builds(
+    Frame,
+    t_ns=st.integers(0, 10_000).map(lambda k: T0 + k * 1000),
+    can_id=st.one_of(
+        st.integers(0, 0x1FFFFFFF),
+        st.tuples(st.integers(0, 7), st.sampled_from([127245, 130314, 128259, 130316, 60928]),
+                  st.integers(0, 255)).map(lambda x: make_id(*x))),
+    data=st.binary(min_size=0, max_size=12),
+    is_extended=st.booleans(),
+    is_error=st.booleans().map(lambda b: b and False),
+    is_remote=st.just(False),
+)
+
+
+@settings(max_examples=400, deadline=None)
+@given(frames=st.lists(frame_strategy, min_size=1, max_size=40),
+       errors=st.lists(st.booleans(), min_size=40, max_size=40))
+def test_fuzz_never_raises_and_paths_agree(db, smap, frames, errors):
+    frames = [Frame(f.t_ns, f.can_id if f.is_extended else f.can_id & 0x7FF, f.data[:8] if e else f.data,
+                    f.is_extended, is_error=(e and i % 7 == 0), is_remote=(e and i % 11 == 0))
+              for i, (f, e) in enumerate(zip(frames, errors))]
+    a, b = both(db, smap, frames)
+    assert_same(a, b)
+    samples, snap = a
+    frame_level = sum(snap.counts.get(k, 0) for k in ('error_frame', 'remote_frame', 'not_extended',
+                                                      'unknown_id', 'wrong_length', 'time_backwards',
+                                                      'duplicate', 'unmapped'))
+    assert frame_level <= len(frames)
+    for s in samples.values():
+        assert np.all(np.isfinite(s.value))
+
+
+def test_counter_rejects_unknown_reason():
+    with pytest.raises(KeyError, match="unknown reject reason 'nope'"):
+        RejectCounter().add('nope')

@@ -1,0 +1,141 @@
+"""The simulator: the declared plant's laws, the helm programmes, each undeclared effect, and
+reproducibility to the byte."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from steer_monitor import sim
+from steer_monitor.cli import simulate as simulate_cli
+from steer_monitor.errors import ParameterError
+from steer_monitor.model import load_sharing
+from steer_monitor.params import gear_from_params
+
+DEG = math.pi / 180
+
+
+def _run(r18_params, can_db, program='hard_over_2', seed=1, **kw):
+    db, smap = can_db
+    return sim.run(r18_params, sim.SimConfig(program=program, **kw), db, smap, seed)
+
+
+def test_pressure_law_and_friction_law(r18_params, can_db):
+    """A_r (p_stbd - p_port) = sign(alpha) Fa + sign(rate) F_fr with F_fr from the bushing and
+    guide reactions, recomputed here from the model and the truth parameters."""
+    s = _run(r18_params, can_db)
+    p, gear = s.plant, gear_from_params(r18_params)
+    cfg = sim.SimConfig()
+    ls = load_sharing(gear, p.alpha, gear.torque(p.alpha, p.speed), cfg.gaps.two_z, cfg.gaps.z_gb)
+    n_a = np.maximum(np.abs(ls.r_a), 2 * np.abs(ls.m_a) / gear.bushing_length)
+    f_fr = cfg.seal_friction + cfg.mu_bushing * (n_a + np.abs(ls.r_e)) + cfg.mu_guide * np.abs(ls.guide_force)
+    force = gear.ram_area * (p.pressures['pressure_r1_stbd'] - p.pressures['pressure_r1_port'])
+    moving = p.rate != 0
+    expected = np.sign(p.alpha) * ls.axial + np.where(moving, np.sign(p.rate) * f_fr, 0.0)
+    assert np.allclose(force, expected, rtol=1e-9, atol=1e-6)
+    # At midships there is no lateral load: the moving ram's friction is the seals' alone.
+    mid = moving & (np.abs(p.alpha) < 0.05 * DEG)
+    assert mid.any()
+    friction_part = force - np.sign(p.alpha) * ls.axial
+    assert np.allclose(np.abs(friction_part[mid]), cfg.seal_friction, rtol=0.02)
+    assert np.all(np.minimum(p.pressures['pressure_r1_stbd'], p.pressures['pressure_r1_port']) == pytest.approx(2e5))
+
+
+@pytest.mark.parametrize('program,pumps,limit_s', [('hard_over_2', 2, 28.0), ('hard_over_1', 1, None)])
+def test_solas_hard_over(r18_params, can_db, program, pumps, limit_s):
+    p = _run(r18_params, can_db, program).plant
+    a = np.degrees(p.alpha)
+    leave = np.argmax((p.order < 0) & (a > 30))
+    arrive = leave + np.argmax(a[leave:] <= -30 + 0.5)
+    took = p.t[arrive] - p.t[leave]
+    assert a.max() > 34.4 and a.min() < -29.4
+    assert np.all(p.pumps[leave:arrive] == pumps)
+    # Ram speed pumps x 15 mm/s: the swing takes the integral of H / (cos^2 * v) over the angle.
+    h, v = 0.6, pumps * 0.015
+    ideal = h / v * (math.tan(35 * DEG) + math.tan(30 * DEG))
+    assert took == pytest.approx(ideal, rel=0.05)
+    if limit_s is not None:
+        assert took < limit_s
+
+
+def test_zigzag_switches_on_heading(r18_params, can_db):
+    p = _run(r18_params, can_db, 'zigzag_10').plant
+    switches = np.nonzero(np.diff(np.sign(p.order)) != 0)[0]
+    assert len(switches) >= 4
+    for i in switches[:4]:
+        assert abs(np.degrees(p.heading[i + 1])) == pytest.approx(10.0, abs=0.2)
+
+
+def test_rudder_rests_in_holds(r18_params, can_db):
+    p = _run(r18_params, can_db, 'hold:30').plant
+    assert np.all(p.rate == 0) and np.all(p.alpha == 0)
+
+
+@pytest.mark.parametrize('effect,check', [
+    ('viscous', 'friction'), ('temp_friction', 'friction'), ('pressure_friction', 'friction'),
+    ('stribeck', 'friction'), ('angle_delay', 'angle'), ('pressure_offset', 'offset'),
+])
+def test_each_effect_changes_what_it_says(r18_params, can_db, effect, check):
+    base = _run(r18_params, can_db, 'hard_over_2', seed=4, noise=False)
+    e = sim.parse_effect(effect)
+    with_e = _run(r18_params, can_db, 'hard_over_2', seed=4, noise=False, effects=(e,))
+    moving = base.plant.rate != 0
+    if check == 'friction':
+        df = with_e.plant.friction[moving] - base.plant.friction[moving]
+        v = 0.6 / np.cos(base.plant.alpha[moving]) ** 2 * np.abs(base.plant.rate[moving])
+        if effect == 'viscous':
+            assert np.allclose(df, e['c_ns_per_m'] * v)
+        elif effect == 'temp_friction':
+            t_c = base.plant.oil_temp[moving] - 273.15
+            assert np.allclose(with_e.plant.friction[moving] / base.plant.friction[moving],
+                               1 + e['k_per_k'] * (t_c - e['t_ref_c']))
+        elif effect == 'stribeck':
+            assert np.allclose(df, e['f_st_n'] * np.exp(-(v / (e['v_s_mm_s'] * 1e-3)) ** 2))
+        else:
+            assert np.all(df > 0)
+    elif check == 'angle':
+        t = (with_e.sensors.t_ns['rudder'] - with_e.plant.start_ns) / 1e9
+        assert np.allclose(with_e.sensors.exact['rudder_angle'], np.interp(t - 0.25, base.plant.t, base.plant.alpha))
+    else:
+        diff = with_e.sensors.exact['pressure_r1_stbd'] - base.sensors.exact['pressure_r1_stbd']
+        assert np.allclose(diff, 3e5)
+        assert np.array_equal(with_e.sensors.exact['pressure_r2_stbd'], base.sensors.exact['pressure_r2_stbd'])
+
+
+@pytest.mark.parametrize('text,msg', [
+    ('nonsense', "unknown effect 'nonsense'"),
+    ('viscous:c=1', "effect viscous: unknown parameter 'c'"),
+    ('viscous:c_ns_per_m=abc', 'effect viscous: parameter c_ns_per_m must be a number'),
+    ('pressure_offset:input=pressure_r9', 'effect pressure_offset: input must be one of'),
+])
+def test_bad_effects(text, msg):
+    with pytest.raises(ParameterError, match=msg):
+        sim.parse_effect(text)
+
+
+@pytest.mark.parametrize('text,msg', [
+    ('tango', "unknown helm programme 'tango'"),
+    ('hold:-3', "helm programme 'hold:-3': the value after \":\" must be a positive number"),
+    ('', 'empty helm programme'),
+])
+def test_bad_programs(text, msg):
+    with pytest.raises(ParameterError, match=msg):
+        sim.parse_program(text)
+
+
+@pytest.mark.parametrize('suffix', ['.log', '.blf', '.mcap'])
+def test_seed_reproduces_files_byte_for_byte(tmp_path, suffix):
+    outs = []
+    for k, seed in enumerate((7, 7, 8)):
+        path = tmp_path / f'run{k}{suffix}'
+        assert simulate_cli.run(None, 'hard_over_2,zigzag_10', path, seed=seed, max_duration_s=60.0,
+                                effects=['viscous']) == 0
+        outs.append(path.read_bytes())
+    assert outs[0] == outs[1]
+    assert outs[0] != outs[2]
+    truth = json.loads((tmp_path / 'run0.truth.json').read_text())
+    assert truth['seed'] == 7 and truth['effects'][0]['name'] == 'viscous'
+    assert truth['clearance_2z_mm'] == pytest.approx(0.6)
