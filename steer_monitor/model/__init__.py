@@ -41,6 +41,7 @@ from steer_monitor.model.loadshare import (
     critical_forces,
     load_sharing,
     load_sharing_at,
+    load_sharing_scalar,
     paper_case,
 )
 from steer_monitor.model.study import GapSensitivity, Landmarks, gap_sensitivity, landmarks
@@ -78,6 +79,7 @@ __all__ = [
     'landmarks',
     'load_sharing',
     'load_sharing_at',
+    'load_sharing_scalar',
     'paper_case',
     'parse_fit',
     'pinned_pinned_compliance',

@@ -24,6 +24,7 @@ Units: SI (rad, N, N m, m). Arrays broadcast over samples.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,10 +49,12 @@ __all__ = [
     'STAGE_PINNED',
     'Compliances',
     'LoadSharing',
+    'ShareScalar',
     'compliances',
     'critical_forces',
     'load_sharing',
     'load_sharing_at',
+    'load_sharing_scalar',
     'paper_case',
 ]
 
@@ -257,3 +260,99 @@ def load_sharing_at(gear: GearParams, alpha: ArrayLike, gaps: Gaps,
     """
     torque = gear.torque(alpha, speed)
     return load_sharing(gear, alpha, torque, gaps.two_z, gaps.z_gb)
+
+
+@dataclass(frozen=True, slots=True)
+class ShareScalar:
+    """:class:`LoadSharing` of one sample as plain floats (same fields, same units)."""
+
+    lateral: float
+    axial: float
+    ram_force: float
+    guide_force: float
+    k_gl: float
+    deflection: float
+    r_a: float
+    r_e: float
+    m_a: float
+    f_theta: float
+    f_z: float
+    case: int
+    stages: int
+
+
+def load_sharing_scalar(gear: GearParams, alpha: float, torque: float, two_z: float,
+                        z_gb: float) -> ShareScalar:
+    """One sample of :func:`load_sharing` in plain float arithmetic, for live use.
+
+    The same closed forms and the same event loop, without numpy's per-call overhead (about
+    twenty times faster on one sample); ``test_loadshare`` checks the two agree.
+    """
+    if not (math.isfinite(two_z) and two_z >= 0 and math.isfinite(z_gb) and z_gb >= 0):
+        msg = 'clearance two_z and z_gb must be finite and >= 0 m'
+        raise ModelError(msg)
+    a_abs, m_abs = abs(alpha), abs(torque)
+    span, h = gear.bushing_span, gear.stock_to_ram
+    tan_a = math.tan(a_abs)
+    travel = h * tan_a
+    b = span / 2.0 + travel
+    a = span - b
+    ag = gear.guide_beam_span / 2.0 - travel
+    bg = gear.guide_beam_span - ag
+    axial = m_abs * math.cos(a_abs) ** 2 / (gear.rams * h)
+    fl = axial * tan_a
+    ei = gear.youngs_modulus * gear.ram_inertia
+    lam1 = a * a * b * b / (3.0 * ei * span)
+    lam2 = a**3 * b * b * (3.0 * span + b) / (12.0 * ei * span**3)
+    slope = b * (span * span - b * b) / (6.0 * ei * span)
+    if gear.euler_amplification:
+        f_eu = math.pi**2 * ei / b**2
+        if axial >= f_eu:
+            msg = f'axial ram force reaches {axial / f_eu:.2f} of the Euler force: the ram buckles'
+            raise ModelError(msg)
+        amp = 1.0 / (1.0 - axial / f_eu)
+        lam1, lam2, slope = lam1 * amp, lam2 * amp, slope * amp
+    lg_span = gear.guide_beam_span
+    lam_g = ag**3 * bg**3 / (3.0 * gear.youngs_modulus * gear.guide_beam_inertia * lg_span**3)
+    f_theta = (two_z / gear.bushing_length) / slope if slope > 0 else math.inf
+    f_z = z_gb / lam1 if lam1 > 0 else math.inf
+
+    applied = f_pinned = f_clamped = f_guide = deflection = 0.0
+    clamped = guide = False
+    stages = 0
+    for _ in range(3):
+        lam_r = lam2 if clamped else lam1
+        share = lam_g / (lam_r + lam_g) if guide else 1.0
+        to_end = fl - applied
+        to_clamp = math.inf if clamped else max((f_theta - f_pinned) / share, 0.0)
+        to_guide = math.inf if guide else max((z_gb - deflection) / lam_r, 0.0) if lam_r > 0 else math.inf
+        step = min(to_end, to_clamp, to_guide)
+        if step > 0:
+            stages |= STAGE_CLAMPED if clamped else STAGE_PINNED
+            if guide:
+                stages |= STAGE_GUIDE
+        ram_step = share * step
+        if clamped:
+            f_clamped += ram_step
+        else:
+            f_pinned += ram_step
+        f_guide += step - ram_step
+        deflection += lam_r * ram_step
+        applied += step
+        clamped = clamped or to_clamp <= step
+        guide = guide or to_guide <= step
+
+    re_c = a * a * (3.0 * span - a) / (2.0 * span**3)
+    ma_c = a * b * (span + b) / (2.0 * span**2)
+    theta_first = f_theta <= f_z
+    if fl <= min(f_theta, f_z):
+        case = 1 if theta_first else 2
+    elif fl > max(f_theta, f_z):
+        case = 5 if theta_first else 6
+    else:
+        case = 3 if theta_first else 4
+    return ShareScalar(
+        lateral=fl, axial=axial, ram_force=f_pinned + f_clamped, guide_force=f_guide,
+        k_gl=f_guide / fl if fl > 0 else 0.0, deflection=deflection,
+        r_a=f_pinned * b / span + f_clamped * (1.0 - re_c), r_e=f_pinned * a / span + f_clamped * re_c,
+        m_a=f_clamped * ma_c, f_theta=f_theta, f_z=f_z, case=case, stages=stages)

@@ -118,6 +118,24 @@ def test_vectorized_equals_per_sample(r18):
         assert int(one.stages) == int(vec.stages[i])
 
 
+def test_scalar_path_equals_vectorized(r18):
+    from dataclasses import replace
+
+    from steer_monitor.model import load_sharing_scalar
+    rng = np.random.default_rng(3)
+    for gear in (r18, replace(r18, euler_amplification=True)):
+        alpha = rng.uniform(-0.6, 0.6, 400)
+        torque = gear.torque(alpha) * rng.uniform(0.0, 2.5, 400)
+        two_z = rng.choice([0.0, 0.05e-3, 0.2e-3, 0.6e-3], 400)
+        z_gb = rng.choice([0.0, 0.05e-3, 0.25e-3], 400)
+        vec = load_sharing(gear, alpha, torque, two_z, z_gb)
+        for i in range(400):
+            one = load_sharing_scalar(gear, float(alpha[i]), float(torque[i]), float(two_z[i]), float(z_gb[i]))
+            for field in ('lateral', 'axial', 'ram_force', 'guide_force', 'k_gl', 'deflection', 'r_a', 'r_e', 'm_a'):
+                assert getattr(one, field) == pytest.approx(float(getattr(vec, field)[i]), rel=1e-9, abs=1e-12), field
+            assert (one.case, one.stages) == (int(vec.case[i]), int(vec.stages[i]))
+
+
 def test_sign_of_angle_and_torque_does_not_matter(r18):
     gaps = Gaps.from_mm(0.6, 0.25)
     a = math.radians(25.0)
