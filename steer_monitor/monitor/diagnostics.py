@@ -1,0 +1,205 @@
+"""Diagnostic statuses of the monitor, one per concern (REP-107 names), built from the live
+state. Pure: the node turns them into ``diagnostic_msgs/DiagnosticArray``.
+
+Values are (key, text) pairs with the unit in the key (``clearance_zgb_mm``), so
+diagnostic_aggregator and rqt_robot_monitor show them as they are.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from steer_monitor.can.rejects import RejectSnapshot
+from steer_monitor.can.signals import REQUIRED, SignalMap
+from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.loadshare import load_sharing_at
+from steer_monitor.model.study import landmarks
+from steer_monitor.monitor.live import LiveMonitor
+
+__all__ = ['ERROR', 'OK', 'STALE', 'WARN', 'DiagnosticsBuilder', 'DiagnosticsConfig', 'Status']
+
+OK, WARN, ERROR, STALE = 0, 1, 2, 3
+LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR', STALE: 'STALE'}
+PREFIX = 'steer_monitor: '
+
+
+@dataclass(frozen=True)
+class Status:
+    """One diagnostic status."""
+
+    name: str
+    level: int
+    message: str
+    hardware_id: str
+    values: tuple[tuple[str, str], ...]
+
+    def value(self, key: str) -> str:
+        return dict(self.values)[key]
+
+
+@dataclass(frozen=True)
+class DiagnosticsConfig:
+    """Thresholds of the statuses (SI except where named)."""
+
+    hardware_id: str
+    stale_after_s: float = 2.0
+    clearance_warn_share: float = 0.8
+    limit_2z: float = 0.6e-3
+    limit_zgb: float = 0.25e-3
+    guide_idle_warn_deg: float = 10.0
+    solas_hard_over_s: float = 28.0
+    residual_warn_bar: float = 3.0
+
+    @classmethod
+    def from_params(cls, p: Mapping[str, Any]) -> DiagnosticsConfig:
+        return cls(hardware_id=p['node.hardware_id'], stale_after_s=p['diagnostics.stale_after_s'],
+                   clearance_warn_share=p['diagnostics.clearance_warn_share'],
+                   limit_2z=p['clearances.limit_2z_mm'] * 1e-3, limit_zgb=p['clearances.limit_zgb_mm'] * 1e-3,
+                   guide_idle_warn_deg=p['diagnostics.guide_idle_warn_deg'],
+                   solas_hard_over_s=p['diagnostics.solas_hard_over_s'],
+                   residual_warn_bar=p['diagnostics.residual_warn_bar'])
+
+
+def _f(x: float | None, fmt: str = '.3f') -> str:
+    return 'n/a' if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, fmt)
+
+
+class DiagnosticsBuilder:
+    """Builds the statuses; caches the guide-beam onset angle per clearance pair."""
+
+    def __init__(self, cfg: DiagnosticsConfig, smap: SignalMap, gear: GearParams) -> None:
+        self.cfg = cfg
+        self.smap = smap
+        self.gear = gear
+        self._onset_cache: tuple[Gaps, float | None] | None = None
+
+    def _status(self, item: str, level: int, message: str, values: list[tuple[str, str]]) -> Status:
+        return Status(PREFIX + item, level, message, self.cfg.hardware_id, tuple(values))
+
+    def guide_onset_deg(self, gaps: Gaps) -> float | None:
+        """Angle from which the guide beam carries load at service speed (None: never)."""
+        if self._onset_cache is None or self._onset_cache[0] != gaps:
+            alpha = np.radians(np.arange(0.0, math.degrees(self.gear.max_rudder) + 1e-9, 0.1))
+            marks = landmarks(alpha, load_sharing_at(self.gear, alpha, gaps))
+            onset = None if marks.guide_onset is None else math.degrees(marks.guide_onset)
+            self._onset_cache = (gaps, onset)
+        return self._onset_cache[1]
+
+    def build(self, mon: LiveMonitor, rejects: RejectSnapshot, now_ns: int,
+              recording: Status | None = None) -> list[Status]:
+        out = [self.can_input(mon, rejects, now_ns), self.clearances(mon), self.guide_beam(mon),
+               self.performance(mon), self.model_health(mon)]
+        if recording is not None:
+            out.append(recording)
+        return out
+
+    def can_input(self, mon: LiveMonitor, rejects: RejectSnapshot, now_ns: int) -> Status:
+        values: list[tuple[str, str]] = []
+        stale, slow = [], []
+        for spec in self.smap.specs:
+            silent = mon.silent_for(spec.name, now_ns)
+            # A slow signal is stale only after missing several of its own periods.
+            limit = max(self.cfg.stale_after_s, 3.0 / spec.rate_hz)
+            rate = mon.rate_hz(spec.name, now_ns)
+            values.append((f'{spec.name}_rate_hz', f'{rate:.2f}'))
+            values.append((f'{spec.name}_expected_hz', f'{spec.rate_hz:g}'))
+            values.append((f'{spec.name}_silent_s', _f(silent, '.2f')))
+            if silent is None or silent > limit:
+                stale.append(spec.name)
+            elif rate < 0.5 * spec.rate_hz and silent is not None:
+                slow.append(spec.name)
+        for reason, n in sorted(rejects.counts.items()):
+            values.append((f'rejects_{reason}', str(n)))
+        values.append(('rejects_total', str(rejects.total)))
+        required_stale = [n for n in stale if n in REQUIRED]
+        if stale:
+            level = STALE if required_stale else WARN
+            message = 'silent: ' + ', '.join(stale)
+        elif slow:
+            level, message = WARN, 'below half the expected rate: ' + ', '.join(slow)
+        else:
+            level, message = OK, f'all {len(self.smap.specs)} inputs at rate'
+        if rejects.total and level == OK:
+            message += f'; {rejects.total} rejected ({", ".join(sorted(rejects.counts))})'
+        return self._status('CAN input', level, message, values)
+
+    def clearances(self, mon: LiveMonitor) -> Status:
+        cfg = self.cfg
+        gaps = mon.gaps
+        interval = mon.gaps_interval or {}
+        values = [('clearance_source', mon.gaps_source)]
+        worst = OK
+        parts = []
+        for key, value, limit in (('2z', gaps.two_z, cfg.limit_2z), ('zgb', gaps.z_gb, cfg.limit_zgb)):
+            lo, hi = interval.get(key, (None, None)) if interval else (None, None)
+            values += [(f'clearance_{key}_mm', f'{value * 1e3:.3f}'),
+                       (f'clearance_{key}_lo_mm', _f(None if lo is None else lo * 1e3)),
+                       (f'clearance_{key}_hi_mm', _f(None if hi is None else hi * 1e3)),
+                       (f'limit_{key}_mm', f'{limit * 1e3:.3f}')]
+            level = ERROR if value > limit else WARN if value >= cfg.clearance_warn_share * limit else OK
+            worst = max(worst, level)
+            name = '2Z' if key == '2z' else 'Z_gb'
+            parts.append(f'{name} {value * 1e3:.3f} mm ({value / limit:.0%} of limit)')
+        if not mon.gaps_interval:
+            values.append(('clearance_interval', 'none: configured values, not estimated'))
+        return self._status('clearances', worst, f"{'; '.join(parts)} [{mon.gaps_source}]", values)
+
+    def guide_beam(self, mon: LiveMonitor) -> Status:
+        onset = self.guide_onset_deg(mon.gaps)
+        state = mon.state
+        k_now = state.share.k_gl if state is not None and state.share is not None else None
+        values = [('k_gl', _f(k_now)), ('guide_onset_deg', _f(onset, '.1f')),
+                  ('guide_idle_warn_deg', f'{self.cfg.guide_idle_warn_deg:g}')]
+        if state is not None and state.share is not None:
+            values += [('rudder_angle_deg', f'{math.degrees(state.alpha):.2f}'),
+                       ('lateral_force_kn', f'{state.share.lateral / 1e3:.1f}'),
+                       ('ram_force_kn', f'{state.share.ram_force / 1e3:.1f}'),
+                       ('guide_force_kn', f'{state.share.guide_force / 1e3:.1f}')]
+        if onset is None or onset > self.cfg.guide_idle_warn_deg:
+            level = WARN
+            message = ('guide beam carries nothing over the whole range' if onset is None else
+                       f'guide beam idle up to {onset:.1f} deg (warn above {self.cfg.guide_idle_warn_deg:g} deg)')
+        else:
+            level, message = OK, f'guide beam carries load from {onset:.1f} deg'
+        if k_now is not None:
+            message += f'; K_gl now {k_now:.2f}'
+        return self._status('guide beam', level, message, values)
+
+    def performance(self, mon: LiveMonitor) -> Status:
+        values = [('hard_over_s', _f(mon.hard_over_s, '.1f')),
+                  ('solas_limit_s', f'{self.cfg.solas_hard_over_s:g}')]
+        level, parts = OK, []
+        if mon.hard_over_s is None:
+            parts.append('no hard-over seen yet')
+        else:
+            ok = mon.hard_over_s <= self.cfg.solas_hard_over_s
+            level = OK if ok else WARN
+            parts.append(f'hard-over 35 deg to 30 deg the other side in {mon.hard_over_s:.1f} s '
+                         f"({'within' if ok else 'OVER'} SOLAS {self.cfg.solas_hard_over_s:g} s)")
+        r = mon.response
+        values += [('order_deg', _f(None if r is None else math.degrees(r.order), '.2f')),
+                   ('response_direction_ok', 'n/a' if r is None or r.direction_ok is None else str(r.direction_ok).lower()),
+                   ('response_delay_s', _f(None if r is None else r.delay_s, '.2f')),
+                   ('response_accuracy_deg', _f(None if r is None or r.accuracy is None else math.degrees(r.accuracy), '.2f'))]
+        if r is not None and r.direction_ok is False:
+            level = ERROR
+            parts.append('rudder moved AGAINST the order')
+        elif r is not None and r.delay_s is not None:
+            parts.append(f'responds to orders in {r.delay_s:.2f} s')
+        return self._status('steering performance', level, '; '.join(parts), values)
+
+    def model_health(self, mon: LiveMonitor) -> Status:
+        rms = mon.residual_rms_bar()
+        values = [('residual_rms_bar', _f(rms, '.2f')), ('residual_samples', str(len(mon.residuals))),
+                  ('residual_warn_bar', f'{self.cfg.residual_warn_bar:g}')]
+        if rms is None:
+            return self._status('model health', OK, 'no motion seen yet: residual not evaluated', values)
+        level = WARN if rms > self.cfg.residual_warn_bar else OK
+        return self._status('model health', level,
+                            f'declared model residual {rms:.2f} bar RMS over the last {len(mon.residuals)} samples of motion',
+                            values)

@@ -1,0 +1,220 @@
+"""The live monitor: what the node knows at each moment, updated sample by sample. Pure.
+
+Per sample it keeps the latest value and arrival times of every input, and on each rudder or
+pressure sample it evaluates:
+
+* the rudder rate: least-squares slope of the angle over the last 0.5 s;
+* the load sharing from the *measured* pressures: the axial ram force
+  Fa = A_r |p_stbd - p_port| (mean of the two rams), the tiller torque it implies,
+  M = Fa n H / cos^2(alpha), and the scalar load-sharing solver with the current clearances.
+  While the rudder moves Fa includes friction (the estimator of the clearances separates it);
+* the residual of the declared model with the configured friction (design doc section 4):
+  A_r (p_stbd - p_port) against sign(alpha) Fa_model + sign(dalpha/dt) F_fr, only while the
+  rudder moves (at rest the pressure only bounds friction);
+* the steering performance: hard-over time from leaving 35 deg to reaching 30 deg the other
+  side, and the response to order steps (direction, delay, settled accuracy).
+
+Times are integer ns; values SI.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field
+
+from steer_monitor.can.decoder import Sample
+from steer_monitor.can.signals import INPUTS
+from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.loadshare import ShareScalar, load_sharing_scalar
+
+__all__ = ['FrictionPriors', 'LiveMonitor', 'LiveState', 'Response']
+
+DEG = math.pi / 180.0
+RATE_WINDOW_NS = 5_000_000_000
+SLOPE_WINDOW_NS = 500_000_000
+MOVING_RATE = 0.2 * DEG        # rad/s: below this the rudder is at rest
+RESIDUAL_SAMPLES = 1200        # about a minute of motion at 20 Hz
+HARD_OVER_DEG = 34.5           # "at 35 deg", allowing for sensor noise and the valve dead band
+OTHER_SIDE_DEG = 29.5          # "at 30 deg" likewise: the valve stops within its dead band
+ORDER_STEP = 1.0 * DEG
+
+
+@dataclass(frozen=True)
+class FrictionPriors:
+    """Friction of the declared model used until the estimator supplies its own [N, -, -]."""
+
+    seal: float = 9e3
+    mu_bushing: float = 0.13
+    mu_guide: float = 0.05
+
+
+@dataclass
+class Response:
+    """Order-to-response of the last order step: direction right, delay [s], settled error [rad]."""
+
+    order: float
+    t_step_ns: int
+    direction_ok: bool | None = None
+    delay_s: float | None = None
+    accuracy: float | None = None
+
+
+@dataclass(frozen=True)
+class LiveState:
+    """One evaluation of the live model (SI). ``share`` is None until angle and all four
+    pressures have been seen."""
+
+    t_ns: int
+    alpha: float
+    rate: float
+    moving: bool
+    torque_measured: float | None
+    share: ShareScalar | None
+    gaps: Gaps
+
+
+@dataclass
+class _Signal:
+    last_t_ns: int | None = None
+    last_value: float = math.nan
+    count: int = 0
+    arrivals: deque = field(default_factory=deque)
+
+
+class LiveMonitor:
+    """Sample-by-sample state of the gear. Not thread-safe: feed it from one thread."""
+
+    def __init__(self, gear: GearParams, gaps: Gaps, gaps_source: str = 'configured',
+                 priors: FrictionPriors | None = None) -> None:
+        self.gear = gear
+        self.gaps = gaps
+        self.gaps_source = gaps_source
+        self.gaps_interval: dict[str, tuple[float, float | None]] | None = None
+        self.priors = priors or FrictionPriors()
+        self.signals: dict[str, _Signal] = {name: _Signal() for name in INPUTS}
+        self._angles: deque[tuple[int, float]] = deque()
+        self.rate = 0.0
+        self.state: LiveState | None = None
+        self.residuals: deque[float] = deque(maxlen=RESIDUAL_SAMPLES)
+        self._hard_over: tuple[float, int] | None = None  # (side, time last at hard over)
+        self.hard_over_s: float | None = None
+        self.hard_over_t_ns: int | None = None
+        self.response: Response | None = None
+        self._last_order: float | None = None
+
+    # --- clearances ----------------------------------------------------------------------
+    def set_gaps(self, gaps: Gaps, source: str,
+                 interval: dict[str, tuple[float, float | None]] | None = None) -> None:
+        """Use new clearance values (e.g. from the estimator) and say where they come from."""
+        self.gaps, self.gaps_source, self.gaps_interval = gaps, source, interval
+
+    # --- input ---------------------------------------------------------------------------
+    def update(self, sample: Sample) -> LiveState | None:
+        """Take one sample; returns the new live state when the model was re-evaluated."""
+        sig = self.signals[sample.signal]
+        sig.last_t_ns, sig.last_value = sample.t_ns, sample.value
+        sig.count += 1
+        sig.arrivals.append(sample.t_ns)
+        while sig.arrivals and sig.arrivals[0] < sample.t_ns - RATE_WINDOW_NS:
+            sig.arrivals.popleft()
+        if sample.signal == 'rudder_angle':
+            self._on_angle(sample.t_ns, sample.value)
+        elif sample.signal == 'rudder_order':
+            self._on_order(sample.t_ns, sample.value)
+            return None
+        elif not sample.signal.startswith('pressure'):
+            return None
+        return self._evaluate(sample.t_ns)
+
+    def rate_hz(self, name: str, now_ns: int) -> float:
+        """Arrivals per second of an input over the last 5 s."""
+        arrivals = self.signals[name].arrivals
+        recent = sum(1 for t in arrivals if t >= now_ns - RATE_WINDOW_NS)
+        return recent / (RATE_WINDOW_NS / 1e9)
+
+    def silent_for(self, name: str, now_ns: int) -> float | None:
+        """Seconds since the input was last heard (None: never)."""
+        t = self.signals[name].last_t_ns
+        return None if t is None else (now_ns - t) / 1e9
+
+    # --- rudder --------------------------------------------------------------------------
+    def _on_angle(self, t_ns: int, alpha: float) -> None:
+        self._angles.append((t_ns, alpha))
+        while self._angles and self._angles[0][0] < t_ns - SLOPE_WINDOW_NS:
+            self._angles.popleft()
+        n = len(self._angles)
+        if n >= 3:
+            t0 = self._angles[0][0]
+            ts = [(t - t0) / 1e9 for t, _ in self._angles]
+            mean_t = sum(ts) / n
+            mean_a = sum(a for _, a in self._angles) / n
+            sxx = sum((t - mean_t) ** 2 for t in ts)
+            sxy = sum((t - mean_t) * (a - mean_a) for t, (_, a) in zip(ts, self._angles))
+            self.rate = sxy / sxx if sxx > 0 else 0.0
+        self._track_hard_over(t_ns, alpha)
+        self._track_response(t_ns, alpha)
+
+    def _track_hard_over(self, t_ns: int, alpha: float) -> None:
+        deg = alpha / DEG
+        if abs(deg) >= HARD_OVER_DEG:
+            self._hard_over = (math.copysign(1.0, deg), t_ns)
+        elif self._hard_over is not None:
+            side, t_leave = self._hard_over
+            if side * deg <= -OTHER_SIDE_DEG:
+                self.hard_over_s = (t_ns - t_leave) / 1e9
+                self.hard_over_t_ns = t_ns
+                self._hard_over = None
+
+    def _on_order(self, t_ns: int, order: float) -> None:
+        if self._last_order is not None and abs(order - self._last_order) >= ORDER_STEP:
+            self.response = Response(order=order, t_step_ns=t_ns)
+        elif self.response is not None:
+            self.response.order = order
+        self._last_order = order
+
+    def _track_response(self, t_ns: int, alpha: float) -> None:
+        r = self.response
+        if r is None:
+            return
+        moving = abs(self.rate) > MOVING_RATE
+        if r.direction_ok is None and moving:
+            wanted = math.copysign(1.0, r.order - alpha) if abs(r.order - alpha) > 0.2 * DEG else 0.0
+            r.direction_ok = wanted == 0.0 or math.copysign(1.0, self.rate) == wanted
+            r.delay_s = (t_ns - r.t_step_ns) / 1e9
+        if not moving and (t_ns - r.t_step_ns) > 2_000_000_000:
+            r.accuracy = abs(r.order - alpha)
+
+    # --- model ---------------------------------------------------------------------------
+    def _evaluate(self, t_ns: int) -> LiveState | None:
+        a = self.signals['rudder_angle'].last_value
+        p = [self.signals[n].last_value for n in
+             ('pressure_r1_stbd', 'pressure_r1_port', 'pressure_r2_stbd', 'pressure_r2_port')]
+        if math.isnan(a) or any(math.isnan(x) for x in p):
+            return None
+        gear = self.gear
+        area = gear.ram_area
+        force_1 = area * (p[0] - p[1])
+        force_2 = area * (p[2] - p[3])
+        fa = 0.5 * (abs(force_1) + abs(force_2))
+        cos2 = math.cos(a) ** 2
+        torque = fa * gear.rams * gear.stock_to_ram / cos2
+        share = load_sharing_scalar(gear, a, torque, self.gaps.two_z, self.gaps.z_gb)
+        moving = abs(self.rate) > MOVING_RATE
+        if moving:
+            speed = self.signals['ship_speed'].last_value
+            model_torque = float(gear.torque(a, None if math.isnan(speed) else speed))
+            m = load_sharing_scalar(gear, a, model_torque, self.gaps.two_z, self.gaps.z_gb)
+            n_a = max(abs(m.r_a), 2.0 * abs(m.m_a) / gear.bushing_length)
+            f_fr = self.priors.seal + self.priors.mu_bushing * (n_a + abs(m.r_e)) + self.priors.mu_guide * abs(m.guide_force)
+            predicted = math.copysign(m.axial, a) + math.copysign(f_fr, self.rate)
+            for force in (force_1, force_2):
+                self.residuals.append((force - predicted) / area / 1e5)
+        self.state = LiveState(t_ns, a, self.rate, moving, torque, share, self.gaps)
+        return self.state
+
+    def residual_rms_bar(self) -> float | None:
+        """RMS of the declared model's pressure residual over the last minute of motion [bar]."""
+        if not self.residuals:
+            return None
+        return math.sqrt(sum(r * r for r in self.residuals) / len(self.residuals))

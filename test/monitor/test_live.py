@@ -1,0 +1,118 @@
+"""The live monitor and its diagnostics, fed by the simulator through the decoder."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from steer_monitor import sim
+from steer_monitor.can import Decoder, RejectCounter
+from steer_monitor.model import Gaps
+from steer_monitor.monitor import ERROR, OK, STALE, WARN, DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
+from steer_monitor.params import gear_from_params
+
+
+def _feed(r18_params, can_db, program, effects=(), seed=2, gaps=None, upto_s=None):
+    db, smap = can_db
+    cfg = sim.SimConfig(program=program, effects=tuple(sim.parse_effect(e) for e in effects))
+    s = sim.run(r18_params, cfg, db, smap, seed)
+    decoder = Decoder(db, smap, RejectCounter())
+    mon = LiveMonitor(gear_from_params(r18_params), gaps or Gaps.from_mm(0.6, 0.25))
+    last = None
+    for frame in s.frames.frames():
+        if upto_s is not None and frame.t_ns > s.plant.start_ns + upto_s * 1e9:
+            break
+        for sample in decoder.decode(frame):
+            mon.update(sample)
+        last = frame.t_ns
+    return s, mon, decoder, last
+
+
+def test_hard_over_time_matches_the_plant(r18_params, can_db):
+    s, mon, _, _ = _feed(r18_params, can_db, 'hard_over_2')
+    p = s.plant
+    a = np.degrees(p.alpha)
+    leave = np.nonzero(a >= 34.5)[0][-1]
+    arrive = leave + np.argmax(a[leave:] <= -29.5)
+    assert arrive > leave
+    assert mon.hard_over_s == pytest.approx(p.t[arrive] - p.t[leave], abs=0.25)
+
+
+def test_live_k_gl_at_rest_matches_truth(r18_params, can_db):
+    # Held at 35 deg: at rest the pressure carries only the load, so the live model sees the
+    # true lateral force and K_gl.
+    s, mon, _, t_last = _feed(r18_params, can_db, 'hard_over_2', upto_s=None)
+    p = s.plant
+    held = np.nonzero((np.degrees(p.alpha) > 34.5) & (p.rate == 0))[0]
+    t_stop = p.t[held[-1]]
+    s2, mon2, _, _ = _feed(r18_params, can_db, 'hard_over_2', upto_s=t_stop - 0.2)
+    state = mon2.state
+    assert not state.moving
+    truth = float(np.interp(t_stop - 0.2, p.t, p.k_gl))
+    assert state.share.k_gl == pytest.approx(truth, abs=0.02)
+    assert state.share.lateral == pytest.approx(float(np.interp(t_stop - 0.2, p.t, p.lateral)), rel=0.02)
+
+
+def test_residual_small_on_declared_plant_large_with_an_effect(r18_params, can_db):
+    _, clean, _, _ = _feed(r18_params, can_db, 'hard_over_2,zigzag_20')
+    _, viscous, _, _ = _feed(r18_params, can_db, 'hard_over_2,zigzag_20', effects=['viscous'])
+    assert clean.residual_rms_bar() < 1.0   # sensor noise: about sqrt(2) x 0.25 bar
+    assert viscous.residual_rms_bar() > 3.0
+
+
+def test_order_response(r18_params, can_db):
+    _, mon, _, _ = _feed(r18_params, can_db, 'hard_over_2')
+    r = mon.response
+    assert r is not None and r.direction_ok is True
+    assert 0 <= r.delay_s < 0.8
+    assert r.accuracy is not None and math.degrees(r.accuracy) < 0.6
+
+
+def _builder(r18_params, can_db, **kw):
+    cfg = DiagnosticsConfig.from_params(r18_params)
+    if kw:
+        from dataclasses import replace
+        cfg = replace(cfg, **kw)
+    return DiagnosticsBuilder(cfg, can_db[1], gear_from_params(r18_params))
+
+
+def test_statuses_named_and_levelled(r18_params, can_db):
+    _, mon, dec, t_last = _feed(r18_params, can_db, 'hard_over_2')
+    statuses = _builder(r18_params, can_db).build(mon, dec.rejects.snapshot(), t_last)
+    by = {s.name: s for s in statuses}
+    assert list(by) == ['steer_monitor: CAN input', 'steer_monitor: clearances', 'steer_monitor: guide beam',
+                        'steer_monitor: steering performance', 'steer_monitor: model health']
+    assert all(s.hardware_id == 'R-18 steering gear' for s in statuses)
+    assert by['steer_monitor: CAN input'].level == OK
+    assert float(by['steer_monitor: CAN input'].value('pressure_r1_stbd_rate_hz')) == pytest.approx(20, abs=0.5)
+    # Configured clearances at the wear limits: WARN (>= 80 %), not beyond: not ERROR.
+    cl = by['steer_monitor: clearances']
+    assert cl.level == WARN and cl.value('clearance_zgb_mm') == '0.250' and cl.value('clearance_source') == 'configured'
+    assert cl.value('clearance_2z_lo_mm') == 'n/a'
+    gb = by['steer_monitor: guide beam']
+    assert gb.level == WARN and float(gb.value('guide_onset_deg')) == pytest.approx(10.0, abs=0.1)
+    perf = by['steer_monitor: steering performance']
+    assert perf.level == OK and float(perf.value('hard_over_s')) < 28
+    assert by['steer_monitor: model health'].level == OK
+
+
+def test_stale_after_silence_and_error_beyond_limits(r18_params, can_db):
+    _, mon, dec, t_last = _feed(r18_params, can_db, 'hard_over_2')
+    b = _builder(r18_params, can_db)
+    later = b.build(mon, dec.rejects.snapshot(), t_last + int(2.5e9))
+    can_status = later[0]
+    assert can_status.level == STALE and 'rudder_angle' in can_status.message
+    mon.set_gaps(Gaps.from_mm(0.65, 0.1), 'test')
+    cl = b.clearances(mon)
+    assert cl.level == ERROR and '2Z 0.650 mm (108% of limit)' in cl.message
+    mon.set_gaps(Gaps.from_mm(0.3, 0.1), 'test')
+    assert b.clearances(mon).level == OK
+    assert b.guide_beam(mon).level == OK
+
+
+def test_slow_hard_over_warns(r18_params, can_db):
+    _, mon, dec, t_last = _feed(r18_params, can_db, 'hard_over_1')
+    perf = _builder(r18_params, can_db).performance(mon)
+    assert perf.level == WARN and 'OVER SOLAS 28 s' in perf.message
