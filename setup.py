@@ -25,7 +25,7 @@ setup(
         'tqdm>=4.60',
         'cantools>=39',
         'python-can>=4.3',
-        'mcap>=1.1',
+        'mcap>=1.6',
         'mcap-ros2-support>=0.5',
         'zstandard>=0.21',
     ],

@@ -1,0 +1,261 @@
+"""Recording raw frames and published messages to rotating MCAP files, on a thread of its own.
+
+* profile ``ros2``, ``cdr`` messages, ``ros2msg`` schemas, ``offered_qos_profiles`` on every
+  channel, zstd chunks, CRCs;
+* a new file when the current one passes a size or an age;
+* the chunk in progress is closed and written out every ``flush_interval_s`` (1 s), so a
+  SIGKILL loses at most the last second, and ``steer-monitor recover`` makes the rest readable;
+* every file is finished on :meth:`Recorder.close` (the node calls it on SIGINT/SIGTERM);
+* a full or read-only disk does not stop the caller: the recorder reports the error in its
+  status (a diagnostic ERROR), counts what it could not write, and tries again every
+  ``retry_s`` seconds.
+
+Callers hand over already-serialized CDR (``write``) or frames (``write_frame``); nothing here
+imports rclpy.
+"""
+
+from __future__ import annotations
+
+import os
+import queue
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+from steer_monitor.can.frames import Frame
+from steer_monitor.can.mcapio import DEFAULT_QOS, FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, frame_message
+
+__all__ = ['Recorder', 'RecorderStatus']
+
+
+@dataclass(frozen=True)
+class RecorderStatus:
+    """What the recorder reports: ``ok`` False while writing fails."""
+
+    ok: bool
+    message: str
+    current_file: str | None
+    files: int
+    messages: int
+    dropped: int
+    failed: int
+
+
+class _Topic:
+    __slots__ = ('datatype', 'msgdef', 'qos')
+
+    def __init__(self, datatype: str, msgdef: str, qos: str) -> None:
+        self.datatype, self.msgdef, self.qos = datatype, msgdef, qos
+
+
+class Recorder:
+    """Rotating MCAP recorder. Context manager; :meth:`close` is idempotent."""
+
+    def __init__(self, directory: str | Path, prefix: str = 'steer_monitor', max_bytes: int = 512 << 20,
+                 max_seconds: float = 3600.0, flush_interval_s: float = 1.0, retry_s: float = 5.0,
+                 queue_size: int = 200_000, chunk_size: int = 1 << 20,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.directory = Path(directory)
+        self.prefix = prefix
+        self.max_bytes = max_bytes
+        self.max_seconds = max_seconds
+        self.flush_interval_s = flush_interval_s
+        self.retry_s = retry_s
+        self.chunk_size = chunk_size
+        self._clock = clock
+        self._queue: queue.Queue[tuple[str, Any, int] | None] = queue.Queue(queue_size)
+        self._topics: dict[str, _Topic] = {}
+        self._lock = threading.Lock()
+        self._writer: Any = None
+        self._stream: Any = None
+        self._channels: dict[str, int] = {}
+        self._frame_encoder: Any = None
+        self._opened_at = 0.0
+        self._last_flush = 0.0
+        self._next_retry = 0.0
+        self._index = 0
+        self.files: list[Path] = []
+        self.messages = 0
+        self.dropped = 0
+        self.failed = 0
+        self._pending = 0  # added to the writer but not yet flushed to the file
+        self._error: str | None = None
+        self._closed = False
+        self.add_topic(FRAME_TOPIC, FRAME_DATATYPE, FRAME_MSGDEF)
+        self._thread = threading.Thread(target=self._run, name='steer_monitor-recorder', daemon=True)
+        self._thread.start()
+
+    # --- caller side (any thread) --------------------------------------------------------
+    def add_topic(self, topic: str, datatype: str, msgdef: str, qos: str = DEFAULT_QOS) -> None:
+        """Declare a topic before writing to it."""
+        with self._lock:
+            self._topics[topic] = _Topic(datatype, msgdef, qos)
+
+    def write(self, topic: str, cdr: bytes, log_time_ns: int) -> None:
+        """Queue one serialized message; never blocks (a full queue counts as dropped)."""
+        self._put((topic, cdr, log_time_ns))
+
+    def write_frame(self, frame: Frame) -> None:
+        """Queue one raw CAN frame (recorded as can_msgs/msg/Frame)."""
+        self._put((FRAME_TOPIC, frame, frame.t_ns))
+
+    def _put(self, item: tuple[str, Any, int]) -> None:
+        if self._closed:
+            return
+        try:
+            self._queue.put_nowait(item)
+        except queue.Full:
+            self.dropped += 1
+
+    def status(self) -> RecorderStatus:
+        with self._lock:
+            current = str(self.files[-1]) if self._writer is not None and self.files else None
+            if self._error is not None:
+                message = f'cannot record: {self._error}'
+            elif self._closed:
+                message = f'closed after {len(self.files)} file(s)'
+            elif current is None:
+                message = 'waiting for the first message'
+            else:
+                message = f'recording to {current}'
+            return RecorderStatus(self._error is None, message, current, len(self.files), self.messages,
+                                  self.dropped, self.failed)
+
+    def close(self) -> None:
+        """Write out what is queued, finish the current file, stop the thread."""
+        if self._closed:
+            return
+        self._closed = True
+        self._queue.put(None)
+        self._thread.join()
+
+    def __enter__(self) -> Recorder:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # --- writer thread -------------------------------------------------------------------
+    def _run(self) -> None:
+        while True:
+            try:
+                item = self._queue.get(timeout=0.1)
+            except queue.Empty:
+                item = ()
+            if item is None:
+                break
+            now = self._clock()
+            if item:
+                self._write_item(*item, now=now)
+            if self._writer is not None and now - self._last_flush >= self.flush_interval_s:
+                self._guard(self._flush)
+                self._last_flush = now
+        self._guard(self._finish)
+
+    def _guard(self, fn: Callable[[], None]) -> bool:
+        try:
+            fn()
+        except OSError as exc:
+            self._fail(exc)
+            return False
+        return True
+
+    def _fail(self, exc: OSError) -> None:
+        with self._lock:
+            self._error = f'{exc.strerror or exc}' + (f': {exc.filename}' if exc.filename else '')
+            # What was buffered for the file is lost with it: count it as failed, not recorded.
+            self.messages -= self._pending
+            self.failed += self._pending
+            self._pending = 0
+        try:
+            if self._stream is not None:
+                self._stream.close()
+        except OSError:
+            pass
+        self._writer = self._stream = None
+        self._next_retry = self._clock() + self.retry_s
+
+    def _write_item(self, topic: str, payload: Any, log_time_ns: int, now: float) -> None:
+        if self._writer is None:
+            if self._error is not None and now < self._next_retry:
+                self.failed += 1
+                return
+            if not self._guard(lambda: self._open(log_time_ns, now)):
+                self.failed += 1
+                return
+        elif now - self._opened_at >= self.max_seconds or self._stream.tell() >= self.max_bytes:
+            if not (self._guard(self._finish) and self._guard(lambda: self._open(log_time_ns, now))):
+                self.failed += 1
+                return
+        ok = self._guard(lambda: self._add(topic, payload, log_time_ns))
+        if ok:
+            self.messages += 1
+            self._pending += 1
+        else:
+            self.failed += 1
+
+    def _open(self, log_time_ns: int, now: float) -> None:
+        from mcap.writer import CompressionType
+        from mcap.writer import Writer as McapWriter
+
+        self.directory.mkdir(parents=True, exist_ok=True)
+        stamp = datetime.fromtimestamp(log_time_ns / 1e9, tz=timezone.utc).strftime('%Y%m%dT%H%M%SZ')
+        self._index += 1
+        path = self.directory / f'{self.prefix}_{stamp}_{self._index:03d}.mcap'
+        stream = open(path, 'wb')
+        try:
+            writer = McapWriter(stream, chunk_size=self.chunk_size, compression=CompressionType.ZSTD,
+                                enable_crcs=True)
+            writer.start(profile='ros2', library='steer_monitor')
+        except BaseException:
+            stream.close()
+            raise
+        with self._lock:
+            self._stream, self._writer = stream, writer
+            self._channels = {}
+            self.files.append(path)
+            self._error = None
+        self._opened_at = self._last_flush = now
+
+    def _channel(self, topic: str) -> int:
+        cid = self._channels.get(topic)
+        if cid is None:
+            with self._lock:
+                t = self._topics.get(topic)
+            if t is None:
+                msg = f'topic {topic} was not declared with add_topic'
+                raise KeyError(msg)
+            sid = self._writer.register_schema(t.datatype, 'ros2msg', t.msgdef.encode())
+            cid = self._writer.register_channel(topic, 'cdr', sid, {'offered_qos_profiles': t.qos})
+            self._channels[topic] = cid
+        return cid
+
+    def _add(self, topic: str, payload: Any, log_time_ns: int) -> None:
+        cid = self._channel(topic)
+        if isinstance(payload, Frame):
+            if self._frame_encoder is None:
+                from mcap_ros2._dynamic import serialize_dynamic
+                self._frame_encoder = serialize_dynamic(FRAME_DATATYPE, FRAME_MSGDEF)[FRAME_DATATYPE]
+            payload = self._frame_encoder(frame_message(payload))
+        self._writer.add_message(cid, log_time=log_time_ns, publish_time=log_time_ns, data=payload)
+
+    def _flush(self) -> None:
+        self._writer.flush()
+        self._pending = 0
+
+    def _finish(self) -> None:
+        if self._writer is None:
+            return
+        writer, stream = self._writer, self._stream
+        self._writer = self._stream = None
+        try:
+            writer.finish()
+            stream.flush()
+            os.fsync(stream.fileno())
+            self._pending = 0
+        finally:
+            stream.close()

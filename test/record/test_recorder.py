@@ -1,0 +1,188 @@
+"""The MCAP recorder: ROS 2 profile, rotation, disk errors, SIGKILL and recover."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from steer_monitor.can import Frame, make_id
+from steer_monitor.can.mcapio import FRAME_TOPIC
+from steer_monitor.record import Recorder, RecoverError, msgdef, recover
+
+T0 = 1_767_225_600_000_000_000
+DIAG = 'diagnostic_msgs/msg/DiagnosticArray'
+
+
+def _diag_cdr(i: int) -> bytes:
+    from mcap_ros2._dynamic import serialize_dynamic
+    enc = serialize_dynamic(DIAG, msgdef(DIAG))[DIAG]
+    return enc({'header': {'stamp': {'sec': i, 'nanosec': 0}, 'frame_id': ''},
+                'status': [{'level': 1, 'name': 'steer_monitor: test', 'message': f'm{i}',
+                            'hardware_id': 'hw', 'values': [{'key': 'k_mm', 'value': str(i)}]}]})
+
+
+def _frame(i: int) -> Frame:
+    return Frame(T0 + i * 1_000_000, make_id(2, 127245, 0x10), bytes([i % 256, 0, 1, 2, 3, 4, 255, 255]))
+
+
+def _read_all(path: Path) -> dict[str, list]:
+    from rosbags.highlevel import AnyReader
+    out: dict[str, list] = {}
+    with AnyReader([path]) as r:
+        for conn, t, raw in r.messages():
+            out.setdefault(conn.topic, []).append((t, r.deserialize(raw, conn.msgtype)))
+    return out
+
+
+def test_round_trip_read_by_rosbags_and_mcap(tmp_path):
+    from mcap.reader import make_reader
+    with Recorder(tmp_path) as rec:
+        rec.add_topic('/diagnostics', DIAG, msgdef(DIAG))
+        for i in range(500):
+            rec.write_frame(_frame(i))
+            if i % 50 == 0:
+                rec.write('/diagnostics', _diag_cdr(i), T0 + i * 1_000_000)
+    [path] = rec.files
+    assert path.name == 'steer_monitor_20260101T000000Z_001.mcap'
+    got = _read_all(path)
+    assert len(got[FRAME_TOPIC]) == 500 and len(got['/diagnostics']) == 10
+    assert got['/diagnostics'][3][1].status[0].values[0].value == '150'
+    assert bytes(got[FRAME_TOPIC][7][1].data)[:1] == b'\x07'
+    with open(path, 'rb') as fh:
+        reader = make_reader(fh, validate_crcs=True)
+        assert sum(1 for _ in reader.iter_messages()) == 510
+        summary = reader.get_summary()
+        header = reader.get_header()
+    assert header.profile == 'ros2'
+    assert {s.encoding for s in summary.schemas.values()} == {'ros2msg'}
+    assert {c.message_encoding for c in summary.channels.values()} == {'cdr'}
+    assert all('offered_qos_profiles' in c.metadata for c in summary.channels.values())
+    assert {ci.compression for ci in summary.chunk_indexes} == {'zstd'}
+    st = rec.status()
+    assert st.ok and st.messages == 510 and st.dropped == 0
+
+
+def test_rotation_by_size_and_by_time(tmp_path):
+    with Recorder(tmp_path / 'size', max_bytes=20_000, chunk_size=4096, flush_interval_s=0.0) as rec:
+        for i in range(3000):
+            rec.write_frame(_frame(i))
+    assert len(rec.files) > 2
+    assert sum(len(_read_all(p).get(FRAME_TOPIC, [])) for p in rec.files) == 3000
+    clock = [0.0]
+    with Recorder(tmp_path / 'time', max_seconds=10.0, clock=lambda: clock[0]) as rec2:
+        for i in range(30):
+            clock[0] = i * 1.0
+            rec2.write_frame(_frame(i))
+            time.sleep(0.002)
+    assert len(rec2.files) == 3
+    assert sum(len(_read_all(p)[FRAME_TOPIC]) for p in rec2.files) == 30
+
+
+def _wait(cond, timeout=5.0):
+    deadline = time.time() + timeout
+    while not cond():
+        assert time.time() < deadline, 'timed out'
+        time.sleep(0.005)
+
+
+def test_disk_full_is_reported_and_recording_resumes(tmp_path):
+    (tmp_path / 'steer_monitor_20260101T000000Z_001.mcap').symlink_to('/dev/full')
+    clock = [0.0]
+    rec = Recorder(tmp_path, retry_s=5.0, clock=lambda: clock[0])
+    try:
+        for i in range(200):
+            rec.write_frame(_frame(i))
+        _wait(lambda: rec.status().messages == 200)
+        clock[0] = 1.5   # the first flush hits the full device
+        rec.write_frame(_frame(200))
+        deadline = time.time() + 5
+        while rec.status().ok and time.time() < deadline:
+            time.sleep(0.01)
+        st = rec.status()
+        assert not st.ok and 'No space left on device' in st.message
+        clock[0] = 7.0   # past retry_s: a new file
+        for i in range(201, 260):
+            rec.write_frame(_frame(i))
+        deadline = time.time() + 5
+        while not rec.status().ok and time.time() < deadline:
+            time.sleep(0.01)
+        assert rec.status().ok
+    finally:
+        rec.close()
+    st = rec.status()
+    assert st.failed > 0 and st.files == 2
+    assert 0 < len(_read_all(rec.files[-1])[FRAME_TOPIC]) <= 59
+
+
+def test_read_only_location_is_reported_not_raised():
+    rec = Recorder('/proc/steer_monitor_cannot_write_here')
+    try:
+        rec.write_frame(_frame(1))
+        deadline = time.time() + 5
+        while rec.status().ok and time.time() < deadline:
+            time.sleep(0.01)
+        st = rec.status()
+        assert not st.ok and st.message.startswith('cannot record: ')
+    finally:
+        rec.close()
+
+
+CHILD = r'''
+import sys, time
+sys.path.insert(0, {repo!r})
+from steer_monitor.record import Recorder
+from steer_monitor.can import Frame, make_id
+rec = Recorder({dir!r}, flush_interval_s=1.0)
+i = 0
+while True:
+    t = time.time_ns()
+    rec.write_frame(Frame(t, make_id(2, 127245, 0x10), bytes(8)))
+    i += 1
+    if i == 50:
+        print('started', flush=True)
+    time.sleep(0.002)
+'''
+
+
+def test_sigkill_loses_at_most_the_last_second_and_recover_reads_the_rest(tmp_path):
+    repo = str(Path(__file__).resolve().parents[2])
+    child = subprocess.Popen([sys.executable, '-c', CHILD.format(repo=repo, dir=str(tmp_path))],
+                             stdout=subprocess.PIPE, text=True)
+    try:
+        assert child.stdout.readline().strip() == 'started'
+        time.sleep(3.3)
+        killed_at = time.time_ns()
+        os.kill(child.pid, signal.SIGKILL)
+        child.wait(10)
+    finally:
+        if child.poll() is None:
+            child.kill()
+    [path] = list(tmp_path.glob('*.mcap'))
+    result = recover(path)
+    assert not result.complete and result.messages > 500
+    lost_s = (killed_at - result.last_ns) / 1e9
+    assert lost_s <= 1.25, f'lost {lost_s:.2f} s'
+    assert len(_read_all(Path(result.output))[FRAME_TOPIC]) == result.messages
+
+
+def test_recover_cli_and_errors(tmp_path, capsys):
+    from steer_monitor.cli.main import main
+    with Recorder(tmp_path) as rec:
+        for i in range(100):
+            rec.write_frame(_frame(i))
+    assert main(['recover', str(rec.files[0]), '--json']) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out['complete'] is True and out['messages'] == 100
+    junk = tmp_path / 'junk.mcap'
+    junk.write_bytes(b'not an mcap at all')
+    with pytest.raises(RecoverError, match='holds no readable MCAP records'):
+        recover(junk)
+    assert main(['recover', str(tmp_path / 'missing.mcap')]) == 1
+    assert 'cannot open' in capsys.readouterr().err
