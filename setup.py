@@ -38,6 +38,7 @@ setup(
     entry_points={
         'console_scripts': [
             'steer-monitor = steer_monitor.cli.main:main',
+            'monitor = steer_monitor.node.monitor_node:main',
         ],
     },
 )

@@ -94,6 +94,9 @@ def test_colcon_build_layout(tmp_path):
     # Where `ros2 run steer_monitor <exe>` looks: lib/<package>/<exe>.
     script = install / 'lib' / 'steer_monitor' / 'steer-monitor'
     assert script.is_file() and os.access(script, os.X_OK)
+    monitor = install / 'lib' / 'steer_monitor' / 'monitor'
+    assert monitor.is_file() and os.access(monitor, os.X_OK)
+    assert "'console_scripts', 'monitor'" in monitor.read_text() or 'monitor_node' in monitor.read_text()
     site = install / 'lib' / f'python{sys.version_info.major}.{sys.version_info.minor}' / 'site-packages'
     env = _env(PYTHONPATH=str(site), AMENT_PREFIX_PATH=str(install))
     _check_installed(sys.executable, script, env, share)

@@ -1,0 +1,78 @@
+"""Declare the parameter table on an rclpy node, with descriptors, and read it back validated."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from steer_monitor.errors import ParameterError
+from steer_monitor.params import PARAMETERS, ParamSpec, validate_params
+
+__all__ = ['declare_parameters', 'overrides_from_file']
+
+
+def _descriptor(spec: ParamSpec) -> Any:
+    from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
+
+    kind = {'double': ParameterType.PARAMETER_DOUBLE, 'integer': ParameterType.PARAMETER_INTEGER,
+            'bool': ParameterType.PARAMETER_BOOL, 'string': ParameterType.PARAMETER_STRING,
+            'double_array': ParameterType.PARAMETER_DOUBLE_ARRAY}[spec.kind]
+    d = ParameterDescriptor(name=spec.name, type=kind, description=spec.description, read_only=True)
+    if spec.kind == 'double' and spec.minimum is not None and spec.maximum is not None:
+        d.floating_point_range = [FloatingPointRange(from_value=float(spec.minimum),
+                                                     to_value=float(spec.maximum), step=0.0)]
+    if spec.kind == 'integer' and spec.minimum is not None and spec.maximum is not None:
+        d.integer_range = [IntegerRange(from_value=int(spec.minimum), to_value=int(spec.maximum), step=0)]
+    return d
+
+
+def declare_parameters(node: Any) -> dict[str, Any]:
+    """Declare every parameter on ``node`` and return them validated (dotted names).
+
+    A value of the wrong type or out of range, a missing required one, or an unknown name in
+    the parameters file raises :class:`ParameterError` naming it.
+    """
+    from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
+    from rclpy.parameter import Parameter
+
+    type_of = {'double': Parameter.Type.DOUBLE, 'integer': Parameter.Type.INTEGER,
+               'bool': Parameter.Type.BOOL, 'string': Parameter.Type.STRING,
+               'double_array': Parameter.Type.DOUBLE_ARRAY}
+    overrides = dict(getattr(node, '_parameter_overrides', {}) or {})
+    known = {s.name for s in PARAMETERS}
+    unknown = sorted(set(overrides) - known - {'use_sim_time'})
+    if unknown:
+        msg = f'unknown parameter {unknown[0]}' + (f' (and {len(unknown) - 1} more)' if len(unknown) > 1 else '')
+        raise ParameterError(msg)
+    values: dict[str, Any] = {}
+    for spec in PARAMETERS:
+        descriptor = _descriptor(spec)
+        default = spec.default if spec.default is not None else type_of[spec.kind]
+        try:
+            param = node.declare_parameter(spec.name, default, descriptor)
+        except InvalidParameterTypeException as exc:
+            given = overrides.get(spec.name)
+            shown = given.value if given is not None else '?'
+            msg = f'parameter {spec.name}: expected {spec.kind.replace("_", " ")}, got {shown!r} ({exc})'
+            raise ParameterError(msg) from exc
+        except InvalidParameterValueException as exc:
+            msg = f'parameter {spec.name}: {exc}'
+            raise ParameterError(msg) from exc
+        if param.type_ != Parameter.Type.NOT_SET:
+            value = param.value
+            if spec.kind == 'double_array':
+                value = [float(v) for v in value]
+            values[spec.name] = value
+    return validate_params(values)
+
+
+def overrides_from_file(path: str) -> list[Any]:
+    """rclpy Parameters from a parameters file (for tests and the in-process demo)."""
+    from rclpy.parameter import Parameter
+
+    from steer_monitor.params import NODE_NAME, _flatten  # noqa: PLC2701
+    import yaml
+
+    with open(path, encoding='utf-8') as fh:
+        doc = yaml.safe_load(fh)
+    flat = _flatten(doc[NODE_NAME]['ros__parameters'])
+    return [Parameter(name, value=value) for name, value in flat.items()]
