@@ -9,8 +9,10 @@ pressure sample it evaluates:
   M = Fa n H / cos^2(alpha), and the scalar load-sharing solver with the current clearances.
   While the rudder moves Fa includes friction (the estimator of the clearances separates it);
 * the residual of the declared model with the configured friction (design doc section 4):
-  A_r (p_stbd - p_port) against sign(alpha) Fa_model + sign(dalpha/dt) F_fr, only while the
-  rudder moves (at rest the pressure only bounds friction);
+  A_r (p_stbd - p_port) against sign(alpha) Fa_model + sign(dalpha/dt) F_fr, only where the
+  rudder moves steadily (at rest the pressure only bounds friction). Each pressure sample is
+  held 0.3 s and counted only when the angle's slope on both sides of it is above the motion
+  threshold with the same sign, so starts and stops do not pollute it;
 * the steering performance: hard-over time from leaving 35 deg to reaching 30 deg the other
   side, and the response to order steps (direction, delay, settled accuracy).
 
@@ -33,6 +35,7 @@ __all__ = ['FrictionPriors', 'LiveMonitor', 'LiveState', 'Response']
 DEG = math.pi / 180.0
 RATE_WINDOW_NS = 5_000_000_000
 SLOPE_WINDOW_NS = 500_000_000
+HALF_WINDOW_NS = 300_000_000   # each side of a pressure sample, for the residual
 MOVING_RATE = 0.2 * DEG        # rad/s: below this the rudder is at rest
 RESIDUAL_SAMPLES = 1200        # about a minute of motion at 20 Hz
 HARD_OVER_DEG = 34.5           # "at 35 deg", allowing for sensor noise and the valve dead band
@@ -94,6 +97,8 @@ class LiveMonitor:
         self.priors = priors or FrictionPriors()
         self.signals: dict[str, _Signal] = {name: _Signal() for name in INPUTS}
         self._angles: deque[tuple[int, float]] = deque()
+        self._history: deque[tuple[int, float]] = deque()   # about 1 s of angles, for the residual
+        self._pending: deque[tuple[int, float, float, float]] = deque()  # (t, alpha, force 1, force 2)
         self.rate = 0.0
         self.state: LiveState | None = None
         self.residuals: deque[float] = deque(maxlen=RESIDUAL_SAMPLES)
@@ -139,21 +144,55 @@ class LiveMonitor:
         return None if t is None else (now_ns - t) / 1e9
 
     # --- rudder --------------------------------------------------------------------------
+    @staticmethod
+    def _slope(points: list[tuple[int, float]] | deque[tuple[int, float]]) -> float | None:
+        n = len(points)
+        if n < 3:
+            return None
+        t0 = points[0][0]
+        ts = [(t - t0) / 1e9 for t, _ in points]
+        mean_t = sum(ts) / n
+        mean_a = sum(a for _, a in points) / n
+        sxx = sum((t - mean_t) ** 2 for t in ts)
+        if sxx <= 0:
+            return None
+        return sum((t - mean_t) * (a - mean_a) for t, (_, a) in zip(ts, points)) / sxx
+
     def _on_angle(self, t_ns: int, alpha: float) -> None:
         self._angles.append((t_ns, alpha))
         while self._angles and self._angles[0][0] < t_ns - SLOPE_WINDOW_NS:
             self._angles.popleft()
-        n = len(self._angles)
-        if n >= 3:
-            t0 = self._angles[0][0]
-            ts = [(t - t0) / 1e9 for t, _ in self._angles]
-            mean_t = sum(ts) / n
-            mean_a = sum(a for _, a in self._angles) / n
-            sxx = sum((t - mean_t) ** 2 for t in ts)
-            sxy = sum((t - mean_t) * (a - mean_a) for t, (_, a) in zip(ts, self._angles))
-            self.rate = sxy / sxx if sxx > 0 else 0.0
+        slope = self._slope(self._angles)
+        if slope is not None:
+            self.rate = slope
+        self._history.append((t_ns, alpha))
+        while self._history and self._history[0][0] < t_ns - 3 * HALF_WINDOW_NS:
+            self._history.popleft()
+        while self._pending and self._pending[0][0] <= t_ns - HALF_WINDOW_NS:
+            self._residual(*self._pending.popleft())
         self._track_hard_over(t_ns, alpha)
         self._track_response(t_ns, alpha)
+
+    def _residual(self, t_ns: int, alpha: float, force_1: float, force_2: float) -> None:
+        """Residual of one held pressure sample, if the rudder moved steadily around it."""
+        before = [(t, a) for t, a in self._history if t_ns - HALF_WINDOW_NS <= t <= t_ns]
+        after = [(t, a) for t, a in self._history if t_ns <= t <= t_ns + HALF_WINDOW_NS]
+        s1, s2 = self._slope(before), self._slope(after)
+        if s1 is None or s2 is None or min(abs(s1), abs(s2)) <= MOVING_RATE or (s1 > 0) != (s2 > 0):
+            return
+        # The angle at the pressure sample's own time: near midships the torque curve is steep,
+        # and an angle 0.1 s old would be worth several bar.
+        (t_a, a_a), (t_b, a_b) = before[-1], after[0]
+        alpha = a_a if t_b == t_a else a_a + (a_b - a_a) * (t_ns - t_a) / (t_b - t_a)
+        gear = self.gear
+        speed = self.signals['ship_speed'].last_value
+        model_torque = float(gear.torque(alpha, None if math.isnan(speed) else speed))
+        m = load_sharing_scalar(gear, alpha, model_torque, self.gaps.two_z, self.gaps.z_gb)
+        n_a = max(abs(m.r_a), 2.0 * abs(m.m_a) / gear.bushing_length)
+        f_fr = self.priors.seal + self.priors.mu_bushing * (n_a + abs(m.r_e)) + self.priors.mu_guide * abs(m.guide_force)
+        predicted = math.copysign(m.axial, alpha) + math.copysign(f_fr, s1 + s2)
+        for force in (force_1, force_2):
+            self.residuals.append((force - predicted) / gear.ram_area / 1e5)
 
     def _track_hard_over(self, t_ns: int, alpha: float) -> None:
         deg = alpha / DEG
@@ -187,7 +226,10 @@ class LiveMonitor:
 
     # --- model ---------------------------------------------------------------------------
     def _evaluate(self, t_ns: int) -> LiveState | None:
-        a = self.signals['rudder_angle'].last_value
+        angle = self.signals['rudder_angle']
+        a = angle.last_value
+        if angle.last_t_ns is not None and t_ns > angle.last_t_ns:
+            a += self.rate * (t_ns - angle.last_t_ns) / 1e9  # to the pressure sample's time
         p = [self.signals[n].last_value for n in
              ('pressure_r1_stbd', 'pressure_r1_port', 'pressure_r2_stbd', 'pressure_r2_port')]
         if math.isnan(a) or any(math.isnan(x) for x in p):
@@ -201,15 +243,7 @@ class LiveMonitor:
         torque = fa * gear.rams * gear.stock_to_ram / cos2
         share = load_sharing_scalar(gear, a, torque, self.gaps.two_z, self.gaps.z_gb)
         moving = abs(self.rate) > MOVING_RATE
-        if moving:
-            speed = self.signals['ship_speed'].last_value
-            model_torque = float(gear.torque(a, None if math.isnan(speed) else speed))
-            m = load_sharing_scalar(gear, a, model_torque, self.gaps.two_z, self.gaps.z_gb)
-            n_a = max(abs(m.r_a), 2.0 * abs(m.m_a) / gear.bushing_length)
-            f_fr = self.priors.seal + self.priors.mu_bushing * (n_a + abs(m.r_e)) + self.priors.mu_guide * abs(m.guide_force)
-            predicted = math.copysign(m.axial, a) + math.copysign(f_fr, self.rate)
-            for force in (force_1, force_2):
-                self.residuals.append((force - predicted) / area / 1e5)
+        self._pending.append((t_ns, a, force_1, force_2))
         self.state = LiveState(t_ns, a, self.rate, moving, torque, share, self.gaps)
         return self.state
 

@@ -1,0 +1,189 @@
+"""The node end to end: simulator -> virtual CAN -> node -> /diagnostics, recording, shutdown."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+import uuid
+from pathlib import Path
+
+import can
+import pytest
+
+from steer_monitor import sim
+from steer_monitor.sim.live import play
+from test.conftest import R18_YAML, REPO
+
+pytestmark = pytest.mark.slow
+
+OK, WARN, ERROR, STALE = 0, 1, 2, 3
+
+
+class Harness:
+    """rclpy context, the monitor node, a listener and an executor thread."""
+
+    def __init__(self, tmp: Path, channel: str) -> None:
+        import rclpy
+        from diagnostic_msgs.msg import DiagnosticArray
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.parameter import Parameter
+        from std_msgs.msg import Float64MultiArray
+
+        from steer_monitor.node.monitor_node import MonitorNode
+        from steer_monitor.node.params_ros import overrides_from_file
+
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        overrides = overrides_from_file(str(R18_YAML)) + [
+            Parameter('can.interface', value='virtual'), Parameter('can.channel', value=channel),
+            Parameter('recording.directory', value=str(tmp))]
+        self.node = MonitorNode(parameter_overrides=overrides, context=self.context)
+        self.listener = rclpy.create_node('diag_listener', context=self.context)
+        self.diags: list = []
+        self.loads: list = []
+        self.listener.create_subscription(DiagnosticArray, '/diagnostics', self.diags.append, 10)
+        self.listener.create_subscription(Float64MultiArray, '/steer_monitor/load_sharing', self.loads.append, 10)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.executor.add_node(self.listener)
+        self.thread = threading.Thread(target=self.executor.spin, daemon=True)
+        self.thread.start()
+
+    def latest(self) -> dict[str, object]:
+        return {s.name: s for s in self.diags[-1].status}
+
+    def wait_for(self, cond, timeout: float) -> dict[str, object]:
+        deadline = time.time() + timeout
+        while time.time() < deadline:
+            if self.diags and cond(self.latest()):
+                return self.latest()
+            time.sleep(0.1)
+        raise AssertionError(f'timed out; last: {[(k, v.level, v.message) for k, v in self.latest().items()]}')
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.node.close()
+        self.listener.destroy_node()
+        self.context.try_shutdown()
+
+
+def _values(status) -> dict[str, str]:
+    return {kv.key: kv.value for kv in status.values}
+
+
+def _level(status) -> int:
+    return status.level[0] if isinstance(status.level, bytes) else int(status.level)
+
+
+def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
+    db, smap = can_db
+    channel = f'steer-{uuid.uuid4().hex[:8]}'
+    run1 = sim.run(r18_params, sim.SimConfig(program='hard_over_2', max_duration_s=52.0), db, smap, seed=3).frames
+    run2 = sim.run(r18_params, sim.SimConfig(program='hold:4'), db, smap, seed=4).frames
+    h = Harness(tmp_path, channel)
+    sniffer = can.Bus(interface='virtual', channel=channel)
+    sender = can.Bus(interface='virtual', channel=channel)
+    try:
+        assert play(run1, sender, 1.0) == len(run1)
+        time.sleep(1.2)
+        d = h.latest()
+        names = ['steer_monitor: CAN input', 'steer_monitor: clearances', 'steer_monitor: guide beam',
+                 'steer_monitor: steering performance', 'steer_monitor: model health', 'steer_monitor: recording']
+        assert list(d) == names
+        assert _level(d['steer_monitor: CAN input']) == OK
+        assert _level(d['steer_monitor: clearances']) == WARN  # configured at the wear limits
+        assert _values(d['steer_monitor: clearances'])['clearance_2z_mm'] == '0.600'
+        gb = d['steer_monitor: guide beam']
+        assert _level(gb) == WARN and float(_values(gb)['guide_onset_deg']) == pytest.approx(10.0, abs=0.1)
+        perf = d['steer_monitor: steering performance']
+        assert _level(perf) == OK
+        assert float(_values(perf)['hard_over_s']) == pytest.approx(25.5, abs=0.6)
+        health = d['steer_monitor: model health']
+        assert _level(health) == OK and float(_values(health)['residual_rms_bar']) < 1.0
+        assert _level(d['steer_monitor: recording']) == OK
+        assert h.loads and len(h.loads[-1].data) == 9
+        # The simulator stops: STALE after the silence parameter (2 s).
+        h.wait_for(lambda x: _level(x['steer_monitor: CAN input']) == STALE, 6.0)
+        # It resumes: back to OK.
+        play(run2, sender, 1.0)
+        h.wait_for(lambda x: _level(x['steer_monitor: CAN input']) == OK, 4.0)
+        sniffed = 0
+        while sniffer.recv(0.05) is not None:
+            sniffed += 1
+    finally:
+        sender.shutdown()
+        sniffer.shutdown()
+        h.close()
+    # Everything on the bus came from the simulator: the node transmitted nothing.
+    assert sniffed == len(run1) + len(run2)
+    assert h.node.frames_received == len(run1) + len(run2)
+
+    # The recording: every topic, every message decoded by rosbags; CRCs valid.
+    from mcap.reader import make_reader
+    from rosbags.highlevel import AnyReader
+    [path] = list(tmp_path.glob('*.mcap'))
+    with open(path, 'rb') as fh:
+        reader = make_reader(fh, validate_crcs=True)
+        n = sum(1 for _ in reader.iter_messages())
+        topics = {c.topic for c in reader.get_summary().channels.values()}
+    assert topics == {'/steering_can/rx', '/diagnostics', '/steer_monitor/rudder', '/steer_monitor/load_sharing',
+                      '/steer_monitor/clearances', '/steer_monitor/clearance_source'}
+    decoded = 0
+    frames = 0
+    with AnyReader([path]) as r:
+        for conn, _, raw in r.messages():
+            r.deserialize(raw, conn.msgtype)
+            decoded += 1
+            frames += conn.topic == '/steering_can/rx'
+    assert decoded == n and frames == len(run1) + len(run2)
+
+
+def _node_cmd(tmp: Path, *extra: str) -> list[str]:
+    return [sys.executable, '-m', 'steer_monitor.node.monitor_node', '--ros-args', '--params-file', str(R18_YAML),
+            '-p', 'can.interface:=virtual', '-p', f'can.channel:=sub-{uuid.uuid4().hex[:6]}',
+            '-p', f'recording.directory:={tmp}', *extra]
+
+
+def _env() -> dict[str, str]:
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+    env['PYTHONPATH'] = str(REPO) + os.pathsep + env.get('PYTHONPATH', '')
+    return env
+
+
+@pytest.mark.parametrize('sig', [signal.SIGTERM, signal.SIGINT])
+def test_signal_finishes_the_recording(tmp_path, sig):
+    from mcap.reader import make_reader
+    proc = subprocess.Popen(_node_cmd(tmp_path), env=_env(), stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.time() + 20
+        while not list(tmp_path.glob('*.mcap')) and time.time() < deadline:
+            time.sleep(0.1)
+        time.sleep(2.5)  # a few diagnostics
+        proc.send_signal(sig)
+        assert proc.wait(15) == 0, proc.stderr.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    [path] = list(tmp_path.glob('*.mcap'))
+    with open(path, 'rb') as fh:
+        reader = make_reader(fh, validate_crcs=True)
+        summary = reader.get_summary()
+        diags = sum(1 for _ in reader.iter_messages(topics=['/diagnostics']))
+    assert summary is not None and diags >= 2
+
+
+@pytest.mark.parametrize('override,name', [
+    ('gear.stock_to_ram_m:=-1.0', 'gear.stock_to_ram_m'),
+    ('gear.rams:=2.5', 'gear.rams'),
+    ('can.dbc_file:=missing.dbc', 'missing.dbc'),
+    ('signals.rudder_angle.field:=Nope', 'signals.rudder_angle.field'),
+    ('gear.bogus_m:=1.0', 'gear.bogus_m'),
+])
+def test_bad_parameter_stops_the_node_naming_it(tmp_path, override, name):
+    proc = subprocess.run(_node_cmd(tmp_path, '-p', override), env=_env(), capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2
+    assert 'steer_monitor: cannot start:' in proc.stderr and name in proc.stderr
