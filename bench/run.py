@@ -9,9 +9,9 @@ from pathlib import Path
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench import bench_decode, bench_loadshare  # noqa: E402
+from bench import bench_decode, bench_loadshare, bench_node  # noqa: E402
 
-BENCHMARKS = (bench_loadshare, bench_decode)
+BENCHMARKS = (bench_loadshare, bench_decode, bench_node)
 
 
 def main() -> int:

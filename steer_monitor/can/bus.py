@@ -123,7 +123,9 @@ class BusReader:
         else:
             stop.wait(seconds)
 
-    def frames(self, stop: threading.Event) -> Iterator[Frame]:
+    def frames(self, stop: threading.Event, idle: bool = False) -> Iterator[Frame | None]:
+        """Frames until ``stop`` is set. With ``idle``, also yields None after each ``poll``
+        seconds without a frame, so the caller can do time-based work while the bus is quiet."""
         backoff = self.backoff_initial
         failed = False
         try:
@@ -153,7 +155,7 @@ class BusReader:
                     self._wait(backoff, stop)
                     backoff = min(backoff * 2, self.backoff_max)
                     continue
-                if frame is not None:
+                if frame is not None or idle:
                     yield frame
         finally:
             self.close()

@@ -3,13 +3,14 @@ cdr encoding, ros2msg schema), as the node records them and ``replay`` reads the
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
 
 from steer_monitor.can.frames import Frame
 
-__all__ = ['FRAME_DATATYPE', 'FRAME_MSGDEF', 'FRAME_TOPIC', 'DEFAULT_QOS', 'McapWriter',
+__all__ = ['DEFAULT_QOS', 'FRAME_DATATYPE', 'FRAME_MSGDEF', 'FRAME_TOPIC', 'McapWriter', 'frame_cdr',
            'frame_message', 'iter_mcap_frames']
 
 FRAME_TOPIC = '/steering_can/rx'
@@ -38,6 +39,21 @@ DEFAULT_QOS = ('- history: 3\n  depth: 0\n  reliability: 1\n  durability: 2\n'
                    '  lifespan:\n    sec: 9223372036\n    nsec: 854775807\n'
                    '  liveliness: 1\n  liveliness_lease_duration:\n    sec: 9223372036\n'
                    '    nsec: 854775807\n  avoid_ros_namespace_conventions: false\n')
+
+
+_CDR_HEADER = b'\x00\x01\x00\x00'  # CDR, little-endian
+
+
+def frame_cdr(frame: Frame, frame_id: str = 'steering_can') -> bytes:
+    """The CDR bytes of a can_msgs/msg/Frame, packed directly (about 20x faster than the
+    generic encoder; ``test_mcapio`` checks they are identical)."""
+    fid = frame_id.encode() + b'\x00'
+    pad = (-len(fid)) % 4
+    sec, nsec = divmod(frame.t_ns, 1_000_000_000)
+    data = bytes(frame.data[:8]).ljust(8, b'\x00')
+    return b''.join((_CDR_HEADER, struct.pack('<iII', sec, nsec, len(fid)), fid, b'\x00' * pad,
+                     struct.pack('<I4B', frame.can_id, frame.is_remote, frame.is_extended, frame.is_error,
+                                 min(len(frame.data), 8)), data))
 
 
 def frame_message(frame: Frame, frame_id: str = 'steering_can') -> dict[str, Any]:
@@ -93,7 +109,8 @@ class McapWriter:
         if topic not in self._channels:
             self.add_schema(FRAME_DATATYPE, FRAME_MSGDEF)
             self.add_channel(topic, FRAME_DATATYPE)
-        self.write(topic, frame_message(frame), frame.t_ns)
+        cid, _ = self._channels[topic]
+        self._writer.add_message(cid, log_time=frame.t_ns, publish_time=frame.t_ns, data=frame_cdr(frame))
 
     def close(self) -> None:
         if self._closed:

@@ -1,117 +1,133 @@
-"""``steer-monitor demo``: the main job on built-in defaults.
+"""``steer-monitor demo``: the main job on built-in defaults, in one process.
 
-For now the R-18 load-sharing study of paper 004: the new fit of ram and bushing, load
-sharing at the wear limits with the paper's landmarks beside ours, the paper's claim about
-2Z checked against the model, and the example backlash chain; printed, plotted and saved as
-JSON in the output directory.
+The simulated R-18 gear (SOLAS hard-over with two pumps, about 70 s of real time) plays onto
+a python-can virtual bus; the monitor node listens, runs the model, publishes /diagnostics
+and records MCAP; a listener prints each diagnostic status when its level changes, and every
+10 s a line with the rudder angle, K_gl and the model residual. After the simulator stops, the input goes STALE. Then the load-sharing study of
+paper 004 is written beside the recording.
 """
 
 from __future__ import annotations
 
 import argparse
-import math
+import io
 import sys
+import threading
+import time
+import uuid
 from pathlib import Path
 from typing import Any, TextIO
 
-import numpy as np
-
-from steer_monitor.cli import backlash as backlash_cli
-from steer_monitor.cli.fit import fit_summary
-from steer_monitor.cli.loadshare import loadshare_rows
-from steer_monitor.cli.output import dump_json, table
 from steer_monitor.errors import ParameterError
-from steer_monitor.model.gear import Gaps
-from steer_monitor.model.study import gap_sensitivity
-from steer_monitor.params import gear_from_params, load_params_file
-from steer_monitor.plots import plot_gap_sensitivity, plot_load_sharing
-from steer_monitor.resources import default_config
 
-__all__ = ['STUDY_2Z_MM', 'STUDY_ZGB_MM', 'register', 'run']
+__all__ = ['register', 'run']
 
-STUDY_2Z_MM = (0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.4, 0.5, 0.6)
-STUDY_ZGB_MM = (0.0, 0.05, 0.1, 0.25)
-PAPER = {'guide_onset_deg': 10.0, 'crossover_deg': 21.0, 'k_gl_max': 0.59, 'k_gl_max_deg': 27.5}
+LEVELS = {0: 'OK', 1: 'WARN', 2: 'ERROR', 3: 'STALE'}
 
 
-def run(out_dir: str | Path = 'out', config: str | Path | None = None,
-        out: TextIO | None = None) -> int:
+def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: str = 'hard_over_2',
+        after_s: float = 4.0, out: TextIO | None = None) -> int:
     out = out or sys.stdout
+    import can
+    import rclpy
+    from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+
+    from steer_monitor import sim
+    from steer_monitor.can.setup import can_setup
+    from steer_monitor.cli import study
+    from steer_monitor.node.monitor_node import MonitorNode
+    from steer_monitor.node.params_ros import overrides_from_file
+    from steer_monitor.params import load_params_file
+    from steer_monitor.resources import default_config
+    from steer_monitor.sim.live import play
+
     out_dir = Path(out_dir)
+    record_dir = out_dir / 'recordings'
     try:
-        out_dir.mkdir(parents=True, exist_ok=True)
+        record_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        msg = f'cannot create output directory {out_dir}: {exc.strerror or exc}'
+        msg = f'cannot create output directory {record_dir}: {exc.strerror or exc}'
         raise ParameterError(msg) from exc
-    params = load_params_file(config or default_config())
-    gear = gear_from_params(params)
-    summary: dict[str, Any] = {'gear': params['gear.name']}
+    config_path = Path(config) if config else default_config()
+    params = load_params_file(config_path)
+    db, smap = can_setup(params, config_path)
+    frames = sim.run(params, sim.SimConfig(program=program), db, smap, seed=1).frames
+    channel = f'steer-demo-{uuid.uuid4().hex[:6]}'
+    duration = (int(frames.t_ns[-1]) - int(frames.t_ns[0])) / 1e9
 
-    out.write(f"== steer_monitor demo: the {params['gear.name']} load-sharing study (paper 004) ==\n\n")
-    fit = fit_summary(params['clearances.new_fit'])
-    summary['new_fit'] = fit
-    out.write(f"Ram in bushing when new, {fit['fit']}: 2Z = {fit['clearance_min_mm']:.3f}..{fit['clearance_max_mm']:.3f} mm "
-              f"(probable {fit['probable_min_mm']:.3f}..{fit['probable_max_mm']:.3f}); wear limit "
-              f"[2Z] = {params['clearances.limit_2z_mm']:.3f} mm, [Z_gb] = {params['clearances.limit_zgb_mm']:.3f} mm\n\n")
+    out.write(f'== steer_monitor demo: simulated {params["gear.name"]} gear -> virtual CAN -> monitor node ==\n'
+              f'simulator: {program}, {len(frames)} NMEA 2000 frames over {duration:.0f} s (real time); '
+              f'true gaps 2Z 0.600 mm, Z_gb 0.250 mm\n\n')
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    overrides = overrides_from_file(str(config_path)) + [
+        Parameter('can.interface', value='virtual'), Parameter('can.channel', value=channel),
+        Parameter('recording.directory', value=str(record_dir)), Parameter('recording.enabled', value=True)]
+    node = MonitorNode(parameter_overrides=overrides, context=context, config_path=str(config_path))
+    listener = rclpy.create_node('steer_monitor_demo_listener', context=context)
+    seen: dict[str, int] = {}
+    t_start = time.monotonic()
+    last_line = [0.0]
+    lock = threading.Lock()
 
-    limits = Gaps.from_mm(params['clearances.limit_2z_mm'], params['clearances.limit_zgb_mm'])
-    sweep = loadshare_rows(gear, limits, None, 0.5)
-    alpha, res, marks = sweep.pop('_sweep')
-    summary['loadshare_at_limits'] = sweep
-    out.write('Load sharing at the wear limits (one ram, service speed):\n')
-    table(['alpha deg', 'M kN m', 'Fl kN', 'Fr kN', 'Fgb kN', 'K_gl', 'case'],
-          [[f"{r['alpha_deg']:.1f}", f"{r['torque_knm']:.0f}", f"{r['f_lateral_n'] / 1e3:.1f}",
-            f"{r['f_ram_n'] / 1e3:.1f}", f"{r['f_guide_n'] / 1e3:.1f}", f"{r['k_gl']:.3f}", r['case']]
-           for r in sweep['rows'] if r['alpha_deg'] % 2.5 == 0], out)
-    lm = sweep['landmarks']
-    out.write('\nLandmarks, paper 004 against this model:\n')
-    table(['landmark', 'paper', 'model'], [
-        ['guide beam starts to carry load', '10 deg', f"{lm['guide_onset_deg']:.1f} deg"],
-        ['F_r = F_gb', '~21 deg', f"{lm['crossover_deg']:.1f} deg"],
-        ['max K_gl', '0.59 at ~27.5 deg', f"{lm['k_gl_max']:.3f} at {lm['k_gl_max_deg']:.1f} deg"],
-        ['K_gl over 21..35 deg', '0.50..0.59', '{:.2f}..{:.2f}'.format(
-            *(lambda k: (k.min(), k.max()))(res.k_gl[np.degrees(alpha) >= 21.0 - 1e-9]))],
-    ], out)
-    fig7 = plot_load_sharing(alpha, res, out_dir / 'fig7_load_sharing.png',
-                             f"{params['gear.name']} at the wear limits: 2Z = {limits.two_z * 1e3:.2f} mm, "
-                             f"Z_gb = {limits.z_gb * 1e3:.2f} mm", marks)
+    def on_diagnostics(msg: Any) -> None:
+        with lock:
+            now = time.monotonic() - t_start
+            values: dict[str, str] = {}
+            for s in msg.status:
+                level = s.level[0] if isinstance(s.level, bytes) else int(s.level)
+                values.update({kv.key: kv.value for kv in s.values})
+                if seen.get(s.name) != level:
+                    seen[s.name] = level
+                    out.write(f'[{now:5.1f} s] {LEVELS.get(level, level):5} '
+                              f'{s.name[len("steer_monitor: "):]}: {s.message}\n')
+            if now - last_line[0] >= 10.0:
+                last_line[0] = now
+                out.write(f'[{now:5.1f} s]       rudder {values.get("rudder_angle_deg", "n/a")} deg, '
+                          f'K_gl {values.get("k_gl", "n/a")}, ram {values.get("ram_force_kn", "n/a")} kN, '
+                          f'guide {values.get("guide_force_kn", "n/a")} kN, residual '
+                          f'{values.get("residual_rms_bar", "n/a")} bar, hard-over {values.get("hard_over_s", "n/a")} s\n')
+            out.flush()
 
-    study_alpha = np.radians(np.arange(0.0, math.degrees(gear.max_rudder) + 1e-9, 0.1))
-    study = gap_sensitivity(gear, np.array(STUDY_2Z_MM) * 1e-3, np.array(STUDY_ZGB_MM) * 1e-3,
-                            study_alpha, math.radians(21.0))
-    summary['gap_study'] = {
-        'two_z_mm': list(STUDY_2Z_MM), 'z_gb_mm': list(STUDY_ZGB_MM),
-        'k_gl_max': study.k_gl_max.tolist(), 'k_gl_mean_21_35': study.k_gl_mean_high.tolist(),
-        'ram_clamps': study.clamps.tolist(),
-    }
-    out.write("\nThe paper's claim: larger K_gl needs smaller 2Z (0.2..0.3 mm). Peak K_gl over 0..35 deg:\n")
-    table(['2Z mm'] + [f'Z_gb {z:.2f}' for z in STUDY_ZGB_MM],
-          [[f'{t:.2f}'] + [f"{study.k_gl_max[i, j]:.3f}{'*' if study.clamps[i, j] else ''}"
-                           for j in range(len(STUDY_ZGB_MM))] for i, t in enumerate(STUDY_2Z_MM)], out)
-    j25 = STUDY_ZGB_MM.index(0.25)
-    out.write('  (* the ram clamps in its bushing somewhere in the range)\n'
-              f'  The model disagrees: at Z_gb = 0.25 mm the peak is {study.k_gl_max[-1, j25]:.3f} for every '
-              f'2Z >= 0.2 mm and falls to {study.k_gl_max[STUDY_2Z_MM.index(0.1), j25]:.3f} at 2Z = 0.1 mm,\n'
-              '  because a ram clamped in bushing A is about 3x stiffer and keeps more of the load. '
-              'What raises K_gl is a smaller Z_gb.\n')
-    gap_png = plot_gap_sensitivity(study, out_dir / 'gap_study.png',
-                                   f"{params['gear.name']}: peak K_gl against the clearances")
-
-    chain_path = default_config('r18_chain.yaml')
-    out.write(f'\nBacklash of the example chain ({chain_path.name}):\n')
-    backlash_cli.run(chain_path, 0.0, 8.0, 'worst', False, out)
-    summary['backlash'] = backlash_cli.backlash_summary(chain_path, 0.0, 8.0)
-
-    summary['files'] = {'fig7': str(fig7), 'gap_study': str(gap_png)}
-    with open(out_dir / 'summary.json', 'w', encoding='utf-8') as fh:
-        dump_json(summary, fh)
-    out.write(f'\nWrote {fig7}, {gap_png} and {out_dir / "summary.json"}\n')
+    listener.create_subscription(DiagnosticArray, '/diagnostics', on_diagnostics, 10)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    executor.add_node(listener)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
+    bus = can.Bus(interface='virtual', channel=channel)
+    try:
+        sent = play(frames, bus, 1.0)
+        out.write(f'[{time.monotonic() - t_start:5.1f} s] simulator stopped after {sent} frames\n')
+        time.sleep(after_s)
+    except KeyboardInterrupt:
+        out.write('interrupted\n')
+    finally:
+        bus.shutdown()
+        executor.shutdown()
+        received = node.frames_received
+        node.close()
+        listener.destroy_node()
+        context.try_shutdown()
+    files = [str(p) for p in node.recorder.files] if node.recorder else []
+    out.write(f'\nnode received {received} frames, transmitted none; '
+              f'recorded {", ".join(files) or "nothing"}\n')
+    buf = io.StringIO()
+    study.run(out_dir, config_path, buf)
+    out.write(f'load-sharing study (paper 004): {out_dir / "fig7_load_sharing.png"}, '
+              f'{out_dir / "gap_study.png"}, {out_dir / "summary.json"} (steer-monitor study prints it)\n')
+    out.write(f'inspect the recording: steer-monitor inspect {files[0] if files else "FILE.mcap"}\n')
     return 0
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser('demo', help='run the main job on built-in defaults',
-                       description='The R-18 load-sharing study on the packaged defaults.')
+    p = sub.add_parser('demo', help='the main job on built-in defaults (simulator, node, diagnostics, MCAP)',
+                       description='Simulated gear on a virtual CAN bus, the monitor node, a diagnostics '
+                                   'listener and an MCAP recording, for about a minute; then the '
+                                   'load-sharing study.')
     p.add_argument('--out', default='out', help='output directory (default: out)')
     p.add_argument('--config', help='ROS 2 parameters file (default: the packaged config/r18.yaml)')
-    p.set_defaults(handler=lambda a: run(a.out, a.config))
+    p.add_argument('--program', default='hard_over_2', help='helm programme of the simulator')
+    p.set_defaults(handler=lambda a: run(a.out, a.config, a.program))

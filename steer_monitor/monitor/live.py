@@ -21,6 +21,7 @@ Times are integer ns; values SI.
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections import deque
 from dataclasses import dataclass, field
@@ -41,6 +42,7 @@ RESIDUAL_SAMPLES = 1200        # about a minute of motion at 20 Hz
 HARD_OVER_DEG = 34.5           # "at 35 deg", allowing for sensor noise and the valve dead band
 OTHER_SIDE_DEG = 29.5          # "at 30 deg" likewise: the valve stops within its dead band
 ORDER_STEP = 1.0 * DEG
+_PRESSURE_INDEX = {'pressure_r1_stbd': 0, 'pressure_r1_port': 1, 'pressure_r2_stbd': 2, 'pressure_r2_port': 3}
 
 
 @dataclass(frozen=True)
@@ -98,9 +100,11 @@ class LiveMonitor:
         self.signals: dict[str, _Signal] = {name: _Signal() for name in INPUTS}
         self._angles: deque[tuple[int, float]] = deque()
         self._history: deque[tuple[int, float]] = deque()   # about 1 s of angles, for the residual
-        self._pending: deque[tuple[int, float, float, float]] = deque()  # (t, alpha, force 1, force 2)
+        self._pending: deque[tuple[int, float, float]] = deque()  # (t, ram 1 force, ram 2 force)
+        self._pressures = [math.nan] * 4
+        self._dirty = False
+        self._state: LiveState | None = None
         self.rate = 0.0
-        self.state: LiveState | None = None
         self.residuals: deque[float] = deque(maxlen=RESIDUAL_SAMPLES)
         self._hard_over: tuple[float, int] | None = None  # (side, time last at hard over)
         self.hard_over_s: float | None = None
@@ -115,28 +119,46 @@ class LiveMonitor:
         self.gaps, self.gaps_source, self.gaps_interval = gaps, source, interval
 
     # --- input ---------------------------------------------------------------------------
-    def update(self, sample: Sample) -> LiveState | None:
-        """Take one sample; returns the new live state when the model was re-evaluated."""
+    def update(self, sample: Sample) -> None:
+        """Take one sample. The live model is evaluated on demand (:attr:`state`), for the
+        newest sample; the residual and the performance trackers see every sample."""
         sig = self.signals[sample.signal]
         sig.last_t_ns, sig.last_value = sample.t_ns, sample.value
         sig.count += 1
         sig.arrivals.append(sample.t_ns)
         while sig.arrivals and sig.arrivals[0] < sample.t_ns - RATE_WINDOW_NS:
             sig.arrivals.popleft()
-        if sample.signal == 'rudder_angle':
+        name = sample.signal
+        if name == 'rudder_angle':
             self._on_angle(sample.t_ns, sample.value)
-        elif sample.signal == 'rudder_order':
+            self._dirty = True
+        elif name == 'rudder_order':
             self._on_order(sample.t_ns, sample.value)
-            return None
-        elif not sample.signal.startswith('pressure'):
-            return None
-        return self._evaluate(sample.t_ns)
+        elif name in _PRESSURE_INDEX:
+            self._pressures[_PRESSURE_INDEX[name]] = sample.value
+            p = self._pressures
+            area = self.gear.ram_area
+            if not math.isnan(p[0] + p[1] + p[2] + p[3]):
+                self._pending.append((sample.t_ns, area * (p[0] - p[1]), area * (p[2] - p[3])))
+            self._dirty = True
+
+    @property
+    def state(self) -> LiveState | None:
+        """The live model at the newest sample (None until angle and all four pressures)."""
+        if self._dirty:
+            self._dirty = False
+            t = max(self.signals['rudder_angle'].last_t_ns or 0,
+                    *(self.signals[n].last_t_ns or 0 for n in _PRESSURE_INDEX))
+            self._state = self._evaluate(t) or self._state
+        return self._state
 
     def rate_hz(self, name: str, now_ns: int) -> float:
-        """Arrivals per second of an input over the last 5 s."""
-        arrivals = self.signals[name].arrivals
-        recent = sum(1 for t in arrivals if t >= now_ns - RATE_WINDOW_NS)
-        return recent / (RATE_WINDOW_NS / 1e9)
+        """Arrival rate of an input from the spacing of its arrivals in the last 5 s (so it is
+        right from the second sample on; silence is judged by :meth:`silent_for`)."""
+        recent = [t for t in self.signals[name].arrivals if t >= now_ns - RATE_WINDOW_NS]
+        if len(recent) < 2 or recent[-1] == recent[0]:
+            return 0.0
+        return (len(recent) - 1) / ((recent[-1] - recent[0]) / 1e9)
 
     def silent_for(self, name: str, now_ns: int) -> float | None:
         """Seconds since the input was last heard (None: never)."""
@@ -168,31 +190,51 @@ class LiveMonitor:
         self._history.append((t_ns, alpha))
         while self._history and self._history[0][0] < t_ns - 3 * HALF_WINDOW_NS:
             self._history.popleft()
-        while self._pending and self._pending[0][0] <= t_ns - HALF_WINDOW_NS:
-            self._residual(*self._pending.popleft())
+        if self._pending and self._pending[0][0] <= t_ns - HALF_WINDOW_NS:
+            self._residuals_until(t_ns - HALF_WINDOW_NS)
         self._track_hard_over(t_ns, alpha)
         self._track_response(t_ns, alpha)
 
-    def _residual(self, t_ns: int, alpha: float, force_1: float, force_2: float) -> None:
-        """Residual of one held pressure sample, if the rudder moved steadily around it."""
-        before = [(t, a) for t, a in self._history if t_ns - HALF_WINDOW_NS <= t <= t_ns]
-        after = [(t, a) for t, a in self._history if t_ns <= t <= t_ns + HALF_WINDOW_NS]
+    def _steady(self, hist: list[tuple[int, float]], times: list[int], i: int) -> float:
+        """Direction (+1/-1) if the rudder moves steadily through angle sample i, else 0: the
+        slopes over 0.3 s before and after it both exceed the motion threshold, same sign."""
+        t = times[i]
+        before = hist[bisect.bisect_left(times, t - HALF_WINDOW_NS):i + 1]
+        after = hist[i:bisect.bisect_right(times, t + HALF_WINDOW_NS)]
         s1, s2 = self._slope(before), self._slope(after)
         if s1 is None or s2 is None or min(abs(s1), abs(s2)) <= MOVING_RATE or (s1 > 0) != (s2 > 0):
-            return
-        # The angle at the pressure sample's own time: near midships the torque curve is steep,
-        # and an angle 0.1 s old would be worth several bar.
-        (t_a, a_a), (t_b, a_b) = before[-1], after[0]
-        alpha = a_a if t_b == t_a else a_a + (a_b - a_a) * (t_ns - t_a) / (t_b - t_a)
-        gear = self.gear
+            return 0.0
+        return 1.0 if s1 > 0 else -1.0
+
+    def _residuals_until(self, t_end: int) -> None:
+        """Residuals of the held pressure samples up to ``t_end``; motion is judged once per
+        pair of angle samples that brackets them, the angle interpolated to each one's time
+        (near midships the torque curve is steep: an angle 0.1 s old is worth several bar)."""
+        hist = list(self._history)
+        times = [t for t, _ in hist]
+        judged: dict[int, float] = {}
+        gear, gaps, pri = self.gear, self.gaps, self.priors
         speed = self.signals['ship_speed'].last_value
-        model_torque = float(gear.torque(alpha, None if math.isnan(speed) else speed))
-        m = load_sharing_scalar(gear, alpha, model_torque, self.gaps.two_z, self.gaps.z_gb)
-        n_a = max(abs(m.r_a), 2.0 * abs(m.m_a) / gear.bushing_length)
-        f_fr = self.priors.seal + self.priors.mu_bushing * (n_a + abs(m.r_e)) + self.priors.mu_guide * abs(m.guide_force)
-        predicted = math.copysign(m.axial, alpha) + math.copysign(f_fr, s1 + s2)
-        for force in (force_1, force_2):
-            self.residuals.append((force - predicted) / gear.ram_area / 1e5)
+        speed = None if math.isnan(speed) else speed
+        area = gear.ram_area
+        while self._pending and self._pending[0][0] <= t_end:
+            t, force_1, force_2 = self._pending.popleft()
+            i = bisect.bisect_right(times, t) - 1
+            if i < 0 or i + 1 >= len(hist):
+                continue
+            direction = judged.get(i)
+            if direction is None:
+                direction = judged[i] = self._steady(hist, times, i)
+            if direction == 0.0:
+                continue
+            (t_a, a_a), (t_b, a_b) = hist[i], hist[i + 1]
+            alpha = a_a + (a_b - a_a) * (t - t_a) / (t_b - t_a)
+            m = load_sharing_scalar(gear, alpha, gear.torque.scalar(alpha, speed), gaps.two_z, gaps.z_gb)
+            n_a = max(abs(m.r_a), 2.0 * abs(m.m_a) / gear.bushing_length)
+            f_fr = pri.seal + pri.mu_bushing * (n_a + abs(m.r_e)) + pri.mu_guide * abs(m.guide_force)
+            predicted = math.copysign(m.axial, alpha) + direction * f_fr
+            self.residuals.append((force_1 - predicted) / area / 1e5)
+            self.residuals.append((force_2 - predicted) / area / 1e5)
 
     def _track_hard_over(self, t_ns: int, alpha: float) -> None:
         deg = alpha / DEG
@@ -228,24 +270,17 @@ class LiveMonitor:
     def _evaluate(self, t_ns: int) -> LiveState | None:
         angle = self.signals['rudder_angle']
         a = angle.last_value
-        if angle.last_t_ns is not None and t_ns > angle.last_t_ns:
-            a += self.rate * (t_ns - angle.last_t_ns) / 1e9  # to the pressure sample's time
-        p = [self.signals[n].last_value for n in
-             ('pressure_r1_stbd', 'pressure_r1_port', 'pressure_r2_stbd', 'pressure_r2_port')]
-        if math.isnan(a) or any(math.isnan(x) for x in p):
+        p = self._pressures
+        if math.isnan(a) or math.isnan(p[0] + p[1] + p[2] + p[3]):
             return None
+        if angle.last_t_ns is not None and t_ns > angle.last_t_ns:
+            a += self.rate * (t_ns - angle.last_t_ns) / 1e9  # to the newest sample's time
         gear = self.gear
         area = gear.ram_area
-        force_1 = area * (p[0] - p[1])
-        force_2 = area * (p[2] - p[3])
-        fa = 0.5 * (abs(force_1) + abs(force_2))
-        cos2 = math.cos(a) ** 2
-        torque = fa * gear.rams * gear.stock_to_ram / cos2
+        fa = 0.5 * (abs(area * (p[0] - p[1])) + abs(area * (p[2] - p[3])))
+        torque = fa * gear.rams * gear.stock_to_ram / math.cos(a) ** 2
         share = load_sharing_scalar(gear, a, torque, self.gaps.two_z, self.gaps.z_gb)
-        moving = abs(self.rate) > MOVING_RATE
-        self._pending.append((t_ns, a, force_1, force_2))
-        self.state = LiveState(t_ns, a, self.rate, moving, torque, share, self.gaps)
-        return self.state
+        return LiveState(t_ns, a, self.rate, abs(self.rate) > MOVING_RATE, torque, share, self.gaps)
 
     def residual_rms_bar(self) -> float | None:
         """RMS of the declared model's pressure residual over the last minute of motion [bar]."""

@@ -1,10 +1,11 @@
 """The ROS 2 node: a thin adapter over the CAN layer, the live monitor, the diagnostics and the
 recorder.
 
-Threads: a reader thread owns the bus (listen-only, reopened with backoff), decodes frames
-and hands samples over through a queue; the executor drains the queue at 100 Hz, updates the
-live model and publishes; diagnostics go out at 1 Hz; the recorder writes MCAP on its own
-thread. SIGINT and SIGTERM shut down cleanly and finish the MCAP file.
+Threads: a reader thread owns the bus (listen-only, reopened with backoff), decodes each
+frame, updates the live model and publishes the state at most every 10 ms (and within 10 ms
+of the last frame when the bus goes quiet); the executor publishes diagnostics at 1 Hz; the
+recorder writes MCAP on its own thread. The live model is shared under a lock. SIGINT and
+SIGTERM shut down cleanly and finish the MCAP file.
 
 Topics (all standard message types):
 
@@ -29,7 +30,6 @@ topic                            type                           content
 from __future__ import annotations
 
 import math
-import queue
 import sys
 import threading
 import time
@@ -40,8 +40,7 @@ from typing import Any
 from rclpy.node import Node
 
 from steer_monitor.can.bus import BusReader, ListenOnlyBus
-from steer_monitor.can.decoder import Decoder, Sample
-from steer_monitor.can.frames import Frame
+from steer_monitor.can.decoder import Decoder
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import can_setup
 from steer_monitor.errors import ParameterError, SteerMonitorError
@@ -58,6 +57,7 @@ LOAD_LABELS = ('lateral_n', 'ram_force_n', 'guide_force_n', 'k_gl', 'deflection_
                'm_a_nm', 'case')
 CLEARANCE_LABELS = ('gap_2z_m', 'gap_2z_lo_m', 'gap_2z_hi_m', 'gap_zgb_m', 'gap_zgb_lo_m', 'gap_zgb_hi_m')
 LATENCY_WINDOW = 200_000
+PUBLISH_PERIOD_NS = 10_000_000
 
 
 class MonitorNode(Node):
@@ -84,7 +84,9 @@ class MonitorNode(Node):
                                      int(p['recording.max_file_mb'] * (1 << 20)),
                                      p['recording.max_file_minutes'] * 60.0)
         self._make_publishers()
-        self._queue: queue.SimpleQueue[tuple[int, Frame, list[Sample]]] = queue.SimpleQueue()
+        self._lock = threading.Lock()          # guards the live monitor
+        self._unpublished: list[int] = []      # receive times of frames not yet in a published state
+        self._last_publish = 0
         self.latencies_ns: deque[int] = deque(maxlen=LATENCY_WINDOW)
         self.frames_received = 0
         self.frames_processed = 0
@@ -92,10 +94,9 @@ class MonitorNode(Node):
         interface, channel = p['can.interface'], p['can.channel']
         opener = bus_opener or (lambda: ListenOnlyBus(interface, channel, p['can.bitrate']))
         self.reader = BusReader(opener, self.rejects, p['can.reopen_backoff_initial_s'],
-                                p['can.reopen_backoff_max_s'])
+                                p['can.reopen_backoff_max_s'], poll=PUBLISH_PERIOD_NS / 1e9)
         self._reader_thread = threading.Thread(target=self._read, name='steer_monitor-can', daemon=True)
         self._closed = False
-        self.create_timer(0.01, self._drain)
         self.create_timer(1.0, self._publish_diagnostics)
         self._reader_thread.start()
         self.get_logger().info(
@@ -130,38 +131,38 @@ class MonitorNode(Node):
 
     # --- reader thread -----------------------------------------------------------------------
     def _read(self) -> None:
-        for frame in self.reader.frames(self._stop):
-            received = time.monotonic_ns()
-            self.frames_received += 1
-            try:
-                samples = self.decoder.decode(frame)
-            except SteerMonitorError as exc:  # the decoder counts; this is a defect guard
-                self.get_logger().error(f'decode failed: {exc}')
-                samples = []
-            if self.recorder is not None:
-                self.recorder.write_frame(frame)
-            self._queue.put((received, frame, samples))
+        reader, decoder, recorder, monitor = self.reader, self.decoder, self.recorder, self.monitor
+        stop = self._stop
+        while not stop.is_set():
+            for frame in reader.frames(stop, idle=True):
+                received = time.monotonic_ns()
+                if frame is not None:
+                    self.frames_received += 1
+                    try:
+                        samples = decoder.decode(frame)
+                    except SteerMonitorError as exc:  # the decoder counts; this guards a defect
+                        self.get_logger().error(f'decode failed: {exc}')
+                        samples = []
+                    if recorder is not None:
+                        recorder.write_frame(frame)
+                    if samples:
+                        with self._lock:
+                            for sample in samples:
+                                monitor.update(sample)
+                    self.frames_processed += 1
+                    self._unpublished.append(received)
+                if self._unpublished and received - self._last_publish >= PUBLISH_PERIOD_NS:
+                    self._flush_state(received)
 
-    # --- executor ----------------------------------------------------------------------------
-    def _drain(self) -> None:
-        state: LiveState | None = None
-        received: list[int] = []
-        while True:
-            try:
-                t_recv, _frame, samples = self._queue.get_nowait()
-            except queue.Empty:
-                break
-            self.frames_processed += 1
-            for s in samples:
-                new = self.monitor.update(s)
-                if new is not None:
-                    state = new
-            received.append(t_recv)
+    def _flush_state(self, now: int) -> None:
+        with self._lock:
+            state = self.monitor.state
         if state is not None:
             self._publish_state(state)
-        if received:
-            done = time.monotonic_ns()
-            self.latencies_ns.extend(done - t for t in received)
+        done = time.monotonic_ns()
+        self.latencies_ns.extend(done - t for t in self._unpublished)
+        self._unpublished.clear()
+        self._last_publish = now
 
     def _publish_state(self, st: LiveState) -> None:
         from builtin_interfaces.msg import Time
@@ -200,7 +201,10 @@ class MonitorNode(Node):
         from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
 
         now = time.time_ns()
-        statuses = self.diag.build(self.monitor, self.rejects.snapshot(), now, self._recording_status())
+        with self._lock:
+            statuses = self.diag.build(self.monitor, self.rejects.snapshot(), now, self._recording_status())
+            gaps, interval = self.monitor.gaps, self.monitor.gaps_interval or {}
+            source = self.monitor.gaps_source
         arr = DiagnosticArray()
         arr.header.stamp = self.get_clock().now().to_msg()
         for s in statuses:
@@ -208,7 +212,6 @@ class MonitorNode(Node):
                                                hardware_id=s.hardware_id,
                                                values=[KeyValue(key=k, value=v) for k, v in s.values]))
         self._publish(self.pub_diag, arr, now)
-        gaps, interval = self.monitor.gaps, self.monitor.gaps_interval or {}
         nan = float('nan')
 
         def bound(key: str, i: int) -> float:
@@ -218,7 +221,7 @@ class MonitorNode(Node):
         cl.layout.dim = [MultiArrayDimension(label=','.join(CLEARANCE_LABELS), size=6, stride=6)]
         cl.data = [gaps.two_z, bound('2z', 0), bound('2z', 1), gaps.z_gb, bound('zgb', 0), bound('zgb', 1)]
         self._publish(self.pub_clear, cl, now)
-        self._publish(self.pub_source, String(data=self.monitor.gaps_source), now)
+        self._publish(self.pub_source, String(data=source), now)
 
     # --- shutdown ----------------------------------------------------------------------------
     def close(self) -> None:

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from steer_monitor.can.frames import Frame
-from steer_monitor.can.mcapio import DEFAULT_QOS, FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, frame_message
+from steer_monitor.can.mcapio import DEFAULT_QOS, FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, frame_cdr
 
 __all__ = ['Recorder', 'RecorderStatus']
 
@@ -73,7 +73,6 @@ class Recorder:
         self._writer: Any = None
         self._stream: Any = None
         self._channels: dict[str, int] = {}
-        self._frame_encoder: Any = None
         self._opened_at = 0.0
         self._last_flush = 0.0
         self._next_retry = 0.0
@@ -141,16 +140,26 @@ class Recorder:
 
     # --- writer thread -------------------------------------------------------------------
     def _run(self) -> None:
+        get, get_nowait = self._queue.get, self._queue.get_nowait
         while True:
             try:
-                item = self._queue.get(timeout=0.1)
+                batch = [get(timeout=0.1)]
             except queue.Empty:
-                item = ()
-            if item is None:
-                break
+                batch = []
+            try:  # take what else is queued without waiting
+                while len(batch) < 4096:
+                    batch.append(get_nowait())
+            except queue.Empty:
+                pass
             now = self._clock()
-            if item:
+            done = False
+            for item in batch:
+                if item is None:
+                    done = True
+                    break
                 self._write_item(*item, now=now)
+            if done:
+                break
             if self._writer is not None and now - self._last_flush >= self.flush_interval_s:
                 self._guard(self._flush)
                 self._last_flush = now
@@ -237,10 +246,7 @@ class Recorder:
     def _add(self, topic: str, payload: Any, log_time_ns: int) -> None:
         cid = self._channel(topic)
         if isinstance(payload, Frame):
-            if self._frame_encoder is None:
-                from mcap_ros2._dynamic import serialize_dynamic
-                self._frame_encoder = serialize_dynamic(FRAME_DATATYPE, FRAME_MSGDEF)[FRAME_DATATYPE]
-            payload = self._frame_encoder(frame_message(payload))
+            payload = frame_cdr(payload)
         self._writer.add_message(cid, log_time=log_time_ns, publish_time=log_time_ns, data=payload)
 
     def _flush(self) -> None:

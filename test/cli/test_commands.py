@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from steer_monitor.cli import backlash, demo, fit, loadshare
+from steer_monitor.cli import backlash, fit, loadshare, study
 from steer_monitor.cli.main import main
 from test.conftest import REPO
 
@@ -86,16 +86,16 @@ def test_bad_chain_files(tmp_path, capsys, text, msg):
     assert msg in capsys.readouterr().err
 
 
-def test_demo_writes_plots_and_summary(tmp_path):
+def test_study_writes_plots_and_summary(tmp_path):
     out = io.StringIO()
-    assert demo.run(tmp_path, None, out) == 0
+    assert study.run(tmp_path, None, out) == 0
     text = out.getvalue()
     assert "The paper's claim" in text and 'The model disagrees' in text
     summary = json.loads((tmp_path / 'summary.json').read_text())
     assert summary['loadshare_at_limits']['landmarks']['crossover_deg'] == pytest.approx(21.0, abs=1.0)
-    study = summary['gap_study']
-    j = study['z_gb_mm'].index(0.25)
-    kmax = [row[j] for row in study['k_gl_max']]
+    gap = summary['gap_study']
+    j = gap['z_gb_mm'].index(0.25)
+    kmax = [row[j] for row in gap['k_gl_max']]
     # The physics answer to the paper: K_gl never grows as 2Z shrinks.
     assert all(a <= b + 1e-12 for a, b in zip(kmax, kmax[1:]))
     for name in ('fig7_load_sharing.png', 'gap_study.png'):
@@ -107,5 +107,5 @@ def test_console_script_help(capsys):
         main(['--help'])
     assert exc.value.code == 0
     out = capsys.readouterr().out
-    for command in ('fit', 'backlash', 'loadshare', 'demo'):
+    for command in ('fit', 'backlash', 'loadshare', 'simulate', 'inspect', 'run', 'recover', 'study', 'demo'):
         assert command in out

@@ -40,3 +40,10 @@ def test_odd_held_beyond_last_point_and_speed_squared(curve):
 def test_bad_curves(angles, torques, msg):
     with pytest.raises(ParameterError, match=msg):
         TorqueCurve.from_degrees_knm(angles, torques, 16.0)
+
+
+def test_scalar_table_matches_pchip(curve):
+    rng = np.random.default_rng(0)
+    for a in np.concatenate([rng.uniform(-0.7, 0.7, 2000), [0.0, 1e-9, np.radians(35.0), np.radians(40.0)]]):
+        assert curve.scalar(float(a)) == pytest.approx(float(curve(a)), abs=1.0)
+        assert curve.scalar(float(a), 5.0) == pytest.approx(float(curve(a, 5.0)), abs=1.0)
