@@ -1,24 +1,26 @@
-"""Run every benchmark (``make bench``). Benchmarks measure; they are not tests."""
+"""Run every benchmark (``make bench``), each in a fresh process so that one's memory does not
+count against the next. Benchmarks measure; they are not tests."""
 
 from __future__ import annotations
 
 import os
+import subprocess
 import sys
 from pathlib import Path
 
-os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-
-from bench import bench_decode, bench_loadshare, bench_node  # noqa: E402
-
-BENCHMARKS = (bench_loadshare, bench_decode, bench_node)
+ROOT = Path(__file__).resolve().parent.parent
+BENCHMARKS = ('bench.bench_loadshare', 'bench.bench_decode', 'bench.bench_node')
 
 
 def main() -> int:
-    for bench in BENCHMARKS:
-        bench.main()
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+    env['PYTHONPATH'] = str(ROOT) + os.pathsep + env.get('PYTHONPATH', '')
+    failed = 0
+    for module in BENCHMARKS:
+        result = subprocess.run([sys.executable, '-m', module], cwd=ROOT, env=env)
+        failed += result.returncode != 0
         print()
-    return 0
+    return 1 if failed else 0
 
 
 if __name__ == '__main__':

@@ -27,7 +27,8 @@ def play(frames: FrameArrays, bus: Any, speed_factor: float = 1.0,
     t0_sim = int(frames.t_ns[0])
     t0 = time.monotonic()
     sent = 0
-    for frame in frames.frames(channel=''):
+    for i in range(len(frames)):  # one at a time: a long run does not hold every frame as an object
+        frame = frames.take(slice(i, i + 1)).frames()[0]
         if stop is not None and stop.is_set():
             break
         if speed_factor > 0:
