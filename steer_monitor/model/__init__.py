@@ -30,6 +30,7 @@ from steer_monitor.model.fits import (
     parse_fit,
     shaft_tolerance,
 )
+from steer_monitor.model.friction import FrictionParams, friction_force, normal_forces
 from steer_monitor.model.gear import Gaps, GearParams, ram_inertia
 from steer_monitor.model.kinematics import RapsonState, rapson_state
 from steer_monitor.model.loadshare import (
@@ -53,6 +54,7 @@ __all__ = [
     'ChainJoint',
     'Clearance',
     'Fit',
+    'FrictionParams',
     'Gaps',
     'GapSensitivity',
     'GearParams',
@@ -72,6 +74,7 @@ __all__ = [
     'clearance_of',
     'critical_forces',
     'euler_force',
+    'friction_force',
     'gap_sensitivity',
     'grade_for_limit',
     'hole_tolerance',
@@ -80,6 +83,7 @@ __all__ = [
     'load_sharing',
     'load_sharing_at',
     'load_sharing_scalar',
+    'normal_forces',
     'paper_case',
     'parse_fit',
     'pinned_pinned_compliance',

@@ -9,7 +9,7 @@ from steer_monitor.monitor.diagnostics import (
     DiagnosticsConfig,
     Status,
 )
-from steer_monitor.monitor.live import FrictionPriors, LiveMonitor, LiveState
+from steer_monitor.monitor.live import LiveMonitor, LiveState
 
-__all__ = ['ERROR', 'OK', 'STALE', 'WARN', 'DiagnosticsBuilder', 'DiagnosticsConfig', 'FrictionPriors',
+__all__ = ['ERROR', 'OK', 'STALE', 'WARN', 'DiagnosticsBuilder', 'DiagnosticsConfig',
            'LiveMonitor', 'LiveState', 'Status']

@@ -28,10 +28,11 @@ from dataclasses import dataclass, field
 
 from steer_monitor.can.decoder import Sample
 from steer_monitor.can.signals import INPUTS
+from steer_monitor.model.friction import FrictionParams, friction_force
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.loadshare import ShareScalar, load_sharing_scalar
 
-__all__ = ['FrictionPriors', 'LiveMonitor', 'LiveState', 'Response']
+__all__ = ['LiveMonitor', 'LiveState', 'Response']
 
 DEG = math.pi / 180.0
 RATE_WINDOW_NS = 5_000_000_000
@@ -43,15 +44,6 @@ HARD_OVER_DEG = 34.5           # "at 35 deg", allowing for sensor noise and the 
 OTHER_SIDE_DEG = 29.5          # "at 30 deg" likewise: the valve stops within its dead band
 ORDER_STEP = 1.0 * DEG
 _PRESSURE_INDEX = {'pressure_r1_stbd': 0, 'pressure_r1_port': 1, 'pressure_r2_stbd': 2, 'pressure_r2_port': 3}
-
-
-@dataclass(frozen=True)
-class FrictionPriors:
-    """Friction of the declared model used until the estimator supplies its own [N, -, -]."""
-
-    seal: float = 9e3
-    mu_bushing: float = 0.13
-    mu_guide: float = 0.05
 
 
 @dataclass
@@ -91,12 +83,12 @@ class LiveMonitor:
     """Sample-by-sample state of the gear. Not thread-safe: feed it from one thread."""
 
     def __init__(self, gear: GearParams, gaps: Gaps, gaps_source: str = 'configured',
-                 priors: FrictionPriors | None = None) -> None:
+                 priors: FrictionParams | None = None) -> None:
         self.gear = gear
         self.gaps = gaps
         self.gaps_source = gaps_source
         self.gaps_interval: dict[str, tuple[float, float | None]] | None = None
-        self.priors = priors or FrictionPriors()
+        self.priors = priors or FrictionParams()
         self.signals: dict[str, _Signal] = {name: _Signal() for name in INPUTS}
         self._angles: deque[tuple[int, float]] = deque()
         self._history: deque[tuple[int, float]] = deque()   # about 1 s of angles, for the residual
@@ -230,8 +222,7 @@ class LiveMonitor:
             (t_a, a_a), (t_b, a_b) = hist[i], hist[i + 1]
             alpha = a_a + (a_b - a_a) * (t - t_a) / (t_b - t_a)
             m = load_sharing_scalar(gear, alpha, gear.torque.scalar(alpha, speed), gaps.two_z, gaps.z_gb)
-            n_a = max(abs(m.r_a), 2.0 * abs(m.m_a) / gear.bushing_length)
-            f_fr = pri.seal + pri.mu_bushing * (n_a + abs(m.r_e)) + pri.mu_guide * abs(m.guide_force)
+            f_fr = float(friction_force(pri, m.r_a, m.r_e, m.m_a, m.guide_force, gear.bushing_length))
             predicted = math.copysign(m.axial, alpha) + direction * f_fr
             self.residuals.append((force_1 - predicted) / area / 1e5)
             self.residuals.append((force_2 - predicted) / area / 1e5)

@@ -45,7 +45,8 @@ from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import can_setup
 from steer_monitor.errors import ParameterError, SteerMonitorError
 from steer_monitor.monitor.diagnostics import ERROR, OK, DiagnosticsBuilder, DiagnosticsConfig, Status
-from steer_monitor.monitor.live import FrictionPriors, LiveMonitor, LiveState
+from steer_monitor.model.friction import FrictionParams
+from steer_monitor.monitor.live import LiveMonitor, LiveState
 from steer_monitor.node.params_ros import declare_parameters
 from steer_monitor.params import gaps_from_params, gear_from_params
 from steer_monitor.record.msgdefs import msgdef
@@ -75,7 +76,7 @@ class MonitorNode(Node):
         self.rejects = RejectCounter()
         self.decoder = Decoder(db, smap, self.rejects)
         self.monitor = LiveMonitor(self.gear, gaps_from_params(p), 'configured',
-                                   FrictionPriors(p['model.seal_friction_n'], p['model.mu_bushing'], p['model.mu_guide']))
+                                   FrictionParams(p['model.seal_friction_n'], p['model.mu_bushing'], p['model.mu_guide']))
         self.diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(p), smap, self.gear)
         self.diag.guide_onset_deg(self.monitor.gaps)  # warm the cache before the first frame
         self.recorder: Recorder | None = None

@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from steer_monitor.errors import ParameterError
+from steer_monitor.model.friction import FrictionParams, friction_force
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.loadshare import load_sharing
 from steer_monitor.sim.effects import Effect
@@ -180,9 +181,8 @@ def simulate(gear: GearParams, cfg: SimConfig, ram_speed_per_pump: float, pumps_
 
     torque = gear.torque(alpha, speed)
     ls = load_sharing(gear, alpha, torque, cfg.gaps.two_z, cfg.gaps.z_gb)
-    n_a = np.maximum(np.abs(ls.r_a), 2.0 * np.abs(ls.m_a) / gear.bushing_length)
-    n_e = np.abs(ls.r_e)
-    friction = cfg.seal_friction + cfg.mu_bushing * (n_a + n_e) + cfg.mu_guide * np.abs(ls.guide_force)
+    declared = FrictionParams(cfg.seal_friction, cfg.mu_bushing, cfg.mu_guide)
+    friction = friction_force(declared, ls.r_a, ls.r_e, ls.m_a, ls.guide_force, gear.bushing_length)
     v_ram = h / np.cos(alpha) ** 2 * np.abs(rate)
     e = cfg.effect('viscous')
     if e is not None:
