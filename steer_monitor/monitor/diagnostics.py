@@ -111,8 +111,8 @@ class DiagnosticsBuilder:
             values.append((f'{spec.name}_silent_s', _f(silent, '.2f')))
             if silent is None or silent > limit:
                 stale.append(spec.name)
-            elif rate < 0.5 * spec.rate_hz and silent is not None:
-                slow.append(spec.name)
+            elif rate < 0.5 * spec.rate_hz and len(mon.signals[spec.name].arrivals) >= 3:
+                slow.append(spec.name)  # a rate is judged once it has a few arrivals
         for reason, n in sorted(rejects.counts.items()):
             values.append((f'rejects_{reason}', str(n)))
         values.append(('rejects_total', str(rejects.total)))

@@ -116,3 +116,9 @@ def test_slow_hard_over_warns(r18_params, can_db):
     _, mon, dec, t_last = _feed(r18_params, can_db, 'hard_over_1')
     perf = _builder(r18_params, can_db).performance(mon)
     assert perf.level == WARN and 'OVER SOLAS 28 s' in perf.message
+
+
+def test_slow_inputs_not_judged_on_their_first_sample(r18_params, can_db):
+    _, mon, dec, t_last = _feed(r18_params, can_db, 'hold:5', upto_s=1.2)
+    status = _builder(r18_params, can_db).can_input(mon, dec.rejects.snapshot(), t_last)
+    assert status.level == OK, status.message
