@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from steer_monitor import sim
-from steer_monitor.can import Decoder, FrameArrays, collect
+from steer_monitor.can import Decoder, collect
 from steer_monitor.can.logs import LogWriter, iter_log, read_log_arrays
 from steer_monitor.can.setup import can_setup
 from steer_monitor.params import load_params_file

@@ -110,7 +110,6 @@ class MonitorNode(Node):
         from sensor_msgs.msg import JointState
         from std_msgs.msg import Float64MultiArray, String
 
-        self._types = {'/diagnostics': DiagnosticArray}
         self.pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
         self.pub_rudder = self.create_publisher(JointState, '~/rudder', 10)
         self.pub_load = self.create_publisher(Float64MultiArray, '~/load_sharing', 10)
