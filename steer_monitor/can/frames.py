@@ -124,16 +124,15 @@ class FrameArrays:
         dlc[too_long] = 255
         return cls(t, ids, dlc, data, flags)
 
+    def frame(self, i: int, channel: str = '') -> Frame:
+        """Row ``i`` as a record (payload cut to ``dlc``)."""
+        fl = int(self.flags[i])
+        return Frame(int(self.t_ns[i]), int(self.can_id[i]), bytes(self.data[i, :min(int(self.dlc[i]), MAX_DLC)]),
+                     bool(fl & FLAG_EXTENDED), bool(fl & FLAG_ERROR), bool(fl & FLAG_REMOTE), channel)
+
     def frames(self, channel: str = '') -> list[Frame]:
-        """Back to records (payloads cut to ``dlc``)."""
-        out = []
-        for i in range(len(self)):
-            n = int(self.dlc[i])
-            fl = int(self.flags[i])
-            out.append(Frame(int(self.t_ns[i]), int(self.can_id[i]), bytes(self.data[i, :min(n, MAX_DLC)]),
-                             bool(fl & FLAG_EXTENDED), bool(fl & FLAG_ERROR), bool(fl & FLAG_REMOTE),
-                             channel))
-        return out
+        """All rows as records."""
+        return [self.frame(i, channel) for i in range(len(self))]
 
     def take(self, index: NDArray) -> FrameArrays:
         """A subset or reordering of the rows."""

@@ -16,10 +16,9 @@ __all__ = ['play']
 
 
 def play(frames: FrameArrays, bus: Any, speed_factor: float = 1.0,
-         stop: threading.Event | None = None, pause: threading.Event | None = None) -> int:
+         stop: threading.Event | None = None) -> int:
     """Send ``frames`` on ``bus`` paced at ``speed_factor`` x real time (0: as fast as
-    possible). Stops early when ``stop`` is set; while ``pause`` is set, sends nothing (the
-    sensors fall silent) and resumes with the frames due at that time. Returns frames sent."""
+    possible). Stops early when ``stop`` is set. Returns frames sent."""
     import can
 
     if len(frames) == 0:
@@ -28,7 +27,7 @@ def play(frames: FrameArrays, bus: Any, speed_factor: float = 1.0,
     t0 = time.monotonic()
     sent = 0
     for i in range(len(frames)):  # one at a time: a long run does not hold every frame as an object
-        frame = frames.take(slice(i, i + 1)).frames()[0]
+        frame = frames.frame(i)
         if stop is not None and stop.is_set():
             break
         if speed_factor > 0:
@@ -40,8 +39,6 @@ def play(frames: FrameArrays, bus: Any, speed_factor: float = 1.0,
                         break
                 else:
                     time.sleep(delay)
-        if pause is not None and pause.is_set():
-            continue
         try:
             bus.send(message_from_frame(frame))
         except can.CanError as exc:
