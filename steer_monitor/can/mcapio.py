@@ -83,34 +83,48 @@ class McapWriter:
         self._writer = _Writer(self._stream, chunk_size=chunk_size, compression=CompressionType.ZSTD,
                                enable_crcs=True)
         self._writer.start(profile='ros2', library=library)
-        self._schemas: dict[str, tuple[int, Any]] = {}
-        self._channels: dict[str, tuple[int, Any]] = {}
+        self._schemas: dict[str, tuple[int, str]] = {}     # datatype -> (schema id, msgdef)
+        self._channels: dict[str, tuple[int, str]] = {}    # topic -> (channel id, datatype)
+        self._encoders: dict[str, Any] = {}
         self._closed = False
 
     def add_schema(self, datatype: str, msgdef: str) -> None:
-        from mcap_ros2._dynamic import serialize_dynamic
+        """Register a ros2msg schema (once per datatype)."""
         if datatype not in self._schemas:
             sid = self._writer.register_schema(datatype, 'ros2msg', msgdef.encode())
-            self._schemas[datatype] = (sid, serialize_dynamic(datatype, msgdef)[datatype])
+            self._schemas[datatype] = (sid, msgdef)
 
     def add_channel(self, topic: str, datatype: str, qos: str = DEFAULT_QOS) -> None:
+        """Register a cdr channel for a registered datatype, with its offered QoS."""
         if topic not in self._channels:
-            sid, encoder = self._schemas[datatype]
+            sid, _ = self._schemas[datatype]
             cid = self._writer.register_channel(topic, 'cdr', sid, {'offered_qos_profiles': qos})
-            self._channels[topic] = (cid, encoder)
+            self._channels[topic] = (cid, datatype)
+
+    def write_cdr(self, topic: str, data: bytes, log_time_ns: int, publish_time_ns: int | None = None) -> None:
+        """Write one already-serialized message."""
+        self._writer.add_message(self._channels[topic][0], log_time=log_time_ns,
+                                 publish_time=log_time_ns if publish_time_ns is None else publish_time_ns,
+                                 data=data)
 
     def write(self, topic: str, message: Any, log_time_ns: int, publish_time_ns: int | None = None) -> None:
-        cid, encoder = self._channels[topic]
-        self._writer.add_message(cid, log_time=log_time_ns,
-                                 publish_time=log_time_ns if publish_time_ns is None else publish_time_ns,
-                                 data=encoder(message))
+        """Write one message given as a dict of its fields (encoded by the generic CDR encoder)."""
+        datatype = self._channels[topic][1]
+        encoder = self._encoders.get(datatype)
+        if encoder is None:
+            from mcap_ros2._dynamic import serialize_dynamic
+            encoder = self._encoders[datatype] = serialize_dynamic(datatype, self._schemas[datatype][1])[datatype]
+        self.write_cdr(topic, encoder(message), log_time_ns, publish_time_ns)
 
     def write_frame(self, frame: Frame, topic: str = FRAME_TOPIC) -> None:
         if topic not in self._channels:
             self.add_schema(FRAME_DATATYPE, FRAME_MSGDEF)
             self.add_channel(topic, FRAME_DATATYPE)
-        cid, _ = self._channels[topic]
-        self._writer.add_message(cid, log_time=frame.t_ns, publish_time=frame.t_ns, data=frame_cdr(frame))
+        self.write_cdr(topic, frame_cdr(frame), frame.t_ns)
+
+    def flush(self) -> None:
+        """Close the chunk in progress and write everything out (not fsync)."""
+        self._writer.flush()
 
     def close(self) -> None:
         if self._closed:

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from steer_monitor.can.frames import Frame
-from steer_monitor.can.mcapio import DEFAULT_QOS, FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, frame_cdr
+from steer_monitor.can.mcapio import DEFAULT_QOS, FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, McapWriter
 
 __all__ = ['Recorder', 'RecorderStatus']
 
@@ -72,7 +72,6 @@ class Recorder:
         self._lock = threading.Lock()
         self._writer: Any = None
         self._stream: Any = None
-        self._channels: dict[str, int] = {}
         self._opened_at = 0.0
         self._last_flush = 0.0
         self._next_retry = 0.0
@@ -208,46 +207,34 @@ class Recorder:
             self.failed += 1
 
     def _open(self, log_time_ns: int, now: float) -> None:
-        from mcap.writer import CompressionType
-        from mcap.writer import Writer as McapWriter
-
         self.directory.mkdir(parents=True, exist_ok=True)
         stamp = datetime.fromtimestamp(log_time_ns / 1e9, tz=timezone.utc).strftime('%Y%m%dT%H%M%SZ')
         self._index += 1
         path = self.directory / f'{self.prefix}_{stamp}_{self._index:03d}.mcap'
         stream = open(path, 'wb')
         try:
-            writer = McapWriter(stream, chunk_size=self.chunk_size, compression=CompressionType.ZSTD,
-                                enable_crcs=True)
-            writer.start(profile='ros2', library='steer_monitor')
+            writer = McapWriter(stream, chunk_size=self.chunk_size)
         except BaseException:
             stream.close()
             raise
         with self._lock:
             self._stream, self._writer = stream, writer
-            self._channels = {}
             self.files.append(path)
             self._error = None
         self._opened_at = self._last_flush = now
 
-    def _channel(self, topic: str) -> int:
-        cid = self._channels.get(topic)
-        if cid is None:
-            with self._lock:
-                t = self._topics.get(topic)
-            if t is None:
-                msg = f'topic {topic} was not declared with add_topic'
-                raise KeyError(msg)
-            sid = self._writer.register_schema(t.datatype, 'ros2msg', t.msgdef.encode())
-            cid = self._writer.register_channel(topic, 'cdr', sid, {'offered_qos_profiles': t.qos})
-            self._channels[topic] = cid
-        return cid
-
     def _add(self, topic: str, payload: Any, log_time_ns: int) -> None:
-        cid = self._channel(topic)
-        if isinstance(payload, Frame):
-            payload = frame_cdr(payload)
-        self._writer.add_message(cid, log_time=log_time_ns, publish_time=log_time_ns, data=payload)
+        if topic == FRAME_TOPIC and isinstance(payload, Frame):
+            self._writer.write_frame(payload)
+            return
+        with self._lock:
+            t = self._topics.get(topic)
+        if t is None:
+            msg = f'topic {topic} was not declared with add_topic'
+            raise KeyError(msg)
+        self._writer.add_schema(t.datatype, t.msgdef)
+        self._writer.add_channel(topic, t.datatype, t.qos)
+        self._writer.write_cdr(topic, payload, log_time_ns)
 
     def _flush(self) -> None:
         self._writer.flush()
@@ -259,7 +246,7 @@ class Recorder:
         writer, stream = self._writer, self._stream
         self._writer = self._stream = None
         try:
-            writer.finish()
+            writer.close()  # finishes the MCAP; the stream stays ours to sync and close
             stream.flush()
             os.fsync(stream.fileno())
             self._pending = 0
