@@ -66,13 +66,10 @@ def declare_parameters(node: Any) -> dict[str, Any]:
 
 
 def overrides_from_file(path: str) -> list[Any]:
-    """rclpy Parameters from a parameters file (for tests and the in-process demo)."""
+    """rclpy Parameters from a parameters file, read and validated by
+    :func:`~steer_monitor.params.load_params_file` (for tests and the in-process demo)."""
     from rclpy.parameter import Parameter
 
-    from steer_monitor.params import NODE_NAME, _flatten  # noqa: PLC2701
-    import yaml
+    from steer_monitor.params import load_params_file
 
-    with open(path, encoding='utf-8') as fh:
-        doc = yaml.safe_load(fh)
-    flat = _flatten(doc[NODE_NAME]['ros__parameters'])
-    return [Parameter(name, value=value) for name, value in flat.items()]
+    return [Parameter(name, value=value) for name, value in load_params_file(path).items()]
