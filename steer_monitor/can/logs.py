@@ -135,7 +135,6 @@ class LogWriter:
         self.path = Path(path)
         self.suffix = _suffix(self.path, WRITE_SUFFIXES)
         self.channel = channel
-        self.count = 0
         self._closed = False
         try:
             if self.suffix == '.log':
@@ -164,7 +163,6 @@ class LogWriter:
             m = message_from_frame(frame)
             m.channel = self.channel
             self._fh.on_message_received(m)
-        self.count += 1
 
     def close(self) -> None:
         if self._closed:

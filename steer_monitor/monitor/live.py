@@ -75,7 +75,6 @@ class LiveState:
 class _Signal:
     last_t_ns: int | None = None
     last_value: float = math.nan
-    count: int = 0
     arrivals: deque = field(default_factory=deque)
 
 
@@ -90,8 +89,7 @@ class LiveMonitor:
         self.gaps_interval: dict[str, tuple[float, float | None]] | None = None
         self.priors = priors or FrictionParams()
         self.signals: dict[str, _Signal] = {name: _Signal() for name in INPUTS}
-        self._angles: deque[tuple[int, float]] = deque()
-        self._history: deque[tuple[int, float]] = deque()   # about 1 s of angles, for the residual
+        self._history: deque[tuple[int, float]] = deque()   # the last 0.9 s of angles
         self._pending: deque[tuple[int, float, float]] = deque()  # (t, ram 1 force, ram 2 force)
         self._pressures = [math.nan] * 4
         self._dirty = False
@@ -100,7 +98,6 @@ class LiveMonitor:
         self.residuals: deque[float] = deque(maxlen=RESIDUAL_SAMPLES)
         self._hard_over: tuple[float, int] | None = None  # (side, time last at hard over)
         self.hard_over_s: float | None = None
-        self.hard_over_t_ns: int | None = None
         self.response: Response | None = None
         self._last_order: float | None = None
 
@@ -116,7 +113,6 @@ class LiveMonitor:
         newest sample; the residual and the performance trackers see every sample."""
         sig = self.signals[sample.signal]
         sig.last_t_ns, sig.last_value = sample.t_ns, sample.value
-        sig.count += 1
         sig.arrivals.append(sample.t_ns)
         while sig.arrivals and sig.arrivals[0] < sample.t_ns - RATE_WINDOW_NS:
             sig.arrivals.popleft()
@@ -173,15 +169,12 @@ class LiveMonitor:
         return sum((t - mean_t) * (a - mean_a) for t, (_, a) in zip(ts, points)) / sxx
 
     def _on_angle(self, t_ns: int, alpha: float) -> None:
-        self._angles.append((t_ns, alpha))
-        while self._angles and self._angles[0][0] < t_ns - SLOPE_WINDOW_NS:
-            self._angles.popleft()
-        slope = self._slope(self._angles)
-        if slope is not None:
-            self.rate = slope
         self._history.append((t_ns, alpha))
         while self._history and self._history[0][0] < t_ns - 3 * HALF_WINDOW_NS:
             self._history.popleft()
+        slope = self._slope([p for p in self._history if p[0] >= t_ns - SLOPE_WINDOW_NS])
+        if slope is not None:
+            self.rate = slope
         if self._pending and self._pending[0][0] <= t_ns - HALF_WINDOW_NS:
             self._residuals_until(t_ns - HALF_WINDOW_NS)
         self._track_hard_over(t_ns, alpha)
@@ -235,7 +228,6 @@ class LiveMonitor:
             side, t_leave = self._hard_over
             if side * deg <= -OTHER_SIDE_DEG:
                 self.hard_over_s = (t_ns - t_leave) / 1e9
-                self.hard_over_t_ns = t_ns
                 self._hard_over = None
 
     def _on_order(self, t_ns: int, order: float) -> None:

@@ -90,7 +90,6 @@ class MonitorNode(Node):
         self._last_publish = 0
         self.latencies_ns: deque[int] = deque(maxlen=LATENCY_WINDOW)
         self.frames_received = 0
-        self.frames_processed = 0
         self._stop = threading.Event()
         interface, channel = p['can.interface'], p['can.channel']
         opener = bus_opener or (lambda: ListenOnlyBus(interface, channel, p['can.bitrate']))
@@ -149,7 +148,6 @@ class MonitorNode(Node):
                         with self._lock:
                             for sample in samples:
                                 monitor.update(sample)
-                    self.frames_processed += 1
                     self._unpublished.append(received)
                 if self._unpublished and received - self._last_publish >= PUBLISH_PERIOD_NS:
                     self._flush_state(received)
