@@ -34,7 +34,6 @@ def main(seconds: float = SECONDS, record: bool = True) -> dict:
     import can
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
-    from rclpy.parameter import Parameter
 
     from steer_monitor import sim
     from steer_monitor.can.setup import can_setup
@@ -56,10 +55,9 @@ def main(seconds: float = SECONDS, record: bool = True) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         context = rclpy.Context()
         rclpy.init(context=context)
-        node = MonitorNode(parameter_overrides=overrides_from_file(str(config)) + [
-            Parameter('can.interface', value='virtual'), Parameter('can.channel', value=channel),
-            Parameter('recording.directory', value=tmp), Parameter('recording.enabled', value=record)],
-            context=context)
+        node = MonitorNode(parameter_overrides=overrides_from_file(str(config), {
+            'can.interface': 'virtual', 'can.channel': channel,
+            'recording.directory': tmp, 'recording.enabled': record}), context=context)
         executor = SingleThreadedExecutor(context=context)
         executor.add_node(node)
         spinner = threading.Thread(target=executor.spin, daemon=True)

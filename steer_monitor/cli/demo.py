@@ -32,7 +32,6 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: 
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.executors import SingleThreadedExecutor
-    from rclpy.parameter import Parameter
 
     from steer_monitor import sim
     from steer_monitor.can.setup import can_setup
@@ -62,9 +61,9 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: 
               f'true gaps 2Z 0.600 mm, Z_gb 0.250 mm\n\n')
     context = rclpy.Context()
     rclpy.init(context=context)
-    overrides = overrides_from_file(str(config_path)) + [
-        Parameter('can.interface', value='virtual'), Parameter('can.channel', value=channel),
-        Parameter('recording.directory', value=str(record_dir)), Parameter('recording.enabled', value=True)]
+    overrides = overrides_from_file(str(config_path), {
+        'can.interface': 'virtual', 'can.channel': channel,
+        'recording.directory': str(record_dir), 'recording.enabled': True})
     node = MonitorNode(parameter_overrides=overrides, context=context, config_path=str(config_path))
     listener = rclpy.create_node('steer_monitor_demo_listener', context=context)
     seen: dict[str, int] = {}

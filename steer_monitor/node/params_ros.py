@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 from steer_monitor.errors import ParameterError
@@ -65,11 +66,13 @@ def declare_parameters(node: Any) -> dict[str, Any]:
     return validate_params(values)
 
 
-def overrides_from_file(path: str) -> list[Any]:
-    """rclpy Parameters from a parameters file, read and validated by
-    :func:`~steer_monitor.params.load_params_file` (for tests and the in-process demo)."""
+def overrides_from_file(path: str, extra: Mapping[str, Any] | None = None) -> list[Any]:
+    """rclpy Parameters from a parameters file with ``extra`` dotted overrides on top, the
+    whole set validated (for tests, benchmarks and the in-process demo)."""
     from rclpy.parameter import Parameter
 
     from steer_monitor.params import load_params_file
 
-    return [Parameter(name, value=value) for name, value in load_params_file(path).items()]
+    values = load_params_file(path)
+    values.update(extra or {})
+    return [Parameter(name, value=value) for name, value in validate_params(values).items()]

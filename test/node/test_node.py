@@ -30,7 +30,6 @@ class Harness:
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
         from rclpy.executors import SingleThreadedExecutor
-        from rclpy.parameter import Parameter
         from std_msgs.msg import Float64MultiArray
 
         from steer_monitor.node.monitor_node import MonitorNode
@@ -38,9 +37,8 @@ class Harness:
 
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
-        overrides = overrides_from_file(str(R18_YAML)) + [
-            Parameter('can.interface', value='virtual'), Parameter('can.channel', value=channel),
-            Parameter('recording.directory', value=str(tmp))]
+        overrides = overrides_from_file(str(R18_YAML), {
+            'can.interface': 'virtual', 'can.channel': channel, 'recording.directory': str(tmp)})
         self.node = MonitorNode(parameter_overrides=overrides, context=self.context)
         self.listener = rclpy.create_node('diag_listener', context=self.context)
         self.diags: list = []
