@@ -13,8 +13,8 @@ import numpy as np
 from steer_monitor.cli.output import dump_json, table
 from steer_monitor.errors import ParameterError
 from steer_monitor.model.gear import Gaps, GearParams
-from steer_monitor.model.loadshare import load_sharing_at
-from steer_monitor.model.study import landmarks
+from steer_monitor.model.loadshare import LoadSharing, load_sharing_at
+from steer_monitor.model.study import Landmarks, landmarks
 from steer_monitor.params import gaps_from_params, gear_from_params, load_params_file
 from steer_monitor.resources import default_config
 
@@ -30,8 +30,9 @@ def _deg_or_none(x: float | None) -> float | None:
 
 
 def loadshare_rows(gear: GearParams, gaps: Gaps, speed_kn: float | None = None,
-                   step_deg: float = 0.5) -> dict[str, Any]:
-    """The sweep 0..max rudder angle as rows (engineers' units) plus its landmarks."""
+                   step_deg: float = 0.5) -> tuple[dict[str, Any], tuple[Any, LoadSharing, Landmarks]]:
+    """The sweep 0..max rudder angle as rows (engineers' units) plus its landmarks, and the
+    sweep itself (angles [rad], load sharing, landmarks) for plotting."""
     if not (math.isfinite(step_deg) and 0 < step_deg <= 5):
         msg = f'--step-deg must lie in (0, 5], got {step_deg!r}'
         raise ParameterError(msg)
@@ -61,8 +62,7 @@ def loadshare_rows(gear: GearParams, gaps: Gaps, speed_kn: float | None = None,
             'clamp_onset_deg': _deg_or_none(marks.clamp_onset),
         },
         'rows': rows,
-        '_sweep': (alpha, res, marks),
-    }
+    }, (alpha, res, marks)
 
 
 def run(config: str | Path | None = None, gap_2z_mm: float | None = None,
@@ -75,8 +75,7 @@ def run(config: str | Path | None = None, gap_2z_mm: float | None = None,
     configured = gaps_from_params(params)
     gaps = Gaps.from_mm(configured.two_z * 1e3 if gap_2z_mm is None else gap_2z_mm,
                         configured.z_gb * 1e3 if gap_zgb_mm is None else gap_zgb_mm)
-    s = loadshare_rows(gear, gaps, speed_kn, step_deg)
-    alpha, res, marks = s.pop('_sweep')
+    s, (alpha, res, marks) = loadshare_rows(gear, gaps, speed_kn, step_deg)
     if plot is not None:
         from steer_monitor.plots import plot_load_sharing
         title = (f"{params['gear.name']}: 2Z = {s['gap_2z_mm']:.3f} mm, "

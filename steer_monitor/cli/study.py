@@ -54,8 +54,7 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None,
               f"[2Z] = {params['clearances.limit_2z_mm']:.3f} mm, [Z_gb] = {params['clearances.limit_zgb_mm']:.3f} mm\n\n")
 
     limits = Gaps.from_mm(params['clearances.limit_2z_mm'], params['clearances.limit_zgb_mm'])
-    sweep = loadshare_rows(gear, limits, None, 0.5)
-    alpha, res, marks = sweep.pop('_sweep')
+    sweep, (alpha, res, marks) = loadshare_rows(gear, limits, None, 0.5)
     summary['loadshare_at_limits'] = sweep
     out.write('Load sharing at the wear limits (one ram, service speed):\n')
     table(['alpha deg', 'M kN m', 'Fl kN', 'Fr kN', 'Fgb kN', 'K_gl', 'case'],
