@@ -1,0 +1,178 @@
+"""``steer-monitor analyze LOG --config CFG --json OUT [--report OUT.html]``: estimate the
+clearances from a log, find what the declared model lacks, and say how sure that is.
+
+The JSON (units in the key names; intervals are 95 %, ``hi`` null when the data only bound
+a value from below)::
+
+    clearance_2z_mm, clearance_zgb_mm      {"value", "ci95": [lo, hi]}   (final model)
+    k_gl_max                               {"value", "ci95": [lo, hi]}
+    seal_friction_n, mu_bushing, mu_guide  {"value", "ci95": [lo, hi]}
+    effect                                 {"name", "params": {...}} or null
+    verdict                                "declared" | "effect" | "unexplained"
+    message                                one sentence
+    rmse_before_kn, rmse_after_kn          ram-force residual RMS, declared / final
+    rmse_before_bar, rmse_after_bar        the same in bar of cylinder pressure
+    systematic_before_bar, systematic_after_bar, noise_bar   the residual's smooth part and
+                                           its sensor-noise part
+    declared                               the declared model's estimates (before the effect)
+    screening                              every candidate: held-out gain, BIC change
+    torque_curve_knm                       [[deg, kN m, half-width of the 95 % band], ...]
+    data                                   log, frames, span, steady-motion rows, max angle
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any, TextIO
+
+from steer_monitor.can.decoder import Decoder
+from steer_monitor.can.logs import read_log_arrays
+from steer_monitor.can.rejects import RejectCounter
+from steer_monitor.can.setup import can_setup
+from steer_monitor.cli.output import dump_json
+from steer_monitor.estimate.analyze import Analysis, analyze
+from steer_monitor.estimate.batch import ClearanceEstimate
+from steer_monitor.estimate.intervals import Interval
+from steer_monitor.model.fits import parse_fit
+from steer_monitor.params import gear_from_params, load_params_file
+from steer_monitor.resources import default_config
+
+__all__ = ['analysis_json', 'analyze_log', 'register', 'run']
+
+
+def _iv(iv: Interval, k: float = 1.0, digits: int = 4) -> dict[str, Any]:
+    return iv.scaled(k, digits)
+
+
+def _estimate_json(e: ClearanceEstimate) -> dict[str, Any]:
+    bar = e.ram_area * 1e5
+    return {
+        'clearance_2z_mm': _iv(e.two_z, 1e3),
+        'clearance_zgb_mm': _iv(e.z_gb, 1e3),
+        'k_gl_max': _iv(e.k_gl_max, 1.0, 3),
+        'seal_friction_n': _iv(e.seal_friction, 1.0, 0),
+        'mu_bushing': _iv(e.mu_bushing, 1.0, 4),
+        'mu_guide': _iv(e.mu_guide, 1.0, 4),
+        'rmse_kn': round(e.rms / 1e3, 4),
+        'rmse_bar': round(e.rms / bar, 4),
+        'systematic_bar': round(e.smooth_rms / bar, 4),
+        'noise_bar': round(e.noise_rms / bar, 4),
+        'variance_inflation': round(e.inflation, 2),
+        'rows': e.rows,
+    }
+
+
+def analysis_json(a: Analysis) -> dict[str, Any]:
+    """The JSON answer (see the module docstring)."""
+    d, f = a.declared, a.final
+    bar = f.ram_area * 1e5
+    effect = None
+    if a.effect is not None:
+        params: dict[str, Any] = {}
+        for k, v in a.params.items():
+            if isinstance(v, str):
+                params[k] = v
+            elif v.lo is None and v.hi is None:
+                params[k] = round(v.value, 6)
+            else:
+                params[k] = _iv(v, 1.0, 6)
+        effect = {'name': a.effect, 'params': params}
+    angles, torque, band = f.torque_curve
+    return {
+        'clearance_2z_mm': _iv(f.two_z, 1e3),
+        'clearance_zgb_mm': _iv(f.z_gb, 1e3),
+        'k_gl_max': _iv(f.k_gl_max, 1.0, 3),
+        'seal_friction_n': _iv(f.seal_friction, 1.0, 0),
+        'mu_bushing': _iv(f.mu_bushing, 1.0, 4),
+        'mu_guide': _iv(f.mu_guide, 1.0, 4),
+        'effect': effect,
+        'verdict': a.verdict,
+        'message': a.message,
+        'rmse_before_kn': round(d.rms / 1e3, 4),
+        'rmse_after_kn': round(f.rms / 1e3, 4),
+        'rmse_before_bar': round(d.rms / bar, 4),
+        'rmse_after_bar': round(f.rms / bar, 4),
+        'systematic_before_bar': round(d.smooth_rms / bar, 4),
+        'systematic_after_bar': round(f.smooth_rms / bar, 4),
+        'noise_bar': round(f.noise_rms / bar, 4),
+        'declared': _estimate_json(d),
+        'final': _estimate_json(f),
+        'screening': [{'name': s.name, 'fixed': s.fixed, 'held_out_gain': round(s.cv_gain, 4),
+                       'delta_bic': round(s.delta_bic, 1), 'rmse_bar': round(s.rms / bar, 4),
+                       'passes': s.passes} for s in a.screening],
+        'torque_curve_knm': [[round(math.degrees(x), 2), round(t / 1e3, 2), round(b / 1e3, 2)]
+                             for x, t, b in zip(angles, torque, band)],
+        'max_angle_seen_deg': round(math.degrees(f.max_angle_seen), 2),
+    }
+
+
+def analyze_log(path: str | Path, config: str | Path | None = None, progress: bool = False) -> tuple[Analysis, dict[str, Any]]:
+    config_path = Path(config) if config else default_config()
+    params = load_params_file(config_path)
+    db, smap = can_setup(params, config_path)
+    gear = gear_from_params(params)
+    rejects = RejectCounter()
+    fa = read_log_arrays(path, rejects)
+    signals = Decoder(db, smap, rejects).decode_arrays(fa)
+    say = (lambda msg: print(f'  {msg} ...', file=sys.stderr)) if progress else None
+    a = analyze(gear, signals, min_clearance_2z=max(parse_fit(params['clearances.new_fit']).clearance.minimum, 0.0),
+                progress=say)
+    out = analysis_json(a)
+    out['data'] = {'log': str(path), 'frames': len(fa),
+                   'span_s': float((fa.t_ns.max() - fa.t_ns.min()) / 1e9) if len(fa) else 0.0,
+                   'rejects': dict(sorted(rejects.snapshot().counts.items())),
+                   'config': str(config_path)}
+    return a, out
+
+
+def run(path: str | Path, config: str | Path | None = None, json_out: str | Path | None = None,
+        report: str | Path | None = None, out: TextIO | None = None) -> int:
+    out = out or sys.stdout
+    t0 = time.perf_counter()
+    a, result = analyze_log(path, config, progress=sys.stderr.isatty())
+    result['analysis_s'] = round(time.perf_counter() - t0, 2)
+    if json_out is not None:
+        if str(json_out) == '-':
+            dump_json(result, out)
+        else:
+            with open(json_out, 'w', encoding='utf-8') as fh:
+                dump_json(result, fh)
+    if report is not None:
+        from steer_monitor.report.analysis import write_analysis_report
+        write_analysis_report(a, result, report)
+    if json_out is None or str(json_out) != '-':
+        _summary(result, out)
+    return 0
+
+
+def _fmt(d: dict[str, Any], unit: str) -> str:
+    lo, hi = d['ci95']
+    return (f"{d['value']} {unit}  [{'-' if lo is None else lo} .. "
+            f"{'unbounded' if hi is None else hi}]")
+
+
+def _summary(r: dict[str, Any], out: TextIO) -> None:
+    out.write(f"2Z      {_fmt(r['clearance_2z_mm'], 'mm')}\n")
+    out.write(f"Z_gb    {_fmt(r['clearance_zgb_mm'], 'mm')}\n")
+    out.write(f"K_gl max {_fmt(r['k_gl_max'], '')}\n")
+    out.write(f"F_s {_fmt(r['seal_friction_n'], 'N')};  mu_b {_fmt(r['mu_bushing'], '')};  "
+              f"mu_g {_fmt(r['mu_guide'], '')}\n")
+    out.write(f"{r['message']}\n")
+    if r['clearance_2z_mm']['ci95'][1] is None:
+        out.write('2Z: the ram never clamped in its bushing at the loads seen; the data only bound it from below\n')
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser('analyze', help='estimate the clearances from a log and test the residual',
+                       description='Fit the declared model to a CAN log (.log, .asc, .blf, .mcap), profile '
+                                   'the clearances with 95 %% intervals, test the residual against the '
+                                   'library of candidate effects and refit with the one the data support.')
+    p.add_argument('log', help='the log file')
+    p.add_argument('--config', help='ROS 2 parameters file (default: packaged R-18)')
+    p.add_argument('--json', dest='json_out', metavar='OUT', help="write the JSON answer here ('-': stdout)")
+    p.add_argument('--report', metavar='OUT.html', help='write a self-contained HTML report')
+    p.set_defaults(handler=lambda a: run(a.log, a.config, a.json_out, a.report))

@@ -1,0 +1,250 @@
+"""The residual loop over a whole log: fit the declared model, test the residual against the
+library of candidate effects, add the one the data support, refit, and say what is left.
+
+Selection guards against overfitting twice: a candidate must lower the *held-out* error
+(two-fold cross-validation over alternate minutes of the log: fit on one half, score on the
+other, and back) by at least ``MIN_CV_GAIN`` and lower the Bayesian information criterion
+computed with the effective sample size (rows / variance inflation) by at least
+``MIN_BIC_DROP``. Among those the largest held-out gain wins. It is then adopted only if it
+*explains* the residual: afterwards the residual's smooth part (its autocovariance at 200 ms,
+what sensor noise cannot make) is at most ``EXPLAINED_RATIO`` of its noise part. Otherwise
+the answer is "unexplained": the declared estimate stands and the report says which
+candidate came closest and what it left.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from steer_monitor.can.decoder import Series
+from steer_monitor.can.signals import PRESSURE_INPUTS
+from steer_monitor.estimate import fit as F
+from steer_monitor.estimate.batch import ClearanceEstimate, Rows, estimate_clearances, make_rows
+from steer_monitor.estimate.effects import Candidate, candidates, low_side_offsets, z_columns
+from steer_monitor.estimate.intervals import Interval
+from steer_monitor.estimate.observe import Observations, build_observations
+from steer_monitor.model.gear import GearParams
+
+__all__ = ['EXPLAINED_RATIO', 'MIN_BIC_DROP', 'MIN_CV_GAIN', 'Analysis', 'Screening', 'analyze',
+           'grid_2z_from']
+
+MIN_CV_GAIN = 0.10       # held-out mean square must fall by 10 % (RMS by ~5 %)
+MIN_BIC_DROP = 10.0      # "very strong" evidence on the effective sample size
+EXPLAINED_RATIO = 0.5    # smooth residual RMS at most half the sensor-noise RMS
+BLOCK_NS = 60_000_000_000
+
+
+@dataclass(frozen=True)
+class Screening:
+    """One candidate's score: held-out gain (1 - MSE_cv / MSE_cv declared), BIC change,
+    in-sample RMS [N], and the clearances at its coarse optimum [m]."""
+
+    name: str
+    fixed: dict[str, float]
+    cv_gain: float
+    delta_bic: float
+    rms: float
+    two_z: float
+    z_gb: float
+
+    @property
+    def passes(self) -> bool:
+        return self.cv_gain >= MIN_CV_GAIN and self.delta_bic <= -MIN_BIC_DROP
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """The outcome of :func:`analyze`.
+
+    Attributes:
+        declared: the estimate under the declared model.
+        final: the estimate with the adopted effect (``declared`` when none).
+        effect: name of the adopted effect, or None; params: its parameters (engineers'
+            units, see :mod:`~steer_monitor.estimate.effects`) with intervals.
+        verdict: 'declared' (the declared model explains the data to the sensor noise),
+            'effect' (an effect was adopted), 'unexplained' (a systematic residual remains
+            that nothing in the library explains).
+        message: one plain sentence saying so.
+        screening: every candidate's score, best first.
+        closest: the candidate that came closest when the verdict is 'unexplained'.
+        observations: the aligned data (for reports).
+    """
+
+    declared: ClearanceEstimate
+    final: ClearanceEstimate
+    effect: str | None
+    params: dict[str, Interval | str]
+    verdict: str
+    message: str
+    screening: list[Screening]
+    closest: Screening | None
+    observations: Observations = field(repr=False)
+    final_observations: Observations = field(repr=False)
+
+
+def grid_2z_from(min_clearance: float) -> NDArray[np.float64]:
+    """The 2Z grid from the new fit's smallest clearance (wear only opens a fit) up."""
+    return F.GRID_2Z[F.GRID_2Z >= min_clearance - 1e-12]
+
+
+def _halves(obs: Observations) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    block = (obs.t_ns // BLOCK_NS) % 2 == 0
+    return block, ~block
+
+
+def _cv_mse(gear: GearParams, basis: F.TorqueBasis, parts: tuple[Rows, Rows], coef_torque: NDArray,
+            two_z: float, z_gb: float, extra: tuple[F.Column, ...]) -> float:
+    """Held-out mean square: fit on each half at the given clearances, score on the other."""
+    total = 0.0
+    rows = 0.0
+    for fit_on, score_on in ((parts[0], parts[1]), (parts[1], parts[0])):
+        m_fit, m_score = fit_on.moments, score_on.moments
+        if m_fit.samples < 50 or m_score.samples < 50:
+            continue
+        coef = F.fit_at(gear, basis, m_fit, two_z, z_gb, F.axial_load(gear, basis, m_fit, coef_torque), extra).coef
+        xtx, xty, yty, _ = F.normal_equations(gear, basis, m_score, two_z, z_gb,
+                                              F.axial_load(gear, basis, m_score, coef_torque), extra)
+        total += float(yty - 2 * coef @ xty + coef @ xtx @ coef)
+        rows += m_score.samples
+    return total / rows if rows else math.nan
+
+
+def _score(gear: GearParams, basis: F.TorqueBasis, rows: Rows, parts: tuple[Rows, Rows], coef_torque: NDArray,
+           extra: tuple[F.Column, ...], grid_2z: NDArray) -> tuple[float, float, float, float, float, int]:
+    """(in-sample RSS, rows, held-out MSE, 2Z, Z_gb) at the candidate's coarse optimum."""
+    mom = rows.moments
+    load = F.axial_load(gear, basis, mom, coef_torque)
+    pr = F.profile(gear, basis, mom, load, extra, grid_2z[::3], F.GRID_ZGB[::3])
+    i, j = pr.best
+    tz, zg = float(pr.two_z[i]), float(pr.z_gb[j])
+    cv = _cv_mse(gear, basis, parts, coef_torque, tz, zg, extra)
+    return float(pr.rss[i, j]), mom.samples, cv, tz, zg, pr.p
+
+
+def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z: float = 0.0,
+            progress: Callable[[str], None] | None = None) -> Analysis:
+    """Fit, screen, adopt or not, refit (see the module docstring). Pure."""
+    say = progress or (lambda _msg: None)
+    grid_2z = grid_2z_from(min_clearance_2z)
+    obs = build_observations(signals, gear.ram_area)
+    z = z_columns(obs, gear)
+    rows = make_rows(obs, z)
+    say('declared model')
+    declared = estimate_clearances(gear, obs, rows, grid_2z=grid_2z)
+    basis = F.TorqueBasis(gear.max_rudder)
+    coef_t = declared.fit.coef[:basis.size]
+    a_half, b_half = _halves(obs)
+    parts = (make_rows(obs, z, a_half), make_rows(obs, z, b_half))
+    rss0, n0, cv0, _, _, p0 = _score(gear, basis, rows, parts, coef_t, (), grid_2z)
+    n_eff = n0 / declared.inflation
+    seal, mu_b, mu_g = (declared.fit.get(k) for k in ('seal_friction_n', 'mu_bushing', 'mu_guide'))
+    screened: list[tuple[Screening, Candidate]] = []
+    delays: list[tuple[float, Candidate, Observations, Rows]] = []
+    for cand in candidates(z, (seal, mu_b, mu_g)):
+        if cand.angle_shift_s:
+            o = build_observations(signals, gear.ram_area, angle_shift_s=cand.angle_shift_s)
+            r = make_rows(o, z_columns(o, gear))
+            f = F.fit_at(gear, basis, r.moments, declared.two_z.value, declared.z_gb.value,
+                         F.axial_load(gear, basis, r.moments, coef_t))
+            delays.append((f.rss / f.n, cand, o, r))
+            continue
+        say(f'candidate {cand.name}')
+        rss, n, cv, tz, zg, p = _score(gear, basis, rows, parts, coef_t, cand.columns, grid_2z)
+        screened.append((_screening(cand, rss, n, cv, tz, zg, p, rss0, n0, cv0, p0, n_eff), cand))
+    delay_obs: dict[float, tuple[Observations, Rows]] = {}
+    if delays:
+        say('candidate angle_delay')
+        _, cand, o, r = min(delays, key=lambda d: d[0])
+        o_a, o_b = _halves(o)
+        zc = z_columns(o, gear)
+        rss, n, cv, tz, zg, p = _score(gear, basis, r, (make_rows(o, zc, o_a), make_rows(o, zc, o_b)),
+                                       coef_t, (), grid_2z)
+        screened.append((_screening(cand, rss, n, cv, tz, zg, p + 1, rss0, n0, cv0, p0, n_eff), cand))
+        delay_obs[cand.angle_shift_s] = (o, r)
+    screened = _best_per_name(screened)
+    screened.sort(key=lambda sc: -sc[0].cv_gain)
+    passing = [sc for sc in screened if sc[0].passes]
+    explained0 = declared.smooth_rms <= EXPLAINED_RATIO * declared.noise_rms
+    if not passing:
+        verdict = 'declared' if explained0 else 'unexplained'
+        closest = None if explained0 else (screened[0][0] if screened else None)
+        return Analysis(declared, declared, None, {}, verdict, _message(verdict, declared, None, closest),
+                        [s for s, _ in screened], closest, obs, obs)
+    best, cand = passing[0]
+    say(f'refit with {cand.name}')
+    if cand.angle_shift_s:
+        o, r = delay_obs[cand.angle_shift_s]
+        final = estimate_clearances(gear, o, r, grid_2z=grid_2z)
+        final_obs = o
+    else:
+        final = estimate_clearances(gear, obs, rows, cand.columns, grid_2z=grid_2z)
+        final_obs = obs
+    if final.smooth_rms > EXPLAINED_RATIO * final.noise_rms:
+        return Analysis(declared, declared, None, {}, 'unexplained',
+                        _message('unexplained', declared, final, best), [s for s, _ in screened], best, obs, obs)
+    params = _effect_params(cand, final, obs, declared)
+    return Analysis(declared, final, cand.name, params, 'effect', _message('effect', declared, final, best, cand.name),
+                    [s for s, _ in screened], None, obs, final_obs)
+
+
+def _screening(cand: Candidate, rss: float, n: float, cv: float, tz: float, zg: float, p: int,
+               rss0: float, n0: float, cv0: float, p0: int, n_eff: float) -> Screening:
+    mse, mse0 = rss / n, rss0 / n0
+    d_bic = n_eff * math.log(max(mse, 1e-300) / mse0) + (p - p0) * math.log(max(n_eff, 2.0))
+    gain = 1.0 - cv / cv0 if math.isfinite(cv) and cv0 > 0 else 0.0
+    return Screening(cand.name, dict(cand.fixed or {}), gain, d_bic, math.sqrt(mse), tz, zg)
+
+
+def _best_per_name(scored: list[tuple[Screening, Candidate]]) -> list[tuple[Screening, Candidate]]:
+    """Stribeck comes with several v_s: keep each name's best."""
+    best: dict[str, tuple[Screening, Candidate]] = {}
+    for sc in scored:
+        cur = best.get(sc[0].name)
+        if cur is None or sc[0].cv_gain > cur[0].cv_gain:
+            best[sc[0].name] = sc
+    return list(best.values())
+
+
+def _effect_params(cand: Candidate, final: ClearanceEstimate, obs: Observations,
+                   declared: ClearanceEstimate) -> dict[str, Interval | str]:
+    out: dict[str, Interval | str] = {}
+    for k, v in (cand.fixed or {}).items():
+        out[k] = Interval(v, None, None)
+    if cand.name == 'pressure_offset':
+        offs = low_side_offsets(obs, PRESSURE_INPUTS)
+        for ram, key in ((1, 'offset_ram1_n'), (2, 'offset_ram2_n')):
+            iv = final.extra[key]
+            k = 1.0 / final.ram_area / 1e5
+            out[f'offset_ram{ram}_bar'] = Interval(iv.value * k, iv.lo * k if iv.lo is not None else None,
+                                                   iv.hi * k if iv.hi is not None else None)
+        named = max(offs, key=lambda k: abs(offs[k]) if math.isfinite(offs[k]) else -1.0)
+        out['input'] = named
+        out['low_side_offset_bar'] = Interval(offs[named] / 1e5, None, None)
+        return out
+    if cand.name == 'temp_friction':
+        t_mean = float(np.nanmean(obs.oil_temp)) - 273.15
+        out['t_ref_c'] = Interval(t_mean, None, None)
+    for key, iv in final.extra.items():
+        out[key] = iv
+    return out
+
+
+def _message(verdict: str, declared: ClearanceEstimate, final: ClearanceEstimate | None,
+             best: Screening | None, name: str | None = None) -> str:
+    bar = 1e5 * declared.ram_area
+    if verdict == 'declared':
+        return (f'the declared model explains the data to the sensor noise: residual {declared.rms / bar:.2f} bar '
+                f'RMS, of which {declared.smooth_rms / bar:.2f} bar systematic; no effect added')
+    if verdict == 'effect' and final is not None:
+        return (f'added {name}: residual {declared.rms / bar:.2f} -> {final.rms / bar:.2f} bar RMS '
+                f'(systematic part {declared.smooth_rms / bar:.2f} -> {final.smooth_rms / bar:.2f} bar)')
+    text = (f'residual not explained: {declared.rms / bar:.2f} bar RMS with a systematic part of '
+            f'{declared.smooth_rms / bar:.2f} bar that no effect in the library explains')
+    if best is not None:
+        text += f' (closest: {best.name}, held-out error -{100 * best.cv_gain:.0f} %)'
+    return text

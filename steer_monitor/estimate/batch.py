@@ -1,0 +1,212 @@
+"""The clearance estimate over a whole log: the declared model (plus optional extra columns)
+fitted with the clearances profiled, honest 95 % intervals, residuals per sample.
+
+Steps: bin the steady-motion samples (:mod:`~steer_monitor.estimate.moments`); fit the
+torque curve with friction free in shape; profile the clearances with the friction features
+from that load; refit the load from the best fit and profile again (the load moves by well
+under 1 %); intervals from the profile (:mod:`~steer_monitor.estimate.intervals`) with the
+residuals' inflation factor; the friction parameters' intervals are the union, over the
+joint 95 % region of the clearances, of their conditional intervals.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from steer_monitor.estimate import fit as F
+from steer_monitor.estimate.intervals import CHI2_1_95, CHI2_2_95, Interval, inflation, profile_interval
+from steer_monitor.estimate.moments import Moments, rows_from_observations
+from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations
+from steer_monitor.model.gear import GearParams
+from steer_monitor.model.loadshare import load_sharing
+
+__all__ = ['MIN_MOTION_SAMPLES', 'ClearanceEstimate', 'Rows', 'estimate_clearances', 'make_rows',
+           'residual_parts']
+
+MIN_MOTION_SAMPLES = 200     # rows (ram x instant) of steady motion: 5 s of moving rudder
+SMOOTH_LAG_STEPS = 4         # 200 ms: sensor noise is uncorrelated this far apart
+
+
+@dataclass(frozen=True)
+class Rows:
+    """Steady-motion rows (one per ram and instant) and their bins.
+
+    Attributes:
+        moments: the binned statistics.
+        bin_of_row: (r,) index into the moments' bins; u: (r, q) = [1, z.., y];
+        obs_index: (r,) the observation each row came from; ram: (r,) 0 or 1.
+    """
+
+    moments: Moments
+    bin_of_row: NDArray[np.intp]
+    u: NDArray[np.float64]
+    obs_index: NDArray[np.intp]
+    ram: NDArray[np.intp]
+
+
+def make_rows(obs: Observations, z: Mapping[str, NDArray[np.float64]] | None = None,
+              mask: NDArray[np.bool_] | None = None) -> Rows:
+    """Rows of the observations (optionally only where ``mask``), with z columns."""
+    z = dict(z or {})
+    speed_on_bus = bool(np.isfinite(obs.speed).any())
+    keep = obs.moving.copy()
+    if speed_on_bus:
+        keep &= np.isfinite(obs.speed)    # speed on the bus but missing here: skip the instant
+    for arr in z.values():
+        keep &= np.all(np.isfinite(arr), axis=1) if arr.ndim == 2 else np.isfinite(arr)
+    if mask is not None:
+        keep &= mask
+    sub = obs.select(keep)
+    zsub = {k: v[keep] for k, v in z.items()}
+    keys, aa, v2, u, idx = rows_from_observations(sub, zsub)
+    mom = Moments.from_rows(keys, aa, v2, u, tuple(z))
+    ram = np.nonzero(np.isfinite(sub.force) & sub.moving[:, None])[1]
+    return Rows(mom, np.searchsorted(mom.keys, keys), u, np.nonzero(keep)[0][idx], ram)
+
+
+@dataclass(frozen=True)
+class ClearanceEstimate:
+    """What the data say about the gear under one model.
+
+    Attributes (SI units):
+        two_z, z_gb: clearance intervals [m].
+        seal_friction [N], mu_bushing, mu_guide: friction parameters with intervals.
+        extra: extra-column coefficients with intervals, by name.
+        torque_curve: (angles [rad], torque [N m], half-width of its 95 % band [N m]) at the
+            service speed, over the observed angles.
+        k_gl_max: largest K_gl over the observed angles at the estimate (and its range over the
+            clearances' 95 % region).
+        rms: residual RMS per row [N]; rows: rows fitted; inflation: variance inflation.
+        noise_rms, smooth_rms: the residual split into sensor noise and its smooth
+            (systematic) part [N].
+        residual: (n, 2) per observation and ram [N], NaN where not fitted.
+        profile: the clearance profile.
+    """
+
+    two_z: Interval
+    z_gb: Interval
+    seal_friction: Interval
+    mu_bushing: Interval
+    mu_guide: Interval
+    extra: dict[str, Interval]
+    torque_curve: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+    k_gl_max: Interval
+    rms: float
+    rows: int
+    inflation: float
+    noise_rms: float
+    smooth_rms: float
+    residual: NDArray[np.float64] = field(repr=False)
+    profile: F.Profile = field(repr=False)
+    fit: F.FitAt = field(repr=False)
+    max_angle_seen: float = 0.0
+    ram_area: float = 1.0
+
+
+def residual_parts(resid: NDArray[np.float64], t_ns: NDArray[np.int64]) -> tuple[float, float]:
+    """(noise RMS, smooth RMS) of residuals (n, 2): the autocovariance at 200 ms (same ram,
+    both instants fitted) is the smooth part's variance; the rest is sensor noise."""
+    c0 = c4 = 0.0
+    n0 = n4 = 0
+    step = np.round((t_ns - (t_ns[0] if t_ns.size else 0)) / GRID_NS).astype(np.int64)
+    for k in range(resid.shape[1]):
+        r = resid[:, k]
+        ok = np.isfinite(r)
+        c0 += float(np.sum(r[ok] ** 2))
+        n0 += int(ok.sum())
+        j = np.searchsorted(step, step + SMOOTH_LAG_STEPS)
+        j = np.minimum(j, step.size - 1)
+        pair = ok & (step[j] == step + SMOOTH_LAG_STEPS) & ok[j]
+        c4 += float(np.sum(r[pair] * r[j[pair]]))
+        n4 += int(pair.sum())
+    if n0 == 0:
+        return math.nan, math.nan
+    var = c0 / n0
+    smooth = max(c4 / n4, 0.0) if n4 else 0.0
+    smooth = min(smooth, var)
+    return math.sqrt(var - smooth), math.sqrt(smooth)
+
+
+def _row_design(gear: GearParams, basis: F.TorqueBasis, rows: Rows, fitat: F.FitAt, two_z: float,
+                z_gb: float, load: NDArray[np.float64], extra: Sequence[F.Column]) -> NDArray[np.float64]:
+    """Predicted y per row [N]."""
+    mom = rows.moments
+    nb, fg = F.friction_features(gear, mom.abs_alpha, F.torque_of_load(gear, mom, load),
+                                 np.array([two_z]), np.array([z_gb]))
+    feats = {'n_b': nb[:, 0], 'f_gb': fg[:, 0], 'load': load}
+    cols, zs, _ = F.design_columns(gear, basis, mom, feats, extra)
+    x = cols[rows.bin_of_row] * rows.u[:, zs]
+    return x @ fitat.coef
+
+
+def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: Sequence[F.Column] = (),
+                        grid_2z: NDArray = F.GRID_2Z, grid_zgb: NDArray = F.GRID_ZGB,
+                        load: NDArray[np.float64] | None = None) -> ClearanceEstimate:
+    """Fit, profile and bound (see the module docstring)."""
+    mom = rows.moments
+    if mom.samples < MIN_MOTION_SAMPLES:
+        msg = (f'too little steady rudder motion to estimate the clearances: {int(mom.samples)} '
+               f'ram samples, need {MIN_MOTION_SAMPLES} (about 5 s of moving rudder)')
+        raise EstimateError(msg)
+    basis = F.TorqueBasis(gear.max_rudder)
+    if load is None:
+        load = F.axial_load(gear, basis, mom, F.torque_prefit(gear, basis, mom))
+        pr = F.profile(gear, basis, mom, load, extra, grid_2z[::3], grid_zgb[::3])
+        i, j = pr.best
+        first = F.fit_at(gear, basis, mom, pr.two_z[i], pr.z_gb[j], load, extra)
+        load = F.axial_load(gear, basis, mom, first.coef)
+    pr = F.profile(gear, basis, mom, load, extra, grid_2z, grid_zgb)
+    i, j = pr.best
+    tz, zg = float(pr.two_z[i]), float(pr.z_gb[j])
+    best = F.fit_at(gear, basis, mom, tz, zg, load, extra)
+    y = rows.u[:, -1]
+    pred = _row_design(gear, basis, rows, best, tz, zg, load, extra)
+    resid = np.full((len(obs), 2), np.nan)
+    resid[rows.obs_index, rows.ram] = y - pred
+    vif = inflation(resid[rows.obs_index], obs.t_ns[rows.obs_index], GRID_NS)
+    dof = max(best.n - best.coef.size, 1.0)
+    sigma2 = best.rss / dof
+    delta = (pr.rss - best.rss) / (sigma2 * vif)
+    two_z = profile_interval(pr.two_z, delta.min(axis=1))
+    z_gb = profile_interval(pr.z_gb, delta.min(axis=0))
+    region = np.argwhere(delta <= CHI2_2_95)
+    if region.shape[0] > 60:
+        region = region[np.linspace(0, region.shape[0] - 1, 60).round().astype(int)]
+    region_fits = [(float(pr.two_z[a]), float(pr.z_gb[b]),
+                    F.fit_at(gear, basis, mom, pr.two_z[a], pr.z_gb[b], load, extra)) for a, b in region]
+    region_fits.append((tz, zg, best))
+    coefs = {}
+    for name in best.names[basis.size:]:
+        k = best.names.index(name)
+        c = np.array([f.coef[k] for _, _, f in region_fits])
+        se = np.sqrt(np.maximum(np.array([f.cov_unscaled[k, k] for _, _, f in region_fits]), 0.0) * sigma2 * vif)
+        ok = np.isfinite(c) & np.isfinite(se)
+        coefs[name] = Interval(float(best.coef[k]), float(np.min((c - 1.96 * se)[ok])), float(np.max((c + 1.96 * se)[ok])))
+    max_seen = float(np.nanmax(np.abs(obs.alpha[rows.obs_index])))
+    angles = np.radians(np.arange(0.0, math.degrees(max_seen) + 1e-9, 0.5))
+    bmat = basis(angles)
+    tq = bmat @ best.coef[:basis.size]
+    cov_t = best.cov_unscaled[:basis.size, :basis.size] * sigma2 * vif
+    band = 1.96 * np.sqrt(np.maximum(np.einsum('ij,jk,ik->i', bmat, cov_t, bmat), 0.0))
+    kgl = [_k_gl_max(gear, angles, bmat @ f.coef[:basis.size], a, b) for a, b, f in region_fits]
+    k_best = _k_gl_max(gear, angles, tq, tz, zg)
+    noise, smooth = residual_parts(resid, obs.t_ns)
+    return ClearanceEstimate(
+        two_z=two_z, z_gb=z_gb,
+        seal_friction=coefs['seal_friction_n'], mu_bushing=coefs['mu_bushing'], mu_guide=coefs['mu_guide'],
+        extra={c.name: coefs[c.name] for c in extra},
+        torque_curve=(angles, tq, band), k_gl_max=Interval(k_best, min(kgl + [k_best]), max(kgl + [k_best])),
+        rms=math.sqrt(best.rss / best.n), rows=int(best.n), inflation=vif, noise_rms=noise, smooth_rms=smooth,
+        residual=resid, profile=pr, fit=best, max_angle_seen=max_seen, ram_area=gear.ram_area)
+
+
+def _k_gl_max(gear: GearParams, angles: NDArray, torque: NDArray, two_z: float, z_gb: float) -> float:
+    if angles.size == 0:
+        return 0.0
+    ls = load_sharing(gear, angles, np.maximum(torque, 0.0), two_z, z_gb)
+    return float(np.max(ls.k_gl))

@@ -1,0 +1,136 @@
+"""The library of candidate effects the declared model lacks (design doc section 6).
+
+Each candidate adds one or a few regressors to the declared model, a per-bin feature times a
+per-sample column (see :class:`~steer_monitor.estimate.fit.Column`), or, for the sensor
+delay, reads the angle later. Parameters are reported in the units an engineer would use
+(the same names the simulator takes for its effects):
+
+==================== ======================================================= ===============
+name                 what it adds to the ram force y                         parameters
+==================== ======================================================= ===============
+viscous              d c |v_ram|                                             c_ns_per_m
+stribeck             d F_st exp(-(|v_ram| / v_s)^2), v_s on a grid           f_st_n, v_s_mm_s
+pressure_friction    d k |y| (friction rising with the load: seal friction      k
+                     pushed by the driving pressure, or stock-bearing friction;
+                     the pressures cannot tell these two apart, since
+                     |y| = |Fa| +- F_fr and F_fr is already in the model)
+temp_friction        d k (T - T_mean) F_fr (friction rising with oil temp.)  k_per_k, t_ref_c
+pressure_offset      a constant per ram (a transducer reading off)           offset_bar per ram, input
+angle_delay          the angle read tau later                                tau_s
+ram_inertia          m a_ram (mass of ram, crosshead and oil)                mass_kg
+==================== ======================================================= ===============
+
+(d: direction of motion, v_ram: ram speed, a_ram: its acceleration, T: oil temperature.)
+Internal leakage and pump wear change the rudder's speed, not the pressure balance: the
+hard-over time shows them, not this residual.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from steer_monitor.estimate.fit import Column
+from steer_monitor.estimate.moments import Moments
+from steer_monitor.estimate.observe import GRID_NS, Observations
+from steer_monitor.model.gear import GearParams
+
+__all__ = ['CANDIDATES', 'DELAYS_S', 'STRIBECK_SPEEDS_MM_S', 'Candidate', 'candidates', 'low_side_offsets',
+           'z_columns']
+
+STRIBECK_SPEEDS_MM_S = (1.0, 2.0, 3.0, 5.0, 8.0)
+DELAYS_S = tuple(round(0.05 * k, 2) for k in range(1, 21))   # 0.05 .. 1.0 s
+CANDIDATES = ('viscous', 'stribeck', 'pressure_friction', 'temp_friction', 'pressure_offset',
+              'angle_delay', 'ram_inertia')
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One candidate (for stribeck: one of its v_s; for angle_delay: one tau)."""
+
+    name: str
+    columns: tuple[Column, ...] = ()
+    fixed: dict[str, float] | None = None     # parameters fixed by the candidate (v_s, tau)
+    angle_shift_s: float = 0.0
+
+
+def _ones(mom: Moments, feats: dict) -> NDArray[np.float64]:
+    return np.ones(len(mom))
+
+
+def _direction(mom: Moments, feats: dict) -> NDArray[np.float64]:
+    return mom.direction
+
+
+def _friction_feature(seal: float, mu_b: float, mu_g: float) -> Callable[[Moments, dict], NDArray[np.float64]]:
+    def feature(mom: Moments, feats: dict) -> NDArray[np.float64]:
+        return mom.direction * (seal + mu_b * feats['n_b'] + mu_g * feats['f_gb'])
+    feature.uses_clearances = True  # type: ignore[attr-defined]
+    return feature
+
+
+def z_columns(obs: Observations, gear: GearParams) -> dict[str, NDArray[np.float64]]:
+    """Per-sample columns the candidates multiply with (NaN where not available)."""
+    n = len(obs)
+    cos2 = np.cos(obs.alpha) ** 2
+    v_ram = gear.stock_to_ram / cos2 * np.abs(obs.rate)
+    z: dict[str, NDArray[np.float64]] = {
+        'ram1': np.tile([1.0, 0.0], (n, 1)),
+        'ram2': np.tile([0.0, 1.0], (n, 1)),
+        'v_ram': v_ram,
+        'abs_y': np.abs(obs.force),
+    }
+    for vs in STRIBECK_SPEEDS_MM_S:
+        z[f'stribeck_{vs:g}'] = np.exp(-(v_ram / (vs * 1e-3)) ** 2)
+    # ram acceleration along its axis: d/dt (H tan alpha)'' ~ H / cos^2 alpha * alpha''
+    rate = np.where(np.isfinite(obs.rate), obs.rate, np.nan)
+    acc = np.full(n, np.nan)
+    if n >= 3:
+        dt = GRID_NS / 1e9
+        acc[1:-1] = (rate[2:] - rate[:-2]) / (2 * dt)
+        steps = np.diff(obs.t_ns)
+        gap = np.zeros(n, bool)
+        gap[1:-1] = (steps[1:] != GRID_NS) | (steps[:-1] != GRID_NS)
+        acc[gap] = np.nan
+    z['accel'] = np.where(np.isfinite(acc), gear.stock_to_ram / cos2 * acc, 0.0)
+    if np.isfinite(obs.oil_temp).any():
+        z['dtemp'] = obs.oil_temp - float(np.nanmean(obs.oil_temp))
+    return z
+
+
+def candidates(z: dict[str, NDArray], declared: tuple[float, float, float]) -> list[Candidate]:
+    """Every candidate the data allow (temp_friction only with the oil temperature on the bus).
+    ``declared``: (F_s, mu_b, mu_g) of the declared fit, the shape temp_friction scales."""
+    out = [
+        Candidate('viscous', (Column('c_ns_per_m', 'v_ram', _direction),)),
+        Candidate('pressure_friction', (Column('k', 'abs_y', _direction),)),
+        Candidate('pressure_offset', (Column('offset_ram1_n', 'ram1', _ones), Column('offset_ram2_n', 'ram2', _ones))),
+        Candidate('ram_inertia', (Column('mass_kg', 'accel', _ones),)),
+    ]
+    for vs in STRIBECK_SPEEDS_MM_S:
+        out.append(Candidate('stribeck', (Column('f_st_n', f'stribeck_{vs:g}', _direction),),
+                             fixed={'v_s_mm_s': vs}))
+    if 'dtemp' in z:
+        out.append(Candidate('temp_friction', (Column('k_per_k', 'dtemp', _friction_feature(*declared)),)))
+    for tau in DELAYS_S:
+        out.append(Candidate('angle_delay', fixed={'tau_s': tau}, angle_shift_s=tau))
+    return out
+
+
+def low_side_offsets(obs: Observations, names: tuple[str, ...], margin: float = 5e5) -> dict[str, float]:
+    """Per transducer, its median reading while its chamber is the return side (the other
+    chamber of its ram at least ``margin`` Pa higher) minus the median of all four such
+    medians [Pa]. A transducer that reads off by a constant stands out here."""
+    p = obs.pressure
+    med = {}
+    for k, name in enumerate(names):
+        other = k ^ 1
+        low = np.isfinite(p[:, k]) & np.isfinite(p[:, other]) & (p[:, other] - p[:, k] > margin)
+        med[name] = float(np.median(p[low, k])) if low.sum() >= 20 else math.nan
+    finite = [v for v in med.values() if math.isfinite(v)]
+    ref = float(np.median(finite)) if finite else math.nan
+    return {k: v - ref for k, v in med.items()}

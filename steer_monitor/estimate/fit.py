@@ -1,0 +1,307 @@
+"""Least-squares fit of the declared observation model on binned statistics, with the
+clearances profiled on a grid (design doc section 4).
+
+Per ram, in steady motion (direction d = +-1):
+
+    y = A_r (p_stbd - p_port) = sign(alpha) Fa(alpha, V) + d (F_s + mu_b N_b + mu_g |F_gb|)
+    Fa = M(|alpha|) (V / V_s)^2 cos^2(alpha) / (n H)
+
+with the tiller torque M a cubic B-spline in |alpha| through (0, 0) (odd in alpha by the
+sign), and N_b = N_A + N_E, F_gb from the load-sharing solver at the clearances
+(2Z, Z_gb) and the load Fa. For fixed clearances the model is linear in the torque
+coefficients and in (F_s, mu_b, mu_g): :func:`fit_at` solves it by (lightly ridged)
+normal equations built from the bins' moment matrices, so its cost does not grow with the
+length of the log. The clearances enter through the kinks of N_b and F_gb (the angle
+where the guide beam takes load, the load where the ram clamps in its bushing) and are
+profiled over a grid; :func:`profile` keeps the residual sum of squares at every grid
+point for the likelihood-ratio intervals of :mod:`steer_monitor.estimate.intervals`.
+
+Extra columns (candidate effects, :mod:`steer_monitor.estimate.effects`) are products of a
+per-bin feature and one of the per-sample z columns of the moments.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.interpolate import BSpline
+
+from steer_monitor.estimate.moments import ANGLE_BIN, Moments
+from steer_monitor.model.friction import normal_forces
+from steer_monitor.model.gear import GearParams
+from steer_monitor.model.loadshare import load_sharing
+
+__all__ = ['GRID_2Z', 'GRID_ZGB', 'Column', 'FitAt', 'Profile', 'TorqueBasis', 'axial_load', 'design_columns', 'fit_at', 'normal_equations',
+           'friction_features', 'profile', 'torque_columns', 'torque_of_load', 'torque_prefit']
+
+DEG = math.pi / 180.0
+GRID_2Z = np.round(np.arange(0.0, 1.5001e-3, 0.02e-3), 9)    # m: 0 .. 1.5 mm
+GRID_ZGB = np.round(np.arange(0.0, 0.6001e-3, 0.005e-3), 9)  # m: 0 .. 0.6 mm
+RIDGE = 1e-6
+
+
+@dataclass(frozen=True)
+class TorqueBasis:
+    """Cubic B-spline basis in |alpha| with M(0) = 0, knots every 2.5 deg up to the gear's limit.
+    (Every 5 deg leaves a 0.4 bar systematic misfit of the R-18 curve that pulls Z_gb by
+    0.015 mm; every 2.5 deg fits it to within the sensor noise.)"""
+
+    max_angle: float
+
+    @property
+    def knots(self) -> NDArray[np.float64]:
+        inner = np.radians(np.arange(2.5, 90.0, 2.5))
+        inner = inner[inner < self.max_angle - 1e-9]
+        return np.concatenate([[0.0] * 4, inner, [self.max_angle] * 4])
+
+    @property
+    def size(self) -> int:
+        return self.knots.size - 4 - 1   # the first function (non-zero at 0) is dropped
+
+    def __call__(self, abs_alpha: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Design matrix (n, size) of M at |alpha| per unit coefficient [N m per N m]."""
+        x = np.clip(abs_alpha, 0.0, self.max_angle)
+        full = BSpline.design_matrix(x, self.knots, 3).toarray()
+        return full[:, 1:]
+
+    def torque(self, coef: NDArray[np.float64], abs_alpha: NDArray[np.float64]) -> NDArray[np.float64]:
+        return self(abs_alpha) @ coef
+
+
+@dataclass(frozen=True)
+class Column:
+    """An extra regressor: per-bin feature (of the bins and the friction features) times the
+    per-sample column ``z`` (a name of the moments' z columns, or '' for 1)."""
+
+    name: str
+    z: str
+    feature: Callable[[Moments, dict[str, NDArray[np.float64]]], NDArray[np.float64]]
+
+
+@dataclass(frozen=True)
+class FitAt:
+    """The linear fit at given clearances.
+
+    Attributes:
+        coef: torque coefficients [N m] then F_s [N], mu_b, mu_g, then extra columns.
+        rss: residual sum of squares [N^2]; n: rows; names: one per coefficient.
+        cov_unscaled: (X^T X + ridge)^-1.
+    """
+
+    coef: NDArray[np.float64]
+    rss: float
+    n: float
+    names: tuple[str, ...]
+    cov_unscaled: NDArray[np.float64]
+
+    def get(self, name: str) -> float:
+        return float(self.coef[self.names.index(name)])
+
+
+def _speed_factor(mom: Moments, service_speed: float) -> NDArray[np.float64]:
+    v2 = mom.speed_sq
+    return np.where(np.isfinite(v2), v2 / service_speed ** 2, 1.0)
+
+
+def torque_columns(gear: GearParams, basis: TorqueBasis, mom: Moments) -> NDArray[np.float64]:
+    """(B, k): signed axial force per unit torque coefficient, per bin [N per N m]."""
+    a = mom.abs_alpha
+    scale = mom.side * _speed_factor(mom, gear.torque.service_speed) * np.cos(a) ** 2 / (gear.rams * gear.stock_to_ram)
+    return basis(a) * scale[:, None]
+
+
+def axial_load(gear: GearParams, basis: TorqueBasis, mom: Moments, coef: NDArray[np.float64]) -> NDArray[np.float64]:
+    """|Fa| per bin [N] from torque coefficients."""
+    return np.abs(torque_columns(gear, basis, mom) @ coef[:basis.size])
+
+
+def friction_features(gear: GearParams, abs_alpha: NDArray[np.float64], torque: NDArray[np.float64],
+                      two_z: NDArray[np.float64], z_gb: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+    """(N_A + N_E, |F_gb|) [N] at angles (B,) and torques (B,) for clearances that broadcast
+    against (B, 1): shapes (B, G)."""
+    ls = load_sharing(gear, abs_alpha[:, None], torque[:, None], two_z, z_gb)
+    n_a, n_e = normal_forces(ls.r_a, ls.r_e, ls.m_a, gear.bushing_length)
+    return n_a + n_e, np.abs(ls.guide_force)
+
+
+def _smoothing(k_torque: int, p: int, xtx: NDArray) -> NDArray[np.float64]:
+    """Second-difference penalty on the torque coefficients, relative to their own scale: it
+    keeps unobserved stretches of the curve smooth and does not bend observed ones."""
+    r = np.zeros((p, p))
+    if k_torque >= 3:
+        d = np.diff(np.eye(k_torque), 2, axis=0)
+        r[:k_torque, :k_torque] = (d.T @ d) * RIDGE * float(np.mean(np.diag(xtx)[:k_torque]))
+    return r
+
+
+def _solve(xtx: NDArray, xty: NDArray, yty: float, smooth: NDArray) -> tuple[NDArray, float, NDArray]:
+    # and a relative ridge per column, so an unexcited column stays solvable
+    a = xtx + smooth + np.diag(RIDGE * np.diag(xtx) + 1e-300)
+    try:
+        inv = np.linalg.inv(a)
+    except np.linalg.LinAlgError:
+        inv = np.linalg.pinv(a)
+    coef = inv @ xty
+    rss = float(yty - 2 * coef @ xty + coef @ xtx @ coef)
+    return coef, max(rss, 0.0), inv
+
+
+def _design(fixed: NDArray, fixed_z: Sequence[int], mom: Moments) -> tuple[NDArray, NDArray]:
+    """X^T X and X^T y for columns fixed[:, a] * z[fixed_z[a]]."""
+    q = mom.m.shape[1]
+    zi = np.asarray(fixed_z)
+    mz = mom.m[:, zi][:, :, zi]                      # (B, p, p)
+    xtx = np.einsum('ba,bc,bac->ac', fixed, fixed, mz)
+    xty = np.einsum('ba,ba->a', fixed, mom.m[:, zi, q - 1])
+    return xtx, xty
+
+
+def fit_at(gear: GearParams, basis: TorqueBasis, mom: Moments, two_z: float, z_gb: float,
+           load: NDArray[np.float64], extra: Sequence[Column] = ()) -> FitAt:
+    """The declared model (plus ``extra`` columns) fitted at one pair of clearances.
+    ``load``: |Fa| per bin [N] for the friction features."""
+    xtx, xty, yty, names = normal_equations(gear, basis, mom, two_z, z_gb, load, extra)
+    coef, rss, inv = _solve(xtx, xty, yty, _smoothing(basis.size, len(names), xtx))
+    return FitAt(coef, rss, mom.samples, tuple(names), inv)
+
+
+def normal_equations(gear: GearParams, basis: TorqueBasis, mom: Moments, two_z: float, z_gb: float,
+                     load: NDArray[np.float64], extra: Sequence[Column] = ()
+                     ) -> tuple[NDArray, NDArray, float, list[str]]:
+    """(X^T X, X^T y, y^T y, column names) of the model at given clearances."""
+    nb, fg = friction_features(gear, mom.abs_alpha, torque_of_load(gear, mom, load), np.array([two_z]),
+                               np.array([z_gb]))
+    feats = {'n_b': nb[:, 0], 'f_gb': fg[:, 0], 'load': load}
+    cols, zs, names = design_columns(gear, basis, mom, feats, extra)
+    xtx, xty = _design(cols, zs, mom)
+    return xtx, xty, float(mom.m[:, -1, -1].sum()), names
+
+
+def torque_of_load(gear: GearParams, mom: Moments, load: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Tiller torque [N m] that gives the axial load ``load`` at each bin's angle (load sharing
+    takes the torque)."""
+    return load * gear.rams * gear.stock_to_ram / np.cos(mom.abs_alpha) ** 2
+
+
+def design_columns(gear: GearParams, basis: TorqueBasis, mom: Moments, feats: dict[str, NDArray],
+             extra: Sequence[Column]) -> tuple[NDArray, list[int], list[str]]:
+    d = mom.direction
+    tor = torque_columns(gear, basis, mom)
+    cols = [tor, d[:, None], (d * feats['n_b'])[:, None], (d * feats['f_gb'])[:, None]]
+    names = [f'torque_{i}' for i in range(basis.size)] + ['seal_friction_n', 'mu_bushing', 'mu_guide']
+    zs = [0] * (basis.size + 3)
+    for c in extra:
+        cols.append(c.feature(mom, feats)[:, None])
+        names.append(c.name)
+        zs.append(0 if not c.z else 1 + mom.z_names.index(c.z))
+    return np.concatenate(cols, axis=1), zs, names
+
+
+def torque_prefit(gear: GearParams, basis: TorqueBasis, mom: Moments) -> NDArray[np.float64]:
+    """Torque coefficients [N m] with friction left free in shape: d (F_0 + sum g_k |B_k|),
+    so the torque (the mean of the two directions) does not depend on the clearances."""
+    d = mom.direction
+    tor = torque_columns(gear, basis, mom)
+    cols = np.concatenate([tor, d[:, None], d[:, None] * np.abs(tor)], axis=1)
+    xtx, xty = _design(cols, [0] * cols.shape[1], mom)
+    yty = float(mom.m[:, -1, -1].sum())
+    coef, _, _ = _solve(xtx, xty, yty, _smoothing(basis.size, cols.shape[1], xtx))
+    return coef[:basis.size]
+
+
+@dataclass(frozen=True)
+class Profile:
+    """Residual sum of squares over the clearance grid.
+
+    Attributes:
+        two_z, z_gb: grid axes [m], shapes (I,), (J,).
+        rss: shape (I, J) [N^2]; n: rows; best: (i, j) of the minimum.
+    """
+
+    two_z: NDArray[np.float64]
+    z_gb: NDArray[np.float64]
+    rss: NDArray[np.float64]
+    n: float
+    p: int
+
+    @property
+    def best(self) -> tuple[int, int]:
+        i, j = np.unravel_index(int(np.argmin(self.rss)), self.rss.shape)
+        return int(i), int(j)
+
+
+def profile(gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray[np.float64],
+            extra: Sequence[Column] = (), grid_2z: NDArray = GRID_2Z, grid_zgb: NDArray = GRID_ZGB) -> Profile:
+    """RSS of the linear fit at every grid point. Vectorized over a row of 2Z at a time: the
+    clearance-independent blocks of X^T X are built once; per grid point only the two friction
+    columns (and extras built from them) change."""
+    nb_all_z = grid_2z.size
+    rss = np.empty((nb_all_z, grid_zgb.size))
+    torque = torque_of_load(gear, mom, load)
+    d = mom.direction
+    yty = float(mom.m[:, -1, -1].sum())
+    # columns that do not depend on the clearances
+    zero = {'n_b': np.zeros(len(mom)), 'f_gb': np.zeros(len(mom)), 'load': load}
+    base_cols, zs, names = design_columns(gear, basis, mom, zero, extra)
+    p = len(names)
+    dep = _dependent_columns(basis, names, extra)
+    xtx0, xty0 = _design(base_cols, zs, mom)
+    ridge = _smoothing(basis.size, p, xtx0)
+    q = mom.m.shape[1]
+    zi = np.asarray(zs)
+    mz_all = mom.m[:, :, zi]                         # (B, q, p): moments of every z with column zs
+    myz = mom.m[:, q - 1, :]                         # (B, q): y with each z
+    cell_alpha, cell_torque, cell_of_bin = _cells(mom, torque)
+    for i, tz in enumerate(grid_2z):
+        nb, fg = friction_features(gear, cell_alpha, cell_torque, np.array([tz]), grid_zgb[None, :])
+        nb, fg = nb[cell_of_bin], fg[cell_of_bin]
+        for j in range(grid_zgb.size):
+            feats = {'n_b': nb[:, j], 'f_gb': fg[:, j], 'load': load}
+            cols = base_cols.copy()
+            for a in dep:
+                cols[:, a] = _dep_value(a, names, basis, d, feats, mom, extra)
+            xtx = xtx0.copy()
+            xty = xty0.copy()
+            for a in dep:
+                za = zs[a]
+                # column a against every column c: sum_b x_a x_c m[z_a, z_c]
+                row = np.einsum('b,bc,bc->c', cols[:, a], cols, mz_all[:, za, :])
+                xtx[a, :] = row
+                xtx[:, a] = row
+                xty[a] = float(cols[:, a] @ myz[:, za])
+            _, r, _ = _solve(xtx, xty, yty, ridge)
+            rss[i, j] = r
+    return Profile(grid_2z, grid_zgb, rss, mom.samples, p)
+
+
+def _cells(mom: Moments, torque: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
+    """The friction features depend on |alpha| and the load only, not on the side or the
+    direction: evaluate them once per (angle bin, speed class) cell, at the cell's mean angle
+    and torque (count-weighted), and map back to the bins."""
+    cell_key = mom.keys >> 2
+    uk, inv = np.unique(cell_key, return_inverse=True)
+    w = np.bincount(inv, mom.count, minlength=uk.size)
+    a = np.bincount(inv, mom.sum_abs_alpha, minlength=uk.size) / w
+    t = np.bincount(inv, torque * mom.count, minlength=uk.size) / w
+    return a, t, inv
+
+
+def _dependent_columns(basis: TorqueBasis, names: Sequence[str], extra: Sequence[Column]) -> list[int]:
+    k = basis.size
+    dep = [k + 1, k + 2]
+    dep += [k + 3 + i for i, c in enumerate(extra) if getattr(c.feature, 'uses_clearances', False)]
+    return dep
+
+
+def _dep_value(a: int, names: Sequence[str], basis: TorqueBasis, d: NDArray, feats: dict,
+               mom: Moments, extra: Sequence[Column]) -> NDArray:
+    k = basis.size
+    if a == k + 1:
+        return d * feats['n_b']
+    if a == k + 2:
+        return d * feats['f_gb']
+    return extra[a - k - 3].feature(mom, feats)

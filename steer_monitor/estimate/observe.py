@@ -1,0 +1,181 @@
+"""Decoded streams to aligned observations of the declared model (design doc section 4).
+
+Real data brings sensors at different rates and phases, gaps, the rudder at rest and
+start/stop transients. This module puts everything on one clock and says, per instant,
+what the data can tell:
+
+* a uniform grid of ``GRID_NS`` (50 ms, the pressure rate) anchored at multiples of the
+  step since the epoch, so a log cut in pieces gives the same grid points as the whole;
+* every input interpolated linearly to the grid, valid only where the two bracketing
+  samples are close enough (``MAX_GAP_NS`` for fast inputs, a few periods for speed and
+  temperature); the angle is shifted by ``angle_shift_s`` on request (the delay candidate);
+* the rudder's direction of motion from least-squares slopes of the angle samples over
+  ``HALF_WINDOW_NS`` before and after each instant: +1/-1 only when both exceed
+  ``MOVING_RATE`` with the same sign (steady motion), 0 otherwise (at rest, starting,
+  stopping, reversing). Only steady-motion instants carry friction information.
+
+Pure numpy. Times integer ns, values SI.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from steer_monitor.can.decoder import Series
+from steer_monitor.can.signals import PRESSURE_INPUTS
+from steer_monitor.errors import SteerMonitorError
+
+__all__ = ['GRID_NS', 'HALF_WINDOW_NS', 'MOVING_RATE', 'EstimateError', 'Observations',
+           'build_observations', 'grid_times']
+
+GRID_NS = 50_000_000
+HALF_WINDOW_NS = 300_000_000
+MOVING_RATE = 0.2 * math.pi / 180.0   # rad/s
+MAX_GAP_NS = 250_000_000              # angle and pressures: up to 2.5 of the slower period
+SLOW_GAP_NS = 10_000_000_000          # ship speed (1 Hz) and oil temperature (0.5 Hz)
+
+
+class EstimateError(SteerMonitorError, ValueError):
+    """The data cannot support an estimate (too little motion, a required input missing)."""
+
+
+@dataclass(frozen=True)
+class Observations:
+    """The data on one grid, arrays of shape (n,) unless noted. SI units.
+
+    Attributes:
+        t_ns: grid times [ns].
+        alpha: rudder angle [rad] (NaN where not valid).
+        rate: rudder rate [rad/s] over the centred window (NaN where not valid).
+        direction: +1/-1 in steady motion, 0 otherwise (int8).
+        force: ram force A_r (p_stbd - p_port) per ram [N], shape (n, 2); NaN where invalid.
+        pressure: the four transducers [Pa], shape (n, 4), in ``PRESSURE_INPUTS`` order.
+        speed: ship speed [m/s], NaN where not on the bus.
+        oil_temp: oil temperature [K], NaN where not on the bus.
+    """
+
+    t_ns: NDArray[np.int64]
+    alpha: NDArray[np.float64]
+    rate: NDArray[np.float64]
+    direction: NDArray[np.int8]
+    force: NDArray[np.float64]
+    pressure: NDArray[np.float64]
+    speed: NDArray[np.float64]
+    oil_temp: NDArray[np.float64]
+
+    def __len__(self) -> int:
+        return int(self.t_ns.shape[0])
+
+    @property
+    def moving(self) -> NDArray[np.bool_]:
+        """Steady-motion instants with a valid angle and at least one valid ram force."""
+        ok = np.isfinite(self.alpha) & np.any(np.isfinite(self.force), axis=1)
+        return (self.direction != 0) & ok
+
+    def select(self, mask: NDArray[np.bool_]) -> Observations:
+        return Observations(self.t_ns[mask], self.alpha[mask], self.rate[mask], self.direction[mask],
+                            self.force[mask], self.pressure[mask], self.speed[mask], self.oil_temp[mask])
+
+
+def grid_times(start_ns: int, end_ns: int) -> NDArray[np.int64]:
+    """Grid points in [start_ns, end_ns): multiples of ``GRID_NS`` since the epoch."""
+    first = -(-int(start_ns) // GRID_NS) * GRID_NS
+    if end_ns <= first:
+        return np.zeros(0, np.int64)
+    return np.arange(first, int(end_ns), GRID_NS, dtype=np.int64)
+
+
+def _interp(series: Series | None, t: NDArray[np.int64], max_gap: int, shift_ns: int = 0) -> NDArray[np.float64]:
+    """Linear interpolation to ``t`` where the bracketing samples are at most ``max_gap``
+    apart (and exact hits); NaN elsewhere."""
+    out = np.full(t.shape, np.nan)
+    if series is None or len(series) == 0:
+        return out
+    ts = series.t_ns - np.int64(shift_ns)
+    v = series.value
+    j = np.searchsorted(ts, t, side='right')      # ts[j-1] <= t < ts[j]
+    inside = (j > 0) & (j < ts.size)
+    exact = (j > 0) & (ts[np.maximum(j - 1, 0)] == t)
+    jj = np.where(inside, j, 1)
+    t0, t1 = ts[jj - 1], ts[np.minimum(jj, ts.size - 1)]
+    ok = inside & ((t1 - t0) <= max_gap)
+    w = np.where(ok, (t - t0) / np.where(t1 > t0, t1 - t0, 1), 0.0)
+    val = v[jj - 1] + (v[np.minimum(jj, ts.size - 1)] - v[jj - 1]) * w
+    out[ok] = val[ok]
+    out[exact] = v[np.maximum(j - 1, 0)][exact]
+    return out
+
+
+def _window_slopes(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.int64],
+                   lo_ns: int, hi_ns: int) -> NDArray[np.float64]:
+    """Least-squares slope [per s] of the samples with t + lo <= ts <= t + hi, per grid point;
+    NaN with fewer than 2 samples. Vectorized over a padded index matrix."""
+    i0 = np.searchsorted(ts, t + lo_ns, side='left')
+    i1 = np.searchsorted(ts, t + hi_ns, side='right')
+    count = i1 - i0
+    width = int(count.max()) if count.size else 0
+    out = np.full(t.shape, np.nan)
+    if width < 2:
+        return out
+    k = np.arange(width)
+    idx = i0[:, None] + k[None, :]
+    use = k[None, :] < count[:, None]
+    idx = np.where(use, idx, 0)
+    x = np.where(use, (ts[idx] - t[:, None]) / 1e9, 0.0)
+    y = np.where(use, v[idx], 0.0)
+    n = np.maximum(count, 1)
+    xm = x.sum(1) / n
+    ym = y.sum(1) / n
+    dx = np.where(use, x - xm[:, None], 0.0)
+    sxx = (dx * dx).sum(1)
+    sxy = (dx * np.where(use, y - ym[:, None], 0.0)).sum(1)
+    good = (count >= 2) & (sxx > 0)
+    out[good] = sxy[good] / sxx[good]
+    return out
+
+
+def build_observations(signals: Mapping[str, Series], ram_area: float, *,
+                       start_ns: int | None = None, end_ns: int | None = None,
+                       angle_shift_s: float = 0.0) -> Observations:
+    """Align the decoded streams on the grid (see the module docstring).
+
+    Args:
+        signals: per input name, its series (as :class:`~steer_monitor.can.decoder.Decoder`
+            gives them). ``rudder_angle`` and the four pressures are required.
+        ram_area: A_r [m^2].
+        start_ns, end_ns: the grid's span (default: the angle's first and last sample).
+        angle_shift_s: read the angle ``shift`` seconds later (a sensor that lags by tau is
+            undone by shift = tau).
+    """
+    angle = signals.get('rudder_angle')
+    if angle is None or len(angle) < 2:
+        msg = 'no rudder angle in the data (input rudder_angle): nothing to estimate from'
+        raise EstimateError(msg)
+    missing = [n for n in PRESSURE_INPUTS if signals.get(n) is None or len(signals[n]) == 0]
+    if len(missing) == len(PRESSURE_INPUTS):
+        msg = 'no cylinder pressure in the data (inputs ' + ', '.join(PRESSURE_INPUTS) + ')'
+        raise EstimateError(msg)
+    shift_ns = round(angle_shift_s * 1e9)
+    a_t = angle.t_ns - np.int64(shift_ns)
+    t0 = int(a_t[0]) if start_ns is None else start_ns
+    t1 = int(a_t[-1]) + 1 if end_ns is None else end_ns
+    t = grid_times(t0, t1)
+    alpha = _interp(angle, t, MAX_GAP_NS, shift_ns)
+    before = _window_slopes(a_t, angle.value, t, -HALF_WINDOW_NS, 0)
+    after = _window_slopes(a_t, angle.value, t, 0, HALF_WINDOW_NS)
+    rate = _window_slopes(a_t, angle.value, t, -HALF_WINDOW_NS, HALF_WINDOW_NS)
+    with np.errstate(invalid='ignore'):
+        steady = (np.abs(before) > MOVING_RATE) & (np.abs(after) > MOVING_RATE) & \
+            (np.sign(before) == np.sign(after)) & np.isfinite(alpha)
+    direction = np.where(steady, np.sign(before), 0).astype(np.int8)
+    pressure = np.stack([_interp(signals.get(n), t, MAX_GAP_NS) for n in PRESSURE_INPUTS], axis=1)
+    force = np.stack([ram_area * (pressure[:, 0] - pressure[:, 1]),
+                      ram_area * (pressure[:, 2] - pressure[:, 3])], axis=1)
+    speed = _interp(signals.get('ship_speed'), t, SLOW_GAP_NS)
+    oil = _interp(signals.get('oil_temperature'), t, SLOW_GAP_NS)
+    return Observations(t, alpha, rate, direction, force, pressure, speed, oil)

@@ -1,0 +1,1 @@
+"""Reports people read: self-contained HTML pages with PNG plots (matplotlib, Agg)."""

@@ -1,0 +1,110 @@
+"""The HTML report of ``steer-monitor analyze``: one self-contained page (PNG plots inlined
+as base64) with the clearance profiles and intervals, the torque curve, the residual before
+and after the added effect, and the candidates' scores."""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from steer_monitor.estimate.analyze import Analysis
+from steer_monitor.estimate.intervals import CHI2_1_95
+
+__all__ = ['write_analysis_report']
+
+
+def _png(fig: Any) -> str:
+    buf = io.BytesIO()
+    fig.savefig(buf, format='png', dpi=96, bbox_inches='tight')
+    import matplotlib.pyplot as plt
+    plt.close(fig)
+    return base64.b64encode(buf.getvalue()).decode('ascii')
+
+
+def _plots(a: Analysis) -> dict[str, str]:
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    f = a.final
+    out: dict[str, str] = {}
+    bar = f.ram_area * 1e5
+    pr = f.profile
+    sigma2 = f.fit.rss / max(f.fit.n - f.fit.coef.size, 1)
+    delta = (pr.rss - pr.rss.min()) / (sigma2 * f.inflation)
+    fig, ax = plt.subplots(1, 2, figsize=(10, 3.4))
+    for k, (axis, prof, iv, label) in enumerate(((pr.two_z, delta.min(1), f.two_z, '2Z [mm]'),
+                                                 (pr.z_gb, delta.min(0), f.z_gb, 'Z_gb [mm]'))):
+        ax[k].plot(axis * 1e3, np.minimum(prof, 50), 'k-')
+        ax[k].axhline(CHI2_1_95, color='tab:red', ls='--', label='95 % threshold')
+        ax[k].set_xlabel(label)
+        ax[k].set_ylabel('profile deviance (capped at 50)')
+        ax[k].set_title(f'{label}: {iv.value * 1e3:.3f} mm')
+        ax[k].legend(loc='upper right')
+    out['profiles'] = _png(fig)
+    angles, torque, band = f.torque_curve
+    fig, ax = plt.subplots(figsize=(6, 3.4))
+    deg = np.degrees(angles)
+    ax.plot(deg, torque / 1e3, 'k-', label='estimated (service speed)')
+    ax.fill_between(deg, (torque - band) / 1e3, (torque + band) / 1e3, color='0.8', label='95 % band')
+    ax.set_xlabel('rudder angle [deg]')
+    ax.set_ylabel('tiller torque [kN m]')
+    ax.legend()
+    out['torque'] = _png(fig)
+    fig, ax = plt.subplots(2, 1, figsize=(10, 5), sharex=True)
+    for k, (est, obs, title) in enumerate(((a.declared, a.observations, 'declared model'),
+                                           (a.final, a.final_observations, 'after the added effect'))):
+        t = (obs.t_ns - obs.t_ns[0]) / 1e9
+        both = np.isfinite(est.residual)
+        r = np.where(both.any(1), np.nansum(est.residual, 1) / np.maximum(both.sum(1), 1), np.nan) / bar
+        ax[k].plot(t, r, '.', ms=1.5, color='tab:blue')
+        ax[k].set_ylabel('residual [bar]')
+        ax[k].set_title(f'{title}: RMS {est.rms / bar:.2f} bar, systematic {est.smooth_rms / bar:.2f} bar')
+    ax[1].set_xlabel('time [s]')
+    out['residual'] = _png(fig)
+    return out
+
+
+def write_analysis_report(a: Analysis, result: dict[str, Any], path: str | Path) -> Path:
+    """Write the page; returns its path."""
+    plots = _plots(a)
+    esc = html.escape
+
+    def iv(d: dict[str, Any]) -> str:
+        lo, hi = d['ci95']
+        return f"{d['value']} [{'-' if lo is None else lo} .. {'unbounded' if hi is None else hi}]"
+
+    rows = ''.join(f'<tr><td>{esc(name)}</td><td>{esc(iv(result[key]))}</td></tr>'
+                   for name, key in (('2Z [mm]', 'clearance_2z_mm'), ('Z_gb [mm]', 'clearance_zgb_mm'),
+                                     ('K_gl max', 'k_gl_max'), ('F_s [N]', 'seal_friction_n'),
+                                     ('mu_b', 'mu_bushing'), ('mu_g', 'mu_guide')))
+    scr = ''.join(f"<tr><td>{esc(s['name'])}</td><td>{esc(str(s['fixed']))}</td><td>{s['held_out_gain']:.3f}</td>"
+                  f"<td>{s['delta_bic']:.1f}</td><td>{s['rmse_bar']:.3f}</td><td>{'yes' if s['passes'] else 'no'}</td></tr>"
+                  for s in result['screening'])
+    effect = result['effect']
+    eff = 'none' if effect is None else f"{esc(effect['name'])}: {esc(str(effect['params']))}"
+    img = ''.join(f'<h2>{esc(title)}</h2><img alt="{esc(key)}" src="data:image/png;base64,{plots[key]}">'
+                  for key, title in (('profiles', 'Clearance profiles'), ('torque', 'Tiller torque'),
+                                     ('residual', 'Residual before and after')))
+    page = f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>steer_monitor analysis</title>
+<style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto}}td,th{{padding:2px 10px;text-align:left}}
+table{{border-collapse:collapse}}tr:nth-child(even){{background:#f2f2f2}}img{{max-width:100%}}</style></head>
+<body><h1>Clearance analysis: {esc(str(result.get('data', {}).get('log', '')))}</h1>
+<p><b>{esc(result['message'])}</b></p>
+<table><tr><th>quantity</th><th>value [95 % interval]</th></tr>{rows}</table>
+<p>Added effect: {eff}. Residual {result['rmse_before_bar']} &rarr; {result['rmse_after_bar']} bar RMS
+({result['rmse_before_kn']} &rarr; {result['rmse_after_kn']} kN of ram force).</p>
+{img}
+<h2>Candidates</h2><table><tr><th>effect</th><th>fixed</th><th>held-out gain</th><th>&Delta;BIC</th>
+<th>RMS [bar]</th><th>passes</th></tr>{scr}</table>
+</body></html>
+"""
+    path = Path(path)
+    path.write_text(page, encoding='utf-8')
+    return path
