@@ -25,7 +25,8 @@ from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import load_sharing
 
-__all__ = ['MIN_MOTION_SAMPLES', 'ClearanceEstimate', 'Rows', 'estimate_clearances', 'make_rows',
+__all__ = ['MIN_MOTION_SAMPLES', 'ClearanceEstimate', 'Rows', 'estimate_clearances', 'estimate_from_moments',
+           'make_rows',
            'residual_parts']
 
 MIN_MOTION_SAMPLES = 200     # rows (ram x instant) of steady motion: 5 s of moving rudder
@@ -144,16 +145,13 @@ def _row_design(gear: GearParams, basis: F.TorqueBasis, rows: Rows, fitat: F.Fit
     return x @ fitat.coef
 
 
-def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: Sequence[F.Column] = (),
-                        grid_2z: NDArray = F.GRID_2Z, grid_zgb: NDArray = F.GRID_ZGB,
-                        load: NDArray[np.float64] | None = None) -> ClearanceEstimate:
-    """Fit, profile and bound (see the module docstring)."""
-    mom = rows.moments
+def _profile_fit(gear: GearParams, basis: F.TorqueBasis, mom: Moments, extra: Sequence[F.Column],
+                 grid_2z: NDArray, grid_zgb: NDArray, load: NDArray[np.float64] | None
+                 ) -> tuple[F.Profile, F.FitAt, float, float, NDArray[np.float64]]:
     if mom.samples < MIN_MOTION_SAMPLES:
         msg = (f'too little steady rudder motion to estimate the clearances: {int(mom.samples)} '
                f'ram samples, need {MIN_MOTION_SAMPLES} (about 5 s of moving rudder)')
         raise EstimateError(msg)
-    basis = F.TorqueBasis(gear.max_rudder)
     if load is None:
         load = F.axial_load(gear, basis, mom, F.torque_prefit(gear, basis, mom))
         pr = F.profile(gear, basis, mom, load, extra, grid_2z[::3], grid_zgb[::3])
@@ -163,12 +161,12 @@ def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: 
     pr = F.profile(gear, basis, mom, load, extra, grid_2z, grid_zgb)
     i, j = pr.best
     tz, zg = float(pr.two_z[i]), float(pr.z_gb[j])
-    best = F.fit_at(gear, basis, mom, tz, zg, load, extra)
-    y = rows.u[:, -1]
-    pred = _row_design(gear, basis, rows, best, tz, zg, load, extra)
-    resid = np.full((len(obs), 2), np.nan)
-    resid[rows.obs_index, rows.ram] = y - pred
-    vif = inflation(resid[rows.obs_index], obs.t_ns[rows.obs_index], GRID_NS)
+    return pr, F.fit_at(gear, basis, mom, tz, zg, load, extra), tz, zg, load
+
+
+def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, best: F.FitAt, tz: float,
+           zg: float, load: NDArray[np.float64], extra: Sequence[F.Column], vif: float, max_seen: float,
+           resid: NDArray[np.float64], noise: float, smooth: float) -> ClearanceEstimate:
     dof = max(best.n - best.coef.size, 1.0)
     sigma2 = best.rss / dof
     delta = (pr.rss - best.rss) / (sigma2 * vif)
@@ -187,7 +185,6 @@ def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: 
         se = np.sqrt(np.maximum(np.array([f.cov_unscaled[k, k] for _, _, f in region_fits]), 0.0) * sigma2 * vif)
         ok = np.isfinite(c) & np.isfinite(se)
         coefs[name] = Interval(float(best.coef[k]), float(np.min((c - 1.96 * se)[ok])), float(np.max((c + 1.96 * se)[ok])))
-    max_seen = float(np.nanmax(np.abs(obs.alpha[rows.obs_index])))
     angles = np.radians(np.arange(0.0, math.degrees(max_seen) + 1e-9, 0.5))
     bmat = basis(angles)
     tq = bmat @ best.coef[:basis.size]
@@ -195,7 +192,6 @@ def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: 
     band = 1.96 * np.sqrt(np.maximum(np.einsum('ij,jk,ik->i', bmat, cov_t, bmat), 0.0))
     kgl = [_k_gl_max(gear, angles, bmat @ f.coef[:basis.size], a, b) for a, b, f in region_fits]
     k_best = _k_gl_max(gear, angles, tq, tz, zg)
-    noise, smooth = residual_parts(resid, obs.t_ns)
     return ClearanceEstimate(
         two_z=two_z, z_gb=z_gb,
         seal_friction=coefs['seal_friction_n'], mu_bushing=coefs['mu_bushing'], mu_guide=coefs['mu_guide'],
@@ -203,6 +199,32 @@ def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: 
         torque_curve=(angles, tq, band), k_gl_max=Interval(k_best, min(kgl + [k_best]), max(kgl + [k_best])),
         rms=math.sqrt(best.rss / best.n), rows=int(best.n), inflation=vif, noise_rms=noise, smooth_rms=smooth,
         residual=resid, profile=pr, fit=best, max_angle_seen=max_seen, ram_area=gear.ram_area)
+
+
+def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: Sequence[F.Column] = (),
+                        grid_2z: NDArray = F.GRID_2Z, grid_zgb: NDArray = F.GRID_ZGB,
+                        load: NDArray[np.float64] | None = None) -> ClearanceEstimate:
+    """Fit, profile and bound (see the module docstring)."""
+    basis = F.TorqueBasis(gear.max_rudder)
+    mom = rows.moments
+    pr, best, tz, zg, load = _profile_fit(gear, basis, mom, extra, grid_2z, grid_zgb, load)
+    pred = _row_design(gear, basis, rows, best, tz, zg, load, extra)
+    resid = np.full((len(obs), 2), np.nan)
+    resid[rows.obs_index, rows.ram] = rows.u[:, -1] - pred
+    vif = inflation(resid[rows.obs_index], obs.t_ns[rows.obs_index], GRID_NS)
+    noise, smooth = residual_parts(resid, obs.t_ns)
+    max_seen = float(np.nanmax(np.abs(obs.alpha[rows.obs_index])))
+    return _bound(gear, basis, mom, pr, best, tz, zg, load, extra, vif, max_seen, resid, noise, smooth)
+
+
+def estimate_from_moments(gear: GearParams, mom: Moments, vif: float, grid_2z: NDArray = F.GRID_2Z,
+                          grid_zgb: NDArray = F.GRID_ZGB) -> ClearanceEstimate:
+    """The same estimate from the binned statistics alone (the online path), with the
+    inflation factor supplied; no per-sample residuals (``residual`` empty, noise/smooth NaN)."""
+    basis = F.TorqueBasis(gear.max_rudder)
+    pr, best, tz, zg, load = _profile_fit(gear, basis, mom, (), grid_2z, grid_zgb, None)
+    max_seen = float(np.max(mom.abs_alpha)) if len(mom) else 0.0
+    return _bound(gear, basis, mom, pr, best, tz, zg, load, (), vif, max_seen, np.zeros((0, 2)), math.nan, math.nan)
 
 
 def _k_gl_max(gear: GearParams, angles: NDArray, torque: NDArray, two_z: float, z_gb: float) -> float:

@@ -68,7 +68,8 @@ def _direction(mom: Moments, feats: dict) -> NDArray[np.float64]:
 
 def _friction_feature(seal: float, mu_b: float, mu_g: float) -> Callable[[Moments, dict], NDArray[np.float64]]:
     def feature(mom: Moments, feats: dict) -> NDArray[np.float64]:
-        return mom.direction * (seal + mu_b * feats['n_b'] + mu_g * feats['f_gb'])
+        d = mom.direction.reshape((-1,) + (1,) * (np.ndim(feats['n_b']) - 1))
+        return d * (seal + mu_b * feats['n_b'] + mu_g * feats['f_gb'])
     feature.uses_clearances = True  # type: ignore[attr-defined]
     return feature
 

@@ -54,9 +54,13 @@ class TorqueBasis:
 
     @property
     def knots(self) -> NDArray[np.float64]:
-        inner = np.radians(np.arange(2.5, 90.0, 2.5))
-        inner = inner[inner < self.max_angle - 1e-9]
-        return np.concatenate([[0.0] * 4, inner, [self.max_angle] * 4])
+        cached = self.__dict__.get('_knots')
+        if cached is None:
+            inner = np.radians(np.arange(2.5, 90.0, 2.5))
+            inner = inner[inner < self.max_angle - 1e-9]
+            cached = np.concatenate([[0.0] * 4, inner, [self.max_angle] * 4])
+            object.__setattr__(self, '_knots', cached)
+        return cached
 
     @property
     def size(self) -> int:
@@ -108,10 +112,16 @@ def _speed_factor(mom: Moments, service_speed: float) -> NDArray[np.float64]:
 
 
 def torque_columns(gear: GearParams, basis: TorqueBasis, mom: Moments) -> NDArray[np.float64]:
-    """(B, k): signed axial force per unit torque coefficient, per bin [N per N m]."""
-    a = mom.abs_alpha
-    scale = mom.side * _speed_factor(mom, gear.torque.service_speed) * np.cos(a) ** 2 / (gear.rams * gear.stock_to_ram)
-    return basis(a) * scale[:, None]
+    """(B, k): signed axial force per unit torque coefficient, per bin [N per N m]. Cached on
+    the moments (which are replaced, not changed, when data are added)."""
+    key = (id(gear), basis.max_angle)
+    cache = mom.__dict__.setdefault('_torque_columns', {})
+    if key not in cache:
+        a = mom.abs_alpha
+        scale = mom.side * _speed_factor(mom, gear.torque.service_speed) * np.cos(a) ** 2 / (gear.rams * gear.stock_to_ram)
+        cache.clear()
+        cache[key] = basis(a) * scale[:, None]
+    return cache[key]
 
 
 def axial_load(gear: GearParams, basis: TorqueBasis, mom: Moments, coef: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -151,11 +161,16 @@ def _solve(xtx: NDArray, xty: NDArray, yty: float, smooth: NDArray) -> tuple[NDA
 
 
 def _design(fixed: NDArray, fixed_z: Sequence[int], mom: Moments) -> tuple[NDArray, NDArray]:
-    """X^T X and X^T y for columns fixed[:, a] * z[fixed_z[a]]."""
+    """X^T X and X^T y for columns fixed[:, a] * z[fixed_z[a]]: one weighted matrix product per
+    pair of distinct z columns (the declared model has only z = 1, the bin counts)."""
     q = mom.m.shape[1]
     zi = np.asarray(fixed_z)
-    mz = mom.m[:, zi][:, :, zi]                      # (B, p, p)
-    xtx = np.einsum('ba,bc,bac->ac', fixed, fixed, mz)
+    p = zi.size
+    xtx = np.empty((p, p))
+    groups = {int(z): np.nonzero(zi == z)[0] for z in np.unique(zi)}
+    for za, ia in groups.items():
+        for zc, ic in groups.items():
+            xtx[np.ix_(ia, ic)] = (fixed[:, ia] * mom.m[:, za, zc][:, None]).T @ fixed[:, ic]
     xty = np.einsum('ba,ba->a', fixed, mom.m[:, zi, q - 1])
     return xtx, xty
 
@@ -227,6 +242,7 @@ class Profile:
     rss: NDArray[np.float64]
     n: float
     p: int
+    coef: NDArray[np.float64] | None = None   # the linear coefficients at the best grid point
 
     @property
     def best(self) -> tuple[int, int]:
@@ -256,26 +272,43 @@ def profile(gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray[np
     mz_all = mom.m[:, :, zi]                         # (B, q, p): moments of every z with column zs
     myz = mom.m[:, q - 1, :]                         # (B, q): y with each z
     cell_alpha, cell_torque, cell_of_bin = _cells(mom, torque)
+    fixed_cols = [c for c in range(p) if c not in dep]
+    diag_fixed = np.diag(xtx0)
+    eye = np.eye(p, dtype=bool)
+    best_rss, best_coef = math.inf, None
+    small = grid_2z.size * grid_zgb.size <= 64     # a local search: all features in one call
+    if small:
+        nb_all, fg_all = friction_features(gear, cell_alpha, cell_torque, np.repeat(grid_2z, grid_zgb.size)[None, :],
+                                           np.tile(grid_zgb, grid_2z.size)[None, :])
     for i, tz in enumerate(grid_2z):
-        nb, fg = friction_features(gear, cell_alpha, cell_torque, np.array([tz]), grid_zgb[None, :])
-        nb, fg = nb[cell_of_bin], fg[cell_of_bin]
-        for j in range(grid_zgb.size):
-            feats = {'n_b': nb[:, j], 'f_gb': fg[:, j], 'load': load}
-            cols = base_cols.copy()
-            for a in dep:
-                cols[:, a] = _dep_value(a, names, basis, d, feats, mom, extra)
-            xtx = xtx0.copy()
-            xty = xty0.copy()
-            for a in dep:
-                za = zs[a]
-                # column a against every column c: sum_b x_a x_c m[z_a, z_c]
-                row = np.einsum('b,bc,bc->c', cols[:, a], cols, mz_all[:, za, :])
-                xtx[a, :] = row
-                xtx[:, a] = row
-                xty[a] = float(cols[:, a] @ myz[:, za])
-            _, r, _ = _solve(xtx, xty, yty, ridge)
-            rss[i, j] = r
-    return Profile(grid_2z, grid_zgb, rss, mom.samples, p)
+        if small:
+            nb, fg = (x[:, i * grid_zgb.size:(i + 1) * grid_zgb.size] for x in (nb_all, fg_all))
+        else:
+            nb, fg = friction_features(gear, cell_alpha, cell_torque, np.array([tz]), grid_zgb[None, :])
+        feats = {'n_b': nb[cell_of_bin], 'f_gb': fg[cell_of_bin], 'load': load[:, None]}
+        dep_vals = {a: _dep_value(a, names, basis, d[:, None], feats, mom, extra) for a in dep}  # (B, J)
+        xtx = np.broadcast_to(xtx0, (grid_zgb.size, p, p)).copy()
+        xty = np.broadcast_to(xty0, (grid_zgb.size, p)).copy()
+        for a in dep:
+            za = zs[a]
+            va = dep_vals[a]
+            # column a against the fixed columns: sum_b x_a x_c m[z_a, z_c]
+            row = va.T @ (base_cols[:, fixed_cols] * mz_all[:, za, fixed_cols])       # (J, n_fixed)
+            xtx[:, a, fixed_cols] = row
+            xtx[:, fixed_cols, a] = row
+            for a2 in dep:
+                xtx[:, a, a2] = np.einsum('bj,bj,b->j', va, dep_vals[a2], mom.m[:, za, zs[a2]])
+            xty[:, a] = va.T @ myz[:, za]
+        diag = np.where(eye, xtx, 0.0).sum(axis=2)
+        diag[:, fixed_cols] = diag_fixed[fixed_cols]
+        a_mat = xtx + ridge + (RIDGE * diag + 1e-300)[:, :, None] * eye
+        coef = np.linalg.solve(a_mat, xty[:, :, None])[:, :, 0]
+        r = yty - 2 * np.einsum('jp,jp->j', coef, xty) + np.einsum('jp,jpq,jq->j', coef, xtx, coef)
+        rss[i] = np.maximum(r, 0.0)
+        j = int(np.argmin(rss[i]))
+        if rss[i, j] < best_rss:
+            best_rss, best_coef = float(rss[i, j]), coef[j].copy()
+    return Profile(grid_2z, grid_zgb, rss, mom.samples, p, best_coef)
 
 
 def _cells(mom: Moments, torque: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:

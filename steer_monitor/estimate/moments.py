@@ -61,6 +61,7 @@ class Moments:
     m: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2, 2)))
 
     def __post_init__(self) -> None:
+        self.keys.setflags(write=False)
         q = len(self.z_names) + 2
         if self.m.shape[1:] != (q, q):
             self.m = np.zeros((self.keys.size, q, q))

@@ -1,0 +1,288 @@
+"""The clearance estimator online: samples in, an updated estimate at least every second of
+rudder motion, bounded memory, state on disk. Pure (no ROS, no CAN).
+
+It keeps the raw samples of the last few seconds only, turns each second of data into
+observations exactly as the batch path does (same epoch-anchored grid, same windows; the
+second is processed once the data are ``LAG_NS`` beyond it, so every window is complete),
+and folds the steady-motion rows into the binned moments of
+:mod:`~steer_monitor.estimate.moments`. Memory is bounded by the bin layout, whatever the
+length of the voyage. On the same data the moments equal the batch ones, so the estimates
+converge to the batch estimate.
+
+* After each second with motion: a local step of the clearance search (the 3 x 3 grid
+  points around the current best, profiled) and a refit of the linear parameters there.
+* Every ``FULL_EVERY_S`` of motion (and at the first estimate): the full profile with its
+  intervals and the residuals' inflation factor.
+* No motion, no update: nothing is folded while the rudder rests, so nothing winds up.
+* Forgetting (optional): the moments decay with a half-life counted in seconds of motion.
+* :meth:`save` / :meth:`load`: the moments and the last estimate in one ``.npz``, written
+  atomically; a restart picks up what was learned.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from steer_monitor.can.decoder import Sample, Series
+from steer_monitor.can.signals import PRESSURE_INPUTS
+from steer_monitor.estimate import fit as F
+from steer_monitor.estimate.batch import MIN_MOTION_SAMPLES, ClearanceEstimate, estimate_from_moments
+from steer_monitor.estimate.intervals import Interval, inflation
+from steer_monitor.estimate.moments import Moments, rows_from_observations
+from steer_monitor.estimate.observe import (GRID_NS, HALF_WINDOW_NS, MOVING_RATE, EstimateError, Observations,
+                                            build_observations)
+from steer_monitor.model.gear import GearParams
+
+__all__ = ['FULL_EVERY_S', 'LAG_NS', 'OnlineEstimate', 'OnlineEstimator']
+
+LAG_NS = 1_000_000_000          # a second is processed once the data are this far beyond it
+KEEP_NS = 3_000_000_000         # raw samples kept behind the processed edge
+CHUNK_NS = 1_000_000_000
+FULL_EVERY_S = 300.0            # seconds of motion between full profiles
+LOCAL = 1                       # local search: +-1 grid step on each axis (a hill climb)
+RESID_KEEP = 8000               # recent rows (ram x instant) kept for the inflation factor
+STATE_VERSION = 1
+_INPUTS = ('rudder_angle',) + PRESSURE_INPUTS + ('ship_speed',)
+
+
+@dataclass(frozen=True)
+class OnlineEstimate:
+    """The latest estimate: clearances [m] with intervals (from the last full profile, moved
+    with the point), K_gl max, rows used, data time [ns] and whether it came from a full
+    profile."""
+
+    two_z: Interval
+    z_gb: Interval
+    k_gl_max: float
+    rows: float
+    t_ns: int
+    full: bool
+
+
+def _gear_signature(gear: GearParams) -> list[float]:
+    return [gear.stock_to_ram, gear.bushing_span, gear.ram_outer_diameter, gear.ram_inner_diameter,
+            gear.youngs_modulus, gear.guide_beam_inertia, gear.guide_beam_span, gear.bushing_length,
+            float(gear.rams), gear.max_rudder]
+
+
+class OnlineEstimator:
+    """See the module docstring. Not thread-safe: the node serializes calls."""
+
+    def __init__(self, gear: GearParams, *, min_clearance_2z: float = 0.0, half_life_s: float = 0.0) -> None:
+        self.gear = gear
+        self.basis = F.TorqueBasis(gear.max_rudder)
+        self.grid_2z = F.GRID_2Z[F.GRID_2Z >= min_clearance_2z - 1e-12]
+        self.grid_zgb = F.GRID_ZGB
+        self.half_life_s = half_life_s
+        self.moments = Moments()
+        self._buf: dict[str, deque[tuple[int, float]]] = {n: deque() for n in _INPUTS}
+        self._done_ns: int | None = None       # grid processed up to here (exclusive)
+        self._latest_ns: int | None = None
+        self._speed_seen = False
+        self._motion_since_full = 0.0
+        self._new_motion = 0.0
+        self._best: tuple[int, int] | None = None
+        self._coef: np.ndarray | None = None
+        self._delta_profile: tuple[np.ndarray, np.ndarray] | None = None
+        self._recent: deque[tuple] = deque(maxlen=RESID_KEEP)   # recent rows, for the inflation
+        self._vif = 1.0
+        self.estimate: OnlineEstimate | None = None
+        self.motion_s = 0.0
+        self.last_full: ClearanceEstimate | None = None
+
+    # --- input ---------------------------------------------------------------------------
+    def add(self, sample: Sample) -> None:
+        """Take one decoded sample (any input; those the estimator does not use are ignored)."""
+        buf = self._buf.get(sample.signal)
+        if buf is None:
+            return
+        if buf and sample.t_ns <= buf[-1][0]:
+            return                                # the decoder already refused out-of-order frames
+        buf.append((sample.t_ns, sample.value))
+        if sample.signal == 'ship_speed':
+            self._speed_seen = True
+        if sample.signal == 'rudder_angle':
+            if self._done_ns is None:
+                self._done_ns = -(-sample.t_ns // GRID_NS) * GRID_NS
+            self._latest_ns = sample.t_ns
+
+    def update(self) -> bool:
+        """Process every complete second of data; refit when there was motion. True when the
+        estimate changed."""
+        if self._done_ns is None or self._latest_ns is None:
+            return False
+        changed = False
+        while self._latest_ns - self._done_ns >= CHUNK_NS + LAG_NS:
+            end = self._done_ns + CHUNK_NS
+            self._fold(self._done_ns, end)
+            self._done_ns = end
+            self._trim(end - KEEP_NS)
+        if self._new_motion >= 1.0 and self.moments.samples >= MIN_MOTION_SAMPLES:
+            changed = self.refit()
+        return changed
+
+    def _series(self) -> dict[str, Series]:
+        out = {}
+        for name, buf in self._buf.items():
+            if buf:
+                t, v = zip(*buf)
+                out[name] = Series(np.fromiter(t, np.int64, len(t)), np.fromiter(v, float, len(v)))
+        return out
+
+    def _trim(self, before_ns: int) -> None:
+        for buf in self._buf.values():
+            while len(buf) > 2 and buf[1][0] < before_ns:
+                buf.popleft()
+
+    def _at_rest(self, start: int, end: int) -> bool:
+        """No steady motion is possible in [start, end): the angle moved less over the chunk
+        and its windows than the motion threshold allows in one window."""
+        lo, hi = start - HALF_WINDOW_NS, end + HALF_WINDOW_NS
+        a = [v for t, v in self._buf['rudder_angle'] if lo <= t <= hi]
+        return len(a) < 2 or (max(a) - min(a)) < MOVING_RATE * HALF_WINDOW_NS / 1e9
+
+    def _fold(self, start: int, end: int) -> None:
+        if self._at_rest(start, end):
+            return
+        signals = self._series()
+        try:
+            obs = build_observations(signals, self.gear.ram_area, start_ns=start, end_ns=end)
+        except EstimateError:
+            return
+        keep = obs.moving
+        if self._speed_seen:
+            keep &= np.isfinite(obs.speed)
+        if not keep.any():
+            return
+        sub = obs.select(keep)
+        keys, aa, v2, u, idx = rows_from_observations(sub)
+        if keys.size == 0:
+            return
+        ram = np.nonzero(np.isfinite(sub.force) & sub.moving[:, None])[1]
+        self._recent.extend(zip(sub.t_ns[idx].tolist(), ram.tolist(), keys.tolist(), aa.tolist(),
+                                v2.tolist(), u[:, -1].tolist()))
+        motion = float(np.count_nonzero(keep)) * GRID_NS / 1e9
+        if self.half_life_s > 0 and len(self.moments):
+            self.moments = self.moments.scaled(0.5 ** (motion / self.half_life_s))
+        self.moments = self.moments.merge(Moments.from_rows(keys, aa, v2, u, ()))
+        self.motion_s += motion
+        self._motion_since_full += motion
+        self._new_motion += motion
+
+    def _residuals(self) -> None:
+        """Residuals of the recent rows at the current fit -> the inflation factor. Run with
+        the full profile only: per second the rows are just kept (bounded)."""
+        if self._coef is None or self._best is None or len(self._recent) < 100:
+            return
+        arr = np.array(self._recent)                  # (r, 6): t, ram, |alpha| key parts ...
+        t, ram, keys = arr[:, 0].astype(np.int64), arr[:, 1].astype(np.intp), arr[:, 2].astype(np.int64)
+        aa, v2, y = arr[:, 3], arr[:, 4], arr[:, 5]
+        one = Moments.from_rows(keys, aa, v2, np.stack([np.ones_like(y), y], axis=1), ())
+        tz, zg = self.grid_2z[self._best[0]], self.grid_zgb[self._best[1]]
+        load = F.axial_load(self.gear, self.basis, one, self._coef)
+        nb, fg = F.friction_features(self.gear, one.abs_alpha, F.torque_of_load(self.gear, one, load),
+                                     np.array([tz]), np.array([zg]))
+        cols, _, _ = F.design_columns(self.gear, self.basis, one, {'n_b': nb[:, 0], 'f_gb': fg[:, 0], 'load': load}, ())
+        res = y - cols[np.searchsorted(one.keys, keys)] @ self._coef
+        times, inv = np.unique(t, return_inverse=True)
+        resid = np.full((times.size, 2), np.nan)
+        resid[inv, ram] = res
+        self._vif = inflation(resid, times, GRID_NS)
+
+    # --- fitting -------------------------------------------------------------------------
+    def refit(self, full: bool | None = None) -> bool:
+        """A local step, or the full profile when due (or asked)."""
+        mom = self.moments
+        full = full if full is not None else (self._best is None or self._motion_since_full >= FULL_EVERY_S)
+        self._new_motion = 0.0
+        if full:
+            return self._full()
+        i0, j0 = self._best  # type: ignore[misc]
+        gi = np.arange(max(i0 - LOCAL, 0), min(i0 + LOCAL + 1, self.grid_2z.size))
+        gj = np.arange(max(j0 - LOCAL, 0), min(j0 + LOCAL + 1, self.grid_zgb.size))
+        load = F.axial_load(self.gear, self.basis, mom, self._coef)
+        pr = F.profile(self.gear, self.basis, mom, load, (), self.grid_2z[gi], self.grid_zgb[gj])
+        bi, bj = pr.best
+        self._best = (int(gi[bi]), int(gj[bj]))
+        tz, zg = float(self.grid_2z[self._best[0]]), float(self.grid_zgb[self._best[1]])
+        self._coef = pr.coef
+        prev = self.estimate
+        self.estimate = OnlineEstimate(_moved(prev.two_z, tz) if prev else Interval(tz, None, None),
+                                       _moved(prev.z_gb, zg) if prev else Interval(zg, None, None),
+                                       prev.k_gl_max if prev else math.nan, mom.samples,
+                                       self._latest_ns or 0, False)
+        return True
+
+    def _full(self) -> bool:
+        """The batch estimator on the moments (the same code, so the same numbers)."""
+        try:
+            est = estimate_from_moments(self.gear, self.moments, self._inflation(), self.grid_2z, self.grid_zgb)
+        except EstimateError:
+            return False
+        self._best = est.profile.best
+        self._coef = est.fit.coef
+        self._motion_since_full = 0.0
+        self.estimate = OnlineEstimate(est.two_z, est.z_gb, est.k_gl_max.value, self.moments.samples,
+                                       self._latest_ns or 0, True)
+        self.last_full = est
+        return True
+
+    def _inflation(self) -> float:
+        """From the recent rows' residuals at the current fit; 1 before the first fit."""
+        self._residuals()
+        return self._vif
+
+    # --- persistence ---------------------------------------------------------------------
+    def save(self, path: str | Path) -> Path:
+        """Write the learned state atomically (``path`` gets a ``.npz``)."""
+        path = Path(path)
+        tmp = path.with_name(path.name + '.tmp.npz')
+        meta = {'version': STATE_VERSION, 'gear': _gear_signature(self.gear),
+                'grid_2z_min': float(self.grid_2z[0]), 'motion_s': self.motion_s, 'vif': self._vif,
+                'best': list(self._best) if self._best else None}
+        arrays = self.moments.to_arrays()
+        if self._coef is not None:
+            arrays['coef'] = self._coef
+        with open(tmp, 'wb') as fh:
+            np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+        return path
+
+    def load(self, path: str | Path) -> None:
+        """Take the state of :meth:`save`. Raises :class:`EstimateError` naming what does
+        not fit (another gear, a newer format, a broken file); the current state is kept."""
+        path = Path(path)
+        try:
+            with np.load(path, allow_pickle=False) as d:
+                meta = json.loads(str(d['meta']))
+                arrays = {k: d[k] for k in d.files if k != 'meta'}
+        except (OSError, ValueError, KeyError) as exc:
+            msg = f'estimator state {path}: cannot read it ({exc})'
+            raise EstimateError(msg) from exc
+        if meta.get('version') != STATE_VERSION:
+            msg = f'estimator state {path}: format version {meta.get("version")}, this build reads {STATE_VERSION}'
+            raise EstimateError(msg)
+        if not np.allclose(meta.get('gear', []), _gear_signature(self.gear)):
+            msg = f'estimator state {path}: learned on another gear geometry; not used'
+            raise EstimateError(msg)
+        self.moments = Moments.from_arrays(arrays)
+        self.motion_s = float(meta.get('motion_s', 0.0))
+        self._vif = float(meta.get('vif', 1.0))
+        self._best = tuple(meta['best']) if meta.get('best') else None  # type: ignore[assignment]
+        self._coef = arrays.get('coef')
+        if self.moments.samples >= MIN_MOTION_SAMPLES:
+            self._full()
+
+
+def _moved(iv: Interval, value: float) -> Interval:
+    """The interval of the last full profile, kept around a point that moved within it."""
+    return Interval(value, iv.lo, iv.hi)
