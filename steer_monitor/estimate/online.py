@@ -11,8 +11,10 @@ converge to the batch estimate.
 
 * After each second with motion: a local step of the clearance search (the 3 x 3 grid
   points around the current best, profiled) and a refit of the linear parameters there.
-* Every ``FULL_EVERY_S`` of motion (and at the first estimate): the full profile with its
-  intervals and the residuals' inflation factor.
+* The full profile with its intervals and the residuals' inflation factor at the first
+  estimate and whenever the motion learned has doubled since the last one, then every
+  ``FULL_EVERY_S`` of motion: early estimates rest on little data and the profile can have
+  several minima, which a local step alone could stay in.
 * No motion, no update: nothing is folded while the rudder rests, so nothing winds up.
 * Forgetting (optional): the moments decay with a half-life counted in seconds of motion.
 * :meth:`save` / :meth:`load`: the moments and the last estimate in one ``.npz``, written
@@ -200,7 +202,8 @@ class OnlineEstimator:
     def refit(self, full: bool | None = None) -> bool:
         """A local step, or the full profile when due (or asked)."""
         mom = self.moments
-        full = full if full is not None else (self._best is None or self._motion_since_full >= FULL_EVERY_S)
+        due = min(FULL_EVERY_S, max(self.motion_s - self._motion_since_full, 1.0))
+        full = full if full is not None else (self._best is None or self._motion_since_full >= due)
         self._new_motion = 0.0
         if full:
             return self._full()

@@ -141,12 +141,18 @@ class DiagnosticsBuilder:
                        (f'clearance_{key}_lo_mm', _f(None if lo is None else lo * 1e3)),
                        (f'clearance_{key}_hi_mm', _f(None if hi is None else hi * 1e3)),
                        (f'limit_{key}_mm', f'{limit * 1e3:.3f}')]
-            level = ERROR if value > limit else WARN if value >= cfg.clearance_warn_share * limit else OK
-            worst = max(worst, level)
             name = '2Z' if key == '2z' else 'Z_gb'
-            parts.append(f'{name} {value * 1e3:.3f} mm ({value / limit:.0%} of limit)')
+            if interval and hi is None and lo is not None:
+                # the data only bound it from below: judge the bound, say so
+                level = ERROR if lo > limit else WARN if lo >= cfg.clearance_warn_share * limit else OK
+                parts.append(f'{name} >= {lo * 1e3:.3f} mm (lower bound only: not reached at the loads seen)')
+            else:
+                level = ERROR if value > limit else WARN if value >= cfg.clearance_warn_share * limit else OK
+                parts.append(f'{name} {value * 1e3:.3f} mm ({value / limit:.0%} of limit)')
+            worst = max(worst, level)
         if not mon.gaps_interval:
             values.append(('clearance_interval', 'none: configured values, not estimated'))
+        values += sorted(mon.estimate_info.items())
         return self._status('clearances', worst, f"{'; '.join(parts)} [{mon.gaps_source}]", values)
 
     def guide_beam(self, mon: LiveMonitor) -> Status:

@@ -87,6 +87,7 @@ class LiveMonitor:
         self.gaps = gaps
         self.gaps_source = gaps_source
         self.gaps_interval: dict[str, tuple[float, float | None]] | None = None
+        self.estimate_info: dict[str, str] = {}   # what the estimator adds to the diagnostics
         self.priors = priors or FrictionParams()
         self.signals: dict[str, _Signal] = {name: _Signal() for name in INPUTS}
         self._history: deque[tuple[int, float]] = deque()   # the last 0.9 s of angles

@@ -3,9 +3,12 @@ recorder.
 
 Threads: a reader thread owns the bus (listen-only, reopened with backoff), decodes each
 frame, updates the live model and publishes the state at most every 10 ms (and within 10 ms
-of the last frame when the bus goes quiet); the executor publishes diagnostics at 1 Hz; the
-recorder writes MCAP on its own thread. The live model is shared under a lock. SIGINT and
-SIGTERM shut down cleanly and finish the MCAP file.
+of the last frame when the bus goes quiet); an estimator thread takes the decoded samples
+through a queue (never blocking the reader), updates the online clearance estimate each
+second of data and hands it to the live model, and keeps its state on disk; the executor
+publishes diagnostics at 1 Hz; the recorder writes MCAP on its own thread. The live model is
+shared under a lock. SIGINT and SIGTERM shut down cleanly, save the estimator state and
+finish the MCAP file.
 
 Topics (all standard message types):
 
@@ -44,6 +47,10 @@ from steer_monitor.can.decoder import Decoder
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import can_setup
 from steer_monitor.errors import ParameterError, SteerMonitorError
+from steer_monitor.estimate.observe import EstimateError
+from steer_monitor.estimate.online import OnlineEstimator
+from steer_monitor.model.fits import parse_fit
+from steer_monitor.model.gear import Gaps
 from steer_monitor.monitor.diagnostics import ERROR, OK, DiagnosticsBuilder, DiagnosticsConfig, Status
 from steer_monitor.model.friction import FrictionParams
 from steer_monitor.monitor.live import LiveMonitor, LiveState
@@ -97,11 +104,74 @@ class MonitorNode(Node):
                                 p['can.reopen_backoff_max_s'], poll=PUBLISH_PERIOD_NS / 1e9)
         self._reader_thread = threading.Thread(target=self._read, name='steer_monitor-can', daemon=True)
         self._closed = False
+        self.estimator: OnlineEstimator | None = None
+        self._est_queue: deque = deque()
+        self._est_thread: threading.Thread | None = None
+        if p['estimator.enabled']:
+            self._start_estimator()
         self.create_timer(1.0, self._publish_diagnostics)
         self._reader_thread.start()
         self.get_logger().info(
             f'listening on {interface}:{channel} (listen-only); {len(smap.specs)} inputs mapped; '
             + (f'recording to {p["recording.directory"]}' if self.recorder else 'recording off'))
+
+    # --- estimator ---------------------------------------------------------------------------
+    def _start_estimator(self) -> None:
+        p = self.params
+        self.estimator = OnlineEstimator(self.gear,
+                                         min_clearance_2z=max(parse_fit(p['clearances.new_fit']).clearance.minimum, 0.0),
+                                         half_life_s=p['estimator.half_life_h'] * 3600.0)
+        path = p['estimator.state_file']
+        if path:
+            from pathlib import Path
+            if Path(path).exists():
+                try:
+                    self.estimator.load(path)
+                    self.get_logger().info(f'estimator state loaded from {path}: '
+                                           f'{self.estimator.motion_s:.0f} s of rudder motion learned')
+                    self._apply_estimate()
+                except EstimateError as exc:
+                    self.get_logger().warning(f'{exc}; starting the estimate afresh')
+        self._est_thread = threading.Thread(target=self._estimate_loop, name='steer_monitor-estimator', daemon=True)
+        self._est_thread.start()
+
+    def _estimate_loop(self) -> None:
+        est, queue, stop = self.estimator, self._est_queue, self._stop
+        assert est is not None
+        last_save = time.monotonic()
+        every = self.params['estimator.save_every_s']
+        while not stop.wait(0.25):
+            while queue:
+                est.add(queue.popleft())
+            try:
+                if est.update():
+                    self._apply_estimate()
+            except SteerMonitorError as exc:   # guards a defect: report, keep monitoring
+                self.get_logger().error(f'estimator update failed: {exc}')
+            if time.monotonic() - last_save >= every:
+                self._save_estimator()
+                last_save = time.monotonic()
+
+    def _apply_estimate(self) -> None:
+        est = self.estimator
+        e = est.estimate if est is not None else None
+        if e is None:
+            return
+        interval = {'2z': (e.two_z.lo, e.two_z.hi), 'zgb': (e.z_gb.lo, e.z_gb.hi)}
+        with self._lock:
+            self.monitor.set_gaps(Gaps(e.two_z.value, e.z_gb.value), 'estimated', interval)
+            self.monitor.estimate_info = {'k_gl_max_estimated': f'{e.k_gl_max:.3f}',
+                                          'estimate_rows': str(int(e.rows)),
+                                          'estimate_motion_s': f'{est.motion_s:.0f}'}
+
+    def _save_estimator(self) -> None:
+        path = self.params['estimator.state_file']
+        if self.estimator is None or not path:
+            return
+        try:
+            self.estimator.save(path)
+        except OSError as exc:
+            self.get_logger().error(f'cannot save the estimator state to {path}: {exc}')
 
     # --- set-up ------------------------------------------------------------------------------
     def _make_publishers(self) -> None:
@@ -131,6 +201,7 @@ class MonitorNode(Node):
     # --- reader thread -----------------------------------------------------------------------
     def _read(self) -> None:
         reader, decoder, recorder, monitor = self.reader, self.decoder, self.recorder, self.monitor
+        est_queue = self._est_queue if self.estimator is not None else None
         stop = self._stop
         while not stop.is_set():
             for frame in reader.frames(stop, idle=True):
@@ -148,6 +219,8 @@ class MonitorNode(Node):
                         with self._lock:
                             for sample in samples:
                                 monitor.update(sample)
+                        if est_queue is not None:
+                            est_queue.extend(samples)
                     self._unpublished.append(received)
                 if self._unpublished and received - self._last_publish >= PUBLISH_PERIOD_NS:
                     self._flush_state(received)
@@ -229,6 +302,9 @@ class MonitorNode(Node):
         self._closed = True
         self._stop.set()
         self._reader_thread.join(5)
+        if self._est_thread is not None:
+            self._est_thread.join(10)
+            self._save_estimator()
         self.reader.close()
         if self.recorder is not None:
             self.recorder.close()

@@ -26,7 +26,7 @@ OK, WARN, ERROR, STALE = 0, 1, 2, 3
 class Harness:
     """rclpy context, the monitor node, a listener and an executor thread."""
 
-    def __init__(self, tmp: Path, channel: str) -> None:
+    def __init__(self, tmp: Path, channel: str, extra: dict | None = None) -> None:
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
         from rclpy.executors import SingleThreadedExecutor
@@ -38,7 +38,8 @@ class Harness:
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
         overrides = overrides_from_file(str(R18_YAML), {
-            'can.interface': 'virtual', 'can.channel': channel, 'recording.directory': str(tmp)})
+            'can.interface': 'virtual', 'can.channel': channel, 'recording.directory': str(tmp),
+            'estimator.state_file': str(tmp / 'estimator.npz'), **(extra or {})})
         self.node = MonitorNode(parameter_overrides=overrides, context=self.context)
         self.listener = rclpy.create_node('diag_listener', context=self.context)
         self.diags: list = []
@@ -93,10 +94,16 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
                  'steer_monitor: steering performance', 'steer_monitor: model health', 'steer_monitor: recording']
         assert list(d) == names
         assert _level(d['steer_monitor: CAN input']) == OK
-        assert _level(d['steer_monitor: clearances']) == WARN  # configured at the wear limits
-        assert _values(d['steer_monitor: clearances'])['clearance_2z_mm'] == '0.600'
+        # The online estimate has replaced the configured clearances (true: 0.6 / 0.25 mm).
+        cl = _values(d['steer_monitor: clearances'])
+        assert cl['clearance_source'] == 'estimated'
+        assert float(cl['clearance_zgb_mm']) == pytest.approx(0.25, abs=0.03)
+        assert cl['clearance_2z_hi_mm'] == 'n/a' and float(cl['clearance_2z_lo_mm']) <= 0.6  # a bound only
+        assert float(cl['k_gl_max_estimated']) > 0.4
         gb = d['steer_monitor: guide beam']
-        assert _level(gb) == WARN and float(_values(gb)['guide_onset_deg']) == pytest.approx(10.0, abs=0.1)
+        # onset near 10 deg with the estimated Z_gb; WARN only when it lies beyond 10 deg
+        assert float(_values(gb)['guide_onset_deg']) == pytest.approx(10.0, abs=0.5)
+        assert _level(gb) == (WARN if float(_values(gb)['guide_onset_deg']) > 10.0 else OK)
         perf = d['steer_monitor: steering performance']
         assert _level(perf) == OK
         assert float(_values(perf)['hard_over_s']) == pytest.approx(25.5, abs=0.6)
@@ -116,6 +123,18 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
         sender.shutdown()
         sniffer.shutdown()
         h.close()
+    # The estimator state was saved on close; a restarted node starts from it.
+    assert (tmp_path / 'estimator.npz').exists()
+    saved = h.node.estimator.estimate
+    h2 = Harness(tmp_path / 'restart', f'steer-{uuid.uuid4().hex[:8]}',
+                 {'estimator.state_file': str(tmp_path / 'estimator.npz')})
+    try:
+        d2 = h2.wait_for(lambda x: True, 4.0)
+        cl2 = _values(d2['steer_monitor: clearances'])
+        assert cl2['clearance_source'] == 'estimated'
+        assert float(cl2['clearance_zgb_mm']) == pytest.approx(saved.z_gb.value * 1e3, abs=1e-3)
+    finally:
+        h2.close()
     # Everything on the bus came from the simulator: the node transmitted nothing.
     assert sniffed == len(run1) + len(run2)
     assert h.node.frames_received == len(run1) + len(run2)
