@@ -182,7 +182,8 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, 
     for name in best.names[basis.size:]:
         k = best.names.index(name)
         c = np.array([f.coef[k] for _, _, f in region_fits])
-        se = np.sqrt(np.maximum(np.array([f.cov_unscaled[k, k] for _, _, f in region_fits]), 0.0) * sigma2 * vif)
+        with np.errstate(over='ignore', invalid='ignore'):   # ill-posed fits in a wide region
+            se = np.sqrt(np.maximum(np.array([f.cov_unscaled[k, k] for _, _, f in region_fits]), 0.0) * sigma2 * vif)
         ok = np.isfinite(c) & np.isfinite(se)
         coefs[name] = Interval(float(best.coef[k]), float(np.min((c - 1.96 * se)[ok])), float(np.max((c + 1.96 * se)[ok])))
     angles = np.radians(np.arange(0.0, math.degrees(max_seen) + 1e-9, 0.5))

@@ -1,0 +1,83 @@
+"""The residual loop on simulated voyages: the clearances, the effects, honest intervals."""
+
+from __future__ import annotations
+
+import pytest
+
+from steer_monitor.estimate.analyze import analyze
+from test.estimate.conftest import scored_ram
+
+pytestmark = pytest.mark.slow
+
+MIN_2Z = 0.05e-3   # H9/f9 on 240 mm: the smallest clearance of the new fit
+
+
+def _bar(est) -> float:
+    return est.ram_area * 1e5
+
+
+def test_clean_voyage_adds_nothing_and_finds_zgb(r18, simulate_signals):
+    signals, _ = simulate_signals('voyage', 0.6, 0.25)
+    a = analyze(r18, signals, min_clearance_2z=MIN_2Z)
+    assert a.verdict == 'declared' and a.effect is None and a.final is a.declared
+    assert 'explains the data to the sensor noise' in a.message
+    e = a.final
+    assert abs(e.z_gb.value - 0.25e-3) <= 0.03e-3 and e.z_gb.contains(0.25e-3)
+    # the ram never clamps at 0.6 mm: 2Z is only bounded from below, and the bound is correct
+    assert e.two_z.hi is None and e.two_z.lo <= 0.6e-3
+    assert e.seal_friction.contains(9e3) and e.mu_bushing.contains(0.13) and e.mu_guide.contains(0.05)
+    assert e.k_gl_max.contains(0.594) or abs(e.k_gl_max.value - 0.594) < 0.02
+
+
+def test_clamping_ram_bounds_2z_on_both_sides(r18, simulate_signals):
+    """With a tight bushing and a slack guide the ram clamps: 2Z is then estimated, two-sided;
+    the clamped ram is stiff enough that the slipper never reaches the guide beam, so now
+    Z_gb is the one only bounded from below."""
+    signals, _ = simulate_signals('voyage', 0.10, 0.35, seed=2)
+    e = analyze(r18, signals, min_clearance_2z=MIN_2Z).final
+    assert e.two_z.hi is not None and abs(e.two_z.value - 0.10e-3) <= 0.05e-3 and e.two_z.contains(0.10e-3)
+    assert e.z_gb.hi is None and e.z_gb.lo <= 0.35e-3
+
+
+# Effect magnitudes where the effect dominates the sensor noise, so that the total RMS can halve;
+# at the simulator's defaults stribeck, temp_friction and pressure_friction are about as large as
+# the noise (0.5 bar against 0.37) and only their systematic part is cut (to a third).
+@pytest.mark.parametrize('effect, name', [
+    ('viscous', 'viscous'),
+    ('angle_delay', 'angle_delay'),
+    ('pressure_offset', 'pressure_offset'),
+    ('stribeck:f_st_n=40e3', 'stribeck'),
+    ('temp_friction:k_per_k=0.06', 'temp_friction'),
+    ('pressure_friction:k=0.1', 'pressure_friction'),
+])
+def test_each_simulator_effect_is_named_and_explained(r18, simulate_signals, effect, name):
+    signals, _ = simulate_signals('voyage', 0.6, 0.25, (effect,))
+    a = analyze(r18, signals, min_clearance_2z=MIN_2Z)
+    assert a.verdict == 'effect' and a.effect == name, a.message
+    assert a.final.rms <= 0.5 * a.declared.rms
+    assert a.final.smooth_rms <= 0.5 * a.declared.smooth_rms
+    assert a.final.z_gb.contains(0.25e-3) and a.final.two_z.contains(0.6e-3)
+    if name == 'pressure_offset':
+        assert a.params['input'] == 'pressure_r1_stbd'
+        assert a.params['offset_ram1_bar'].contains(3.0)
+    if name == 'angle_delay':
+        assert a.params['tau_s'].value == pytest.approx(0.25, abs=0.05)
+    if name == 'viscous':
+        assert a.params['c_ns_per_m'].value == pytest.approx(1e6, rel=0.05)
+
+
+@pytest.mark.parametrize('effect', ['stribeck', 'temp_friction', 'pressure_friction'])
+def test_default_magnitude_effects_cut_the_systematic_residual(r18, simulate_signals, effect):
+    signals, _ = simulate_signals('voyage', 0.6, 0.25, (effect,))
+    a = analyze(r18, signals, min_clearance_2z=MIN_2Z)
+    assert a.effect == effect, a.message
+    assert a.final.smooth_rms <= 0.5 * a.declared.smooth_rms
+    assert a.final.z_gb.contains(0.25e-3)
+
+
+def test_effect_outside_the_library_is_reported_unexplained(r18, simulate_signals):
+    signals, _ = simulate_signals('voyage', 0.6, 0.25, perturb=scored_ram)
+    a = analyze(r18, signals, min_clearance_2z=MIN_2Z)
+    assert a.verdict == 'unexplained' and a.effect is None
+    assert a.message.startswith('residual not explained')
+    assert a.final is a.declared
