@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from steer_monitor.estimate import fit as F
-from steer_monitor.estimate.intervals import CHI2_1_95, CHI2_2_95, Interval, inflation, profile_interval
+from steer_monitor.estimate.intervals import CHI2_2_95, Interval, inflation, profile_interval
 from steer_monitor.estimate.moments import Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations
 from steer_monitor.model.gear import GearParams

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.interpolate import BSpline
 
-from steer_monitor.estimate.moments import ANGLE_BIN, Moments
+from steer_monitor.estimate.moments import Moments
 from steer_monitor.model.friction import normal_forces
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import load_sharing

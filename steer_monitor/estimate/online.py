@@ -9,7 +9,7 @@ and folds the steady-motion rows into the binned moments of
 length of the voyage. On the same data the moments equal the batch ones, so the estimates
 converge to the batch estimate.
 
-* After each second with motion: a local step of the clearance search (the 3 x 3 grid
+* After each second of data with motion in it: a local step of the clearance search (the 3 x 3 grid
   points around the current best, profiled) and a refit of the linear parameters there.
 * The full profile with its intervals and the residuals' inflation factor at the first
   estimate and whenever the motion learned has doubled since the last one, then every
@@ -36,10 +36,9 @@ from steer_monitor.can.decoder import Sample, Series
 from steer_monitor.can.signals import PRESSURE_INPUTS
 from steer_monitor.estimate import fit as F
 from steer_monitor.estimate.batch import MIN_MOTION_SAMPLES, ClearanceEstimate, estimate_from_moments
-from steer_monitor.estimate.intervals import Interval, inflation
+from steer_monitor.estimate.intervals import CHI2_1_95, Interval, inflation
 from steer_monitor.estimate.moments import Moments, rows_from_observations
-from steer_monitor.estimate.observe import (GRID_NS, HALF_WINDOW_NS, MOVING_RATE, EstimateError, Observations,
-                                            build_observations)
+from steer_monitor.estimate.observe import (GRID_NS, HALF_WINDOW_NS, MOVING_RATE, EstimateError, build_observations)
 from steer_monitor.model.gear import GearParams
 
 __all__ = ['FULL_EVERY_S', 'LAG_NS', 'OnlineEstimate', 'OnlineEstimator']
@@ -126,7 +125,7 @@ class OnlineEstimator:
             self._fold(self._done_ns, end)
             self._done_ns = end
             self._trim(end - KEEP_NS)
-        if self._new_motion >= 1.0 and self.moments.samples >= MIN_MOTION_SAMPLES:
+        if self._new_motion > 0 and self.moments.samples >= MIN_MOTION_SAMPLES:
             changed = self.refit()
         return changed
 
@@ -226,16 +225,35 @@ class OnlineEstimator:
     def _full(self) -> bool:
         """The batch estimator on the moments (the same code, so the same numbers)."""
         try:
-            est = estimate_from_moments(self.gear, self.moments, self._inflation(), self.grid_2z, self.grid_zgb)
+            g2, gz = self._search_box()
+            est = estimate_from_moments(self.gear, self.moments, self._inflation(), g2, gz)
         except EstimateError:
             return False
-        self._best = est.profile.best
+        i, j = est.profile.best
+        self._best = (int(np.searchsorted(self.grid_2z, g2[i])), int(np.searchsorted(self.grid_zgb, gz[j])))
         self._coef = est.fit.coef
         self._motion_since_full = 0.0
         self.estimate = OnlineEstimate(est.two_z, est.z_gb, est.k_gl_max.value, self.moments.samples,
                                        self._latest_ns or 0, True)
         self.last_full = est
         return True
+
+    def _search_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """The part of the grid worth a fine profile: a profile on every other point first,
+        then the box around the points within ten times the 95 % threshold of it (one coarse
+        step wider on each side, so the box's edges lie outside the interval). A quarter of the
+        cost where the data pin the clearances down; the whole grid where they do not."""
+        mom = self.moments
+        coef = F.torque_prefit(self.gear, self.basis, mom) if self._coef is None else self._coef
+        load = F.axial_load(self.gear, self.basis, mom, coef)
+        g2, gz = self.grid_2z[::2], self.grid_zgb[::2]
+        pr = F.profile(self.gear, self.basis, mom, load, (), g2, gz)
+        best = float(pr.rss.min())
+        sigma2 = best / max(pr.n - pr.p, 1.0)
+        near = np.argwhere((pr.rss - best) / (sigma2 * max(self._vif, 1.0)) <= 10 * CHI2_1_95)
+        i0, i1 = max(near[:, 0].min() - 1, 0) * 2, min(near[:, 0].max() + 1, g2.size - 1) * 2
+        j0, j1 = max(near[:, 1].min() - 1, 0) * 2, min(near[:, 1].max() + 1, gz.size - 1) * 2
+        return self.grid_2z[i0:i1 + 1], self.grid_zgb[j0:j1 + 1]
 
     def _inflation(self) -> float:
         """From the recent rows' residuals at the current fit; 1 before the first fit."""

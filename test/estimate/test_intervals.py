@@ -1,0 +1,58 @@
+"""Likelihood-ratio intervals and the variance inflation factor."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from steer_monitor.estimate.intervals import CHI2_1_95, Interval, inflation, profile_interval
+
+
+def test_profile_interval_of_a_parabola_matches_the_closed_form():
+    x = np.linspace(0, 1, 1001)
+    delta = ((x - 0.4) / 0.05) ** 2            # a Gaussian profile with sigma 0.05
+    iv = profile_interval(x, delta)
+    half = 0.05 * math.sqrt(CHI2_1_95)
+    assert iv.value == pytest.approx(0.4)
+    assert iv.lo == pytest.approx(0.4 - half, abs=1e-4) and iv.hi == pytest.approx(0.4 + half, abs=1e-4)
+
+
+def test_flat_tail_gives_a_one_sided_interval():
+    x = np.linspace(0.05, 1.5, 74)
+    delta = np.where(x < 0.3, ((0.3 - x) / 0.02) ** 2, 0.0)
+    iv = profile_interval(x, delta)
+    assert iv.hi is None and iv.one_sided
+    assert iv.lo == pytest.approx(0.3 - 0.02 * math.sqrt(CHI2_1_95), abs=0.01)
+    assert iv.contains(5.0) and not iv.contains(0.1)
+    assert iv.scaled(1e3)['ci95'][1] is None
+
+
+def test_interval_at_the_grid_floor_is_the_floor():
+    x = np.linspace(0.05, 1.0, 20)
+    iv = profile_interval(x, (x - 0.05) * 100)
+    assert iv.lo == pytest.approx(0.05) and iv.value == pytest.approx(0.05)
+
+
+@pytest.mark.parametrize('rho', [0.0, 0.5, 0.8])
+def test_inflation_of_an_ar1_series_matches_theory(rho):
+    """Independent check: for AR(1) the long-run variance factor is (1 + rho) / (1 - rho)
+    (the Bartlett window over 2 s trims it a little for large rho)."""
+    rng = np.random.default_rng(1)
+    n = 200_000
+    e = np.empty(n)
+    e[0] = 0
+    w = rng.normal(size=n)
+    for i in range(1, n):
+        e[i] = rho * e[i - 1] + w[i]
+    t = np.arange(n, dtype=np.int64) * 50_000_000
+    resid = np.stack([e, rng.normal(size=n) * np.nan], axis=1)
+    vif = inflation(resid, t, 50_000_000)
+    want = sum((1 - k / 41) * rho ** k for k in range(1, 41)) * 2 + 1
+    assert vif == pytest.approx(max(want, 1.0), rel=0.05)
+
+
+def test_interval_contains_handles_open_ends():
+    assert Interval(1.0, None, None).contains(-1e9)
+    assert not Interval(1.0, 0.5, 1.5).contains(2.0)

@@ -1,0 +1,90 @@
+"""The online estimator: the batch answer on the same data, bounded memory, idle safety,
+restart from disk, and the errors of a bad state file."""
+
+from __future__ import annotations
+
+import pytest
+
+from steer_monitor.can.decoder import Decoder, Sample
+from steer_monitor.estimate.batch import estimate_clearances, make_rows
+from steer_monitor.estimate.observe import EstimateError, build_observations
+from steer_monitor.estimate.online import KEEP_NS, OnlineEstimator
+from steer_monitor.model.gear import GearParams
+
+
+def _feed(est, sim, db, smap, every=100):
+    dec = Decoder(db, smap)
+    updates = 0
+    for i in range(len(sim.frames)):
+        for s in dec.decode(sim.frames.frame(i)):
+            est.add(s)
+        if i % every == 0:
+            updates += est.update()
+    return updates
+
+
+@pytest.fixture(scope='module')
+def hard_over(simulate_signals):
+    return simulate_signals('hard_over_2,hold:20,zigzag_20', 0.6, 0.25, max_s=160.0)
+
+
+def test_online_converges_to_the_batch_estimate(r18, db, smap, hard_over):
+    signals, sim = hard_over
+    est = OnlineEstimator(r18, min_clearance_2z=0.05e-3)
+    updates = _feed(est, sim, db, smap)
+    # an estimate after every processed second with motion in it, once 5 s of motion are in
+    assert updates >= 0.9 * (est.motion_s - 6)
+    est.refit(full=True)
+    obs = build_observations(signals, r18.ram_area, end_ns=est._done_ns)
+    batch = estimate_clearances(r18, obs, make_rows(obs), grid_2z=est.grid_2z)
+    assert est.moments.samples == batch.rows
+    assert est.estimate.z_gb.value == batch.z_gb.value and est.estimate.two_z.value == batch.two_z.value
+    assert est.estimate.z_gb.lo == pytest.approx(batch.z_gb.lo, abs=2e-6)
+    # bounded memory: raw samples are kept for a few seconds only
+    for buf in est._buf.values():
+        if len(buf) > 2:
+            assert buf[-1][0] - buf[1][0] <= KEEP_NS + 2_000_000_000 + 1
+
+
+def test_no_update_while_the_rudder_rests(r18, db, smap, simulate_signals):
+    _, sim = simulate_signals('hold:60', 0.6, 0.25)
+    est = OnlineEstimator(r18)
+    assert _feed(est, sim, db, smap) == 0
+    assert len(est.moments) == 0 and est.estimate is None and est.motion_s == 0.0
+
+
+def test_state_survives_a_restart(r18, db, smap, hard_over, tmp_path):
+    _, sim = hard_over
+    est = OnlineEstimator(r18, min_clearance_2z=0.05e-3)
+    _feed(est, sim, db, smap)
+    path = est.save(tmp_path / 'state.npz')
+    again = OnlineEstimator(r18, min_clearance_2z=0.05e-3)
+    again.load(path)
+    assert again.moments.samples == est.moments.samples
+    assert again.estimate is not None and again.estimate.z_gb.value == pytest.approx(est.estimate.z_gb.value, abs=5e-6)
+    assert not list(tmp_path.glob('*.tmp*'))   # written atomically
+
+
+def test_state_of_another_gear_is_refused_and_nothing_is_lost(r18, db, smap, hard_over, tmp_path):
+    _, sim = hard_over
+    est = OnlineEstimator(r18)
+    _feed(est, sim, db, smap)
+    path = est.save(tmp_path / 'state.npz')
+    import dataclasses
+    other = OnlineEstimator(dataclasses.replace(r18, stock_to_ram=0.7))
+    with pytest.raises(EstimateError, match='another gear geometry'):
+        other.load(path)
+    assert len(other.moments) == 0
+    (tmp_path / 'broken.npz').write_bytes(b'not a state')
+    with pytest.raises(EstimateError, match='cannot read it'):
+        est.load(tmp_path / 'broken.npz')
+    assert est.moments.samples > 0
+
+
+def test_out_of_order_and_unused_samples_are_ignored(r18: GearParams):
+    est = OnlineEstimator(r18)
+    est.add(Sample(2_000_000_000, 'rudder_angle', 0.1))
+    est.add(Sample(1_000_000_000, 'rudder_angle', 0.2))
+    est.add(Sample(3_000_000_000, 'rudder_order', 0.2))
+    assert [t for t, _ in est._buf['rudder_angle']] == [2_000_000_000]
+    assert not est.update()
