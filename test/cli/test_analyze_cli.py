@@ -1,0 +1,34 @@
+"""``steer-monitor analyze``: the JSON contract and the report on a short simulated log."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from steer_monitor.cli.main import main
+
+pytestmark = pytest.mark.slow
+
+
+def test_analyze_writes_the_documented_json_and_a_report(tmp_path):
+    log = tmp_path / 'h.log'
+    assert main(['simulate', '--program', 'hard_over_2,zigzag_20', '--max-duration', '150', '--out', str(log)]) == 0
+    out, html = tmp_path / 'a.json', tmp_path / 'a.html'
+    assert main(['analyze', str(log), '--json', str(out), '--report', str(html)]) == 0
+    d = json.loads(out.read_text())
+    for key in ('clearance_2z_mm', 'clearance_zgb_mm'):
+        assert set(d[key]) == {'value', 'ci95'} and len(d[key]['ci95']) == 2
+    assert d['clearance_2z_mm']['ci95'][1] is None          # the ram never clamps at 0.6 mm
+    assert d['clearance_zgb_mm']['ci95'][0] <= 0.25 <= d['clearance_zgb_mm']['ci95'][1]
+    assert {'k_gl_max', 'effect', 'rmse_before_kn', 'rmse_after_kn', 'verdict', 'message'} <= set(d)
+    assert d['effect'] is None and d['rmse_after_kn'] == d['rmse_before_kn']
+    page = html.read_text()
+    assert page.count('<img') == 3 and 'data:image/png;base64,' in page
+
+
+def test_analyze_of_a_log_without_motion_says_why(tmp_path, capsys):
+    log = tmp_path / 'hold.log'
+    assert main(['simulate', '--program', 'hold:20', '--out', str(log)]) == 0
+    assert main(['analyze', str(log), '--json', '-']) == 1
+    assert 'too little steady rudder motion' in capsys.readouterr().err
