@@ -26,7 +26,7 @@ from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import load_sharing
 
 __all__ = ['MIN_MOTION_SAMPLES', 'ClearanceEstimate', 'Rows', 'estimate_clearances', 'estimate_from_moments',
-           'make_rows',
+           'make_rows', 'predict_rows',
            'residual_parts']
 
 MIN_MOTION_SAMPLES = 200     # rows (ram x instant) of steady motion: 5 s of moving rudder
@@ -133,16 +133,11 @@ def residual_parts(resid: NDArray[np.float64], t_ns: NDArray[np.int64]) -> tuple
     return math.sqrt(var - smooth), math.sqrt(smooth)
 
 
-def _row_design(gear: GearParams, basis: F.TorqueBasis, rows: Rows, fitat: F.FitAt, two_z: float,
-                z_gb: float, load: NDArray[np.float64], extra: Sequence[F.Column]) -> NDArray[np.float64]:
-    """Predicted y per row [N]."""
-    mom = rows.moments
-    nb, fg = F.friction_features(gear, mom.abs_alpha, F.torque_of_load(gear, mom, load),
-                                 np.array([two_z]), np.array([z_gb]))
-    feats = {'n_b': nb[:, 0], 'f_gb': fg[:, 0], 'load': load}
-    cols, zs, _ = F.design_columns(gear, basis, mom, feats, extra)
-    x = cols[rows.bin_of_row] * rows.u[:, zs]
-    return x @ fitat.coef
+def predict_rows(gear: GearParams, basis: F.TorqueBasis, rows: Rows, coef: NDArray[np.float64], two_z: float,
+                 z_gb: float, load: NDArray[np.float64], extra: Sequence[F.Column] = ()) -> NDArray[np.float64]:
+    """Predicted y per row [N] with coefficients ``coef`` at the given clearances."""
+    cols, zs, _ = F.design_at(gear, basis, rows.moments, two_z, z_gb, load, extra)
+    return (cols[rows.bin_of_row] * rows.u[:, zs]) @ coef
 
 
 def _profile_fit(gear: GearParams, basis: F.TorqueBasis, mom: Moments, extra: Sequence[F.Column],
@@ -209,7 +204,7 @@ def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: 
     basis = F.TorqueBasis(gear.max_rudder)
     mom = rows.moments
     pr, best, tz, zg, load = _profile_fit(gear, basis, mom, extra, grid_2z, grid_zgb, load)
-    pred = _row_design(gear, basis, rows, best, tz, zg, load, extra)
+    pred = predict_rows(gear, basis, rows, best.coef, tz, zg, load, extra)
     resid = np.full((len(obs), 2), np.nan)
     resid[rows.obs_index, rows.ram] = rows.u[:, -1] - pred
     vif = inflation(resid[rows.obs_index], obs.t_ns[rows.obs_index], GRID_NS)

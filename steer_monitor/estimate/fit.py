@@ -35,7 +35,7 @@ from steer_monitor.model.friction import normal_forces
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import load_sharing
 
-__all__ = ['GRID_2Z', 'GRID_ZGB', 'Column', 'FitAt', 'Profile', 'TorqueBasis', 'axial_load', 'design_columns', 'fit_at', 'normal_equations',
+__all__ = ['GRID_2Z', 'GRID_ZGB', 'Column', 'FitAt', 'Profile', 'TorqueBasis', 'axial_load', 'design_at', 'design_columns', 'fit_at', 'normal_equations',
            'friction_features', 'profile', 'torque_columns', 'torque_of_load', 'torque_prefit']
 
 DEG = math.pi / 180.0
@@ -188,12 +188,18 @@ def normal_equations(gear: GearParams, basis: TorqueBasis, mom: Moments, two_z: 
                      load: NDArray[np.float64], extra: Sequence[Column] = ()
                      ) -> tuple[NDArray, NDArray, float, list[str]]:
     """(X^T X, X^T y, y^T y, column names) of the model at given clearances."""
-    nb, fg = friction_features(gear, mom.abs_alpha, torque_of_load(gear, mom, load), np.array([two_z]),
-                               np.array([z_gb]))
-    feats = {'n_b': nb[:, 0], 'f_gb': fg[:, 0], 'load': load}
-    cols, zs, names = design_columns(gear, basis, mom, feats, extra)
+    cols, zs, names = design_at(gear, basis, mom, two_z, z_gb, load, extra)
     xtx, xty = _design(cols, zs, mom)
     return xtx, xty, float(mom.m[:, -1, -1].sum()), names
+
+
+def design_at(gear: GearParams, basis: TorqueBasis, mom: Moments, two_z: float, z_gb: float,
+              load: NDArray[np.float64], extra: Sequence[Column] = ()) -> tuple[NDArray, list[int], list[str]]:
+    """The bins' columns at one pair of clearances: (per-bin features (B, p), the z column each
+    multiplies, names); ``load`` is |Fa| per bin [N]."""
+    nb, fg = friction_features(gear, mom.abs_alpha, torque_of_load(gear, mom, load), np.array([two_z]),
+                               np.array([z_gb]))
+    return design_columns(gear, basis, mom, {'n_b': nb[:, 0], 'f_gb': fg[:, 0], 'load': load}, extra)
 
 
 def torque_of_load(gear: GearParams, mom: Moments, load: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -35,7 +35,8 @@ import numpy as np
 from steer_monitor.can.decoder import Sample, Series
 from steer_monitor.can.signals import PRESSURE_INPUTS
 from steer_monitor.estimate import fit as F
-from steer_monitor.estimate.batch import MIN_MOTION_SAMPLES, ClearanceEstimate, estimate_from_moments
+from steer_monitor.estimate.batch import (MIN_MOTION_SAMPLES, ClearanceEstimate, Rows, estimate_from_moments,
+                                          predict_rows)
 from steer_monitor.estimate.intervals import CHI2_1_95, Interval, inflation
 from steer_monitor.estimate.moments import Moments, rows_from_observations
 from steer_monitor.estimate.observe import (GRID_NS, HALF_WINDOW_NS, MOVING_RATE, EstimateError, build_observations)
@@ -185,13 +186,12 @@ class OnlineEstimator:
         arr = np.array(self._recent)                  # (r, 6): t, ram, |alpha| key parts ...
         t, ram, keys = arr[:, 0].astype(np.int64), arr[:, 1].astype(np.intp), arr[:, 2].astype(np.int64)
         aa, v2, y = arr[:, 3], arr[:, 4], arr[:, 5]
-        one = Moments.from_rows(keys, aa, v2, np.stack([np.ones_like(y), y], axis=1), ())
+        u = np.stack([np.ones_like(y), y], axis=1)
+        one = Moments.from_rows(keys, aa, v2, u, ())
+        rows = Rows(one, np.searchsorted(one.keys, keys), u, np.arange(y.size), ram)
         tz, zg = self.grid_2z[self._best[0]], self.grid_zgb[self._best[1]]
         load = F.axial_load(self.gear, self.basis, one, self._coef)
-        nb, fg = F.friction_features(self.gear, one.abs_alpha, F.torque_of_load(self.gear, one, load),
-                                     np.array([tz]), np.array([zg]))
-        cols, _, _ = F.design_columns(self.gear, self.basis, one, {'n_b': nb[:, 0], 'f_gb': fg[:, 0], 'load': load}, ())
-        res = y - cols[np.searchsorted(one.keys, keys)] @ self._coef
+        res = y - predict_rows(self.gear, self.basis, rows, self._coef, tz, zg, load)
         times, inv = np.unique(t, return_inverse=True)
         resid = np.full((times.size, 2), np.nan)
         resid[inv, ram] = res
