@@ -36,7 +36,6 @@ from steer_monitor.can.setup import can_setup
 from steer_monitor.cli.output import dump_json
 from steer_monitor.estimate.analyze import Analysis, analyze
 from steer_monitor.estimate.batch import ClearanceEstimate
-from steer_monitor.estimate.intervals import Interval
 from steer_monitor.model.fits import parse_fit
 from steer_monitor.params import gear_from_params, load_params_file
 from steer_monitor.resources import default_config
@@ -44,19 +43,22 @@ from steer_monitor.resources import default_config
 __all__ = ['analysis_json', 'analyze_log', 'register', 'run']
 
 
-def _iv(iv: Interval, k: float = 1.0, digits: int = 4) -> dict[str, Any]:
-    return iv.scaled(k, digits)
+def _quantities(e: ClearanceEstimate) -> dict[str, Any]:
+    """The estimated quantities with their intervals, in engineers' units."""
+    return {
+        'clearance_2z_mm': e.two_z.scaled(1e3),
+        'clearance_zgb_mm': e.z_gb.scaled(1e3),
+        'k_gl_max': e.k_gl_max.scaled(1.0, 3),
+        'seal_friction_n': e.seal_friction.scaled(1.0, 0),
+        'mu_bushing': e.mu_bushing.scaled(1.0, 4),
+        'mu_guide': e.mu_guide.scaled(1.0, 4),
+    }
 
 
 def _estimate_json(e: ClearanceEstimate) -> dict[str, Any]:
     bar = e.ram_area * 1e5
     return {
-        'clearance_2z_mm': _iv(e.two_z, 1e3),
-        'clearance_zgb_mm': _iv(e.z_gb, 1e3),
-        'k_gl_max': _iv(e.k_gl_max, 1.0, 3),
-        'seal_friction_n': _iv(e.seal_friction, 1.0, 0),
-        'mu_bushing': _iv(e.mu_bushing, 1.0, 4),
-        'mu_guide': _iv(e.mu_guide, 1.0, 4),
+        **_quantities(e),
         'rmse_kn': round(e.rms / 1e3, 4),
         'rmse_bar': round(e.rms / bar, 4),
         'systematic_bar': round(e.smooth_rms / bar, 4),
@@ -79,16 +81,11 @@ def analysis_json(a: Analysis) -> dict[str, Any]:
             elif v.lo is None and v.hi is None:
                 params[k] = round(v.value, 6)
             else:
-                params[k] = _iv(v, 1.0, 6)
+                params[k] = v.scaled(1.0, 6)
         effect = {'name': a.effect, 'params': params}
     angles, torque, band = f.torque_curve
     return {
-        'clearance_2z_mm': _iv(f.two_z, 1e3),
-        'clearance_zgb_mm': _iv(f.z_gb, 1e3),
-        'k_gl_max': _iv(f.k_gl_max, 1.0, 3),
-        'seal_friction_n': _iv(f.seal_friction, 1.0, 0),
-        'mu_bushing': _iv(f.mu_bushing, 1.0, 4),
-        'mu_guide': _iv(f.mu_guide, 1.0, 4),
+        **_quantities(f),
         'effect': effect,
         'verdict': a.verdict,
         'message': a.message,

@@ -86,7 +86,8 @@ class ClearanceEstimate:
         noise_rms, smooth_rms: the residual split into sensor noise and its smooth
             (systematic) part [N].
         residual: (n, 2) per observation and ram [N], NaN where not fitted.
-        profile: the clearance profile.
+        profile: the clearance profile; deviance: its likelihood-ratio statistic over the grid,
+            (RSS - RSS_min) / (sigma^2 x inflation), shape of ``profile.rss``.
     """
 
     two_z: Interval
@@ -107,6 +108,7 @@ class ClearanceEstimate:
     fit: F.FitAt = field(repr=False)
     max_angle_seen: float = 0.0
     ram_area: float = 1.0
+    deviance: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 0)), repr=False)
 
 
 def residual_parts(resid: NDArray[np.float64], t_ns: NDArray[np.int64]) -> tuple[float, float]:
@@ -194,7 +196,7 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, 
         extra={c.name: coefs[c.name] for c in extra},
         torque_curve=(angles, tq, band), k_gl_max=Interval(k_best, min(kgl + [k_best]), max(kgl + [k_best])),
         rms=math.sqrt(best.rss / best.n), rows=int(best.n), inflation=vif, noise_rms=noise, smooth_rms=smooth,
-        residual=resid, profile=pr, fit=best, max_angle_seen=max_seen, ram_area=gear.ram_area)
+        residual=resid, profile=pr, fit=best, max_angle_seen=max_seen, ram_area=gear.ram_area, deviance=delta)
 
 
 def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: Sequence[F.Column] = (),

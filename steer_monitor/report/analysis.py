@@ -34,9 +34,7 @@ def _plots(a: Analysis) -> dict[str, str]:
     f = a.final
     out: dict[str, str] = {}
     bar = f.ram_area * 1e5
-    pr = f.profile
-    sigma2 = f.fit.rss / max(f.fit.n - f.fit.coef.size, 1)
-    delta = (pr.rss - pr.rss.min()) / (sigma2 * f.inflation)
+    pr, delta = f.profile, f.deviance
     fig, ax = plt.subplots(1, 2, figsize=(10, 3.4))
     for k, (axis, prof, iv, label) in enumerate(((pr.two_z, delta.min(1), f.two_z, '2Z [mm]'),
                                                  (pr.z_gb, delta.min(0), f.z_gb, 'Z_gb [mm]'))):
