@@ -39,13 +39,11 @@ from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import GRID_NS, Observations
 from steer_monitor.model.gear import GearParams
 
-__all__ = ['CANDIDATES', 'DELAYS_S', 'STRIBECK_SPEEDS_MM_S', 'Candidate', 'candidates', 'low_side_offsets',
+__all__ = ['DELAYS_S', 'STRIBECK_SPEEDS_MM_S', 'Candidate', 'candidates', 'low_side_offsets',
            'z_columns']
 
 STRIBECK_SPEEDS_MM_S = (1.0, 2.0, 3.0, 5.0, 8.0)
 DELAYS_S = tuple(round(0.05 * k, 2) for k in range(1, 21))   # 0.05 .. 1.0 s
-CANDIDATES = ('viscous', 'stribeck', 'pressure_friction', 'temp_friction', 'pressure_offset',
-              'angle_delay', 'ram_inertia')
 
 
 @dataclass(frozen=True)

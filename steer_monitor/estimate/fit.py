@@ -270,7 +270,7 @@ def profile(gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray[np
     zero = {'n_b': np.zeros(len(mom)), 'f_gb': np.zeros(len(mom)), 'load': load}
     base_cols, zs, names = design_columns(gear, basis, mom, zero, extra)
     p = len(names)
-    dep = _dependent_columns(basis, names, extra)
+    dep = _dependent_columns(basis, extra)
     xtx0, xty0 = _design(base_cols, zs, mom)
     ridge = _smoothing(basis.size, p, xtx0)
     q = mom.m.shape[1]
@@ -292,7 +292,7 @@ def profile(gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray[np
         else:
             nb, fg = friction_features(gear, cell_alpha, cell_torque, np.array([tz]), grid_zgb[None, :])
         feats = {'n_b': nb[cell_of_bin], 'f_gb': fg[cell_of_bin], 'load': load[:, None]}
-        dep_vals = {a: _dep_value(a, names, basis, d[:, None], feats, mom, extra) for a in dep}  # (B, J)
+        dep_vals = {a: _dep_value(a, basis, d[:, None], feats, mom, extra) for a in dep}  # (B, J)
         xtx = np.broadcast_to(xtx0, (grid_zgb.size, p, p)).copy()
         xty = np.broadcast_to(xty0, (grid_zgb.size, p)).copy()
         for a in dep:
@@ -329,14 +329,14 @@ def _cells(mom: Moments, torque: NDArray[np.float64]) -> tuple[NDArray, NDArray,
     return a, t, inv
 
 
-def _dependent_columns(basis: TorqueBasis, names: Sequence[str], extra: Sequence[Column]) -> list[int]:
+def _dependent_columns(basis: TorqueBasis, extra: Sequence[Column]) -> list[int]:
     k = basis.size
     dep = [k + 1, k + 2]
     dep += [k + 3 + i for i, c in enumerate(extra) if getattr(c.feature, 'uses_clearances', False)]
     return dep
 
 
-def _dep_value(a: int, names: Sequence[str], basis: TorqueBasis, d: NDArray, feats: dict,
+def _dep_value(a: int, basis: TorqueBasis, d: NDArray, feats: dict,
                mom: Moments, extra: Sequence[Column]) -> NDArray:
     k = basis.size
     if a == k + 1:
