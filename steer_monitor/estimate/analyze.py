@@ -100,18 +100,16 @@ def _halves(obs: Observations) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
 def _cv_mse(gear: GearParams, basis: F.TorqueBasis, parts: tuple[Rows, Rows], coef_torque: NDArray,
             two_z: float, z_gb: float, extra: tuple[F.Column, ...]) -> float:
     """Held-out mean square: fit on each half at the given clearances, score on the other."""
+    if min(part.moments.samples for part in parts) < 50:
+        return math.nan
+    normal = [F.normal_equations(gear, basis, part.moments, two_z, z_gb,
+                                 F.axial_load(gear, basis, part.moments, coef_torque), extra) for part in parts]
     total = 0.0
-    rows = 0.0
-    for fit_on, score_on in ((parts[0], parts[1]), (parts[1], parts[0])):
-        m_fit, m_score = fit_on.moments, score_on.moments
-        if m_fit.samples < 50 or m_score.samples < 50:
-            continue
-        coef = F.fit_at(gear, basis, m_fit, two_z, z_gb, F.axial_load(gear, basis, m_fit, coef_torque), extra).coef
-        xtx, xty, yty, _ = F.normal_equations(gear, basis, m_score, two_z, z_gb,
-                                              F.axial_load(gear, basis, m_score, coef_torque), extra)
+    for fit_on, score_on in ((0, 1), (1, 0)):
+        coef = F.solve_normal_equations(basis, *normal[fit_on], parts[fit_on].moments.samples).coef
+        xtx, xty, yty, _ = normal[score_on]
         total += float(yty - 2 * coef @ xty + coef @ xtx @ coef)
-        rows += m_score.samples
-    return total / rows if rows else math.nan
+    return total / sum(part.moments.samples for part in parts)
 
 
 def _score(gear: GearParams, basis: F.TorqueBasis, rows: Rows, parts: tuple[Rows, Rows], coef_torque: NDArray,

@@ -35,7 +35,7 @@ from steer_monitor.model.friction import normal_forces
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import load_sharing
 
-__all__ = ['GRID_2Z', 'GRID_ZGB', 'Column', 'FitAt', 'Profile', 'TorqueBasis', 'axial_load', 'design_at', 'design_columns', 'fit_at', 'normal_equations',
+__all__ = ['GRID_2Z', 'GRID_ZGB', 'Column', 'FitAt', 'Profile', 'TorqueBasis', 'axial_load', 'design_at', 'design_columns', 'fit_at', 'normal_equations', 'solve_normal_equations',
            'friction_features', 'profile', 'torque_columns', 'torque_of_load', 'torque_prefit']
 
 DEG = math.pi / 180.0
@@ -179,9 +179,14 @@ def fit_at(gear: GearParams, basis: TorqueBasis, mom: Moments, two_z: float, z_g
            load: NDArray[np.float64], extra: Sequence[Column] = ()) -> FitAt:
     """The declared model (plus ``extra`` columns) fitted at one pair of clearances.
     ``load``: |Fa| per bin [N] for the friction features."""
-    xtx, xty, yty, names = normal_equations(gear, basis, mom, two_z, z_gb, load, extra)
+    return solve_normal_equations(basis, *normal_equations(gear, basis, mom, two_z, z_gb, load, extra), mom.samples)
+
+
+def solve_normal_equations(basis: TorqueBasis, xtx: NDArray, xty: NDArray, yty: float, names: Sequence[str],
+                           n: float) -> FitAt:
+    """The fit from :func:`normal_equations`' output (``n`` rows)."""
     coef, rss, inv = _solve(xtx, xty, yty, _smoothing(basis.size, len(names), xtx))
-    return FitAt(coef, rss, mom.samples, tuple(names), inv)
+    return FitAt(coef, rss, n, tuple(names), inv)
 
 
 def normal_equations(gear: GearParams, basis: TorqueBasis, mom: Moments, two_z: float, z_gb: float,
