@@ -10,7 +10,8 @@
   status (a diagnostic ERROR), counts what it could not write, and tries again every
   ``retry_s`` seconds.
 
-Callers hand over already-serialized CDR (``write``) or frames (``write_frame``); nothing here
+Callers hand over already-serialized CDR (``write``) or frames (``write_frame``, or
+``write_frames`` for a batch: one queue entry, records packed at once); nothing here
 imports rclpy.
 """
 
@@ -101,6 +102,11 @@ class Recorder:
         """Queue one raw CAN frame (recorded as can_msgs/msg/Frame)."""
         self._put((FRAME_TOPIC, frame, frame.t_ns))
 
+    def write_frames(self, frames: list[Frame]) -> None:
+        """Queue a batch of raw CAN frames (one queue entry; written in one go)."""
+        if frames:
+            self._put((FRAME_TOPIC, frames, frames[0].t_ns))
+
     def _put(self, item: tuple[str, Any, int]) -> None:
         if self._closed:
             return
@@ -190,21 +196,22 @@ class Recorder:
     def _write_item(self, topic: str, payload: Any, log_time_ns: int, now: float) -> None:
         if self._writer is None:
             if self._error is not None and now < self._next_retry:
-                self.failed += 1
+                self.failed += len(payload) if isinstance(payload, list) else 1
                 return
             if not self._guard(lambda: self._open(log_time_ns, now)):
-                self.failed += 1
+                self.failed += len(payload) if isinstance(payload, list) else 1
                 return
         elif now - self._opened_at >= self.max_seconds or self._stream.tell() >= self.max_bytes:
             if not (self._guard(self._finish) and self._guard(lambda: self._open(log_time_ns, now))):
-                self.failed += 1
+                self.failed += len(payload) if isinstance(payload, list) else 1
                 return
+        count = len(payload) if isinstance(payload, list) else 1
         ok = self._guard(lambda: self._add(topic, payload, log_time_ns))
         if ok:
-            self.messages += 1
-            self._pending += 1
+            self.messages += count
+            self._pending += count
         else:
-            self.failed += 1
+            self.failed += count
 
     def _open(self, log_time_ns: int, now: float) -> None:
         self.directory.mkdir(parents=True, exist_ok=True)
@@ -224,6 +231,9 @@ class Recorder:
         self._opened_at = self._last_flush = now
 
     def _add(self, topic: str, payload: Any, log_time_ns: int) -> None:
+        if topic == FRAME_TOPIC and isinstance(payload, list):
+            self._writer.write_frames(payload)
+            return
         if topic == FRAME_TOPIC and isinstance(payload, Frame):
             self._writer.write_frame(payload)
             return

@@ -1,13 +1,17 @@
-"""The packed can_msgs/msg/Frame CDR against the generic ROS 2 encoder."""
+"""The packed can_msgs/msg/Frame CDR against the generic ROS 2 encoder; the batch writer against
+the one-frame writer."""
 
 from __future__ import annotations
 
+import io
+
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from mcap_ros2._dynamic import serialize_dynamic
 
 from steer_monitor.can import Frame
-from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, frame_cdr, frame_message
+from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, McapWriter, frame_cdr, frame_message, iter_mcap_frames
 
 ENCODE = serialize_dynamic(FRAME_DATATYPE, FRAME_MSGDEF)[FRAME_DATATYPE]
 
@@ -19,3 +23,48 @@ ENCODE = serialize_dynamic(FRAME_DATATYPE, FRAME_MSGDEF)[FRAME_DATATYPE]
 def test_packed_cdr_equals_generic_encoder(t, can_id, data, ext, err, rtr, frame_id):
     f = Frame(t % (2**31 * 10**9), can_id, data, ext, err, rtr)
     assert frame_cdr(f, frame_id) == ENCODE(frame_message(f, frame_id))
+
+
+def _frames(n: int) -> list[Frame]:
+    t0 = 1_767_225_600_000_000_000
+    return [Frame(t0 + i * 523_000, (0x09F10D10 + i) & 0x1FFFFFFF, bytes(range(i % 9)), bool(i % 2),
+                  bool(i % 5 == 0), bool(i % 7 == 0)) for i in range(n)]
+
+
+@pytest.mark.parametrize('batch', [1, 7, 256, 5000])
+def test_write_frames_gives_the_same_file_as_one_at_a_time(batch):
+    frames = _frames(3000)
+    one, many = io.BytesIO(), io.BytesIO()
+    with McapWriter(one, chunk_size=1 << 24) as w:
+        for f in frames[:1000]:
+            w.write_frame(f)
+        w.flush()                       # a chunk boundary, as the recorder's 1 s flush makes
+        for f in frames[1000:]:
+            w.write_frame(f)
+    with McapWriter(many, chunk_size=1 << 24) as w:
+        for i in range(0, 1000, batch):
+            w.write_frames(frames[i:min(i + batch, 1000)])
+        w.flush()
+        for i in range(1000, 3000, batch):
+            w.write_frames(frames[i:min(i + batch, 3000)])
+    assert many.getvalue() == one.getvalue()
+
+
+def test_write_frames_across_chunk_rollover_reads_back_with_crcs():
+    from mcap.reader import make_reader
+    frames = _frames(2000)
+    buf = io.BytesIO()
+    with McapWriter(buf, chunk_size=4096) as w:
+        for i in range(0, 2000, 300):
+            w.write_frames(frames[i:i + 300])
+        w.write_frames([])
+    buf.seek(0)
+    reader = make_reader(buf, validate_crcs=True)
+    got = list(reader.iter_messages())
+    assert [m.log_time for _, _, m in got] == [f.t_ns for f in frames]
+    stats = reader.get_summary().statistics
+    assert stats.message_count == 2000 and stats.chunk_count == 7   # a chunk ends after the batch that fills it
+    buf.seek(0)
+    back = list(iter_mcap_frames(buf))
+    assert back == [Frame(f.t_ns, f.can_id, f.data, f.is_extended, f.is_error, f.is_remote, 'steering_can')
+                    for f in frames]

@@ -69,6 +69,22 @@ def test_round_trip_read_by_rosbags_and_mcap(tmp_path):
     assert st.ok and st.messages == 510 and st.dropped == 0
 
 
+def test_frame_batches_are_recorded_and_counted(tmp_path):
+    from mcap.reader import make_reader
+    frames = [_frame(i) for i in range(1000)]
+    with Recorder(tmp_path) as rec:
+        for i in range(0, 1000, 256):
+            rec.write_frames(frames[i:i + 256])
+        rec.write_frames([])
+        rec.write_frame(_frame(1000))
+    [path] = rec.files
+    with open(path, 'rb') as fh:
+        got = [m.log_time for _, _, m in make_reader(fh, validate_crcs=True).iter_messages()]
+    assert got == [f.t_ns for f in frames] + [_frame(1000).t_ns]
+    st = rec.status()
+    assert st.ok and st.messages == 1001 and st.failed == 0 and st.dropped == 0
+
+
 def test_rotation_by_size_and_by_time(tmp_path):
     with Recorder(tmp_path / 'size', max_bytes=20_000, chunk_size=4096, flush_interval_s=0.0) as rec:
         for i in range(3000):
