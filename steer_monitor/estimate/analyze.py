@@ -27,6 +27,7 @@ from steer_monitor.estimate import fit as F
 from steer_monitor.estimate.batch import ClearanceEstimate, Rows, estimate_clearances, make_rows
 from steer_monitor.estimate.effects import Candidate, candidates, low_side_offsets, z_columns
 from steer_monitor.estimate.intervals import Interval
+from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import Observations, build_observations
 from steer_monitor.model.gear import GearParams
 
@@ -37,6 +38,7 @@ MIN_CV_GAIN = 0.10       # held-out mean square must fall by 10 % (RMS by ~5 %)
 MIN_BIC_DROP = 10.0      # "very strong" evidence on the effective sample size
 EXPLAINED_RATIO = 0.5    # smooth residual RMS at most half the sensor-noise RMS
 BLOCK_NS = 60_000_000_000
+MIN_SEGMENT_SAMPLES = 20
 
 
 @dataclass(frozen=True)
@@ -97,31 +99,65 @@ def _halves(obs: Observations) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
     return block, ~block
 
 
+def _covered(train: Moments, score: Moments, basis: F.TorqueBasis) -> NDArray[np.bool_]:
+    """Bins of ``score`` whose torque-spline segment the training half has data in (at least
+    ``MIN_SEGMENT_SAMPLES``): held-out rows elsewhere would score the spline's extrapolation
+    (a hard-over sits in one minute, so in one half only), not the friction model."""
+    step = math.radians(F.KNOT_STEP_DEG)
+    seg_train = np.floor(train.abs_alpha / step).astype(np.int64)
+    counts = np.bincount(seg_train, train.count, minlength=int(seg_train.max(initial=0)) + 1)
+    seg = np.floor(score.abs_alpha / step).astype(np.int64)
+    ok = seg < counts.size
+    ok[ok] = counts[seg[ok]] >= MIN_SEGMENT_SAMPLES
+    return ok
+
+
 def _cv_mse(gear: GearParams, basis: F.TorqueBasis, parts: tuple[Rows, Rows], coef_torque: NDArray,
             two_z: float, z_gb: float, extra: tuple[F.Column, ...]) -> float:
-    """Held-out mean square: fit on each half at the given clearances, score on the other."""
+    """Held-out mean square: fit on each half at the given clearances, score on the other
+    (the bins of the other half inside the angles the fitting half covers)."""
     if min(part.moments.samples for part in parts) < 50:
         return math.nan
     normal = [F.normal_equations(gear, basis, part.moments, two_z, z_gb,
                                  F.axial_load(gear, basis, part.moments, coef_torque), extra) for part in parts]
-    total = 0.0
+    total, n = 0.0, 0.0
     for fit_on, score_on in ((0, 1), (1, 0)):
         coef = F.solve_normal_equations(basis, *normal[fit_on], parts[fit_on].moments.samples).coef
-        xtx, xty, yty, _ = normal[score_on]
+        mom = parts[score_on].moments
+        keep = _covered(parts[fit_on].moments, mom, basis)
+        if not keep.all():
+            mom = mom.subset(keep)
+            xtx, xty, yty, _ = F.normal_equations(gear, basis, mom, two_z, z_gb,
+                                                  F.axial_load(gear, basis, mom, coef_torque), extra)
+        else:
+            xtx, xty, yty, _ = normal[score_on]
         total += float(yty - 2 * coef @ xty + coef @ xtx @ coef)
-    return total / sum(part.moments.samples for part in parts)
+        n += mom.samples
+    return total / n if n > 0 else math.nan
 
 
 def _score(gear: GearParams, basis: F.TorqueBasis, rows: Rows, parts: tuple[Rows, Rows], coef_torque: NDArray,
-           extra: tuple[F.Column, ...], grid_2z: NDArray) -> tuple[float, float, float, float, float, int]:
-    """(in-sample RSS, rows, held-out MSE, 2Z, Z_gb) at the candidate's coarse optimum."""
+           extra: tuple[F.Column, ...], grid_2z: NDArray, declared_at: tuple[float, float]
+           ) -> tuple[float, float, float, float, float, int]:
+    """(in-sample RSS, rows, held-out MSE, 2Z, Z_gb, parameters) at the candidate's optimum:
+    a coarse pass over the grid, then the full resolution around its best point and around
+    the declared model's estimate ``declared_at`` (2Z, Z_gb) [m] (a ram that clamps makes the
+    profile in 2Z narrower than the coarse step, so the coarse pass alone can miss it)."""
     mom = rows.moments
     load = F.axial_load(gear, basis, mom, coef_torque)
     pr = F.profile(gear, basis, mom, load, extra, grid_2z[::3], F.GRID_ZGB[::3])
-    i, j = pr.best
-    tz, zg = float(pr.two_z[i]), float(pr.z_gb[j])
+    best = (math.inf, 0.0, 0.0, 0)
+    for tz0, zg0 in ((float(pr.two_z[pr.best[0]]), float(pr.z_gb[pr.best[1]])), declared_at):
+        i0 = int(np.argmin(np.abs(grid_2z - tz0)))
+        j0 = int(np.argmin(np.abs(F.GRID_ZGB - zg0)))
+        fine = F.profile(gear, basis, mom, load, extra, grid_2z[max(i0 - 3, 0):i0 + 4],
+                         F.GRID_ZGB[max(j0 - 3, 0):j0 + 4])
+        i, j = fine.best
+        if fine.rss[i, j] < best[0]:
+            best = (float(fine.rss[i, j]), float(fine.two_z[i]), float(fine.z_gb[j]), fine.p)
+    rss, tz, zg, p = best
     cv = _cv_mse(gear, basis, parts, coef_torque, tz, zg, extra)
-    return float(pr.rss[i, j]), mom.samples, cv, tz, zg, pr.p
+    return rss, mom.samples, cv, tz, zg, p
 
 
 def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z: float = 0.0,
@@ -138,7 +174,8 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
     coef_t = declared.fit.coef[:basis.size]
     a_half, b_half = _halves(obs)
     parts = (make_rows(obs, z, a_half), make_rows(obs, z, b_half))
-    rss0, n0, cv0, _, _, p0 = _score(gear, basis, rows, parts, coef_t, (), grid_2z)
+    at = (declared.two_z.value, declared.z_gb.value)
+    rss0, n0, cv0, _, _, p0 = _score(gear, basis, rows, parts, coef_t, (), grid_2z, at)
     n_eff = n0 / declared.inflation
     seal, mu_b, mu_g = (declared.fit.get(k) for k in ('seal_friction_n', 'mu_bushing', 'mu_guide'))
     screened: list[tuple[Screening, Candidate]] = []
@@ -152,7 +189,7 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
             delays.append((f.rss / f.n, cand, o, r))
             continue
         say(f'candidate {cand.name}')
-        rss, n, cv, tz, zg, p = _score(gear, basis, rows, parts, coef_t, cand.columns, grid_2z)
+        rss, n, cv, tz, zg, p = _score(gear, basis, rows, parts, coef_t, cand.columns, grid_2z, at)
         screened.append((_screening(cand, rss, n, cv, tz, zg, p, rss0, n0, cv0, p0, n_eff), cand))
     delay_obs: dict[float, tuple[Observations, Rows]] = {}
     if delays:
@@ -161,7 +198,7 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
         o_a, o_b = _halves(o)
         zc = z_columns(o, gear)
         rss, n, cv, tz, zg, p = _score(gear, basis, r, (make_rows(o, zc, o_a), make_rows(o, zc, o_b)),
-                                       coef_t, (), grid_2z)
+                                       coef_t, (), grid_2z, at)
         screened.append((_screening(cand, rss, n, cv, tz, zg, p + 1, rss0, n0, cv0, p0, n_eff), cand))
         delay_obs[cand.angle_shift_s] = (o, r)
     screened = _best_per_name(screened)

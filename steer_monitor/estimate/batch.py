@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from steer_monitor.estimate import fit as F
-from steer_monitor.estimate.intervals import CHI2_2_95, Interval, inflation, profile_interval
+from steer_monitor.estimate.intervals import plateau_interval, CHI2_2_95, Interval, inflation
 from steer_monitor.estimate.moments import Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations
 from steer_monitor.model.gear import GearParams
@@ -166,10 +166,13 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, 
            resid: NDArray[np.float64], noise: float, smooth: float) -> ClearanceEstimate:
     dof = max(best.n - best.coef.size, 1.0)
     sigma2 = best.rss / dof
-    delta = (pr.rss - best.rss) / (sigma2 * vif)
-    two_z = profile_interval(pr.two_z, delta.min(axis=1))
-    z_gb = profile_interval(pr.z_gb, delta.min(axis=0))
-    region = np.argwhere(delta <= CHI2_2_95)
+    # relative to the profile's own minimum: the grid evaluates the friction features per
+    # angle cell and ``best`` per bin, which differ by ~1e-4 of the RSS (a deviance of ~1)
+    delta = (pr.rss - float(pr.rss.min())) / (sigma2 * vif)
+    two_z = plateau_interval(pr.two_z, delta.min(axis=1))
+    z_gb = plateau_interval(pr.z_gb, delta.min(axis=0))
+    region_all = np.argwhere(delta <= CHI2_2_95)
+    region = region_all
     if region.shape[0] > 60:
         region = region[np.linspace(0, region.shape[0] - 1, 60).round().astype(int)]
     region_fits = [(float(pr.two_z[a]), float(pr.z_gb[b]),
@@ -183,12 +186,17 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, 
             se = np.sqrt(np.maximum(np.array([f.cov_unscaled[k, k] for _, _, f in region_fits]), 0.0) * sigma2 * vif)
         ok = np.isfinite(c) & np.isfinite(se)
         coefs[name] = Interval(float(best.coef[k]), float(np.min((c - 1.96 * se)[ok])), float(np.max((c + 1.96 * se)[ok])))
-    angles = np.radians(np.arange(0.0, math.degrees(max_seen) + 1e-9, 0.5))
+    angles = np.union1d(np.radians(np.arange(0.0, math.degrees(max_seen), 0.5)), [max_seen])
     bmat = basis(angles)
     tq = bmat @ best.coef[:basis.size]
     cov_t = best.cov_unscaled[:basis.size, :basis.size] * sigma2 * vif
     band = 1.96 * np.sqrt(np.maximum(np.einsum('ij,jk,ik->i', bmat, cov_t, bmat), 0.0))
     kgl = [_k_gl_max(gear, angles, bmat @ f.coef[:basis.size], a, b) for a, b, f in region_fits]
+    # every point of the region with the best torque curve (the extremes of K_gl sit at the
+    # region's edges; the subsample above carries each fit's own torque curve)
+    # and with the torque curve at either edge of its band (K_gl grows with the load)
+    for t in (tq - band, tq, tq + band):
+        kgl += _k_gl_max_each(gear, angles, t, pr.two_z[region_all[:, 0]], pr.z_gb[region_all[:, 1]]).tolist()
     k_best = _k_gl_max(gear, angles, tq, tz, zg)
     return ClearanceEstimate(
         two_z=two_z, z_gb=z_gb,
@@ -223,6 +231,14 @@ def estimate_from_moments(gear: GearParams, mom: Moments, vif: float, grid_2z: N
     pr, best, tz, zg, load = _profile_fit(gear, basis, mom, (), grid_2z, grid_zgb, None)
     max_seen = float(np.max(mom.abs_alpha)) if len(mom) else 0.0
     return _bound(gear, basis, mom, pr, best, tz, zg, load, (), vif, max_seen, np.zeros((0, 2)), math.nan, math.nan)
+
+
+def _k_gl_max_each(gear: GearParams, angles: NDArray, torque: NDArray, two_z: NDArray, z_gb: NDArray) -> NDArray:
+    """K_gl max over ``angles`` (A,) for each clearance pair (R,): shape (R,)."""
+    if angles.size == 0 or two_z.size == 0:
+        return np.zeros(two_z.size)
+    ls = load_sharing(gear, angles[:, None], np.maximum(torque, 0.0)[:, None], two_z[None, :], z_gb[None, :])
+    return np.max(ls.k_gl, axis=0)
 
 
 def _k_gl_max(gear: GearParams, angles: NDArray, torque: NDArray, two_z: float, z_gb: float) -> float:

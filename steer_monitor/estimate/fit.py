@@ -35,20 +35,28 @@ from steer_monitor.model.friction import normal_forces
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import load_sharing
 
-__all__ = ['GRID_2Z', 'GRID_ZGB', 'Column', 'FitAt', 'Profile', 'TorqueBasis', 'axial_load', 'design_at', 'design_columns', 'fit_at', 'normal_equations', 'solve_normal_equations',
+__all__ = ['GRID_2Z', 'GRID_ZGB', 'KNOT_STEP_DEG', 'Column', 'FitAt', 'Profile', 'TorqueBasis', 'axial_load', 'design_at', 'design_columns', 'fit_at', 'normal_equations', 'solve_normal_equations',
            'friction_features', 'profile', 'torque_columns', 'torque_of_load', 'torque_prefit']
 
 DEG = math.pi / 180.0
 GRID_2Z = np.round(np.arange(0.0, 1.5001e-3, 0.02e-3), 9)    # m: 0 .. 1.5 mm
 GRID_ZGB = np.round(np.arange(0.0, 0.6001e-3, 0.005e-3), 9)  # m: 0 .. 0.6 mm
 RIDGE = 1e-6
+KNOT_STEP_DEG = 1.0
 
 
 @dataclass(frozen=True)
 class TorqueBasis:
-    """Cubic B-spline basis in |alpha| with M(0) = 0, knots every 2.5 deg up to the gear's limit.
-    (Every 5 deg leaves a 0.4 bar systematic misfit of the R-18 curve that pulls Z_gb by
-    0.015 mm; every 2.5 deg fits it to within the sensor noise.)"""
+    """Cubic B-spline basis in |alpha| with M(0) = 0, knots every ``KNOT_STEP_DEG`` up to the
+    gear's limit.
+
+    The axial load is large against the friction the clearances change (about 470 kN at
+    10 deg against a few kN), so a misfit of the torque *shape* of a tenth of a percent is
+    already friction-sized and moves the clearances. Knots every 2.5 deg left the R-18 curve
+    (PCHIP through 0, 5, 10, 21, 27.5, 35 deg) misfit by ~0.4 kN m, which pulled Z_gb by up to
+    0.06 mm on course-keeping logs and put the truth outside the interval (deviance 8-34 at
+    the true clearances on noise-free logs); every 1 deg the deviance at the truth is < 0.1
+    there and the cost of the profile is unchanged (accuracy study, docs/accuracy.md)."""
 
     max_angle: float
 
@@ -56,7 +64,7 @@ class TorqueBasis:
     def knots(self) -> NDArray[np.float64]:
         cached = self.__dict__.get('_knots')
         if cached is None:
-            inner = np.radians(np.arange(2.5, 90.0, 2.5))
+            inner = np.radians(np.arange(KNOT_STEP_DEG, 90.0, KNOT_STEP_DEG))
             inner = inner[inner < self.max_angle - 1e-9]
             cached = np.concatenate([[0.0] * 4, inner, [self.max_angle] * 4])
             object.__setattr__(self, '_knots', cached)

@@ -131,6 +131,11 @@ class Moments:
                 out.m[i] += src.m
         return out
 
+    def subset(self, mask: NDArray[np.bool_]) -> Moments:
+        """The bins where ``mask`` (shape (B,)) is true."""
+        return Moments(self.z_names, self.keys[mask].copy(), self.count[mask], self.sum_abs_alpha[mask],
+                       self.sum_speed_sq[mask], self.m[mask])
+
     def scaled(self, factor: float) -> Moments:
         """All statistics times ``factor`` (exponential forgetting)."""
         return Moments(self.z_names, self.keys.copy(), self.count * factor, self.sum_abs_alpha * factor,

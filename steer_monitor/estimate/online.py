@@ -31,6 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
 from steer_monitor.can.decoder import Sample, Series
 from steer_monitor.can.signals import PRESSURE_INPUTS
@@ -56,16 +57,17 @@ _INPUTS = ('rudder_angle',) + PRESSURE_INPUTS + ('ship_speed',)
 
 @dataclass(frozen=True)
 class OnlineEstimate:
-    """The latest estimate: clearances [m] with intervals (from the last full profile, moved
-    with the point), K_gl max, rows used, data time [ns] and whether it came from a full
-    profile."""
+    """The latest estimate: clearances [m] and K_gl max with intervals (from the last full
+    profile; the clearances' moved with the point), rows used, data time [ns] and whether it
+    came from a full profile."""
 
     two_z: Interval
     z_gb: Interval
-    k_gl_max: float
+    k_gl_max: Interval
     rows: float
     t_ns: int
     full: bool
+    friction: tuple[float, float, float] = (math.nan, math.nan, math.nan)   # F_s [N], mu_b, mu_g at the point
 
 
 def _gear_signature(gear: GearParams) -> list[float]:
@@ -218,9 +220,16 @@ class OnlineEstimator:
         prev = self.estimate
         self.estimate = OnlineEstimate(_moved(prev.two_z, tz) if prev else Interval(tz, None, None),
                                        _moved(prev.z_gb, zg) if prev else Interval(zg, None, None),
-                                       prev.k_gl_max if prev else math.nan, mom.samples,
-                                       self._latest_ns or 0, False)
+                                       prev.k_gl_max if prev else Interval(math.nan, None, None), mom.samples,
+                                       self._latest_ns or 0, False, self._friction(self._coef))
         return True
+
+    def _friction(self, coef: NDArray[np.float64] | None) -> tuple[float, float, float]:
+        """(F_s, mu_b, mu_g) of a fit's coefficients (they follow the torque coefficients)."""
+        if coef is None:
+            return (math.nan, math.nan, math.nan)
+        k = self.basis.size
+        return (float(coef[k]), float(coef[k + 1]), float(coef[k + 2]))
 
     def _full(self) -> bool:
         """The batch estimator on the moments (the same code, so the same numbers)."""
@@ -233,8 +242,8 @@ class OnlineEstimator:
         self._best = (int(np.searchsorted(self.grid_2z, g2[i])), int(np.searchsorted(self.grid_zgb, gz[j])))
         self._coef = est.fit.coef
         self._motion_since_full = 0.0
-        self.estimate = OnlineEstimate(est.two_z, est.z_gb, est.k_gl_max.value, self.moments.samples,
-                                       self._latest_ns or 0, True)
+        self.estimate = OnlineEstimate(est.two_z, est.z_gb, est.k_gl_max, self.moments.samples,
+                                       self._latest_ns or 0, True, self._friction(self._coef))
         self.last_full = est
         return True
 
@@ -267,7 +276,9 @@ class OnlineEstimator:
         tmp = path.with_name(path.name + '.tmp.npz')
         meta = {'version': STATE_VERSION, 'gear': _gear_signature(self.gear),
                 'grid_2z_min': float(self.grid_2z[0]), 'motion_s': self.motion_s, 'vif': self._vif,
-                'best': list(self._best) if self._best else None}
+                'best': list(self._best) if self._best else None,
+                'motion_since_full': self._motion_since_full,
+                'estimate': _estimate_to_json(self.estimate) if self.estimate is not None else None}
         arrays = self.moments.to_arrays()
         if self._coef is not None:
             arrays['coef'] = self._coef
@@ -300,8 +311,27 @@ class OnlineEstimator:
         self._vif = float(meta.get('vif', 1.0))
         self._best = tuple(meta['best']) if meta.get('best') else None  # type: ignore[assignment]
         self._coef = arrays.get('coef')
-        if self.moments.samples >= MIN_MOTION_SAMPLES:
+        self._motion_since_full = float(meta.get('motion_since_full', 0.0))
+        if meta.get('estimate') is not None and self._best is not None:
+            # the estimate as it was (a fresh full profile could land elsewhere on a flat
+            # profile than the local steps had; the next full profile comes on schedule)
+            self.estimate = _estimate_from_json(meta['estimate'])
+        elif self.moments.samples >= MIN_MOTION_SAMPLES:
             self._full()
+
+
+def _iv_json(iv: Interval) -> list[float | None]:
+    return [iv.value, iv.lo, iv.hi]
+
+
+def _estimate_to_json(e: OnlineEstimate) -> dict[str, object]:
+    return {'two_z': _iv_json(e.two_z), 'z_gb': _iv_json(e.z_gb), 'k_gl_max': _iv_json(e.k_gl_max),
+            'rows': e.rows, 't_ns': e.t_ns, 'full': e.full, 'friction': list(e.friction)}
+
+
+def _estimate_from_json(d: dict) -> OnlineEstimate:
+    return OnlineEstimate(Interval(*d['two_z']), Interval(*d['z_gb']), Interval(*d['k_gl_max']), float(d['rows']),
+                          int(d['t_ns']), bool(d['full']), tuple(float(x) for x in d['friction']))  # type: ignore[arg-type]
 
 
 def _moved(iv: Interval, value: float) -> Interval:

@@ -104,9 +104,14 @@ class LiveMonitor:
 
     # --- clearances ----------------------------------------------------------------------
     def set_gaps(self, gaps: Gaps, source: str,
-                 interval: dict[str, tuple[float, float | None]] | None = None) -> None:
-        """Use new clearance values (e.g. from the estimator) and say where they come from."""
+                 interval: dict[str, tuple[float, float | None]] | None = None,
+                 friction: FrictionParams | None = None) -> None:
+        """Use new clearance values (e.g. from the estimator) and say where they come from;
+        with ``friction``, the friction estimated together with them (the model's residual
+        needs both from the same fit: a clamped ram with the configured mu_b is not the fit)."""
         self.gaps, self.gaps_source, self.gaps_interval = gaps, source, interval
+        if friction is not None:
+            self.priors = friction
 
     # --- input ---------------------------------------------------------------------------
     def update(self, sample: Sample) -> None:

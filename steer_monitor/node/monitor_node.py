@@ -44,6 +44,7 @@ from rclpy.node import Node
 
 from steer_monitor.can.bus import BusReader, ListenOnlyBus
 from steer_monitor.can.decoder import Decoder
+from steer_monitor.can.frames import Frame
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import can_setup
 from steer_monitor.errors import ParameterError, SteerMonitorError
@@ -66,6 +67,8 @@ LOAD_LABELS = ('lateral_n', 'ram_force_n', 'guide_force_n', 'k_gl', 'deflection_
 CLEARANCE_LABELS = ('gap_2z_m', 'gap_2z_lo_m', 'gap_2z_hi_m', 'gap_zgb_m', 'gap_zgb_lo_m', 'gap_zgb_hi_m')
 LATENCY_WINDOW = 200_000
 PUBLISH_PERIOD_NS = 10_000_000
+RECORD_BATCH = 256
+RECORD_BATCH_NS = 50_000_000
 
 
 class MonitorNode(Node):
@@ -159,8 +162,12 @@ class MonitorNode(Node):
             return
         interval = {'2z': (e.two_z.lo, e.two_z.hi), 'zgb': (e.z_gb.lo, e.z_gb.hi)}
         with self._lock:
-            self.monitor.set_gaps(Gaps(e.two_z.value, e.z_gb.value), 'estimated', interval)
-            self.monitor.estimate_info = {'k_gl_max_estimated': f'{e.k_gl_max:.3f}',
+            fr = FrictionParams(*e.friction) if all(map(math.isfinite, e.friction)) else None
+            self.monitor.set_gaps(Gaps(e.two_z.value, e.z_gb.value), 'estimated', interval, fr)
+            k = e.k_gl_max
+            self.monitor.estimate_info = {'k_gl_max_estimated': f'{k.value:.3f}',
+                                          'k_gl_max_lo': 'n/a' if k.lo is None else f'{k.lo:.3f}',
+                                          'k_gl_max_hi': 'n/a' if k.hi is None else f'{k.hi:.3f}',
                                           'estimate_rows': str(int(e.rows)),
                                           'estimate_motion_s': f'{est.motion_s:.0f}'}
 
@@ -203,27 +210,41 @@ class MonitorNode(Node):
         reader, decoder, recorder, monitor = self.reader, self.decoder, self.recorder, self.monitor
         est_queue = self._est_queue if self.estimator is not None else None
         stop = self._stop
-        while not stop.is_set():
-            for frame in reader.frames(stop, idle=True):
-                received = time.monotonic_ns()
-                if frame is not None:
-                    self.frames_received += 1
-                    try:
-                        samples = decoder.decode(frame)
-                    except SteerMonitorError as exc:  # the decoder counts; this guards a defect
-                        self.get_logger().error(f'decode failed: {exc}')
-                        samples = []
-                    if recorder is not None:
-                        recorder.write_frame(frame)
-                    if samples:
-                        with self._lock:
-                            for sample in samples:
-                                monitor.update(sample)
-                        if est_queue is not None:
-                            est_queue.extend(samples)
-                    self._unpublished.append(received)
-                if self._unpublished and received - self._last_publish >= PUBLISH_PERIOD_NS:
-                    self._flush_state(received)
+        # frames go to the recorder in batches (one queue entry, packed at once): at most
+        # RECORD_BATCH frames or RECORD_BATCH_NS old, and whatever is held when the bus idles
+        batch: list[Frame] = []
+        batch_start = 0
+        try:
+            while not stop.is_set():
+                for frame in reader.frames(stop, idle=True):
+                    received = time.monotonic_ns()
+                    if frame is not None:
+                        self.frames_received += 1
+                        try:
+                            samples = decoder.decode(frame)
+                        except SteerMonitorError as exc:  # the decoder counts; this guards a defect
+                            self.get_logger().error(f'decode failed: {exc}')
+                            samples = []
+                        if recorder is not None:
+                            if not batch:
+                                batch_start = received
+                            batch.append(frame)
+                    if batch and (frame is None or len(batch) >= RECORD_BATCH or received - batch_start >= RECORD_BATCH_NS):
+                        recorder.write_frames(batch)
+                        batch = []
+                    if frame is not None:
+                        if samples:
+                            with self._lock:
+                                for sample in samples:
+                                    monitor.update(sample)
+                            if est_queue is not None:
+                                est_queue.extend(samples)
+                        self._unpublished.append(received)
+                    if self._unpublished and received - self._last_publish >= PUBLISH_PERIOD_NS:
+                        self._flush_state(received)
+        finally:
+            if batch and recorder is not None:
+                recorder.write_frames(batch)
 
     def _flush_state(self, now: int) -> None:
         with self._lock:

@@ -7,7 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from steer_monitor.estimate.intervals import CHI2_1_95, Interval, inflation, profile_interval
+from scipy.stats import chi2
+
+from steer_monitor.estimate.intervals import (CHI2_1_95, PLATEAU_THRESHOLD, Interval, inflation, plateau_interval,
+                                              profile_interval)
 
 
 def test_profile_interval_of_a_parabola_matches_the_closed_form():
@@ -56,3 +59,25 @@ def test_inflation_of_an_ar1_series_matches_theory(rho):
 def test_interval_contains_handles_open_ends():
     assert Interval(1.0, None, None).contains(-1e9)
     assert not Interval(1.0, 0.5, 1.5).contains(2.0)
+
+
+@pytest.mark.parametrize(('plateau', 'expect_open'), [(2.0, True), (9.4, True), (9.6, False), (50.0, False)])
+def test_plateau_accepted_at_the_change_point_threshold(plateau, expect_open):
+    axis = np.linspace(0.0, 0.6e-3, 121)
+    # a parabola around 0.1 mm that flattens onto a plateau from 0.3 mm on (no contact beyond)
+    delta = np.minimum(((axis - 0.1e-3) / 0.01e-3) ** 2, plateau)
+    delta[axis >= 0.3e-3] = plateau
+    iv = plateau_interval(axis, delta)
+    plain = profile_interval(axis, delta)
+    assert iv.value == pytest.approx(0.1e-3)
+    if expect_open:
+        assert iv.hi is None and iv.lo == pytest.approx(plain.lo)
+    else:
+        assert iv == plain and iv.hi is not None
+    assert PLATEAU_THRESHOLD == pytest.approx(chi2.ppf(0.95, 4))
+
+
+def test_no_plateau_is_the_plain_interval():
+    axis = np.linspace(0.0, 0.6e-3, 121)
+    delta = ((axis - 0.2e-3) / 0.02e-3) ** 2
+    assert plateau_interval(axis, delta) == profile_interval(axis, delta)

@@ -97,12 +97,19 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
         # The online estimate has replaced the configured clearances (true: 0.6 / 0.25 mm).
         cl = _values(d['steer_monitor: clearances'])
         assert cl['clearance_source'] == 'estimated'
-        assert float(cl['clearance_zgb_mm']) == pytest.approx(0.25, abs=0.03)
+        # one 52 s hard-over (the 25-minute accuracy is the batch tests' and docs/accuracy.md's):
+        # the interval holds the truth and the point is near it
+        assert float(cl['clearance_zgb_lo_mm']) <= 0.25 <= float(cl['clearance_zgb_hi_mm'])
+        assert float(cl['clearance_zgb_mm']) == pytest.approx(0.25, abs=0.06)
         assert cl['clearance_2z_hi_mm'] == 'n/a' and float(cl['clearance_2z_lo_mm']) <= 0.6  # a bound only
-        assert float(cl['k_gl_max_estimated']) > 0.4
+        # K_gl max of the true gear over the hard-over is 0.59; 52 s of data leave 2Z (which sets
+        # it through clamping) a bound only, so the point may sit anywhere in the interval
+        assert float(cl['k_gl_max_lo']) <= 0.59 <= float(cl['k_gl_max_hi'])
+        assert float(cl['k_gl_max_lo']) <= float(cl['k_gl_max_estimated']) <= float(cl['k_gl_max_hi'])
         gb = d['steer_monitor: guide beam']
         # onset near 10 deg with the estimated Z_gb; WARN only when it lies beyond 10 deg
-        assert float(_values(gb)['guide_onset_deg']) == pytest.approx(10.0, abs=0.5)
+        # (about 1 deg per 0.04 mm of Z_gb, so as loose as the estimate above)
+        assert float(_values(gb)['guide_onset_deg']) == pytest.approx(10.0, abs=1.5)
         assert _level(gb) == (WARN if float(_values(gb)['guide_onset_deg']) > 10.0 else OK)
         perf = d['steer_monitor: steering performance']
         assert _level(perf) == OK

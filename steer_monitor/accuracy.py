@@ -1,0 +1,222 @@
+"""The accuracy study of the clearance estimator: simulate, analyze, compare with the truth.
+
+Each case is one simulated log (a helm programme, true clearances 2Z and Z_gb, a seed) run
+through the same path as ``steer-monitor analyze`` (decode -> observations -> residual loop);
+its estimates and 95 % intervals are compared with what was simulated. Over a grid of cases
+the study gives the error of each estimate and the *coverage* of its intervals: the share of
+cases whose interval holds the truth, which for honest 95 % intervals is near 0.95.
+
+2Z is only identifiable where the ram clamps at the loads the log holds (its slope reaches
+2Z / l_s in the bushing); elsewhere the honest answer is a lower bound. Each case therefore
+records how much of the rudder's motion the true ram spent clamped, and the summary
+separates "clamped" cases (error of 2Z) from "never clamped" ones (is the lower bound below
+the truth).
+
+Pure: simulator and estimator only, no ROS, no bus.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from steer_monitor import sim
+from steer_monitor.can.codec import CanDatabase
+from steer_monitor.can.decoder import Decoder
+from steer_monitor.can.signals import SignalMap
+from steer_monitor.estimate.analyze import analyze
+from steer_monitor.estimate.intervals import Interval
+from steer_monitor.model.fits import parse_fit
+from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.loadshare import STAGE_CLAMPED, load_sharing
+from steer_monitor.params import gear_from_params
+
+__all__ = ['GRID_2Z_MM', 'GRID_ZGB_MM', 'PROGRAMMES', 'Case', 'CaseResult', 'cases', 'coverage_interval',
+           'run_case', 'summarize']
+
+GRID_2Z_MM = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6)
+GRID_ZGB_MM = (0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35)
+# name -> helm programme text; each about 20-25 minutes of data
+PROGRAMMES = {
+    'voyage': 'voyage',
+    'manoeuvres': 'hard_over_2,zigzag_20,zigzag_10,hard_over_1,zigzag_20,hold:60,zigzag_10',
+    'autopilot': 'autopilot:1500',
+}
+QUANTITIES = ('clearance_2z_mm', 'clearance_zgb_mm', 'k_gl_max', 'seal_friction_n', 'mu_bushing', 'mu_guide')
+
+
+@dataclass(frozen=True)
+class Case:
+    """One simulated log: programme name (a key of :data:`PROGRAMMES`), true gaps [mm], seed."""
+
+    programme: str
+    two_z_mm: float
+    z_gb_mm: float
+    seed: int
+
+
+@dataclass(frozen=True)
+class CaseResult:
+    """The outcome of one case, engineers' units.
+
+    ``truth`` and ``estimate`` map each of :data:`QUANTITIES` to a value; ``ci95`` maps them
+    to ``(lo, hi)`` (None where unbounded). ``clamped_share`` is the share of moving time the
+    true ram spent clamped; ``verdict`` the analysis verdict (on clean data 'declared' is
+    right); ``effect`` the effect adopted, if any.
+    """
+
+    case: Case
+    duration_s: float
+    rows: int
+    truth: dict[str, float]
+    estimate: dict[str, float]
+    ci95: dict[str, tuple[float | None, float | None]]
+    clamped_share: float
+    max_angle_deg: float
+    inflation: float
+    verdict: str
+    effect: str | None
+    seconds: float
+
+    def covered(self, quantity: str) -> bool:
+        lo, hi = self.ci95[quantity]
+        return Interval(self.estimate[quantity], lo, hi).contains(self.truth[quantity])
+
+    def two_sided(self, quantity: str) -> bool:
+        lo, hi = self.ci95[quantity]
+        return lo is not None and hi is not None
+
+    def to_json(self) -> dict[str, Any]:
+        d = asdict(self)
+        d['ci95'] = {k: list(v) for k, v in self.ci95.items()}
+        d['covered'] = {q: self.covered(q) for q in QUANTITIES}
+        return d
+
+
+def cases(programmes: Iterable[str], grid_2z_mm: Sequence[float] = GRID_2Z_MM,
+          grid_zgb_mm: Sequence[float] = GRID_ZGB_MM, seeds: int = 1, first_seed: int = 1) -> list[Case]:
+    """Every combination, each with its own seed (independent noise and helm sequence)."""
+    out: list[Case] = []
+    seed = first_seed
+    for p in programmes:
+        if p not in PROGRAMMES:
+            msg = f'unknown study programme {p!r} (choose from: {", ".join(PROGRAMMES)})'
+            raise ValueError(msg)
+        for _ in range(seeds):
+            for tz in grid_2z_mm:
+                for zg in grid_zgb_mm:
+                    out.append(Case(p, float(tz), float(zg), seed))
+                    seed += 1
+    return out
+
+
+def _scaled(iv: Interval, k: float) -> tuple[float, tuple[float | None, float | None]]:
+    return iv.value * k, (None if iv.lo is None else iv.lo * k, None if iv.hi is None else iv.hi * k)
+
+
+def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: Case) -> CaseResult:
+    """Simulate ``case`` on the gear of ``params`` (clean plant: no undeclared effect), run
+    the analysis on the decoded frames and compare."""
+    t0 = time.perf_counter()
+    gear = gear_from_params(params)
+    cfg = sim.SimConfig(program=PROGRAMMES[case.programme], gaps=Gaps.from_mm(case.two_z_mm, case.z_gb_mm),
+                        max_duration_s=7200.0)
+    s = sim.run(params, cfg, db, smap, case.seed)
+    signals = Decoder(db, smap).decode_arrays(s.frames)
+    min_2z = max(parse_fit(params['clearances.new_fit']).clearance.minimum, 0.0)
+    a = analyze(gear, signals, min_clearance_2z=min_2z)
+    f = a.final
+
+    p = s.plant
+    moving = p.rate != 0
+    ls = load_sharing(gear, p.alpha[moving], p.torque[moving], cfg.gaps.two_z, cfg.gaps.z_gb)
+    clamped = float(np.mean((ls.stages & STAGE_CLAMPED) != 0)) if moving.any() else 0.0
+    truth = {
+        'clearance_2z_mm': case.two_z_mm, 'clearance_zgb_mm': case.z_gb_mm,
+        # the estimand: K_gl max of the true gear and torque over the angles the estimate
+        # evaluates (0.5 deg steps up to the largest angle of the steady-motion rows)
+        'k_gl_max': _true_k_gl_max(gear, f.torque_curve[0], float(np.mean(p.speed)), cfg.gaps),
+        'seal_friction_n': cfg.seal_friction, 'mu_bushing': cfg.mu_bushing, 'mu_guide': cfg.mu_guide,
+    }
+    est: dict[str, float] = {}
+    ci: dict[str, tuple[float | None, float | None]] = {}
+    for q, iv, k in (('clearance_2z_mm', f.two_z, 1e3), ('clearance_zgb_mm', f.z_gb, 1e3), ('k_gl_max', f.k_gl_max, 1.0),
+                     ('seal_friction_n', f.seal_friction, 1.0), ('mu_bushing', f.mu_bushing, 1.0),
+                     ('mu_guide', f.mu_guide, 1.0)):
+        est[q], ci[q] = _scaled(iv, k)
+    return CaseResult(case=case, duration_s=p.duration, rows=f.rows, truth=truth, estimate=est, ci95=ci,
+                      clamped_share=clamped, max_angle_deg=math.degrees(f.max_angle_seen), inflation=f.inflation,
+                      verdict=a.verdict, effect=a.effect, seconds=time.perf_counter() - t0)
+
+
+def _true_k_gl_max(gear: GearParams, angles: NDArray[np.float64], speed: float, gaps: Gaps) -> float:
+    if angles.size == 0:
+        return 0.0
+    ls = load_sharing(gear, angles, gear.torque(angles, speed), gaps.two_z, gaps.z_gb)
+    return float(np.max(ls.k_gl))
+
+
+def coverage_interval(hits: int, n: int) -> tuple[float, float]:
+    """Wilson 95 % interval of a coverage share from ``hits`` of ``n`` cases."""
+    if n == 0:
+        return (math.nan, math.nan)
+    z = 1.959963984540054
+    p = hits / n
+    den = 1 + z * z / n
+    mid = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    lo = 0.0 if hits == 0 else max(mid - half, 0.0)     # exact at the ends (rounding otherwise)
+    hi = 1.0 if hits == n else min(mid + half, 1.0)
+    return (lo, hi)
+
+
+def _errors(results: Sequence[CaseResult], q: str) -> dict[str, Any]:
+    err = np.array([r.estimate[q] - r.truth[q] for r in results])
+    hits = sum(r.covered(q) for r in results)
+    lo, hi = coverage_interval(hits, len(results))
+    return {
+        'cases': len(results),
+        'bias': float(err.mean()) if err.size else math.nan,
+        'rms_error': float(np.sqrt(np.mean(err ** 2))) if err.size else math.nan,
+        'max_abs_error': float(np.abs(err).max()) if err.size else math.nan,
+        'coverage': hits / len(results) if results else math.nan,
+        'coverage_ci95': [lo, hi],
+        'two_sided_share': (sum(r.two_sided(q) for r in results) / len(results)) if results else math.nan,
+    }
+
+
+def summarize(results: Sequence[CaseResult], clamp_threshold: float = 0.05) -> dict[str, Any]:
+    """Per programme and over all: error and coverage of every quantity.
+
+    For 2Z the cases are split by ``clamped_share`` at ``clamp_threshold`` (share of moving
+    time clamped): "clamped" cases are where 2Z is identifiable; in "not clamped" ones the
+    count that matters is how often the lower bound stays at or below the truth.
+    """
+    groups: dict[str, list[CaseResult]] = {}
+    for r in results:
+        groups.setdefault(r.case.programme, []).append(r)
+    groups['all'] = list(results)
+    out: dict[str, Any] = {}
+    for name, rs in groups.items():
+        g: dict[str, Any] = {'cases': len(rs), 'declared_share': sum(r.verdict == 'declared' for r in rs) / len(rs),
+                             'effects_adopted': sorted({r.effect for r in rs if r.effect}),
+                             'median_inflation': float(np.median([r.inflation for r in rs]))}
+        for q in QUANTITIES:
+            g[q] = _errors(rs, q)
+        clamped = [r for r in rs if r.clamped_share >= clamp_threshold]
+        free = [r for r in rs if r.clamped_share < clamp_threshold]
+        g['clearance_2z_mm_clamped'] = _errors(clamped, 'clearance_2z_mm')
+        g['clearance_2z_mm_clamped']['within_0.05mm'] = (
+            sum(abs(r.estimate['clearance_2z_mm'] - r.truth['clearance_2z_mm']) <= 0.05 for r in clamped) / len(clamped)
+            if clamped else math.nan)
+        g['clearance_2z_mm_not_clamped'] = _errors(free, 'clearance_2z_mm')
+        g['clearance_zgb_mm']['within_0.03mm'] = sum(
+            abs(r.estimate['clearance_zgb_mm'] - r.truth['clearance_zgb_mm']) <= 0.03 for r in rs) / len(rs)
+        out[name] = g
+    return out

@@ -1,0 +1,94 @@
+"""The accuracy study: case grid, coverage arithmetic, one real case, the CLI's table."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from steer_monitor import accuracy as A
+from steer_monitor.cli import accuracy as cli
+from steer_monitor.cli.main import main
+
+
+def _result(programme: str, tz: float, zg: float, est_zg: float, ci_zg: tuple, clamped: float = 0.0,
+            est_tz: float = 0.3, ci_tz: tuple = (0.2, None)) -> A.CaseResult:
+    truth = {q: 1.0 for q in A.QUANTITIES} | {'clearance_2z_mm': tz, 'clearance_zgb_mm': zg}
+    est = {q: 1.0 for q in A.QUANTITIES} | {'clearance_2z_mm': est_tz, 'clearance_zgb_mm': est_zg}
+    ci = {q: (0.5, 1.5) for q in A.QUANTITIES} | {'clearance_2z_mm': ci_tz, 'clearance_zgb_mm': ci_zg}
+    return A.CaseResult(A.Case(programme, tz, zg, 1), 1500.0, 10000, truth, est, ci, clamped, 35.0, 1.5,
+                        'declared', None, 5.0)
+
+
+def test_cases_grid_and_seeds():
+    cs = A.cases(['voyage', 'autopilot'], (0.1, 0.6), (0.05,), seeds=2, first_seed=10)
+    assert len(cs) == 8
+    assert [c.seed for c in cs] == list(range(10, 18))            # every log its own seed
+    assert {(c.programme, c.two_z_mm) for c in cs} == {(p, t) for p in ('voyage', 'autopilot') for t in (0.1, 0.6)}
+    with pytest.raises(ValueError, match="unknown study programme 'sea_trial'"):
+        A.cases(['sea_trial'])
+
+
+@pytest.mark.parametrize(('hits', 'n'), [(0, 10), (5, 10), (10, 10), (95, 100), (1, 1)])
+def test_wilson_interval_against_the_exact_score_equation(hits, n):
+    lo, hi = A.coverage_interval(hits, n)
+    z = 1.959963984540054
+    p = hits / n
+    for bound in (lo, hi):   # the Wilson bounds solve (p - b)^2 = z^2 b (1 - b) / n
+        assert (p - bound) ** 2 == pytest.approx(z * z * bound * (1 - bound) / n, abs=1e-12)
+    assert 0.0 <= lo <= p <= hi <= 1.0
+    assert all(math.isnan(x) for x in A.coverage_interval(0, 0))
+
+
+def test_summary_counts_coverage_and_splits_2z_by_clamping():
+    rs = [_result('voyage', 0.1, 0.05, 0.06, (0.04, 0.07), clamped=0.3, est_tz=0.11, ci_tz=(0.09, 0.12)),
+          _result('voyage', 0.6, 0.25, 0.20, (0.18, 0.22)),                    # Z_gb missed
+          _result('autopilot', 0.6, 0.35, 0.01, (0.0, None), est_tz=0.1, ci_tz=(0.7, None))]  # 2Z bound wrong
+    s = A.summarize(rs)
+    assert s['voyage']['clearance_zgb_mm']['coverage'] == 0.5
+    assert s['all']['clearance_zgb_mm']['coverage'] == pytest.approx(2 / 3)
+    assert s['voyage']['clearance_zgb_mm']['max_abs_error'] == pytest.approx(0.05)
+    assert s['voyage']['clearance_zgb_mm']['within_0.03mm'] == 0.5
+    assert s['all']['clearance_2z_mm_clamped']['cases'] == 1
+    assert s['all']['clearance_2z_mm_clamped']['within_0.05mm'] == 1.0
+    assert s['all']['clearance_2z_mm_not_clamped']['coverage'] == 0.5
+    assert s['autopilot']['clearance_zgb_mm']['two_sided_share'] == 0.0
+    doc = cli.markdown(rs, s, 'steer-monitor accuracy', 'R-18')
+    # the legend's **x** and the two misses
+    assert doc.count('**x**') == 1 + 2 and '>= 0.70' in doc and '| all | 3 |' in doc
+
+
+@pytest.mark.slow
+def test_one_case_end_to_end(r18_params, db, smap):
+    r = A.run_case(r18_params, db, smap, A.Case('voyage', 0.6, 0.25, 3))
+    assert r.verdict == 'declared' and r.effect is None
+    assert abs(r.estimate['clearance_zgb_mm'] - 0.25) <= 0.03 and r.covered('clearance_zgb_mm')
+    assert r.covered('clearance_2z_mm') and r.ci95['clearance_2z_mm'][1] is None   # never clamps: bound only
+    assert r.clamped_share == 0.0 and r.truth['k_gl_max'] > 0.5 and r.covered('k_gl_max')
+
+
+@pytest.mark.slow
+def test_cli_writes_table_and_json(tmp_path, capsys):
+    md, js = tmp_path / 'acc.md', tmp_path / 'acc.json'
+    assert main(['accuracy', '--programmes', 'manoeuvres', '--grid-2z-mm', '0.1', '--grid-zgb-mm', '0.2',
+                 '--jobs', '1', '--out', str(md), '--json', str(js)]) == 0
+    assert '1 logs: Z_gb coverage' in capsys.readouterr().out
+    text = md.read_text()
+    assert text.startswith('# Accuracy of the clearance estimator') and '### manoeuvres' in text
+    data = json.loads(js.read_text())
+    assert len(data['cases']) == 1 and set(data['summary']) == {'manoeuvres', 'all'}
+    assert data['cases'][0]['covered']['clearance_zgb_mm'] is True
+
+
+@pytest.mark.parametrize(('argv', 'message'), [
+    (['--seeds', '0'], '--seeds must be at least 1, got 0'),
+    (['--jobs', '0'], '--jobs must be at least 1, got 0'),
+    (['--programmes', 'sea_trial'], "unknown study programme 'sea_trial'"),
+    (['--grid-2z-mm', '0.1,x'], '--grid-2z-mm: expected a comma-separated list of positive millimetres'),
+    (['--grid-zgb-mm', '-0.1'], '--grid-zgb-mm: expected a comma-separated list of positive millimetres'),
+    (['--out', '/nonexistent/dir/acc.md'], 'directory /nonexistent/dir does not exist'),
+])
+def test_bad_arguments_are_named(argv, message, capsys):
+    assert main(['accuracy', *argv]) == 1
+    assert message in capsys.readouterr().err
