@@ -32,10 +32,9 @@ from steer_monitor.can.decoder import Decoder
 from steer_monitor.can.signals import SignalMap
 from steer_monitor.estimate.analyze import analyze
 from steer_monitor.estimate.intervals import Interval
-from steer_monitor.model.fits import parse_fit
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.loadshare import STAGE_CLAMPED, load_sharing
-from steer_monitor.params import gear_from_params
+from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
 
 __all__ = ['GRID_2Z_MM', 'GRID_ZGB_MM', 'PROGRAMMES', 'Case', 'CaseResult', 'cases', 'coverage_interval',
            'run_case', 'summarize']
@@ -129,8 +128,7 @@ def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: 
                         max_duration_s=7200.0)
     s = sim.run(params, cfg, db, smap, case.seed)
     signals = Decoder(db, smap).decode_arrays(s.frames)
-    min_2z = max(parse_fit(params['clearances.new_fit']).clearance.minimum, 0.0)
-    a = analyze(gear, signals, min_clearance_2z=min_2z)
+    a = analyze(gear, signals, min_clearance_2z=min_clearance_2z_from_params(params))
     f = a.final
 
     p = s.plant

@@ -34,6 +34,7 @@ __all__ = [
     'PARAMETERS',
     'ParamSpec',
     'gaps_from_params',
+    'min_clearance_2z_from_params',
     'gear_from_params',
     'load_params_file',
     'validate_params',
@@ -345,3 +346,9 @@ def gear_from_params(p: Mapping[str, Any]) -> GearParams:
 def gaps_from_params(p: Mapping[str, Any]) -> Gaps:
     """The configured clearances (SI) from validated parameters."""
     return Gaps.from_mm(p['clearances.gap_2z_mm'], p['clearances.gap_zgb_mm'])
+
+
+def min_clearance_2z_from_params(p: Mapping[str, Any]) -> float:
+    """The smallest ram-bushing clearance 2Z of the new fit [m] (>= 0): wear only opens a fit,
+    so the estimator's 2Z grid starts there."""
+    return max(parse_fit(p['clearances.new_fit']).clearance.minimum, 0.0)

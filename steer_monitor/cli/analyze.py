@@ -36,8 +36,7 @@ from steer_monitor.can.setup import can_setup
 from steer_monitor.cli.output import dump_json
 from steer_monitor.estimate.analyze import Analysis, analyze
 from steer_monitor.estimate.batch import ClearanceEstimate
-from steer_monitor.model.fits import parse_fit
-from steer_monitor.params import gear_from_params, load_params_file
+from steer_monitor.params import gear_from_params, load_params_file, min_clearance_2z_from_params
 from steer_monitor.resources import default_config
 
 __all__ = ['analysis_json', 'analyze_log', 'register', 'run']
@@ -116,7 +115,7 @@ def analyze_log(path: str | Path, config: str | Path | None = None, progress: bo
     fa = read_log_arrays(path, rejects)
     signals = Decoder(db, smap, rejects).decode_arrays(fa)
     say = (lambda msg: print(f'  {msg} ...', file=sys.stderr)) if progress else None
-    a = analyze(gear, signals, min_clearance_2z=max(parse_fit(params['clearances.new_fit']).clearance.minimum, 0.0),
+    a = analyze(gear, signals, min_clearance_2z=min_clearance_2z_from_params(params),
                 progress=say)
     out = analysis_json(a)
     out['data'] = {'log': str(path), 'frames': len(fa),

@@ -50,13 +50,12 @@ from steer_monitor.can.setup import can_setup
 from steer_monitor.errors import ParameterError, SteerMonitorError
 from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.estimate.online import OnlineEstimator
-from steer_monitor.model.fits import parse_fit
 from steer_monitor.model.gear import Gaps
 from steer_monitor.monitor.diagnostics import ERROR, OK, DiagnosticsBuilder, DiagnosticsConfig, Status
 from steer_monitor.model.friction import FrictionParams
 from steer_monitor.monitor.live import LiveMonitor, LiveState
 from steer_monitor.node.params_ros import declare_parameters
-from steer_monitor.params import gaps_from_params, gear_from_params
+from steer_monitor.params import gaps_from_params, gear_from_params, min_clearance_2z_from_params
 from steer_monitor.record.msgdefs import msgdef
 from steer_monitor.record.recorder import Recorder
 
@@ -122,7 +121,7 @@ class MonitorNode(Node):
     def _start_estimator(self) -> None:
         p = self.params
         self.estimator = OnlineEstimator(self.gear,
-                                         min_clearance_2z=max(parse_fit(p['clearances.new_fit']).clearance.minimum, 0.0),
+                                         min_clearance_2z=min_clearance_2z_from_params(p),
                                          half_life_s=p['estimator.half_life_h'] * 3600.0)
         path = p['estimator.state_file']
         if path:
