@@ -24,15 +24,15 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from steer_monitor import sim
 from steer_monitor.can.codec import CanDatabase
 from steer_monitor.can.decoder import Decoder
 from steer_monitor.can.signals import SignalMap
 from steer_monitor.estimate.analyze import analyze
+from steer_monitor.estimate.batch import k_gl_max
 from steer_monitor.estimate.intervals import Interval
-from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.gear import Gaps
 from steer_monitor.model.loadshare import STAGE_CLAMPED, load_sharing
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
 
@@ -135,11 +135,13 @@ def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: 
     moving = p.rate != 0
     ls = load_sharing(gear, p.alpha[moving], p.torque[moving], cfg.gaps.two_z, cfg.gaps.z_gb)
     clamped = float(np.mean((ls.stages & STAGE_CLAMPED) != 0)) if moving.any() else 0.0
+    angles = f.torque_curve[0]
     truth = {
         'clearance_2z_mm': case.two_z_mm, 'clearance_zgb_mm': case.z_gb_mm,
         # the estimand: K_gl max of the true gear and torque over the angles the estimate
         # evaluates (0.5 deg steps up to the largest angle of the steady-motion rows)
-        'k_gl_max': _true_k_gl_max(gear, f.torque_curve[0], float(np.mean(p.speed)), cfg.gaps),
+        'k_gl_max': float(k_gl_max(gear, angles, gear.torque(angles, float(np.mean(p.speed))),
+                                   cfg.gaps.two_z, cfg.gaps.z_gb)[0]),
         'seal_friction_n': cfg.seal_friction, 'mu_bushing': cfg.mu_bushing, 'mu_guide': cfg.mu_guide,
     }
     est: dict[str, float] = {}
@@ -151,13 +153,6 @@ def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: 
     return CaseResult(case=case, duration_s=p.duration, rows=f.rows, truth=truth, estimate=est, ci95=ci,
                       clamped_share=clamped, max_angle_deg=math.degrees(f.max_angle_seen), inflation=f.inflation,
                       verdict=a.verdict, effect=a.effect, seconds=time.perf_counter() - t0)
-
-
-def _true_k_gl_max(gear: GearParams, angles: NDArray[np.float64], speed: float, gaps: Gaps) -> float:
-    if angles.size == 0:
-        return 0.0
-    ls = load_sharing(gear, angles, gear.torque(angles, speed), gaps.two_z, gaps.z_gb)
-    return float(np.max(ls.k_gl))
 
 
 def coverage_interval(hits: int, n: int) -> tuple[float, float]:

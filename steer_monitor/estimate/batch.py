@@ -16,7 +16,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from steer_monitor.estimate import fit as F
 from steer_monitor.estimate.intervals import plateau_interval, CHI2_2_95, Interval, inflation
@@ -26,8 +26,8 @@ from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import load_sharing
 
 __all__ = ['MIN_MOTION_SAMPLES', 'ClearanceEstimate', 'Rows', 'estimate_clearances', 'estimate_from_moments',
-           'make_rows', 'predict_rows',
-           'residual_parts']
+           'k_gl_max', 'make_rows',
+           'predict_rows', 'residual_parts']
 
 MIN_MOTION_SAMPLES = 200     # rows (ram x instant) of steady motion: 5 s of moving rudder
 SMOOTH_LAG_STEPS = 4         # 200 ms: sensor noise is uncorrelated this far apart
@@ -191,13 +191,13 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, 
     tq = bmat @ best.coef[:basis.size]
     cov_t = best.cov_unscaled[:basis.size, :basis.size] * sigma2 * vif
     band = 1.96 * np.sqrt(np.maximum(np.einsum('ij,jk,ik->i', bmat, cov_t, bmat), 0.0))
-    kgl = [_k_gl_max(gear, angles, bmat @ f.coef[:basis.size], a, b) for a, b, f in region_fits]
-    # every point of the region with the best torque curve (the extremes of K_gl sit at the
-    # region's edges; the subsample above carries each fit's own torque curve)
-    # and with the torque curve at either edge of its band (K_gl grows with the load)
+    kgl = [float(k_gl_max(gear, angles, bmat @ f.coef[:basis.size], a, b)[0]) for a, b, f in region_fits]
+    # every point of the region (the extremes of K_gl sit at its edges; the subsample above
+    # carries each fit's own torque curve) with the best torque curve and with the curve at
+    # either edge of its band (K_gl grows with the load)
     for t in (tq - band, tq, tq + band):
-        kgl += _k_gl_max_each(gear, angles, t, pr.two_z[region_all[:, 0]], pr.z_gb[region_all[:, 1]]).tolist()
-    k_best = _k_gl_max(gear, angles, tq, tz, zg)
+        kgl += k_gl_max(gear, angles, t, pr.two_z[region_all[:, 0]], pr.z_gb[region_all[:, 1]]).tolist()
+    k_best = float(k_gl_max(gear, angles, tq, tz, zg)[0])
     return ClearanceEstimate(
         two_z=two_z, z_gb=z_gb,
         seal_friction=coefs['seal_friction_n'], mu_bushing=coefs['mu_bushing'], mu_guide=coefs['mu_guide'],
@@ -233,16 +233,11 @@ def estimate_from_moments(gear: GearParams, mom: Moments, vif: float, grid_2z: N
     return _bound(gear, basis, mom, pr, best, tz, zg, load, (), vif, max_seen, np.zeros((0, 2)), math.nan, math.nan)
 
 
-def _k_gl_max_each(gear: GearParams, angles: NDArray, torque: NDArray, two_z: NDArray, z_gb: NDArray) -> NDArray:
-    """K_gl max over ``angles`` (A,) for each clearance pair (R,): shape (R,)."""
+def k_gl_max(gear: GearParams, angles: NDArray, torque: NDArray, two_z: ArrayLike, z_gb: ArrayLike) -> NDArray:
+    """K_gl max over ``angles`` (A,) [rad] at ``torque`` (A,) [N m] for each clearance pair
+    ``two_z``, ``z_gb`` (R,) [m] (scalars are one pair): shape (R,)."""
+    two_z, z_gb = np.atleast_1d(np.asarray(two_z, float)), np.atleast_1d(np.asarray(z_gb, float))
     if angles.size == 0 or two_z.size == 0:
         return np.zeros(two_z.size)
     ls = load_sharing(gear, angles[:, None], np.maximum(torque, 0.0)[:, None], two_z[None, :], z_gb[None, :])
     return np.max(ls.k_gl, axis=0)
-
-
-def _k_gl_max(gear: GearParams, angles: NDArray, torque: NDArray, two_z: float, z_gb: float) -> float:
-    if angles.size == 0:
-        return 0.0
-    ls = load_sharing(gear, angles, np.maximum(torque, 0.0), two_z, z_gb)
-    return float(np.max(ls.k_gl))
