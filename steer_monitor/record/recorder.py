@@ -194,18 +194,18 @@ class Recorder:
         self._next_retry = self._clock() + self.retry_s
 
     def _write_item(self, topic: str, payload: Any, log_time_ns: int, now: float) -> None:
+        count = len(payload) if isinstance(payload, list) else 1   # a batch of frames or one message
         if self._writer is None:
             if self._error is not None and now < self._next_retry:
-                self.failed += len(payload) if isinstance(payload, list) else 1
+                self.failed += count
                 return
             if not self._guard(lambda: self._open(log_time_ns, now)):
-                self.failed += len(payload) if isinstance(payload, list) else 1
+                self.failed += count
                 return
         elif now - self._opened_at >= self.max_seconds or self._stream.tell() >= self.max_bytes:
             if not (self._guard(self._finish) and self._guard(lambda: self._open(log_time_ns, now))):
-                self.failed += len(payload) if isinstance(payload, list) else 1
+                self.failed += count
                 return
-        count = len(payload) if isinstance(payload, list) else 1
         ok = self._guard(lambda: self._add(topic, payload, log_time_ns))
         if ok:
             self.messages += count
