@@ -147,9 +147,9 @@ def _score(gear: GearParams, basis: F.TorqueBasis, rows: Rows, parts: tuple[Rows
     load = F.axial_load(gear, basis, mom, coef_torque)
     pr = F.profile(gear, basis, mom, load, extra, grid_2z[::3], F.GRID_ZGB[::3])
     best = (math.inf, 0.0, 0.0, 0)
-    for tz0, zg0 in ((float(pr.two_z[pr.best[0]]), float(pr.z_gb[pr.best[1]])), declared_at):
-        i0 = int(np.argmin(np.abs(grid_2z - tz0)))
-        j0 = int(np.argmin(np.abs(F.GRID_ZGB - zg0)))
+    centres = dict.fromkeys((int(np.argmin(np.abs(grid_2z - tz0))), int(np.argmin(np.abs(F.GRID_ZGB - zg0))))
+                            for tz0, zg0 in ((float(pr.two_z[pr.best[0]]), float(pr.z_gb[pr.best[1]])), declared_at))
+    for i0, j0 in centres:      # in order; one fine search when both centres are the same point
         fine = F.profile(gear, basis, mom, load, extra, grid_2z[max(i0 - 3, 0):i0 + 4],
                          F.GRID_ZGB[max(j0 - 3, 0):j0 + 4])
         i, j = fine.best
