@@ -137,6 +137,11 @@ class LiveMonitor:
             self._dirty = True
 
     @property
+    def changed(self) -> bool:
+        """A rudder or pressure sample came since :attr:`state` was last read."""
+        return self._dirty
+
+    @property
     def state(self) -> LiveState | None:
         """The live model at the newest sample (None until angle and all four pressures)."""
         if self._dirty:

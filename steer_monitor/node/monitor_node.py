@@ -1,38 +1,21 @@
-"""The ROS 2 node: a thin adapter over the CAN layer, the live monitor, the diagnostics and the
-recorder.
+"""The ROS 2 node: a thin adapter over the CAN layer, the monitor pipeline and the recorder.
 
-Threads: a reader thread owns the bus (listen-only, reopened with backoff), decodes each
-frame, updates the live model and publishes the state at most every 10 ms (and within 10 ms
-of the last frame when the bus goes quiet); an estimator thread takes the decoded samples
-through a queue (never blocking the reader), updates the online clearance estimate each
-second of data and hands it to the live model, and keeps its state on disk; the executor
-publishes diagnostics at 1 Hz; the recorder writes MCAP on its own thread. The live model is
-shared under a lock. SIGINT and SIGTERM shut down cleanly, save the estimator state and
-finish the MCAP file.
+Threads: a reader thread owns the bus (listen-only, reopened with backoff) and feeds each frame
+to the :class:`~steer_monitor.monitor.pipeline.Pipeline`, which decides on the frames' own
+timestamps what to publish: the state at the end of each 10 ms slot of data, and at each whole
+second of data the diagnostics, the clearances in use and their source. So a replay of the same
+frames (``steer-monitor replay``) publishes the same values. The clearance estimator runs its
+jobs on its own thread and keeps its state on disk; its results reach the live model a fixed 3 s
+of data time after each job started. The executor's 1 Hz timer publishes diagnostics on wall
+time only when the bus has been silent for more than 1.5 s (that is where STALE shows). The
+recorder writes MCAP on its own thread. SIGINT and SIGTERM shut down cleanly, save the
+estimator state and finish the MCAP file.
 
-Topics (all standard message types):
-
-================================ ============================== ===========================
-topic                            type                           content
-================================ ============================== ===========================
-/diagnostics                     diagnostic_msgs/DiagnosticArray one status per concern, 1 Hz
-~/rudder                         sensor_msgs/JointState          joint ``rudder``: position
-                                                                 [rad], velocity [rad/s],
-                                                                 effort = tiller torque from
-                                                                 the pressures [N m]
-~/load_sharing                   std_msgs/Float64MultiArray      labelled: lateral_n,
-                                                                 ram_force_n, guide_force_n,
-                                                                 k_gl, deflection_m, r_a_n,
-                                                                 r_e_n, m_a_nm, case
-~/clearances                     std_msgs/Float64MultiArray      labelled: gap_2z_m, lo, hi,
-                                                                 gap_zgb_m, lo, hi (NaN: none)
-~/clearance_source               std_msgs/String                 configured / estimated
-================================ ============================== ===========================
+Topics (all standard message types) are listed in :mod:`steer_monitor.monitor.messages`.
 """
 
 from __future__ import annotations
 
-import math
 import sys
 import threading
 import time
@@ -50,22 +33,23 @@ from steer_monitor.can.setup import can_setup
 from steer_monitor.errors import ParameterError, SteerMonitorError
 from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.estimate.online import OnlineEstimator
-from steer_monitor.model.gear import Gaps
-from steer_monitor.monitor.diagnostics import ERROR, OK, DiagnosticsBuilder, DiagnosticsConfig, Status
 from steer_monitor.model.friction import FrictionParams
-from steer_monitor.monitor.live import LiveMonitor, LiveState
+from steer_monitor.monitor.diagnostics import ERROR, OK, DiagnosticsBuilder, DiagnosticsConfig, Status
+from steer_monitor.monitor.live import LiveMonitor
+from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages
+from steer_monitor.monitor.pipeline import (DiagOut, EstimateSnapshot, Output, Pipeline, StateOut,
+                                            ThreadedEstimatorJobs, apply_estimate)
 from steer_monitor.node.params_ros import declare_parameters
+from steer_monitor.node.rosmsg import message_class, to_ros
 from steer_monitor.params import gaps_from_params, gear_from_params, min_clearance_2z_from_params
 from steer_monitor.record.msgdefs import msgdef
 from steer_monitor.record.recorder import Recorder
 
-__all__ = ['LOAD_LABELS', 'MonitorNode', 'main']
+__all__ = ['MonitorNode', 'main']
 
-LOAD_LABELS = ('lateral_n', 'ram_force_n', 'guide_force_n', 'k_gl', 'deflection_m', 'r_a_n', 'r_e_n',
-               'm_a_nm', 'case')
-CLEARANCE_LABELS = ('gap_2z_m', 'gap_2z_lo_m', 'gap_2z_hi_m', 'gap_zgb_m', 'gap_zgb_lo_m', 'gap_zgb_hi_m')
 LATENCY_WINDOW = 200_000
-PUBLISH_PERIOD_NS = 10_000_000
+POLL_S = 0.01
+SILENT_DIAG_S = 1.5
 RECORD_BATCH = 256
 RECORD_BATCH_NS = 50_000_000
 
@@ -83,7 +67,6 @@ class MonitorNode(Node):
         db, smap = can_setup(p, config_path)
         self.smap = smap
         self.rejects = RejectCounter()
-        self.decoder = Decoder(db, smap, self.rejects)
         self.monitor = LiveMonitor(self.gear, gaps_from_params(p), 'configured',
                                    FrictionParams(p['model.seal_friction_n'], p['model.mu_bushing'], p['model.mu_guide']))
         self.diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(p), smap, self.gear)
@@ -94,81 +77,54 @@ class MonitorNode(Node):
                                      int(p['recording.max_file_mb'] * (1 << 20)),
                                      p['recording.max_file_minutes'] * 60.0)
         self._make_publishers()
-        self._lock = threading.Lock()          # guards the live monitor
+        self._lock = threading.Lock()          # guards the pipeline and the live model
         self._unpublished: list[int] = []      # receive times of frames not yet in a published state
-        self._last_publish = 0
         self.latencies_ns: deque[int] = deque(maxlen=LATENCY_WINDOW)
         self.frames_received = 0
+        self._last_diag = time.monotonic()
         self._stop = threading.Event()
+        self._closed = False
+        self.estimator: OnlineEstimator | None = None
+        jobs = self._start_estimator() if p['estimator.enabled'] else None
+        self.pipeline = Pipeline(Decoder(db, smap, self.rejects), self.rejects, self.monitor, self.diag, jobs)
         interface, channel = p['can.interface'], p['can.channel']
         opener = bus_opener or (lambda: ListenOnlyBus(interface, channel, p['can.bitrate']))
         self.reader = BusReader(opener, self.rejects, p['can.reopen_backoff_initial_s'],
-                                p['can.reopen_backoff_max_s'], poll=PUBLISH_PERIOD_NS / 1e9)
+                                p['can.reopen_backoff_max_s'], poll=POLL_S)
         self._reader_thread = threading.Thread(target=self._read, name='steer_monitor-can', daemon=True)
-        self._closed = False
-        self.estimator: OnlineEstimator | None = None
-        self._est_queue: deque = deque()
-        self._est_thread: threading.Thread | None = None
-        if p['estimator.enabled']:
-            self._start_estimator()
-        self.create_timer(1.0, self._publish_diagnostics)
+        self.create_timer(1.0, self._silent_diagnostics)
         self._reader_thread.start()
         self.get_logger().info(
             f'listening on {interface}:{channel} (listen-only); {len(smap.specs)} inputs mapped; '
             + (f'recording to {p["recording.directory"]}' if self.recorder else 'recording off'))
 
     # --- estimator ---------------------------------------------------------------------------
-    def _start_estimator(self) -> None:
+    def _start_estimator(self) -> ThreadedEstimatorJobs:
         p = self.params
-        self.estimator = OnlineEstimator(self.gear,
-                                         min_clearance_2z=min_clearance_2z_from_params(p),
-                                         half_life_s=p['estimator.half_life_h'] * 3600.0)
+        self.estimator = est = OnlineEstimator(self.gear,
+                                               min_clearance_2z=min_clearance_2z_from_params(p),
+                                               half_life_s=p['estimator.half_life_h'] * 3600.0)
         path = p['estimator.state_file']
         if path:
             from pathlib import Path
             if Path(path).exists():
                 try:
-                    self.estimator.load(path)
+                    est.load(path)
                     self.get_logger().info(f'estimator state loaded from {path}: '
-                                           f'{self.estimator.motion_s:.0f} s of rudder motion learned')
-                    self._apply_estimate()
+                                           f'{est.motion_s:.0f} s of rudder motion learned')
+                    if est.estimate is not None:
+                        apply_estimate(self.monitor, EstimateSnapshot(est.estimate, est.motion_s))
                 except EstimateError as exc:
                     self.get_logger().warning(f'{exc}; starting the estimate afresh')
-        self._est_thread = threading.Thread(target=self._estimate_loop, name='steer_monitor-estimator', daemon=True)
-        self._est_thread.start()
+        self._last_save = time.monotonic()
+        return ThreadedEstimatorJobs(est, on_error=lambda exc: self.get_logger().error(f'estimator update failed: {exc}'),
+                                     after=self._maybe_save)
 
-    def _estimate_loop(self) -> None:
-        est, queue, stop = self.estimator, self._est_queue, self._stop
-        assert est is not None
-        last_save = time.monotonic()
-        every = self.params['estimator.save_every_s']
-        while not stop.wait(0.25):
-            while queue:
-                est.add(queue.popleft())
-            try:
-                if est.update():
-                    self._apply_estimate()
-            except SteerMonitorError as exc:   # guards a defect: report, keep monitoring
-                self.get_logger().error(f'estimator update failed: {exc}')
-            if time.monotonic() - last_save >= every:
-                self._save_estimator()
-                last_save = time.monotonic()
-
-    def _apply_estimate(self) -> None:
-        est = self.estimator
-        e = est.estimate if est is not None else None
-        if e is None:
-            return
-        interval = {'2z': (e.two_z.lo, e.two_z.hi), 'zgb': (e.z_gb.lo, e.z_gb.hi)}
-        with self._lock:
-            fr = FrictionParams(*e.friction) if all(map(math.isfinite, e.friction)) else None
-            self.monitor.set_gaps(Gaps(e.two_z.value, e.z_gb.value), 'estimated', interval, fr)
-            k = e.k_gl_max
-            self.monitor.estimate_info = {'k_gl_max_estimated': f'{k.value:.3f}',
-                                          'k_gl_max_lo': 'n/a' if k.lo is None else f'{k.lo:.3f}',
-                                          'k_gl_max_hi': 'n/a' if k.hi is None else f'{k.hi:.3f}',
-                                          'estimate_rows': str(int(e.rows)),
-                                          'estimate_motion_s': f'{est.motion_s:.0f}'}
+    def _maybe_save(self) -> None:
+        """On the estimator's thread, after a job: save the state every ``save_every_s``."""
+        if time.monotonic() - self._last_save >= self.params['estimator.save_every_s']:
+            self._save_estimator()
+            self._last_save = time.monotonic()
 
     def _save_estimator(self) -> None:
         path = self.params['estimator.state_file']
@@ -181,33 +137,41 @@ class MonitorNode(Node):
 
     # --- set-up ------------------------------------------------------------------------------
     def _make_publishers(self) -> None:
-        from diagnostic_msgs.msg import DiagnosticArray
-        from sensor_msgs.msg import JointState
-        from std_msgs.msg import Float64MultiArray, String
-
-        self.pub_diag = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
-        self.pub_rudder = self.create_publisher(JointState, '~/rudder', 10)
-        self.pub_load = self.create_publisher(Float64MultiArray, '~/load_sharing', 10)
-        self.pub_clear = self.create_publisher(Float64MultiArray, '~/clearances', 10)
-        self.pub_source = self.create_publisher(String, '~/clearance_source', 10)
-        if self.recorder is not None:
-            for pub, datatype in ((self.pub_diag, 'diagnostic_msgs/msg/DiagnosticArray'),
-                                  (self.pub_rudder, 'sensor_msgs/msg/JointState'),
-                                  (self.pub_load, 'std_msgs/msg/Float64MultiArray'),
-                                  (self.pub_clear, 'std_msgs/msg/Float64MultiArray'),
-                                  (self.pub_source, 'std_msgs/msg/String')):
+        self._pubs: dict[str, tuple[Any, str]] = {}
+        for key, (topic, datatype) in TOPICS.items():
+            pub = self.create_publisher(message_class(datatype), topic, 10)
+            self._pubs[key] = (pub, datatype)
+            if self.recorder is not None:
                 self.recorder.add_topic(pub.topic_name, datatype, msgdef(datatype))
 
-    def _publish(self, pub: Any, msg: Any, t_ns: int) -> None:
+    def _publish(self, key: str, fields: dict[str, Any], t_ns: int) -> None:
+        pub, datatype = self._pubs[key]
+        msg = to_ros(datatype, fields)
         pub.publish(msg)
         if self.recorder is not None:
             from rclpy.serialization import serialize_message
             self.recorder.write(pub.topic_name, serialize_message(msg), t_ns)
 
+    def _publish_outputs(self, outs: list[Output]) -> None:
+        for o in outs:
+            if isinstance(o, StateOut):
+                for key, t_ns, fields in state_messages(o):
+                    self._publish(key, fields, t_ns)
+                done = time.monotonic_ns()
+                self.latencies_ns.extend(done - t for t in self._unpublished)
+                self._unpublished.clear()
+            else:
+                self._publish_diag(o)
+
+    def _publish_diag(self, o: DiagOut) -> None:
+        rec = self._recording_status()
+        for key, t_ns, fields in diag_messages(o, () if rec is None else (rec,)):
+            self._publish(key, fields, t_ns)
+        self._last_diag = time.monotonic()
+
     # --- reader thread -----------------------------------------------------------------------
     def _read(self) -> None:
-        reader, decoder, recorder, monitor = self.reader, self.decoder, self.recorder, self.monitor
-        est_queue = self._est_queue if self.estimator is not None else None
+        reader, recorder, pipeline, lock = self.reader, self.recorder, self.pipeline, self._lock
         stop = self._stop
         # frames go to the recorder in batches (one queue entry, packed at once): at most
         # RECORD_BATCH frames or RECORD_BATCH_NS old, and whatever is held when the bus idles
@@ -219,63 +183,26 @@ class MonitorNode(Node):
                     received = time.monotonic_ns()
                     if frame is not None:
                         self.frames_received += 1
-                        try:
-                            samples = decoder.decode(frame)
-                        except SteerMonitorError as exc:  # the decoder counts; this guards a defect
-                            self.get_logger().error(f'decode failed: {exc}')
-                            samples = []
                         if recorder is not None:
                             if not batch:
                                 batch_start = received
                             batch.append(frame)
                     if batch and (frame is None or len(batch) >= RECORD_BATCH or received - batch_start >= RECORD_BATCH_NS):
-                        recorder.write_frames(batch)
+                        recorder.write_frames(batch)  # type: ignore[union-attr]
                         batch = []
+                    try:
+                        with lock:
+                            outs = pipeline.feed(frame) if frame is not None else pipeline.idle(time.time_ns())
+                    except SteerMonitorError as exc:  # the decoder counts rejects; this guards a defect
+                        self.get_logger().error(f'frame not processed: {exc}')
+                        outs = []
+                    if outs:
+                        self._publish_outputs(outs)
                     if frame is not None:
-                        if samples:
-                            with self._lock:
-                                for sample in samples:
-                                    monitor.update(sample)
-                            if est_queue is not None:
-                                est_queue.extend(samples)
                         self._unpublished.append(received)
-                    if self._unpublished and received - self._last_publish >= PUBLISH_PERIOD_NS:
-                        self._flush_state(received)
         finally:
             if batch and recorder is not None:
                 recorder.write_frames(batch)
-
-    def _flush_state(self, now: int) -> None:
-        with self._lock:
-            state = self.monitor.state
-        if state is not None:
-            self._publish_state(state)
-        done = time.monotonic_ns()
-        self.latencies_ns.extend(done - t for t in self._unpublished)
-        self._unpublished.clear()
-        self._last_publish = now
-
-    def _publish_state(self, st: LiveState) -> None:
-        from builtin_interfaces.msg import Time
-        from sensor_msgs.msg import JointState
-        from std_msgs.msg import Float64MultiArray, MultiArrayDimension
-
-        stamp = Time(sec=st.t_ns // 1_000_000_000, nanosec=st.t_ns % 1_000_000_000)
-        js = JointState()
-        js.header.stamp = stamp
-        js.header.frame_id = 'rudder_stock'
-        js.name = ['rudder']
-        js.position = [st.alpha]
-        js.velocity = [st.rate]
-        js.effort = [math.copysign(st.torque_measured or 0.0, st.alpha)]
-        self._publish(self.pub_rudder, js, st.t_ns)
-        if st.share is not None:
-            sh = st.share
-            msg = Float64MultiArray()
-            msg.layout.dim = [MultiArrayDimension(label=','.join(LOAD_LABELS), size=len(LOAD_LABELS), stride=len(LOAD_LABELS))]
-            msg.data = [sh.lateral, sh.ram_force, sh.guide_force, sh.k_gl, sh.deflection, sh.r_a, sh.r_e,
-                        sh.m_a, float(sh.case)]
-            self._publish(self.pub_load, msg, st.t_ns)
 
     def _recording_status(self) -> Status | None:
         if self.recorder is None:
@@ -287,32 +214,14 @@ class MonitorNode(Node):
         return Status('steer_monitor: recording', OK if st.ok else ERROR, st.message,
                       self.params['node.hardware_id'], values)
 
-    def _publish_diagnostics(self) -> None:
-        from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-        from std_msgs.msg import Float64MultiArray, MultiArrayDimension, String
-
-        now = time.time_ns()
+    def _silent_diagnostics(self) -> None:
+        """1 Hz on wall time: publish diagnostics only when the data clock has stopped (no
+        frames, so no whole second of data comes): this is where inputs go STALE."""
+        if time.monotonic() - self._last_diag < SILENT_DIAG_S:
+            return
         with self._lock:
-            statuses = self.diag.build(self.monitor, self.rejects.snapshot(), now, self._recording_status())
-            gaps, interval = self.monitor.gaps, self.monitor.gaps_interval or {}
-            source = self.monitor.gaps_source
-        arr = DiagnosticArray()
-        arr.header.stamp = self.get_clock().now().to_msg()
-        for s in statuses:
-            arr.status.append(DiagnosticStatus(level=bytes([s.level]), name=s.name, message=s.message,
-                                               hardware_id=s.hardware_id,
-                                               values=[KeyValue(key=k, value=v) for k, v in s.values]))
-        self._publish(self.pub_diag, arr, now)
-        nan = float('nan')
-
-        def bound(key: str, i: int) -> float:
-            v = interval.get(key, (None, None))[i] if interval else None
-            return nan if v is None else float(v)
-        cl = Float64MultiArray()
-        cl.layout.dim = [MultiArrayDimension(label=','.join(CLEARANCE_LABELS), size=6, stride=6)]
-        cl.data = [gaps.two_z, bound('2z', 0), bound('2z', 1), gaps.z_gb, bound('zgb', 0), bound('zgb', 1)]
-        self._publish(self.pub_clear, cl, now)
-        self._publish(self.pub_source, String(data=source), now)
+            out = self.pipeline.diagnostics_now(time.time_ns())
+        self._publish_diag(out)
 
     # --- shutdown ----------------------------------------------------------------------------
     def close(self) -> None:
@@ -322,9 +231,8 @@ class MonitorNode(Node):
         self._closed = True
         self._stop.set()
         self._reader_thread.join(5)
-        if self._est_thread is not None:
-            self._est_thread.join(10)
-            self._save_estimator()
+        self.pipeline.close()            # waits for the running estimator job
+        self._save_estimator()
         self.reader.close()
         if self.recorder is not None:
             self.recorder.close()

@@ -1,0 +1,301 @@
+"""The monitor's pipeline on the data clock: frames in, what the node publishes out. Pure
+(no ROS, no CAN bus, no MCAP): the node runs it live, ``steer-monitor replay`` offline, and
+because every decision is taken on the frames' own timestamps, both give the same outputs
+for the same frames.
+
+Schedule (``t`` is a frame's timestamp, integer ns since the epoch):
+
+* **state**: data time is cut in 10 ms slots. The live model's state after the last frame
+  of a slot is emitted when the first frame of a later slot arrives (live, also when the
+  bus has been quiet past the slot's end: :meth:`Pipeline.idle`).
+* **each whole second** ``k`` (after every frame before it, before any frame at or after
+  it): pending estimator results due by ``k`` are applied to the live model, the samples
+  since the last second go to the clearance estimator (a job started at ``k``), then the
+  diagnostics are built with ``now = k``. Every second of a gap is taken (live, the node
+  goes on emitting them while the bus is silent, so inputs show STALE), up to
+  ``MAX_GAP_SECONDS``; a longer jump (the next log, a long outage) takes those and its
+  last second only.
+* **estimator results** are applied ``APPLY_DELAY_NS`` of data time after the job started:
+  live, the job runs on its own thread meanwhile (a full profile takes about a second on
+  this machine) and the pipeline waits for it only if it is later than that; offline it
+  runs at once. Either way the live model changes clearances at the same sample.
+
+Outputs are :class:`StateOut` and :class:`DiagOut` records, in order.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections import deque
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Protocol
+
+from steer_monitor.can.decoder import Decoder, Sample
+from steer_monitor.can.frames import Frame
+from steer_monitor.can.rejects import RejectCounter
+from steer_monitor.errors import SteerMonitorError
+from steer_monitor.estimate.online import OnlineEstimate, OnlineEstimator
+from steer_monitor.model.friction import FrictionParams
+from steer_monitor.model.gear import Gaps
+from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, Status
+from steer_monitor.monitor.live import LiveMonitor, LiveState
+
+__all__ = ['APPLY_DELAY_NS', 'MAX_GAP_SECONDS', 'SECOND_NS', 'SLOT_NS', 'DiagOut', 'EstimatorJobs', 'Pipeline', 'StateOut',
+           'SyncEstimatorJobs', 'ThreadedEstimatorJobs', 'apply_estimate']
+
+SLOT_NS = 10_000_000
+SECOND_NS = 1_000_000_000
+APPLY_DELAY_NS = 3 * SECOND_NS
+MAX_GAP_SECONDS = 60
+
+
+@dataclass(frozen=True)
+class StateOut:
+    """The live model's state at the end of a 10 ms slot."""
+
+    state: LiveState
+
+
+@dataclass(frozen=True)
+class DiagOut:
+    """Diagnostics at a whole second of data time ``t_ns``, with the clearances then in use."""
+
+    t_ns: int
+    statuses: tuple[Status, ...]
+    gaps: Gaps
+    interval: dict[str, tuple[float, float | None]] | None
+    source: str
+
+
+Output = StateOut | DiagOut
+
+
+@dataclass(frozen=True)
+class EstimateSnapshot:
+    """What an estimator job hands back when the estimate changed."""
+
+    estimate: OnlineEstimate
+    motion_s: float
+
+
+class EstimatorJobs(Protocol):
+    """Runs the online estimator's jobs in submission order."""
+
+    def submit(self, samples: list[Sample]) -> object: ...
+
+    def result(self, handle: object) -> EstimateSnapshot | None: ...
+
+    def close(self) -> None: ...
+
+
+def _job(est: OnlineEstimator, samples: list[Sample]) -> EstimateSnapshot | None:
+    for s in samples:
+        est.add(s)
+    if est.update() and est.estimate is not None:
+        return EstimateSnapshot(est.estimate, est.motion_s)
+    return None
+
+
+class SyncEstimatorJobs:
+    """Each job runs when submitted (offline). ``on_error`` hears an update that failed."""
+
+    def __init__(self, est: OnlineEstimator, on_error: Callable[[SteerMonitorError], None] | None = None) -> None:
+        self.est = est
+        self.on_error = on_error
+
+    def submit(self, samples: list[Sample]) -> object:
+        try:
+            return _job(self.est, samples)
+        except SteerMonitorError as exc:   # guards a defect: report, keep monitoring
+            if self.on_error is not None:
+                self.on_error(exc)
+            return None
+
+    def result(self, handle: object) -> EstimateSnapshot | None:
+        return handle  # type: ignore[return-value]
+
+    def close(self) -> None:
+        pass
+
+
+class ThreadedEstimatorJobs:
+    """Jobs run one after the other on a worker thread (live). ``after`` runs on that thread
+    after each job (the node saves the estimator state there). Context manager; close waits
+    for the running job and is idempotent."""
+
+    def __init__(self, est: OnlineEstimator, on_error: Callable[[SteerMonitorError], None] | None = None,
+                 after: Callable[[], None] | None = None) -> None:
+        self.est = est
+        self.on_error = on_error
+        self.after = after
+        self._pool: ThreadPoolExecutor | None = ThreadPoolExecutor(1, thread_name_prefix='steer_monitor-estimator')
+        self._lock = threading.Lock()
+
+    def _run(self, samples: list[Sample]) -> EstimateSnapshot | None:
+        try:
+            return _job(self.est, samples)
+        except SteerMonitorError as exc:
+            if self.on_error is not None:
+                self.on_error(exc)
+            return None
+        finally:
+            if self.after is not None:
+                self.after()
+
+    def submit(self, samples: list[Sample]) -> object:
+        with self._lock:
+            if self._pool is None:
+                return None
+            return self._pool.submit(self._run, samples)
+
+    def result(self, handle: object) -> EstimateSnapshot | None:
+        return handle.result() if isinstance(handle, Future) else None
+
+    def close(self) -> None:
+        with self._lock:
+            pool, self._pool = self._pool, None
+        if pool is not None:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+    def __enter__(self) -> ThreadedEstimatorJobs:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def apply_estimate(monitor: LiveMonitor, snap: EstimateSnapshot) -> None:
+    """Hand an estimate to the live model: the gaps with their intervals, the friction fitted
+    with them, and what the clearance diagnostic adds (K_gl max with its interval)."""
+    e = snap.estimate
+    interval = {'2z': (e.two_z.lo, e.two_z.hi), 'zgb': (e.z_gb.lo, e.z_gb.hi)}
+    fr = FrictionParams(*e.friction) if all(map(math.isfinite, e.friction)) else None
+    monitor.set_gaps(Gaps(e.two_z.value, e.z_gb.value), 'estimated', interval, fr)  # type: ignore[arg-type]
+    k = e.k_gl_max
+    monitor.estimate_info = {'k_gl_max_estimated': f'{k.value:.3f}',
+                             'k_gl_max_lo': 'n/a' if k.lo is None else f'{k.lo:.3f}',
+                             'k_gl_max_hi': 'n/a' if k.hi is None else f'{k.hi:.3f}',
+                             'estimate_rows': str(int(e.rows)),
+                             'estimate_motion_s': f'{snap.motion_s:.0f}'}
+
+
+class Pipeline:
+    """Frames in data-time order in, :class:`StateOut` / :class:`DiagOut` out. Not
+    thread-safe: feed it from one thread (the node holds a lock around it)."""
+
+    def __init__(self, decoder: Decoder, rejects: RejectCounter, monitor: LiveMonitor, diag: DiagnosticsBuilder,
+                 jobs: EstimatorJobs | None = None) -> None:
+        self.decoder = decoder
+        self.rejects = rejects
+        self.monitor = monitor
+        self.diag = diag
+        self.jobs = jobs
+        self._slot: int | None = None          # slot of the newest frame
+        self._state_pending = False            # samples since the last emitted state
+        self._next_second: int | None = None   # the next whole second to act on
+        self._samples: list[Sample] = []       # for the estimator since the last second
+        self._pending: deque[tuple[int, object]] = deque()   # (due, job handle)
+        self.frames = 0
+
+    # --- input ---------------------------------------------------------------------------
+    def feed(self, frame: Frame) -> list[Output]:
+        """Take one frame; returns what became due before it (the frame itself is in the
+        next output)."""
+        t = frame.t_ns
+        out: list[Output] = []
+        slot = t // SLOT_NS
+        if self._slot is None:
+            self._slot = slot
+            self._next_second = (t // SECOND_NS + 1) * SECOND_NS
+        elif slot > self._slot:
+            self._emit_state(out)
+            self._slot = slot
+            self._seconds_until(t, out)
+        self.frames += 1
+        samples = self.decoder.decode(frame)
+        if samples:
+            mon = self.monitor
+            for s in samples:
+                mon.update(s)
+            if self.jobs is not None:
+                self._samples.extend(samples)
+            self._state_pending = mon.changed
+        return out
+
+    def idle(self, now_ns: int, margin_ns: int = 50 * 1_000_000) -> list[Output]:
+        """Live only: the bus has been quiet; emit the state of a slot that ended more than
+        ``margin_ns`` ago and act on the whole seconds passed by then. A frame stamped
+        before that arriving later falls in the next slot/second."""
+        out: list[Output] = []
+        if self._slot is None:
+            return out
+        edge = now_ns - margin_ns
+        if edge >= (self._slot + 1) * SLOT_NS:
+            self._emit_state(out)
+            self._slot = edge // SLOT_NS
+            self._seconds_until(edge, out)
+        return out
+
+    def finish(self) -> list[Output]:
+        """End of input (offline): the last slot's state and the whole second after the
+        last frame, as the live node emits them once the bus has gone quiet."""
+        out: list[Output] = []
+        if self._slot is None:
+            return out
+        self._emit_state(out)
+        assert self._next_second is not None
+        self._second(self._next_second, out)
+        self._next_second += SECOND_NS
+        return out
+
+    def close(self) -> None:
+        if self.jobs is not None:
+            self.jobs.close()
+
+    # --- schedule ------------------------------------------------------------------------
+    def _emit_state(self, out: list[Output]) -> None:
+        if self._state_pending:
+            self._state_pending = False
+            st = self.monitor.state
+            if st is not None:
+                out.append(StateOut(st))
+
+    def _seconds_until(self, t: int, out: list[Output]) -> None:
+        k = self._next_second
+        assert k is not None
+        if t < k:
+            return
+        last = t // SECOND_NS * SECOND_NS
+        stop = k + MAX_GAP_SECONDS * SECOND_NS
+        while k <= last and k < stop:
+            self._second(k, out)
+            k += SECOND_NS
+        if k <= last:
+            self._second(last, out)
+        self._next_second = last + SECOND_NS
+
+    def _second(self, k_ns: int, out: list[Output]) -> None:
+        mon = self.monitor
+        while self._pending and self._pending[0][0] <= k_ns:
+            _, handle = self._pending.popleft()
+            assert self.jobs is not None
+            snap = self.jobs.result(handle)
+            if snap is not None:
+                apply_estimate(mon, snap)
+        if self.jobs is not None:
+            samples, self._samples = self._samples, []
+            self._pending.append((k_ns + APPLY_DELAY_NS, self.jobs.submit(samples)))
+        statuses = self.diag.build(mon, self.rejects.snapshot(), k_ns)
+        interval = dict(mon.gaps_interval) if mon.gaps_interval else None
+        out.append(DiagOut(k_ns, tuple(statuses), mon.gaps, interval, mon.gaps_source))
+
+    def diagnostics_now(self, now_ns: int) -> DiagOut:
+        """Diagnostics at an arbitrary time (live: the bus is silent, so no second boundary
+        comes; STALE shows here). Does not touch the schedule."""
+        mon = self.monitor
+        statuses = self.diag.build(mon, self.rejects.snapshot(), now_ns)
+        interval = dict(mon.gaps_interval) if mon.gaps_interval else None
+        return DiagOut(now_ns, tuple(statuses), mon.gaps, interval, mon.gaps_source)

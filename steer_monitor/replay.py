@@ -1,0 +1,184 @@
+"""Replay: the live pipeline (decode, model, online estimator, diagnostics) run offline over
+logs, writing the topics the node publishes to one MCAP.
+
+The same :class:`~steer_monitor.monitor.pipeline.Pipeline` the node runs, fed from log files
+instead of a bus, with the estimator's jobs run at once instead of on a thread (the pipeline
+applies their results at the same data time either way). Deterministic: the same logs give
+the same file, byte for byte. Differences from a node's recording, by design: no
+``steer_monitor: recording`` status (a replay records nothing live), and no diagnostics on wall
+time while a bus is silent (a log has no silence to wait through, only gaps, which the data
+clock steps over).
+
+Logs are taken in order of their first frame. A log that breaks off gives what came before
+the break; the replay goes on with the next one and reports the error.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from steer_monitor.can.decoder import Decoder
+from steer_monitor.can.frames import Frame
+from steer_monitor.can.logs import LogError, iter_log
+from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, McapWriter
+from steer_monitor.can.rejects import RejectCounter
+from steer_monitor.can.setup import can_setup
+from steer_monitor.errors import SteerMonitorError
+from steer_monitor.estimate.online import OnlineEstimate, OnlineEstimator
+from steer_monitor.model.friction import FrictionParams
+from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig
+from steer_monitor.monitor.live import LiveMonitor
+from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages, topic_name
+from steer_monitor.monitor.pipeline import Output, Pipeline, StateOut, SyncEstimatorJobs
+from steer_monitor.params import gaps_from_params, gear_from_params, load_params_file, min_clearance_2z_from_params
+from steer_monitor.record.cdr import FAST_ENCODERS
+from steer_monitor.record.msgdefs import msgdef
+from steer_monitor.resources import default_config
+
+__all__ = ['ReplayError', 'ReplaySummary', 'replay', 'summary_json']
+
+FRAME_BATCH = 4096
+
+
+class ReplayError(SteerMonitorError):
+    """A replay cannot start (no logs, an output that cannot be written)."""
+
+
+@dataclass
+class ReplaySummary:
+    """What a replay did."""
+
+    output: str
+    logs: list[str]
+    frames: int = 0
+    states: int = 0
+    diagnostics: int = 0
+    rejects: dict[str, int] = field(default_factory=dict)
+    errors: list[str] = field(default_factory=list)
+    first_ns: int | None = None
+    last_ns: int | None = None
+    estimate: OnlineEstimate | None = None
+    motion_s: float = 0.0
+
+
+def _first_time(path: Path) -> int:
+    try:
+        for frame in iter_log(path):
+            return frame.t_ns
+    except LogError:
+        pass
+    return 1 << 62   # unreadable or empty: last (its error is reported when it is replayed)
+
+
+def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | None = None, *,
+           frames: bool = True, estimator: bool = True, node_name: str = 'steer_monitor',
+           progress: Callable[[int], None] | None = None) -> ReplaySummary:
+    """Replay ``logs`` into ``output`` (an MCAP). ``frames``: record the raw frames too, as
+    the node does. ``progress`` is called with the number of frames done since its last call."""
+    if not logs:
+        msg = 'replay: no log given'
+        raise ReplayError(msg)
+    paths = sorted((Path(p) for p in logs), key=_first_time)
+    for p in paths:
+        if not p.is_file():
+            msg = f'replay: log {p} does not exist'
+            raise ReplayError(msg)
+    config_path = Path(config) if config else default_config()
+    params = load_params_file(config_path)
+    db, smap = can_setup(params, config_path)
+    gear = gear_from_params(params)
+    rejects = RejectCounter()
+    monitor = LiveMonitor(gear, gaps_from_params(params), 'configured',
+                          FrictionParams(params['model.seal_friction_n'], params['model.mu_bushing'],
+                                         params['model.mu_guide']))
+    diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(params), smap, gear)
+    summary = ReplaySummary(str(output), [str(p) for p in paths])
+    est = None
+    jobs = None
+    if estimator and params['estimator.enabled']:
+        est = OnlineEstimator(gear, min_clearance_2z=min_clearance_2z_from_params(params),
+                              half_life_s=params['estimator.half_life_h'] * 3600.0)
+        jobs = SyncEstimatorJobs(est, on_error=lambda exc: summary.errors.append(f'estimator update failed: {exc}'))
+    pipeline = Pipeline(Decoder(db, smap, rejects), rejects, monitor, diag, jobs)
+    topics = {key: topic_name(key, node_name) for key in TOPICS}
+    encoders = {key: FAST_ENCODERS[dt] for key, (_, dt) in TOPICS.items() if dt in FAST_ENCODERS}
+    try:
+        writer = McapWriter(output)
+    except OSError as exc:
+        msg = f'replay: cannot write {output}: {exc.strerror or exc}'
+        raise ReplayError(msg) from exc
+    with writer:
+        for key, (_, datatype) in TOPICS.items():
+            writer.add_schema(datatype, msgdef(datatype))
+            writer.add_channel(topics[key], datatype)
+        if frames:
+            writer.add_schema(FRAME_DATATYPE, FRAME_MSGDEF)
+            writer.add_channel(FRAME_TOPIC, FRAME_DATATYPE)
+
+        def emit(outs: list[Output]) -> None:
+            for o in outs:
+                if isinstance(o, StateOut):
+                    msgs = state_messages(o)
+                    summary.states += 1
+                else:
+                    msgs = diag_messages(o)
+                    summary.diagnostics += 1
+                for key, t_ns, fields in msgs:
+                    fast = encoders.get(key)
+                    if fast is not None:
+                        writer.write_cdr(topics[key], fast(fields), t_ns)
+                    else:
+                        writer.write(topics[key], fields, t_ns)
+
+        batch: list[Frame] = []
+        for path in paths:
+            n_log = 0
+            try:
+                for frame in iter_log(path, rejects):
+                    if summary.first_ns is None:
+                        summary.first_ns = frame.t_ns
+                    summary.last_ns = frame.t_ns
+                    if frames:
+                        batch.append(frame)
+                    outs = pipeline.feed(frame)
+                    if outs:
+                        emit(outs)
+                    if len(batch) >= FRAME_BATCH:
+                        writer.write_frames(batch)
+                        batch = []
+                    n_log += 1
+                    if progress is not None and n_log % FRAME_BATCH == 0:
+                        progress(FRAME_BATCH)
+            except LogError as exc:
+                summary.errors.append(str(exc))
+            if progress is not None:
+                progress(n_log % FRAME_BATCH)
+            summary.frames += n_log
+        if batch:
+            writer.write_frames(batch)
+        emit(pipeline.finish())
+        pipeline.close()
+    summary.rejects = dict(sorted(rejects.snapshot().counts.items()))
+    if est is not None:
+        summary.estimate, summary.motion_s = est.estimate, est.motion_s
+    return summary
+
+
+def summary_json(s: ReplaySummary) -> dict[str, Any]:
+    """The summary in engineers' units (clearances in mm)."""
+    e = s.estimate
+
+    def iv(v: Any, scale: float) -> dict[str, Any] | None:
+        if v is None:
+            return None
+        return {'value': v.value * scale, 'ci95': [None if v.lo is None else v.lo * scale,
+                                                   None if v.hi is None else v.hi * scale]}
+    span = 0.0 if s.first_ns is None or s.last_ns is None else (s.last_ns - s.first_ns) / 1e9
+    return {'output': s.output, 'logs': s.logs, 'frames': s.frames, 'span_s': round(span, 3), 'states': s.states,
+            'diagnostics': s.diagnostics, 'rejects': s.rejects, 'errors': s.errors,
+            'final_estimate': None if e is None else {
+                'clearance_2z_mm': iv(e.two_z, 1e3), 'clearance_zgb_mm': iv(e.z_gb, 1e3),
+                'k_gl_max': iv(e.k_gl_max, 1.0), 'motion_s': round(s.motion_s, 1)}}

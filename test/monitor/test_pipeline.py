@@ -1,0 +1,151 @@
+"""The pipeline's schedule on the data clock: states per 10 ms slot, diagnostics each whole
+second, estimator results applied a fixed data time after their job."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from steer_monitor import sim
+from steer_monitor.can import Decoder, Frame, RejectCounter
+from steer_monitor.estimate.intervals import Interval
+from steer_monitor.estimate.online import OnlineEstimate
+from steer_monitor.model import Gaps
+from steer_monitor.monitor import DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
+from steer_monitor.monitor.pipeline import (APPLY_DELAY_NS, MAX_GAP_SECONDS, SECOND_NS, SLOT_NS, DiagOut,
+                                            EstimateSnapshot, Pipeline, StateOut)
+from steer_monitor.params import gear_from_params
+
+
+@pytest.fixture(scope='module')
+def frames(r18_params, can_db):
+    db, smap = can_db
+    s = sim.run(r18_params, sim.SimConfig(program='hard_over_2', max_duration_s=12.0), db, smap, 4)
+    return s.frames.frames()
+
+
+def _pipeline(r18_params, can_db, jobs=None):
+    db, smap = can_db
+    gear = gear_from_params(r18_params)
+    rejects = RejectCounter()
+    mon = LiveMonitor(gear, Gaps.from_mm(0.6, 0.25))
+    diag = DiagnosticsBuilder(DiagnosticsConfig(hardware_id='test'), smap, gear)
+    return Pipeline(Decoder(db, smap, rejects), rejects, mon, diag, jobs)
+
+
+def _run(p, frames):
+    out = []
+    for f in frames:
+        out += [(f.t_ns, o) for o in p.feed(f)]
+    return out + [(None, o) for o in p.finish()]
+
+
+def test_one_state_per_slot_and_diagnostics_at_each_whole_second(r18_params, can_db, frames):
+    out = _run(_pipeline(r18_params, can_db), frames)
+    states = [o.state for _, o in out if isinstance(o, StateOut)]
+    diags = [o for _, o in out if isinstance(o, DiagOut)]
+    slots = [st.t_ns // SLOT_NS for st in states]
+    assert slots == sorted(set(slots))                                 # at most one per slot
+    with_frames = {f.t_ns // SLOT_NS for f in frames}
+    assert set(slots) <= with_frames and len(slots) >= 0.9 * len(with_frames)
+    for fed_at, o in out:                                              # emitted once its slot ended
+        if isinstance(o, StateOut) and fed_at is not None:
+            assert fed_at // SLOT_NS > o.state.t_ns // SLOT_NS
+    secs = [d.t_ns for d in diags]
+    assert all(t % SECOND_NS == 0 for t in secs)
+    assert secs == list(range(secs[0], secs[-1] + 1, SECOND_NS))       # every second, in order
+    assert secs[0] == (frames[0].t_ns // SECOND_NS + 1) * SECOND_NS
+    assert secs[-1] == (frames[-1].t_ns // SECOND_NS + 1) * SECOND_NS  # finish: the second after the end
+    for fed_at, o in out:
+        if isinstance(o, DiagOut) and fed_at is not None:
+            assert fed_at >= o.t_ns                                    # after every frame before it
+
+
+def test_same_frames_same_outputs(r18_params, can_db, frames):
+    a = _run(_pipeline(r18_params, can_db), frames)
+    b = _run(_pipeline(r18_params, can_db), frames)
+    assert repr(a) == repr(b)
+
+
+@pytest.mark.parametrize('gap_s', [5.4, 30.0, 500.2])
+def test_a_gap_in_the_data(r18_params, can_db, frames, gap_s):
+    cut = len(frames) // 2
+    shift = int(gap_s * 1e9)
+    later = [Frame(f.t_ns + shift, f.can_id, f.data, f.is_extended) for f in frames[cut:]]
+    p = _pipeline(r18_params, can_db)
+    for f in frames[:cut]:
+        p.feed(f)
+    before = p._next_second
+    out = p.feed(later[0])
+    secs = [o.t_ns for o in out if isinstance(o, DiagOut)]
+    last = later[0].t_ns // SECOND_NS * SECOND_NS
+    assert secs[0] == before and secs[-1] == last
+    assert len(secs) == min(MAX_GAP_SECONDS + 1, (last - before) // SECOND_NS + 1)
+    assert all(isinstance(o, DiagOut) for o in out[1:])
+    # the inputs are silent at the end of a long gap
+    if gap_s > 10:
+        assert out[-1].statuses[0].level == 3
+
+
+class FakeJobs:
+    """Returns an estimate from the job started at ``second``; records what it was given."""
+
+    def __init__(self, second: int) -> None:
+        self.second = second
+        self.submitted: list[int] = []
+        self.snap = EstimateSnapshot(OnlineEstimate(Interval(0.3e-3, 0.2e-3, 0.4e-3), Interval(0.1e-3, 0.05e-3, 0.15e-3),
+                                                    Interval(0.4, 0.3, 0.5), 1000.0, 0, True, (3000.0, 0.1, 0.12)), 42.0)
+
+    def submit(self, samples):
+        self.submitted.append(len(samples))
+        return self.snap if len(self.submitted) == self.second else None
+
+    def result(self, handle):
+        return handle
+
+    def close(self):
+        pass
+
+
+def test_an_estimate_is_applied_a_fixed_data_time_after_its_job(r18_params, can_db, frames):
+    jobs = FakeJobs(second=3)
+    p = _pipeline(r18_params, can_db, jobs)
+    out = _run(p, frames)
+    diags = [o for _, o in out if isinstance(o, DiagOut)]
+    started = diags[2].t_ns                       # the third second's job returns the estimate
+    for d in diags:
+        if d.t_ns < started + APPLY_DELAY_NS:
+            assert d.source == 'configured' and d.gaps == Gaps.from_mm(0.6, 0.25)
+        else:
+            assert d.source == 'estimated'
+            assert d.gaps == Gaps(0.3e-3, 0.1e-3)
+            assert d.interval == {'2z': (0.2e-3, 0.4e-3), 'zgb': (0.05e-3, 0.15e-3)}
+            clear = dict(d.statuses[1].values)
+            assert clear['k_gl_max_lo'] == '0.300' and clear['estimate_motion_s'] == '42'
+    assert any(d.source == 'estimated' for d in diags)
+    assert sum(jobs.submitted) > 0 and len(jobs.submitted) == len(diags)
+    # the friction fitted with the gaps comes with them
+    assert p.monitor.priors.seal == 3000.0
+
+
+def test_idle_emits_only_after_the_margin(r18_params, can_db, frames):
+    p = _pipeline(r18_params, can_db)
+    for f in frames[:200]:
+        p.feed(f)
+    t = frames[199].t_ns
+    slot_end = (t // SLOT_NS + 1) * SLOT_NS
+    assert p.idle(slot_end + 49_000_000) == []
+    out = p.idle(slot_end + 51_000_000)
+    assert len(out) == 1 and isinstance(out[0], StateOut)
+    assert p.idle(slot_end + 60_000_000) == []         # nothing new
+    nxt = (t // SECOND_NS + 1) * SECOND_NS
+    out = p.idle(nxt + 2 * SECOND_NS + 50_000_000)
+    assert [o.t_ns for o in out] == [nxt, nxt + SECOND_NS, nxt + 2 * SECOND_NS]
+
+
+def test_nothing_fed_nothing_out(r18_params, can_db):
+    p = _pipeline(r18_params, can_db)
+    assert p.finish() == [] and p.idle(10**18) == []
+    d = p.diagnostics_now(10**18)
+    assert d.statuses[0].level == 3 and math.isclose(d.gaps.two_z, 0.6e-3)
