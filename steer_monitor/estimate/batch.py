@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from steer_monitor.estimate import fit as F
-from steer_monitor.estimate.intervals import plateau_interval, CHI2_2_95, Interval, inflation
+from steer_monitor.estimate.intervals import CHI2_1_95, CHI2_2_95, Interval, inflation, plateau_interval
 from steer_monitor.estimate.moments import Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations
 from steer_monitor.model.gear import GearParams
@@ -231,6 +231,33 @@ def estimate_from_moments(gear: GearParams, mom: Moments, vif: float, grid_2z: N
     pr, best, tz, zg, load = _profile_fit(gear, basis, mom, (), grid_2z, grid_zgb, None)
     max_seen = float(np.max(mom.abs_alpha)) if len(mom) else 0.0
     return _bound(gear, basis, mom, pr, best, tz, zg, load, (), vif, max_seen, np.zeros((0, 2)), math.nan, math.nan)
+
+
+def coarse_profile(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: NDArray,
+                   coef: NDArray[np.float64] | None = None) -> tuple[F.Profile, NDArray, NDArray]:
+    """The profile on every other grid point: (profile, its 2Z axis, its Z_gb axis)."""
+    basis = F.TorqueBasis(gear.max_rudder)
+    coef = F.torque_prefit(gear, basis, mom) if coef is None else coef
+    load = F.axial_load(gear, basis, mom, coef)
+    g2, gz = grid_2z[::2], grid_zgb[::2]
+    return F.profile(gear, basis, mom, load, (), g2, gz), g2, gz
+
+
+def search_box(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: NDArray, vif: float = 1.0,
+               coef: NDArray[np.float64] | None = None,
+               coarse: tuple[F.Profile, NDArray, NDArray] | None = None) -> tuple[NDArray, NDArray]:
+    """The part of the grid worth a fine profile: a profile on every other point first
+    (:func:`coarse_profile`, or ``coarse`` when already made), then the box around the points
+    within ten times the 95 % threshold of it (one coarse step wider on each side, so the
+    box's edges lie outside the interval). A quarter of the cost where the data pin the
+    clearances down; the whole grid where they do not."""
+    pr, g2, gz = coarse or coarse_profile(gear, mom, grid_2z, grid_zgb, coef)
+    best = float(pr.rss.min())
+    sigma2 = best / max(pr.n - pr.p, 1.0)
+    near = np.argwhere((pr.rss - best) / (sigma2 * max(vif, 1.0)) <= 10 * CHI2_1_95)
+    i0, i1 = max(near[:, 0].min() - 1, 0) * 2, min(near[:, 0].max() + 1, g2.size - 1) * 2
+    j0, j1 = max(near[:, 1].min() - 1, 0) * 2, min(near[:, 1].max() + 1, gz.size - 1) * 2
+    return grid_2z[i0:i1 + 1], grid_zgb[j0:j1 + 1]
 
 
 def k_gl_max(gear: GearParams, angles: NDArray, torque: NDArray, two_z: ArrayLike, z_gb: ArrayLike) -> NDArray:

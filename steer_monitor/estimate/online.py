@@ -37,8 +37,8 @@ from steer_monitor.can.decoder import Sample, Series
 from steer_monitor.can.signals import PRESSURE_INPUTS
 from steer_monitor.estimate import fit as F
 from steer_monitor.estimate.batch import (MIN_MOTION_SAMPLES, ClearanceEstimate, Rows, estimate_from_moments,
-                                          predict_rows)
-from steer_monitor.estimate.intervals import CHI2_1_95, Interval, inflation
+                                          predict_rows, search_box)
+from steer_monitor.estimate.intervals import Interval, inflation
 from steer_monitor.estimate.moments import Moments, rows_from_observations
 from steer_monitor.estimate.observe import (GRID_NS, HALF_WINDOW_NS, MOVING_RATE, EstimateError, build_observations)
 from steer_monitor.model.gear import GearParams
@@ -248,21 +248,8 @@ class OnlineEstimator:
         return True
 
     def _search_box(self) -> tuple[np.ndarray, np.ndarray]:
-        """The part of the grid worth a fine profile: a profile on every other point first,
-        then the box around the points within ten times the 95 % threshold of it (one coarse
-        step wider on each side, so the box's edges lie outside the interval). A quarter of the
-        cost where the data pin the clearances down; the whole grid where they do not."""
-        mom = self.moments
-        coef = F.torque_prefit(self.gear, self.basis, mom) if self._coef is None else self._coef
-        load = F.axial_load(self.gear, self.basis, mom, coef)
-        g2, gz = self.grid_2z[::2], self.grid_zgb[::2]
-        pr = F.profile(self.gear, self.basis, mom, load, (), g2, gz)
-        best = float(pr.rss.min())
-        sigma2 = best / max(pr.n - pr.p, 1.0)
-        near = np.argwhere((pr.rss - best) / (sigma2 * max(self._vif, 1.0)) <= 10 * CHI2_1_95)
-        i0, i1 = max(near[:, 0].min() - 1, 0) * 2, min(near[:, 0].max() + 1, g2.size - 1) * 2
-        j0, j1 = max(near[:, 1].min() - 1, 0) * 2, min(near[:, 1].max() + 1, gz.size - 1) * 2
-        return self.grid_2z[i0:i1 + 1], self.grid_zgb[j0:j1 + 1]
+        """:func:`~steer_monitor.estimate.batch.search_box` at the current fit."""
+        return search_box(self.gear, self.moments, self.grid_2z, self.grid_zgb, self._vif, self._coef)
 
     def _inflation(self) -> float:
         """From the recent rows' residuals at the current fit; 1 before the first fit."""

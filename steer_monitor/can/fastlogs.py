@@ -1,0 +1,588 @@
+"""Whole logs into columns without a Python object per frame: candump and MCAP at millions of
+frames per second, block by block so memory stays bounded whatever the log's length.
+
+Why our own readers: python-can's and mcap's readers build one object per frame (a few us
+each); a month of one vessel's steering bus is a few hundred million frames. These give the
+same frames and reject counts as :func:`steer_monitor.can.logs.iter_log` (the tests compare
+them on every kind of line), which remains the reference and the fallback:
+
+* candump: a block of lines is split on newlines with numpy; lines of the usual shape
+  ``(sec.frac) chan ID#HEX`` are parsed by column arithmetic on the bytes, grouped by field
+  width; any other line (remote frames, odd payloads, garbage) goes through the line parser of
+  :mod:`~steer_monitor.can.logs`, which counts what it rejects.
+* MCAP: chunks are decompressed whole; inside one, a run of ``can_msgs/msg/Frame`` message
+  records of equal size (how both the recorder and the log writer lay them out) is found with
+  one vectorized comparison and read as a 2-D byte array. Other records are stepped over.
+* other formats (``.asc``, ``.blf``): python-can, gathered into blocks.
+"""
+
+from __future__ import annotations
+
+import re
+import struct
+from collections.abc import Iterator
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, FrameArrays
+from steer_monitor.can.logs import CAN_ERR_FLAG, READ_SUFFIXES, LogError, _candump_line, _suffix, iter_log
+from steer_monitor.can.mcapio import FRAME_DATATYPE
+from steer_monitor.can.rejects import RejectCounter
+
+__all__ = ['BLOCK_BYTES', 'BLOCK_FRAMES', 'iter_candump_blocks', 'iter_log_blocks', 'iter_mcap_blocks', 'log_end_ns',
+           'read_log_fast', 'write_candump_arrays']
+
+BLOCK_BYTES = 64 << 20
+BLOCK_FRAMES = 1 << 20
+
+_HEX = np.full(256, 255, np.uint8)
+for _i, _c in enumerate(b'0123456789'):
+    _HEX[_c] = _i
+for _i, _c in enumerate(b'abcdef'):
+    _HEX[_c] = 10 + _i
+    _HEX[_c - 32] = 10 + _i
+_DEC = np.full(256, 255, np.uint8)
+_DEC[48:58] = np.arange(10)
+
+
+def _field(a: NDArray[np.uint8], start: NDArray[np.intp], end: NDArray[np.intp], lut: NDArray[np.uint8],
+           base: int) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+    """Numbers in ``a[start:end]`` per row (digits of ``base`` via ``lut``), all rows at once
+    (grouped by width). Returns (values, valid)."""
+    n = start.size
+    values = np.zeros(n, np.int64)
+    valid = np.ones(n, bool)
+    width = end - start
+    for w in np.unique(width):
+        rows = np.nonzero(width == w)[0]
+        if w <= 0 or w > 18:
+            valid[rows] = False
+            continue
+        digits = lut[a[start[rows, None] + np.arange(w)]].astype(np.int64)
+        valid[rows] = (digits < base).all(axis=1)
+        values[rows] = digits @ (base ** np.arange(w - 1, -1, -1, dtype=np.int64))
+    return values, valid
+
+
+def _fields(a: NDArray[np.uint8], s: NDArray[np.intp], e: NDArray[np.intp], dot: NDArray[np.intp],
+            cp: NDArray[np.intp], sp2: NDArray[np.intp], hs: NDArray[np.intp]
+            ) -> tuple[FrameArrays, NDArray[np.bool_]]:
+    """Frames of lines whose delimiters are known to sit at these positions; returns the
+    frames of the lines whose fields are valid and a mask of those lines."""
+    dlen = e - hs - 1
+    sec, v1 = _field(a, s + 1, dot, _DEC, 10)
+    frac, v2 = _field(a, dot + 1, cp, _DEC, 10)
+    ident, v3 = _field(a, sp2 + 1, hs, _HEX, 16)
+    good = v1 & v2 & v3 & (sec < 9_223_372_035)
+    nbytes = dlen // 2
+    data = np.zeros((s.size, MAX_DLC), np.uint8)
+    for k in range(MAX_DLC):
+        has = nbytes > k
+        if not has.any():
+            break
+        hi = _HEX[a[np.where(has, hs + 1 + 2 * k, 0)]]
+        lo = _HEX[a[np.where(has, hs + 2 + 2 * k, 0)]]
+        good &= ~has | ((hi < 16) & (lo < 16))
+        data[:, k] = np.where(has, (hi.astype(np.uint16) << 4 | lo) & 0xFF, 0)
+    t_ns = sec * 1_000_000_000 + frac * (10 ** (9 - (cp - dot - 1)))
+    extended = (hs - sp2 - 1) == 8
+    is_error = extended & ((ident & CAN_ERR_FLAG) != 0)
+    flags = (FLAG_EXTENDED * extended | FLAG_ERROR * is_error).astype(np.uint8)
+    fa = FrameArrays(t_ns[good].astype(np.int64), (ident[good] & 0x1FFFFFFF).astype(np.uint32),
+                     nbytes[good].astype(np.uint8), data[good], flags[good])
+    return fa, good
+
+
+def _shape_ok(s: NDArray[np.intp], e: NDArray[np.intp], dot: NDArray[np.intp], cp: NDArray[np.intp],
+              sp1: NDArray[np.intp], sp2: NDArray[np.intp], hs: NDArray[np.intp]) -> NDArray[np.bool_]:
+    dlen = e - hs - 1
+    return ((s < dot) & (dot < cp) & (sp1 == cp + 1) & (sp2 > sp1 + 1) & (hs > sp2 + 1) & (hs - sp2 - 1 <= 8)
+            & (cp - dot - 1 >= 1) & (cp - dot - 1 <= 9) & (dot - s - 1 >= 1) & (dlen % 2 == 0) & (dlen <= 16))
+
+
+_LINE = re.compile(rb'^\((\d+)\.(\d{1,9})\) (\S+) ([0-9A-Fa-f]{1,8})#([0-9A-Fa-f]*)$')
+
+
+def _digits(m: NDArray[np.uint8], lut: NDArray[np.uint8], base: int) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+    """The numbers written in the columns of ``m`` (n, w): (values, valid). Float64 matmul is
+    exact here (at most 16 hex or 10 decimal digits of a timestamp's seconds < 2**53)."""
+    d = lut[m]
+    valid = (d < base).all(axis=1)
+    powers = float(base) ** np.arange(m.shape[1] - 1, -1, -1)
+    return (d.astype(np.float64) @ powers).astype(np.int64), valid
+
+
+def _matrix_frames(m: NDArray[np.uint8], dot: int, cp: int, sp2: int, hs: int, length: int
+                   ) -> tuple[FrameArrays, NDArray[np.bool_]]:
+    """Frames of lines of one layout, given as the rows of ``m`` (n, >= length)."""
+    sec, v1 = _digits(m[:, 1:dot], _DEC, 10)
+    frac, v2 = _digits(m[:, dot + 1:cp], _DEC, 10)
+    ident, v3 = _digits(m[:, sp2 + 1:hs], _HEX, 16)
+    nb = (length - hs - 1) // 2
+    d = _HEX[m[:, hs + 1:hs + 1 + 2 * nb]]
+    good = v1 & v2 & v3 & (d < 16).all(axis=1) & (sec < 9_223_372_035)
+    data = np.zeros((m.shape[0], MAX_DLC), np.uint8)
+    data[:, :nb] = (d[:, 0::2] << 4) | d[:, 1::2]
+    t_ns = sec * 1_000_000_000 + frac * 10 ** (9 - (cp - dot - 1))
+    extended = (hs - sp2 - 1) == 8
+    flags = np.full(m.shape[0], FLAG_EXTENDED if extended else 0, np.uint8)
+    if extended:
+        flags |= np.where((ident & CAN_ERR_FLAG) != 0, FLAG_ERROR, 0).astype(np.uint8)
+    fa = FrameArrays(t_ns[good], (ident[good] & 0x1FFFFFFF).astype(np.uint32), np.full(int(good.sum()), nb, np.uint8),
+                     data[good], flags[good])
+    return fa, good
+
+
+def _templates(a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp]
+               ) -> tuple[list[FrameArrays], list[NDArray[np.intp]], NDArray[np.bool_]]:
+    """Lines of one length whose delimiters sit where the first such line has them (a log is
+    mostly one or a few line layouts): parsed by fixed columns, straight from the block
+    when every line has that length. Returns frames, their lines, and a mask of the lines
+    handled."""
+    n = starts.size
+    done = np.zeros(n, bool)
+    parts: list[FrameArrays] = []
+    lines: list[NDArray[np.intp]] = []
+    length = ends - starts
+    values, counts = np.unique(length, return_counts=True)
+    for L, count in zip(values.tolist(), counts.tolist()):
+        if count < 16:
+            continue
+        first_row = int(np.argmax(length == L))
+        m0 = _LINE.match(bytes(a[starts[first_row]:ends[first_row]]))
+        if m0 is None:
+            continue
+        dot, cp, sp1, sp2, hs = m0.end(1), m0.end(2), m0.end(2) + 1, m0.end(3), m0.end(4)
+        if (L - hs - 1) % 2 or L - hs - 1 > 16 or cp - dot - 1 > 9:
+            continue
+        if count == n and starts[0] == 0 and (n == 1 or (starts[-1] == (n - 1) * (L + 1 + (a[L] == 13)))):
+            stride = int(starts[1] - starts[0]) if n > 1 else L + 1
+            if stride * n <= a.size + 1 and (n == 1 or (np.diff(starts) == stride).all()):
+                m = np.lib.stride_tricks.as_strided(a, shape=(n, L), strides=(stride, 1))
+                rows = np.arange(n)
+            else:
+                rows = np.nonzero(length == L)[0]
+                m = a[starts[rows, None] + np.arange(L)]
+        else:
+            rows = np.nonzero(length == L)[0]
+            m = a[starts[rows, None] + np.arange(L)]
+        check = (m[:, 0] == ord('(')) & (m[:, dot] == ord('.')) & (m[:, cp] == ord(')'))
+        check &= (m[:, sp1] == 32) & (m[:, sp2] == 32) & (m[:, hs] == ord('#'))
+        if sp2 - sp1 > 1:
+            check &= (m[:, sp1 + 1:sp2] > 32).all(axis=1)
+        if not check.all():
+            rows, m = rows[check], m[check]
+        fa, good = _matrix_frames(m, dot, cp, sp2, hs, L)
+        parts.append(fa)
+        lines.append(rows[good])
+        done[rows[good]] = True
+    return parts, lines, done
+
+
+def _parse_candump(a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp]
+                   ) -> tuple[FrameArrays, NDArray[np.bool_]]:
+    """Vectorized parse of lines ``a[starts[i]:ends[i]]`` (no newline). Returns the frames of
+    the lines of the usual shape, in line order, and a mask of those lines."""
+    parts, lines, mask = _templates(a, starts, ends)
+    rest = np.nonzero(~mask)[0]
+    if rest.size:
+        # the other lines: find each delimiter's line; the usual shape has exactly one of
+        # each (two spaces)
+        rs, re_ = starts[rest], ends[rest]
+        ok = np.ones(rest.size, bool)
+        found: dict[int, NDArray[np.intp]] = {}
+        for ch in (ord('('), ord(')'), ord('.'), ord(' '), ord('#')):
+            where = np.flatnonzero(a == ch)
+            owner = np.searchsorted(rs, where, side='right') - 1
+            inside = (owner >= 0) & (where < re_[np.clip(owner, 0, None)])
+            where, owner = where[inside], owner[inside]
+            count = np.bincount(owner, minlength=rest.size)
+            ok &= count == (2 if ch == ord(' ') else 1)
+            first = np.full(rest.size, -1, np.intp)
+            u, i = np.unique(owner, return_index=True)
+            first[u] = where[i]
+            found[ch] = first
+            if ch == ord(' '):
+                last = np.full(rest.size, -1, np.intp)
+                u, i = np.unique(owner[::-1], return_index=True)
+                last[u] = where[::-1][i]
+                found[-1] = last
+        sel = np.nonzero(ok)[0]
+        s, e = rs[sel], re_[sel]
+        op, dot, cp, sp1, sp2, hs = (found[ord('(')][sel], found[ord('.')][sel], found[ord(')')][sel],
+                                      found[ord(' ')][sel], found[-1][sel], found[ord('#')][sel])
+        shape = (op == s) & _shape_ok(s, e, dot, cp, sp1, sp2, hs)
+        sel = sel[shape]
+        fa, good = _fields(a, *(x[shape] for x in (s, e, dot, cp, sp2, hs)))
+        parts.append(fa)
+        lines.append(rest[sel[good]])
+        mask[rest[sel[good]]] = True
+    if not parts:
+        return FrameArrays.empty(), mask
+    fa = FrameArrays.concat(parts)
+    order = np.concatenate(lines)
+    if order.size and (np.diff(order) < 0).any():
+        fa = fa.take(np.argsort(order, kind='stable'))
+    return fa, mask
+
+
+def iter_candump_blocks(path: str | Path, rejects: RejectCounter | None = None,
+                        block_bytes: int = BLOCK_BYTES) -> Iterator[FrameArrays]:
+    """Frames of a candump ``.log`` in file order, a block of about ``block_bytes`` at a time.
+    Lines of another shape are parsed one by one (and counted in ``rejects`` if bad)."""
+    path = Path(path)
+    try:
+        fh = open(path, 'rb')
+    except OSError as exc:
+        msg = f'cannot open log {path}: {exc.strerror or exc}'
+        raise LogError(msg) from exc
+    lineno = 0
+    carry = b''
+    with fh:
+        while True:
+            chunk = fh.read(block_bytes)
+            if not chunk and not carry:
+                return
+            buf = carry + chunk
+            if chunk:
+                cut = buf.rfind(b'\n') + 1
+                if cut == 0:
+                    carry = buf
+                    continue
+                buf, carry = buf[:cut], buf[cut:]
+            else:
+                carry = b''
+            a = np.frombuffer(buf, np.uint8)
+            nl = np.flatnonzero(a == 10)
+            starts = np.concatenate([[0], nl + 1]).astype(np.intp)
+            ends = np.concatenate([nl, [a.size]]).astype(np.intp)
+            if starts[-1] >= a.size:                 # the block ends with its newline
+                starts, ends = starts[:-1], ends[:-1]
+            cr = (ends > starts) & (a[np.clip(ends - 1, 0, None)] == 13)
+            ends = ends - cr
+            fa, mask = _parse_candump(a, starts, ends)
+            slow = np.nonzero(~mask)[0]
+            if slow.size:
+                fa = _merge_slow(fa, mask, slow, buf, starts, ends, lineno, rejects, path)
+            lineno += starts.size
+            if len(fa):
+                yield fa
+
+
+def _merge_slow(fa: FrameArrays, mask: NDArray[np.bool_], slow: NDArray[np.intp], buf: bytes,
+                starts: NDArray[np.intp], ends: NDArray[np.intp], lineno: int, rejects: RejectCounter | None,
+                path: Path) -> FrameArrays:
+    """The lines the column parser left, through the line parser, merged in line order."""
+    from steer_monitor.can.frames import Frame
+    extra: list[Frame] = []
+    at: list[int] = []
+    for i in slow.tolist():
+        text = buf[starts[i]:ends[i]].decode('ascii', 'replace')
+        f = _candump_line(text, lineno + i + 1, rejects, path)
+        if f is not None:
+            extra.append(f)
+            at.append(i)
+    if not extra:
+        return fa
+    fast_lines = np.nonzero(mask)[0]
+    both = FrameArrays.concat([fa, FrameArrays.from_frames(extra)])
+    order = np.argsort(np.concatenate([fast_lines, np.array(at, np.intp)]), kind='stable')
+    return both.take(order)
+
+
+# --- MCAP ---------------------------------------------------------------------------------
+_MSG = 0x05
+_SCHEMA = 0x03
+_CHANNEL = 0x04
+
+
+def _string(b: bytes, off: int) -> tuple[str, int]:
+    (n,) = struct.unpack_from('<I', b, off)
+    return b[off + 4:off + 4 + n].decode('utf-8', 'replace'), off + 4 + n
+
+
+class _McapState:
+    def __init__(self) -> None:
+        self.schemas: dict[int, str] = {}
+        self.channels: dict[int, int] = {}     # channel id -> schema id
+        self.frame_channels: set[int] = set()
+
+    def schema(self, sid: int, name: str) -> None:
+        self.schemas[sid] = name
+        self._update()
+
+    def channel(self, cid: int, sid: int) -> None:
+        self.channels[cid] = sid
+        self._update()
+
+    def _update(self) -> None:
+        self.frame_channels = {c for c, s in self.channels.items() if self.schemas.get(s) == FRAME_DATATYPE}
+
+
+def _frames_from_records(rec: NDArray[np.uint8]) -> FrameArrays:
+    """Frame columns of equal-size can_msgs/msg/Frame message records, one per row."""
+    def u(off: int, dt: str) -> NDArray:
+        size = np.dtype(dt).itemsize
+        return np.ascontiguousarray(rec[:, off:off + size]).view(dt).ravel()
+    log_time = u(15, '<u8').astype(np.int64)
+    sec = u(35, '<i4').astype(np.int64)
+    nsec = u(39, '<u4').astype(np.int64)
+    fid_len = int(u(43, '<u4')[0])
+    p = 35 + ((12 + fid_len + 3) // 4) * 4
+    stamp = sec * 1_000_000_000 + nsec
+    t_ns = np.where((sec != 0) | (nsec != 0), stamp, log_time)
+    can_id = u(p, '<u4')
+    rtr, ext, err, dlc = rec[:, p + 4], rec[:, p + 5], rec[:, p + 6], rec[:, p + 7]
+    data = np.ascontiguousarray(rec[:, p + 8:p + 16])
+    dlc = np.minimum(dlc, 8).astype(np.uint8)
+    keep = np.arange(MAX_DLC) < dlc[:, None]
+    data = np.where(keep, data, 0).astype(np.uint8)
+    flags = (FLAG_EXTENDED * (ext != 0) | FLAG_ERROR * (err != 0) | FLAG_REMOTE * (rtr != 0)).astype(np.uint8)
+    return FrameArrays(t_ns, can_id.astype(np.uint32), dlc, data, flags)
+
+
+def _walk_records(b: bytes, state: _McapState) -> list[FrameArrays]:
+    """Frames of the records in ``b`` (a chunk's records, decompressed)."""
+    a = np.frombuffer(b, np.uint8)
+    n = len(b)
+    out: list[FrameArrays] = []
+    pos = 0
+    unpack = struct.unpack_from
+    while pos + 9 <= n:
+        op = b[pos]
+        (ln,) = unpack('<Q', b, pos + 1)
+        stride = 9 + ln
+        if op == _MSG and pos + 11 <= n:
+            (cid,) = unpack('<H', b, pos + 9)
+            if cid in state.frame_channels and ln >= 22 + 4 + 12 and pos + stride <= n:
+                head = a[pos:pos + 11]
+                k_max = (n - pos) // stride
+                view = np.lib.stride_tricks.as_strided(a[pos:], shape=(k_max, stride), strides=(stride, 1))
+                same = (view[:, :11] == head).all(axis=1)
+                same &= (view[:, 43:47] == a[pos + 43:pos + 47]).all(axis=1)
+                run = k_max if same.all() else int(np.argmin(same))
+                rec = view[:run]
+                out.append(_frames_from_records(rec))
+                pos += run * stride
+                continue
+        elif op == _SCHEMA:
+            (sid,) = unpack('<H', b, pos + 9)
+            name, _ = _string(b, pos + 11)
+            state.schema(sid, name)
+        elif op == _CHANNEL:
+            cid, sid = unpack('<HH', b, pos + 9)
+            state.channel(cid, sid)
+        pos += stride
+    return out
+
+
+_MAGIC = b'\x89MCAP0\r\n'
+_FOOTER = 0x02
+_CHUNK = 0x06
+_DATA_END = 0x0F
+
+
+def _top_records(fh: IO[bytes], path: Path) -> Iterator[tuple[int, bytes]]:
+    """(opcode, body) of the data section's records, read sequentially. mcap's StreamReader
+    builds an object per message-index entry as well (most of its time on a log); here
+    everything but chunks, schemas, channels and loose messages is stepped over."""
+    if fh.read(8) != _MAGIC:
+        msg = f'{path}: not an MCAP file (no magic)'
+        raise LogError(msg)
+    while True:
+        head = fh.read(9)
+        if len(head) < 9:
+            msg = f'{path}: MCAP breaks off (no footer) after {fh.tell()} bytes; frames before it were read'
+            raise LogError(msg)
+        op, ln = struct.unpack('<BQ', head)
+        if op in (_FOOTER, _DATA_END):
+            return
+        if op in (_CHUNK, _SCHEMA, _CHANNEL, _MSG):
+            body = fh.read(ln)
+            if len(body) < ln:
+                msg = f'{path}: MCAP breaks off inside a record at {fh.tell()} bytes; frames before it were read'
+                raise LogError(msg)
+            yield op, body
+        else:
+            fh.seek(ln, 1)
+
+
+def _chunk_records(body: bytes, path: Path, dctx: Any) -> bytes:
+    size, = struct.unpack_from('<Q', body, 16)
+    compression, off = _string(body, 28)
+    (n,) = struct.unpack_from('<Q', body, off)
+    data = body[off + 8:off + 8 + n]
+    if compression == '':
+        return data
+    if compression == 'zstd':
+        return dctx.decompress(data, max_output_size=size)
+    if compression == 'lz4':
+        import lz4.frame
+        return lz4.frame.decompress(data)
+    msg = f'{path}: MCAP chunk compressed with {compression!r}, which this reader does not know'
+    raise LogError(msg)
+
+
+def iter_mcap_blocks(path: str | Path) -> Iterator[FrameArrays]:
+    """Frames of every ``can_msgs/msg/Frame`` channel of an MCAP in file order, a chunk (or a
+    few) at a time. A file cut short yields every frame before the cut, then raises
+    :class:`LogError`."""
+    import zstandard
+
+    path = Path(path)
+    try:
+        fh = open(path, 'rb')
+    except OSError as exc:
+        msg = f'cannot open log {path}: {exc.strerror or exc}'
+        raise LogError(msg) from exc
+    state = _McapState()
+    dctx = zstandard.ZstdDecompressor()
+    pending: list[FrameArrays] = []
+    held = 0
+    with fh:
+        try:
+            for op, body in _top_records(fh, path):
+                if op == _CHUNK:
+                    parts = _walk_records(_chunk_records(body, path, dctx), state)
+                else:   # a schema, channel or message outside chunks: walk it as a one-record chunk
+                    parts = _walk_records(struct.pack('<BQ', op, len(body)) + body, state)
+                if parts:
+                    pending += parts
+                    held += sum(len(p) for p in parts)
+                    if held >= BLOCK_FRAMES:
+                        yield FrameArrays.concat(pending)
+                        pending, held = [], 0
+        except (LogError, struct.error, zstandard.ZstdError) as exc:
+            if pending:
+                yield FrameArrays.concat(pending)
+            if isinstance(exc, LogError):
+                raise
+            msg = f'{path}: MCAP breaks off or is corrupt ({type(exc).__name__}: {exc}); frames before it were read'
+            raise LogError(msg) from exc
+    if pending:
+        yield FrameArrays.concat(pending)
+
+
+def iter_log_blocks(path: str | Path, rejects: RejectCounter | None = None) -> Iterator[FrameArrays]:
+    """Any supported log as blocks of columns, in file order."""
+    path = Path(path)
+    suffix = _suffix(path, READ_SUFFIXES)
+    if suffix == '.log':
+        yield from iter_candump_blocks(path, rejects)
+        return
+    if suffix == '.mcap':
+        yield from iter_mcap_blocks(path)
+        return
+    block: list[Any] = []
+    for frame in iter_log(path, rejects):
+        block.append(frame)
+        if len(block) >= BLOCK_FRAMES // 4:
+            yield FrameArrays.from_frames(block)
+            block = []
+    if block:
+        yield FrameArrays.from_frames(block)
+
+
+def log_end_ns(path: str | Path) -> int | None:
+    """The time of a log's last frame, cheaply (candump: its last line; MCAP: the summary's
+    statistics), or None when it cannot be told without reading the whole log."""
+    path = Path(path)
+    try:
+        if path.suffix.lower() == '.log':
+            with open(path, 'rb') as fh:
+                fh.seek(max(fh.seek(0, 2) - 4096, 0))
+                for line in reversed(fh.read().splitlines()):
+                    m = _LINE.match(line.strip())
+                    if m is not None:
+                        return int(m.group(1)) * 1_000_000_000 + int(m.group(2).ljust(9, b'0'))
+        elif path.suffix.lower() == '.mcap':
+            from mcap.reader import make_reader
+            with open(path, 'rb') as fh:
+                summary = make_reader(fh).get_summary()
+                if summary is not None and summary.statistics is not None and summary.statistics.message_count:
+                    return int(summary.statistics.message_end_time)
+    except Exception:   # a cut or odd file: the caller reads it and finds out
+        return None
+    return None
+
+
+def read_log_fast(path: str | Path, rejects: RejectCounter | None = None) -> FrameArrays:
+    """A whole log as columns (the blocks of :func:`iter_log_blocks` joined)."""
+    return FrameArrays.concat(list(iter_log_blocks(path, rejects)))
+
+
+def write_candump_arrays(fh: IO[bytes], fa: FrameArrays, channel: str = 'can0') -> None:
+    """Write frames as candump ``-L`` lines (what :class:`~steer_monitor.can.logs.LogWriter`
+    writes, byte for byte) with numpy: for making long logs quickly."""
+    n = len(fa)
+    if n == 0:
+        return
+    ext = (fa.flags & FLAG_EXTENDED) != 0
+    err = (fa.flags & FLAG_ERROR) != 0
+    rtr = (fa.flags & FLAG_REMOTE) != 0
+    if (~ext).any() or err.any() or rtr.any() or (fa.dlc > MAX_DLC).any():
+        from steer_monitor.can.logs import LogWriter
+        lw = LogWriter.__new__(LogWriter)
+        lw.suffix, lw.channel, lw._fh, lw._closed = '.log', channel, _TextAdapter(fh), False
+        for f in fa.frames():
+            lw.write(f)
+        return
+    sec, ns = np.divmod(fa.t_ns, 1_000_000_000)
+    usec = ns // 1000
+    hexd = np.frombuffer(b'0123456789ABCDEF', np.uint8)
+    chan = channel.encode()
+    # fixed-width pieces per row, then the payload (variable) cut per dlc group
+    sec_txt = sec.astype('U20').astype('S20')
+    out_rows: list[bytes] = []
+    width_sec = np.char.str_len(sec_txt)
+    if (width_sec != width_sec[0]).any():
+        for i in range(n):
+            out_rows.append(b'(%d.%06d) %s %08X#%s\n' % (sec[i], usec[i], chan, fa.can_id[i],
+                                                          bytes(fa.data[i, :fa.dlc[i]]).hex().upper().encode()))
+        fh.write(b''.join(out_rows))
+        return
+    ws = int(width_sec[0])
+    max_d = int(fa.dlc.max())
+    line_w = 1 + ws + 1 + 6 + 2 + len(chan) + 1 + 8 + 1 + 2 * max_d + 1
+    m = np.full((n, line_w), ord(' '), np.uint8)
+    c = 0
+    m[:, c] = ord('(')
+    c += 1
+    m[:, c:c + ws] = np.frombuffer(sec_txt.tobytes(), np.uint8).reshape(n, 20)[:, :ws]
+    c += ws
+    m[:, c] = ord('.')
+    c += 1
+    for k in range(6):
+        m[:, c + k] = 48 + (usec // 10 ** (5 - k)) % 10
+    c += 6
+    m[:, c] = ord(')')
+    c += 2
+    m[:, c:c + len(chan)] = np.frombuffer(chan, np.uint8)
+    c += len(chan) + 1
+    ids = fa.can_id.astype(np.int64)
+    for k in range(8):
+        m[:, c + k] = hexd[(ids >> (4 * (7 - k))) & 0xF]
+    c += 8
+    m[:, c] = ord('#')
+    c += 1
+    for k in range(max_d):
+        m[:, c + 2 * k] = hexd[fa.data[:, k] >> 4]
+        m[:, c + 2 * k + 1] = hexd[fa.data[:, k] & 0xF]
+    ends = c + 2 * fa.dlc.astype(np.intp)
+    m[np.arange(n), ends] = 10
+    if (fa.dlc == max_d).all():
+        fh.write(m[:, :line_w].tobytes())
+        return
+    keep = np.arange(line_w) <= ends[:, None]
+    fh.write(m[keep].tobytes())
+
+
+class _TextAdapter:
+    def __init__(self, fh: IO[bytes]) -> None:
+        self.fh = fh
+
+    def write(self, s: str) -> None:
+        self.fh.write(s.encode('ascii'))

@@ -1,0 +1,311 @@
+"""A whole log reviewed in blocks of columns: the batch path behind ``steer-monitor report``
+and the replay benchmark. Pure (arrays in, records out).
+
+Blocks of decoded series come in time order (:meth:`Review.add`); each is put on the
+estimator's 50 ms grid with the samples carried over from the block before (so a log cut in
+blocks gives the grid of the whole), and then, vectorized over the block:
+
+* the model's inputs once per second of data (angle, the four pressures, ram forces, speed),
+  for the plots; the load sharing (F_r, F_gb, K_gl) is evaluated on them at the end, at the
+  clearances estimated from the whole log;
+* the steady-motion rows folded into the binned moments of the clearance estimator, one set
+  per time window;
+* hard-over times (leaving 35 deg, reaching 30 deg the other side), with the live monitor's
+  thresholds and its logic, run over the few samples beyond 29.5 deg only.
+
+The clearances are estimated from the moments up to the end of each window (an estimate with
+its interval over time: up to ``MAX_WINDOWS`` windows of whole 10 minutes, and the whole log
+at the end). With :meth:`Review.plan` (where the data will end) a window is estimated as
+soon as the data pass its end, while the log is still being read; otherwise all at
+:meth:`Review.finish`. Each: the coarse profile, the inflation factor of the residuals at its
+best point over the last ``TAIL_NS`` of motion read (as the online estimator measures it),
+then the fine profile on the search box of :func:`~steer_monitor.estimate.batch.search_box`.
+
+Times integer ns, values SI.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from steer_monitor.can.decoder import Series, SignalSet
+from steer_monitor.estimate import fit as F
+from steer_monitor.estimate.batch import (MIN_MOTION_SAMPLES, ClearanceEstimate, coarse_profile,
+                                          estimate_from_moments, make_rows, predict_rows, search_box)
+from steer_monitor.estimate.intervals import inflation
+from steer_monitor.estimate.moments import Moments, rows_from_observations
+from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations, build_observations
+from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.loadshare import LoadSharing, load_sharing
+from steer_monitor.monitor.live import HARD_OVER_DEG, OTHER_SIDE_DEG
+
+__all__ = ['HardOver', 'Review', 'ReviewResult', 'TAIL_NS', 'WindowEstimate']
+
+SECOND_NS = 1_000_000_000
+LAG_NS = SECOND_NS          # the grid is processed up to this far behind the newest angle
+KEEP_NS = 3 * SECOND_NS     # samples carried into the next block
+TAIL_NS = 600 * SECOND_NS   # steady-motion observations kept for the inflation factor
+MAX_WINDOWS = 4
+SLICE_NS = 600 * SECOND_NS
+
+
+@dataclass(frozen=True)
+class HardOver:
+    """One hard-over: left ``side`` x 35 deg at ``t_leave_ns``, reached 30 deg the other side
+    ``seconds`` later."""
+
+    t_leave_ns: int
+    seconds: float
+    side: float
+
+
+@dataclass(frozen=True)
+class WindowEstimate:
+    """The clearance estimate from the data up to ``t_end_ns``."""
+
+    t_end_ns: int
+    estimate: ClearanceEstimate
+
+
+@dataclass
+class ReviewResult:
+    """What a review found. Per-second arrays have shape (n,) (pressures (n, 4), forces
+    (n, 2)); ``share`` is the load sharing on them at ``gaps``."""
+
+    t_ns: NDArray[np.int64]
+    alpha: NDArray[np.float64]
+    direction: NDArray[np.int8]
+    pressure: NDArray[np.float64]
+    force: NDArray[np.float64]
+    torque: NDArray[np.float64]
+    share: LoadSharing | None
+    gaps: Gaps
+    gaps_source: str
+    hard_overs: list[HardOver]
+    estimates: list[WindowEstimate]
+    motion_s: float
+    samples: int
+    notes: list[str] = field(default_factory=list)
+    estimating_s: float = 0.0        # wall time of the estimates made at the end (after the reading)
+
+
+def _cat(a: Series | None, b: Series | None) -> Series | None:
+    if a is None or len(a) == 0:
+        return b
+    if b is None or len(b) == 0:
+        return a
+    return Series(np.concatenate([a.t_ns, b.t_ns]), np.concatenate([a.value, b.value]))
+
+
+def _tail(s: Series, from_ns: int) -> Series:
+    i = int(np.searchsorted(s.t_ns, from_ns))
+    return Series(s.t_ns[i:], s.value[i:])
+
+
+class Review:
+    """See the module docstring. ``gaps``: the configured clearances (used when the log
+    cannot estimate them). ``window_ns``: the estimate's time step (default: the span in up
+    to ``MAX_WINDOWS`` steps of whole 10 minutes, decided at the end)."""
+
+    def __init__(self, gear: GearParams, gaps: Gaps, *, min_clearance_2z: float = 0.0,
+                 window_ns: int | None = None) -> None:
+        self.gear = gear
+        self.gaps = gaps
+        self.grid_2z = F.GRID_2Z[F.GRID_2Z >= min_clearance_2z - 1e-12]
+        self.window_ns = window_ns
+        self._buf: SignalSet = {}
+        self._done: int | None = None
+        self._latest: int | None = None
+        self._first: int | None = None
+        self._speed_seen = False
+        # per 10-minute slice: moments; merged in time order into the running total
+        self._slices: dict[int, Moments] = {}
+        self._acc = Moments()
+        self._merged_below: int | None = None      # slices below this key are in _acc
+        self._step: int | None = None if window_ns is None else max(window_ns // SLICE_NS, 1)
+        self._windows: list[tuple[int, ClearanceEstimate | None]] = []
+        self._windows_tried = 0
+        self._notes: list[str] = []
+        self._sec: list[tuple[NDArray, ...]] = []
+        self._tail: list[Observations] = []
+        self._hard: tuple[float, int] | None = None
+        self.hard_overs: list[HardOver] = []
+        self.motion_s = 0.0
+        self.samples = 0
+
+    # --- input ---------------------------------------------------------------------------
+    def add(self, signals: SignalSet) -> None:
+        """One block of decoded series (every series in time order, blocks in time order)."""
+        for name, s in signals.items():
+            if len(s) == 0:
+                continue
+            self.samples += len(s)
+            self._buf[name] = _cat(self._buf.get(name), s)  # type: ignore[assignment]
+            if name == 'ship_speed':
+                self._speed_seen = True
+        angle = signals.get('rudder_angle')
+        if angle is not None and len(angle):
+            self._hard_overs(angle)
+            self._latest = int(angle.t_ns[-1])
+            if self._first is None:
+                self._first = int(angle.t_ns[0])
+                self._done = -(-self._first // GRID_NS) * GRID_NS
+        if self._latest is not None and self._done is not None:
+            end = (self._latest - LAG_NS) // GRID_NS * GRID_NS
+            if end > self._done:
+                self._process(self._done, end)
+                self._done = end
+                self._buf = {n: _tail(s, end - KEEP_NS) for n, s in self._buf.items()}
+                self._due_windows(end)
+
+    def plan(self, expected_end_ns: int) -> None:
+        """Say where the data are expected to end (e.g. from the file size), so the window
+        estimates can be made while the log is still being read; without it they are made at
+        :meth:`finish`."""
+        if self._step is None and self._first is not None:
+            span = max(expected_end_ns - self._first, 1)
+            self._step = max(-(-span // (MAX_WINDOWS * SLICE_NS)), 1)
+            if self._done is not None:
+                self._due_windows(self._done)
+
+    def _due_windows(self, complete_ns: int) -> None:
+        """Estimate every window whose end the complete data have passed."""
+        if self._step is None or self._first is None:
+            return
+        k0 = self._first // SLICE_NS
+        while True:
+            end_key = k0 + self._step * (self._windows_tried + 1)
+            if end_key * SLICE_NS > complete_ns:
+                return
+            self._windows_tried += 1
+            self._merge_below(end_key)
+            self._windows.append((end_key * SLICE_NS, self._estimate(self._acc, self._tail)))
+
+    def _merge_below(self, key: int) -> None:
+        for k in sorted(k for k in self._slices if (self._merged_below is None or k >= self._merged_below) and k < key):
+            self._acc = self._acc.merge(self._slices[k])
+        self._merged_below = key
+
+    def _estimate(self, mom: Moments, tail: list[Observations]) -> ClearanceEstimate | None:
+        """The estimate from ``mom``: coarse profile, inflation of the recent residuals at its
+        best point, fine profile on the search box."""
+        if mom.samples < MIN_MOTION_SAMPLES:
+            return None
+        try:
+            coarse = coarse_profile(self.gear, mom, self.grid_2z, F.GRID_ZGB)
+            vif = self._inflation(coarse, tail)
+            g2, gz = search_box(self.gear, mom, self.grid_2z, F.GRID_ZGB, vif, coarse=coarse)
+            return estimate_from_moments(self.gear, mom, vif, g2, gz)
+        except EstimateError as exc:
+            self._notes.append(f'an estimate failed: {exc}')
+            return None
+
+    def _hard_overs(self, angle: Series) -> None:
+        deg = np.degrees(angle.value)
+        beyond = np.nonzero(np.abs(deg) >= OTHER_SIDE_DEG)[0]
+        for t, d in zip(angle.t_ns[beyond].tolist(), deg[beyond].tolist()):   # as LiveMonitor does
+            if abs(d) >= HARD_OVER_DEG:
+                self._hard = (math.copysign(1.0, d), t)
+            elif self._hard is not None and self._hard[0] * d <= -OTHER_SIDE_DEG:
+                side, t_leave = self._hard
+                self.hard_overs.append(HardOver(t_leave, (t - t_leave) / 1e9, side))
+                self._hard = None
+
+    def _process(self, start: int, end: int) -> None:
+        try:
+            obs = build_observations(self._buf, self.gear.ram_area, start_ns=start, end_ns=end)
+        except EstimateError:
+            return
+        whole = (obs.t_ns % SECOND_NS) == 0
+        self._sec.append((obs.t_ns[whole], obs.alpha[whole], obs.direction[whole], obs.pressure[whole],
+                          obs.force[whole]))
+        keep = obs.moving.copy()
+        if self._speed_seen:
+            keep &= np.isfinite(obs.speed)
+        if not keep.any():
+            return
+        sub = obs.select(keep)
+        self.motion_s += float(np.count_nonzero(keep)) * GRID_NS / 1e9
+        slice_of = sub.t_ns // SLICE_NS
+        for k in np.unique(slice_of).tolist():
+            part = sub.select(slice_of == k)
+            keys, aa, v2, u, _ = rows_from_observations(part)
+            if keys.size:
+                mom = Moments.from_rows(keys, aa, v2, u, ())
+                self._slices[k] = self._slices[k].merge(mom) if k in self._slices else mom
+        self._tail.append(sub)
+        while len(self._tail) > 1 and sub.t_ns[-1] - self._tail[0].t_ns[-1] > TAIL_NS:
+            self._tail.pop(0)
+
+    # --- result --------------------------------------------------------------------------
+    def finish(self) -> ReviewResult:
+        """The result: the window estimates still due and the one from all the data."""
+        notes = self._notes
+        if self._latest is not None and self._done is not None and self._latest + 1 > self._done:
+            self._process(self._done, self._latest + 1)
+            self._done = self._latest + 1
+        sec = [np.concatenate(c) for c in zip(*self._sec)] if self._sec else [
+            np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int8), np.zeros((0, 4)), np.zeros((0, 2))]
+        t, alpha, direction, pressure, force = sec
+        t0 = time.perf_counter()
+        estimates = self._final_estimates(notes)
+        estimating_s = time.perf_counter() - t0
+        gaps, source = self.gaps, 'configured'
+        if estimates:
+            e = estimates[-1].estimate
+            gaps, source = Gaps(e.two_z.value, e.z_gb.value), 'estimated'
+        g = self.gear
+        fa = 0.5 * (np.abs(force[:, 0]) + np.abs(force[:, 1]))
+        with np.errstate(invalid='ignore'):
+            torque = fa * g.rams * g.stock_to_ram / np.cos(alpha) ** 2
+        ok = np.isfinite(alpha) & np.isfinite(torque)
+        share = None
+        if ok.any():
+            share = load_sharing(g, np.where(ok, alpha, 0.0), np.where(ok, torque, 0.0), gaps.two_z, gaps.z_gb)
+            share = LoadSharing(*(np.where(ok, v, np.nan) if v.dtype.kind == 'f' else v
+                                  for v in (getattr(share, f) for f in share.__dataclass_fields__)))
+        return ReviewResult(t, alpha, direction, pressure, force, torque, share, gaps, source, list(self.hard_overs),
+                            estimates, self.motion_s, self.samples, notes, estimating_s)
+
+    def _final_estimates(self, notes: list[str]) -> list[WindowEstimate]:
+        if not self._slices:
+            notes.append('no steady rudder motion in the log: the clearances cannot be estimated')
+            return []
+        if self._step is None and self._first is not None and self._done is not None:
+            self.plan(self._done)              # not planned: the windows of the span, now
+        last = max(self._slices) + 1
+        if self._merged_below is None or last > self._merged_below:
+            self._merge_below(last)
+            self._windows.append((int(self._done or 0), self._estimate(self._acc, self._tail)))
+        done = [WindowEstimate(t_end, est) for t_end, est in self._windows if est is not None]
+        if not done:
+            notes.append(f'only {self._acc.samples:.0f} rows of steady motion (at least {MIN_MOTION_SAMPLES} '
+                         'needed): the clearances are not estimated')
+        return done
+
+    def _inflation(self, coarse: tuple[F.Profile, NDArray, NDArray], parts: list[Observations]) -> float:
+        """The residuals' variance inflation over ``parts`` (the last ``TAIL_NS`` of motion
+        read), at the best point of the coarse profile."""
+        pr, g2, gz = coarse
+        tail = parts[0] if len(parts) == 1 else _concat_obs(parts)
+        rows = make_rows(tail)
+        if rows.u.shape[0] < MIN_MOTION_SAMPLES:
+            self._notes.append("too little recent motion to measure the residuals' correlation: intervals assume none")
+            return 1.0
+        basis = F.TorqueBasis(self.gear.max_rudder)
+        bi, bj = pr.best
+        load = F.axial_load(self.gear, basis, rows.moments, pr.coef)
+        pred = predict_rows(self.gear, basis, rows, pr.coef, float(g2[bi]), float(gz[bj]), load)
+        resid = np.full((len(tail), 2), np.nan)
+        resid[rows.obs_index, rows.ram] = rows.u[:, -1] - pred
+        return inflation(resid[rows.obs_index], tail.t_ns[rows.obs_index], GRID_NS)
+
+
+def _concat_obs(parts: list[Observations]) -> Observations:
+    names = Observations.__dataclass_fields__
+    return Observations(*(np.concatenate([getattr(p, f) for p in parts]) for f in names))

@@ -1,0 +1,162 @@
+"""The column readers give what the reference reader (iter_log) gives: frames and rejects."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pytest
+
+from steer_monitor import sim
+from steer_monitor.can import FrameArrays, RejectCounter
+from steer_monitor.can.fastlogs import iter_candump_blocks, iter_mcap_blocks, log_end_ns, read_log_fast, \
+    write_candump_arrays
+from steer_monitor.can.logs import LogError, LogWriter, iter_log, read_log_arrays
+from steer_monitor.can.mcapio import McapWriter
+
+COLUMNS = ('t_ns', 'can_id', 'dlc', 'data', 'flags')
+
+
+@pytest.fixture(scope='module')
+def simulated(r18_params, can_db):
+    db, smap = can_db
+    return sim.run(r18_params, sim.SimConfig(program='hard_over_2', max_duration_s=20.0), db, smap, seed=12).frames
+
+
+def _same(a: FrameArrays, b: FrameArrays) -> None:
+    assert len(a) == len(b)
+    for c in COLUMNS:
+        np.testing.assert_array_equal(getattr(a, c), getattr(b, c), err_msg=c)
+
+
+def _both(path, **kw):
+    r1, r2 = RejectCounter(), RejectCounter()
+    ref = read_log_arrays(path, r1)
+    got = FrameArrays.concat(list(iter_candump_blocks(path, r2, **kw))) if path.suffix == '.log' else read_log_fast(path, r2)
+    return ref, got, r1.snapshot(), r2.snapshot()
+
+
+@pytest.mark.parametrize('suffix', ['.log', '.mcap'])
+def test_simulated_log_reads_the_same(tmp_path, simulated, suffix):
+    path = tmp_path / f'x{suffix}'
+    with LogWriter(path) as w:
+        for f in simulated.frames():
+            w.write(f)
+    ref, got, _, _ = _both(path)
+    _same(ref, got)
+
+
+MIXED = [
+    '(1767225600.000100) can0 09F10D10#00F80000FFFFFFFF',
+    'garbage line',
+    '(1767225600.000200) can0 09F10D10#00F8000',                 # odd payload
+    '(99999999999999999999.0) can0 09F10D10#00',                 # time out of range
+    '(1767225600.000300) can0 123#R',                            # remote, standard id
+    '(1767225600.000350) vcan12 123#DEADBEEF',                   # standard id, other channel
+    '(1767225600.5) can0 09F10D10#00f80000ffffffff',             # short fraction, lower case
+    '(1767225600.000400) can0 29F10D10#0011',                    # error frame flag
+    '(1767225600.000500) can0 09F10D10#',                        # empty payload
+    '(1767225600.000600) can0 09F10D10#00F80000FFFFFFFF00',      # 9 bytes
+    '(1767225600.000700)  can0 09F10D10#00',                     # two spaces
+    '(1767225600.000800) can0 09F10D10#0G',                      # not hex
+    '(1767225600.000900) can0 09F10D10#00F80000FFFFFFFF\r',      # CRLF
+]
+
+
+@pytest.mark.parametrize('repeat', [1, 40])
+def test_every_kind_of_line_as_the_line_parser_reads_it(tmp_path, repeat):
+    """Odd lines alone and among many usual ones (the column path takes a layout once it
+    has 16 lines of it)."""
+    usual = [f'(1767225601.{i:06d}) can0 09F10D10#00F80000FFFF{i % 256:02X}FF' for i in range(50)]
+    lines = (MIXED * repeat) + usual + MIXED
+    path = tmp_path / 'mixed.log'
+    path.write_bytes(('\n'.join(lines) + '\n').encode())
+    for block in (1 << 20, 97):   # one block, and blocks that cut lines anywhere
+        ref, got, r1, r2 = _both(path, block_bytes=block)
+        _same(ref, got)
+        assert r1.counts == r2.counts and r1.counts['malformed_record'] > 0
+
+
+def test_last_line_without_newline_and_empty_file(tmp_path):
+    path = tmp_path / 'n.log'
+    path.write_bytes(b'(1767225600.000100) can0 09F10D10#00F80000FFFFFFFF\n(1767225600.000200) can0 123#01')
+    ref, got, _, _ = _both(path)
+    _same(ref, got)
+    empty = tmp_path / 'e.log'
+    empty.write_bytes(b'')
+    assert len(read_log_fast(empty)) == 0
+
+
+def test_mcap_with_other_topics_and_small_chunks(tmp_path, simulated):
+    """A node's recording: frames in batches among other topics, chunks cut anywhere."""
+    from steer_monitor.record import msgdef
+    path = tmp_path / 'rec.mcap'
+    frames = simulated.frames()
+    with McapWriter(path, chunk_size=3000) as w:
+        w.add_schema('std_msgs/msg/String', msgdef('std_msgs/msg/String'))
+        w.add_channel('/other', 'std_msgs/msg/String')
+        for i in range(0, len(frames), 37):
+            w.write_frames(frames[i:i + 37])
+            w.write('/other', {'data': 'x' * (i % 13)}, frames[i].t_ns)
+        w.write_frame(frames[0], '/steering_can/second')  # a second frame channel, one frame
+    ref, got, _, _ = _both(path)
+    _same(ref, got)
+
+
+def test_cut_mcap_keeps_what_came_before(tmp_path, simulated):
+    path = tmp_path / 'x.mcap'
+    frames = simulated.frames()
+    with McapWriter(path, chunk_size=4096) as w:
+        for i in range(0, len(frames), 50):
+            w.write_frames(frames[i:i + 50])
+    data = path.read_bytes()
+    cut = tmp_path / 'cut.mcap'
+    cut.write_bytes(data[: len(data) * 2 // 3])
+    got = []
+    with pytest.raises(LogError, match='breaks off'):
+        for block in iter_mcap_blocks(cut):
+            got.append(block)
+    n = sum(len(b) for b in got)
+    assert 0 < n < len(simulated)
+    np.testing.assert_array_equal(FrameArrays.concat(got).t_ns, simulated.t_ns[:n])
+    bad = tmp_path / 'bad.mcap'
+    bad.write_bytes(b'not an mcap at all')
+    with pytest.raises(LogError, match='not an MCAP file'):
+        list(iter_mcap_blocks(bad))
+
+
+def test_candump_writer_is_the_log_writer(tmp_path, simulated):
+    ref = tmp_path / 'ref.log'
+    with LogWriter(ref) as w:
+        for f in simulated.frames():
+            w.write(f)
+    buf = io.BytesIO()
+    write_candump_arrays(buf, simulated)
+    assert buf.getvalue() == ref.read_bytes()
+    odd = read_log_arrays(tmp_path / 'ref.log').take(np.arange(5))
+    odd = FrameArrays(odd.t_ns, odd.can_id, odd.dlc, odd.data, odd.flags & 0)   # standard ids: the slow path
+    buf2 = io.BytesIO()
+    write_candump_arrays(buf2, odd)
+    back = tmp_path / 'odd.log'
+    back.write_bytes(buf2.getvalue())
+    _same(read_log_arrays(back), read_log_fast(back))
+
+
+def test_log_end(tmp_path, simulated):
+    for suffix in ('.log', '.mcap'):
+        path = tmp_path / f'x{suffix}'
+        with LogWriter(path) as w:
+            for f in simulated.frames():
+                w.write(f)
+        assert log_end_ns(path) == int(simulated.t_ns[-1]) // 1000 * 1000
+    assert log_end_ns(tmp_path / 'missing.log') is None
+
+
+def test_same_as_iter_log_on_frames(tmp_path, simulated):
+    path = tmp_path / 'y.log'
+    with LogWriter(path) as w:
+        for f in simulated.frames():
+            w.write(f)
+    fast = read_log_fast(path).frames()
+    assert fast == [f.__class__(f.t_ns, f.can_id, f.data, f.is_extended, f.is_error, f.is_remote, '')
+                    for f in iter_log(path)]

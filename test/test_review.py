@@ -1,0 +1,107 @@
+"""The batch review of a log: same hard-overs as the live monitor, estimates that hold the
+truth, the same answer whatever the blocks, and the batch path in one or two processes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from steer_monitor import sim
+from steer_monitor.can import Decoder, FrameArrays, RejectCounter
+from steer_monitor.can.logs import LogWriter
+from steer_monitor.model import Gaps
+from steer_monitor.monitor import LiveMonitor
+from steer_monitor.params import gear_from_params
+from steer_monitor.review import MAX_WINDOWS, Review
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope='module')
+def voyage(r18_params, can_db):
+    db, smap = can_db
+    return sim.run(r18_params, sim.SimConfig(program='voyage', max_duration_s=1500.0), db, smap, seed=21).frames
+
+
+def _review(r18_params, can_db, frames: FrameArrays, blocks: int, plan: bool = False):
+    db, smap = can_db
+    dec = Decoder(db, smap, RejectCounter())
+    rv = Review(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25))
+    for i, part in enumerate(np.array_split(np.arange(len(frames)), blocks)):
+        rv.add(dec.decode_arrays(frames.take(part)))
+        if plan and i == 0:
+            rv.plan(int(frames.t_ns[-1]))
+    return rv.finish()
+
+
+def test_hard_overs_as_the_live_monitor_times_them(r18_params, can_db, voyage):
+    db, smap = can_db
+    dec = Decoder(db, smap, RejectCounter())
+    mon = LiveMonitor(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25))
+    seen = []
+    for f in voyage.frames():
+        for s in dec.decode(f):
+            before = mon.hard_over_s
+            mon.update(s)
+            if s.signal == 'rudder_angle' and mon.hard_over_s is not None and (
+                    before != mon.hard_over_s or mon._hard_over is None and not seen):
+                seen.append(mon.hard_over_s)
+    res = _review(r18_params, can_db, voyage, 5)
+    assert [h.seconds for h in res.hard_overs] == pytest.approx(seen)
+    assert len(res.hard_overs) >= 2 and all(0 < h.seconds < 60 for h in res.hard_overs)
+
+
+def test_estimates_over_time_hold_the_truth(r18_params, can_db, voyage):
+    res = _review(r18_params, can_db, voyage, 7, plan=True)
+    assert res.gaps_source == 'estimated' and res.notes == []
+    assert 2 <= len(res.estimates) <= MAX_WINDOWS + 1
+    ends = [w.t_end_ns for w in res.estimates]
+    assert ends == sorted(ends) and ends[-1] >= int(voyage.t_ns[-1]) - 2_000_000_000
+    final = res.estimates[-1].estimate
+    assert final.z_gb.lo <= 0.25e-3 <= final.z_gb.hi
+    assert final.two_z.lo <= 0.6e-3 and (final.two_z.hi is None or 0.6e-3 <= final.two_z.hi)
+    # the per-second model at the estimate: K_gl in [0, 1], the guide beam idle near midships
+    ok = np.isfinite(res.share.k_gl)
+    assert ok.sum() > 1000
+    assert np.all((res.share.k_gl[ok] >= 0) & (res.share.k_gl[ok] <= 1))
+    small = ok & (np.abs(np.degrees(res.alpha)) < 5)
+    assert np.all(res.share.k_gl[small] == 0)
+
+
+def test_blocks_and_planning_do_not_change_the_answer(r18_params, can_db, voyage):
+    one = _review(r18_params, can_db, voyage, 1)
+    many = _review(r18_params, can_db, voyage, 13, plan=True)
+    np.testing.assert_array_equal(one.t_ns, many.t_ns)
+    np.testing.assert_allclose(one.pressure, many.pressure)
+    assert [w.t_end_ns for w in one.estimates] == [w.t_end_ns for w in many.estimates]
+    for a, b in zip(one.estimates, many.estimates):
+        assert a.estimate.z_gb.value == pytest.approx(b.estimate.z_gb.value, abs=1e-9)
+        assert a.estimate.two_z.value == pytest.approx(b.estimate.two_z.value, abs=1e-9)
+
+
+def test_a_log_at_rest_says_why_there_is_no_estimate(r18_params, can_db):
+    db, smap = can_db
+    frames = sim.run(r18_params, sim.SimConfig(program='hold:60'), db, smap, seed=3).frames
+    res = _review(r18_params, can_db, frames, 2)
+    assert res.estimates == [] and res.gaps_source == 'configured'
+    assert any('no steady rudder motion' in n for n in res.notes)
+
+
+def test_batch_path_one_or_two_processes(tmp_path, r18_params, can_db, voyage):
+    from steer_monitor.batchpath import review_logs
+    path = tmp_path / 'v.mcap'
+    with LogWriter(path) as w:
+        for f in voyage.frames():
+            w.write(f)
+    a = review_logs([path], jobs=1)
+    b = review_logs([path], jobs=2)
+    assert a.frames == b.frames == len(voyage) and a.errors == b.errors == []
+    assert a.rejects == b.rejects
+    np.testing.assert_array_equal(a.review.t_ns, b.review.t_ns)
+    assert [(w.t_end_ns, w.estimate.z_gb.value) for w in a.review.estimates] == \
+        [(w.t_end_ns, w.estimate.z_gb.value) for w in b.review.estimates]
+    cut = tmp_path / 'cut.mcap'
+    data = path.read_bytes()
+    cut.write_bytes(data[:len(data) * 2 // 3])
+    c = review_logs([cut], jobs=2)
+    assert len(c.errors) == 1 and 'breaks off' in c.errors[0] and 0 < c.frames < len(voyage)
