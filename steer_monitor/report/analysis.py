@@ -15,10 +15,10 @@ import numpy as np
 from steer_monitor.estimate.analyze import Analysis
 from steer_monitor.estimate.intervals import CHI2_1_95
 
-__all__ = ['write_analysis_report']
+__all__ = ['png_base64', 'residual_figure', 'write_analysis_report']
 
 
-def _png(fig: Any) -> str:
+def png_base64(fig: Any) -> str:
     buf = io.BytesIO()
     fig.savefig(buf, format='png', dpi=96, bbox_inches='tight')
     import matplotlib.pyplot as plt
@@ -33,7 +33,6 @@ def _plots(a: Analysis) -> dict[str, str]:
 
     f = a.final
     out: dict[str, str] = {}
-    bar = f.ram_area * 1e5
     pr, delta = f.profile, f.deviance
     fig, ax = plt.subplots(1, 2, figsize=(10, 3.4))
     for k, (axis, prof, iv, label) in enumerate(((pr.two_z, delta.min(1), f.two_z, '2Z [mm]'),
@@ -44,7 +43,7 @@ def _plots(a: Analysis) -> dict[str, str]:
         ax[k].set_ylabel('profile deviance (capped at 50)')
         ax[k].set_title(f'{label}: {iv.value * 1e3:.3f} mm')
         ax[k].legend(loc='upper right')
-    out['profiles'] = _png(fig)
+    out['profiles'] = png_base64(fig)
     angles, torque, band = f.torque_curve
     fig, ax = plt.subplots(figsize=(6, 3.4))
     deg = np.degrees(angles)
@@ -53,10 +52,23 @@ def _plots(a: Analysis) -> dict[str, str]:
     ax.set_xlabel('rudder angle [deg]')
     ax.set_ylabel('tiller torque [kN m]')
     ax.legend()
-    out['torque'] = _png(fig)
+    out['torque'] = png_base64(fig)
+    out['residual'] = png_base64(residual_figure(a))
+    return out
+
+
+def residual_figure(a: Analysis) -> Any:
+    """The ram-force residual over time in bar, under the declared model and after the
+    adopted effect (the same when none was adopted)."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    bar = a.final.ram_area * 1e5
+    effect = 'no effect adopted' if a.effect is None else f'with {a.effect}'
     fig, ax = plt.subplots(2, 1, figsize=(10, 5), sharex=True)
     for k, (est, obs, title) in enumerate(((a.declared, a.observations, 'declared model'),
-                                           (a.final, a.final_observations, 'after the added effect'))):
+                                           (a.final, a.final_observations, f'after the added effect ({effect})'))):
         t = (obs.t_ns - obs.t_ns[0]) / 1e9
         both = np.isfinite(est.residual)
         r = np.where(both.any(1), np.nansum(est.residual, 1) / np.maximum(both.sum(1), 1), np.nan) / bar
@@ -64,8 +76,7 @@ def _plots(a: Analysis) -> dict[str, str]:
         ax[k].set_ylabel('residual [bar]')
         ax[k].set_title(f'{title}: RMS {est.rms / bar:.2f} bar, systematic {est.smooth_rms / bar:.2f} bar')
     ax[1].set_xlabel('time [s]')
-    out['residual'] = _png(fig)
-    return out
+    return fig
 
 
 def write_analysis_report(a: Analysis, result: dict[str, Any], path: str | Path) -> Path:

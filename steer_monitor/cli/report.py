@@ -1,0 +1,154 @@
+"""``steer-monitor report LOG_OR_MCAP... --out DIR``: a page engineers read (``DIR/index.html``,
+self-contained, with its PNG plots beside it) from a CAN log, a node recording or a replay.
+
+The review runs on the batch path over the whole log (:mod:`steer_monitor.batchpath`); the
+model check (residual before and after an added effect, :func:`~steer_monitor.estimate.
+analyze.analyze`) on the last ``--analysis-hours`` of data (default 3), which is where the
+check is about the gear as it is now and keeps its cost bounded on a long log.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any, TextIO
+
+from steer_monitor.cli.output import dump_json
+
+__all__ = ['online_track', 'register', 'run']
+
+CLEARANCE_LABEL = 'gap_2z_m,gap_2z_lo_m,gap_2z_hi_m,gap_zgb_m,gap_zgb_lo_m,gap_zgb_hi_m'
+
+
+def online_track(paths: list[Path]) -> Any:
+    """The clearances a node published (``*/clearances``) in MCAP inputs, or None."""
+    import numpy as np
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    from steer_monitor.report.review import OnlineTrack
+
+    rows: list[tuple[int, list[float]]] = []
+    for path in paths:
+        if path.suffix.lower() != '.mcap':
+            continue
+        try:
+            with open(path, 'rb') as fh:
+                reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+                summary = reader.get_summary()
+                topics = [c.topic for c in summary.channels.values() if c.topic.endswith('/clearances')] \
+                    if summary is not None else []
+                if not topics:
+                    continue
+                for _, _, message, msg in reader.iter_decoded_messages(topics=topics):
+                    dims = msg.layout.dim
+                    if dims and dims[0].label == CLEARANCE_LABEL and len(msg.data) == 6:
+                        rows.append((message.log_time, list(msg.data)))
+        except Exception:   # a recording cut short has no summary: the plot goes without it
+            continue
+    if not rows:
+        return None
+    rows.sort(key=lambda r: r[0])
+    t = np.array([r[0] for r in rows], np.int64)
+    d = np.array([r[1] for r in rows], float)
+    return OnlineTrack(t, *(d[:, k] for k in range(6)))
+
+
+def _analysis(paths: list[Path], config: Path | None, since_ns: int) -> tuple[Any, str]:
+    from steer_monitor.can.decoder import Decoder
+    from steer_monitor.can.fastlogs import iter_log_blocks
+    from steer_monitor.can.frames import FrameArrays
+    from steer_monitor.can.logs import LogError
+    from steer_monitor.can.rejects import RejectCounter
+    from steer_monitor.can.setup import can_setup
+    from steer_monitor.estimate.analyze import analyze
+    from steer_monitor.estimate.observe import EstimateError
+    from steer_monitor.params import gear_from_params, load_params_file, min_clearance_2z_from_params
+    from steer_monitor.resources import default_config
+
+    config_path = config or default_config()
+    params = load_params_file(config_path)
+    db, smap = can_setup(params, config_path)
+    parts = []
+    for path in paths:
+        try:
+            for block in iter_log_blocks(path):
+                keep = block.t_ns >= since_ns
+                if keep.any():
+                    parts.append(block.take(keep))
+        except LogError:
+            pass   # reported by the review already
+    if not parts:
+        return None, 'no data for the model check'
+    signals = Decoder(db, smap, RejectCounter()).decode_arrays(FrameArrays.concat(parts))
+    try:
+        return analyze(gear_from_params(params), signals, min_clearance_2z=min_clearance_2z_from_params(params)), ''
+    except EstimateError as exc:
+        return None, f'model check not made: {exc}'
+
+
+def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, analysis_hours: float = 3.0,
+        as_json: bool = False, out: TextIO | None = None) -> int:
+    from tqdm import tqdm
+
+    from steer_monitor.batchpath import review_logs
+    from steer_monitor.errors import ParameterError
+    from steer_monitor.params import gear_from_params, load_params_file
+    from steer_monitor.report.review import ReportInput, write_review_report
+    from steer_monitor.resources import default_config
+
+    out = out or sys.stdout
+    if analysis_hours < 0:
+        msg = f'--analysis-hours must be >= 0, got {analysis_hours}'
+        raise ParameterError(msg)
+    paths = [Path(p) for p in logs]
+    for p in paths:
+        if not p.is_file():
+            msg = f'log {p} does not exist'
+            raise ParameterError(msg)
+    config_path = Path(config) if config else default_config()
+    params = load_params_file(config_path)
+    t0 = time.perf_counter()
+    with tqdm(unit='frame', unit_scale=True, disable=not sys.stderr.isatty(), file=sys.stderr, desc='review') as bar:
+        batch = review_logs(paths, config_path, progress=bar.update)
+    r = batch.review
+    analysis, note = None, 'no data'
+    if len(r.t_ns) and analysis_hours > 0:
+        analysis, note = _analysis(paths, config_path, int(r.t_ns[-1] - analysis_hours * 3.6e12))
+    elif analysis_hours == 0:
+        note = 'model check not asked for (--analysis-hours 0)'
+    title = ', '.join(p.name for p in paths)
+    inp = ReportInput(title, gear_from_params(params), r, analysis, note, online_track(paths), batch.frames,
+                      batch.rejects, batch.errors, params['clearances.limit_2z_mm'] * 1e-3,
+                      params['clearances.limit_zgb_mm'] * 1e-3, params['diagnostics.solas_hard_over_s'])
+    page = write_review_report(inp, out_dir)
+    elapsed = time.perf_counter() - t0
+    if as_json:
+        e = r.estimates[-1].estimate if r.estimates else None
+        dump_json({'page': str(page), 'frames': batch.frames, 'errors': batch.errors, 'notes': r.notes,
+                   'estimates': len(r.estimates), 'hard_overs_s': [round(h.seconds, 2) for h in r.hard_overs],
+                   'clearance_2z_mm': None if e is None else round(e.two_z.value * 1e3, 4),
+                   'clearance_zgb_mm': None if e is None else round(e.z_gb.value * 1e3, 4),
+                   'model_check': None if analysis is None else analysis.verdict, 'elapsed_s': round(elapsed, 2)}, out)
+    else:
+        out.write(f'report of {batch.frames} frames written to {page} ({elapsed:.1f} s)\n')
+        for err in batch.errors:
+            out.write(f'error: {err}\n')
+    return 1 if batch.errors else 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser('report', help='an HTML page with plots from a log, a recording or a replay',
+                       description='Review logs (.log, .asc, .blf, .mcap, including node recordings and '
+                                   'replays) on the batch path and write DIR/index.html with PNG plots: '
+                                   'angle and pressures, load sharing against angle, clearance estimates '
+                                   'over time, the model residual, hard-over times against SOLAS.')
+    p.add_argument('logs', nargs='+', metavar='LOG_OR_MCAP', help='log files (taken in order of their first frame)')
+    p.add_argument('--out', required=True, metavar='DIR', help='directory for index.html and the PNGs')
+    p.add_argument('--config', help='ROS 2 parameters file (default: packaged R-18)')
+    p.add_argument('--analysis-hours', type=float, default=3.0,
+                   help='hours of data at the end for the model check (0: none; default 3)')
+    p.add_argument('--json', action='store_true', help='print a summary as JSON')
+    p.set_defaults(handler=lambda a: run(a.logs, a.out, a.config, a.analysis_hours, a.json))

@@ -1,0 +1,282 @@
+"""The page of ``steer-monitor report``: one self-contained HTML file (PNG plots inlined as
+base64, and the same PNGs beside it) that an engineer reads without the tool.
+
+Plots: rudder angle and pressures over time; K_gl, F_r and F_gb against the rudder angle from
+the measured pressures (the paper's Fig. 7 from data, with the model's curves at the
+estimated clearances); the clearance estimates with their 95 % intervals over time (and the
+online estimates the vessel published, when the log is a node recording or a replay); the
+residual before and after the added effect; the hard-over times against SOLAS.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from steer_monitor.estimate.analyze import Analysis
+from steer_monitor.model.gear import GearParams
+from steer_monitor.model.loadshare import load_sharing_at
+from steer_monitor.report.analysis import residual_figure
+from steer_monitor.review import ReviewResult
+
+__all__ = ['PLOTS', 'OnlineTrack', 'ReportInput', 'write_review_report']
+
+#: file stem -> heading, in page order
+PLOTS = {
+    'timeseries': 'Rudder angle and cylinder pressures',
+    'loadsharing': 'Load sharing against rudder angle (measured)',
+    'clearances': 'Clearance estimates over time',
+    'residual': 'Model residual before and after the added effect',
+    'hardover': 'Hard-over times against SOLAS',
+}
+
+
+@dataclass(frozen=True)
+class OnlineTrack:
+    """The clearances a node published (``~/clearances``), (n,) arrays [ns], [m]; NaN: none."""
+
+    t_ns: NDArray[np.int64]
+    two_z: NDArray[np.float64]
+    two_z_lo: NDArray[np.float64]
+    two_z_hi: NDArray[np.float64]
+    z_gb: NDArray[np.float64]
+    z_gb_lo: NDArray[np.float64]
+    z_gb_hi: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class ReportInput:
+    """Everything the page shows."""
+
+    title: str
+    gear: GearParams
+    review: ReviewResult
+    analysis: Analysis | None
+    analysis_note: str
+    online: OnlineTrack | None
+    frames: int
+    rejects: dict[str, int]
+    errors: list[str]
+    limit_2z: float
+    limit_zgb: float
+    solas_s: float
+
+
+def _png(fig: Any) -> bytes:
+    import matplotlib.pyplot as plt
+    buf = io.BytesIO()
+    fig.savefig(buf, format='png', dpi=96, bbox_inches='tight')
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def _hours(t_ns: NDArray[np.int64], t0: int) -> NDArray[np.float64]:
+    return (t_ns - t0) / 3.6e12
+
+
+def _message_fig(text: str) -> Any:
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(10, 1.6))
+    ax.axis('off')
+    ax.text(0.5, 0.5, text, ha='center', va='center', wrap=True, fontsize=11)
+    return fig
+
+
+def _timeseries(r: ReviewResult, t0: int) -> Any:
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(2, 1, figsize=(10, 5.2), sharex=True)
+    h = _hours(r.t_ns, t0)
+    ax[0].plot(h, np.degrees(r.alpha), 'k-', lw=0.6)
+    ax[0].set_ylabel('rudder angle [deg]')
+    ax[0].axhline(35, color='0.7', lw=0.6, ls=':')
+    ax[0].axhline(-35, color='0.7', lw=0.6, ls=':')
+    for k, label in enumerate(('ram 1 stbd', 'ram 1 port', 'ram 2 stbd', 'ram 2 port')):
+        ax[1].plot(h, r.pressure[:, k] / 1e5, lw=0.6, label=label)
+    ax[1].set_ylabel('pressure [bar]')
+    ax[1].set_xlabel('time since the first frame [h] (one point per second of data)')
+    ax[1].legend(ncol=4, fontsize=8, loc='upper right')
+    return fig
+
+
+def _loadsharing(r: ReviewResult, gear: GearParams) -> Any:
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))
+    sh = r.share
+    deg = np.degrees(r.alpha)
+    curve = np.radians(np.linspace(-math.degrees(gear.max_rudder), math.degrees(gear.max_rudder), 281))
+    model = load_sharing_at(gear, curve, r.gaps)
+    cdeg = np.degrees(curve)
+    if sh is not None:
+        ok = np.isfinite(sh.k_gl) & (r.direction != 0)
+        rest = np.isfinite(sh.k_gl) & (r.direction == 0)
+        ax[0].plot(deg[rest], sh.k_gl[rest], '.', ms=2, color='0.75', label='measured, at rest')
+        ax[0].plot(deg[ok], sh.k_gl[ok], '.', ms=2, color='tab:blue', label='measured, moving')
+        ax[1].plot(deg[ok | rest], sh.ram_force[ok | rest] / 1e3, '.', ms=2, color='tab:orange', label='F_r measured')
+        ax[1].plot(deg[ok | rest], sh.guide_force[ok | rest] / 1e3, '.', ms=2, color='tab:green',
+                   label='F_gb measured')
+    ax[0].plot(cdeg, model.k_gl, 'k-', lw=1, label='model, service speed')
+    ax[0].set_xlabel('rudder angle [deg]')
+    ax[0].set_ylabel('K_gl = F_gb / (F_r + F_gb)')
+    ax[0].set_ylim(-0.05, 1.05)
+    ax[0].legend(fontsize=8)
+    ax[1].plot(cdeg, model.ram_force / 1e3, 'k-', lw=1, label='F_r model')
+    ax[1].plot(cdeg, model.guide_force / 1e3, 'k--', lw=1, label='F_gb model')
+    ax[1].set_xlabel('rudder angle [deg]')
+    ax[1].set_ylabel('lateral force [kN]')
+    ax[1].legend(fontsize=8)
+    src = 'estimated' if r.gaps_source == 'estimated' else 'configured'
+    fig.suptitle(f'at the {src} clearances 2Z {r.gaps.two_z * 1e3:.3f} mm, Z_gb {r.gaps.z_gb * 1e3:.3f} mm',
+                 fontsize=10)
+    return fig
+
+
+def _clearances(inp: ReportInput, t0: int) -> Any:
+    import matplotlib.pyplot as plt
+    r = inp.review
+    fig, ax = plt.subplots(1, 2, figsize=(10, 3.8), sharex=True)
+    for k, (name, attr, limit) in enumerate((('2Z', 'two_z', inp.limit_2z), ('Z_gb', 'z_gb', inp.limit_zgb))):
+        a = ax[k]
+        if inp.online is not None and len(inp.online.t_ns):
+            o = inp.online
+            hours = _hours(o.t_ns, t0)
+            a.plot(hours, getattr(o, attr) * 1e3, '-', color='tab:purple', lw=0.8, label='online (published)')
+            lo, hi = getattr(o, attr + '_lo') * 1e3, getattr(o, attr + '_hi') * 1e3
+            a.fill_between(hours, lo, np.where(np.isfinite(hi), hi, np.nan), color='tab:purple', alpha=0.15, lw=0)
+        for w in r.estimates:
+            iv = getattr(w.estimate, attr)
+            x = float(_hours(np.array([w.t_end_ns]), t0)[0])
+            lo = iv.lo if iv.lo is not None else iv.value
+            if iv.hi is None:        # a lower bound only: draw it as one
+                a.annotate('', xy=(x, lo * 1e3 + 0.08), xytext=(x, lo * 1e3),
+                           arrowprops={'arrowstyle': '->', 'color': 'tab:blue'})
+                a.plot([x], [lo * 1e3], '_', ms=12, color='tab:blue')
+            else:
+                a.errorbar([x], [iv.value * 1e3], yerr=[[iv.value * 1e3 - lo * 1e3], [iv.hi * 1e3 - iv.value * 1e3]],
+                           fmt='o', color='tab:blue', capsize=4)
+        a.axhline(limit * 1e3, color='tab:red', ls='--', lw=1, label=f'limit {limit * 1e3:.3f} mm')
+        a.set_ylabel(f'{name} [mm]')
+        a.set_xlabel('data up to [h]')
+        a.set_ylim(bottom=0)
+        a.set_title(f'{name}: estimate with 95 % interval (arrow: lower bound only)', fontsize=9)
+        a.legend(fontsize=8)
+    return fig
+
+
+def _hardover(r: ReviewResult, t0: int, solas: float) -> Any:
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(10, 3.2))
+    if r.hard_overs:
+        x = _hours(np.array([h.t_leave_ns for h in r.hard_overs]), t0)
+        y = np.array([h.seconds for h in r.hard_overs])
+        colors = ['tab:green' if v <= solas else 'tab:red' for v in y]
+        ax.bar(x, y, width=max((x.max() - x.min()) / 80, 0.01), color=colors)
+        for xi, yi in zip(x, y):
+            ax.text(xi, yi, f'{yi:.1f} s', ha='center', va='bottom', fontsize=8)
+    ax.axhline(solas, color='tab:red', ls='--', lw=1, label=f'SOLAS {solas:g} s (35 deg to 30 deg the other side)')
+    ax.set_xlabel('time of leaving hard over [h]')
+    ax.set_ylabel('hard-over time [s]')
+    ax.legend(fontsize=8, loc='lower right')
+    return fig
+
+
+def _iv_text(iv: Any, scale: float, unit: str) -> str:
+    v = f'{iv.value * scale:.3f}'
+    lo = '-' if iv.lo is None else f'{iv.lo * scale:.3f}'
+    hi = 'unbounded (lower bound only)' if iv.hi is None else f'{iv.hi * scale:.3f}'
+    return f'{v} {unit} [{lo} .. {hi}]'
+
+
+def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
+    """Write ``index.html`` and the PNGs into ``out_dir``; returns the page's path."""
+    import matplotlib
+    matplotlib.use('Agg')
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    r = inp.review
+    t0 = int(r.t_ns[0]) if len(r.t_ns) else 0
+    figs = {
+        'timeseries': _timeseries(r, t0) if len(r.t_ns) else _message_fig('no rudder angle in the log'),
+        'loadsharing': _loadsharing(r, inp.gear),
+        'clearances': _clearances(inp, t0),
+        'residual': residual_figure(inp.analysis) if inp.analysis is not None else _message_fig(inp.analysis_note),
+        'hardover': _hardover(r, t0, inp.solas_s),
+    }
+    images: dict[str, bytes] = {}
+    for key, fig in figs.items():
+        images[key] = _png(fig)
+        (out_dir / f'{key}.png').write_bytes(images[key])
+    esc = html.escape
+    span_h = (int(r.t_ns[-1]) - t0) / 3.6e12 if len(r.t_ns) else 0.0
+    rows = [('log', inp.title), ('frames', f'{inp.frames:,d}'), ('data', f'{span_h:.2f} h, '
+                                                                    f'{r.motion_s / 60:.0f} min of steady rudder motion')]
+    if r.estimates:
+        e = r.estimates[-1].estimate
+        rows += [('2Z (ram bushing)', _iv_text(e.two_z, 1e3, 'mm') + f'; limit {inp.limit_2z * 1e3:.3f} mm'),
+                 ('Z_gb (guide slipper)', _iv_text(e.z_gb, 1e3, 'mm') + f'; limit {inp.limit_zgb * 1e3:.3f} mm'),
+                 ('K_gl max over the angles seen', _iv_text(e.k_gl_max, 1.0, ''))]
+    else:
+        rows.append(('clearances', 'not estimated: ' + '; '.join(r.notes)))
+    if r.hard_overs:
+        worst = max(h.seconds for h in r.hard_overs)
+        rows.append(('hard-overs', f'{len(r.hard_overs)}, slowest {worst:.1f} s '
+                                   f"({'within' if worst <= inp.solas_s else 'OVER'} SOLAS {inp.solas_s:g} s)"))
+    else:
+        rows.append(('hard-overs', 'none in the log'))
+    if inp.analysis is not None:
+        rows.append(('model check', inp.analysis.message))
+    if inp.rejects:
+        rows.append(('rejected frames', ', '.join(f'{k} {v}' for k, v in inp.rejects.items())))
+    for err in inp.errors:
+        rows.append(('error', err))
+    table = ''.join(f'<tr><th>{esc(k)}</th><td>{esc(v)}</td></tr>' for k, v in rows)
+    notes = ''.join(f'<li>{esc(n)}</li>' for n in r.notes)
+    captions = {
+        'timeseries': 'One point per second of data. Pressures are the four transducers (ram 1 and 2, '
+                      'starboard and port chambers).',
+        'loadsharing': 'The measured pressures give the tiller torque; the load-sharing model splits the '
+                       'lateral force between ram (F_r) and guide beam (F_gb) at the clearances in the '
+                       'title (paper 004, Fig. 7). Grey: rudder at rest (the pressure holds friction too).',
+        'clearances': 'Each point uses all the data up to its time. An arrow marks a lower bound only: '
+                      'the ram never clamped in its bushing at the loads seen, so the data cannot say how '
+                      'large 2Z is, only that it is at least this.',
+        'residual': 'Ram-force residual of the fitted model, in bar of cylinder pressure: what the '
+                    'declared model leaves, and what is left after the effect the data support.',
+        'hardover': 'From leaving 35 deg to reaching 30 deg the other side, as SOLAS II-1/29 asks. '
+                    'Red bars: over the limit.',
+    }
+    body = ''.join(
+        f'<section id="{key}"><h2>{esc(title)}</h2>'
+        f'<img class="plot" id="plot-{key}" alt="{esc(title)}" src="data:image/png;base64,'
+        f'{base64.b64encode(images[key]).decode("ascii")}"><p class="caption">{esc(captions[key])}</p></section>'
+        for key, title in PLOTS.items())
+    page = f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>steer_monitor report: {esc(inp.title)}</title>
+<style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}}
+th,td{{padding:3px 12px;text-align:left;vertical-align:top}}table{{border-collapse:collapse}}
+tr:nth-child(even){{background:#f2f2f2}}img.plot{{max-width:100%;display:block}}.caption{{color:#555;font-size:90%}}
+section{{margin-top:2em}}</style>
+<script>window.addEventListener('load', function () {{
+  var imgs = document.querySelectorAll('img.plot'), ok = 0;
+  imgs.forEach(function (i) {{ var r = i.complete && i.naturalWidth > 0; i.dataset.rendered = r ? 'yes' : 'no'; if (r) ok++; }});
+  document.body.dataset.plotsRendered = ok + '/' + imgs.length;
+}});</script></head>
+<body><h1>Steering gear report</h1>
+<table>{table}</table>
+{'<ul class="notes">' + notes + '</ul>' if notes else ''}
+{body}
+<p class="caption">steer_monitor; the physics and its sources: paper 004 (load sharing on the R-18 gear) and
+paper 000 (backlash from the fits).</p>
+</body></html>
+"""
+    path = out_dir / 'index.html'
+    path.write_text(page, encoding='utf-8')
+    return path

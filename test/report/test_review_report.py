@@ -1,0 +1,89 @@
+"""``steer-monitor report``: the page, looked at in a real browser (headless Chromium)."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+
+import pytest
+
+from steer_monitor import sim
+from steer_monitor.can.logs import LogWriter
+from steer_monitor.cli import main as cli
+from steer_monitor.report.review import PLOTS
+
+pytestmark = pytest.mark.slow
+
+CHROMIUM = next((p for p in (shutil.which(n) for n in ('chromium', 'chromium-browser', 'google-chrome')) if p), None)
+
+
+@pytest.fixture(scope='module')
+def logs(tmp_path_factory, r18_params, can_db):
+    """A candump log with hard-overs and zig-zags, and its replay (an MCAP with the node's topics)."""
+    from steer_monitor.replay import replay
+    db, smap = can_db
+    d = tmp_path_factory.mktemp('report')
+    frames = sim.run(r18_params, sim.SimConfig(program='hard_over_2,zigzag_20,zigzag_10', max_duration_s=240.0),
+                     db, smap, 8).frames
+    log = d / 'gear.log'
+    with LogWriter(log) as w:
+        for f in frames.frames():
+            w.write(f)
+    rep = d / 'replay.mcap'
+    replay([log], rep)
+    return {'log': log, 'replay': rep}
+
+
+def _chromium(*args: str) -> str:
+    out = subprocess.run([CHROMIUM, '--headless=new', '--no-sandbox', '--disable-gpu', '--hide-scrollbars',
+                          '--no-first-run', *args], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
+    return out.stdout
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason='no Chromium on this machine (Debian: apt-get install chromium); '
+                                            '.ci/run installs it')
+@pytest.mark.parametrize('which', ['log', 'replay'])
+def test_page_renders_every_plot_in_chromium(tmp_path, logs, which, capsys):
+    out = tmp_path / 'rep'
+    assert cli.main(['report', str(logs[which]), '--out', str(out), '--json']) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary['estimates'] >= 1 and summary['hard_overs_s'] and summary['model_check'] in ('declared', 'effect')
+    page = out / 'index.html'
+    for key in PLOTS:
+        assert (out / f'{key}.png').stat().st_size > 5000
+    dom = _chromium('--virtual-time-budget=10000', '--dump-dom', page.as_uri())
+    rendered = re.search(r'data-plots-rendered="(\d+)/(\d+)"', dom)
+    assert rendered is not None, dom[:500]
+    assert rendered.groups() == (str(len(PLOTS)), str(len(PLOTS)))
+    for key in PLOTS:
+        assert re.search(rf'id="plot-{key}"[^>]*data-rendered="yes"|data-rendered="yes"[^>]*id="plot-{key}"', dom), key
+    assert '2Z (ram bushing)' in dom and 'hard-overs' in dom
+    shot = tmp_path / 'shot.png'
+    _chromium('--window-size=1200,5000', f'--screenshot={shot}', page.as_uri())
+    import matplotlib.image as mpimg
+    img = mpimg.imread(shot)
+    assert img.shape[:2] == (5000, 1200)
+    # not blank: the plots put ink on most of the page's height
+    ink = (img[:, :, :3].mean(axis=2) < 0.9).any(axis=1)
+    assert ink[:4000].mean() > 0.3
+
+
+def test_online_estimates_of_a_replay_are_read(logs):
+    from steer_monitor.cli.report import online_track
+    track = online_track([logs['replay']])
+    assert track is not None and len(track.t_ns) > 100
+    assert (track.t_ns[1:] > track.t_ns[:-1]).all()
+    assert online_track([logs['log']]) is None
+
+
+@pytest.mark.parametrize(('args', 'message'), [
+    (['missing.log'], 'does not exist'),
+    (['{log}', '--analysis-hours', '-1'], 'analysis-hours must be >= 0'),
+])
+def test_bad_arguments_are_named(tmp_path, logs, args, message, capsys):
+    args = [a.format(log=logs['log']) for a in args]
+    assert cli.main(['report', *args, '--out', str(tmp_path / 'x')]) == 1
+    assert message in capsys.readouterr().err
