@@ -9,7 +9,8 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-BENCHMARKS = ('bench.bench_loadshare', 'bench.bench_decode', 'bench.bench_estimate', 'bench.bench_node')
+BENCHMARKS = ('bench.bench_loadshare', 'bench.bench_decode', 'bench.bench_estimate', 'bench.bench_replay',
+              'bench.bench_node')
 
 
 def main() -> int:
