@@ -199,6 +199,7 @@ class Pipeline:
         self._samples: list[Sample] = []       # for the estimator since the last second
         self._pending: deque[tuple[int, object]] = deque()   # (due, job handle)
         self.frames = 0
+        self.last_changed_state = False        # the last frame fed changed the live model's state
 
     # --- input ---------------------------------------------------------------------------
     def feed(self, frame: Frame) -> list[Output]:
@@ -216,6 +217,7 @@ class Pipeline:
             self._seconds_until(t, out)
         self.frames += 1
         samples = self.decoder.decode(frame)
+        self.last_changed_state = False
         if samples:
             mon = self.monitor
             for s in samples:
@@ -223,6 +225,7 @@ class Pipeline:
             if self.jobs is not None:
                 self._samples.extend(samples)
             self._state_pending = mon.changed
+            self.last_changed_state = mon.changed
         return out
 
     def idle(self, now_ns: int, margin_ns: int = 50 * 1_000_000) -> list[Output]:

@@ -78,7 +78,7 @@ class MonitorNode(Node):
                                      p['recording.max_file_minutes'] * 60.0)
         self._make_publishers()
         self._lock = threading.Lock()          # guards the pipeline and the live model
-        self._unpublished: list[int] = []      # receive times of frames not yet in a published state
+        self._unpublished: list[int] = []      # receive times of state-changing frames not yet published
         self.latencies_ns: deque[int] = deque(maxlen=LATENCY_WINDOW)
         self.frames_received = 0
         self._last_diag = time.monotonic()
@@ -198,8 +198,8 @@ class MonitorNode(Node):
                         outs = []
                     if outs:
                         self._publish_outputs(outs)
-                    if frame is not None:
-                        self._unpublished.append(received)
+                    if frame is not None and pipeline.last_changed_state:
+                        self._unpublished.append(received)   # a frame the next state reflects
         finally:
             if batch and recorder is not None:
                 recorder.write_frames(batch)
