@@ -132,5 +132,6 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus') -> di
 if __name__ == '__main__':
     import sys
     modes = [a for a in sys.argv[1:] if a in ('bus', 'speedup')] or ['bus', 'speedup']
+    secs = [float(a.split('=', 1)[1]) for a in sys.argv[1:] if a.startswith('--seconds=')]
     for m in modes:
-        main(mode=m, record='--no-record' not in sys.argv)
+        main(seconds=secs[0] if secs else SECONDS, mode=m, record='--no-record' not in sys.argv)

@@ -141,7 +141,8 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('model.mu_guide', 'double', 0.05, 'guide slipper friction coefficient until estimated', 0.0, 2.0),
     ParamSpec('estimator.enabled', 'bool', True, 'estimate the clearances online and feed them to the live model'),
     ParamSpec('estimator.state_file', 'string', 'steer_monitor_estimator.npz',
-              'where the estimator keeps what it learned across restarts (empty: not kept)'),
+              'where the estimator keeps what it learned across restarts; a relative name is in '
+              'recording.directory (empty: not kept)'),
     ParamSpec('estimator.half_life_h', 'double', 0.0,
               'forget old data with this half-life in hours of rudder motion (0: keep everything)',
               0.0, 1e6),

@@ -44,7 +44,7 @@ from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, Status
 from steer_monitor.monitor.live import LiveMonitor, LiveState
 
 __all__ = ['APPLY_DELAY_NS', 'MAX_GAP_SECONDS', 'SECOND_NS', 'SLOT_NS', 'DiagOut', 'EstimatorJobs', 'Pipeline', 'StateOut',
-           'SyncEstimatorJobs', 'ThreadedEstimatorJobs', 'apply_estimate']
+           'SyncEstimatorJobs', 'ThreadedEstimatorJobs', 'apply_estimate', 'plausible']
 
 SLOT_NS = 10_000_000
 SECOND_NS = 1_000_000_000
@@ -167,12 +167,27 @@ class ThreadedEstimatorJobs:
         self.close()
 
 
-def apply_estimate(monitor: LiveMonitor, snap: EstimateSnapshot) -> None:
+MAX_MU = 0.5            # a friction coefficient beyond this (or below 0) is not a physical fit
+
+
+def plausible(friction: tuple[float, float, float]) -> bool:
+    """F_s >= 0 and both friction coefficients in [0, ``MAX_MU``]: early estimates, on a
+    minute of data, can fit the friction with numbers no gear has (mu_g = -9.9 was seen)."""
+    f_s, mu_b, mu_g = friction
+    return all(map(math.isfinite, friction)) and f_s >= 0.0 and 0.0 <= mu_b <= MAX_MU and 0.0 <= mu_g <= MAX_MU
+
+
+def apply_estimate(monitor: LiveMonitor, snap: EstimateSnapshot) -> bool:
     """Hand an estimate to the live model: the gaps with their intervals, the friction fitted
-    with them, and what the clearance diagnostic adds (K_gl max with its interval)."""
+    with them, and what the clearance diagnostic adds (K_gl max with its interval). An
+    estimate whose friction is not physical (:func:`plausible`) is not used: the live model
+    keeps what it has, since its residual would judge the declared model by a fit no gear
+    has. Returns whether it was used."""
     e = snap.estimate
+    if not plausible(e.friction):
+        return False
     interval = {'2z': (e.two_z.lo, e.two_z.hi), 'zgb': (e.z_gb.lo, e.z_gb.hi)}
-    fr = FrictionParams(*e.friction) if all(map(math.isfinite, e.friction)) else None
+    fr = FrictionParams(*e.friction)
     monitor.set_gaps(Gaps(e.two_z.value, e.z_gb.value), 'estimated', interval, fr)  # type: ignore[arg-type]
     k = e.k_gl_max
     monitor.estimate_info = {'k_gl_max_estimated': f'{k.value:.3f}',
@@ -180,6 +195,7 @@ def apply_estimate(monitor: LiveMonitor, snap: EstimateSnapshot) -> None:
                              'k_gl_max_hi': 'n/a' if k.hi is None else f'{k.hi:.3f}',
                              'estimate_rows': str(int(e.rows)),
                              'estimate_motion_s': f'{snap.motion_s:.0f}'}
+    return True
 
 
 class Pipeline:

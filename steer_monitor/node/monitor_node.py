@@ -104,7 +104,7 @@ class MonitorNode(Node):
         self.estimator = est = OnlineEstimator(self.gear,
                                                min_clearance_2z=min_clearance_2z_from_params(p),
                                                half_life_s=p['estimator.half_life_h'] * 3600.0)
-        path = p['estimator.state_file']
+        path = self._state_path()
         if path:
             from pathlib import Path
             if Path(path).exists():
@@ -126,11 +126,22 @@ class MonitorNode(Node):
             self._save_estimator()
             self._last_save = time.monotonic()
 
-    def _save_estimator(self) -> None:
+    def _state_path(self) -> str:
+        """The estimator's state file: a relative name lives in the recording directory (not in
+        whatever directory the node was started from)."""
+        import os
         path = self.params['estimator.state_file']
+        if path and not os.path.isabs(path):
+            path = os.path.join(self.params['recording.directory'], path)
+        return path
+
+    def _save_estimator(self) -> None:
+        path = self._state_path()
         if self.estimator is None or not path:
             return
         try:
+            from pathlib import Path
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
             self.estimator.save(path)
         except OSError as exc:
             self.get_logger().error(f'cannot save the estimator state to {path}: {exc}')

@@ -149,3 +149,20 @@ def test_nothing_fed_nothing_out(r18_params, can_db):
     assert p.finish() == [] and p.idle(10**18) == []
     d = p.diagnostics_now(10**18)
     assert d.statuses[0].level == 3 and math.isclose(d.gaps.two_z, 0.6e-3)
+
+
+@pytest.mark.parametrize('friction', [(3000.0, 0.46, -9.9), (-1.0, 0.1, 0.1), (3000.0, 1.3, 0.05),
+                                      (math.nan, 0.1, 0.1)])
+def test_an_estimate_with_unphysical_friction_is_not_used(r18_params, can_db, frames, friction):
+    """Early estimates on a minute of data can fit friction no gear has; the live residual
+    would then condemn the declared model (48 bar RMS on the demo's clean data)."""
+    from dataclasses import replace
+
+    from steer_monitor.monitor.pipeline import apply_estimate, plausible
+    jobs = FakeJobs(second=1)
+    jobs.snap = EstimateSnapshot(replace(jobs.snap.estimate, friction=friction), 1.0)
+    p = _pipeline(r18_params, can_db, jobs)
+    out = _run(p, frames)
+    assert all(o.source == 'configured' for _, o in out if isinstance(o, DiagOut))
+    assert not plausible(friction) and apply_estimate(p.monitor, jobs.snap) is False
+    assert plausible((9000.0, 0.13, 0.05))
