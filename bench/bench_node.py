@@ -100,9 +100,19 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus') -> di
         time.sleep(1.0)
         rss_start = _rss_mb()
         bus = can.Bus(interface='virtual', channel=channel)
+        rss_trace: list[tuple[float, float]] = []
+        done = threading.Event()
+
+        def sample_rss() -> None:      # resident memory every 10 s: growth or a plateau
+            t_start = time.monotonic()
+            while not done.wait(10.0):
+                rss_trace.append((time.monotonic() - t_start, _rss_mb()))
+        sampler = threading.Thread(target=sample_rss, daemon=True)
+        sampler.start()
         cpu0, main0, wall0 = sum(os.times()[:2]), time.thread_time(), time.monotonic()
         sent = play(frames, bus, factor)
         wall = time.monotonic() - wall0
+        done.set()
         time.sleep(1.0)
         cpu = sum(os.times()[:2]) - cpu0
         sim_cpu = time.thread_time() - main0
@@ -125,6 +135,9 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus') -> di
           f'max {lat.max():.1f} ms (target p99 < 20 ms)')
     print(f'  resident memory      : {rss_start:.0f} MB at start, {rss_end:.0f} MB at end '
           f'(process, simulator included; target < 200 MB, no growth)')
+    if len(rss_trace) >= 4:
+        marks = [rss_trace[int(f * (len(rss_trace) - 1))] for f in (0.0, 0.25, 0.5, 0.75, 1.0)]
+        print('  memory over the run  : ' + ', '.join(f'{m:.0f} MB at {t:.0f} s' for t, m in marks))
     return {'sent': sent, 'dropped': dropped, 'cpu_share': node_cpu, 'p99_ms': float(np.percentile(lat, 99)),
             'rss_start_mb': rss_start, 'rss_end_mb': rss_end}
 
