@@ -4,7 +4,8 @@ The simulated R-18 gear (SOLAS hard-over with two pumps, about 70 s of real time
 a python-can virtual bus; the monitor node listens, runs the model, publishes /diagnostics
 and records MCAP; a listener prints each diagnostic status when its level changes, and every
 10 s a line with the rudder angle, K_gl and the model residual. After the simulator stops, the input goes STALE. Then the load-sharing study of
-paper 004 is written beside the recording.
+paper 004 is written beside the recording, and the report page of the recording
+(``steer-monitor report``) in ``OUT/report``.
 """
 
 from __future__ import annotations
@@ -117,7 +118,13 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: 
     study.run(out_dir, config_path, buf)
     out.write(f'load-sharing study (paper 004): {out_dir / "fig7_load_sharing.png"}, '
               f'{out_dir / "gap_study.png"}, {out_dir / "summary.json"} (steer-monitor study prints it)\n')
-    out.write(f'inspect the recording: steer-monitor inspect {files[0] if files else "FILE.mcap"}\n')
+    if files:
+        from steer_monitor.cli import report
+        buf = io.StringIO()
+        report.run(files, out_dir / 'report', config_path, out=buf)
+        out.write(f'report of the recording (plots): {out_dir / "report" / "index.html"}\n')
+    out.write(f'inspect the recording: steer-monitor inspect {files[0] if files else "FILE.mcap"}; '
+              f'replay it: steer-monitor replay {files[0] if files else "FILE.mcap"} --out replay.mcap\n')
     return 0
 
 
@@ -125,7 +132,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser('demo', help='the main job on built-in defaults (simulator, node, diagnostics, MCAP)',
                        description='Simulated gear on a virtual CAN bus, the monitor node, a diagnostics '
                                    'listener and an MCAP recording, for about a minute; then the '
-                                   'load-sharing study.')
+                                   'load-sharing study and the report page of the recording.')
     p.add_argument('--out', default='out', help='output directory (default: out)')
     p.add_argument('--config', help='ROS 2 parameters file (default: the packaged config/r18.yaml)')
     p.add_argument('--program', default='hard_over_2', help='helm programme of the simulator')
