@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from steer_monitor.can.decoder import Decoder
-from steer_monitor.can.fastlogs import iter_log_blocks, log_end_ns
+from steer_monitor.can.fastlogs import in_time_order, iter_log_blocks, log_end_ns
 from steer_monitor.can.logs import LogError
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import can_setup
@@ -35,16 +35,6 @@ class BatchRun:
     frames: int
     rejects: dict[str, int]
     errors: list[str]
-
-
-def _first_time(path: Path) -> int:
-    try:
-        for block in iter_log_blocks(path):
-            if len(block):
-                return int(block.t_ns[0])
-    except LogError:
-        pass
-    return 1 << 62
 
 
 def _produce(paths: list[Path], db: object, smap: object, out: object) -> None:
@@ -71,9 +61,7 @@ def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *,
     import multiprocessing as mp
     import os
 
-    paths = [Path(p) for p in logs]
-    if len(paths) > 1:
-        paths.sort(key=_first_time)
+    paths = in_time_order([Path(p) for p in logs])
     config_path = Path(config) if config else default_config()
     params = load_params_file(config_path)
     db, smap = can_setup(params, config_path)

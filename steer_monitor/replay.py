@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from steer_monitor.can.decoder import Decoder
+from steer_monitor.can.fastlogs import in_time_order
 from steer_monitor.can.frames import Frame
 from steer_monitor.can.logs import LogError, iter_log
 from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, McapWriter
@@ -64,15 +65,6 @@ class ReplaySummary:
     motion_s: float = 0.0
 
 
-def _first_time(path: Path) -> int:
-    try:
-        for frame in iter_log(path):
-            return frame.t_ns
-    except LogError:
-        pass
-    return 1 << 62   # unreadable or empty: last (its error is reported when it is replayed)
-
-
 def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | None = None, *,
            frames: bool = True, estimator: bool = True, node_name: str = 'steer_monitor',
            progress: Callable[[int], None] | None = None) -> ReplaySummary:
@@ -81,7 +73,7 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
     if not logs:
         msg = 'replay: no log given'
         raise ReplayError(msg)
-    paths = sorted((Path(p) for p in logs), key=_first_time)
+    paths = in_time_order([Path(p) for p in logs])
     for p in paths:
         if not p.is_file():
             msg = f'replay: log {p} does not exist'

@@ -28,11 +28,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, FrameArrays
-from steer_monitor.can.logs import CAN_ERR_FLAG, READ_SUFFIXES, LogError, _candump_line, _suffix, iter_log
+from steer_monitor.can.logs import CAN_ERR_FLAG, READ_SUFFIXES, LogError, _candump_line, _suffix, iter_log, open_log
 from steer_monitor.can.mcapio import FRAME_DATATYPE
 from steer_monitor.can.rejects import RejectCounter
 
-__all__ = ['BLOCK_BYTES', 'BLOCK_FRAMES', 'iter_candump_blocks', 'iter_log_blocks', 'iter_mcap_blocks', 'log_end_ns',
+__all__ = ['BLOCK_BYTES', 'BLOCK_FRAMES', 'iter_candump_blocks', 'iter_log_blocks', 'first_frame_ns', 'in_time_order', 'iter_mcap_blocks', 'log_end_ns',
            'read_log_fast', 'write_candump_arrays']
 
 BLOCK_BYTES = 64 << 20
@@ -234,11 +234,7 @@ def iter_candump_blocks(path: str | Path, rejects: RejectCounter | None = None,
     """Frames of a candump ``.log`` in file order, a block of about ``block_bytes`` at a time.
     Lines of another shape are parsed one by one (and counted in ``rejects`` if bad)."""
     path = Path(path)
-    try:
-        fh = open(path, 'rb')
-    except OSError as exc:
-        msg = f'cannot open log {path}: {exc.strerror or exc}'
-        raise LogError(msg) from exc
+    fh = open_log(path)
     lineno = 0
     carry = b''
     with fh:
@@ -433,11 +429,7 @@ def iter_mcap_blocks(path: str | Path) -> Iterator[FrameArrays]:
     import zstandard
 
     path = Path(path)
-    try:
-        fh = open(path, 'rb')
-    except OSError as exc:
-        msg = f'cannot open log {path}: {exc.strerror or exc}'
-        raise LogError(msg) from exc
+    fh = open_log(path)
     state = _McapState()
     dctx = zstandard.ZstdDecompressor()
     pending: list[FrameArrays] = []
@@ -507,6 +499,26 @@ def log_end_ns(path: str | Path) -> int | None:
     except Exception:   # a cut or odd file: the caller reads it and finds out
         return None
     return None
+
+
+def first_frame_ns(path: str | Path) -> int | None:
+    """The time of a log's first frame (None: no frame can be read), for putting logs in order."""
+    try:
+        for block in iter_log_blocks(path):
+            if len(block):
+                return int(block.t_ns[0])
+    except LogError:
+        pass
+    return None
+
+
+def in_time_order(paths: list[Path]) -> list[Path]:
+    """Logs in order of their first frame; one without a readable frame goes last (its error
+    is reported when it is read)."""
+    def key(p: Path) -> int:
+        t = first_frame_ns(p)
+        return 1 << 62 if t is None else t
+    return sorted(paths, key=key) if len(paths) > 1 else list(paths)
 
 
 def read_log_fast(path: str | Path, rejects: RejectCounter | None = None) -> FrameArrays:

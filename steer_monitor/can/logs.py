@@ -15,7 +15,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 from steer_monitor.can.bus import frame_from_message, message_from_frame
 from steer_monitor.can.frames import Frame, FrameArrays
@@ -23,7 +23,7 @@ from steer_monitor.can.mcapio import McapWriter, iter_mcap_frames
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
 
-__all__ = ['READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'iter_log', 'read_log_arrays']
+__all__ = ['READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'iter_log', 'open_log', 'read_log_arrays']
 
 READ_SUFFIXES = ('.log', '.asc', '.blf', '.mcap')
 WRITE_SUFFIXES = ('.log', '.blf', '.mcap')
@@ -42,6 +42,15 @@ def _suffix(path: Path, allowed: tuple[str, ...]) -> str:
         msg = f'{path}: unsupported log format {suffix or "(no suffix)"!r} (supported: {", ".join(allowed)})'
         raise LogError(msg)
     return suffix
+
+
+def open_log(path: Path) -> BinaryIO:
+    """``path`` opened for reading bytes; :class:`LogError` naming it when it cannot be."""
+    try:
+        return open(path, 'rb')
+    except OSError as exc:
+        msg = f'cannot open log {path}: {exc.strerror or exc}'
+        raise LogError(msg) from exc
 
 
 def _candump_line(line: str, lineno: int, rejects: RejectCounter | None, path: Path) -> Frame | None:
@@ -70,12 +79,7 @@ def iter_log(path: str | Path, rejects: RejectCounter | None = None) -> Iterator
     """Frames of a log file in file order. Bad records are counted in ``rejects``."""
     path = Path(path)
     suffix = _suffix(path, READ_SUFFIXES)
-    try:
-        fh = open(path, 'rb')
-    except OSError as exc:
-        msg = f'cannot open log {path}: {exc.strerror or exc}'
-        raise LogError(msg) from exc
-    with fh:
+    with open_log(path) as fh:
         if suffix == '.log':
             for lineno, raw in enumerate(fh, 1):
                 frame = _candump_line(raw.decode('ascii', 'replace'), lineno, rejects, path)
