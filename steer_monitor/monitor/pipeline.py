@@ -17,7 +17,8 @@ Schedule (``t`` is a frame's timestamp, integer ns since the epoch):
   last second only.
 * **estimator results** are applied ``APPLY_DELAY_NS`` of data time after the job started:
   live, the job runs on its own thread meanwhile (a full profile takes about a second on
-  this machine) and the pipeline waits for it only if it is later than that; offline it
+  this machine, up to three with the node busy at a full bus) and the pipeline waits for it
+  only if it is later than that; offline it
   runs at once. Either way the live model changes clearances at the same sample.
 
 Outputs are :class:`StateOut` and :class:`DiagOut` records, in order.
@@ -48,7 +49,7 @@ __all__ = ['APPLY_DELAY_NS', 'MAX_GAP_SECONDS', 'SECOND_NS', 'SLOT_NS', 'DiagOut
 
 SLOT_NS = 10_000_000
 SECOND_NS = 1_000_000_000
-APPLY_DELAY_NS = 3 * SECOND_NS
+APPLY_DELAY_NS = 10 * SECOND_NS
 MAX_GAP_SECONDS = 60
 
 

@@ -5,7 +5,7 @@ to the :class:`~steer_monitor.monitor.pipeline.Pipeline`, which decides on the f
 timestamps what to publish: the state at the end of each 10 ms slot of data, and at each whole
 second of data the diagnostics, the clearances in use and their source. So a replay of the same
 frames (``steer-monitor replay``) publishes the same values. The clearance estimator runs its
-jobs on its own thread and keeps its state on disk; its results reach the live model a fixed 3 s
+jobs on its own thread and keeps its state on disk; its results reach the live model a fixed 10 s
 of data time after each job started. The executor's 1 Hz timer publishes diagnostics on wall
 time only when the bus has been silent for more than 1.5 s (that is where STALE shows). The
 recorder writes MCAP on its own thread. SIGINT and SIGTERM shut down cleanly, save the

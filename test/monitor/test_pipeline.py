@@ -21,7 +21,7 @@ from steer_monitor.params import gear_from_params
 @pytest.fixture(scope='module')
 def frames(r18_params, can_db):
     db, smap = can_db
-    s = sim.run(r18_params, sim.SimConfig(program='hard_over_2', max_duration_s=12.0), db, smap, 4)
+    s = sim.run(r18_params, sim.SimConfig(program='hard_over_2', max_duration_s=16.0), db, smap, 4)
     return s.frames.frames()
 
 
@@ -109,11 +109,11 @@ class FakeJobs:
 
 
 def test_an_estimate_is_applied_a_fixed_data_time_after_its_job(r18_params, can_db, frames):
-    jobs = FakeJobs(second=3)
+    jobs = FakeJobs(second=2)
     p = _pipeline(r18_params, can_db, jobs)
     out = _run(p, frames)
     diags = [o for _, o in out if isinstance(o, DiagOut)]
-    started = diags[2].t_ns                       # the third second's job returns the estimate
+    started = diags[1].t_ns                       # the second second's job returns the estimate
     for d in diags:
         if d.t_ns < started + APPLY_DELAY_NS:
             assert d.source == 'configured' and d.gaps == Gaps.from_mm(0.6, 0.25)
