@@ -214,10 +214,15 @@ class OnlineEstimator:
         load = F.axial_load(self.gear, self.basis, mom, self._coef)
         pr = F.profile(self.gear, self.basis, mom, load, (), self.grid_2z[gi], self.grid_zgb[gj])
         bi, bj = pr.best
-        self._best = (int(gi[bi]), int(gj[bj]))
-        tz, zg = float(self.grid_2z[self._best[0]]), float(self.grid_zgb[self._best[1]])
-        self._coef = pr.coef
+        tz, zg = float(self.grid_2z[gi[bi]]), float(self.grid_zgb[gj[bj]])
         prev = self.estimate
+        if prev is not None and not (_inside(prev.two_z, tz) and _inside(prev.z_gb, zg)):
+            # the local step left the last full profile's interval: the profile has moved
+            # (or the step is in a local minimum); a point outside its own interval is not
+            # an answer, so profile again
+            return self._full()
+        self._best = (int(gi[bi]), int(gj[bj]))
+        self._coef = pr.coef
         self.estimate = OnlineEstimate(_moved(prev.two_z, tz) if prev else Interval(tz, None, None),
                                        _moved(prev.z_gb, zg) if prev else Interval(zg, None, None),
                                        prev.k_gl_max if prev else Interval(math.nan, None, None), mom.samples,
@@ -319,6 +324,12 @@ def _estimate_to_json(e: OnlineEstimate) -> dict[str, object]:
 def _estimate_from_json(d: dict) -> OnlineEstimate:
     return OnlineEstimate(Interval(*d['two_z']), Interval(*d['z_gb']), Interval(*d['k_gl_max']), float(d['rows']),
                           int(d['t_ns']), bool(d['full']), tuple(float(x) for x in d['friction']))  # type: ignore[arg-type]
+
+
+def _inside(iv: Interval, value: float) -> bool:
+    """``value`` within the interval's bounds (a missing bound does not bound)."""
+    eps = 1e-12
+    return (iv.lo is None or value >= iv.lo - eps) and (iv.hi is None or value <= iv.hi + eps)
 
 
 def _moved(iv: Interval, value: float) -> Interval:
