@@ -88,3 +88,30 @@ def test_out_of_order_and_unused_samples_are_ignored(r18: GearParams):
     est.add(Sample(3_000_000_000, 'rudder_order', 0.2))
     assert [t for t, _ in est._buf['rudder_angle']] == [2_000_000_000]
     assert not est.update()
+
+
+def test_the_point_stays_inside_its_interval(r18_params, r18, can_db):
+    """A local step that leaves the last full profile's interval profiles again: the point
+    the node shows is never outside the interval it shows with it (a 52 s hard-over had
+    Z_gb 0.19 mm against [0.229, 0.282] before)."""
+    from steer_monitor import sim as simulator
+    from steer_monitor.params import min_clearance_2z_from_params
+    db, smap = can_db
+    frames = simulator.run(r18_params, simulator.SimConfig(program='hard_over_2', max_duration_s=52.0),
+                           db, smap, seed=3).frames.frames()
+    dec = Decoder(db, smap)
+    est = OnlineEstimator(r18, min_clearance_2z=min_clearance_2z_from_params(r18_params))
+    nxt = (frames[0].t_ns // 10**9 + 1) * 10**9
+    checked = 0
+    for f in frames:
+        while f.t_ns >= nxt:
+            if est.update():
+                e = est.estimate
+                for iv in (e.two_z, e.z_gb):
+                    assert (iv.lo is None or iv.value >= iv.lo - 1e-12) and (iv.hi is None or iv.value <= iv.hi + 1e-12)
+                checked += 1
+            nxt += 10**9
+        for s in dec.decode(f):
+            est.add(s)
+    assert checked > 10
+    assert est.estimate.z_gb.value == pytest.approx(0.25e-3, abs=0.03e-3)
