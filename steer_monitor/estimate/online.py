@@ -50,6 +50,8 @@ KEEP_NS = 3_000_000_000         # raw samples kept behind the processed edge
 CHUNK_NS = 1_000_000_000
 FULL_EVERY_S = 300.0            # seconds of motion between full profiles
 LOCAL = 1                       # local search: +-1 grid step on each axis (a hill climb)
+REPROFILE_EVERY_S = 30.0        # at most one extra full profile per this much motion when a local
+                                # step leaves the interval (between them the step is not taken)
 RESID_KEEP = 8000               # recent rows (ram x instant) kept for the inflation factor
 STATE_VERSION = 1
 _INPUTS = ('rudder_angle',) + PRESSURE_INPUTS + ('ship_speed',)
@@ -219,8 +221,11 @@ class OnlineEstimator:
         if prev is not None and not (_inside(prev.two_z, tz) and _inside(prev.z_gb, zg)):
             # the local step left the last full profile's interval: the profile has moved
             # (or the step is in a local minimum); a point outside its own interval is not
-            # an answer, so profile again
-            return self._full()
+            # an answer: profile again, or, if one was made within the last
+            # REPROFILE_EVERY_S of motion, keep the estimate as it is until then
+            if self._motion_since_full >= REPROFILE_EVERY_S:
+                return self._full()
+            return False
         self._best = (int(gi[bi]), int(gj[bj]))
         self._coef = pr.coef
         self.estimate = OnlineEstimate(_moved(prev.two_z, tz) if prev else Interval(tz, None, None),
