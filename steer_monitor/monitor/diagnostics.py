@@ -159,7 +159,7 @@ class DiagnosticsBuilder:
         onset = self.guide_onset_deg(mon.gaps)
         state = mon.state
         k_now = state.share.k_gl if state is not None and state.share is not None else None
-        values = [('k_gl', _f(k_now)), ('guide_onset_deg', _f(onset, '.1f')),
+        values = [('k_gl', _f(k_now)), ('guide_onset_deg', _f(onset, '.2f')),
                   ('guide_idle_warn_deg', f'{self.cfg.guide_idle_warn_deg:g}')]
         if state is not None and state.share is not None:
             values += [('rudder_angle_deg', f'{math.degrees(state.alpha):.2f}'),
@@ -169,9 +169,9 @@ class DiagnosticsBuilder:
         if onset is None or onset > self.cfg.guide_idle_warn_deg:
             level = WARN
             message = ('guide beam carries nothing over the whole range' if onset is None else
-                       f'guide beam idle up to {onset:.1f} deg (warn above {self.cfg.guide_idle_warn_deg:g} deg)')
+                       f'guide beam idle up to {onset:.2f} deg (warn above {self.cfg.guide_idle_warn_deg:g} deg)')
         else:
-            level, message = OK, f'guide beam carries load from {onset:.1f} deg'
+            level, message = OK, f'guide beam carries load from {onset:.2f} deg'
         if k_now is not None:
             message += f'; K_gl now {k_now:.2f}'
         return self._status('guide beam', level, message, values)

@@ -104,7 +104,9 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
         in_use = Gaps.from_mm(float(cl['clearance_2z_mm']), float(cl['clearance_zgb_mm']))
         sweep, _ = loadshare_rows(gear_from_params(r18_params), in_use, None, 0.1)
         assert float(_values(gb)['guide_onset_deg']) == pytest.approx(sweep['landmarks']['guide_onset_deg'], abs=0.6)
-        assert _level(gb) == (WARN if float(_values(gb)['guide_onset_deg']) > 10.0 else OK)
+        onset = float(_values(gb)['guide_onset_deg'])   # shown to 0.01 deg; judged unrounded
+        if abs(onset - 10.0) > 0.005:
+            assert _level(gb) == (WARN if onset > 10.0 else OK)
         perf = d['steer_monitor: steering performance']
         assert _level(perf) == OK
         assert float(_values(perf)['hard_over_s']) == pytest.approx(25.5, abs=0.6)
