@@ -28,7 +28,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, FrameArrays
-from steer_monitor.can.logs import CAN_ERR_FLAG, READ_SUFFIXES, LogError, _candump_line, _suffix, iter_log, open_log
+from steer_monitor.can.logs import (CAN_ERR_FLAG, READ_SUFFIXES, LogError, _candump_line, _suffix, candump_line,
+                                   iter_log, open_log)
 from steer_monitor.can.mcapio import FRAME_DATATYPE
 from steer_monitor.can.rejects import RejectCounter
 
@@ -51,7 +52,7 @@ _DEC[48:58] = np.arange(10)
 def _field(a: NDArray[np.uint8], start: NDArray[np.intp], end: NDArray[np.intp], lut: NDArray[np.uint8],
            base: int) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
     """Numbers in ``a[start:end]`` per row (digits of ``base`` via ``lut``), all rows at once
-    (grouped by width). Returns (values, valid)."""
+    (grouped by width, each group by :func:`_digits`). Returns (values, valid)."""
     n = start.size
     values = np.zeros(n, np.int64)
     valid = np.ones(n, bool)
@@ -61,10 +62,21 @@ def _field(a: NDArray[np.uint8], start: NDArray[np.intp], end: NDArray[np.intp],
         if w <= 0 or w > 18:
             valid[rows] = False
             continue
-        digits = lut[a[start[rows, None] + np.arange(w)]].astype(np.int64)
-        valid[rows] = (digits < base).all(axis=1)
-        values[rows] = digits @ (base ** np.arange(w - 1, -1, -1, dtype=np.int64))
+        values[rows], valid[rows] = _digits(a[start[rows, None] + np.arange(w)], lut, base)
     return values, valid
+
+
+def _assemble(sec: NDArray[np.int64], frac: NDArray[np.int64], frac_width: Any, ident: NDArray[np.int64],
+              id_width: Any, nbytes: Any, data: NDArray[np.uint8], good: NDArray[np.bool_]) -> FrameArrays:
+    """The frames of the ``good`` lines from their parsed fields (widths and payload lengths
+    per line, or one for all)."""
+    t_ns = sec * 1_000_000_000 + frac * 10 ** (9 - frac_width)
+    extended = np.broadcast_to(id_width == 8, good.shape)
+    is_error = extended & ((ident & CAN_ERR_FLAG) != 0)
+    flags = (FLAG_EXTENDED * extended | FLAG_ERROR * is_error).astype(np.uint8)
+    nbytes = np.broadcast_to(nbytes, good.shape)
+    return FrameArrays(t_ns[good].astype(np.int64), (ident[good] & 0x1FFFFFFF).astype(np.uint32),
+                       nbytes[good].astype(np.uint8), data[good], flags[good])
 
 
 def _fields(a: NDArray[np.uint8], s: NDArray[np.intp], e: NDArray[np.intp], dot: NDArray[np.intp],
@@ -87,13 +99,7 @@ def _fields(a: NDArray[np.uint8], s: NDArray[np.intp], e: NDArray[np.intp], dot:
         lo = _HEX[a[np.where(has, hs + 2 + 2 * k, 0)]]
         good &= ~has | ((hi < 16) & (lo < 16))
         data[:, k] = np.where(has, (hi.astype(np.uint16) << 4 | lo) & 0xFF, 0)
-    t_ns = sec * 1_000_000_000 + frac * (10 ** (9 - (cp - dot - 1)))
-    extended = (hs - sp2 - 1) == 8
-    is_error = extended & ((ident & CAN_ERR_FLAG) != 0)
-    flags = (FLAG_EXTENDED * extended | FLAG_ERROR * is_error).astype(np.uint8)
-    fa = FrameArrays(t_ns[good].astype(np.int64), (ident[good] & 0x1FFFFFFF).astype(np.uint32),
-                     nbytes[good].astype(np.uint8), data[good], flags[good])
-    return fa, good
+    return _assemble(sec, frac, cp - dot - 1, ident, hs - sp2 - 1, nbytes, data, good), good
 
 
 def _shape_ok(s: NDArray[np.intp], e: NDArray[np.intp], dot: NDArray[np.intp], cp: NDArray[np.intp],
@@ -126,14 +132,7 @@ def _matrix_frames(m: NDArray[np.uint8], dot: int, cp: int, sp2: int, hs: int, l
     good = v1 & v2 & v3 & (d < 16).all(axis=1) & (sec < 9_223_372_035)
     data = np.zeros((m.shape[0], MAX_DLC), np.uint8)
     data[:, :nb] = (d[:, 0::2] << 4) | d[:, 1::2]
-    t_ns = sec * 1_000_000_000 + frac * 10 ** (9 - (cp - dot - 1))
-    extended = (hs - sp2 - 1) == 8
-    flags = np.full(m.shape[0], FLAG_EXTENDED if extended else 0, np.uint8)
-    if extended:
-        flags |= np.where((ident & CAN_ERR_FLAG) != 0, FLAG_ERROR, 0).astype(np.uint8)
-    fa = FrameArrays(t_ns[good], (ident[good] & 0x1FFFFFFF).astype(np.uint32), np.full(int(good.sum()), nb, np.uint8),
-                     data[good], flags[good])
-    return fa, good
+    return _assemble(sec, frac, cp - dot - 1, ident, hs - sp2 - 1, nb, data, good), good
 
 
 def _templates(a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp]
@@ -158,16 +157,12 @@ def _templates(a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.
         dot, cp, sp1, sp2, hs = m0.end(1), m0.end(2), m0.end(2) + 1, m0.end(3), m0.end(4)
         if (L - hs - 1) % 2 or L - hs - 1 > 16 or cp - dot - 1 > 9:
             continue
-        if count == n and starts[0] == 0 and (n == 1 or (starts[-1] == (n - 1) * (L + 1 + (a[L] == 13)))):
-            stride = int(starts[1] - starts[0]) if n > 1 else L + 1
-            if stride * n <= a.size + 1 and (n == 1 or (np.diff(starts) == stride).all()):
-                m = np.lib.stride_tricks.as_strided(a, shape=(n, L), strides=(stride, 1))
-                rows = np.arange(n)
-            else:
-                rows = np.nonzero(length == L)[0]
-                m = a[starts[rows, None] + np.arange(L)]
+        rows = np.nonzero(length == L)[0]
+        stride = int(starts[1] - starts[0]) if n > 1 else L + 1
+        if count == n and starts[0] == 0 and (n == 1 or (np.diff(starts) == stride).all()):
+            # every line of the block in this layout, evenly spaced: a view, no copy
+            m = np.lib.stride_tricks.as_strided(a, shape=(n, L), strides=(stride, 1))
         else:
-            rows = np.nonzero(length == L)[0]
             m = a[starts[rows, None] + np.arange(L)]
         check = (m[:, 0] == ord('(')) & (m[:, dot] == ord('.')) & (m[:, cp] == ord(')'))
         check &= (m[:, sp1] == 32) & (m[:, sp2] == 32) & (m[:, hs] == ord('#'))
@@ -535,27 +530,16 @@ def write_candump_arrays(fh: IO[bytes], fa: FrameArrays, channel: str = 'can0') 
     ext = (fa.flags & FLAG_EXTENDED) != 0
     err = (fa.flags & FLAG_ERROR) != 0
     rtr = (fa.flags & FLAG_REMOTE) != 0
-    if (~ext).any() or err.any() or rtr.any() or (fa.dlc > MAX_DLC).any():
-        from steer_monitor.can.logs import LogWriter
-        lw = LogWriter.__new__(LogWriter)
-        lw.suffix, lw.channel, lw._fh, lw._closed = '.log', channel, _TextAdapter(fh), False
-        for f in fa.frames():
-            lw.write(f)
-        return
     sec, ns = np.divmod(fa.t_ns, 1_000_000_000)
+    sec_txt = sec.astype('U20').astype('S20')
+    width_sec = np.char.str_len(sec_txt)
+    if (~ext).any() or err.any() or rtr.any() or (fa.dlc > MAX_DLC).any() or (width_sec != width_sec[0]).any():
+        # not one fixed layout: line by line
+        fh.write(''.join(candump_line(f, channel) for f in fa.frames()).encode('ascii'))
+        return
     usec = ns // 1000
     hexd = np.frombuffer(b'0123456789ABCDEF', np.uint8)
     chan = channel.encode()
-    # fixed-width pieces per row, then the payload (variable) cut per dlc group
-    sec_txt = sec.astype('U20').astype('S20')
-    out_rows: list[bytes] = []
-    width_sec = np.char.str_len(sec_txt)
-    if (width_sec != width_sec[0]).any():
-        for i in range(n):
-            out_rows.append(b'(%d.%06d) %s %08X#%s\n' % (sec[i], usec[i], chan, fa.can_id[i],
-                                                          bytes(fa.data[i, :fa.dlc[i]]).hex().upper().encode()))
-        fh.write(b''.join(out_rows))
-        return
     ws = int(width_sec[0])
     max_d = int(fa.dlc.max())
     line_w = 1 + ws + 1 + 6 + 2 + len(chan) + 1 + 8 + 1 + 2 * max_d + 1
@@ -591,10 +575,3 @@ def write_candump_arrays(fh: IO[bytes], fa: FrameArrays, channel: str = 'can0') 
     keep = np.arange(line_w) <= ends[:, None]
     fh.write(m[keep].tobytes())
 
-
-class _TextAdapter:
-    def __init__(self, fh: IO[bytes]) -> None:
-        self.fh = fh
-
-    def write(self, s: str) -> None:
-        self.fh.write(s.encode('ascii'))

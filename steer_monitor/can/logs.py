@@ -23,7 +23,8 @@ from steer_monitor.can.mcapio import McapWriter, iter_mcap_frames
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
 
-__all__ = ['READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'iter_log', 'open_log', 'read_log_arrays']
+__all__ = ['READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'candump_line', 'iter_log', 'open_log',
+           'read_log_arrays']
 
 READ_SUFFIXES = ('.log', '.asc', '.blf', '.mcap')
 WRITE_SUFFIXES = ('.log', '.blf', '.mcap')
@@ -128,6 +129,17 @@ def read_log_arrays(path: str | Path, rejects: RejectCounter | None = None) -> F
     return FrameArrays.from_frames(iter_log(path, rejects))
 
 
+def candump_line(frame: Frame, channel: str) -> str:
+    """A frame as a candump ``-L`` line (with its newline), time to the microsecond."""
+    if frame.is_error:
+        ident = f'{CAN_ERR_FLAG | frame.can_id:08X}'
+    else:
+        ident = f'{frame.can_id:08X}' if frame.is_extended else f'{frame.can_id:03X}'
+    body = 'R' if frame.is_remote else frame.data.hex().upper()
+    sec, ns = divmod(frame.t_ns, 1_000_000_000)
+    return f'({sec}.{ns // 1000:06d}) {channel} {ident}#{body}\n'
+
+
 class LogWriter:
     """Write frames to ``.log`` (candump -L), ``.blf`` or ``.mcap``.
 
@@ -154,13 +166,7 @@ class LogWriter:
 
     def write(self, frame: Frame) -> None:
         if self.suffix == '.log':
-            if frame.is_error:
-                ident = f'{CAN_ERR_FLAG | frame.can_id:08X}'
-            else:
-                ident = f'{frame.can_id:08X}' if frame.is_extended else f'{frame.can_id:03X}'
-            body = 'R' if frame.is_remote else frame.data.hex().upper()
-            sec, ns = divmod(frame.t_ns, 1_000_000_000)
-            self._fh.write(f'({sec}.{ns // 1000:06d}) {self.channel} {ident}#{body}\n')
+            self._fh.write(candump_line(frame, self.channel))
         elif self.suffix == '.mcap':
             self._fh.write_frame(frame)
         else:
