@@ -10,9 +10,10 @@ line or MCAP summary, says where the windows fall). The results are the same as 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from steer_monitor.can.decoder import Decoder
 from steer_monitor.can.fastlogs import in_time_order, iter_log_blocks, log_end_ns
@@ -37,21 +38,29 @@ class BatchRun:
     errors: list[str]
 
 
-def _produce(paths: list[Path], db: object, smap: object, out: object) -> None:
-    """Read and decode ``paths`` in order; put ('block', signals, frames), ('error', text) and
-    finally ('done', reject counts) on the queue ``out``."""
-    rejects = RejectCounter()
+def _decoded(paths: list[Path], db: object, smap: object, rejects: RejectCounter
+             ) -> Iterator[tuple[str, Any, int]]:
+    """Read and decode ``paths`` in order: ('block', signals, frames) per block, ('error',
+    text, 0) for a log that breaks off, and last ('done', reject counts, 0)."""
     decoder = Decoder(db, smap, rejects)  # type: ignore[arg-type]
+    for path in paths:
+        try:
+            for block in iter_log_blocks(path, rejects):
+                yield 'block', decoder.decode_arrays(block), len(block)
+        except LogError as exc:
+            yield 'error', str(exc), 0
+    yield 'done', dict(rejects.snapshot().counts), 0
+
+
+def _produce(paths: list[Path], db: object, smap: object, out: object) -> None:
+    """:func:`_decoded` in a second process, onto the queue ``out``."""
+    rejects = RejectCounter()
     try:
-        for path in paths:
-            try:
-                for block in iter_log_blocks(path, rejects):
-                    out.put(('block', decoder.decode_arrays(block), len(block)))  # type: ignore[attr-defined]
-            except LogError as exc:
-                out.put(('error', str(exc), 0))  # type: ignore[attr-defined]
+        for item in _decoded(paths, db, smap, rejects):
+            out.put(item)  # type: ignore[attr-defined]
     except BaseException as exc:   # a defect: say so rather than leave the reader waiting
         out.put(('error', f'reading failed: {type(exc).__name__}: {exc}', 0))  # type: ignore[attr-defined]
-    out.put(('done', dict(rejects.snapshot().counts), 0))  # type: ignore[attr-defined]
+        out.put(('done', dict(rejects.snapshot().counts), 0))  # type: ignore[attr-defined]
 
 
 def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *, jobs: int | None = None,
@@ -73,45 +82,33 @@ def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *,
     frames = 0
     errors: list[str] = []
     counts: dict[str, int] = {}
+    proc = None
     if jobs > 1:
         ctx = mp.get_context('fork')
         queue = ctx.Queue(maxsize=4)
         proc = ctx.Process(target=_produce, args=(paths, db, smap, queue), daemon=True)
         proc.start()
-        try:
-            while True:
-                kind, payload, n = queue.get()
-                if kind == 'block':
-                    frames += n
-                    review.add(payload)
-                    if end is not None and frames == n:
-                        review.plan(end)
-                    if progress is not None:
-                        progress(n)
-                elif kind == 'error':
-                    errors.append(payload)
-                else:
-                    counts = payload
-                    break
-        finally:
+        items: Iterator[tuple[str, Any, int]] = iter(queue.get, None)
+    else:
+        items = _decoded(paths, db, smap, RejectCounter())
+    try:
+        for kind, payload, n in items:
+            if kind == 'block':
+                frames += n
+                review.add(payload)
+                if end is not None and frames == n:
+                    review.plan(end)
+                if progress is not None:
+                    progress(n)
+            elif kind == 'error':
+                errors.append(payload)
+            else:
+                counts = payload
+                break
+    finally:
+        if proc is not None:
             proc.join(5)
             if proc.is_alive():
                 proc.kill()
-        result = review.finish()
-    else:
-        rejects = RejectCounter()
-        decoder = Decoder(db, smap, rejects)
-        for path in paths:
-            try:
-                for block in iter_log_blocks(path, rejects):
-                    frames += len(block)
-                    review.add(decoder.decode_arrays(block))
-                    if end is not None and frames == len(block):
-                        review.plan(end)
-                    if progress is not None:
-                        progress(len(block))
-            except LogError as exc:
-                errors.append(str(exc))
-        counts = dict(rejects.snapshot().counts)
-        result = review.finish()
+    result = review.finish()
     return BatchRun(result, [str(p) for p in paths], frames, dict(sorted(counts.items())), errors)
