@@ -26,6 +26,7 @@ import yaml
 
 from steer_monitor.errors import ParameterError
 from steer_monitor.model.fits import parse_fit
+from steer_monitor.model.friction import FrictionParams
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.torque import TorqueCurve
 
@@ -33,6 +34,7 @@ __all__ = [
     'NODE_NAME',
     'PARAMETERS',
     'ParamSpec',
+    'friction_from_params',
     'gaps_from_params',
     'min_clearance_2z_from_params',
     'gear_from_params',
@@ -347,6 +349,11 @@ def gear_from_params(p: Mapping[str, Any]) -> GearParams:
 def gaps_from_params(p: Mapping[str, Any]) -> Gaps:
     """The configured clearances (SI) from validated parameters."""
     return Gaps.from_mm(p['clearances.gap_2z_mm'], p['clearances.gap_zgb_mm'])
+
+
+def friction_from_params(p: Mapping[str, Any]) -> FrictionParams:
+    """The configured friction (F_s [N], mu_b, mu_g) the live model uses until estimated."""
+    return FrictionParams(p['model.seal_friction_n'], p['model.mu_bushing'], p['model.mu_guide'])
 
 
 def min_clearance_2z_from_params(p: Mapping[str, Any]) -> float:

@@ -28,13 +28,12 @@ from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, 
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import can_setup
 from steer_monitor.errors import SteerMonitorError
-from steer_monitor.estimate.online import OnlineEstimate, OnlineEstimator
-from steer_monitor.model.friction import FrictionParams
+from steer_monitor.estimate.online import OnlineEstimate
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig
 from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages, topic_name
-from steer_monitor.monitor.pipeline import Output, Pipeline, StateOut, SyncEstimatorJobs
-from steer_monitor.params import gaps_from_params, gear_from_params, load_params_file, min_clearance_2z_from_params
+from steer_monitor.monitor.pipeline import Output, Pipeline, StateOut, SyncEstimatorJobs, estimator_from_params
+from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params, load_params_file
 from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.record.msgdefs import msgdef
 from steer_monitor.resources import default_config
@@ -83,16 +82,13 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
     db, smap = can_setup(params, config_path)
     gear = gear_from_params(params)
     rejects = RejectCounter()
-    monitor = LiveMonitor(gear, gaps_from_params(params), 'configured',
-                          FrictionParams(params['model.seal_friction_n'], params['model.mu_bushing'],
-                                         params['model.mu_guide']))
+    monitor = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params))
     diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(params), smap, gear)
     summary = ReplaySummary(str(output), [str(p) for p in paths])
     est = None
     jobs = None
     if estimator and params['estimator.enabled']:
-        est = OnlineEstimator(gear, min_clearance_2z=min_clearance_2z_from_params(params),
-                              half_life_s=params['estimator.half_life_h'] * 3600.0)
+        est = estimator_from_params(gear, params)
         jobs = SyncEstimatorJobs(est, on_error=lambda exc: summary.errors.append(f'estimator update failed: {exc}'))
     pipeline = Pipeline(Decoder(db, smap, rejects), rejects, monitor, diag, jobs)
     topics = {key: topic_name(key, node_name) for key in TOPICS}

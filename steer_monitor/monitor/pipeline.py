@@ -29,10 +29,10 @@ from __future__ import annotations
 import math
 import threading
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
 
 from steer_monitor.can.decoder import Decoder, Sample
 from steer_monitor.can.frames import Frame
@@ -40,12 +40,13 @@ from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
 from steer_monitor.estimate.online import OnlineEstimate, OnlineEstimator
 from steer_monitor.model.friction import FrictionParams
-from steer_monitor.model.gear import Gaps
+from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, Status
 from steer_monitor.monitor.live import LiveMonitor, LiveState
+from steer_monitor.params import min_clearance_2z_from_params
 
 __all__ = ['APPLY_DELAY_NS', 'MAX_GAP_SECONDS', 'SECOND_NS', 'SLOT_NS', 'DiagOut', 'EstimatorJobs', 'Pipeline', 'StateOut',
-           'SyncEstimatorJobs', 'ThreadedEstimatorJobs', 'apply_estimate', 'plausible']
+           'SyncEstimatorJobs', 'ThreadedEstimatorJobs', 'apply_estimate', 'estimator_from_params', 'plausible']
 
 SLOT_NS = 10_000_000
 SECOND_NS = 1_000_000_000
@@ -92,11 +93,25 @@ class EstimatorJobs(Protocol):
     def close(self) -> None: ...
 
 
-def _job(est: OnlineEstimator, samples: list[Sample]) -> EstimateSnapshot | None:
-    for s in samples:
-        est.add(s)
-    if est.update() and est.estimate is not None:
-        return EstimateSnapshot(est.estimate, est.motion_s)
+def estimator_from_params(gear: GearParams, p: Mapping[str, Any]) -> OnlineEstimator:
+    """A fresh online estimator as the parameters configure it (grid from the new fit's 2Z,
+    forgetting half-life)."""
+    return OnlineEstimator(gear, min_clearance_2z=min_clearance_2z_from_params(p),
+                           half_life_s=p['estimator.half_life_h'] * 3600.0)
+
+
+def _job(est: OnlineEstimator, samples: list[Sample],
+         on_error: Callable[[SteerMonitorError], None] | None) -> EstimateSnapshot | None:
+    """One job: the samples in, an update; the new estimate, or None (no change, or an update
+    that failed, which ``on_error`` hears: it guards a defect, the monitoring goes on)."""
+    try:
+        for s in samples:
+            est.add(s)
+        if est.update() and est.estimate is not None:
+            return EstimateSnapshot(est.estimate, est.motion_s)
+    except SteerMonitorError as exc:
+        if on_error is not None:
+            on_error(exc)
     return None
 
 
@@ -108,12 +123,7 @@ class SyncEstimatorJobs:
         self.on_error = on_error
 
     def submit(self, samples: list[Sample]) -> object:
-        try:
-            return _job(self.est, samples)
-        except SteerMonitorError as exc:   # guards a defect: report, keep monitoring
-            if self.on_error is not None:
-                self.on_error(exc)
-            return None
+        return _job(self.est, samples, self.on_error)
 
     def result(self, handle: object) -> EstimateSnapshot | None:
         return handle  # type: ignore[return-value]
@@ -137,11 +147,7 @@ class ThreadedEstimatorJobs:
 
     def _run(self, samples: list[Sample]) -> EstimateSnapshot | None:
         try:
-            return _job(self.est, samples)
-        except SteerMonitorError as exc:
-            if self.on_error is not None:
-                self.on_error(exc)
-            return None
+            return _job(self.est, samples, self.on_error)
         finally:
             if self.after is not None:
                 self.after()
@@ -308,12 +314,11 @@ class Pipeline:
         if self.jobs is not None:
             samples, self._samples = self._samples, []
             self._pending.append((k_ns + APPLY_DELAY_NS, self.jobs.submit(samples)))
-        statuses = self.diag.build(mon, self.rejects.snapshot(), k_ns)
-        interval = dict(mon.gaps_interval) if mon.gaps_interval else None
-        out.append(DiagOut(k_ns, tuple(statuses), mon.gaps, interval, mon.gaps_source))
+        out.append(self.diagnostics_now(k_ns))
 
     def diagnostics_now(self, now_ns: int) -> DiagOut:
-        """Diagnostics at an arbitrary time (live: the bus is silent, so no second boundary
+        """Diagnostics at ``now_ns`` with the clearances then in use. Each whole second takes
+        them here; live, also at other times while the bus is silent (no second boundary
         comes; STALE shows here). Does not touch the schedule."""
         mon = self.monitor
         statuses = self.diag.build(mon, self.rejects.snapshot(), now_ns)

@@ -33,15 +33,14 @@ from steer_monitor.can.setup import can_setup
 from steer_monitor.errors import ParameterError, SteerMonitorError
 from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.estimate.online import OnlineEstimator
-from steer_monitor.model.friction import FrictionParams
 from steer_monitor.monitor.diagnostics import ERROR, OK, DiagnosticsBuilder, DiagnosticsConfig, Status
 from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages
 from steer_monitor.monitor.pipeline import (DiagOut, EstimateSnapshot, Output, Pipeline, StateOut,
-                                            ThreadedEstimatorJobs, apply_estimate)
+                                            ThreadedEstimatorJobs, apply_estimate, estimator_from_params)
 from steer_monitor.node.params_ros import declare_parameters
 from steer_monitor.node.rosmsg import message_class, to_ros
-from steer_monitor.params import gaps_from_params, gear_from_params, min_clearance_2z_from_params
+from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
 from steer_monitor.record.msgdefs import msgdef
 from steer_monitor.record.recorder import Recorder
 
@@ -67,8 +66,7 @@ class MonitorNode(Node):
         db, smap = can_setup(p, config_path)
         self.smap = smap
         self.rejects = RejectCounter()
-        self.monitor = LiveMonitor(self.gear, gaps_from_params(p), 'configured',
-                                   FrictionParams(p['model.seal_friction_n'], p['model.mu_bushing'], p['model.mu_guide']))
+        self.monitor = LiveMonitor(self.gear, gaps_from_params(p), 'configured', friction_from_params(p))
         self.diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(p), smap, self.gear)
         self.diag.guide_onset_deg(self.monitor.gaps)  # warm the cache before the first frame
         self.recorder: Recorder | None = None
@@ -101,9 +99,7 @@ class MonitorNode(Node):
     # --- estimator ---------------------------------------------------------------------------
     def _start_estimator(self) -> ThreadedEstimatorJobs:
         p = self.params
-        self.estimator = est = OnlineEstimator(self.gear,
-                                               min_clearance_2z=min_clearance_2z_from_params(p),
-                                               half_life_s=p['estimator.half_life_h'] * 3600.0)
+        self.estimator = est = estimator_from_params(self.gear, p)
         path = self._state_path()
         if path:
             from pathlib import Path
