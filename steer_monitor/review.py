@@ -36,8 +36,7 @@ from numpy.typing import NDArray
 from steer_monitor.can.decoder import Series, SignalSet
 from steer_monitor.estimate import fit as F
 from steer_monitor.estimate.batch import (MIN_MOTION_SAMPLES, ClearanceEstimate, coarse_profile,
-                                          estimate_from_moments, make_rows, predict_rows, search_box)
-from steer_monitor.estimate.intervals import inflation
+                                          estimate_from_moments, make_rows, residuals_and_inflation, search_box)
 from steer_monitor.estimate.moments import Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations, build_observations
 from steer_monitor.model.gear import Gaps, GearParams
@@ -110,14 +109,13 @@ def _tail(s: Series, from_ns: int) -> Series:
 class Review:
     """See the module docstring. ``gaps``: the configured clearances (used when the log
     cannot estimate them). ``window_ns``: the estimate's time step (default: the span in up
-    to ``MAX_WINDOWS`` steps of whole 10 minutes, decided at the end)."""
+    to ``MAX_WINDOWS`` steps of whole 10 minutes, decided by :meth:`plan` or at the end)."""
 
     def __init__(self, gear: GearParams, gaps: Gaps, *, min_clearance_2z: float = 0.0,
                  window_ns: int | None = None) -> None:
         self.gear = gear
         self.gaps = gaps
         self.grid_2z = F.GRID_2Z[F.GRID_2Z >= min_clearance_2z - 1e-12]
-        self.window_ns = window_ns
         self._buf: SignalSet = {}
         self._done: int | None = None
         self._latest: int | None = None
@@ -300,10 +298,8 @@ class Review:
         basis = F.TorqueBasis(self.gear.max_rudder)
         bi, bj = pr.best
         load = F.axial_load(self.gear, basis, rows.moments, pr.coef)
-        pred = predict_rows(self.gear, basis, rows, pr.coef, float(g2[bi]), float(gz[bj]), load)
-        resid = np.full((len(tail), 2), np.nan)
-        resid[rows.obs_index, rows.ram] = rows.u[:, -1] - pred
-        return inflation(resid[rows.obs_index], tail.t_ns[rows.obs_index], GRID_NS)
+        return residuals_and_inflation(self.gear, basis, rows, tail.t_ns, pr.coef, float(g2[bi]), float(gz[bj]),
+                                       load)[1]
 
 
 def _concat_obs(parts: list[Observations]) -> Observations:

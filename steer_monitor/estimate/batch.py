@@ -142,6 +142,17 @@ def predict_rows(gear: GearParams, basis: F.TorqueBasis, rows: Rows, coef: NDArr
     return (cols[rows.bin_of_row] * rows.u[:, zs]) @ coef
 
 
+def residuals_and_inflation(gear: GearParams, basis: F.TorqueBasis, rows: Rows, t_ns: NDArray[np.int64],
+                            coef: NDArray[np.float64], two_z: float, z_gb: float, load: NDArray[np.float64],
+                            extra: Sequence[F.Column] = ()) -> tuple[NDArray[np.float64], float]:
+    """The ram-force residual per observation and ram, shape (len(t_ns), 2) [N] (NaN where no
+    row), at a fit, and the variance inflation of its autocorrelation."""
+    pred = predict_rows(gear, basis, rows, coef, two_z, z_gb, load, extra)
+    resid = np.full((t_ns.size, 2), np.nan)
+    resid[rows.obs_index, rows.ram] = rows.u[:, -1] - pred
+    return resid, inflation(resid[rows.obs_index], t_ns[rows.obs_index], GRID_NS)
+
+
 def _profile_fit(gear: GearParams, basis: F.TorqueBasis, mom: Moments, extra: Sequence[F.Column],
                  grid_2z: NDArray, grid_zgb: NDArray, load: NDArray[np.float64] | None
                  ) -> tuple[F.Profile, F.FitAt, float, float, NDArray[np.float64]]:
@@ -214,10 +225,7 @@ def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: 
     basis = F.TorqueBasis(gear.max_rudder)
     mom = rows.moments
     pr, best, tz, zg, load = _profile_fit(gear, basis, mom, extra, grid_2z, grid_zgb, load)
-    pred = predict_rows(gear, basis, rows, best.coef, tz, zg, load, extra)
-    resid = np.full((len(obs), 2), np.nan)
-    resid[rows.obs_index, rows.ram] = rows.u[:, -1] - pred
-    vif = inflation(resid[rows.obs_index], obs.t_ns[rows.obs_index], GRID_NS)
+    resid, vif = residuals_and_inflation(gear, basis, rows, obs.t_ns, best.coef, tz, zg, load, extra)
     noise, smooth = residual_parts(resid, obs.t_ns)
     max_seen = float(np.nanmax(np.abs(obs.alpha[rows.obs_index])))
     return _bound(gear, basis, mom, pr, best, tz, zg, load, extra, vif, max_seen, resid, noise, smooth)
