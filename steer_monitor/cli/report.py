@@ -16,10 +16,10 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from steer_monitor.cli.output import dump_json
+from steer_monitor.monitor.messages import CLEARANCE_LABELS
 
 __all__ = ['online_track', 'register', 'run']
 
-CLEARANCE_LABEL = 'gap_2z_m,gap_2z_lo_m,gap_2z_hi_m,gap_zgb_m,gap_zgb_lo_m,gap_zgb_hi_m'
 
 
 def online_track(paths: list[Path]) -> Any:
@@ -44,7 +44,7 @@ def online_track(paths: list[Path]) -> Any:
                     continue
                 for _, _, message, msg in reader.iter_decoded_messages(topics=topics):
                     dims = msg.layout.dim
-                    if dims and dims[0].label == CLEARANCE_LABEL and len(msg.data) == 6:
+                    if dims and dims[0].label == ','.join(CLEARANCE_LABELS) and len(msg.data) == 6:
                         rows.append((message.log_time, list(msg.data)))
         except Exception:   # a recording cut short has no summary: the plot goes without it
             continue
@@ -56,7 +56,7 @@ def online_track(paths: list[Path]) -> Any:
     return OnlineTrack(t, *(d[:, k] for k in range(6)))
 
 
-def _analysis(paths: list[Path], config: Path | None, since_ns: int) -> tuple[Any, str]:
+def _analysis(paths: list[Path], config_path: Path, params: dict[str, Any], since_ns: int) -> tuple[Any, str]:
     from steer_monitor.can.decoder import Decoder
     from steer_monitor.can.fastlogs import iter_log_blocks
     from steer_monitor.can.frames import FrameArrays
@@ -65,11 +65,8 @@ def _analysis(paths: list[Path], config: Path | None, since_ns: int) -> tuple[An
     from steer_monitor.can.setup import can_setup
     from steer_monitor.estimate.analyze import analyze
     from steer_monitor.estimate.observe import EstimateError
-    from steer_monitor.params import gear_from_params, load_params_file, min_clearance_2z_from_params
-    from steer_monitor.resources import default_config
+    from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
 
-    config_path = config or default_config()
-    params = load_params_file(config_path)
     db, smap = can_setup(params, config_path)
     parts = []
     for path in paths:
@@ -116,7 +113,7 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
     r = batch.review
     analysis, note = None, 'no data'
     if len(r.t_ns) and analysis_hours > 0:
-        analysis, note = _analysis(paths, config_path, int(r.t_ns[-1] - analysis_hours * 3.6e12))
+        analysis, note = _analysis(paths, config_path, params, int(r.t_ns[-1] - analysis_hours * 3.6e12))
     elif analysis_hours == 0:
         note = 'model check not asked for (--analysis-hours 0)'
     title = ', '.join(p.name for p in paths)
