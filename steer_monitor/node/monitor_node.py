@@ -21,9 +21,11 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 from rclpy.node import Node
+from rclpy.serialization import serialize_message
 
 from steer_monitor.can.bus import BusReader, ListenOnlyBus
 from steer_monitor.can.decoder import Decoder
@@ -101,9 +103,8 @@ class MonitorNode(Node):
         p = self.params
         self.estimator = est = estimator_from_params(self.gear, p)
         path = self._state_path()
-        if path:
-            from pathlib import Path
-            if Path(path).exists():
+        if path is not None:
+            if path.exists():
                 try:
                     est.load(path)
                     self.get_logger().info(f'estimator state loaded from {path}: '
@@ -122,22 +123,18 @@ class MonitorNode(Node):
             self._save_estimator()
             self._last_save = time.monotonic()
 
-    def _state_path(self) -> str:
-        """The estimator's state file: a relative name lives in the recording directory (not in
-        whatever directory the node was started from)."""
-        import os
-        path = self.params['estimator.state_file']
-        if path and not os.path.isabs(path):
-            path = os.path.join(self.params['recording.directory'], path)
-        return path
+    def _state_path(self) -> Path | None:
+        """The estimator's state file (None: not kept): a relative name lives in the recording
+        directory (not in whatever directory the node was started from)."""
+        name = self.params['estimator.state_file']
+        return Path(self.params['recording.directory'], name) if name else None
 
     def _save_estimator(self) -> None:
         path = self._state_path()
-        if self.estimator is None or not path:
+        if self.estimator is None or path is None:
             return
         try:
-            from pathlib import Path
-            Path(path).parent.mkdir(parents=True, exist_ok=True)
+            path.parent.mkdir(parents=True, exist_ok=True)
             self.estimator.save(path)
         except OSError as exc:
             self.get_logger().error(f'cannot save the estimator state to {path}: {exc}')
@@ -156,7 +153,6 @@ class MonitorNode(Node):
         msg = to_ros(datatype, fields)
         pub.publish(msg)
         if self.recorder is not None:
-            from rclpy.serialization import serialize_message
             self.recorder.write(pub.topic_name, serialize_message(msg), t_ns)
 
     def _publish_outputs(self, outs: list[Output]) -> None:
