@@ -19,7 +19,7 @@ from steer_monitor.can.signals import REQUIRED, SignalMap
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.loadshare import load_sharing_at
 from steer_monitor.model.study import landmarks
-from steer_monitor.monitor.live import LiveMonitor
+from steer_monitor.monitor.live import ARRIVALS_KEPT_NS, RATE_WINDOW_NS, LiveMonitor
 
 __all__ = ['ERROR', 'OK', 'STALE', 'WARN', 'DiagnosticsBuilder', 'DiagnosticsConfig', 'Status']
 
@@ -105,7 +105,10 @@ class DiagnosticsBuilder:
             silent = mon.silent_for(spec.name, now_ns)
             # A slow signal is stale only after missing several of its own periods.
             limit = max(self.cfg.stale_after_s, 3.0 / spec.rate_hz)
-            rate = mon.rate_hz(spec.name, now_ns)
+            # over five of its periods at least: a 0.5 Hz input has two in 5 s, and one late frame
+            # would read as rate 0
+            window_ns = min(ARRIVALS_KEPT_NS, max(RATE_WINDOW_NS, int(5e9 / spec.rate_hz)))
+            rate = mon.rate_hz(spec.name, now_ns, window_ns)
             values.append((f'{spec.name}_rate_hz', f'{rate:.2f}'))
             values.append((f'{spec.name}_expected_hz', f'{spec.rate_hz:g}'))
             values.append((f'{spec.name}_silent_s', _f(silent, '.2f')))

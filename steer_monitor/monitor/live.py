@@ -32,10 +32,11 @@ from steer_monitor.model.friction import FrictionParams, friction_force
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.loadshare import ShareScalar, load_sharing_scalar
 
-__all__ = ['LiveMonitor', 'LiveState', 'Response']
+__all__ = ['ARRIVALS_KEPT_NS', 'RATE_WINDOW_NS', 'LiveMonitor', 'LiveState', 'Response']
 
 DEG = math.pi / 180.0
-RATE_WINDOW_NS = 5_000_000_000
+RATE_WINDOW_NS = 5_000_000_000      # the shortest window a rate is judged over
+ARRIVALS_KEPT_NS = 30_000_000_000   # arrivals kept per input: five periods down to 0.17 Hz
 SLOPE_WINDOW_NS = 500_000_000
 HALF_WINDOW_NS = 300_000_000   # each side of a pressure sample, for the residual
 MOVING_RATE = 0.2 * DEG        # rad/s: below this the rudder is at rest
@@ -120,7 +121,7 @@ class LiveMonitor:
         sig = self.signals[sample.signal]
         sig.last_t_ns, sig.last_value = sample.t_ns, sample.value
         sig.arrivals.append(sample.t_ns)
-        while sig.arrivals and sig.arrivals[0] < sample.t_ns - RATE_WINDOW_NS:
+        while sig.arrivals and sig.arrivals[0] < sample.t_ns - ARRIVALS_KEPT_NS:
             sig.arrivals.popleft()
         name = sample.signal
         if name == 'rudder_angle':
@@ -151,10 +152,15 @@ class LiveMonitor:
             self._state = self._evaluate(t) or self._state
         return self._state
 
-    def rate_hz(self, name: str, now_ns: int) -> float:
-        """Arrival rate of an input from the spacing of its arrivals in the last 5 s (so it is
-        right from the second sample on; silence is judged by :meth:`silent_for`)."""
-        recent = [t for t in self.signals[name].arrivals if t >= now_ns - RATE_WINDOW_NS]
+    def rate_hz(self, name: str, now_ns: int, window_ns: int = RATE_WINDOW_NS) -> float:
+        """Arrival rate of an input (Hz) from the spacing of its arrivals in the last
+        ``window_ns`` (at most :data:`ARRIVALS_KEPT_NS`), so it is right from the second
+        sample on; silence is judged by :meth:`silent_for`. A slow input needs a window of
+        several of its periods: with two periods in it, one late frame reads as rate 0."""
+        if window_ns > ARRIVALS_KEPT_NS:
+            msg = f'rate window {window_ns / 1e9:g} s is longer than the {ARRIVALS_KEPT_NS / 1e9:g} s of arrivals kept'
+            raise ValueError(msg)
+        recent = [t for t in self.signals[name].arrivals if t >= now_ns - window_ns]
         if len(recent) < 2 or recent[-1] == recent[0]:
             return 0.0
         return (len(recent) - 1) / ((recent[-1] - recent[0]) / 1e9)

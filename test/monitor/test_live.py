@@ -122,3 +122,51 @@ def test_slow_inputs_not_judged_on_their_first_sample(r18_params, can_db):
     _, mon, dec, t_last = _feed(r18_params, can_db, 'hold:5', upto_s=1.2)
     status = _builder(r18_params, can_db).can_input(mon, dec.rejects.snapshot(), t_last)
     assert status.level == OK, status.message
+
+
+def _steady_feed(r18_params, smap, seconds: float, skip: dict[str, set[int]] | None = None,
+                 slow: dict[str, float] | None = None) -> LiveMonitor:
+    """Every input at its configured rate (``slow``: name -> the rate it arrives at instead),
+    values at rest; ``skip``: name -> indices of its frames that never came."""
+    from steer_monitor.can.decoder import Sample
+
+    values = {'rudder_angle': 0.0, 'rudder_order': 0.0, 'ship_speed': 7.0, 'oil_temperature': 320.0}
+    samples = []
+    for spec in smap.specs:
+        rate = (slow or {}).get(spec.name, spec.rate_hz)
+        for i in range(int(seconds * rate)):
+            if i not in (skip or {}).get(spec.name, set()):
+                samples.append(Sample(int(i * 1e9 / rate), spec.name, values.get(spec.name, 2e5)))
+    mon = LiveMonitor(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25))
+    for sample in sorted(samples, key=lambda s: s.t_ns):
+        mon.update(sample)
+    return mon
+
+
+@pytest.mark.parametrize('now_s', [19.0, 19.5, 20.0, 20.9])
+def test_a_slow_input_with_one_late_frame_is_at_rate(r18_params, can_db, now_s):
+    # oil temperature at 0.5 Hz, its frame due at 18 s missing: at 20.9 s it has been silent
+    # 4.9 s, under its stale limit of three periods (6 s), and its rate is judged over five
+    # periods (10 s), not 5 s, where only the 16 s frame would be left and read as rate 0
+    mon = _steady_feed(r18_params, can_db[1], 20.0, skip={'oil_temperature': {9}})
+    status = _builder(r18_params, can_db).can_input(mon, RejectCounter().snapshot(), int(now_s * 1e9))
+    assert status.level == OK, status.message
+    assert 0.25 <= float(status.value('oil_temperature_rate_hz')) <= 0.5
+
+
+@pytest.mark.parametrize(('name', 'rate'), [('oil_temperature', 0.2), ('pressure_r1_stbd', 8.0),
+                                            ('rudder_angle', 2.0)])
+def test_an_input_below_half_its_rate_warns(r18_params, can_db, name, rate):
+    mon = _steady_feed(r18_params, can_db[1], 30.0, slow={name: rate})
+    status = _builder(r18_params, can_db).can_input(mon, RejectCounter().snapshot(), int(29.9e9))
+    assert status.level == WARN
+    assert status.message == f'below half the expected rate: {name}'
+    assert float(status.value(f'{name}_rate_hz')) == pytest.approx(rate, rel=0.05)
+
+
+def test_a_rate_window_longer_than_the_arrivals_kept_is_refused(r18_params):
+    from steer_monitor.monitor.live import ARRIVALS_KEPT_NS
+
+    mon = LiveMonitor(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25))
+    with pytest.raises(ValueError, match='rate window 31 s is longer than the 30 s of arrivals kept'):
+        mon.rate_hz('oil_temperature', 0, ARRIVALS_KEPT_NS + 1_000_000_000)
