@@ -28,6 +28,7 @@ setup(
         'mcap>=1.6',
         'mcap-ros2-support>=0.5',
         'zstandard>=0.21',
+        'threadpoolctl>=3.1',
     ],
     zip_safe=True,
     maintainer='steer_monitor maintainers',

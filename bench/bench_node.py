@@ -32,6 +32,26 @@ BUS_RATE = 1908.0
 SECONDS = 60.0
 
 
+def _thread_cpu_s() -> dict[str, float]:
+    """CPU seconds (user + system) of each thread of this process so far, by the Python
+    thread's name where there is one; the rest (DDS, BLAS, ...) by their OS name."""
+    names = {t.native_id: t.name for t in threading.enumerate()}
+    tick = os.sysconf('SC_CLK_TCK')
+    out: dict[str, float] = {}
+    for tid in os.listdir('/proc/self/task'):
+        try:
+            with open(f'/proc/self/task/{tid}/stat') as fh:
+                stat = fh.read()
+            with open(f'/proc/self/task/{tid}/comm') as fh:
+                comm = fh.read().strip()
+        except OSError:
+            continue                       # the thread ended meanwhile
+        fields = stat[stat.rindex(')') + 2:].split()
+        name = names.get(int(tid)) or f'{comm} (not Python)'
+        out[name] = out.get(name, 0.0) + (int(fields[11]) + int(fields[12])) / tick
+    return out
+
+
 def _rss_mb() -> float:
     with open('/proc/self/status') as fh:
         for line in fh:
@@ -55,7 +75,7 @@ def _other_traffic(t0_ns: int, seconds: float, rate: float, seed: int = 0):
     return FrameArrays(t, ids, np.full(n, 8, np.uint8), data, np.full(n, FLAG_EXTENDED, np.uint8))
 
 
-def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus') -> dict:
+def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch_ms: float | None = None) -> dict:
     import can
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
@@ -92,7 +112,8 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus') -> di
         node = MonitorNode(parameter_overrides=overrides_from_file(str(config), {
             'can.interface': 'virtual', 'can.channel': channel,
             'recording.directory': tmp, 'recording.enabled': record,
-            'estimator.state_file': os.path.join(tmp, 'estimator.npz')}), context=context)
+            'estimator.state_file': os.path.join(tmp, 'estimator.npz'),
+            **({} if batch_ms is None else {'can.read_batch_ms': batch_ms})}), context=context)
         executor = SingleThreadedExecutor(context=context)
         executor.add_node(node)
         spinner = threading.Thread(target=executor.spin, daemon=True)
@@ -101,14 +122,20 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus') -> di
         rss_start = _rss_mb()
         bus = can.Bus(interface='virtual', channel=channel)
         rss_trace: list[tuple[float, float]] = []
+        cpu_trace: list[float] = []
         done = threading.Event()
 
-        def sample_rss() -> None:      # resident memory every 10 s: growth or a plateau
+        def sample_rss() -> None:      # resident memory and process CPU every 10 s: growth or a plateau
             t_start = time.monotonic()
+            last = sum(os.times()[:2])
             while not done.wait(10.0):
                 rss_trace.append((time.monotonic() - t_start, _rss_mb()))
+                now = sum(os.times()[:2])
+                cpu_trace.append((now - last) / 10.0)
+                last = now
         sampler = threading.Thread(target=sample_rss, daemon=True)
         sampler.start()
+        threads0 = _thread_cpu_s()
         cpu0, main0, wall0 = sum(os.times()[:2]), time.thread_time(), time.monotonic()
         sent = play(frames, bus, factor)
         wall = time.monotonic() - wall0
@@ -116,6 +143,7 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus') -> di
         time.sleep(1.0)
         cpu = sum(os.times()[:2]) - cpu0
         sim_cpu = time.thread_time() - main0
+        threads1 = _thread_cpu_s()
         rss_end = _rss_mb()
         bus.shutdown()
         executor.shutdown()
@@ -127,7 +155,8 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus') -> di
     dropped = sent - received
     how = (f'the simulated gear sped up {factor:.1f}x' if mode == 'speedup' else
            'the simulated gear in real time among other traffic')
-    print(f'node at the full NMEA 2000 rate ({mode}: {how}), recording {"on" if record else "off"}: '
+    batch = f'read batch {node.reader.batch * 1e3:g} ms'
+    print(f'node at the full NMEA 2000 rate ({mode}: {how}), recording {"on" if record else "off"}, {batch}: '
           f'{sent:,} frames in {wall:.1f} s ({sent / wall:,.0f} frames/s)')
     print(f'  frames dropped       : {dropped} (received {received:,}; target 0)')
     print(f'  node CPU             : {100 * node_cpu:.1f} % of a core (target < 25 %)')
@@ -138,6 +167,10 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus') -> di
     if len(rss_trace) >= 4:
         marks = [rss_trace[int(f * (len(rss_trace) - 1))] for f in (0.0, 0.25, 0.5, 0.75, 1.0)]
         print('  memory over the run  : ' + ', '.join(f'{m:.0f} MB at {t:.0f} s' for t, m in marks))
+    if cpu_trace:
+        print('  process CPU per 10 s : ' + ', '.join(f'{100 * c:.0f}' for c in cpu_trace) + ' % (simulator included)')
+    by_thread = sorted(((v - threads0.get(k, 0.0), k) for k, v in threads1.items()), reverse=True)
+    print('  CPU by thread        : ' + ', '.join(f'{k} {100 * v / (wall + 1.0):.1f} %' for v, k in by_thread if v > 0.005 * wall))
     return {'sent': sent, 'dropped': dropped, 'cpu_share': node_cpu, 'p99_ms': float(np.percentile(lat, 99)),
             'rss_start_mb': rss_start, 'rss_end_mb': rss_end}
 
@@ -146,5 +179,7 @@ if __name__ == '__main__':
     import sys
     modes = [a for a in sys.argv[1:] if a in ('bus', 'speedup')] or ['bus', 'speedup']
     secs = [float(a.split('=', 1)[1]) for a in sys.argv[1:] if a.startswith('--seconds=')]
+    batches = [float(a.split('=', 1)[1]) for a in sys.argv[1:] if a.startswith('--batch-ms=')]
     for m in modes:
-        main(seconds=secs[0] if secs else SECONDS, mode=m, record='--no-record' not in sys.argv)
+        main(seconds=secs[0] if secs else SECONDS, mode=m, record='--no-record' not in sys.argv,
+             batch_ms=batches[0] if batches else None)

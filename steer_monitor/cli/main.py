@@ -10,6 +10,7 @@ from steer_monitor import __version__
 from steer_monitor.cli import (accuracy, analyze, backlash, demo, fit, inspect, loadshare, recover, replay, report,
                                run, simulate, study)
 from steer_monitor.errors import SteerMonitorError
+from steer_monitor.threads import single_blas_thread
 
 __all__ = ['build_parser', 'main']
 
@@ -30,6 +31,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    single_blas_thread()
     try:
         return int(args.handler(args))
     except SteerMonitorError as exc:

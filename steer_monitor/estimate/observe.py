@@ -111,32 +111,59 @@ def _interp(series: Series | None, t: NDArray[np.int64], max_gap: int, shift_ns:
     return out
 
 
-def _window_slopes(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.int64],
-                   lo_ns: int, hi_ns: int) -> NDArray[np.float64]:
-    """Least-squares slope [per s] of the samples with t + lo <= ts <= t + hi, per grid point;
-    NaN with fewer than 2 samples. Vectorized over a padded index matrix."""
+def _window_sums(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.int64], y_ref: NDArray[np.float64],
+                 lo_ns: int, hi_ns: int) -> NDArray[np.float64]:
+    """Sums over the samples with t + lo <= ts <= t + hi, per grid point: shape (5, n), rows
+    count, sum x, sum x^2, sum y, sum x y with x = ts - t [s] and y = v - y_ref. Relative to
+    the grid point, so they stay exact to rounding; one pass per sample rank in the window."""
     i0 = np.searchsorted(ts, t + lo_ns, side='left')
     i1 = np.searchsorted(ts, t + hi_ns, side='right')
     count = i1 - i0
-    width = int(count.max()) if count.size else 0
-    out = np.full(t.shape, np.nan)
-    if width < 2:
-        return out
-    k = np.arange(width)
-    idx = i0[:, None] + k[None, :]
-    use = k[None, :] < count[:, None]
-    idx = np.where(use, idx, 0)
-    x = np.where(use, (ts[idx] - t[:, None]) / 1e9, 0.0)
-    y = np.where(use, v[idx], 0.0)
-    n = np.maximum(count, 1)
-    xm = x.sum(1) / n
-    ym = y.sum(1) / n
-    dx = np.where(use, x - xm[:, None], 0.0)
-    sxx = (dx * dx).sum(1)
-    sxy = (dx * np.where(use, y - ym[:, None], 0.0)).sum(1)
-    good = (count >= 2) & (sxx > 0)
-    out[good] = sxy[good] / sxx[good]
+    out = np.zeros((5, t.size))
+    out[0] = count
+    last = ts.size - 1
+    for k in range(int(count.max()) if count.size else 0):
+        use = count > k
+        idx = np.minimum(i0 + k, last)
+        x = np.where(use, (ts[idx] - t) * 1e-9, 0.0)
+        y = np.where(use, v[idx] - y_ref, 0.0)
+        out[1] += x
+        out[2] += x * x
+        out[3] += y
+        out[4] += x * y
     return out
+
+
+def _slope(sums: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Least-squares slope [per s] from :func:`_window_sums`; NaN with fewer than 2 distinct
+    times (samples under 0.1 us apart count as one time)."""
+    n, sx, sxx, sy, sxy = sums
+    den = n * sxx - sx * sx
+    good = (n >= 2) & (den > 1e-14)
+    out = np.full(n.shape, np.nan)
+    out[good] = (n * sxy - sx * sy)[good] / den[good]
+    return out
+
+
+def _angle_slopes(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.int64]
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Least-squares slopes of the angle samples over ``HALF_WINDOW_NS`` before each grid
+    point, after it, and over both (each window with its ends): shapes (n,). The whole
+    window's sums are the halves' less the samples exactly at the grid point, which both
+    halves hold (x = 0 there, so only the count and sum y are counted twice)."""
+    y_ref = v[np.clip(np.searchsorted(ts, t), 0, ts.size - 1)]
+    before = _window_sums(ts, v, t, y_ref, -HALF_WINDOW_NS, 0)
+    after = _window_sums(ts, v, t, y_ref, 0, HALF_WINDOW_NS)
+    j = np.searchsorted(ts, t, side='left')
+    at = np.searchsorted(ts, t, side='right') - j            # samples exactly at t
+    whole = before + after
+    whole[0] -= at
+    if at.any():
+        hit = np.nonzero(at)[0]
+        for k in range(int(at.max())):
+            h = hit[at[hit] > k]
+            whole[3, h] -= v[j[h] + k] - y_ref[h]
+    return _slope(before), _slope(after), _slope(whole)
 
 
 def build_observations(signals: Mapping[str, Series], ram_area: float, *,
@@ -166,9 +193,7 @@ def build_observations(signals: Mapping[str, Series], ram_area: float, *,
     t1 = int(a_t[-1]) + 1 if end_ns is None else end_ns
     t = grid_times(t0, t1)
     alpha = _interp(angle, t, MAX_GAP_NS, shift_ns)
-    before = _window_slopes(a_t, angle.value, t, -HALF_WINDOW_NS, 0)
-    after = _window_slopes(a_t, angle.value, t, 0, HALF_WINDOW_NS)
-    rate = _window_slopes(a_t, angle.value, t, -HALF_WINDOW_NS, HALF_WINDOW_NS)
+    before, after, rate = _angle_slopes(a_t, angle.value, t)
     with np.errstate(invalid='ignore'):
         steady = (np.abs(before) > MOVING_RATE) & (np.abs(after) > MOVING_RATE) & \
             (np.sign(before) == np.sign(after)) & np.isfinite(alpha)

@@ -45,6 +45,7 @@ from steer_monitor.node.rosmsg import message_class, to_ros
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
 from steer_monitor.record.msgdefs import msgdef
 from steer_monitor.record.recorder import Recorder
+from steer_monitor.threads import single_blas_thread
 
 __all__ = ['MonitorNode', 'main']
 
@@ -62,6 +63,7 @@ class MonitorNode(Node):
                  context: Any = None, bus_opener: Callable[[], ListenOnlyBus] | None = None,
                  config_path: str | None = None) -> None:
         super().__init__(node_name, context=context, parameter_overrides=list(parameter_overrides or []))
+        single_blas_thread()   # the estimator's profiles: a second BLAS thread only spins
         self.params = declare_parameters(self)
         p = self.params
         self.gear = gear_from_params(p)
@@ -78,7 +80,7 @@ class MonitorNode(Node):
                                      p['recording.max_file_minutes'] * 60.0)
         self._make_publishers()
         self._lock = threading.Lock()          # guards the pipeline and the live model
-        self._unpublished: list[int] = []      # receive times of state-changing frames not yet published
+        self._unpublished: list[int] = []      # bus timestamps of state-changing frames not yet published
         self.latencies_ns: deque[int] = deque(maxlen=LATENCY_WINDOW)
         self.frames_received = 0
         self._last_diag = time.monotonic()
@@ -90,7 +92,7 @@ class MonitorNode(Node):
         interface, channel = p['can.interface'], p['can.channel']
         opener = bus_opener or (lambda: ListenOnlyBus(interface, channel, p['can.bitrate']))
         self.reader = BusReader(opener, self.rejects, p['can.reopen_backoff_initial_s'],
-                                p['can.reopen_backoff_max_s'], poll=POLL_S)
+                                p['can.reopen_backoff_max_s'], poll=POLL_S, batch=p['can.read_batch_ms'] * 1e-3)
         self._reader_thread = threading.Thread(target=self._read, name='steer_monitor-can', daemon=True)
         self.create_timer(1.0, self._silent_diagnostics)
         self._reader_thread.start()
@@ -160,7 +162,7 @@ class MonitorNode(Node):
             if isinstance(o, StateOut):
                 for key, t_ns, fields in state_messages(o):
                     self._publish(key, fields, t_ns)
-                done = time.monotonic_ns()
+                done = time.time_ns()
                 self.latencies_ns.extend(done - t for t in self._unpublished)
                 self._unpublished.clear()
             else:
@@ -202,7 +204,10 @@ class MonitorNode(Node):
                     if outs:
                         self._publish_outputs(outs)
                     if frame is not None and pipeline.last_changed_state:
-                        self._unpublished.append(received)   # a frame the next state reflects
+                        # a frame the next state reflects: its latency runs from its bus
+                        # timestamp (the interface's receive time, wall clock), so the time it
+                        # waited in the receive queue counts
+                        self._unpublished.append(frame.t_ns)
         finally:
             if batch and recorder is not None:
                 recorder.write_frames(batch)

@@ -139,6 +139,64 @@ def test_reader_reopens_with_backoff():
     assert len(got) == 2
 
 
+class QueueBus:
+    """A bus whose frames arrive in bursts: the first burst is there at once, each later one
+    arrives while the reader pauses. Records the timeout of every recv."""
+
+    interface, channel = 'fake', 'bursts'
+
+    def __init__(self, bursts):
+        from steer_monitor.can import Frame
+        self.bursts = [[Frame(t, 0x1, b'') for t in burst] for burst in bursts]
+        self.queue = self.bursts.pop(0)
+        self.timeouts = []
+
+    def arrive(self, seconds):
+        if self.bursts:
+            self.queue.extend(self.bursts.pop(0))
+
+    def recv(self, timeout=None):
+        self.timeouts.append(timeout)
+        return self.queue.pop(0) if self.queue else None
+
+    def close(self):
+        pass
+
+
+@pytest.mark.parametrize('batch', [0.0, 0.002])
+def test_reader_takes_a_busy_bus_in_batches(batch):
+    bus = QueueBus([[1, 2, 3], [4, 5], [6]])
+    waits = []
+
+    def sleep(seconds):
+        waits.append(seconds)
+        bus.arrive(seconds)
+
+    stop = threading.Event()
+    reader = BusReader(lambda: bus, RejectCounter(), poll=0.01, sleep=sleep, batch=batch)
+    got = []
+    for frame in reader.frames(stop, idle=True):
+        if frame is None:           # the bus went quiet: the reader waited on it, then said so
+            break
+        got.append(frame.t_ns)
+    if batch:
+        # after a frame it takes what is there without waiting, pauses while a batch gathers,
+        # and blocks on the bus again only when a pause brought nothing
+        assert got == [1, 2, 3, 4, 5, 6]
+        assert waits == [batch] * 3
+        # blocks for 1; 2, 3, empty; pause; 4, 5, empty; pause; 6, empty; pause; empty; blocks
+        assert bus.timeouts == [0.01] + [0.0] * 3 + [0.0] * 3 + [0.0] * 2 + [0.0] + [0.01]
+    else:
+        assert got == [1, 2, 3]     # each frame waited for; nothing arrives without a pause
+        assert waits == [] and bus.timeouts == [0.01] * 4
+
+
+@pytest.mark.parametrize('batch', [-0.001, 0.01, 0.5])
+def test_reader_batch_must_be_shorter_than_its_poll(batch):
+    with pytest.raises(ValueError, match=f'read batch {batch:g} s must be at least 0 and shorter than the poll of 0.01 s'):
+        BusReader(lambda: None, RejectCounter(), poll=0.01, batch=batch)
+
+
 def test_open_failure_is_a_clear_error():
     with pytest.raises(BusError, match='cannot open CAN bus nosuchinterface:can9'):
         ListenOnlyBus('nosuchinterface', 'can9')

@@ -59,3 +59,39 @@ def test_missing_inputs_are_named(drop, match):
         del sig[k]
     with pytest.raises(EstimateError, match=match):
         build_observations(sig, 0.045)
+
+
+def _polyfit_slope(ts, v, t, lo, hi):
+    """The reference: numpy's polyfit on each window's samples."""
+    out = np.full(t.size, np.nan)
+    for i, ti in enumerate(t):
+        m = (ts >= ti + lo) & (ts <= ti + hi)
+        if np.unique(ts[m]).size >= 2:
+            out[i] = np.polyfit((ts[m] - ti) / 1e9, v[m], 1)[0]
+    return out
+
+
+@pytest.mark.parametrize('seed', range(4))
+def test_window_slopes_match_polyfit(seed):
+    # irregular 10 Hz samples with gaps, samples exactly on grid points (some twice, with
+    # another value), a slope that changes and noise; angles around 0.6 rad (the sums are
+    # taken relative to a sample near the grid point, so a large angle costs no precision)
+    from steer_monitor.estimate.observe import HALF_WINDOW_NS, _angle_slopes
+    rng = np.random.default_rng(seed)
+    ts = np.cumsum(rng.integers(20_000_000, 180_000_000, 400)).astype(np.int64) + 1_700_000_000 * 10 ** 9
+    ts[::37] = (ts[::37] // 50_000_000) * 50_000_000                 # some exactly on the grid
+    ts = np.unique(ts)
+    ts = np.delete(ts, np.arange(100, 130))                           # a gap of ~3 s
+    v = 0.6 + 0.05 * np.sin(np.arange(ts.size) / 7.0) + 1e-4 * rng.standard_normal(ts.size)
+    on_grid = np.nonzero(ts % 50_000_000 == 0)[0][::2]              # a second sample at some of them
+    ts = np.insert(ts, on_grid + 1, ts[on_grid])
+    v = np.insert(v, on_grid + 1, v[on_grid] + 1e-3)
+    t = np.arange(ts[0] // 50_000_000 * 50_000_000, ts[-1], 50_000_000, dtype=np.int64)
+    before, after, whole = _angle_slopes(ts, v, t)
+    for got, lo, hi in ((before, -HALF_WINDOW_NS, 0), (after, 0, HALF_WINDOW_NS),
+                        (whole, -HALF_WINDOW_NS, HALF_WINDOW_NS)):
+        ref = _polyfit_slope(ts, v, t, lo, hi)
+        np.testing.assert_array_equal(np.isnan(got), np.isnan(ref))
+        ok = ~np.isnan(ref)
+        np.testing.assert_allclose(got[ok], ref[ok], rtol=1e-7, atol=1e-9)
+    assert np.isin(t, ts).any() and np.isnan(before).any()
