@@ -20,6 +20,9 @@ soon as the data pass its end, while the log is still being read; otherwise all 
 :meth:`Review.finish`. Each: the coarse profile, the inflation factor of the residuals at its
 best point over the last ``TAIL_NS`` of motion read (as the online estimator measures it),
 then the fine profile on the search box of :func:`~steer_monitor.estimate.batch.search_box`.
+A window after the first tries the box of the last coarse profile first (the moments have only
+grown since) and keeps it when the answer lies inside (the best point and the interval's ends
+off its inner edges); the whole log's estimate always profiles the whole grid coarsely.
 
 Times integer ns, values SI.
 """
@@ -35,8 +38,9 @@ from numpy.typing import NDArray
 
 from steer_monitor.can.decoder import Series, SignalSet
 from steer_monitor.estimate import fit as F
-from steer_monitor.estimate.batch import (MIN_MOTION_SAMPLES, ClearanceEstimate, coarse_profile,
-                                          estimate_from_moments, make_rows, residuals_and_inflation, search_box)
+from steer_monitor.estimate.batch import (MIN_MOTION_SAMPLES, ClearanceEstimate, box_holds, coarse_profile,
+                                          estimate_from_moments, estimate_in_box, make_rows, residuals_and_inflation,
+                                          search_box)
 from steer_monitor.estimate.moments import Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations, build_observations
 from steer_monitor.model.gear import Gaps, GearParams
@@ -112,8 +116,9 @@ class Review:
     to ``MAX_WINDOWS`` steps of whole 10 minutes, decided by :meth:`plan` or at the end)."""
 
     def __init__(self, gear: GearParams, gaps: Gaps, *, min_clearance_2z: float = 0.0,
-                 window_ns: int | None = None) -> None:
+                 window_ns: int | None = None, reuse_boxes: bool = True) -> None:
         self.gear = gear
+        self.reuse_boxes = reuse_boxes
         self.gaps = gaps
         self.grid_2z = F.GRID_2Z[F.GRID_2Z >= min_clearance_2z - 1e-12]
         self._buf: SignalSet = {}
@@ -128,6 +133,8 @@ class Review:
         self._step: int | None = None if window_ns is None else max(window_ns // SLICE_NS, 1)
         self._windows: list[tuple[int, ClearanceEstimate | None]] = []
         self._windows_tried = 0
+        self._box: tuple[NDArray, NDArray] | None = None   # the last coarse profile's search box
+        self.boxes_reused = 0
         self._notes: list[str] = []
         self._sec: list[tuple[NDArray, ...]] = []
         self._tail: list[Observations] = []
@@ -189,16 +196,26 @@ class Review:
             self._acc = self._acc.merge(self._slices[k])
         self._merged_below = key
 
-    def _estimate(self, mom: Moments, tail: list[Observations]) -> ClearanceEstimate | None:
+    def _estimate(self, mom: Moments, tail: list[Observations], reuse: bool = True) -> ClearanceEstimate | None:
         """The estimate from ``mom``: coarse profile, inflation of the recent residuals at its
-        best point, fine profile on the search box."""
+        best point, fine profile on the search box. With ``reuse``, a window after the first
+        first tries the box the window before found (the moments only grew), with the
+        inflation at that box's best fit, and keeps it when :func:`box_holds` says it held."""
         if mom.samples < MIN_MOTION_SAMPLES:
             return None
         try:
+            if reuse and self.reuse_boxes and self._box is not None:
+                est = estimate_in_box(self.gear, mom, *self._box,
+                                      lambda tz, zg, coef, load: self._inflation(tail, tz, zg, coef))
+                if box_holds(est, self.grid_2z, F.GRID_ZGB):
+                    self.boxes_reused += 1
+                    return est
             coarse = coarse_profile(self.gear, mom, self.grid_2z, F.GRID_ZGB)
-            vif = self._inflation(coarse, tail)
-            g2, gz = search_box(self.gear, mom, self.grid_2z, F.GRID_ZGB, vif, coarse=coarse)
-            return estimate_from_moments(self.gear, mom, vif, g2, gz)
+            pr, g2, gz = coarse
+            bi, bj = pr.best
+            vif = self._inflation(tail, float(g2[bi]), float(gz[bj]), pr.coef)
+            self._box = search_box(self.gear, mom, self.grid_2z, F.GRID_ZGB, vif, coarse=coarse)
+            return estimate_from_moments(self.gear, mom, vif, *self._box)
         except EstimateError as exc:
             self._notes.append(f'an estimate failed: {exc}')
             return None
@@ -279,27 +296,25 @@ class Review:
         last = max(self._slices) + 1
         if self._merged_below is None or last > self._merged_below:
             self._merge_below(last)
-            self._windows.append((int(self._done or 0), self._estimate(self._acc, self._tail)))
+            # the whole log's estimate, the answer: a coarse profile of the whole grid always
+            self._windows.append((int(self._done or 0), self._estimate(self._acc, self._tail, reuse=False)))
         done = [WindowEstimate(t_end, est) for t_end, est in self._windows if est is not None]
         if not done:
             notes.append(f'only {self._acc.samples:.0f} rows of steady motion (at least {MIN_MOTION_SAMPLES} '
                          'needed): the clearances are not estimated')
         return done
 
-    def _inflation(self, coarse: tuple[F.Profile, NDArray, NDArray], parts: list[Observations]) -> float:
+    def _inflation(self, parts: list[Observations], two_z: float, z_gb: float, coef: NDArray[np.float64]) -> float:
         """The residuals' variance inflation over ``parts`` (the last ``TAIL_NS`` of motion
-        read), at the best point of the coarse profile."""
-        pr, g2, gz = coarse
+        read), at the fit ``coef`` with the clearances (``two_z``, ``z_gb``) [m]."""
         tail = parts[0] if len(parts) == 1 else _concat_obs(parts)
         rows = make_rows(tail)
         if rows.u.shape[0] < MIN_MOTION_SAMPLES:
             self._notes.append("too little recent motion to measure the residuals' correlation: intervals assume none")
             return 1.0
         basis = F.TorqueBasis(self.gear.max_rudder)
-        bi, bj = pr.best
-        load = F.axial_load(self.gear, basis, rows.moments, pr.coef)
-        return residuals_and_inflation(self.gear, basis, rows, tail.t_ns, pr.coef, float(g2[bi]), float(gz[bj]),
-                                       load)[1]
+        load = F.axial_load(self.gear, basis, rows.moments, coef)
+        return residuals_and_inflation(self.gear, basis, rows, tail.t_ns, coef, two_z, z_gb, load)[1]
 
 
 def _concat_obs(parts: list[Observations]) -> Observations:

@@ -23,15 +23,16 @@ def voyage(r18_params, can_db):
     return sim.run(r18_params, sim.SimConfig(program='voyage', max_duration_s=1500.0), db, smap, seed=21).frames
 
 
-def _review(r18_params, can_db, frames: FrameArrays, blocks: int, plan: bool = False):
+def _review(r18_params, can_db, frames: FrameArrays, blocks: int, plan: bool = False, reuse: bool = True,
+            with_review: bool = False):
     db, smap = can_db
     dec = Decoder(db, smap, RejectCounter())
-    rv = Review(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25))
+    rv = Review(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25), reuse_boxes=reuse)
     for i, part in enumerate(np.array_split(np.arange(len(frames)), blocks)):
         rv.add(dec.decode_arrays(frames.take(part)))
         if plan and i == 0:
             rv.plan(int(frames.t_ns[-1]))
-    return rv.finish()
+    return (rv.finish(), rv) if with_review else rv.finish()
 
 
 def test_hard_overs_as_the_live_monitor_times_them(r18_params, can_db, voyage):
@@ -105,3 +106,47 @@ def test_batch_path_one_or_two_processes(tmp_path, r18_params, can_db, voyage):
     cut.write_bytes(data[:len(data) * 2 // 3])
     c = review_logs([cut], jobs=2)
     assert len(c.errors) == 1 and 'breaks off' in c.errors[0] and 0 < c.frames < len(voyage)
+
+
+def test_a_window_reusing_the_box_before_gives_the_whole_grids_answer(r18_params, can_db, voyage):
+    # the windows after the first try the last coarse profile's box (the moments only grew);
+    # against a coarse profile of the whole grid for every window: the same best point, and
+    # intervals within a grid step (the inflation factor is measured at the fine profile's
+    # best fit instead of the coarse one's)
+    reused, rv = _review(r18_params, can_db, voyage, 7, plan=True, with_review=True)
+    fresh = _review(r18_params, can_db, voyage, 7, plan=True, reuse=False)
+    assert rv.boxes_reused >= 1
+    assert [w.t_end_ns for w in reused.estimates] == [w.t_end_ns for w in fresh.estimates]
+    for a, b in zip(reused.estimates, fresh.estimates):
+        for key, step in (('two_z', 0.02e-3), ('z_gb', 0.005e-3)):
+            ia, ib = getattr(a.estimate, key), getattr(b.estimate, key)
+            assert ia.value == pytest.approx(ib.value, abs=1e-12)
+            for ea, eb in ((ia.lo, ib.lo), (ia.hi, ib.hi)):
+                assert (ea is None) == (eb is None)
+                if ea is not None:
+                    assert ea == pytest.approx(eb, abs=step + 1e-12)
+
+
+def test_a_box_that_cuts_the_answer_off_does_not_hold(r18_params, can_db, voyage):
+    from steer_monitor.estimate import fit as F
+    from steer_monitor.estimate.batch import box_holds, estimate_in_box
+
+    res, rv = _review(r18_params, can_db, voyage, 3, with_review=True)
+    mom, gear = rv._acc, gear_from_params(r18_params)
+    final = res.estimates[-1].estimate
+
+    def vif(*_):
+        return final.inflation
+
+    # the whole grid: its edges are the grid's, so it holds whatever the answer
+    whole = estimate_in_box(gear, mom, F.GRID_2Z, F.GRID_ZGB, vif)
+    assert box_holds(whole, F.GRID_2Z, F.GRID_ZGB)
+    assert whole.z_gb.value == pytest.approx(final.z_gb.value, abs=1e-12)
+    # a box around the answer that the interval of Z_gb runs past
+    j = int(np.argmin(np.abs(F.GRID_ZGB - final.z_gb.value)))
+    narrow = estimate_in_box(gear, mom, F.GRID_2Z, F.GRID_ZGB[j - 1:j + 2], vif)
+    assert not box_holds(narrow, F.GRID_2Z, F.GRID_ZGB)
+    # a box away from the answer: its best point sits on its inner edge
+    away = estimate_in_box(gear, mom, F.GRID_2Z, F.GRID_ZGB[j + 20:j + 40], vif)
+    assert away.z_gb.value == pytest.approx(F.GRID_ZGB[j + 20], abs=1e-12)
+    assert not box_holds(away, F.GRID_2Z, F.GRID_ZGB)

@@ -231,6 +231,9 @@ class Decoder:
         ids = fa.can_id[rows_all]
         r = self.rejects
         n_back = n_dup = 0
+        # payloads compared as one 64-bit word each
+        data = np.ascontiguousarray(fa.data)
+        words = data.view('<u8')[:, 0] if data.shape[1] == 8 else None
         for can_id in np.unique(ids):
             cid = int(can_id)
             rows = rows_all[ids == can_id]
@@ -243,14 +246,18 @@ class Decoder:
             n_back += int(back.sum())
             fwd = rows[~back]
             tf = fa.t_ns[fwd]
-            df = fa.data[fwd]
             same_t = np.zeros(fwd.size, bool)
             same_d = np.zeros(fwd.size, bool)
             if fwd.size:
                 same_t[1:] = tf[1:] == tf[:-1]
-                same_d[1:] = np.all(df[1:] == df[:-1], axis=1)
+                if words is not None:
+                    wf = words[fwd]
+                    same_d[1:] = wf[1:] == wf[:-1]
+                else:
+                    df = data[fwd]
+                    same_d[1:] = np.all(df[1:] == df[:-1], axis=1)
                 if last is not None:
-                    first_data = bytes(df[0, :int(fa.dlc[fwd[0]])])
+                    first_data = bytes(data[fwd[0], :int(fa.dlc[fwd[0]])])
                     same_t[0] = tf[0] == last[0]
                     same_d[0] = first_data == last[1]
             dup = same_t & same_d

@@ -36,8 +36,8 @@ from steer_monitor.can.rejects import RejectCounter
 __all__ = ['BLOCK_BYTES', 'BLOCK_FRAMES', 'iter_candump_blocks', 'iter_log_blocks', 'first_frame_ns', 'in_time_order', 'iter_mcap_blocks', 'log_end_ns',
            'read_log_fast', 'write_candump_arrays']
 
-BLOCK_BYTES = 64 << 20
-BLOCK_FRAMES = 1 << 20
+BLOCK_BYTES = 16 << 20
+BLOCK_FRAMES = 1 << 18
 
 _HEX = np.full(256, 255, np.uint8)
 for _i, _c in enumerate(b'0123456789'):

@@ -12,7 +12,7 @@ joint 95 % region of the clearances, of their conditional intervals.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -25,9 +25,9 @@ from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import load_sharing
 
-__all__ = ['MIN_MOTION_SAMPLES', 'ClearanceEstimate', 'Rows', 'estimate_clearances', 'estimate_from_moments',
-           'k_gl_max', 'make_rows',
-           'predict_rows', 'residual_parts']
+__all__ = ['MIN_MOTION_SAMPLES', 'ClearanceEstimate', 'Rows', 'box_holds', 'coarse_profile', 'estimate_clearances',
+           'estimate_from_moments', 'estimate_in_box', 'k_gl_max', 'make_rows', 'predict_rows', 'residual_parts',
+           'residuals_and_inflation', 'search_box']
 
 MIN_MOTION_SAMPLES = 200     # rows (ram x instant) of steady motion: 5 s of moving rudder
 SMOOTH_LAG_STEPS = 4         # 200 ms: sensor noise is uncorrelated this far apart
@@ -241,6 +241,33 @@ def estimate_from_moments(gear: GearParams, mom: Moments, vif: float, grid_2z: N
     return _bound(gear, basis, mom, pr, best, tz, zg, load, (), vif, max_seen, np.zeros((0, 2)), math.nan, math.nan)
 
 
+def estimate_in_box(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: NDArray,
+                    vif_at: Callable[[float, float, NDArray[np.float64], NDArray[np.float64]], float]
+                    ) -> ClearanceEstimate:
+    """The estimate from the binned statistics on a part of the grid (a box an earlier
+    estimate found, instead of a coarse profile of the whole grid), with the inflation factor
+    measured at the box's best fit: ``vif_at(two_z, z_gb, coef, load)``. Whether the box
+    served is :func:`box_holds`'s to say."""
+    basis = F.TorqueBasis(gear.max_rudder)
+    pr, best, tz, zg, load = _profile_fit(gear, basis, mom, (), grid_2z, grid_zgb, None)
+    vif = vif_at(tz, zg, best.coef, load)
+    max_seen = float(np.max(mom.abs_alpha)) if len(mom) else 0.0
+    return _bound(gear, basis, mom, pr, best, tz, zg, load, (), vif, max_seen, np.zeros((0, 2)), math.nan, math.nan)
+
+
+def box_holds(est: ClearanceEstimate, grid_2z: NDArray, grid_zgb: NDArray) -> bool:
+    """True when the box ``est`` was profiled on held its answer: on each side where the box
+    stops short of the whole grid (``grid_2z``, ``grid_zgb``), the best point lies inside and
+    the 95 % interval ends before the box's edge. Otherwise the interval (or the minimum) may
+    run on beyond the box, and only a profile of the whole grid can say."""
+    for box, grid, iv in ((est.profile.two_z, grid_2z, est.two_z), (est.profile.z_gb, grid_zgb, est.z_gb)):
+        if box[0] > grid[0] + 1e-12 and (iv.value <= box[0] + 1e-12 or iv.lo is None or iv.lo <= box[0] + 1e-12):
+            return False
+        if box[-1] < grid[-1] - 1e-12 and (iv.value >= box[-1] - 1e-12 or iv.hi is None or iv.hi >= box[-1] - 1e-12):
+            return False
+    return True
+
+
 def coarse_profile(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: NDArray,
                    coef: NDArray[np.float64] | None = None) -> tuple[F.Profile, NDArray, NDArray]:
     """The profile on every other grid point: (profile, its 2Z axis, its Z_gb axis)."""
@@ -263,8 +290,11 @@ def search_box(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: NDArr
     best = float(pr.rss.min())
     sigma2 = best / max(pr.n - pr.p, 1.0)
     near = np.argwhere((pr.rss - best) / (sigma2 * max(vif, 1.0)) <= 10 * CHI2_1_95)
-    i0, i1 = max(near[:, 0].min() - 1, 0) * 2, min(near[:, 0].max() + 1, g2.size - 1) * 2
-    j0, j1 = max(near[:, 1].min() - 1, 0) * 2, min(near[:, 1].max() + 1, gz.size - 1) * 2
+    i0, j0 = max(near[:, 0].min() - 1, 0) * 2, max(near[:, 1].min() - 1, 0) * 2
+    # a box that reaches the last coarse point runs to the grid's end (with an even number
+    # of points the grid's last one is not a coarse point)
+    i1 = grid_2z.size - 1 if near[:, 0].max() + 1 >= g2.size - 1 else (near[:, 0].max() + 1) * 2
+    j1 = grid_zgb.size - 1 if near[:, 1].max() + 1 >= gz.size - 1 else (near[:, 1].max() + 1) * 2
     return grid_2z[i0:i1 + 1], grid_zgb[j0:j1 + 1]
 
 
