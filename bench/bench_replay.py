@@ -76,7 +76,9 @@ def _make_logs() -> dict[str, Path]:
 
 
 def _case(kind: str, path: str) -> dict:
-    """One measurement, in this (fresh) process."""
+    """One measurement, in this (fresh) process, set up as ``steer-monitor`` sets itself up."""
+    from steer_monitor.threads import single_blas_thread
+    single_blas_thread()
     t0 = time.perf_counter()
     if kind == 'batch':
         from steer_monitor.batchpath import review_logs
