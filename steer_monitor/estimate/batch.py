@@ -235,10 +235,7 @@ def estimate_from_moments(gear: GearParams, mom: Moments, vif: float, grid_2z: N
                           grid_zgb: NDArray = F.GRID_ZGB) -> ClearanceEstimate:
     """The same estimate from the binned statistics alone (the online path), with the
     inflation factor supplied; no per-sample residuals (``residual`` empty, noise/smooth NaN)."""
-    basis = F.TorqueBasis(gear.max_rudder)
-    pr, best, tz, zg, load = _profile_fit(gear, basis, mom, (), grid_2z, grid_zgb, None)
-    max_seen = float(np.max(mom.abs_alpha)) if len(mom) else 0.0
-    return _bound(gear, basis, mom, pr, best, tz, zg, load, (), vif, max_seen, np.zeros((0, 2)), math.nan, math.nan)
+    return estimate_in_box(gear, mom, grid_2z, grid_zgb, lambda *_: vif)
 
 
 def estimate_in_box(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: NDArray,
@@ -246,8 +243,9 @@ def estimate_in_box(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: 
                     ) -> ClearanceEstimate:
     """The estimate from the binned statistics on a part of the grid (a box an earlier
     estimate found, instead of a coarse profile of the whole grid), with the inflation factor
-    measured at the box's best fit: ``vif_at(two_z, z_gb, coef, load)``. Whether the box
-    served is :func:`box_holds`'s to say."""
+    measured at the box's best fit: ``vif_at(two_z, z_gb, coef, load)``; no per-sample
+    residuals (``residual`` empty, noise/smooth NaN). Whether the box served is
+    :func:`box_holds`'s to say."""
     basis = F.TorqueBasis(gear.max_rudder)
     pr, best, tz, zg, load = _profile_fit(gear, basis, mom, (), grid_2z, grid_zgb, None)
     vif = vif_at(tz, zg, best.coef, load)

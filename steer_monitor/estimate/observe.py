@@ -112,12 +112,10 @@ def _interp(series: Series | None, t: NDArray[np.int64], max_gap: int, shift_ns:
 
 
 def _window_sums(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.int64], y_ref: NDArray[np.float64],
-                 lo_ns: int, hi_ns: int) -> NDArray[np.float64]:
-    """Sums over the samples with t + lo <= ts <= t + hi, per grid point: shape (5, n), rows
-    count, sum x, sum x^2, sum y, sum x y with x = ts - t [s] and y = v - y_ref. Relative to
-    the grid point, so they stay exact to rounding; one pass per sample rank in the window."""
-    i0 = np.searchsorted(ts, t + lo_ns, side='left')
-    i1 = np.searchsorted(ts, t + hi_ns, side='right')
+                 i0: NDArray[np.intp], i1: NDArray[np.intp]) -> NDArray[np.float64]:
+    """Sums over the samples ``ts[i0:i1]`` of each grid point: shape (5, n), rows count,
+    sum x, sum x^2, sum y, sum x y with x = ts - t [s] and y = v - y_ref. Relative to the
+    grid point, so they stay exact to rounding; one pass per sample rank in the window."""
     count = i1 - i0
     out = np.zeros((5, t.size))
     out[0] = count
@@ -151,18 +149,19 @@ def _angle_slopes(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.i
     point, after it, and over both (each window with its ends): shapes (n,). The whole
     window's sums are the halves' less the samples exactly at the grid point, which both
     halves hold (x = 0 there, so only the count and sum y are counted twice)."""
-    y_ref = v[np.clip(np.searchsorted(ts, t), 0, ts.size - 1)]
-    before = _window_sums(ts, v, t, y_ref, -HALF_WINDOW_NS, 0)
-    after = _window_sums(ts, v, t, y_ref, 0, HALF_WINDOW_NS)
-    j = np.searchsorted(ts, t, side='left')
-    at = np.searchsorted(ts, t, side='right') - j            # samples exactly at t
+    j = np.searchsorted(ts, t, side='left')                  # the first sample at or after t
+    k = np.searchsorted(ts, t, side='right')                 # the first after t
+    y_ref = v[np.minimum(j, ts.size - 1)]
+    before = _window_sums(ts, v, t, y_ref, np.searchsorted(ts, t - HALF_WINDOW_NS, side='left'), k)
+    after = _window_sums(ts, v, t, y_ref, j, np.searchsorted(ts, t + HALF_WINDOW_NS, side='right'))
+    at = k - j                                               # samples exactly at t
     whole = before + after
     whole[0] -= at
     if at.any():
         hit = np.nonzero(at)[0]
-        for k in range(int(at.max())):
-            h = hit[at[hit] > k]
-            whole[3, h] -= v[j[h] + k] - y_ref[h]
+        for r in range(int(at.max())):
+            h = hit[at[hit] > r]
+            whole[3, h] -= v[j[h] + r] - y_ref[h]
     return _slope(before), _slope(after), _slope(whole)
 
 
