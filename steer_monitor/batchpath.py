@@ -19,9 +19,8 @@ from steer_monitor.can.decoder import Decoder
 from steer_monitor.can.fastlogs import in_time_order, iter_log_blocks, log_end_ns
 from steer_monitor.can.logs import LogError
 from steer_monitor.can.rejects import RejectCounter
-from steer_monitor.can.setup import can_setup
-from steer_monitor.params import gaps_from_params, gear_from_params, load_params_file, min_clearance_2z_from_params
-from steer_monitor.resources import default_config
+from steer_monitor.can.setup import load_setup
+from steer_monitor.params import gaps_from_params, gear_from_params, min_clearance_2z_from_params
 from steer_monitor.review import Review, ReviewResult
 
 __all__ = ['BatchRun', 'review_logs']
@@ -71,9 +70,7 @@ def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *,
     import os
 
     paths = in_time_order([Path(p) for p in logs])
-    config_path = Path(config) if config else default_config()
-    params = load_params_file(config_path)
-    db, smap = can_setup(params, config_path)
+    _, params, db, smap = load_setup(config)
     gear = gear_from_params(params)
     jobs = min(jobs or os.cpu_count() or 1, 2)
     review = Review(gear, gaps_from_params(params), min_clearance_2z=min_clearance_2z_from_params(params))

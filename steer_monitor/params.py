@@ -29,9 +29,11 @@ from steer_monitor.model.fits import parse_fit
 from steer_monitor.model.friction import FrictionParams
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.torque import TorqueCurve
+from steer_monitor.resources import default_config
 
 __all__ = [
     'NODE_NAME',
+    'load_config',
     'PARAMETERS',
     'ParamSpec',
     'friction_from_params',
@@ -286,6 +288,13 @@ def validate_params(values: Mapping[str, Any]) -> dict[str, Any]:
         msg = f'parameters gear.* / torque.*: {exc}'
         raise ParameterError(msg) from exc
     return out
+
+
+def load_config(config: str | Path | None) -> tuple[Path, dict[str, Any]]:
+    """(path, validated parameters) of the parameters file ``config``, or of the packaged
+    R-18 one when it is None or empty."""
+    path = Path(config) if config else default_config()
+    return path, load_params_file(path)
 
 
 def load_params_file(path: str | Path, node_name: str = NODE_NAME) -> dict[str, Any]:

@@ -26,17 +26,16 @@ from steer_monitor.can.frames import Frame
 from steer_monitor.can.logs import LogError, iter_log
 from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, McapWriter
 from steer_monitor.can.rejects import RejectCounter
-from steer_monitor.can.setup import can_setup
+from steer_monitor.can.setup import load_setup
 from steer_monitor.errors import SteerMonitorError
 from steer_monitor.estimate.online import OnlineEstimate
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig
 from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages, topic_name
 from steer_monitor.monitor.pipeline import Output, Pipeline, StateOut, SyncEstimatorJobs, estimator_from_params
-from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params, load_params_file
+from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
 from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.record.msgdefs import msgdef
-from steer_monitor.resources import default_config
 
 __all__ = ['ReplayError', 'ReplaySummary', 'replay', 'summary_json']
 
@@ -77,9 +76,7 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
         if not p.is_file():
             msg = f'replay: log {p} does not exist'
             raise ReplayError(msg)
-    config_path = Path(config) if config else default_config()
-    params = load_params_file(config_path)
-    db, smap = can_setup(params, config_path)
+    _, params, db, smap = load_setup(config)
     gear = gear_from_params(params)
     rejects = RejectCounter()
     monitor = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params))

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from steer_monitor.can.codec import CanDatabase, load_dbc
 from steer_monitor.can.signals import SignalMap
+from steer_monitor.params import load_config
 from steer_monitor.resources import config_dir
 
-__all__ = ['can_setup', 'dbc_path']
+__all__ = ['Setup', 'can_setup', 'dbc_path', 'load_setup']
 
 
 def dbc_path(params: Mapping[str, Any], config_path: str | Path | None = None) -> Path:
@@ -32,3 +33,18 @@ def can_setup(params: Mapping[str, Any], config_path: str | Path | None = None) 
     smap = SignalMap.from_params(params)
     smap.check(db)
     return db, smap
+
+
+class Setup(NamedTuple):
+    """A parameters file, its validated parameters, its DBC codec and signal map."""
+
+    config_path: Path
+    params: dict[str, Any]
+    db: CanDatabase
+    smap: SignalMap
+
+
+def load_setup(config: str | Path | None) -> Setup:
+    """:class:`Setup` of the parameters file ``config`` (the packaged R-18 one when None)."""
+    path, params = load_config(config)
+    return Setup(path, params, *can_setup(params, path))

@@ -32,12 +32,11 @@ from typing import Any, TextIO
 from steer_monitor.can.decoder import Decoder
 from steer_monitor.can.logs import read_log_arrays
 from steer_monitor.can.rejects import RejectCounter
-from steer_monitor.can.setup import can_setup
+from steer_monitor.can.setup import load_setup
 from steer_monitor.cli.output import dump_json
 from steer_monitor.estimate.analyze import Analysis, analyze
 from steer_monitor.estimate.batch import ClearanceEstimate
-from steer_monitor.params import gear_from_params, load_params_file, min_clearance_2z_from_params
-from steer_monitor.resources import default_config
+from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
 
 __all__ = ['analysis_json', 'analyze_log', 'register', 'run']
 
@@ -107,9 +106,7 @@ def analysis_json(a: Analysis) -> dict[str, Any]:
 
 
 def analyze_log(path: str | Path, config: str | Path | None = None, progress: bool = False) -> tuple[Analysis, dict[str, Any]]:
-    config_path = Path(config) if config else default_config()
-    params = load_params_file(config_path)
-    db, smap = can_setup(params, config_path)
+    config_path, params, db, smap = load_setup(config)
     gear = gear_from_params(params)
     rejects = RejectCounter()
     fa = read_log_arrays(path, rejects)

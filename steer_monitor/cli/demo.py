@@ -35,12 +35,10 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: 
     from rclpy.executors import SingleThreadedExecutor
 
     from steer_monitor import sim
-    from steer_monitor.can.setup import can_setup
+    from steer_monitor.can.setup import load_setup
     from steer_monitor.cli import study
     from steer_monitor.node.monitor_node import MonitorNode
     from steer_monitor.node.params_ros import overrides_from_file
-    from steer_monitor.params import load_params_file
-    from steer_monitor.resources import default_config
     from steer_monitor.sim.live import play
 
     out_dir = Path(out_dir)
@@ -50,9 +48,7 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: 
     except OSError as exc:
         msg = f'cannot create output directory {record_dir}: {exc.strerror or exc}'
         raise ParameterError(msg) from exc
-    config_path = Path(config) if config else default_config()
-    params = load_params_file(config_path)
-    db, smap = can_setup(params, config_path)
+    config_path, params, db, smap = load_setup(config)
     frames = sim.run(params, sim.SimConfig(program=program), db, smap, seed=1).frames
     channel = f'steer-demo-{uuid.uuid4().hex[:6]}'
     duration = (int(frames.t_ns[-1]) - int(frames.t_ns[0])) / 1e9

@@ -19,10 +19,8 @@ from steer_monitor.can.decoder import Decoder
 from steer_monitor.can.frames import Frame, FrameArrays
 from steer_monitor.can.logs import LogError, iter_log
 from steer_monitor.can.rejects import REASONS, RejectCounter
-from steer_monitor.can.setup import can_setup
+from steer_monitor.can.setup import load_setup
 from steer_monitor.cli.output import dump_json, table
-from steer_monitor.params import load_params_file
-from steer_monitor.resources import default_config
 
 __all__ = ['inspect_log', 'register', 'run']
 
@@ -35,9 +33,7 @@ def _iso(t_ns: int) -> str:
 
 
 def inspect_log(path: str | Path, config: str | Path | None = None) -> dict[str, Any]:
-    config_path = Path(config) if config else default_config()
-    params = load_params_file(config_path)
-    db, smap = can_setup(params, config_path)
+    _, _, db, smap = load_setup(config)
     rejects = RejectCounter()
     frames: list[Frame] = []
     read_error = None

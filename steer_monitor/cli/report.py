@@ -92,9 +92,8 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
 
     from steer_monitor.batchpath import review_logs
     from steer_monitor.errors import ParameterError
-    from steer_monitor.params import gear_from_params, load_params_file
+    from steer_monitor.params import gear_from_params, load_config
     from steer_monitor.report.review import ReportInput, write_review_report
-    from steer_monitor.resources import default_config
 
     out = out or sys.stdout
     if analysis_hours < 0:
@@ -105,8 +104,7 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
         if not p.is_file():
             msg = f'log {p} does not exist'
             raise ParameterError(msg)
-    config_path = Path(config) if config else default_config()
-    params = load_params_file(config_path)
+    config_path, params = load_config(config)
     t0 = time.perf_counter()
     with tqdm(unit='frame', unit_scale=True, disable=not sys.stderr.isatty(), file=sys.stderr, desc='review') as bar:
         batch = review_logs(paths, config_path, progress=bar.update)

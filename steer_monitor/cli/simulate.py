@@ -12,12 +12,11 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from steer_monitor.can.logs import LogError, LogWriter
-from steer_monitor.can.setup import can_setup
+from steer_monitor.can.setup import load_setup
 from steer_monitor.cli.output import dump_json
 from steer_monitor.errors import ParameterError
 from steer_monitor.model.gear import Gaps
-from steer_monitor.params import gaps_from_params, load_params_file
-from steer_monitor.resources import default_config
+from steer_monitor.params import gaps_from_params
 from steer_monitor import sim
 
 __all__ = ['parse_speed_profile', 'register', 'run', 'truth_path']
@@ -60,9 +59,7 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
     if not (math.isfinite(speed_factor) and speed_factor >= 0):
         msg = f'--speed-factor must be >= 0 (0: as fast as possible), got {speed_factor!r}'
         raise ParameterError(msg)
-    config_path = Path(config) if config else default_config()
-    params = load_params_file(config_path)
-    db, smap = can_setup(params, config_path)
+    _, params, db, smap = load_setup(config)
     configured = gaps_from_params(params)
     gaps = Gaps.from_mm(configured.two_z * 1e3 if gap_2z_mm is None else gap_2z_mm,
                         configured.z_gb * 1e3 if gap_zgb_mm is None else gap_zgb_mm)
