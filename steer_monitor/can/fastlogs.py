@@ -6,10 +6,13 @@ each); a month of one vessel's steering bus is a few hundred million frames. The
 same frames and reject counts as :func:`steer_monitor.can.logs.iter_log` (the tests compare
 them on every kind of line), which remains the reference and the fallback:
 
-* candump: a block of lines is split on newlines with numpy; lines of the usual shape
-  ``(sec.frac) chan ID#HEX`` are parsed by column arithmetic on the bytes, grouped by field
-  width; any other line (remote frames, odd payloads, garbage) goes through the line parser of
-  :mod:`~steer_monitor.can.logs`, which counts what it rejects.
+* candump: lines of the usual shape ``(sec.frac) chan ID#HEX`` are parsed eight characters
+  at a time (:mod:`~steer_monitor.can.digits`) at the offsets of their layout. A block whose
+  lines are all of one length and layout (one writer, one DLC: the usual log) is read with
+  strided words straight from the block, without finding its lines; otherwise the block is
+  split on newlines and the lines grouped by length. Any other line (remote frames, odd
+  payloads, garbage) goes through the line parser of :mod:`~steer_monitor.can.logs`, which
+  counts what it rejects.
 * MCAP: chunks are decompressed whole; inside one, a run of ``can_msgs/msg/Frame`` message
   records of equal size (how both the recorder and the log writer lay them out) is found with
   one vectorized comparison and read as a 2-D byte array. Other records are stepped over.
@@ -20,13 +23,14 @@ from __future__ import annotations
 
 import re
 import struct
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from steer_monitor.can import digits
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, FrameArrays
 from steer_monitor.can.logs import (CAN_ERR_FLAG, READ_SUFFIXES, LogError, _candump_line, _suffix, candump_line,
                                    iter_log, open_log)
@@ -38,6 +42,8 @@ __all__ = ['BLOCK_BYTES', 'BLOCK_FRAMES', 'iter_candump_blocks', 'iter_log_block
 
 BLOCK_BYTES = 16 << 20
 BLOCK_FRAMES = 1 << 18
+_PAD = 16          # bytes before and after a candump block, so words may be read across its ends
+_PAD_BYTES = bytes(_PAD)
 
 _HEX = np.full(256, 255, np.uint8)
 for _i, _c in enumerate(b'0123456789'):
@@ -64,6 +70,15 @@ def _field(a: NDArray[np.uint8], start: NDArray[np.intp], end: NDArray[np.intp],
             continue
         values[rows], valid[rows] = _digits(a[start[rows, None] + np.arange(w)], lut, base)
     return values, valid
+
+
+def _digits(m: NDArray[np.uint8], lut: NDArray[np.uint8], base: int) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+    """The numbers written in the columns of ``m`` (n, w): (values, valid). Float64 matmul is
+    exact here (at most 16 hex or 10 decimal digits of a timestamp's seconds < 2**53)."""
+    d = lut[m]
+    valid = (d < base).all(axis=1)
+    powers = float(base) ** np.arange(m.shape[1] - 1, -1, -1)
+    return (d.astype(np.float64) @ powers).astype(np.int64), valid
 
 
 def _assemble(sec: NDArray[np.int64], frac: NDArray[np.int64], frac_width: Any, ident: NDArray[np.int64],
@@ -112,76 +127,112 @@ def _shape_ok(s: NDArray[np.intp], e: NDArray[np.intp], dot: NDArray[np.intp], c
 _LINE = re.compile(rb'^\((\d+)\.(\d{1,9})\) (\S+) ([0-9A-Fa-f]{1,8})#([0-9A-Fa-f]*)$')
 
 
-def _digits(m: NDArray[np.uint8], lut: NDArray[np.uint8], base: int) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
-    """The numbers written in the columns of ``m`` (n, w): (values, valid). Float64 matmul is
-    exact here (at most 16 hex or 10 decimal digits of a timestamp's seconds < 2**53)."""
-    d = lut[m]
-    valid = (d < base).all(axis=1)
-    powers = float(base) ** np.arange(m.shape[1] - 1, -1, -1)
-    return (d.astype(np.float64) @ powers).astype(np.int64), valid
+Words = Callable[[int], NDArray[np.uint64]]
+Bytes = Callable[[int], NDArray[np.uint8]]
 
 
-def _matrix_frames(m: NDArray[np.uint8], dot: int, cp: int, sp2: int, hs: int, length: int
+def _dec_field(words: Words, e: int, w: int) -> tuple[NDArray[np.int64], NDArray[np.bool_]]:
+    """The decimal number of ``w`` (1..16) characters ending before line offset ``e``."""
+    v, ok = digits.dec8(digits.keep_last(words(e - 8), min(w, 8)))
+    if w > 8:
+        hi, ok_hi = digits.dec8(digits.keep_last(words(e - 16), w - 8))
+        v, ok = hi * np.uint64(100_000_000) + v, ok & ok_hi
+    return v.astype(np.int64), ok
+
+
+def _layout_frames(words: Words, byte_at: Bytes, n: int, dot: int, cp: int, sp2: int, hs: int, length: int
                    ) -> tuple[FrameArrays, NDArray[np.bool_]]:
-    """Frames of lines of one layout, given as the rows of ``m`` (n, >= length)."""
-    sec, v1 = _digits(m[:, 1:dot], _DEC, 10)
-    frac, v2 = _digits(m[:, dot + 1:cp], _DEC, 10)
-    ident, v3 = _digits(m[:, sp2 + 1:hs], _HEX, 16)
-    nb = (length - hs - 1) // 2
-    d = _HEX[m[:, hs + 1:hs + 1 + 2 * nb]]
-    good = v1 & v2 & v3 & (d < 16).all(axis=1) & (sec < 9_223_372_035)
-    data = np.zeros((m.shape[0], MAX_DLC), np.uint8)
-    data[:, :nb] = (d[:, 0::2] << 4) | d[:, 1::2]
-    return _assemble(sec, frac, cp - dot - 1, ident, hs - sp2 - 1, nb, data, good), good
+    """Frames of ``n`` lines of one layout (delimiters at these offsets, ``length``
+    characters): ``words(off)`` gives the eight characters at line offset ``off`` of each line
+    as a uint64 (:mod:`~steer_monitor.can.digits`), ``byte_at(off)`` the one character.
+    Returns the frames of the lines that are of that layout and valid, and a mask of them."""
+    good = byte_at(0) == ord('(')
+    for off, ch in ((dot, b'.'), (cp, b')'), (cp + 1, b' '), (sp2, b' '), (hs, b'#')):
+        good &= byte_at(off) == ord(ch)
+    for off in range(cp + 2, sp2):                      # the channel: no blank or control
+        good &= byte_at(off) > 32
+    sec, ok = _dec_field(words, dot, dot - 1)
+    good &= ok & (sec < 9_223_372_035)
+    frac, ok = _dec_field(words, cp, cp - dot - 1)
+    good &= ok
+    ident, ok = digits.hex8(digits.keep_last(words(hs - 8), hs - sp2 - 1))
+    good &= ok
+    chars = length - hs - 1                             # even, at most 16 (the layout's check)
+    data = np.zeros((n, 2), '<u4')
+    for k in range((chars + 7) // 8):
+        data[:, k], ok = digits.hex8_bytes(digits.keep_first(words(hs + 1 + 8 * k), min(chars - 8 * k, 8)))
+        good &= ok
+    return _assemble(sec, frac, cp - dot - 1, ident.astype(np.int64), hs - sp2 - 1, chars // 2,
+                     data.view(np.uint8).reshape(n, MAX_DLC), good), good
 
 
-def _templates(a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp]
+def _layout(line: bytes) -> tuple[int, int, int, int] | None:
+    """(dot, cp, sp2, hs) of a line of the usual shape whose fields the word parser takes
+    (seconds up to 16 digits), else None."""
+    m = _LINE.match(line)
+    if m is None:
+        return None
+    dot, cp, sp2, hs = m.end(1), m.end(2), m.end(3), m.end(4)
+    if (len(line) - hs - 1) % 2 or len(line) - hs - 1 > 16 or dot - 1 > 16:
+        return None
+    return dot, cp, sp2, hs
+
+
+def _uniform_frames(pb: bytes, a: NDArray[np.uint8]) -> FrameArrays | None:
+    """The frames of a block of lines all of one length and layout (the usual log: one
+    writer, one DLC), read with strided words straight from the block; None when the
+    block is not such, or any line is not valid (the general parse then takes it)."""
+    stride = pb.find(b'\n', _PAD, _PAD + a.size) + 1 - _PAD
+    if stride < 2 or a.size % stride:
+        return None
+    if not (a[stride - 1::stride] == 10).all():
+        return None
+    lay = _layout(bytes(a[:stride - 1]))
+    if lay is None:
+        return None
+    n = a.size // stride
+
+    def words(off: int) -> NDArray[np.uint64]:
+        return np.ndarray((n,), '<u8', buffer=pb, offset=_PAD + off, strides=(stride,))
+
+    fa, good = _layout_frames(words, lambda off: a[off::stride], n, *lay, stride - 1)
+    return fa if good.all() else None
+
+
+def _templates(pb: bytes, a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp]
                ) -> tuple[list[FrameArrays], list[NDArray[np.intp]], NDArray[np.bool_]]:
     """Lines of one length whose delimiters sit where the first such line has them (a log is
-    mostly one or a few line layouts): parsed by fixed columns, straight from the block
-    when every line has that length. Returns frames, their lines, and a mask of the lines
-    handled."""
+    mostly one or a few line layouts), parsed by words at fixed offsets. Returns frames,
+    their lines, and a mask of the lines handled."""
     n = starts.size
     done = np.zeros(n, bool)
     parts: list[FrameArrays] = []
     lines: list[NDArray[np.intp]] = []
     length = ends - starts
     values, counts = np.unique(length, return_counts=True)
+    every = np.ndarray((len(pb) - 7,), '<u8', buffer=pb, strides=(1,))    # the word at every byte
     for L, count in zip(values.tolist(), counts.tolist()):
         if count < 16:
             continue
         first_row = int(np.argmax(length == L))
-        m0 = _LINE.match(bytes(a[starts[first_row]:ends[first_row]]))
-        if m0 is None:
-            continue
-        dot, cp, sp1, sp2, hs = m0.end(1), m0.end(2), m0.end(2) + 1, m0.end(3), m0.end(4)
-        if (L - hs - 1) % 2 or L - hs - 1 > 16 or cp - dot - 1 > 9:
+        lay = _layout(bytes(a[starts[first_row]:ends[first_row]]))
+        if lay is None:
             continue
         rows = np.nonzero(length == L)[0]
-        stride = int(starts[1] - starts[0]) if n > 1 else L + 1
-        if count == n and starts[0] == 0 and (n == 1 or (np.diff(starts) == stride).all()):
-            # every line of the block in this layout, evenly spaced: a view, no copy
-            m = np.lib.stride_tricks.as_strided(a, shape=(n, L), strides=(stride, 1))
-        else:
-            m = a[starts[rows, None] + np.arange(L)]
-        check = (m[:, 0] == ord('(')) & (m[:, dot] == ord('.')) & (m[:, cp] == ord(')'))
-        check &= (m[:, sp1] == 32) & (m[:, sp2] == 32) & (m[:, hs] == ord('#'))
-        if sp2 - sp1 > 1:
-            check &= (m[:, sp1 + 1:sp2] > 32).all(axis=1)
-        if not check.all():
-            rows, m = rows[check], m[check]
-        fa, good = _matrix_frames(m, dot, cp, sp2, hs, L)
+        at = starts[rows]
+        fa, good = _layout_frames(lambda off: every[at + (_PAD + off)], lambda off: a[at + off], rows.size, *lay, L)
         parts.append(fa)
         lines.append(rows[good])
         done[rows[good]] = True
     return parts, lines, done
 
 
-def _parse_candump(a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp]
+def _parse_candump(pb: bytes, a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp]
                    ) -> tuple[FrameArrays, NDArray[np.bool_]]:
-    """Vectorized parse of lines ``a[starts[i]:ends[i]]`` (no newline). Returns the frames of
-    the lines of the usual shape, in line order, and a mask of those lines."""
-    parts, lines, mask = _templates(a, starts, ends)
+    """Vectorized parse of lines ``a[starts[i]:ends[i]]`` (no newline; ``a`` is ``pb``
+    without its padding). Returns the frames of the lines of the usual shape, in line order,
+    and a mask of those lines."""
+    parts, lines, mask = _templates(pb, a, starts, ends)
     rest = np.nonzero(~mask)[0]
     if rest.size:
         # the other lines: find each delimiter's line; the usual shape has exactly one of
@@ -243,10 +294,16 @@ def iter_candump_blocks(path: str | Path, rejects: RejectCounter | None = None,
                 if cut == 0:
                     carry = buf
                     continue
-                buf, carry = buf[:cut], buf[cut:]
+                carry = buf[cut:]
             else:
-                carry = b''
-            a = np.frombuffer(buf, np.uint8)
+                cut, carry = len(buf), b''
+            pb = _PAD_BYTES + buf[:cut] + _PAD_BYTES
+            a = np.frombuffer(pb, np.uint8, count=cut, offset=_PAD)
+            fa = _uniform_frames(pb, a)
+            if fa is not None:
+                lineno += len(fa)
+                yield fa
+                continue
             nl = np.flatnonzero(a == 10)
             starts = np.concatenate([[0], nl + 1]).astype(np.intp)
             ends = np.concatenate([nl, [a.size]]).astype(np.intp)
@@ -254,16 +311,16 @@ def iter_candump_blocks(path: str | Path, rejects: RejectCounter | None = None,
                 starts, ends = starts[:-1], ends[:-1]
             cr = (ends > starts) & (a[np.clip(ends - 1, 0, None)] == 13)
             ends = ends - cr
-            fa, mask = _parse_candump(a, starts, ends)
+            fa, mask = _parse_candump(pb, a, starts, ends)
             slow = np.nonzero(~mask)[0]
             if slow.size:
-                fa = _merge_slow(fa, mask, slow, buf, starts, ends, lineno, rejects, path)
+                fa = _merge_slow(fa, mask, slow, a, starts, ends, lineno, rejects, path)
             lineno += starts.size
             if len(fa):
                 yield fa
 
 
-def _merge_slow(fa: FrameArrays, mask: NDArray[np.bool_], slow: NDArray[np.intp], buf: bytes,
+def _merge_slow(fa: FrameArrays, mask: NDArray[np.bool_], slow: NDArray[np.intp], a: NDArray[np.uint8],
                 starts: NDArray[np.intp], ends: NDArray[np.intp], lineno: int, rejects: RejectCounter | None,
                 path: Path) -> FrameArrays:
     """The lines the column parser left, through the line parser, merged in line order."""
@@ -271,7 +328,7 @@ def _merge_slow(fa: FrameArrays, mask: NDArray[np.bool_], slow: NDArray[np.intp]
     extra: list[Frame] = []
     at: list[int] = []
     for i in slow.tolist():
-        text = buf[starts[i]:ends[i]].decode('ascii', 'replace')
+        text = a[starts[i]:ends[i]].tobytes().decode('ascii', 'replace')
         f = _candump_line(text, lineno + i + 1, rejects, path)
         if f is not None:
             extra.append(f)

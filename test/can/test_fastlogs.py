@@ -160,3 +160,45 @@ def test_same_as_iter_log_on_frames(tmp_path, simulated):
     fast = read_log_fast(path).frames()
     assert fast == [f.__class__(f.t_ns, f.can_id, f.data, f.is_extended, f.is_error, f.is_remote, '')
                     for f in iter_log(path)]
+
+
+USUAL = b'(1767225600.008079) can0 09F10D10#00F800000100FFFF'
+SUBSTITUTES = b'0 9aFG.#(x\x00\x7f\xff'
+
+
+def _block(lines: list[bytes]):
+    from steer_monitor.can import fastlogs
+    raw = b''.join(line + b'\n' for line in lines)
+    pb = fastlogs._PAD_BYTES + raw + fastlogs._PAD_BYTES
+    return pb, np.frombuffer(pb, np.uint8, count=len(raw), offset=fastlogs._PAD)
+
+
+def test_a_block_of_one_layout_is_read_by_strided_words():
+    from steer_monitor.can.fastlogs import _uniform_frames
+    lines = [USUAL.replace(b'008079', f'{i:06d}'.encode()) for i in range(40)]
+    fa = _uniform_frames(*_block(lines))
+    assert fa is not None and len(fa) == 40
+    np.testing.assert_array_equal(fa.t_ns, 1767225600_000000000 + np.arange(40) * 1000)
+    assert set(fa.can_id.tolist()) == {0x09F10D10} and bytes(fa.data[0]) == bytes.fromhex('00F800000100FFFF')
+
+
+@pytest.mark.parametrize('pos', range(len(USUAL)))
+def test_one_changed_character_anywhere(tmp_path, pos):
+    """Each character of a usual line replaced by digits, letters, delimiters and control
+    bytes, among lines of its layout: what the line parser makes of it, whichever path reads
+    it; the one-layout path declines a block with a line it would reject."""
+    from steer_monitor.can.fastlogs import _uniform_frames
+    good = [USUAL] * 20
+    for c in SUBSTITUTES:
+        line = USUAL[:pos] + bytes([c]) + USUAL[pos + 1:]
+        lines = good[:10] + [line] + good[10:]
+        path = tmp_path / f'{pos}_{c}.log'
+        path.write_bytes(b''.join(x + b'\n' for x in lines))
+        ref, got, r1, r2 = _both(path)
+        _same(ref, got)
+        assert r1.counts == r2.counts
+        fast = _uniform_frames(*_block(lines))
+        if len(ref) < len(lines):
+            assert fast is None, (pos, c)
+        elif fast is not None:
+            _same(ref, fast)
