@@ -186,8 +186,9 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, 
     region = region_all
     if region.shape[0] > 60:
         region = region[np.linspace(0, region.shape[0] - 1, 60).round().astype(int)]
-    region_fits = [(float(pr.two_z[a]), float(pr.z_gb[b]),
-                    F.fit_at(gear, basis, mom, pr.two_z[a], pr.z_gb[b], load, extra)) for a, b in region]
+    fits = F.fit_points(gear, basis, mom, load, pr.two_z[region[:, 0]], pr.z_gb[region[:, 1]], extra,
+                        per_cell=False, covariance=True)
+    region_fits = [(float(pr.two_z[a]), float(pr.z_gb[b]), fits.at(k, best.n)) for k, (a, b) in enumerate(region)]
     region_fits.append((tz, zg, best))
     coefs = {}
     for name in best.names[basis.size:]:
@@ -202,7 +203,8 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, 
     tq = bmat @ best.coef[:basis.size]
     cov_t = best.cov_unscaled[:basis.size, :basis.size] * sigma2 * vif
     band = 1.96 * np.sqrt(np.maximum(np.einsum('ij,jk,ik->i', bmat, cov_t, bmat), 0.0))
-    kgl = [float(k_gl_max(gear, angles, bmat @ f.coef[:basis.size], a, b)[0]) for a, b, f in region_fits]
+    fit_tz, fit_zg, fit_torque = (np.array(x) for x in zip(*((a, b, f.coef[:basis.size]) for a, b, f in region_fits)))
+    kgl = k_gl_max(gear, angles, bmat @ fit_torque.T, fit_tz, fit_zg).tolist()
     # every point of the region (the extremes of K_gl sit at its edges; the subsample above
     # carries each fit's own torque curve) with the best torque curve and with the curve at
     # either edge of its band (K_gl grows with the load)
@@ -297,10 +299,13 @@ def search_box(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: NDArr
 
 
 def k_gl_max(gear: GearParams, angles: NDArray, torque: NDArray, two_z: ArrayLike, z_gb: ArrayLike) -> NDArray:
-    """K_gl max over ``angles`` (A,) [rad] at ``torque`` (A,) [N m] for each clearance pair
-    ``two_z``, ``z_gb`` (R,) [m] (scalars are one pair): shape (R,)."""
+    """K_gl max over ``angles`` (A,) [rad] at ``torque`` [N m], one curve (A,) or one per pair
+    (A, R), for each clearance pair ``two_z``, ``z_gb`` (R,) [m] (scalars are one pair):
+    shape (R,)."""
     two_z, z_gb = np.atleast_1d(np.asarray(two_z, float)), np.atleast_1d(np.asarray(z_gb, float))
     if angles.size == 0 or two_z.size == 0:
         return np.zeros(two_z.size)
-    ls = load_sharing(gear, angles[:, None], np.maximum(torque, 0.0)[:, None], two_z[None, :], z_gb[None, :])
+    torque = np.maximum(torque, 0.0)
+    ls = load_sharing(gear, angles[:, None], torque if torque.ndim == 2 else torque[:, None], two_z[None, :],
+                      z_gb[None, :])
     return np.max(ls.k_gl, axis=0)

@@ -36,7 +36,7 @@ from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import load_sharing
 
 __all__ = ['GRID_2Z', 'GRID_ZGB', 'KNOT_STEP_DEG', 'Column', 'FitAt', 'Profile', 'TorqueBasis', 'axial_load', 'design_at', 'design_columns', 'fit_at', 'normal_equations', 'solve_normal_equations',
-           'friction_features', 'profile', 'torque_columns', 'torque_of_load', 'torque_prefit']
+           'friction_features', 'PointFits', 'fit_points', 'profile', 'torque_columns', 'torque_of_load', 'torque_prefit']
 
 DEG = math.pi / 180.0
 GRID_2Z = np.round(np.arange(0.0, 1.5001e-3, 0.02e-3), 9)    # m: 0 .. 1.5 mm
@@ -271,15 +271,56 @@ class Profile:
 
 def profile(gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray[np.float64],
             extra: Sequence[Column] = (), grid_2z: NDArray = GRID_2Z, grid_zgb: NDArray = GRID_ZGB) -> Profile:
-    """RSS of the linear fit at every grid point. Vectorized over a row of 2Z at a time: the
-    clearance-independent blocks of X^T X are built once; per grid point only the two friction
-    columns (and extras built from them) change."""
-    nb_all_z = grid_2z.size
-    rss = np.empty((nb_all_z, grid_zgb.size))
+    """RSS of the linear fit at every grid point (:func:`fit_points` over the grid, friction
+    features per angle cell)."""
+    fits = fit_points(gear, basis, mom, load, np.repeat(grid_2z, grid_zgb.size), np.tile(grid_zgb, grid_2z.size),
+                      extra)
+    rss = fits.rss.reshape(grid_2z.size, grid_zgb.size)
+    best = int(np.argmin(fits.rss))
+    return Profile(grid_2z, grid_zgb, rss, mom.samples, len(fits.names), fits.coef[best].copy())
+
+
+@dataclass(frozen=True)
+class PointFits:
+    """The linear fit at each of G clearance pairs.
+
+    Attributes:
+        rss: (G,) [N^2]; coef: (G, p) as :attr:`FitAt.coef`; names: (p,).
+        cov_unscaled: (G, p, p) as :attr:`FitAt.cov_unscaled`, or None when not asked for.
+    """
+
+    rss: NDArray[np.float64]
+    coef: NDArray[np.float64]
+    names: tuple[str, ...]
+    cov_unscaled: NDArray[np.float64] | None
+
+    def at(self, g: int, n: float) -> FitAt:
+        """The fit at pair ``g`` (``n`` rows) as :func:`fit_at` gives it."""
+        if self.cov_unscaled is None:
+            msg = 'these fits were made without their covariance (fit_points(..., covariance=True))'
+            raise ValueError(msg)
+        return FitAt(self.coef[g], float(self.rss[g]), n, self.names, self.cov_unscaled[g])
+
+
+POINT_CHUNK = 1 << 17      # friction features evaluated per call: cells (or bins) x pairs
+
+
+def fit_points(gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray[np.float64],
+               two_z: NDArray[np.float64], z_gb: NDArray[np.float64], extra: Sequence[Column] = (), *,
+               per_cell: bool = True, covariance: bool = False) -> PointFits:
+    """The declared model fitted at each clearance pair (``two_z[g]``, ``z_gb[g]``), shapes
+    (G,) [m]; ``load`` is |Fa| per bin [N]. The clearance-independent blocks of X^T X are
+    built once; per pair only the friction columns (and extras built from them) change, and
+    the pairs go through the load-sharing solver and the solves together, a chunk at a time.
+
+    ``per_cell``: friction features once per (angle bin, speed class) cell at the cell's
+    mean angle and torque (the profile; ~1e-4 of the RSS from the per-bin features), else
+    per bin, as :func:`fit_at` (which this then equals to rounding). ``covariance``: also
+    the (X^T X + ridge)^-1 of every pair."""
+    two_z, z_gb = np.broadcast_arrays(np.asarray(two_z, float).ravel(), np.asarray(z_gb, float).ravel())
     torque = torque_of_load(gear, mom, load)
     d = mom.direction
     yty = float(mom.m[:, -1, -1].sum())
-    # columns that do not depend on the clearances
     zero = {'n_b': np.zeros(len(mom)), 'f_gb': np.zeros(len(mom)), 'load': load}
     base_cols, zs, names = design_columns(gear, basis, mom, zero, extra)
     p = len(names)
@@ -290,29 +331,33 @@ def profile(gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray[np
     zi = np.asarray(zs)
     mz_all = mom.m[:, :, zi]                         # (B, q, p): moments of every z with column zs
     myz = mom.m[:, q - 1, :]                         # (B, q): y with each z
-    cell_alpha, cell_torque, cell_of_bin = _cells(mom, torque)
+    if per_cell:
+        cell_alpha, cell_torque, cell_of_bin = _cells(mom, torque)
+    else:
+        cell_alpha, cell_torque, cell_of_bin = mom.abs_alpha, torque, np.arange(len(mom))
+    nb_all, fg_all, first, inverse = _point_features(gear, cell_alpha, cell_torque, two_z, z_gb)
     fixed_cols = [c for c in range(p) if c not in dep]
+    cross = {a: base_cols[:, fixed_cols] * mz_all[:, zs[a], fixed_cols] for a in dep}   # (B, n_fixed)
     diag_fixed = np.diag(xtx0)
     eye = np.eye(p, dtype=bool)
-    best_rss, best_coef = math.inf, None
-    small = grid_2z.size * grid_zgb.size <= 64     # a local search: all features in one call
-    if small:
-        nb_all, fg_all = friction_features(gear, cell_alpha, cell_torque, np.repeat(grid_2z, grid_zgb.size)[None, :],
-                                           np.tile(grid_zgb, grid_2z.size)[None, :])
-    for i, tz in enumerate(grid_2z):
-        if small:
-            nb, fg = (x[:, i * grid_zgb.size:(i + 1) * grid_zgb.size] for x in (nb_all, fg_all))
-        else:
-            nb, fg = friction_features(gear, cell_alpha, cell_torque, np.array([tz]), grid_zgb[None, :])
+    u_all = first.size
+    rss = np.empty(u_all)
+    coef_all = np.empty((u_all, p))
+    cov = np.empty((u_all, p, p)) if covariance else None
+    step = max(POINT_CHUNK // max(len(mom), 1), 1)
+    for g0 in range(0, u_all, step):
+        sl = slice(g0, min(g0 + step, u_all))
+        nb, fg = nb_all[:, sl], fg_all[:, sl]
         feats = {'n_b': nb[cell_of_bin], 'f_gb': fg[cell_of_bin], 'load': load[:, None]}
-        dep_vals = {a: _dep_value(a, basis, d[:, None], feats, mom, extra) for a in dep}  # (B, J)
-        xtx = np.broadcast_to(xtx0, (grid_zgb.size, p, p)).copy()
-        xty = np.broadcast_to(xty0, (grid_zgb.size, p)).copy()
+        dep_vals = {a: _dep_value(a, basis, d[:, None], feats, mom, extra) for a in dep}  # (B, g)
+        g = nb.shape[1]
+        xtx = np.broadcast_to(xtx0, (g, p, p)).copy()
+        xty = np.broadcast_to(xty0, (g, p)).copy()
         for a in dep:
             za = zs[a]
             va = dep_vals[a]
             # column a against the fixed columns: sum_b x_a x_c m[z_a, z_c]
-            row = va.T @ (base_cols[:, fixed_cols] * mz_all[:, za, fixed_cols])       # (J, n_fixed)
+            row = va.T @ cross[a]                                                     # (g, n_fixed)
             xtx[:, a, fixed_cols] = row
             xtx[:, fixed_cols, a] = row
             for a2 in dep:
@@ -321,13 +366,65 @@ def profile(gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray[np
         diag = np.where(eye, xtx, 0.0).sum(axis=2)
         diag[:, fixed_cols] = diag_fixed[fixed_cols]
         a_mat = xtx + ridge + (RIDGE * diag + 1e-300)[:, :, None] * eye
-        coef = np.linalg.solve(a_mat, xty[:, :, None])[:, :, 0]
+        if covariance:
+            inv = _inverses(a_mat)
+            coef = np.einsum('jpq,jq->jp', inv, xty)
+            cov[sl] = inv     # type: ignore[index]
+        else:
+            coef = np.linalg.solve(a_mat, xty[:, :, None])[:, :, 0]
         r = yty - 2 * np.einsum('jp,jp->j', coef, xty) + np.einsum('jp,jpq,jq->j', coef, xtx, coef)
-        rss[i] = np.maximum(r, 0.0)
-        j = int(np.argmin(rss[i]))
-        if rss[i, j] < best_rss:
-            best_rss, best_coef = float(rss[i, j]), coef[j].copy()
-    return Profile(grid_2z, grid_zgb, rss, mom.samples, p, best_coef)
+        rss[sl] = np.maximum(r, 0.0)
+        coef_all[sl] = coef
+    return PointFits(rss[inverse], coef_all[inverse], tuple(names), None if cov is None else cov[inverse])
+
+
+def _point_features(gear: GearParams, alpha: NDArray[np.float64], torque: NDArray[np.float64],
+                    two_z: NDArray[np.float64], z_gb: NDArray[np.float64]
+                    ) -> tuple[NDArray, NDArray, NDArray[np.intp], NDArray[np.intp]]:
+    """:func:`friction_features` at angles and torques (C,) for clearance pairs (G,), a chunk
+    of pairs per call, kept once per distinct column: (N_b (C, U), |F_gb| (C, U), the first
+    pair of each distinct column (U,), each pair's distinct column (G,)).
+
+    Pairs beyond any contact (a slipper that never touches, a ram that never clamps) have
+    the same features to the bit: they are one model, fitted once. Fitted apart they would
+    give RSS differing in the last bits by where they fell in a vectorized product (the RSS
+    is a small difference of large sums), enough to move a plateau's best point and test."""
+    seen: dict[bytes, int] = {}
+    first: list[int] = []
+    inverse = np.empty(two_z.size, np.intp)
+    nb_parts: list[NDArray] = []
+    fg_parts: list[NDArray] = []
+    step = max(POINT_CHUNK // max(alpha.size, 1), 1)
+    for g0 in range(0, two_z.size, step):
+        sl = slice(g0, g0 + step)
+        nb, fg = friction_features(gear, alpha, torque, two_z[None, sl], z_gb[None, sl])
+        cols = np.concatenate([nb, fg]).T.copy()
+        new: list[int] = []
+        for g in range(cols.shape[0]):
+            k = seen.setdefault(cols[g].tobytes(), len(first))
+            if k == len(first):
+                first.append(g0 + g)
+                new.append(g)
+            inverse[g0 + g] = k
+        nb_parts.append(nb[:, new])
+        fg_parts.append(fg[:, new])
+    return (np.concatenate(nb_parts, axis=1), np.concatenate(fg_parts, axis=1), np.asarray(first, np.intp),
+            inverse)
+
+
+def _inverses(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Inverses of a stack of matrices (g, p, p), the pseudo-inverse where one is singular
+    (as :func:`fit_at` solves)."""
+    try:
+        return np.linalg.inv(a)
+    except np.linalg.LinAlgError:
+        out = np.empty_like(a)
+        for k in range(a.shape[0]):
+            try:
+                out[k] = np.linalg.inv(a[k])
+            except np.linalg.LinAlgError:
+                out[k] = np.linalg.pinv(a[k])
+        return out
 
 
 def _cells(mom: Moments, torque: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:

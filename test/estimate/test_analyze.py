@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from steer_monitor.estimate.analyze import analyze
@@ -81,3 +82,22 @@ def test_effect_outside_the_library_is_reported_unexplained(r18, simulate_signal
     assert a.verdict == 'unexplained' and a.effect is None
     assert a.message.startswith('residual not explained')
     assert a.final is a.declared
+
+
+def test_k_gl_max_per_pair_and_per_curve(r18):
+    """K_gl max over the angles against the solver at each angle, for one torque curve shared by
+    every pair and for a curve of each pair's own."""
+    from steer_monitor.estimate.batch import k_gl_max
+    from steer_monitor.model.loadshare import load_sharing
+    angles = np.radians(np.arange(0.0, 35.01, 0.5))
+    curve = r18.torque(angles)
+    tz, zg = np.array([0.2e-3, 0.6e-3, 1.2e-3]), np.array([0.05e-3, 0.25e-3, 0.5e-3])
+    own = np.stack([curve * s for s in (0.8, 1.0, 1.3)], axis=1)       # (A, R)
+    for torque in (curve, own):
+        got = k_gl_max(r18, angles, torque, tz, zg)
+        for r in range(tz.size):
+            t = torque if torque.ndim == 1 else torque[:, r]
+            expect = max(float(load_sharing(r18, a, t[i], tz[r], zg[r]).k_gl) for i, a in enumerate(angles))
+            assert got[r] == pytest.approx(expect, rel=1e-12)
+    assert k_gl_max(r18, angles, curve, 0.6e-3, 0.25e-3).shape == (1,)
+    assert k_gl_max(r18, angles[:0], curve[:0], tz, zg).tolist() == [0.0, 0.0, 0.0]

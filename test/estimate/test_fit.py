@@ -82,3 +82,72 @@ def test_recovers_declared_friction_and_the_profile_minimum(r18):
 def test_candidate_defaults():
     c = Candidate('viscous')
     assert c.columns == () and c.angle_shift_s == 0.0
+
+
+def _moments(r18, n=6000, seed=3):
+    alpha, d, speed, y, z = _synthetic(r18, n=n, seed=seed)
+    return Moments.from_rows(bin_keys(alpha, d, speed), np.abs(alpha), np.zeros_like(y),
+                             np.stack([np.ones_like(y), z, y], axis=1), ('z',))
+
+
+PAIRS = [(0.0, 0.0), (0.6e-3, 0.25e-3), (1.5e-3, 0.6e-3), (0.2e-3, 0.05e-3), (1.0e-3, 0.3e-3)]
+
+
+def _guide_squared(m, f):
+    """An extra column built from the friction features (it changes with the clearances)."""
+    return m.direction.reshape((-1,) + (1,) * (np.ndim(f['f_gb']) - 1)) * f['f_gb'] ** 2 * 1e-5
+
+
+_guide_squared.uses_clearances = True   # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize('extra', [(), (Column('k', 'z', lambda m, f: m.direction),),
+                                   (Column('g', '', _guide_squared),)])
+def test_fits_at_many_pairs_are_single_fits(r18, extra):
+    """Per bin, the vectorized fits over pairs equal fit_at at each pair: coefficients, RSS and
+    covariance; per cell, the RSS within the cells' 1e-4; the profile is those fits on the grid."""
+    mom = _moments(r18)
+    basis = F.TorqueBasis(r18.max_rudder)
+    load = F.axial_load(r18, basis, mom, F.torque_prefit(r18, basis, mom))
+    tz, zg = (np.array(x) for x in zip(*PAIRS))
+    fits = F.fit_points(r18, basis, mom, load, tz, zg, extra, per_cell=False, covariance=True)
+    cells = F.fit_points(r18, basis, mom, load, tz, zg, extra)
+    assert cells.cov_unscaled is None
+    for k, (a, b) in enumerate(PAIRS):
+        single = F.fit_at(r18, basis, mom, a, b, load, extra)
+        got = fits.at(k, single.n)
+        assert got.names == single.names
+        # X^T X summed in another order: the neighbouring spline coefficients (nearly
+        # collinear) move by ~1e-6 of themselves, the RSS by far less
+        np.testing.assert_allclose(got.coef, single.coef, rtol=1e-4)
+        assert got.rss == pytest.approx(single.rss, rel=1e-9)
+        np.testing.assert_allclose(got.cov_unscaled, single.cov_unscaled, rtol=1e-4,
+                                   atol=1e-9 * np.abs(single.cov_unscaled).max())
+        assert cells.rss[k] == pytest.approx(single.rss, rel=2e-4)
+    pr = F.profile(r18, basis, mom, load, extra, np.array([0.2e-3, 1.0e-3]), np.array([0.05e-3, 0.3e-3]))
+    on_grid = F.fit_points(r18, basis, mom, load, np.array([0.2e-3, 0.2e-3, 1.0e-3, 1.0e-3]),
+                           np.array([0.05e-3, 0.3e-3, 0.05e-3, 0.3e-3]), extra)
+    np.testing.assert_array_equal(pr.rss.ravel(), on_grid.rss)
+    with pytest.raises(ValueError, match='without their covariance'):
+        cells.at(0, 1.0)
+
+
+def test_pairs_beyond_any_contact_are_one_model(r18):
+    """Past the clearance the largest load closes, every pair has the same features to the
+    bit; they are fitted once, so the plateau is flat to the bit wherever it falls in the
+    batch (what the plateau test and the best point's tie-break rely on)."""
+    mom = _moments(r18)
+    basis = F.TorqueBasis(r18.max_rudder)
+    load = F.axial_load(r18, basis, mom, F.torque_prefit(r18, basis, mom))
+    pr = F.profile(r18, basis, mom, load, (), F.GRID_2Z, F.GRID_ZGB[::4])
+    last = pr.rss[:, -1]                            # Z_gb 0.6 mm: the slipper never touches
+    flat = pr.rss[-5:]                              # 2Z 1.42..1.5 mm
+    assert (flat == flat[0]).all() and np.unique(last[-20:]).size == 1
+    # the pairs' distinct feature columns: pairs 0 and 2 (both beyond contact) are one
+    tz, zg = np.array([1.5e-3, 0.1e-3, 1.4e-3, 0.1e-3]), np.array([0.6e-3, 0.0, 0.6e-3, 0.05e-3])
+    nb, fg, first, inverse = F._point_features(r18, np.radians([5.0, 20.0]), np.array([1e5, 5e5]), tz, zg)
+    np.testing.assert_array_equal(first, [0, 1, 3])
+    np.testing.assert_array_equal(inverse, [0, 1, 0, 2])
+    ref_nb, ref_fg = F.friction_features(r18, np.radians([5.0, 20.0]), np.array([1e5, 5e5]), tz[None], zg[None])
+    np.testing.assert_array_equal(nb, ref_nb[:, first])
+    np.testing.assert_array_equal(fg, ref_fg[:, first])
