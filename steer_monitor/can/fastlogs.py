@@ -14,8 +14,9 @@ them on every kind of line), which remains the reference and the fallback:
   payloads, garbage) goes through the line parser of :mod:`~steer_monitor.can.logs`, which
   counts what it rejects.
 * MCAP: chunks are decompressed whole; inside one, a run of ``can_msgs/msg/Frame`` message
-  records of equal size (how both the recorder and the log writer lay them out) is found with
-  one vectorized comparison and read as a 2-D byte array. Other records are stepped over.
+  records of equal size on one channel (how both the recorder and the log writer lay them
+  out) is found with one vectorized comparison, and each field read as a strided view of its
+  type. Other records are stepped over.
 * other formats (``.asc``, ``.blf``): python-can, gathered into blocks.
 """
 
@@ -370,31 +371,33 @@ class _McapState:
         self.frame_channels = {c for c, s in self.channels.items() if self.schemas.get(s) == FRAME_DATATYPE}
 
 
-def _frames_from_records(rec: NDArray[np.uint8]) -> FrameArrays:
-    """Frame columns of equal-size can_msgs/msg/Frame message records, one per row."""
-    def u(off: int, dt: str) -> NDArray:
-        size = np.dtype(dt).itemsize
-        return np.ascontiguousarray(rec[:, off:off + size]).view(dt).ravel()
-    log_time = u(15, '<u8').astype(np.int64)
-    sec = u(35, '<i4').astype(np.int64)
-    nsec = u(39, '<u4').astype(np.int64)
-    fid_len = int(u(43, '<u4')[0])
+_DLC_MASK = np.array([(1 << (8 * k)) - 1 for k in range(MAX_DLC)] + [(1 << 64) - 1], np.uint64)
+
+
+def _frames_from_records(b: bytes, pos: int, stride: int, k: int) -> FrameArrays:
+    """Frame columns of ``k`` equal-size can_msgs/msg/Frame message records, the first at
+    ``pos`` of ``b``, every ``stride`` bytes: each field read as a strided view of its type."""
+    def col(off: int, dt: str) -> NDArray:
+        return np.ndarray((k,), dt, buffer=b, offset=pos + off, strides=(stride,))
+    log_time = col(15, '<u8').astype(np.int64)
+    sec = col(35, '<i4').astype(np.int64)
+    nsec = col(39, '<u4').astype(np.int64)
+    fid_len = int(col(43, '<u4')[0])
     p = 35 + ((12 + fid_len + 3) // 4) * 4
+    if p + 8 + MAX_DLC > stride:
+        msg = f'a can_msgs/msg/Frame record of {stride - 9} bytes cannot hold a frame_id of {fid_len} bytes'
+        raise ValueError(msg)
     stamp = sec * 1_000_000_000 + nsec
     t_ns = np.where((sec != 0) | (nsec != 0), stamp, log_time)
-    can_id = u(p, '<u4')
-    rtr, ext, err, dlc = rec[:, p + 4], rec[:, p + 5], rec[:, p + 6], rec[:, p + 7]
-    data = np.ascontiguousarray(rec[:, p + 8:p + 16])
-    dlc = np.minimum(dlc, 8).astype(np.uint8)
-    keep = np.arange(MAX_DLC) < dlc[:, None]
-    data = np.where(keep, data, 0).astype(np.uint8)
-    flags = (FLAG_EXTENDED * (ext != 0) | FLAG_ERROR * (err != 0) | FLAG_REMOTE * (rtr != 0)).astype(np.uint8)
-    return FrameArrays(t_ns, can_id.astype(np.uint32), dlc, data, flags)
+    dlc = np.minimum(col(p + 7, 'u1'), MAX_DLC).astype(np.uint8)
+    data = (col(p + 8, '<u8') & _DLC_MASK[dlc]).astype('<u8').view(np.uint8).reshape(k, MAX_DLC)
+    flags = (FLAG_EXTENDED * (col(p + 5, 'u1') != 0) | FLAG_ERROR * (col(p + 6, 'u1') != 0)
+             | FLAG_REMOTE * (col(p + 4, 'u1') != 0)).astype(np.uint8)
+    return FrameArrays(t_ns, col(p, '<u4').astype(np.uint32), dlc, data, flags)
 
 
 def _walk_records(b: bytes, state: _McapState) -> list[FrameArrays]:
     """Frames of the records in ``b`` (a chunk's records, decompressed)."""
-    a = np.frombuffer(b, np.uint8)
     n = len(b)
     out: list[FrameArrays] = []
     pos = 0
@@ -406,14 +409,15 @@ def _walk_records(b: bytes, state: _McapState) -> list[FrameArrays]:
         if op == _MSG and pos + 11 <= n:
             (cid,) = unpack('<H', b, pos + 9)
             if cid in state.frame_channels and ln >= 22 + 4 + 12 and pos + stride <= n:
-                head = a[pos:pos + 11]
+                # the run of records like this one: same opcode, length and channel (bytes
+                # 0..10, as two words); the length fixes where the fields after frame_id lie
                 k_max = (n - pos) // stride
-                view = np.lib.stride_tricks.as_strided(a[pos:], shape=(k_max, stride), strides=(stride, 1))
-                same = (view[:, :11] == head).all(axis=1)
-                same &= (view[:, 43:47] == a[pos + 43:pos + 47]).all(axis=1)
+                same = np.ones(k_max, bool)
+                for off, dt in ((0, '<u8'), (7, '<u4')):
+                    words = np.ndarray((k_max,), dt, buffer=b, offset=pos + off, strides=(stride,))
+                    same &= words == words[0]
                 run = k_max if same.all() else int(np.argmin(same))
-                rec = view[:run]
-                out.append(_frames_from_records(rec))
+                out.append(_frames_from_records(b, pos, stride, run))
                 pos += run * stride
                 continue
         elif op == _SCHEMA:
@@ -499,7 +503,7 @@ def iter_mcap_blocks(path: str | Path) -> Iterator[FrameArrays]:
                     if held >= BLOCK_FRAMES:
                         yield FrameArrays.concat(pending)
                         pending, held = [], 0
-        except (LogError, struct.error, zstandard.ZstdError) as exc:
+        except (LogError, ValueError, struct.error, zstandard.ZstdError) as exc:
             if pending:
                 yield FrameArrays.concat(pending)
             if isinstance(exc, LogError):

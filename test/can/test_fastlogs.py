@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import struct
 
 import numpy as np
 import pytest
@@ -202,3 +203,41 @@ def test_one_changed_character_anywhere(tmp_path, pos):
             assert fast is None, (pos, c)
         elif fast is not None:
             _same(ref, fast)
+
+
+def test_frame_records_as_columns():
+    """Runs of frame records among other records: flags, DLC (above 8 read as 8) and the
+    payload bytes past the DLC (not the frame's) dropped; a record too short for its frame_id
+    is an error that says so."""
+    from steer_monitor.can.fastlogs import _McapState, _walk_records
+    from steer_monitor.can.frames import Frame
+    from steer_monitor.can.mcapio import FRAME_DATATYPE, _record_dtype, frame_records
+    dlcs = [0, 3, 8, 15, 1]
+    frames = [Frame(1_767_225_600_000_000_000 + i * 1000, 0x100 + i, bytes(8), i % 2 == 0, i == 2, i == 4, '')
+              for i in range(len(dlcs))]
+    raw, _, size = frame_records(frames, 3)
+    dtype, _ = _record_dtype('steering_can')
+    rec = np.frombuffer(raw, dtype).copy()
+    rec['dlc'] = dlcs
+    rec['data'] = np.void(bytes(range(0xA1, 0xA9)))
+    state = _McapState()
+    state.schema(1, FRAME_DATATYPE)
+    state.channel(3, 1)
+    other = bytes([0x05]) + struct.pack('<QH', 30, 4) + bytes(28)          # a message on another channel
+    alike = rec[:1].copy()
+    alike['channel'] = 4                                                   # of a frame's size
+    got = FrameArrays.concat(_walk_records(rec[:2].tobytes() + other + rec[2:4].tobytes() + alike.tobytes()
+                                           + rec[4:].tobytes(), state))
+    assert len(got) == len(dlcs)
+    np.testing.assert_array_equal(got.t_ns, [f.t_ns for f in frames])
+    np.testing.assert_array_equal(got.can_id, [f.can_id for f in frames])
+    np.testing.assert_array_equal(got.dlc, [0, 3, 8, 8, 1])
+    for row, n in zip(got.data, [0, 3, 8, 8, 1]):
+        assert bytes(row) == bytes(range(0xA1, 0xA1 + n)) + bytes(8 - n)
+    assert [f.is_extended for f in got.frames()] == [True, False, True, False, True]
+    assert [f.is_error for f in got.frames()] == [False, False, True, False, False]
+    assert [f.is_remote for f in got.frames()] == [False, False, False, False, True]
+    bad = rec[:1].copy()
+    bad['fid_len'] = 200
+    with pytest.raises(ValueError, match='cannot hold a frame_id of 200 bytes'):
+        _walk_records(bad.tobytes(), state)
