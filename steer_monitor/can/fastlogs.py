@@ -91,6 +91,9 @@ def _assemble(sec: NDArray[np.int64], frac: NDArray[np.int64], frac_width: Any, 
     is_error = extended & ((ident & CAN_ERR_FLAG) != 0)
     flags = (FLAG_EXTENDED * extended | FLAG_ERROR * is_error).astype(np.uint8)
     nbytes = np.broadcast_to(nbytes, good.shape)
+    if good.all():
+        return FrameArrays(t_ns.astype(np.int64, copy=False), (ident & 0x1FFFFFFF).astype(np.uint32),
+                           nbytes.astype(np.uint8), data, flags)
     return FrameArrays(t_ns[good].astype(np.int64), (ident[good] & 0x1FFFFFFF).astype(np.uint32),
                        nbytes[good].astype(np.uint8), data[good], flags[good])
 
@@ -179,7 +182,7 @@ def _layout(line: bytes) -> tuple[int, int, int, int] | None:
     return dot, cp, sp2, hs
 
 
-def _uniform_frames(pb: bytes, a: NDArray[np.uint8]) -> FrameArrays | None:
+def _uniform_frames(pb: bytes | bytearray, a: NDArray[np.uint8]) -> FrameArrays | None:
     """The frames of a block of lines all of one length and layout (the usual log: one
     writer, one DLC), read with strided words straight from the block; None when the
     block is not such, or any line is not valid (the general parse then takes it)."""
@@ -200,7 +203,7 @@ def _uniform_frames(pb: bytes, a: NDArray[np.uint8]) -> FrameArrays | None:
     return fa if good.all() else None
 
 
-def _templates(pb: bytes, a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp]
+def _templates(pb: bytes | bytearray, a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp]
                ) -> tuple[list[FrameArrays], list[NDArray[np.intp]], NDArray[np.bool_]]:
     """Lines of one length whose delimiters sit where the first such line has them (a log is
     mostly one or a few line layouts), parsed by words at fixed offsets. Returns frames,
@@ -228,7 +231,7 @@ def _templates(pb: bytes, a: NDArray[np.uint8], starts: NDArray[np.intp], ends: 
     return parts, lines, done
 
 
-def _parse_candump(pb: bytes, a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp]
+def _parse_candump(pb: bytes | bytearray, a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp]
                    ) -> tuple[FrameArrays, NDArray[np.bool_]]:
     """Vectorized parse of lines ``a[starts[i]:ends[i]]`` (no newline; ``a`` is ``pb``
     without its padding). Returns the frames of the lines of the usual shape, in line order,
@@ -284,23 +287,30 @@ def iter_candump_blocks(path: str | Path, rejects: RejectCounter | None = None,
     fh = open_log(path)
     lineno = 0
     carry = b''
+    # one buffer for every block: the carried part of a line, the block read into it after,
+    # _PAD zero bytes either side; the frames made from it are copies
+    ba = bytearray(2 * _PAD + 2 * block_bytes)
     with fh:
         while True:
-            chunk = fh.read(block_bytes)
-            if not chunk and not carry:
+            if len(ba) < 2 * _PAD + len(carry) + block_bytes:
+                ba = bytearray(2 * _PAD + 2 * (len(carry) + block_bytes))
+            ba[_PAD:_PAD + len(carry)] = carry
+            start = _PAD + len(carry)
+            got = fh.readinto(memoryview(ba)[start:start + block_bytes])
+            if not got and not carry:
                 return
-            buf = carry + chunk
-            if chunk:
-                cut = buf.rfind(b'\n') + 1
+            end = start + got
+            if got:
+                cut = ba.rfind(b'\n', _PAD, end) + 1
                 if cut == 0:
-                    carry = buf
+                    carry = bytes(ba[_PAD:end])
                     continue
-                carry = buf[cut:]
+                carry = bytes(ba[cut:end])
             else:
-                cut, carry = len(buf), b''
-            pb = _PAD_BYTES + buf[:cut] + _PAD_BYTES
-            a = np.frombuffer(pb, np.uint8, count=cut, offset=_PAD)
-            fa = _uniform_frames(pb, a)
+                cut, carry = end, b''
+            ba[cut:cut + _PAD] = _PAD_BYTES
+            a = np.frombuffer(ba, np.uint8, count=cut - _PAD, offset=_PAD)
+            fa = _uniform_frames(ba, a)
             if fa is not None:
                 lineno += len(fa)
                 yield fa
@@ -312,7 +322,7 @@ def iter_candump_blocks(path: str | Path, rejects: RejectCounter | None = None,
                 starts, ends = starts[:-1], ends[:-1]
             cr = (ends > starts) & (a[np.clip(ends - 1, 0, None)] == 13)
             ends = ends - cr
-            fa, mask = _parse_candump(pb, a, starts, ends)
+            fa, mask = _parse_candump(ba, a, starts, ends)
             slow = np.nonzero(~mask)[0]
             if slow.size:
                 fa = _merge_slow(fa, mask, slow, a, starts, ends, lineno, rejects, path)
