@@ -241,3 +241,14 @@ def test_frame_records_as_columns():
     bad['fid_len'] = 200
     with pytest.raises(ValueError, match='cannot hold a frame_id of 200 bytes'):
         _walk_records(bad.tobytes(), state)
+
+
+def test_lines_longer_than_a_block(tmp_path):
+    """A line longer than the block read (the buffer grows to hold it) among usual lines."""
+    usual = [f'(1767225601.{i:06d}) can0 09F10D10#00F80000FFFF{i:02X}FF' for i in range(40)]
+    lines = usual[:20] + ['x' * 500, '(1767225601.5) can0 09F10D10#' + '0' * 300] + usual[20:]
+    path = tmp_path / 'long.log'
+    path.write_bytes(('\n'.join(lines) + '\n').encode())
+    ref, got, r1, r2 = _both(path, block_bytes=97)
+    _same(ref, got)
+    assert len(got) == 40 and r1.counts == r2.counts
