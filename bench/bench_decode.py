@@ -14,6 +14,7 @@ from pathlib import Path
 
 from steer_monitor import sim
 from steer_monitor.can import Decoder, collect
+from steer_monitor.can.fastlogs import read_log_fast
 from steer_monitor.can.logs import LogWriter, iter_log, read_log_arrays
 from steer_monitor.can.setup import can_setup
 from steer_monitor.params import load_params_file
@@ -60,6 +61,9 @@ def main() -> dict:
         file_per_s = time.perf_counter() - t0
         t0 = time.perf_counter()
         Decoder(db, smap).decode_arrays(read_log_arrays(path))
+        file_lines_s = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        Decoder(db, smap).decode_arrays(read_log_fast(path))
         file_batch_s = time.perf_counter() - t0
 
     print(f'decode of a {hours:.2f} h simulated log, {n:,} frames')
@@ -67,10 +71,13 @@ def main() -> dict:
     print(f'  in memory, batch     : {batch_s:7.2f} s  {_rate(n, batch_s)}')
     print(f'  in memory, batch / per-frame = {per_s / batch_s:,.0f}x')
     print(f'  candump file, per frame : {file_per_s:7.2f} s  {_rate(n, file_per_s)}')
-    print(f'  candump file, batch     : {file_batch_s:7.2f} s  {_rate(n, file_batch_s)}'
-          '  (reading is still per line; issue 6 vectorizes it)')
+    print(f'  candump file, lines parsed one by one, decoded as columns : {file_lines_s:7.2f} s  '
+          f'{_rate(n, file_lines_s)}')
+    print(f'  candump file, column reader (can/fastlogs.py) + batch decode: {file_batch_s:7.2f} s  '
+          f'{_rate(n, file_batch_s)}')
+    print(f'  candump file, column reader / per frame = {file_per_s / file_batch_s:,.0f}x')
     return {'frames': n, 'per_frame_s': per_s, 'batch_s': batch_s, 'file_per_frame_s': file_per_s,
-            'file_batch_s': file_batch_s}
+            'file_lines_s': file_lines_s, 'file_batch_s': file_batch_s}
 
 
 if __name__ == '__main__':
