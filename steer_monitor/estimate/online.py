@@ -218,7 +218,7 @@ class OnlineEstimator:
         bi, bj = pr.best
         tz, zg = float(self.grid_2z[gi[bi]]), float(self.grid_zgb[gj[bj]])
         prev = self.estimate
-        if prev is not None and not (_inside(prev.two_z, tz) and _inside(prev.z_gb, zg)):
+        if prev is not None and not (prev.two_z.contains(tz) and prev.z_gb.contains(zg)):
             # the local step left the last full profile's interval: the profile has moved
             # (or the step is in a local minimum); a point outside its own interval is not
             # an answer: profile again, or, if one was made within the last
@@ -329,12 +329,6 @@ def _estimate_to_json(e: OnlineEstimate) -> dict[str, object]:
 def _estimate_from_json(d: dict) -> OnlineEstimate:
     return OnlineEstimate(Interval(*d['two_z']), Interval(*d['z_gb']), Interval(*d['k_gl_max']), float(d['rows']),
                           int(d['t_ns']), bool(d['full']), tuple(float(x) for x in d['friction']))  # type: ignore[arg-type]
-
-
-def _inside(iv: Interval, value: float) -> bool:
-    """``value`` within the interval's bounds (a missing bound does not bound)."""
-    eps = 1e-12
-    return (iv.lo is None or value >= iv.lo - eps) and (iv.hi is None or value <= iv.hi + eps)
 
 
 def _moved(iv: Interval, value: float) -> Interval:
