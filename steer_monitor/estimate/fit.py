@@ -159,10 +159,7 @@ def _smoothing(k_torque: int, p: int, xtx: NDArray) -> NDArray[np.float64]:
 def _solve(xtx: NDArray, xty: NDArray, yty: float, smooth: NDArray) -> tuple[NDArray, float, NDArray]:
     # and a relative ridge per column, so an unexcited column stays solvable
     a = xtx + smooth + np.diag(RIDGE * np.diag(xtx) + 1e-300)
-    try:
-        inv = np.linalg.inv(a)
-    except np.linalg.LinAlgError:
-        inv = np.linalg.pinv(a)
+    inv = _inverses(a[None])[0]
     coef = inv @ xty
     rss = float(yty - 2 * coef @ xty + coef @ xtx @ coef)
     return coef, max(rss, 0.0), inv
@@ -413,8 +410,7 @@ def _point_features(gear: GearParams, alpha: NDArray[np.float64], torque: NDArra
 
 
 def _inverses(a: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Inverses of a stack of matrices (g, p, p), the pseudo-inverse where one is singular
-    (as :func:`fit_at` solves)."""
+    """Inverses of a stack of matrices (g, p, p), the pseudo-inverse where one is singular."""
     try:
         return np.linalg.inv(a)
     except np.linalg.LinAlgError:
