@@ -12,13 +12,13 @@ export MPLBACKEND := Agg
 
 venv: $(STAMP)
 
-$(STAMP): setup.py setup.cfg package.xml requirements-ros.txt requirements-dev.txt
+$(STAMP): setup.py setup.cfg package.xml requirements-ros.txt requirements-dev.txt constraints.txt
 	@$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "need Python 3.11, found " + sys.version' \
 	  || { echo "make: set PYTHON=/path/to/python3.11" >&2; exit 1; }
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --upgrade pip setuptools wheel
-	$(BIN)/python -m pip install -r requirements-ros.txt -r requirements-dev.txt
-	$(BIN)/python -m pip install -e .
+	$(BIN)/python -m pip install -c constraints.txt pip setuptools wheel
+	$(BIN)/python -m pip install -c constraints.txt -r requirements-ros.txt -r requirements-dev.txt
+	$(BIN)/python -m pip install -c constraints.txt -e .
 	touch $@
 
 demo: $(STAMP)

@@ -46,6 +46,7 @@ PROGRAMMES = {
     'voyage': 'voyage',
     'manoeuvres': 'hard_over_2,zigzag_20,zigzag_10,hard_over_1,zigzag_20,hold:60,zigzag_10',
     'autopilot': 'autopilot:1500',
+    'realistic': 'realistic:1500',
 }
 QUANTITIES = ('clearance_2z_mm', 'clearance_zgb_mm', 'k_gl_max', 'seal_friction_n', 'mu_bushing', 'mu_guide')
 
@@ -79,6 +80,7 @@ class CaseResult:
     clamped_share: float
     max_angle_deg: float
     inflation: float
+    systematic_bar: float
     verdict: str
     effect: str | None
     seconds: float
@@ -140,7 +142,8 @@ def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: 
         'clearance_2z_mm': case.two_z_mm, 'clearance_zgb_mm': case.z_gb_mm,
         # the estimand: K_gl max of the true gear and torque over the angles the estimate
         # evaluates (0.5 deg steps up to the largest angle of the steady-motion rows)
-        'k_gl_max': float(k_gl_max(gear, angles, gear.torque(angles, float(np.mean(p.speed))),
+        # at the service speed, where the estimate's torque curve stands
+        'k_gl_max': float(k_gl_max(gear, angles, gear.torque(angles),
                                    cfg.gaps.two_z, cfg.gaps.z_gb)[0]),
         'seal_friction_n': cfg.seal_friction, 'mu_bushing': cfg.mu_bushing, 'mu_guide': cfg.mu_guide,
     }
@@ -152,7 +155,7 @@ def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: 
         est[q], ci[q] = _scaled(iv, k)
     return CaseResult(case=case, duration_s=p.duration, rows=f.rows, truth=truth, estimate=est, ci95=ci,
                       clamped_share=clamped, max_angle_deg=math.degrees(f.max_angle_seen), inflation=f.inflation,
-                      verdict=a.verdict, effect=a.effect, seconds=time.perf_counter() - t0)
+                      systematic_bar=a.declared.smooth_rms / (gear.ram_area * 1e5), verdict=a.verdict, effect=a.effect, seconds=time.perf_counter() - t0)
 
 
 def coverage_interval(hits: int, n: int) -> tuple[float, float]:
@@ -199,7 +202,8 @@ def summarize(results: Sequence[CaseResult], clamp_threshold: float = 0.05) -> d
     for name, rs in groups.items():
         g: dict[str, Any] = {'cases': len(rs), 'declared_share': sum(r.verdict == 'declared' for r in rs) / len(rs),
                              'effects_adopted': sorted({r.effect for r in rs if r.effect}),
-                             'median_inflation': float(np.median([r.inflation for r in rs]))}
+                             'median_inflation': float(np.median([r.inflation for r in rs])),
+                             'max_systematic_bar': float(np.max([r.systematic_bar for r in rs]))}
         for q in QUANTITIES:
             g[q] = _errors(rs, q)
         clamped = [r for r in rs if r.clamped_share >= clamp_threshold]

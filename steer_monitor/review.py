@@ -41,7 +41,7 @@ from steer_monitor.estimate import fit as F
 from steer_monitor.estimate.batch import (MIN_MOTION_SAMPLES, ClearanceEstimate, box_holds, coarse_profile,
                                           estimate_from_moments, estimate_in_box, make_rows, residuals_and_inflation,
                                           search_box)
-from steer_monitor.estimate.moments import Moments, rows_from_observations
+from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations, build_observations
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.loadshare import LoadSharing, load_sharing
@@ -251,7 +251,7 @@ class Review:
             part = sub.select(slice_of == k)
             keys, aa, v2, u, _ = rows_from_observations(part)
             if keys.size:
-                mom = Moments.from_rows(keys, aa, v2, u, ())
+                mom = Moments.from_rows(keys, aa, v2, u, (SPEED_Z,))
                 self._slices[k] = self._slices[k].merge(mom) if k in self._slices else mom
         self._tail.append(sub)
         while len(self._tail) > 1 and sub.t_ns[-1] - self._tail[0].t_ns[-1] > TAIL_NS:

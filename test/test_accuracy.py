@@ -18,7 +18,7 @@ def _result(programme: str, tz: float, zg: float, est_zg: float, ci_zg: tuple, c
     est = {q: 1.0 for q in A.QUANTITIES} | {'clearance_2z_mm': est_tz, 'clearance_zgb_mm': est_zg}
     ci = {q: (0.5, 1.5) for q in A.QUANTITIES} | {'clearance_2z_mm': ci_tz, 'clearance_zgb_mm': ci_zg}
     return A.CaseResult(A.Case(programme, tz, zg, 1), 1500.0, 10000, truth, est, ci, clamped, 35.0, 1.5,
-                        'declared', None, 5.0)
+                        0.05, 'declared', None, 5.0)
 
 
 def test_cases_grid_and_seeds():
@@ -92,3 +92,11 @@ def test_cli_writes_table_and_json(tmp_path, capsys):
 def test_bad_arguments_are_named(argv, message, capsys):
     assert main(['accuracy', *argv]) == 1
     assert message in capsys.readouterr().err
+
+
+def test_the_study_runs_the_realistic_voyages_and_reports_the_systematic_part():
+    assert A.PROGRAMMES['realistic'].startswith('realistic')
+    rs = [_result('realistic', 0.6, 0.25, 0.25, (0.24, 0.26)), _result('voyage', 0.6, 0.25, 0.25, (0.24, 0.26))]
+    summary = A.summarize(rs)
+    assert summary['realistic']['max_systematic_bar'] == pytest.approx(0.05)
+    assert set(summary) == {'realistic', 'voyage', 'all'}

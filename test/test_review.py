@@ -11,7 +11,7 @@ from steer_monitor.can import Decoder, FrameArrays, RejectCounter
 from steer_monitor.can.logs import LogWriter
 from steer_monitor.model import Gaps
 from steer_monitor.monitor import LiveMonitor
-from steer_monitor.params import gear_from_params
+from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
 from steer_monitor.review import MAX_WINDOWS, Review
 
 pytestmark = pytest.mark.slow
@@ -27,7 +27,8 @@ def _review(r18_params, can_db, frames: FrameArrays, blocks: int, plan: bool = F
             with_review: bool = False):
     db, smap = can_db
     dec = Decoder(db, smap, RejectCounter())
-    rv = Review(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25), reuse_boxes=reuse)
+    rv = Review(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25), reuse_boxes=reuse,
+                min_clearance_2z=min_clearance_2z_from_params(r18_params))   # as batchpath does
     for i, part in enumerate(np.array_split(np.arange(len(frames)), blocks)):
         rv.add(dec.decode_arrays(frames.take(part)))
         if plan and i == 0:
@@ -139,14 +140,14 @@ def test_a_box_that_cuts_the_answer_off_does_not_hold(r18_params, can_db, voyage
         return final.inflation
 
     # the whole grid: its edges are the grid's, so it holds whatever the answer
-    whole = estimate_in_box(gear, mom, F.GRID_2Z, F.GRID_ZGB, vif)
-    assert box_holds(whole, F.GRID_2Z, F.GRID_ZGB)
+    whole = estimate_in_box(gear, mom, rv.grid_2z, F.GRID_ZGB, vif)
+    assert box_holds(whole, rv.grid_2z, F.GRID_ZGB)
     assert whole.z_gb.value == pytest.approx(final.z_gb.value, abs=1e-12)
     # a box around the answer that the interval of Z_gb runs past
     j = int(np.argmin(np.abs(F.GRID_ZGB - final.z_gb.value)))
-    narrow = estimate_in_box(gear, mom, F.GRID_2Z, F.GRID_ZGB[j - 1:j + 2], vif)
-    assert not box_holds(narrow, F.GRID_2Z, F.GRID_ZGB)
+    narrow = estimate_in_box(gear, mom, rv.grid_2z, F.GRID_ZGB[j - 1:j + 2], vif)
+    assert not box_holds(narrow, rv.grid_2z, F.GRID_ZGB)
     # a box away from the answer: its best point sits on its inner edge
-    away = estimate_in_box(gear, mom, F.GRID_2Z, F.GRID_ZGB[j + 20:j + 40], vif)
+    away = estimate_in_box(gear, mom, rv.grid_2z, F.GRID_ZGB[j + 20:j + 40], vif)
     assert away.z_gb.value == pytest.approx(F.GRID_ZGB[j + 20], abs=1e-12)
-    assert not box_holds(away, F.GRID_2Z, F.GRID_ZGB)
+    assert not box_holds(away, rv.grid_2z, F.GRID_ZGB)

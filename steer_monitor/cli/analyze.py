@@ -98,7 +98,8 @@ def analysis_json(a: Analysis) -> dict[str, Any]:
         'final': _estimate_json(f),
         'screening': [{'name': s.name, 'fixed': s.fixed, 'held_out_gain': round(s.cv_gain, 4),
                        'delta_bic': round(s.delta_bic, 1), 'rmse_bar': round(s.rms / bar, 4),
-                       'passes': s.passes} for s in a.screening],
+                       'passes': s.passes, 'refused': s.refused} for s in a.screening],
+        'outlier_instants': a.outliers,
         'torque_curve_knm': [[round(math.degrees(x), 2), round(t / 1e3, 2), round(b / 1e3, 2)]
                              for x, t, b in zip(angles, torque, band)],
         'max_angle_seen_deg': round(math.degrees(f.max_angle_seen), 2),

@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from steer_monitor.estimate import fit as F
 from steer_monitor.estimate.intervals import CHI2_1_95, CHI2_2_95, Interval, inflation, plateau_interval
-from steer_monitor.estimate.moments import Moments, rows_from_observations
+from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import load_sharing
@@ -65,7 +65,7 @@ def make_rows(obs: Observations, z: Mapping[str, NDArray[np.float64]] | None = N
     sub = obs.select(keep)
     zsub = {k: v[keep] for k, v in z.items()}
     keys, aa, v2, u, idx = rows_from_observations(sub, zsub)
-    mom = Moments.from_rows(keys, aa, v2, u, tuple(z))
+    mom = Moments.from_rows(keys, aa, v2, u, (SPEED_Z, *z))
     ram = np.nonzero(np.isfinite(sub.force) & sub.moving[:, None])[1]
     return Rows(mom, np.searchsorted(mom.keys, keys), u, np.nonzero(keep)[0][idx], ram)
 
@@ -214,7 +214,7 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, 
     return ClearanceEstimate(
         two_z=two_z, z_gb=z_gb,
         seal_friction=coefs['seal_friction_n'], mu_bushing=coefs['mu_bushing'], mu_guide=coefs['mu_guide'],
-        extra={c.name: coefs[c.name] for c in extra},
+        extra={c.name: coefs[c.name] for c in extra if not F.is_nuisance(c)},
         torque_curve=(angles, tq, band), k_gl_max=Interval(k_best, min(kgl + [k_best]), max(kgl + [k_best])),
         rms=math.sqrt(best.rss / best.n), rows=int(best.n), inflation=vif, noise_rms=noise, smooth_rms=smooth,
         residual=resid, profile=pr, fit=best, max_angle_seen=max_seen, ram_area=gear.ram_area, deviance=delta)
@@ -223,9 +223,11 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, 
 def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: Sequence[F.Column] = (),
                         grid_2z: NDArray = F.GRID_2Z, grid_zgb: NDArray = F.GRID_ZGB,
                         load: NDArray[np.float64] | None = None) -> ClearanceEstimate:
-    """Fit, profile and bound (see the module docstring)."""
+    """Fit, profile and bound (see the module docstring). The load scale per speed group
+    (:func:`~steer_monitor.estimate.fit.speed_scale_columns`) is fitted with the model."""
     basis = F.TorqueBasis(gear.max_rudder)
     mom = rows.moments
+    extra = tuple(extra) + F.speed_scale_columns(mom)
     pr, best, tz, zg, load = _profile_fit(gear, basis, mom, extra, grid_2z, grid_zgb, load)
     resid, vif = residuals_and_inflation(gear, basis, rows, obs.t_ns, best.coef, tz, zg, load, extra)
     noise, smooth = residual_parts(resid, obs.t_ns)

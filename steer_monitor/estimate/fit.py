@@ -30,12 +30,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.interpolate import BSpline
 
-from steer_monitor.estimate.moments import Moments
+from steer_monitor.estimate.moments import SPEED_Z, Moments
 from steer_monitor.model.friction import normal_forces
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import load_sharing
 
-__all__ = ['GRID_2Z', 'GRID_ZGB', 'KNOT_STEP_DEG', 'Column', 'FitAt', 'Profile', 'TorqueBasis', 'axial_load', 'design_at', 'design_columns', 'fit_at', 'normal_equations', 'solve_normal_equations',
+__all__ = ['GRID_2Z', 'GRID_ZGB', 'KNOT_STEP_DEG', 'Column', 'FitAt', 'Profile', 'TorqueBasis', 'axial_load', 'is_nuisance', 'speed_scale_columns', 'torque_z', 'design_at', 'design_columns', 'fit_at', 'normal_equations', 'residual_sum_of_squares', 'solve_normal_equations',
            'friction_features', 'PointFits', 'fit_points', 'profile', 'torque_columns', 'torque_of_load', 'torque_prefit']
 
 DEG = math.pi / 180.0
@@ -114,14 +114,33 @@ class FitAt:
         return float(self.coef[self.names.index(name)])
 
 
+def torque_z(mom: Moments) -> int:
+    """The z column the torque columns multiply: the per-row speed ratio V^2 / V_c^2 where the
+    moments carry it (:data:`~steer_monitor.estimate.moments.SPEED_Z`), else 1 (the bin's
+    mean V^2 then stands for every row)."""
+    return 1 + mom.z_names.index(SPEED_Z) if SPEED_Z in mom.z_names else 0
+
+
 def _speed_factor(mom: Moments, service_speed: float) -> NDArray[np.float64]:
-    v2 = mom.speed_sq
+    """Per bin, the factor of the torque curve the torque columns carry: (V_c / V_s)^2 of the
+    bin's speed class when the rows carry their ratio to it, else the mean (V / V_s)^2; 1
+    where the speed is not on the bus."""
+    v2 = mom.class_speed_sq if SPEED_Z in mom.z_names else mom.speed_sq
     return np.where(np.isfinite(v2), v2 / service_speed ** 2, 1.0)
 
 
+def _mean_speed_ratio(mom: Moments) -> NDArray[np.float64]:
+    """Per bin, the mean of the z column the torque columns multiply (1 without it)."""
+    zt = torque_z(mom)
+    if zt == 0:
+        return np.ones(len(mom))
+    return mom.mean[:, zt]
+
+
 def torque_columns(gear: GearParams, basis: TorqueBasis, mom: Moments) -> NDArray[np.float64]:
-    """(B, k): signed axial force per unit torque coefficient, per bin [N per N m]. Cached on
-    the moments (which are replaced, not changed, when data are added)."""
+    """(B, k): signed axial force per unit torque coefficient, per bin, for a row of speed
+    ratio 1 (the columns multiply the z column :func:`torque_z`) [N per N m]. Cached on the
+    moments (which are replaced, not changed, when data are added)."""
     key = (id(gear), basis.max_angle)
     cache = mom.__dict__.setdefault('_torque_columns', {})
     if key not in cache:
@@ -133,8 +152,57 @@ def torque_columns(gear: GearParams, basis: TorqueBasis, mom: Moments) -> NDArra
 
 
 def axial_load(gear: GearParams, basis: TorqueBasis, mom: Moments, coef: NDArray[np.float64]) -> NDArray[np.float64]:
-    """|Fa| per bin [N] from torque coefficients."""
-    return np.abs(torque_columns(gear, basis, mom) @ coef[:basis.size])
+    """|Fa| per bin [N] from torque coefficients (at the bin's mean speed ratio)."""
+    return np.abs(torque_columns(gear, basis, mom) @ coef[:basis.size]) * _mean_speed_ratio(mom)
+
+
+SPEED_GROUP_KN = 1.0      # width of a speed group with its own load scale [kn]
+MIN_GROUP_ROWS = 100       # rows a speed group needs for a load scale of its own
+
+
+def _speed_group(mom: Moments) -> NDArray[np.int64]:
+    """Per bin, its speed group (``SPEED_GROUP_KN`` wide, from the class centre); -1 where the
+    speed is not on the bus."""
+    vc = np.sqrt(mom.class_speed_sq) * 3600.0 / 1852.0
+    return np.where(np.isfinite(vc), np.floor(np.nan_to_num(vc) / SPEED_GROUP_KN), -1).astype(np.int64)
+
+
+def speed_scale_columns(mom: Moments) -> tuple[Column, ...]:
+    """Nuisance columns that let the load scale depart from V^2 per speed group:
+    side x |Fa| x [bin in group g] (times the row's speed ratio), one per group with at least
+    ``MIN_GROUP_ROWS`` rows except the largest (the torque curve carries its scale).
+
+    The contract scales the tiller torque with V^2, but a speed log reads through water with
+    its own calibration, 0.01 m/s steps (0.25 % of V^2 at 8 kn) and lag, and a real rudder's
+    torque does not follow V^2 to the per mille. A load error of 0.2 % is 1 kN at 500 kN, the
+    size of the friction that carries the clearances; it is signed with the rudder's side and
+    the friction with the direction of motion, so a free scale per speed group takes it
+    without taking the friction. Empty when the speed is off the bus or in one group."""
+    if SPEED_Z not in mom.z_names or not len(mom):
+        return ()
+    group = _speed_group(mom)
+    groups, inv = np.unique(group, return_inverse=True)
+    rows = np.bincount(inv, mom.count, minlength=groups.size)
+    ok = (groups >= 0) & (rows >= MIN_GROUP_ROWS)
+    if ok.sum() < 2:
+        return ()
+    ref = int(groups[np.argmax(np.where(ok, rows, -1.0))])
+    return tuple(Column(f'load_scale_{int(g * SPEED_GROUP_KN)}kn', SPEED_Z, _group_load(int(g)))
+                 for g in groups[ok] if int(g) != ref)
+
+
+def _group_load(g: int) -> Callable[[Moments, dict[str, NDArray[np.float64]]], NDArray[np.float64]]:
+    def feature(mom: Moments, feats: dict[str, NDArray[np.float64]]) -> NDArray[np.float64]:
+        per_ratio = feats['load'] / _mean_speed_ratio(mom).reshape((-1,) + (1,) * (np.ndim(feats['load']) - 1))
+        inside = (_speed_group(mom) == g).reshape(per_ratio.shape[:1] + (1,) * (per_ratio.ndim - 1))
+        return mom.side.reshape(inside.shape) * per_ratio * inside
+    feature.nuisance = True  # type: ignore[attr-defined]
+    return feature
+
+
+def is_nuisance(col: Column) -> bool:
+    """True for the columns :func:`speed_scale_columns` adds (not an effect's parameter)."""
+    return bool(getattr(col.feature, 'nuisance', False))
 
 
 def friction_features(gear: GearParams, abs_alpha: NDArray[np.float64], torque: NDArray[np.float64],
@@ -156,13 +224,53 @@ def _smoothing(k_torque: int, p: int, xtx: NDArray) -> NDArray[np.float64]:
     return r
 
 
-def _solve(xtx: NDArray, xty: NDArray, yty: float, smooth: NDArray) -> tuple[NDArray, float, NDArray]:
-    # and a relative ridge per column, so an unexcited column stays solvable
+def _solve(xtx: NDArray, xty: NDArray, smooth: NDArray) -> tuple[NDArray, NDArray]:
+    """(coefficients, (X^T X + penalty)^-1) with the smoothing penalty and a relative ridge per
+    column, so an unexcited column stays solvable. No residual here: see
+    :func:`residual_sum_of_squares`."""
     a = xtx + smooth + np.diag(RIDGE * np.diag(xtx) + 1e-300)
     inv = _inverses(a[None])[0]
-    coef = inv @ xty
-    rss = float(yty - 2 * coef @ xty + coef @ xtx @ coef)
-    return coef, max(rss, 0.0), inv
+    return inv @ xty, inv
+
+
+def _z_weights(cols: NDArray, zs: Sequence[int], coef: NDArray) -> tuple[list[int], NDArray]:
+    """The prediction of a row of bin b as sum_j w[b, j] u[j] over the z indices it uses:
+    (those indices, w of shape (B, ..., k)) for ``cols`` (B, p) and ``coef`` (p,) or (g, p)
+    (then w is (B, g, k))."""
+    zi = np.asarray(zs)
+    used = sorted({int(z) for z in zi})
+    coef = np.asarray(coef)
+    parts = [cols[:, zi == z] @ coef[..., zi == z].T for z in used]
+    return used, np.stack(parts, axis=-1)
+
+
+def _rss_from_weights(mom: Moments, used: Sequence[int], w: NDArray) -> NDArray[np.float64]:
+    """Residual sum of squares of predictions sum_j w[b, ..., j] u[used[j]] against y, from
+    the centred statistics: per bin v^T S v + n (v . mean)^2 with v = [-w, 1]. Every term is
+    non-negative and made of the bin's own deviations, so the sum's relative error is at
+    most (bins x machine epsilon), whatever the order of summation; shape w.shape[1:-1]."""
+    q = mom.mean.shape[1]
+    idx = list(used) + [q - 1]
+    scatter = mom.scatter[:, idx][:, :, idx]
+    mean = mom.mean[:, idx]
+    extra_dims = w.ndim - 2
+    v = np.concatenate([-w, np.ones(w.shape[:-1] + (1,))], axis=-1)
+    s_b = scatter.reshape((scatter.shape[0],) + (1,) * extra_dims + scatter.shape[1:])
+    within = np.einsum('...i,...i->...', np.einsum('...i,...ij->...j', v, s_b), v)
+    m_b = mean.reshape((mean.shape[0],) + (1,) * extra_dims + mean.shape[1:])
+    off = np.einsum('...i,...i->...', v, m_b)
+    n_b = mom.count.reshape((-1,) + (1,) * extra_dims)
+    return np.maximum(within, 0.0).sum(axis=0) + (n_b * off * off).sum(axis=0)
+
+
+def residual_sum_of_squares(mom: Moments, cols: NDArray, zs: Sequence[int], coef: NDArray) -> float:
+    """RSS [N^2] of the rows in ``mom`` at coefficients ``coef`` for the bins' columns
+    ``cols`` (B, p) multiplying z indices ``zs`` (see :func:`_rss_from_weights` for its
+    accuracy)."""
+    if not len(mom):
+        return 0.0
+    used, w = _z_weights(cols, zs, coef)
+    return float(_rss_from_weights(mom, used, w))
 
 
 def _design(fixed: NDArray, fixed_z: Sequence[int], mom: Moments) -> tuple[NDArray, NDArray]:
@@ -184,23 +292,24 @@ def fit_at(gear: GearParams, basis: TorqueBasis, mom: Moments, two_z: float, z_g
            load: NDArray[np.float64], extra: Sequence[Column] = ()) -> FitAt:
     """The declared model (plus ``extra`` columns) fitted at one pair of clearances.
     ``load``: |Fa| per bin [N] for the friction features."""
-    return solve_normal_equations(basis, *normal_equations(gear, basis, mom, two_z, z_gb, load, extra), mom.samples)
+    cols, zs, names = design_at(gear, basis, mom, two_z, z_gb, load, extra)
+    xtx, xty = _design(cols, zs, mom)
+    coef, inv = _solve(xtx, xty, _smoothing(basis.size, len(names), xtx))
+    return FitAt(coef, residual_sum_of_squares(mom, cols, zs, coef), mom.samples, tuple(names), inv)
 
 
-def solve_normal_equations(basis: TorqueBasis, xtx: NDArray, xty: NDArray, yty: float, names: Sequence[str],
-                           n: float) -> FitAt:
-    """The fit from :func:`normal_equations`' output (``n`` rows)."""
-    coef, rss, inv = _solve(xtx, xty, yty, _smoothing(basis.size, len(names), xtx))
-    return FitAt(coef, rss, n, tuple(names), inv)
+def solve_normal_equations(basis: TorqueBasis, xtx: NDArray, xty: NDArray, names: Sequence[str]) -> NDArray:
+    """The coefficients from :func:`normal_equations`' X^T X and X^T y."""
+    return _solve(xtx, xty, _smoothing(basis.size, len(names), xtx))[0]
 
 
 def normal_equations(gear: GearParams, basis: TorqueBasis, mom: Moments, two_z: float, z_gb: float,
                      load: NDArray[np.float64], extra: Sequence[Column] = ()
-                     ) -> tuple[NDArray, NDArray, float, list[str]]:
-    """(X^T X, X^T y, y^T y, column names) of the model at given clearances."""
+                     ) -> tuple[NDArray, NDArray, list[str]]:
+    """(X^T X, X^T y, column names) of the model at given clearances."""
     cols, zs, names = design_at(gear, basis, mom, two_z, z_gb, load, extra)
     xtx, xty = _design(cols, zs, mom)
-    return xtx, xty, float(mom.m[:, -1, -1].sum()), names
+    return xtx, xty, names
 
 
 def design_at(gear: GearParams, basis: TorqueBasis, mom: Moments, two_z: float, z_gb: float,
@@ -224,7 +333,7 @@ def design_columns(gear: GearParams, basis: TorqueBasis, mom: Moments, feats: di
     tor = torque_columns(gear, basis, mom)
     cols = [tor, d[:, None], (d * feats['n_b'])[:, None], (d * feats['f_gb'])[:, None]]
     names = [f'torque_{i}' for i in range(basis.size)] + ['seal_friction_n', 'mu_bushing', 'mu_guide']
-    zs = [0] * (basis.size + 3)
+    zs = [torque_z(mom)] * basis.size + [0] * 3
     for c in extra:
         cols.append(c.feature(mom, feats)[:, None])
         names.append(c.name)
@@ -238,9 +347,9 @@ def torque_prefit(gear: GearParams, basis: TorqueBasis, mom: Moments) -> NDArray
     d = mom.direction
     tor = torque_columns(gear, basis, mom)
     cols = np.concatenate([tor, d[:, None], d[:, None] * np.abs(tor)], axis=1)
-    xtx, xty = _design(cols, [0] * cols.shape[1], mom)
-    yty = float(mom.m[:, -1, -1].sum())
-    coef, _, _ = _solve(xtx, xty, yty, _smoothing(basis.size, cols.shape[1], xtx))
+    zt = torque_z(mom)
+    xtx, xty = _design(cols, [zt] * basis.size + [0] + [zt] * basis.size, mom)
+    coef, _ = _solve(xtx, xty, _smoothing(basis.size, cols.shape[1], xtx))
     return coef[:basis.size]
 
 
@@ -304,7 +413,7 @@ POINT_CHUNK = 1 << 17      # friction features evaluated per call: cells (or bin
 
 def fit_points(gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray[np.float64],
                two_z: NDArray[np.float64], z_gb: NDArray[np.float64], extra: Sequence[Column] = (), *,
-               per_cell: bool = True, covariance: bool = False) -> PointFits:
+               per_cell: bool = True, covariance: bool = False, dedupe: bool = True) -> PointFits:
     """The declared model fitted at each clearance pair (``two_z[g]``, ``z_gb[g]``), shapes
     (G,) [m]; ``load`` is |Fa| per bin [N]. The clearance-independent blocks of X^T X are
     built once; per pair only the friction columns (and extras built from them) change, and
@@ -313,11 +422,12 @@ def fit_points(gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray
     ``per_cell``: friction features once per (angle bin, speed class) cell at the cell's
     mean angle and torque (the profile; ~1e-4 of the RSS from the per-bin features), else
     per bin, as :func:`fit_at` (which this then equals to rounding). ``covariance``: also
-    the (X^T X + ridge)^-1 of every pair."""
+    the (X^T X + ridge)^-1 of every pair. ``dedupe``: pairs whose features are equal to the
+    bit (beyond any contact) are solved once; a saving only, the residual sums of squares
+    being order-independent to (bins x epsilon) either way."""
     two_z, z_gb = np.broadcast_arrays(np.asarray(two_z, float).ravel(), np.asarray(z_gb, float).ravel())
     torque = torque_of_load(gear, mom, load)
     d = mom.direction
-    yty = float(mom.m[:, -1, -1].sum())
     zero = {'n_b': np.zeros(len(mom)), 'f_gb': np.zeros(len(mom)), 'load': load}
     base_cols, zs, names = design_columns(gear, basis, mom, zero, extra)
     p = len(names)
@@ -332,8 +442,11 @@ def fit_points(gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray
         cell_alpha, cell_torque, cell_of_bin = _cells(mom, torque)
     else:
         cell_alpha, cell_torque, cell_of_bin = mom.abs_alpha, torque, np.arange(len(mom))
-    nb_all, fg_all, first, inverse = _point_features(gear, cell_alpha, cell_torque, two_z, z_gb)
+    nb_all, fg_all, first, inverse = _point_features(gear, cell_alpha, cell_torque, two_z, z_gb, dedupe)
     fixed_cols = [c for c in range(p) if c not in dep]
+    used = sorted({int(z) for z in zs})
+    slot = {z: k for k, z in enumerate(used)}
+    fixed_by_z = [(slot[z], [c for c in fixed_cols if zs[c] == z]) for z in used]
     cross = {a: base_cols[:, fixed_cols] * mz_all[:, zs[a], fixed_cols] for a in dep}   # (B, n_fixed)
     diag_fixed = np.diag(xtx0)
     eye = np.eye(p, dtype=bool)
@@ -369,23 +482,27 @@ def fit_points(gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray
             cov[sl] = inv     # type: ignore[index]
         else:
             coef = np.linalg.solve(a_mat, xty[:, :, None])[:, :, 0]
-        r = yty - 2 * np.einsum('jp,jp->j', coef, xty) + np.einsum('jp,jpq,jq->j', coef, xtx, coef)
-        rss[sl] = np.maximum(r, 0.0)
+        w = np.zeros((len(mom), g, len(used)))
+        for k, cs in fixed_by_z:
+            if cs:
+                w[:, :, k] = base_cols[:, cs] @ coef[:, cs].T
+        for a in dep:
+            w[:, :, slot[zs[a]]] += dep_vals[a] * coef[:, a]
+        rss[sl] = _rss_from_weights(mom, used, w)
         coef_all[sl] = coef
     return PointFits(rss[inverse], coef_all[inverse], tuple(names), None if cov is None else cov[inverse])
 
 
 def _point_features(gear: GearParams, alpha: NDArray[np.float64], torque: NDArray[np.float64],
-                    two_z: NDArray[np.float64], z_gb: NDArray[np.float64]
+                    two_z: NDArray[np.float64], z_gb: NDArray[np.float64], dedupe: bool = True
                     ) -> tuple[NDArray, NDArray, NDArray[np.intp], NDArray[np.intp]]:
     """:func:`friction_features` at angles and torques (C,) for clearance pairs (G,), a chunk
     of pairs per call, kept once per distinct column: (N_b (C, U), |F_gb| (C, U), the first
     pair of each distinct column (U,), each pair's distinct column (G,)).
 
     Pairs beyond any contact (a slipper that never touches, a ram that never clamps) have
-    the same features to the bit: they are one model, fitted once. Fitted apart they would
-    give RSS differing in the last bits by where they fell in a vectorized product (the RSS
-    is a small difference of large sums), enough to move a plateau's best point and test."""
+    the same features to the bit: they are one model, solved once when ``dedupe`` (a
+    saving: on a log whose ram never clamps most of the grid's 2Z axis is one plateau)."""
     seen: dict[bytes, int] = {}
     first: list[int] = []
     inverse = np.empty(two_z.size, np.intp)
@@ -398,7 +515,7 @@ def _point_features(gear: GearParams, alpha: NDArray[np.float64], torque: NDArra
         cols = np.concatenate([nb, fg]).T.copy()
         new: list[int] = []
         for g in range(cols.shape[0]):
-            k = seen.setdefault(cols[g].tobytes(), len(first))
+            k = seen.setdefault(cols[g].tobytes() if dedupe else g0 + g, len(first))
             if k == len(first):
                 first.append(g0 + g)
                 new.append(g)

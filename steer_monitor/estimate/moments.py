@@ -1,11 +1,17 @@
 """Binned sufficient statistics of steady-motion observations.
 
 The declared model's regressors depend on a sample only through its rudder angle, the
-side it lies on, the direction of motion and the ship speed: a sample's row is constant
-within a bin of (|alpha|, sign alpha, direction, speed). The least-squares fit therefore
-needs, per bin, only the count, the mean |alpha| and the moment matrix of
-u = [1, z_1 .. z_m, y], where y is the ram force and z are per-sample quantities that some
-candidate effects multiply with (ram speed, oil temperature ...). Batch and online
+side it lies on, the direction of motion and the ship speed. Within a bin of (|alpha|,
+sign alpha, direction, speed class) the friction features are taken as constant; the axial
+load is not: it scales with the speed squared, and a speed class 0.25 kn wide spans
++-3 % of V^2 at 8 kn (+-15 kN of a 500 kN load, far above the friction the clearances
+change). So every row carries its own speed ratio ``speed_ratio`` = V^2 / V_c^2 (V_c the
+centre of its speed class, 1 where the speed is not on the bus) as the first z column,
+and the torque columns multiply it: the load is exact per sample however the speed
+drifts within a class. The least-squares fit therefore needs, per bin, only the count,
+the mean |alpha| and the moment matrix of u = [1, speed_ratio, z_1 .. z_m, y], where y is
+the ram force and z are per-sample quantities that some candidate effects multiply with
+(ram speed, oil temperature ...). Batch and online
 estimation share this form: the online estimator folds the same bins as the data come,
 so on the same data it reaches the same numbers; memory is bounded by the bin layout.
 
@@ -24,11 +30,13 @@ from numpy.typing import NDArray
 
 from steer_monitor.estimate.observe import Observations
 
-__all__ = ['ANGLE_BIN', 'SPEED_BIN', 'Moments', 'bin_keys']
+__all__ = ['ANGLE_BIN', 'SPEED_BIN', 'SPEED_Z', 'Moments', 'bin_keys', 'class_speed_sq', 'rows_from_observations',
+           'speed_ratio']
 
 ANGLE_BIN = 0.1 * math.pi / 180.0     # rad
 SPEED_BIN = 0.25 * 1852.0 / 3600.0    # m/s
 NO_SPEED = -1
+SPEED_Z = 'speed_ratio'
 
 
 def bin_keys(alpha: NDArray[np.float64], direction: NDArray[np.int8],
@@ -41,33 +49,69 @@ def bin_keys(alpha: NDArray[np.float64], direction: NDArray[np.int8],
     return ((sbin + 1) << 24) | (abin << 2) | (side << 1) | dirn
 
 
+def class_speed_sq(keys: NDArray[np.int64]) -> NDArray[np.float64]:
+    """V_c^2 [m^2/s^2] of each key's speed class (its centre); NaN for "speed not on the bus"."""
+    sbin = (np.asarray(keys, np.int64) >> 24) - 1
+    centre = (sbin + 0.5) * SPEED_BIN
+    return np.where(sbin != NO_SPEED, centre * centre, np.nan)
+
+
+def speed_ratio(keys: NDArray[np.int64], speed_sq: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Per row, V^2 / V_c^2 of its speed class (1 where the speed is not on the bus)."""
+    vc2 = class_speed_sq(keys)
+    return np.where(np.isfinite(vc2), np.nan_to_num(speed_sq) / np.where(np.isfinite(vc2), vc2, 1.0), 1.0)
+
+
 @dataclass
 class Moments:
-    """Sufficient statistics per bin.
+    """Sufficient statistics per bin, centred: per bin the count, the mean of u and the
+    scatter of u about that mean (not the raw sums of u u^T).
+
+    Centring is what makes the residual sum of squares computable to a stated accuracy:
+    the raw moment of y is ~1e16 N^2 on a voyage and the residual ~1e10, so a residual
+    taken as y^T y - 2 b^T X^T y + b^T X^T X b loses six digits to cancellation and moves
+    in the ninth with the order of summation. From centred statistics the residual is a sum
+    over bins of non-negative terms, each computed from differences of the bin's own means
+    (:func:`~steer_monitor.estimate.fit.residual_sum_of_squares`). Bins merge by Chan's
+    update, which keeps the scatter centred.
 
     Attributes:
         z_names: names of the per-sample columns z (without the leading 1 and trailing y).
         keys: bin keys, shape (B,), sorted.
         count: samples per bin, shape (B,) (float: it decays with forgetting).
         sum_abs_alpha, sum_speed_sq: sums per bin of |alpha| [rad] and speed^2 [m^2/s^2].
-        m: moment matrices, shape (B, q, q) with q = len(z_names) + 2 over [1, z.., y].
+        mean: per bin the mean of u = [1, z.., y], shape (B, q), q = len(z_names) + 2.
+        scatter: per bin sum (u - mean)(u - mean)^T, shape (B, q, q).
     """
 
-    z_names: tuple[str, ...] = ()
+    z_names: tuple[str, ...] = (SPEED_Z,)
     keys: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, np.int64))
     count: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     sum_abs_alpha: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     sum_speed_sq: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
-    m: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 2, 2)))
+    mean: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 0)))
+    scatter: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 0, 0)))
 
     def __post_init__(self) -> None:
         self.keys.setflags(write=False)
         q = len(self.z_names) + 2
-        if self.m.shape[1:] != (q, q):
-            self.m = np.zeros((self.keys.size, q, q))
+        if self.mean.shape != (self.keys.size, q):
+            self.mean = np.zeros((self.keys.size, q))
+        if self.scatter.shape != (self.keys.size, q, q):
+            self.scatter = np.zeros((self.keys.size, q, q))
 
     def __len__(self) -> int:
         return int(self.keys.size)
+
+    @property
+    def m(self) -> NDArray[np.float64]:
+        """Raw moment matrices sum u u^T per bin, shape (B, q, q), for the normal equations
+        (never for a residual: see the class docstring). Cached."""
+        cached = self.__dict__.get('_m')
+        if cached is None:
+            cached = self.scatter + self.count[:, None, None] * self.mean[:, :, None] * self.mean[:, None, :]
+            self.__dict__['_m'] = cached
+        return cached
 
     @property
     def samples(self) -> float:
@@ -95,62 +139,79 @@ class Moments:
         v = self.sum_speed_sq / np.maximum(self.count, 1e-300)
         return np.where(self.has_speed, v, np.nan)
 
+    @property
+    def class_speed_sq(self) -> NDArray[np.float64]:
+        """V_c^2 of each bin's speed class [m^2/s^2]; NaN where the speed is not on the bus."""
+        return class_speed_sq(self.keys)
+
     @classmethod
     def from_rows(cls, keys: NDArray[np.int64], abs_alpha: NDArray[np.float64],
                   speed_sq: NDArray[np.float64], u: NDArray[np.float64],
                   z_names: Sequence[str]) -> Moments:
-        """Bin rows: ``u`` of shape (n, q) = [1, z.., y] per row."""
+        """Bin rows: ``u`` of shape (n, q) = [1, z.., y] per row. Two passes: the bins'
+        means, then the products of the rows' deviations from them."""
         uk, inv = np.unique(keys, return_inverse=True)
         b = uk.size
         count = np.bincount(inv, minlength=b).astype(float)
         s_a = np.bincount(inv, abs_alpha, minlength=b)
         s_v = np.bincount(inv, np.nan_to_num(speed_sq), minlength=b)
         q = u.shape[1]
-        m = np.zeros((b, q, q))
+        mean = np.empty((b, q))
+        for i in range(q):
+            mean[:, i] = np.bincount(inv, u[:, i], minlength=b) / np.maximum(count, 1.0)
+        dev = u - mean[inv]
+        scatter = np.zeros((b, q, q))
         for i in range(q):
             for j in range(i, q):
-                m[:, i, j] = np.bincount(inv, u[:, i] * u[:, j], minlength=b)
-                m[:, j, i] = m[:, i, j]
-        return cls(tuple(z_names), uk, count, s_a, s_v, m)
+                scatter[:, i, j] = np.bincount(inv, dev[:, i] * dev[:, j], minlength=b)
+                scatter[:, j, i] = scatter[:, i, j]
+        return cls(tuple(z_names), uk, count, s_a, s_v, mean, scatter)
 
     def merge(self, other: Moments) -> Moments:
-        """The statistics of both (same z columns)."""
+        """The statistics of both (same z columns); bins in both by Chan's update."""
         if other.z_names != self.z_names:
             msg = f'cannot merge moments over {other.z_names} into {self.z_names}'
             raise ValueError(msg)
         keys = np.union1d(self.keys, other.keys)
         q = len(self.z_names) + 2
-        out = Moments(self.z_names, keys, np.zeros(keys.size), np.zeros(keys.size),
-                      np.zeros(keys.size), np.zeros((keys.size, q, q)))
+        count, s_a, s_v = np.zeros(keys.size), np.zeros(keys.size), np.zeros(keys.size)
+        mean, scatter = np.zeros((keys.size, q)), np.zeros((keys.size, q, q))
         for src in (self, other):
-            if len(src):
-                i = np.searchsorted(keys, src.keys)
-                out.count[i] += src.count
-                out.sum_abs_alpha[i] += src.sum_abs_alpha
-                out.sum_speed_sq[i] += src.sum_speed_sq
-                out.m[i] += src.m
-        return out
+            if not len(src):
+                continue
+            i = np.searchsorted(keys, src.keys)
+            n1, n2 = count[i], src.count
+            n = n1 + n2
+            w = np.where(n > 0, n2 / np.where(n > 0, n, 1.0), 0.0)
+            delta = src.mean - mean[i]
+            scatter[i] += src.scatter + (n1 * w)[:, None, None] * delta[:, :, None] * delta[:, None, :]
+            mean[i] += w[:, None] * delta
+            count[i] = n
+            s_a[i] += src.sum_abs_alpha
+            s_v[i] += src.sum_speed_sq
+        return Moments(self.z_names, keys, count, s_a, s_v, mean, scatter)
 
     def subset(self, mask: NDArray[np.bool_]) -> Moments:
         """The bins where ``mask`` (shape (B,)) is true."""
         return Moments(self.z_names, self.keys[mask].copy(), self.count[mask], self.sum_abs_alpha[mask],
-                       self.sum_speed_sq[mask], self.m[mask])
+                       self.sum_speed_sq[mask], self.mean[mask], self.scatter[mask])
 
     def scaled(self, factor: float) -> Moments:
-        """All statistics times ``factor`` (exponential forgetting)."""
+        """All statistics times ``factor`` (exponential forgetting); the means stay."""
         return Moments(self.z_names, self.keys.copy(), self.count * factor, self.sum_abs_alpha * factor,
-                       self.sum_speed_sq * factor, self.m * factor)
+                       self.sum_speed_sq * factor, self.mean.copy(), self.scatter * factor)
 
     def to_arrays(self) -> dict[str, NDArray]:
         return {'keys': self.keys, 'count': self.count, 'sum_abs_alpha': self.sum_abs_alpha,
-                'sum_speed_sq': self.sum_speed_sq, 'm': self.m,
+                'sum_speed_sq': self.sum_speed_sq, 'mean': self.mean, 'scatter': self.scatter,
                 'z_names': np.array(self.z_names, dtype=str)}
 
     @classmethod
     def from_arrays(cls, d: dict[str, NDArray]) -> Moments:
         return cls(tuple(str(x) for x in d['z_names']), np.asarray(d['keys'], np.int64),
                    np.asarray(d['count'], float), np.asarray(d['sum_abs_alpha'], float),
-                   np.asarray(d['sum_speed_sq'], float), np.asarray(d['m'], float))
+                   np.asarray(d['sum_speed_sq'], float), np.asarray(d['mean'], float),
+                   np.asarray(d['scatter'], float))
 
 
 def rows_from_observations(obs: Observations, z: dict[str, NDArray[np.float64]] | None = None
@@ -158,7 +219,8 @@ def rows_from_observations(obs: Observations, z: dict[str, NDArray[np.float64]] 
                                       NDArray[np.float64], NDArray[np.intp]]:
     """Rows for :meth:`Moments.from_rows` from steady-motion samples, one per valid ram force.
 
-    Returns (keys, |alpha|, speed^2, u, index of the observation each row came from).
+    Returns (keys, |alpha|, speed^2, u, index of the observation each row came from), with
+    u = [1, speed_ratio, z.., y]: its z columns are named ``(SPEED_Z, *z)``.
     ``z`` holds per-observation columns of shape (n,) or per-ram columns of shape (n, 2).
     """
     z = z or {}
@@ -166,7 +228,7 @@ def rows_from_observations(obs: Observations, z: dict[str, NDArray[np.float64]] 
     alpha = obs.alpha[idx_obs]
     speed = obs.speed[idx_obs]
     keys = bin_keys(alpha, obs.direction[idx_obs], speed)
-    cols = [np.ones(idx_obs.size)]
+    cols = [np.ones(idx_obs.size), speed_ratio(keys, speed * speed)]
     for arr in z.values():
         cols.append(arr[idx_obs, ram] if arr.ndim == 2 else arr[idx_obs])
     cols.append(obs.force[idx_obs, ram])

@@ -13,6 +13,14 @@ what the data can tell:
   ``HALF_WINDOW_NS`` before and after each instant: +1/-1 only when both exceed
   ``MOVING_RATE`` with the same sign (steady motion), 0 otherwise (at rest, starting,
   stopping, reversing). Only steady-motion instants carry friction information.
+* and the motion must be steady *through* the instant, not only on average: an autopilot
+  on solenoid valves moves the rudder in short steps with pauses, and a window of 0.6 s
+  that holds 0.45 s of motion and a 0.15 s pause passes the slope test while the rudder
+  stands (no friction) at the instant. So the angle's slope over each of three 100 ms
+  segments centred on the instant (``SEGMENT_NS``) must keep the sign and reach
+  ``STEADY_FRACTION`` of the window's rate; and the grid points either side must pass too,
+  since the 20 Hz pressures interpolated to a point within 50 ms of a stop mix a sample
+  with friction and one without.
 
 Pure numpy. Times integer ns, values SI.
 """
@@ -30,12 +38,14 @@ from steer_monitor.can.decoder import Series
 from steer_monitor.can.signals import PRESSURE_INPUTS
 from steer_monitor.errors import SteerMonitorError
 
-__all__ = ['GRID_NS', 'HALF_WINDOW_NS', 'MOVING_RATE', 'EstimateError', 'Observations',
+__all__ = ['GRID_NS', 'HALF_WINDOW_NS', 'MOVING_RATE', 'SEGMENT_NS', 'STEADY_FRACTION', 'EstimateError', 'Observations',
            'build_observations', 'grid_times']
 
 GRID_NS = 50_000_000
 HALF_WINDOW_NS = 300_000_000
 MOVING_RATE = 0.2 * math.pi / 180.0   # rad/s
+SEGMENT_NS = 100_000_000              # the three segments of the steadiness test
+STEADY_FRACTION = 0.5                 # each segment's rate against the window's
 MAX_GAP_NS = 250_000_000              # angle and pressures: up to 2.5 of the slower period
 SLOW_GAP_NS = 10_000_000_000          # ship speed (1 Hz) and oil temperature (0.5 Hz)
 
@@ -165,6 +175,33 @@ def _angle_slopes(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.i
     return _slope(before), _slope(after), _slope(whole)
 
 
+def _steady_through(angle: Series, t: NDArray[np.int64], shift_ns: int, need: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """True where the angle's slope over each of the three ``SEGMENT_NS`` segments centred on
+    ``t`` has the sign of ``need`` [rad/s] and at least its size."""
+    ends = [_interp(angle, t + np.int64(k * SEGMENT_NS // 2), MAX_GAP_NS, shift_ns) for k in (-5, -3, -1, 1, 3, 5)]
+    ok = np.ones(t.shape, bool)
+    with np.errstate(invalid='ignore'):
+        for a, b in zip(ends[:-1], ends[1:]):
+            seg = (b - a) / (SEGMENT_NS / 1e9)
+            ok &= np.isfinite(seg) & (seg * np.sign(need) >= np.abs(need))
+    return ok
+
+
+def _eroded(direction: NDArray[np.int8]) -> NDArray[np.int8]:
+    """Steady motion kept only where both neighbouring grid points (50 ms either side) are in
+    the same steady motion. The pressures are sampled at 20 Hz and interpolated to the grid,
+    so a grid point within 50 ms of a stop or start mixes a sample with friction and one
+    without (the angle's 100 ms segments cannot place the stop closer than that)."""
+    out = direction.copy()
+    if out.size < 3:
+        out[:] = 0
+        return out
+    same = (direction[1:-1] == direction[:-2]) & (direction[1:-1] == direction[2:])
+    out[1:-1] = np.where(same, direction[1:-1], 0)
+    out[0] = out[-1] = 0
+    return out
+
+
 def build_observations(signals: Mapping[str, Series], ram_area: float, *,
                        start_ns: int | None = None, end_ns: int | None = None,
                        angle_shift_s: float = 0.0) -> Observations:
@@ -191,12 +228,19 @@ def build_observations(signals: Mapping[str, Series], ram_area: float, *,
     t0 = int(a_t[0]) if start_ns is None else start_ns
     t1 = int(a_t[-1]) + 1 if end_ns is None else end_ns
     t = grid_times(t0, t1)
-    alpha = _interp(angle, t, MAX_GAP_NS, shift_ns)
-    before, after, rate = _angle_slopes(a_t, angle.value, t)
+    # the motion is judged on the grid and one point either side of it, so that the
+    # erosion at a span's ends does not depend on where a log or a fold is cut
+    t_ext = np.concatenate([t[:1] - GRID_NS, t, t[-1:] + GRID_NS]) if t.size else t
+    alpha_ext = _interp(angle, t_ext, MAX_GAP_NS, shift_ns)
+    before, after, rate = _angle_slopes(a_t, angle.value, t_ext)
     with np.errstate(invalid='ignore'):
         steady = (np.abs(before) > MOVING_RATE) & (np.abs(after) > MOVING_RATE) & \
-            (np.sign(before) == np.sign(after)) & np.isfinite(alpha)
-    direction = np.where(steady, np.sign(before), 0).astype(np.int8)
+            (np.sign(before) == np.sign(after)) & np.isfinite(alpha_ext)
+    steady &= _steady_through(angle, t_ext, shift_ns,
+                              np.sign(before) * np.maximum(MOVING_RATE, STEADY_FRACTION * np.abs(rate)))
+    direction = _eroded(np.where(steady, np.sign(before), 0).astype(np.int8))
+    inner = slice(1, -1) if t.size else slice(None)
+    alpha, rate, direction = alpha_ext[inner], rate[inner], direction[inner]
     pressure = np.stack([_interp(signals.get(n), t, MAX_GAP_NS) for n in PRESSURE_INPUTS], axis=1)
     force = np.stack([ram_area * (pressure[:, 0] - pressure[:, 1]),
                       ram_area * (pressure[:, 2] - pressure[:, 3])], axis=1)

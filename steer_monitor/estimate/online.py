@@ -39,7 +39,7 @@ from steer_monitor.estimate import fit as F
 from steer_monitor.estimate.batch import (MIN_MOTION_SAMPLES, ClearanceEstimate, Rows, estimate_from_moments,
                                           predict_rows, search_box)
 from steer_monitor.estimate.intervals import Interval, inflation
-from steer_monitor.estimate.moments import Moments, rows_from_observations
+from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations, speed_ratio
 from steer_monitor.estimate.observe import (GRID_NS, HALF_WINDOW_NS, MOVING_RATE, EstimateError, build_observations)
 from steer_monitor.model.gear import GearParams
 
@@ -53,7 +53,7 @@ LOCAL = 1                       # local search: +-1 grid step on each axis (a hi
 REPROFILE_EVERY_S = 30.0        # at most one extra full profile per this much motion when a local
                                 # step leaves the interval (between them the step is not taken)
 RESID_KEEP = 8000               # recent rows (ram x instant) kept for the inflation factor
-STATE_VERSION = 1
+STATE_VERSION = 2
 _INPUTS = ('rudder_angle',) + PRESSURE_INPUTS + ('ship_speed',)
 
 
@@ -177,7 +177,7 @@ class OnlineEstimator:
         motion = float(np.count_nonzero(keep)) * GRID_NS / 1e9
         if self.half_life_s > 0 and len(self.moments):
             self.moments = self.moments.scaled(0.5 ** (motion / self.half_life_s))
-        self.moments = self.moments.merge(Moments.from_rows(keys, aa, v2, u, ()))
+        self.moments = self.moments.merge(Moments.from_rows(keys, aa, v2, u, (SPEED_Z,)))
         self.motion_s += motion
         self._motion_since_full += motion
         self._new_motion += motion
@@ -190,8 +190,8 @@ class OnlineEstimator:
         arr = np.array(self._recent)                  # (r, 6): t, ram, |alpha| key parts ...
         t, ram, keys = arr[:, 0].astype(np.int64), arr[:, 1].astype(np.intp), arr[:, 2].astype(np.int64)
         aa, v2, y = arr[:, 3], arr[:, 4], arr[:, 5]
-        u = np.stack([np.ones_like(y), y], axis=1)
-        one = Moments.from_rows(keys, aa, v2, u, ())
+        u = np.stack([np.ones_like(y), speed_ratio(keys, v2), y], axis=1)
+        one = Moments.from_rows(keys, aa, v2, u, (SPEED_Z,))
         rows = Rows(one, np.searchsorted(one.keys, keys), u, np.arange(y.size), ram)
         tz, zg = self.grid_2z[self._best[0]], self.grid_zgb[self._best[1]]
         load = F.axial_load(self.gear, self.basis, one, self._coef)

@@ -29,7 +29,7 @@ from steer_monitor.model.friction import FrictionParams, friction_force
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.loadshare import load_sharing
 from steer_monitor.sim.effects import Effect
-from steer_monitor.sim.programs import HelmProgram, parse_program
+from steer_monitor.sim.programs import SPEED_TAU_S, HelmProgram, parse_program
 
 __all__ = ['DEFAULT_START_NS', 'SimConfig', 'SimResult', 'simulate']
 
@@ -141,7 +141,7 @@ def _speed_at(profile: Sequence[tuple[float, float]], t: NDArray[np.float64]) ->
 def simulate(gear: GearParams, cfg: SimConfig, ram_speed_per_pump: float, pumps_available: int,
              rng: np.random.Generator) -> SimResult:
     """Run the plant over the whole programme."""
-    steps = parse_program(cfg.program, pumps_available)
+    steps = parse_program(cfg.program, pumps_available, rng)
     program = HelmProgram(steps, rng)
     dt = cfg.dt
     n_max = int(cfg.max_duration_s / dt) + 1
@@ -151,6 +151,9 @@ def simulate(gear: GearParams, cfg: SimConfig, ram_speed_per_pump: float, pumps_
     nomoto_k, nomoto_t = 0.07, 20.0  # 1/s and s at service speed
     vs = gear.torque.service_speed
     speed_fn = cfg.speed_profile
+    v_ship = float(_speed_at(speed_fn, np.array([0.0]))[0])
+    tau_speed = SPEED_TAU_S
+    speed_hist = np.zeros(n_max)
 
     order = np.zeros(n_max)
     alpha = np.zeros(n_max)
@@ -167,15 +170,23 @@ def simulate(gear: GearParams, cfg: SimConfig, ram_speed_per_pump: float, pumps_
         o, p = program(t, a, psi, r)
         err = o - a
         w_max = p * ram_speed_per_pump * math.cos(a) ** 2 / h
-        w = 0.0 if abs(err) < dead_band else max(-w_max, min(w_max, kp_valve * err))
-        order[i], alpha[i], rate[i], heading[i], pumps[i] = o, a, w, psi, p
-        v_ship = float(_speed_at(speed_fn, np.array([t]))[0])
+        if abs(err) < dead_band:
+            w = 0.0
+        elif program.solenoid:      # on/off valves: full rate until inside the dead band
+            w = math.copysign(min(w_max, abs(err) / dt), err)
+        else:
+            w = max(-w_max, min(w_max, kp_valve * err))
+        if program.speed_target is None:
+            v_ship = float(_speed_at(speed_fn, np.array([t]))[0])
+        else:                       # an engine order: the hull follows with its lag
+            v_ship += (program.speed_target * KNOT - v_ship) * dt / tau_speed
+        order[i], alpha[i], rate[i], heading[i], pumps[i], speed_hist[i] = o, a, w, psi, p, v_ship
         r += (nomoto_k * (v_ship / vs) * a - r) * dt / nomoto_t
         psi += r * dt
         a += w * dt
     t = np.arange(n) * dt
     order, alpha, rate, heading, pumps = order[:n], alpha[:n], rate[:n], heading[:n], pumps[:n]
-    speed = _speed_at(speed_fn, t)
+    speed = speed_hist[:n]
     oil = (cfg.oil_temp_end_c - (cfg.oil_temp_end_c - cfg.oil_temp_start_c)
            * np.exp(-t / cfg.oil_temp_tau_s)) + 273.15
 
