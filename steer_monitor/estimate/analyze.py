@@ -7,8 +7,10 @@ other, and back) by at least ``MIN_CV_GAIN`` and lower the Bayesian information 
 computed with the effective sample size (rows / variance inflation) by at least
 ``MIN_BIC_DROP``. Among those the largest held-out gain wins. It is then adopted only if it
 *explains* the residual: afterwards the residual's smooth part (its autocovariance at 200 ms,
-what sensor noise cannot make) is at most ``EXPLAINED_RATIO`` of its noise part. Otherwise
-the answer is "unexplained": the declared estimate stands and the report says which
+what sensor noise cannot make) is at most ``EXPLAINED_RATIO`` of its noise part; and where
+the declared model already explained the data that far, only if it cuts the smooth part by
+``1 - MIN_SYSTEMATIC_CUT`` (a column that explains nothing systematic is no effect, however it
+scores). Otherwise the answer is "unexplained": the declared estimate stands and the report says which
 candidate came closest and what it left.
 """
 
@@ -31,13 +33,14 @@ from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import Observations, build_observations
 from steer_monitor.model.gear import GearParams
 
-__all__ = ['EXPLAINED_RATIO', 'MIN_BIC_DROP', 'MIN_CV_GAIN', 'OUTLIER_SIGMAS', 'SIGNS', 'outlier_instants', 'refusal', 'Analysis', 'Screening', 'analyze',
+__all__ = ['EXPLAINED_RATIO', 'MIN_BIC_DROP', 'MIN_CV_GAIN', 'MIN_SYSTEMATIC_CUT', 'OUTLIER_SIGMAS', 'SIGNS', 'outlier_instants', 'refusal', 'Analysis', 'Screening', 'analyze',
            'grid_2z_from']
 
 MIN_CV_GAIN = 0.10       # held-out mean square must fall by 10 % (RMS by ~5 %)
 MIN_BIC_DROP = 10.0      # "very strong" evidence on the effective sample size
 EXPLAINED_RATIO = 0.5    # smooth residual RMS at most half the sensor-noise RMS
 OUTLIER_SIGMAS = 5.0     # instants set aside before screening (see outlier_instants)
+MIN_SYSTEMATIC_CUT = 0.7  # an effect on data the declared model explains must cut its smooth part by 30 %
 BLOCK_NS = 60_000_000_000
 MIN_SEGMENT_SAMPLES = 20
 
@@ -194,14 +197,24 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
     n_eff = n0 / declared.inflation
     seal, mu_b, mu_g = (declared.fit.get(k) for k in ('seal_friction_n', 'mu_bushing', 'mu_guide'))
     screened: list[tuple[Screening, Candidate]] = []
-    delays: list[tuple[float, Candidate, Observations, Rows]] = []
+    delays: list[tuple[float, Candidate, Observations, Rows, NDArray[np.bool_], NDArray[np.bool_]]] = []
+    steady_t = obs.t_ns[obs.moving & keep]
     for cand in candidates(z, (seal, mu_b, mu_g)):
         if cand.angle_shift_s:
+            # The shifted angle judges steady motion at other instants. Scored on its own
+            # instants against the declared model on all of them, a delay would win or lose
+            # by which rows it kept, not by how well it fits: both are scored on the instants
+            # steady under either reading.
             o = build_observations(signals, gear.ram_area, angle_shift_s=cand.angle_shift_s)
-            r = make_rows(o, z_columns(o, gear), ~np.isin(o.t_ns, bad_times))
-            f = F.fit_at(gear, basis, r.moments, declared.two_z.value, declared.z_gb.value,
-                         F.axial_load(gear, basis, r.moments, coef_t), nuisance)
-            delays.append((f.rss / f.n, cand, o, r))
+            o_mask = np.isin(o.t_ns, steady_t)
+            base_mask = np.isin(obs.t_ns, o.t_ns[o.moving & o_mask]) & keep
+            r = make_rows(o, z_columns(o, gear), o_mask)
+            rb = make_rows(obs, z, base_mask)
+            if min(r.moments.samples, rb.moments.samples) < 200:
+                continue
+            f, fb = (F.fit_at(gear, basis, x.moments, declared.two_z.value, declared.z_gb.value,
+                              F.axial_load(gear, basis, x.moments, coef_t), nuisance) for x in (r, rb))
+            delays.append(((f.rss / f.n) / (fb.rss / fb.n), cand, o, r, o_mask, base_mask))
             continue
         say(f'candidate {cand.name}')
         rss, n, cv, tz, zg, p, coef = _score(gear, basis, rows, parts, coef_t, nuisance + cand.columns, grid_2z, at)
@@ -210,14 +223,17 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
     delay_obs: dict[float, tuple[Observations, Rows]] = {}
     if delays:
         say('candidate angle_delay')
-        _, cand, o, r = min(delays, key=lambda d: d[0])
+        _, cand, o, r, o_mask, base_mask = min(delays, key=lambda d: d[0])
         o_a, o_b = _halves(o)
-        o_keep = ~np.isin(o.t_ns, bad_times)
-        o_a, o_b = o_a & o_keep, o_b & o_keep
         zc = z_columns(o, gear)
-        rss, n, cv, tz, zg, p, _ = _score(gear, basis, r, (make_rows(o, zc, o_a), make_rows(o, zc, o_b)),
+        rss, n, cv, tz, zg, p, _ = _score(gear, basis, r, (make_rows(o, zc, o_a & o_mask), make_rows(o, zc, o_b & o_mask)),
                                        coef_t, nuisance, grid_2z, at)
-        screened.append((_screening(cand, rss, n, cv, tz, zg, p + 1, rss0, n0, cv0, p0, n_eff), cand))
+        rb = make_rows(obs, z, base_mask)
+        rss_b, n_b, cv_b, _, _, p_b, _ = _score(gear, basis, rb, (make_rows(obs, z, a_half & base_mask),
+                                                                   make_rows(obs, z, b_half & base_mask)),
+                                                coef_t, nuisance, grid_2z, at)
+        screened.append((_screening(cand, rss, n, cv, tz, zg, p + 1, rss_b, n_b, cv_b, p_b, n_b / declared.inflation),
+                         cand))
         delay_obs[cand.angle_shift_s] = (o, r)
     screened = _best_per_name(screened)
     screened.sort(key=lambda sc: -sc[0].cv_gain)
@@ -237,6 +253,14 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
     else:
         final = estimate_clearances(gear, obs, rows, cand.columns, grid_2z=grid_2z)
         final_obs = obs
+    if explained0 and final.smooth_rms > MIN_SYSTEMATIC_CUT * declared.smooth_rms:
+        # the declared model already explained the data to the noise and the candidate takes
+        # none of what is left: a better held-out score from a column that explains nothing
+        # systematic is not an effect
+        return Analysis(declared, declared, None, {}, 'declared',
+                        _message('declared', declared, None, best) + f' ({best.name} passed screening but '
+                        f'leaves the systematic part at {final.smooth_rms / (1e5 * declared.ram_area):.2f} bar)',
+                        [s for s, _ in screened], None, obs, obs, int(outliers.sum()))
     if final.smooth_rms > EXPLAINED_RATIO * final.noise_rms:
         return Analysis(declared, declared, None, {}, 'unexplained',
                         _message('unexplained', declared, final, best), [s for s, _ in screened], best, obs, obs, int(outliers.sum()))
