@@ -182,8 +182,9 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
     declared = estimate_clearances(gear, obs, rows, grid_2z=grid_2z)
     outliers = outlier_instants(declared.residual, obs.direction)
     keep = ~outliers
+    n_out = int(outliers.sum())
     if outliers.any():
-        say(f'declared model without {int(outliers.sum())} outlying instants')
+        say(f'declared model without {n_out} outlying instants')
         rows = make_rows(obs, z, keep)
         declared = estimate_clearances(gear, obs, rows, grid_2z=grid_2z)
     basis = F.TorqueBasis(gear.max_rudder)
@@ -197,7 +198,7 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
     n_eff = n0 / declared.inflation
     seal, mu_b, mu_g = (declared.fit.get(k) for k in ('seal_friction_n', 'mu_bushing', 'mu_guide'))
     screened: list[tuple[Screening, Candidate]] = []
-    delays: list[tuple[float, Candidate, Observations, Rows, NDArray[np.bool_], NDArray[np.bool_]]] = []
+    delays: list[tuple[float, Candidate, Observations, Rows, Rows, NDArray[np.bool_], NDArray[np.bool_]]] = []
     steady_t = obs.t_ns[obs.moving & keep]
     for cand in candidates(z, (seal, mu_b, mu_g)):
         if cand.angle_shift_s:
@@ -214,7 +215,7 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
                 continue
             f, fb = (F.fit_at(gear, basis, x.moments, declared.two_z.value, declared.z_gb.value,
                               F.axial_load(gear, basis, x.moments, coef_t), nuisance) for x in (r, rb))
-            delays.append(((f.rss / f.n) / (fb.rss / fb.n), cand, o, r, o_mask, base_mask))
+            delays.append(((f.rss / f.n) / (fb.rss / fb.n), cand, o, r, rb, o_mask, base_mask))
             continue
         say(f'candidate {cand.name}')
         rss, n, cv, tz, zg, p, coef = _score(gear, basis, rows, parts, coef_t, nuisance + cand.columns, grid_2z, at)
@@ -223,12 +224,11 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
     delay_obs: dict[float, tuple[Observations, Rows]] = {}
     if delays:
         say('candidate angle_delay')
-        _, cand, o, r, o_mask, base_mask = min(delays, key=lambda d: d[0])
+        _, cand, o, r, rb, o_mask, base_mask = min(delays, key=lambda d: d[0])
         o_a, o_b = _halves(o)
         zc = z_columns(o, gear)
         rss, n, cv, tz, zg, p, _ = _score(gear, basis, r, (make_rows(o, zc, o_a & o_mask), make_rows(o, zc, o_b & o_mask)),
                                        coef_t, nuisance, grid_2z, at)
-        rb = make_rows(obs, z, base_mask)
         rss_b, n_b, cv_b, _, _, p_b, _ = _score(gear, basis, rb, (make_rows(obs, z, a_half & base_mask),
                                                                    make_rows(obs, z, b_half & base_mask)),
                                                 coef_t, nuisance, grid_2z, at)
@@ -243,7 +243,7 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
         verdict = 'declared' if explained0 else 'unexplained'
         closest = None if explained0 else (screened[0][0] if screened else None)
         return Analysis(declared, declared, None, {}, verdict, _message(verdict, declared, None, closest),
-                        [s for s, _ in screened], closest, obs, obs, int(outliers.sum()))
+                        [s for s, _ in screened], closest, obs, obs, n_out)
     best, cand = passing[0]
     say(f'refit with {cand.name}')
     if cand.angle_shift_s:
@@ -260,13 +260,13 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
         return Analysis(declared, declared, None, {}, 'declared',
                         _message('declared', declared, None, best) + f' ({best.name} passed screening but '
                         f'leaves the systematic part at {final.smooth_rms / (1e5 * declared.ram_area):.2f} bar)',
-                        [s for s, _ in screened], None, obs, obs, int(outliers.sum()))
+                        [s for s, _ in screened], None, obs, obs, n_out)
     if final.smooth_rms > EXPLAINED_RATIO * final.noise_rms:
         return Analysis(declared, declared, None, {}, 'unexplained',
-                        _message('unexplained', declared, final, best), [s for s, _ in screened], best, obs, obs, int(outliers.sum()))
+                        _message('unexplained', declared, final, best), [s for s, _ in screened], best, obs, obs, n_out)
     params = _effect_params(cand, final, obs, declared)
     return Analysis(declared, final, cand.name, params, 'effect', _message('effect', declared, final, best, cand.name),
-                    [s for s, _ in screened], None, obs, final_obs, int(outliers.sum()))
+                    [s for s, _ in screened], None, obs, final_obs, n_out)
 
 
 def outlier_instants(resid: NDArray[np.float64], direction: NDArray[np.int8]) -> NDArray[np.bool_]:

@@ -233,12 +233,13 @@ def _solve(xtx: NDArray, xty: NDArray, smooth: NDArray) -> tuple[NDArray, NDArra
     return inv @ xty, inv
 
 
-def _z_weights(cols: NDArray, zs: Sequence[int], coef: NDArray) -> tuple[list[int], NDArray]:
-    """The prediction of a row of bin b as sum_j w[b, j] u[j] over the z indices it uses:
-    (those indices, w of shape (B, ..., k)) for ``cols`` (B, p) and ``coef`` (p,) or (g, p)
-    (then w is (B, g, k))."""
-    zi = np.asarray(zs)
-    used = sorted({int(z) for z in zi})
+def _z_weights(cols: NDArray, zs: Sequence[int], coef: NDArray, used: Sequence[int] | None = None
+               ) -> tuple[list[int], NDArray]:
+    """The prediction of a row of bin b as sum_j w[b, j] u[j] over z indices ``used`` (default:
+    those ``zs`` names): (those indices, w of shape (B, ..., k)) for ``cols`` (B, p) and
+    ``coef`` (p,) or (g, p) (then w is (B, g, k))."""
+    zi = np.asarray(zs, dtype=np.intp)
+    used = sorted({int(z) for z in zi}) if used is None else list(used)
     coef = np.asarray(coef)
     parts = [cols[:, zi == z] @ coef[..., zi == z].T for z in used]
     return used, np.stack(parts, axis=-1)
@@ -446,7 +447,7 @@ def fit_points(gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray
     fixed_cols = [c for c in range(p) if c not in dep]
     used = sorted({int(z) for z in zs})
     slot = {z: k for k, z in enumerate(used)}
-    fixed_by_z = [(slot[z], [c for c in fixed_cols if zs[c] == z]) for z in used]
+    fixed_z = [zs[c] for c in fixed_cols]
     cross = {a: base_cols[:, fixed_cols] * mz_all[:, zs[a], fixed_cols] for a in dep}   # (B, n_fixed)
     diag_fixed = np.diag(xtx0)
     eye = np.eye(p, dtype=bool)
@@ -482,10 +483,7 @@ def fit_points(gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray
             cov[sl] = inv     # type: ignore[index]
         else:
             coef = np.linalg.solve(a_mat, xty[:, :, None])[:, :, 0]
-        w = np.zeros((len(mom), g, len(used)))
-        for k, cs in fixed_by_z:
-            if cs:
-                w[:, :, k] = base_cols[:, cs] @ coef[:, cs].T
+        _, w = _z_weights(base_cols[:, fixed_cols], fixed_z, coef[:, fixed_cols], used)
         for a in dep:
             w[:, :, slot[zs[a]]] += dep_vals[a] * coef[:, a]
         rss[sl] = _rss_from_weights(mom, used, w)

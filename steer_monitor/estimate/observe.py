@@ -16,7 +16,7 @@ what the data can tell:
 * and the motion must be steady *through* the instant, not only on average: an autopilot
   on solenoid valves moves the rudder in short steps with pauses, and a window of 0.6 s
   that holds 0.45 s of motion and a 0.15 s pause passes the slope test while the rudder
-  stands (no friction) at the instant. So the angle's slope over each of three 100 ms
+  stands (no friction) at the instant. So the angle's slope over each of five 100 ms
   segments centred on the instant (``SEGMENT_NS``) must keep the sign and reach
   ``STEADY_FRACTION`` of the window's rate; and the grid points either side must pass too,
   since the 20 Hz pressures interpolated to a point within 50 ms of a stop mix a sample
@@ -44,7 +44,7 @@ __all__ = ['GRID_NS', 'HALF_WINDOW_NS', 'MOVING_RATE', 'SEGMENT_NS', 'STEADY_FRA
 GRID_NS = 50_000_000
 HALF_WINDOW_NS = 300_000_000
 MOVING_RATE = 0.2 * math.pi / 180.0   # rad/s
-SEGMENT_NS = 100_000_000              # the three segments of the steadiness test
+SEGMENT_NS = 100_000_000              # the five segments of the steadiness test
 STEADY_FRACTION = 0.5                 # each segment's rate against the window's
 MAX_GAP_NS = 250_000_000              # angle and pressures: up to 2.5 of the slower period
 SLOW_GAP_NS = 10_000_000_000          # ship speed (1 Hz) and oil temperature (0.5 Hz)
@@ -176,8 +176,8 @@ def _angle_slopes(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.i
 
 
 def _steady_through(angle: Series, t: NDArray[np.int64], shift_ns: int, need: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """True where the angle's slope over each of the three ``SEGMENT_NS`` segments centred on
-    ``t`` has the sign of ``need`` [rad/s] and at least its size."""
+    """True where the angle's slope over each of the five ``SEGMENT_NS`` segments centred on
+    ``t`` (+-250 ms) has the sign of ``need`` [rad/s] and at least its size."""
     ends = [_interp(angle, t + np.int64(k * SEGMENT_NS // 2), MAX_GAP_NS, shift_ns) for k in (-5, -3, -1, 1, 3, 5)]
     ok = np.ones(t.shape, bool)
     with np.errstate(invalid='ignore'):

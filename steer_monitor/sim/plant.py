@@ -152,7 +152,6 @@ def simulate(gear: GearParams, cfg: SimConfig, ram_speed_per_pump: float, pumps_
     vs = gear.torque.service_speed
     speed_fn = cfg.speed_profile
     v_ship = float(_speed_at(speed_fn, np.array([0.0]))[0])
-    tau_speed = SPEED_TAU_S
     speed_hist = np.zeros(n_max)
 
     order = np.zeros(n_max)
@@ -179,7 +178,7 @@ def simulate(gear: GearParams, cfg: SimConfig, ram_speed_per_pump: float, pumps_
         if program.speed_target is None:
             v_ship = float(_speed_at(speed_fn, np.array([t]))[0])
         else:                       # an engine order: the hull follows with its lag
-            v_ship += (program.speed_target * KNOT - v_ship) * dt / tau_speed
+            v_ship += (program.speed_target * KNOT - v_ship) * dt / SPEED_TAU_S
         order[i], alpha[i], rate[i], heading[i], pumps[i], speed_hist[i] = o, a, w, psi, p, v_ship
         r += (nomoto_k * (v_ship / vs) * a - r) * dt / nomoto_t
         psi += r * dt

@@ -256,10 +256,8 @@ class HelmProgram:
         if step.kind == 'hold_at':      # held for step.extra seconds once reached
             if self._reached_at is None and abs(alpha - step.value * DEG) < self.REACHED:
                 self._reached_at = t
-            if self._reached_at is not None and t - self._reached_at >= step.extra:
-                self._advance(t, heading)
-                return self(t, alpha, heading, yaw_rate)
-            if t - self._start > step.extra + self.STEP_TIMEOUT:
+            if ((self._reached_at is not None and t - self._reached_at >= step.extra)
+                    or t - self._start > step.extra + self.STEP_TIMEOUT):
                 self._advance(t, heading)
                 return self(t, alpha, heading, yaw_rate)
             return step.value * DEG, step.pumps

@@ -120,6 +120,13 @@ def test_bad_effects(text, msg):
     ('tango', "unknown helm programme 'tango'"),
     ('hold:-3', "helm programme 'hold:-3': the value after \":\" must be a positive number"),
     ('', 'empty helm programme'),
+    ('hold_at:40', 'at most 35 deg'),
+    ('hold_at:x', 'must be a number'),
+    ('speed:45', 'a speed in 0..40 kn'),
+    ('pumps:3', '1 or 2 pump'),
+    ('zigzag_0', 'positive number'),
+    ('zigzag_40', 'at most 35 deg'),
+    ('realistic:-5', 'positive number'),
 ])
 def test_bad_programs(text, msg):
     with pytest.raises(ParameterError, match=msg):
