@@ -12,6 +12,11 @@ records how much of the rudder's motion the true ram spent clamped, and the summ
 separates "clamped" cases (error of 2Z) from "never clamped" ones (is the lower bound below
 the truth).
 
+The *sensitivity* part runs the realistic voyage with one undeclared effect of the analysis
+library at a fraction of the simulator's default magnitude (:data:`FRACTIONS`), with two
+effects at once, and with an effect outside the library, and records what the residual loop
+named (:func:`sensitivity_cases`, :func:`summarize_sensitivity`).
+
 Pure: simulator and estimator only, no ROS, no bus.
 """
 
@@ -36,8 +41,8 @@ from steer_monitor.model.gear import Gaps
 from steer_monitor.model.loadshare import STAGE_CLAMPED, load_sharing
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
 
-__all__ = ['GRID_2Z_MM', 'GRID_ZGB_MM', 'PROGRAMMES', 'Case', 'CaseResult', 'cases', 'coverage_interval',
-           'run_case', 'summarize']
+__all__ = ['FRACTIONS', 'GRID_2Z_MM', 'GRID_ZGB_MM', 'MAGNITUDE', 'PAIRS', 'PROGRAMMES', 'Case', 'CaseResult', 'cases',
+           'coverage_interval', 'run_case', 'scaled_effect', 'sensitivity_cases', 'summarize', 'summarize_sensitivity']
 
 GRID_2Z_MM = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6)
 GRID_ZGB_MM = (0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35)
@@ -48,6 +53,13 @@ PROGRAMMES = {
     'autopilot': 'autopilot:1500',
     'realistic': 'realistic:1500',
 }
+# the parameter that sets each library effect's size, scaled by the sensitivity fractions
+MAGNITUDE = {'viscous': 'c_ns_per_m', 'angle_delay': 'tau_s', 'pressure_offset': 'offset_bar',
+             'temp_friction': 'k_per_k', 'pressure_friction': 'k', 'stribeck': 'f_st_n', 'ram_inertia': 'mass_kg'}
+FRACTIONS = (0.2, 0.5, 1.0)
+PAIRS = (('viscous', 'pressure_offset'), ('angle_delay', 'temp_friction'),
+         ('pressure_friction:k=0.006', 'viscous:c_ns_per_m=2e5'))
+SENSITIVITY_CLEARANCES_MM = ((0.4, 0.2), (0.3, 0.3), (0.6, 0.1))
 QUANTITIES = ('clearance_2z_mm', 'clearance_zgb_mm', 'k_gl_max', 'seal_friction_n', 'mu_bushing', 'mu_guide')
 
 
@@ -59,6 +71,7 @@ class Case:
     two_z_mm: float
     z_gb_mm: float
     seed: int
+    effects: tuple[str, ...] = ()      # undeclared effects, as ``--effect`` takes them
 
 
 @dataclass(frozen=True)
@@ -68,7 +81,9 @@ class CaseResult:
     ``truth`` and ``estimate`` map each of :data:`QUANTITIES` to a value; ``ci95`` maps them
     to ``(lo, hi)`` (None where unbounded). ``clamped_share`` is the share of moving time the
     true ram spent clamped; ``verdict`` the analysis verdict (on clean data 'declared' is
-    right); ``effect`` the effect adopted, if any.
+    right); ``effect`` the first effect adopted, if any, ``adopted`` all of them in order;
+    ``systematic_bar`` / ``systematic_after_bar`` the smooth residual of the declared and
+    of the final model; ``located`` the variable an unexplained residual was located on.
     """
 
     case: Case
@@ -84,6 +99,10 @@ class CaseResult:
     verdict: str
     effect: str | None
     seconds: float
+    adopted: tuple[str, ...] = ()
+    systematic_after_bar: float = math.nan
+    located: str | None = None
+    located_range: tuple[float, float] | None = None
 
     def covered(self, quantity: str) -> bool:
         lo, hi = self.ci95[quantity]
@@ -122,12 +141,12 @@ def _scaled(iv: Interval, k: float) -> tuple[float, tuple[float | None, float | 
 
 
 def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: Case) -> CaseResult:
-    """Simulate ``case`` on the gear of ``params`` (clean plant: no undeclared effect), run
-    the analysis on the decoded frames and compare."""
+    """Simulate ``case`` on the gear of ``params`` (with the case's undeclared effects, if
+    any), run the analysis on the decoded frames and compare."""
     t0 = time.perf_counter()
     gear = gear_from_params(params)
     cfg = sim.SimConfig(program=PROGRAMMES[case.programme], gaps=Gaps.from_mm(case.two_z_mm, case.z_gb_mm),
-                        max_duration_s=7200.0)
+                        max_duration_s=7200.0, effects=tuple(sim.parse_effect(e) for e in case.effects))
     s = sim.run(params, cfg, db, smap, case.seed)
     signals = Decoder(db, smap).decode_arrays(s.frames)
     a = analyze(gear, signals, min_clearance_2z=min_clearance_2z_from_params(params))
@@ -153,9 +172,76 @@ def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: 
                      ('seal_friction_n', f.seal_friction, 1.0), ('mu_bushing', f.mu_bushing, 1.0),
                      ('mu_guide', f.mu_guide, 1.0)):
         est[q], ci[q] = _scaled(iv, k)
+    bar = gear.ram_area * 1e5
+    model = a.model or f
+    loc = a.located
     return CaseResult(case=case, duration_s=p.duration, rows=f.rows, truth=truth, estimate=est, ci95=ci,
                       clamped_share=clamped, max_angle_deg=math.degrees(f.max_angle_seen), inflation=f.inflation,
-                      systematic_bar=a.declared.smooth_rms / (gear.ram_area * 1e5), verdict=a.verdict, effect=a.effect, seconds=time.perf_counter() - t0)
+                      systematic_bar=a.declared.smooth_rms / bar, verdict=a.verdict, effect=a.effect,
+                      seconds=time.perf_counter() - t0, adopted=tuple(st.name for st in a.steps),
+                      systematic_after_bar=model.smooth_rms / bar, located=None if loc is None else loc.variable,
+                      located_range=None if loc is None else (loc.lo, loc.hi))
+
+
+def scaled_effect(name: str, fraction: float) -> str:
+    """``name`` at ``fraction`` of the simulator's default magnitude, as ``--effect`` text."""
+    key = MAGNITUDE[name]
+    return f'{name}:{key}={float(sim.EFFECTS[name][key]) * fraction:.6g}'
+
+
+def sensitivity_cases(seeds: int = 2, first_seed: int = 5001) -> list[Case]:
+    """The realistic voyage with each library effect at each of :data:`FRACTIONS`, with each
+    pair of :data:`PAIRS`, and with each effect outside the library, ``seeds`` logs each
+    (clearances cycling through ``SENSITIVITY_CLEARANCES_MM``)."""
+    specs: list[tuple[str, ...]] = [(scaled_effect(n, f),) for n in MAGNITUDE for f in FRACTIONS]
+    specs += [tuple(p) for p in PAIRS]
+    specs += [(n,) for n in sim.OUTSIDE_LIBRARY]
+    out = []
+    seed = first_seed
+    for spec in specs:
+        for _ in range(seeds):
+            tz, zg = SENSITIVITY_CLEARANCES_MM[seed % len(SENSITIVITY_CLEARANCES_MM)]
+            out.append(Case('realistic', tz, zg, seed, spec))
+            seed += 1
+    return out
+
+
+def _effect_name(spec: str) -> str:
+    return spec.partition(':')[0]
+
+
+def summarize_sensitivity(results: Sequence[CaseResult], clean: Sequence[CaseResult] = ()) -> dict[str, Any]:
+    """Detection per effect and magnitude: how many logs named every simulated effect, how many
+    adopted one that was not simulated, and the systematic residual before and after
+    (medians, bar); for effects outside the library, how often the verdict was 'unexplained'
+    with the residual located on the right variable and the clearance intervals held the
+    truth; and false adoptions on the clean logs ``clean``."""
+    groups: dict[tuple[str, ...], list[CaseResult]] = {}
+    for r in results:
+        groups.setdefault(r.case.effects, []).append(r)
+    rows = []
+    for spec, rs in groups.items():
+        names = {_effect_name(e) for e in spec}
+        outside = names & set(sim.OUTSIDE_LIBRARY)
+        inside = names - outside
+        fraction = None
+        if len(spec) == 1 and not outside:
+            name = _effect_name(spec[0])
+            key = MAGNITUDE[name]
+            value = float(sim.parse_effect(spec[0])[key])
+            fraction = value / float(sim.EFFECTS[name][key])
+        rows.append({
+            'effects': list(spec), 'fraction_of_default': fraction, 'logs': len(rs),
+            'named': sum(inside <= set(r.adopted) for r in rs) if inside else None,
+            'wrong_adoptions': sum(bool(set(r.adopted) - inside) for r in rs),
+            'unexplained': sum(r.verdict == 'unexplained' for r in rs),
+            'located_on_angle': sum(r.located == 'alpha_deg' for r in rs) if outside else None,
+            'clearances_covered': sum(r.covered('clearance_zgb_mm') and r.covered('clearance_2z_mm') for r in rs),
+            'systematic_before_bar': float(np.median([r.systematic_bar for r in rs])),
+            'systematic_after_bar': float(np.median([r.systematic_after_bar for r in rs])),
+        })
+    return {'rows': rows, 'clean_logs': len(clean),
+            'clean_false_adoptions': sum(bool(r.adopted) for r in clean)}
 
 
 def coverage_interval(hits: int, n: int) -> tuple[float, float]:

@@ -13,12 +13,13 @@ from steer_monitor.cli.main import main
 
 
 def _result(programme: str, tz: float, zg: float, est_zg: float, ci_zg: tuple, clamped: float = 0.0,
-            est_tz: float = 0.3, ci_tz: tuple = (0.2, None)) -> A.CaseResult:
+            est_tz: float = 0.3, ci_tz: tuple = (0.2, None), effects: tuple = (), adopted: tuple = (),
+            verdict: str = 'declared', located: str | None = None) -> A.CaseResult:
     truth = {q: 1.0 for q in A.QUANTITIES} | {'clearance_2z_mm': tz, 'clearance_zgb_mm': zg}
     est = {q: 1.0 for q in A.QUANTITIES} | {'clearance_2z_mm': est_tz, 'clearance_zgb_mm': est_zg}
     ci = {q: (0.5, 1.5) for q in A.QUANTITIES} | {'clearance_2z_mm': ci_tz, 'clearance_zgb_mm': ci_zg}
-    return A.CaseResult(A.Case(programme, tz, zg, 1), 1500.0, 10000, truth, est, ci, clamped, 35.0, 1.5,
-                        0.05, 'declared', None, 5.0)
+    return A.CaseResult(A.Case(programme, tz, zg, 1, effects), 1500.0, 10000, truth, est, ci, clamped, 35.0, 1.5,
+                        0.05, verdict, adopted[0] if adopted else None, 5.0, adopted, 0.04, located)
 
 
 def test_cases_grid_and_seeds():
@@ -83,6 +84,7 @@ def test_cli_writes_table_and_json(tmp_path, capsys):
 
 @pytest.mark.parametrize(('argv', 'message'), [
     (['--seeds', '0'], '--seeds must be at least 1, got 0'),
+    (['--sensitivity-seeds', '-1'], '--sensitivity-seeds must be 0 or more, got -1'),
     (['--jobs', '0'], '--jobs must be at least 1, got 0'),
     (['--programmes', 'sea_trial'], "unknown study programme 'sea_trial'"),
     (['--grid-2z-mm', '0.1,x'], '--grid-2z-mm: expected a comma-separated list of positive millimetres'),
@@ -100,3 +102,34 @@ def test_the_study_runs_the_realistic_voyages_and_reports_the_systematic_part():
     summary = A.summarize(rs)
     assert summary['realistic']['max_systematic_bar'] == pytest.approx(0.05)
     assert set(summary) == {'realistic', 'voyage', 'all'}
+
+
+def test_sensitivity_cases_cover_every_library_effect_pairs_and_the_outside_one():
+    cs = A.sensitivity_cases(seeds=2)
+    specs = {c.effects for c in cs}
+    assert len(cs) == 2 * len(specs)
+    assert len(specs) == len(A.MAGNITUDE) * len(A.FRACTIONS) + len(A.PAIRS) + 1
+    assert ('viscous:c_ns_per_m=200000',) in specs and ('band_friction',) in specs
+    assert all(c.programme == 'realistic' for c in cs) and len({c.seed for c in cs}) == len(cs)
+
+
+def test_sensitivity_summary_counts_named_wrong_and_located():
+    v = ('viscous:c_ns_per_m=200000',)
+    rs = [_result('realistic', 0.4, 0.2, 0.2, (0.19, 0.21), effects=v, adopted=('viscous',), verdict='effect'),
+          _result('realistic', 0.4, 0.2, 0.2, (0.19, 0.21), effects=v, adopted=()),
+          _result('realistic', 0.4, 0.2, 0.2, (0.19, 0.21), effects=('band_friction',), verdict='unexplained',
+                  located='alpha_deg'),
+          _result('realistic', 0.4, 0.2, 0.3, (0.25, 0.35), effects=('band_friction',), adopted=('stribeck',),
+                  verdict='unexplained', located='time_s')]
+    clean = [_result('voyage', 0.6, 0.25, 0.25, (0.24, 0.26)),
+             _result('voyage', 0.6, 0.25, 0.25, (0.24, 0.26), adopted=('angle_delay',), verdict='effect')]
+    s = A.summarize_sensitivity(rs, clean)
+    by = {tuple(r['effects']): r for r in s['rows']}
+    assert by[v]['named'] == 1 and by[v]['wrong_adoptions'] == 0 and by[v]['fraction_of_default'] == pytest.approx(0.2)
+    b = by[('band_friction',)]
+    assert b['named'] is None and b['wrong_adoptions'] == 1 and b['unexplained'] == 2 and b['located_on_angle'] == 1
+    assert b['clearances_covered'] == 1 and b['fraction_of_default'] is None
+    assert s['clean_logs'] == 2 and s['clean_false_adoptions'] == 1
+    doc = cli.markdown(clean, A.summarize(clean), 'steer-monitor accuracy', 'R-18', s)
+    assert '## Sensitivity of the residual loop' in doc and 'False adoption on the clean logs above: 1 of 2.' in doc
+    assert '| `viscous:c_ns_per_m=200000` | 0.2 | 2 | 1/2 | 0 |' in doc

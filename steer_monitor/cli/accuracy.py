@@ -3,8 +3,10 @@
 Simulates a grid of true clearances (2Z x Z_gb) under several helm programmes, analyzes each
 log as ``steer-monitor analyze`` would, and writes a Markdown table of the error and the
 95 %-interval coverage of every estimate (``--out``, default ``docs/accuracy.md``) and the
-per-case results as JSON (``--json``). Cases run in parallel over ``--jobs`` processes; the
-outcome does not depend on the number of jobs.
+per-case results as JSON (``--json``). With ``--sensitivity-seeds N`` (docs/accuracy.md: 2)
+it also runs the residual loop's sensitivity study (:func:`~steer_monitor.accuracy.sensitivity_cases`)
+and tabulates detection against effect magnitude. Cases run in parallel over ``--jobs``
+processes; the outcome does not depend on the number of jobs.
 """
 
 from __future__ import annotations
@@ -78,7 +80,37 @@ def _cell(r: A.CaseResult) -> str:
     return f'{zs}{zmark} / {ts}{tmark}{clamp}'
 
 
-def markdown(results: Sequence[A.CaseResult], summary: dict[str, Any], command: str, gear: str) -> str:
+def _sensitivity_markdown(sens: dict[str, Any]) -> list[str]:
+    lines = [
+        '',
+        '## Sensitivity of the residual loop',
+        '',
+        'The **realistic** voyage with undeclared effects in the plant: each effect of the analysis '
+        'library alone at a fraction of the simulator\'s default magnitude (defaults in '
+        '`steer_monitor/sim/effects.py`), two effects at once, and an effect outside the library. '
+        '*Named*: logs whose adopted effects include every simulated library effect; *other adopted*: logs '
+        'that adopted an effect that was not simulated; *systematic* is the median smooth part of the '
+        'residual (bar) under the declared model and under the final model with the adopted effects. '
+        'For the effect outside the library the right answer is the verdict "unexplained" with the '
+        'residual located on the rudder angle, and clearance intervals that still hold the truth.',
+        '',
+        '| simulated effects | fraction of default | logs | named | other adopted | verdict "unexplained" '
+        '| located on the angle | Z_gb and 2Z covered | systematic declared -> final bar |',
+        '|---|---:|---:|---:|---:|---:|---:|---:|---|',
+    ]
+    for r in sens['rows']:
+        frac = '-' if r['fraction_of_default'] is None else f"{r['fraction_of_default']:.2g}"
+        named = '-' if r['named'] is None else f"{r['named']}/{r['logs']}"
+        loc = '-' if r['located_on_angle'] is None else f"{r['located_on_angle']}/{r['logs']}"
+        lines.append(f"| `{' + '.join(r['effects'])}` | {frac} | {r['logs']} | {named} | {r['wrong_adoptions']} "
+                     f"| {r['unexplained']}/{r['logs']} | {loc} | {r['clearances_covered']}/{r['logs']} "
+                     f"| {r['systematic_before_bar']:.2f} -> {r['systematic_after_bar']:.2f} |")
+    lines += ['', f"False adoption on the clean logs above: {sens['clean_false_adoptions']} of {sens['clean_logs']}."]
+    return lines
+
+
+def markdown(results: Sequence[A.CaseResult], summary: dict[str, Any], command: str, gear: str,
+             sensitivity: dict[str, Any] | None = None) -> str:
     """The study as a Markdown page (deterministic: no times, no host names)."""
     n = len(results)
     progs = sorted({r.case.programme for r in results}, key=list(A.PROGRAMMES).index)
@@ -139,6 +171,8 @@ def markdown(results: Sequence[A.CaseResult], summary: dict[str, Any], command: 
             f"| {_cov(g['mu_bushing'])} | {_cov(g['mu_guide'])} | {g['declared_share']:.2f} "
             f"| {', '.join(g['effects_adopted']) or 'none'} | {g['median_inflation']:.1f} "
             f"| {g['max_systematic_bar']:.2f} |")
+    if sensitivity is not None:
+        lines += _sensitivity_markdown(sensitivity)
     lines += [
         '',
         '## Every log',
@@ -167,16 +201,21 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
         grid_2z_mm: Sequence[float] = A.GRID_2Z_MM, grid_zgb_mm: Sequence[float] = A.GRID_ZGB_MM,
         seeds: int = 1, jobs: int | None = None, out_md: str | Path | None = 'docs/accuracy.md',
         json_out: str | Path | None = None, command: str = 'steer-monitor accuracy',
-        out: TextIO | None = None) -> int:
+        out: TextIO | None = None, sensitivity_seeds: int = 0) -> int:
     out = out or sys.stdout
     if seeds < 1:
         msg = f'--seeds must be at least 1, got {seeds}'
+        raise ParameterError(msg)
+    if sensitivity_seeds < 0:
+        msg = f'--sensitivity-seeds must be 0 or more, got {sensitivity_seeds}'
         raise ParameterError(msg)
     if jobs is not None and jobs < 1:
         msg = f'--jobs must be at least 1, got {jobs}'
         raise ParameterError(msg)
     try:
         todo = A.cases(programmes, grid_2z_mm, grid_zgb_mm, seeds)
+        n_clean = len(todo)
+        todo += A.sensitivity_cases(sensitivity_seeds) if sensitivity_seeds else []
     except ValueError as exc:
         raise ParameterError(str(exc)) from None
     config_path = str(config or default_config())
@@ -204,8 +243,10 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
                 for r in pool.map(_work, todo):
                     results.append(r)
                     bar.update(1)
+    results, sens_results = results[:n_clean], results[n_clean:]
     summary = A.summarize(results)
-    doc = markdown(results, summary, command, str(params['gear.name']))
+    sens = A.summarize_sensitivity(sens_results, results) if sens_results else None
+    doc = markdown(results, summary, command, str(params['gear.name']), sens)
     if out_md is not None:
         if str(out_md) == '-':
             out.write(doc)
@@ -213,6 +254,8 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
             Path(out_md).write_text(doc, encoding='utf-8')
     if json_out is not None:
         payload = {'summary': summary, 'cases': [r.to_json() for r in results]}
+        if sens is not None:
+            payload['sensitivity'] = {**sens, 'cases': [r.to_json() for r in sens_results]}
         if str(json_out) == '-':
             dump_json(payload, out)
         else:
@@ -238,6 +281,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--grid-zgb-mm', help='true Z_gb values, mm (default: ' + ','.join(map(str, A.GRID_ZGB_MM)) + ')')
     p.add_argument('--seeds', type=int, default=1, help='logs per grid point and programme (default: 1)')
     p.add_argument('--jobs', type=int, help='worker processes (default: one per core)')
+    p.add_argument('--sensitivity-seeds', type=int, default=0,
+                   help='logs per effect and magnitude in the residual loop\'s sensitivity study (default: 0, '
+                        'none; docs/accuracy.md is made with 2)')
     p.add_argument('--out', default='docs/accuracy.md', help='Markdown table, - for stdout (default: docs/accuracy.md)')
     p.add_argument('--json', dest='json_out', help='per-case results and summary as JSON (- for stdout)')
 
@@ -245,5 +291,6 @@ def register(sub: argparse._SubParsersAction) -> None:
         return run(a.config, [x.strip() for x in a.programmes.split(',') if x.strip()],
                    _parse_grid(a.grid_2z_mm, A.GRID_2Z_MM, '--grid-2z-mm'),
                    _parse_grid(a.grid_zgb_mm, A.GRID_ZGB_MM, '--grid-zgb-mm'),
-                   a.seeds, a.jobs, a.out, a.json_out, command='steer-monitor accuracy ' + ' '.join(sys.argv[2:]))
+                   a.seeds, a.jobs, a.out, a.json_out, command='steer-monitor accuracy ' + ' '.join(sys.argv[2:]),
+                   sensitivity_seeds=a.sensitivity_seeds)
     p.set_defaults(handler=handler)

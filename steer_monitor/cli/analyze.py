@@ -7,15 +7,23 @@ a value from below)::
     clearance_2z_mm, clearance_zgb_mm      {"value", "ci95": [lo, hi]}   (final model)
     k_gl_max                               {"value", "ci95": [lo, hi]}
     seal_friction_n, mu_bushing, mu_guide  {"value", "ci95": [lo, hi]}
-    effect                                 {"name", "params": {...}} or null
+    effects                                the adopted effects in order, each {"name", "params",
+                                           "rmse_before_bar", "rmse_after_bar", "rmse_before_kn",
+                                           "rmse_after_kn", "systematic_before_bar",
+                                           "systematic_after_bar"} (params from the final model)
+    effect                                 the first of them ({"name", "params"}) or null
     verdict                                "declared" | "effect" | "unexplained"
+    unexplained                            where an unexplained residual lives, or null:
+                                           {"variable", "range": [lo, hi] in its unit,
+                                           "either_side", "systematic_bar", "share", "ram",
+                                           "direction", "message"}
     message                                one sentence
     rmse_before_kn, rmse_after_kn          ram-force residual RMS, declared / final
     rmse_before_bar, rmse_after_bar        the same in bar of cylinder pressure
     systematic_before_bar, systematic_after_bar, noise_bar   the residual's smooth part and
                                            its sensor-noise part
     declared                               the declared model's estimates (before the effect)
-    screening                              every candidate: held-out gain, BIC change
+    screening                              every candidate against the declared model
     torque_curve_knm                       [[deg, kN m, half-width of the 95 % band], ...]
     data                                   log, frames, span, steady-motion rows, max angle
 """
@@ -66,27 +74,48 @@ def _estimate_json(e: ClearanceEstimate) -> dict[str, Any]:
     }
 
 
+def _params_json(params: dict[str, Any]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in params.items():
+        if isinstance(v, str):
+            out[k] = v
+        elif v.lo is None and v.hi is None:
+            out[k] = round(v.value, 6)
+        else:
+            out[k] = v.scaled(1.0, 6)
+    return out
+
+
+def _located_json(a: Analysis) -> dict[str, Any] | None:
+    loc = a.located
+    if loc is None:
+        return None
+    bar = a.final.ram_area * 1e5
+    digits = 1 if loc.variable in ('time_s', 'pressure_bar') else 2
+    return {'variable': loc.variable, 'range': [round(loc.lo, digits), round(loc.hi, digits)],
+            'either_side': loc.either_side, 'systematic_bar': round(loc.level / bar, 3),
+            'share': round(loc.share, 3), 'ram': loc.shape.ram_name, 'direction': loc.shape.direction_name,
+            'odd_in_direction': loc.shape.odd and not loc.shape.direction,
+            'message': loc.message(a.final.ram_area)}
+
+
 def analysis_json(a: Analysis) -> dict[str, Any]:
     """The JSON answer (see the module docstring)."""
     d, f = a.declared, a.final
     bar = f.ram_area * 1e5
-    effect = None
-    if a.effect is not None:
-        params: dict[str, Any] = {}
-        for k, v in a.params.items():
-            if isinstance(v, str):
-                params[k] = v
-            elif v.lo is None and v.hi is None:
-                params[k] = round(v.value, 6)
-            else:
-                params[k] = v.scaled(1.0, 6)
-        effect = {'name': a.effect, 'params': params}
+    effects = [{'name': s.name, 'params': _params_json(s.params),
+                'rmse_before_bar': round(s.before.rms / bar, 4), 'rmse_after_bar': round(s.after.rms / bar, 4),
+                'rmse_before_kn': round(s.before.rms / 1e3, 4), 'rmse_after_kn': round(s.after.rms / 1e3, 4),
+                'systematic_before_bar': round(s.before.smooth_rms / bar, 4),
+                'systematic_after_bar': round(s.after.smooth_rms / bar, 4)} for s in a.steps]
     angles, torque, band = f.torque_curve
     return {
         **_quantities(f),
-        'effect': effect,
+        'effects': effects,
+        'effect': {'name': effects[0]['name'], 'params': effects[0]['params']} if effects else None,
         'verdict': a.verdict,
         'message': a.message,
+        'unexplained': _located_json(a),
         'rmse_before_kn': round(d.rms / 1e3, 4),
         'rmse_after_kn': round(f.rms / 1e3, 4),
         'rmse_before_bar': round(d.rms / bar, 4),
@@ -97,6 +126,7 @@ def analysis_json(a: Analysis) -> dict[str, Any]:
         'declared': _estimate_json(d),
         'final': _estimate_json(f),
         'screening': [{'name': s.name, 'fixed': s.fixed, 'held_out_gain': round(s.cv_gain, 4),
+                       'held_out_deviance': round(s.cv_deviance, 1),
                        'delta_bic': round(s.delta_bic, 1), 'rmse_bar': round(s.rms / bar, 4),
                        'passes': s.passes, 'refused': s.refused} for s in a.screening],
         'outlier_instants': a.outliers,

@@ -26,7 +26,8 @@ from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import load_sharing
 
 __all__ = ['MIN_MOTION_SAMPLES', 'ClearanceEstimate', 'Rows', 'box_holds', 'coarse_profile', 'estimate_clearances',
-           'estimate_from_moments', 'estimate_in_box', 'k_gl_max', 'make_rows', 'predict_rows', 'residual_parts',
+           'estimate_from_moments', 'estimate_in_box', 'k_gl_max', 'lag_moments', 'make_rows', 'predict_rows',
+           'residual_parts',
            'residuals_and_inflation', 'search_box']
 
 MIN_MOTION_SAMPLES = 200     # rows (ram x instant) of steady motion: 5 s of moving rudder
@@ -111,9 +112,11 @@ class ClearanceEstimate:
     deviance: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 0)), repr=False)
 
 
-def residual_parts(resid: NDArray[np.float64], t_ns: NDArray[np.int64]) -> tuple[float, float]:
-    """(noise RMS, smooth RMS) of residuals (n, 2): the autocovariance at 200 ms (same ram,
-    both instants fitted) is the smooth part's variance; the rest is sensor noise."""
+def lag_moments(resid: NDArray[np.float64], t_ns: NDArray[np.int64], lag: int = SMOOTH_LAG_STEPS) -> tuple[float, float]:
+    """(mean square, autocovariance at ``lag`` grid steps, 200 ms by default) of residuals
+    (n, 2) [N^2], the latter over the
+    pairs of the same ram with both instants fitted, unclamped (it may come out negative
+    where the smooth part is nil); NaN when there is nothing to average."""
     c0 = c4 = 0.0
     n0 = n4 = 0
     step = np.round((t_ns - (t_ns[0] if t_ns.size else 0)) / GRID_NS).astype(np.int64)
@@ -122,16 +125,22 @@ def residual_parts(resid: NDArray[np.float64], t_ns: NDArray[np.int64]) -> tuple
         ok = np.isfinite(r)
         c0 += float(np.sum(r[ok] ** 2))
         n0 += int(ok.sum())
-        j = np.searchsorted(step, step + SMOOTH_LAG_STEPS)
+        j = np.searchsorted(step, step + lag)
         j = np.minimum(j, step.size - 1)
-        pair = ok & (step[j] == step + SMOOTH_LAG_STEPS) & ok[j]
+        pair = ok & (step[j] == step + lag) & ok[j]
         c4 += float(np.sum(r[pair] * r[j[pair]]))
         n4 += int(pair.sum())
-    if n0 == 0:
+    return (c0 / n0 if n0 else math.nan), (c4 / n4 if n4 else math.nan)
+
+
+def residual_parts(resid: NDArray[np.float64], t_ns: NDArray[np.int64]) -> tuple[float, float]:
+    """(noise RMS, smooth RMS) of residuals (n, 2): the autocovariance at 200 ms (same ram,
+    both instants fitted, :func:`lag_moments`) is the smooth part's variance, clamped to
+    [0, mean square]; the rest is sensor noise."""
+    var, c4 = lag_moments(resid, t_ns)
+    if not math.isfinite(var):
         return math.nan, math.nan
-    var = c0 / n0
-    smooth = max(c4 / n4, 0.0) if n4 else 0.0
-    smooth = min(smooth, var)
+    smooth = min(max(c4, 0.0) if math.isfinite(c4) else 0.0, var)
     return math.sqrt(var - smooth), math.sqrt(smooth)
 
 

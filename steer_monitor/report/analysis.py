@@ -1,6 +1,7 @@
 """The HTML report of ``steer-monitor analyze``: one self-contained page (PNG plots inlined
 as base64) with the clearance profiles and intervals, the torque curve, the residual before
-and after the added effect, and the candidates' scores."""
+and after the added effects, the residual against the variable it lives on when it is not
+explained, and the candidates' scores."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ import numpy as np
 from steer_monitor.estimate.analyze import Analysis
 from steer_monitor.estimate.intervals import CHI2_1_95
 
-__all__ = ['png_base64', 'residual_figure', 'write_analysis_report']
+__all__ = ['located_figure', 'png_base64', 'residual_figure', 'write_analysis_report']
 
 
 def png_base64(fig: Any) -> str:
@@ -54,7 +55,45 @@ def _plots(a: Analysis) -> dict[str, str]:
     ax.legend()
     out['torque'] = png_base64(fig)
     out['residual'] = png_base64(residual_figure(a))
+    if a.located is not None:
+        out['located'] = png_base64(located_figure(a))
     return out
+
+
+def located_figure(a: Analysis) -> Any:
+    """The residual (signed as the located term: times the direction of motion for a
+    friction-like term) against the variable it lives on, on the rows of its shape, with the
+    binned means, their 95 % band and the located range shaded."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    from steer_monitor.estimate.locate import UNITS, WHAT
+
+    loc = a.located
+    assert loc is not None
+    bar = a.final.ram_area * 1e5
+    fig, ax = plt.subplots(figsize=(10, 3.8))
+    ok = np.isfinite(loc.target)
+    x, t = loc.x[ok], loc.target[ok] / bar
+    if x.size > 20000:                 # a readable cloud, the same for a given log
+        pick = np.linspace(0, x.size - 1, 20000).round().astype(int)
+        x, t = x[pick], t[pick]
+    ax.plot(x, t, '.', ms=1.5, color='0.65', label='residual (rows of the located shape)')
+    centre = 0.5 * (loc.edges[1:] + loc.edges[:-1])
+    used = loc.counts > 0
+    ax.errorbar(centre[used], loc.means[used] / bar, yerr=1.96 * loc.se[used] / bar, fmt='o-', ms=3,
+                color='tab:blue', label='binned mean, 95 %')
+    ax.axvspan(loc.lo, loc.hi, color='tab:red', alpha=0.15, label='located range')
+    ax.axhline(0.0, color='k', lw=0.8)
+    signed = ' x direction of motion' if loc.shape.odd and not loc.shape.direction else ''
+    name = f'|{WHAT[loc.variable]}|' if loc.either_side else WHAT[loc.variable]
+    ax.set_xlabel(f'{name} [{UNITS[loc.variable]}]')
+    ax.set_ylabel(f'residual{signed} [bar]')
+    ax.set_ylim(*np.nanpercentile(t, [0.5, 99.5]) if t.size else (-1, 1))
+    ax.set_title(f'where the unexplained residual lives ({loc.shape.ram_name}, {loc.shape.direction_name})')
+    ax.legend(loc='upper right', fontsize=8)
+    return fig
 
 
 def residual_figure(a: Analysis) -> Any:
@@ -65,10 +104,12 @@ def residual_figure(a: Analysis) -> Any:
     import matplotlib.pyplot as plt
 
     bar = a.final.ram_area * 1e5
-    effect = 'no effect adopted' if a.effect is None else f'with {a.effect}'
+    effect = 'no effect adopted' if not a.steps else 'with ' + ', '.join(s.name for s in a.steps)
+    if a.located is not None:
+        effect += ', located term as a nuisance'
     fig, ax = plt.subplots(2, 1, figsize=(10, 5), sharex=True)
     for k, (est, obs, title) in enumerate(((a.declared, a.observations, 'declared model'),
-                                           (a.final, a.final_observations, f'after the added effect ({effect})'))):
+                                           (a.final, a.final_observations, f'final model ({effect})'))):
         t = (obs.t_ns - obs.t_ns[0]) / 1e9
         both = np.isfinite(est.residual)
         r = np.where(both.any(1), np.nansum(est.residual, 1) / np.maximum(both.sum(1), 1), np.nan) / bar
@@ -95,11 +136,15 @@ def write_analysis_report(a: Analysis, result: dict[str, Any], path: str | Path)
     scr = ''.join(f"<tr><td>{esc(s['name'])}</td><td>{esc(str(s['fixed']))}</td><td>{s['held_out_gain']:.3f}</td>"
                   f"<td>{s['delta_bic']:.1f}</td><td>{s['rmse_bar']:.3f}</td><td>{'yes' if s['passes'] else 'no'}</td></tr>"
                   for s in result['screening'])
-    effect = result['effect']
-    eff = 'none' if effect is None else f"{esc(effect['name'])}: {esc(str(effect['params']))}"
+    effects = result['effects']
+    eff = 'none' if not effects else '; '.join(
+        f"{esc(e['name'])} ({e['rmse_before_bar']} &rarr; {e['rmse_after_bar']} bar): {esc(str(e['params']))}"
+        for e in effects)
     img = ''.join(f'<h2>{esc(title)}</h2><img alt="{esc(key)}" src="data:image/png;base64,{plots[key]}">'
                   for key, title in (('profiles', 'Clearance profiles'), ('torque', 'Tiller torque'),
-                                     ('residual', 'Residual before and after')))
+                                     ('residual', 'Residual before and after'),
+                                     ('located', 'Where the unexplained residual lives'))
+                  if key in plots)
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>steer_monitor analysis</title>
 <style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto}}td,th{{padding:2px 10px;text-align:left}}
@@ -107,7 +152,7 @@ table{{border-collapse:collapse}}tr:nth-child(even){{background:#f2f2f2}}img{{ma
 <body><h1>Clearance analysis: {esc(str(result.get('data', {}).get('log', '')))}</h1>
 <p><b>{esc(result['message'])}</b></p>
 <table><tr><th>quantity</th><th>value [95 % interval]</th></tr>{rows}</table>
-<p>Added effect: {eff}. Residual {result['rmse_before_bar']} &rarr; {result['rmse_after_bar']} bar RMS
+<p>Added effects: {eff}. Residual {result['rmse_before_bar']} &rarr; {result['rmse_after_bar']} bar RMS
 ({result['rmse_before_kn']} &rarr; {result['rmse_after_kn']} kN of ram force).</p>
 {img}
 <h2>Candidates</h2><table><tr><th>effect</th><th>fixed</th><th>held-out gain</th><th>&Delta;BIC</th>

@@ -18,7 +18,19 @@ pressure_friction     seal friction rises with the driving chamber's pressure:
                       F_fr += k A_r p_high (k = 0.03)
 stribeck              extra friction near zero ram speed (Stribeck):
                       F_fr += F_st exp(-(|v| / v_s)^2) (f_st_n = 15e3 N, v_s_mm_s = 3.0)
+ram_inertia           the moving mass (rams, crosshead, and the rudder's moment of
+                      inertia seen at the rams, J / H^2) takes m a_ram from the ram force
+                      (mass_kg = 60e3 kg)
+band_friction         *outside the analysis library*: a scored stretch of both rams'
+                      bushings adds friction while the rudder is between two angles on
+                      either side, F_fr += f_n for lo_deg <= |alpha| <= hi_deg
+                      (f_n = 12e3 N, lo_deg = 12, hi_deg = 18)
 ===================== ================================================================
+
+Several effects may be given at once (each name once); they add as listed in the plant
+(:func:`~steer_monitor.sim.plant.simulate`): the friction terms, then temp_friction scales
+the friction, then pressure_friction and ram_inertia act on the ram force; angle_delay and
+pressure_offset act on the sensors.
 """
 
 from __future__ import annotations
@@ -29,7 +41,7 @@ from dataclasses import dataclass, field
 
 from steer_monitor.errors import ParameterError
 
-__all__ = ['EFFECTS', 'Effect', 'parse_effect']
+__all__ = ['EFFECTS', 'OUTSIDE_LIBRARY', 'Effect', 'parse_effect']
 
 EFFECTS: dict[str, dict[str, float | str]] = {
     'viscous': {'c_ns_per_m': 1.0e6},
@@ -38,7 +50,12 @@ EFFECTS: dict[str, dict[str, float | str]] = {
     'temp_friction': {'k_per_k': 0.02, 't_ref_c': 40.0},
     'pressure_friction': {'k': 0.03},
     'stribeck': {'f_st_n': 15e3, 'v_s_mm_s': 3.0},
+    'ram_inertia': {'mass_kg': 60e3},
+    'band_friction': {'f_n': 12e3, 'lo_deg': 12.0, 'hi_deg': 18.0},
 }
+
+# The ones the analysis library has no candidate for (a test of the "unexplained" verdict).
+OUTSIDE_LIBRARY = ('band_friction',)
 
 _PRESSURES = ('pressure_r1_stbd', 'pressure_r1_port', 'pressure_r2_stbd', 'pressure_r2_port')
 
@@ -82,5 +99,8 @@ def parse_effect(text: str) -> Effect:
         raise ParameterError(msg)
     if name == 'angle_delay' and not 0 <= float(params['tau_s']) <= 5:
         msg = f'effect angle_delay: tau_s must lie in 0..5 s, got {params["tau_s"]}'
+        raise ParameterError(msg)
+    if name == 'band_friction' and not 0 <= float(params['lo_deg']) < float(params['hi_deg']) <= 90:
+        msg = f'effect band_friction: need 0 <= lo_deg < hi_deg <= 90, got {params["lo_deg"]} and {params["hi_deg"]}'
         raise ParameterError(msg)
     return Effect(name, params)

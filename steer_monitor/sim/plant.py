@@ -201,6 +201,10 @@ def simulate(gear: GearParams, cfg: SimConfig, ram_speed_per_pump: float, pumps_
     if e is not None:
         v_s = float(e['v_s_mm_s']) * 1e-3
         friction = friction + float(e['f_st_n']) * np.exp(-(v_ram / v_s) ** 2)
+    e = cfg.effect('band_friction')
+    if e is not None:
+        deg = np.degrees(np.abs(alpha))
+        friction = friction + float(e['f_n']) * ((deg >= float(e['lo_deg'])) & (deg <= float(e['hi_deg'])))
     e = cfg.effect('temp_friction')
     if e is not None:
         friction = friction * (1.0 + float(e['k_per_k']) * (oil - 273.15 - float(e['t_ref_c'])))
@@ -215,7 +219,12 @@ def simulate(gear: GearParams, cfg: SimConfig, ram_speed_per_pump: float, pumps_
         f_pos = (friction + k * u) / (1.0 - k)
         f_neg = (friction - k * u) / (1.0 + k)
         friction = np.where(moving, np.where(u + f_pos >= 0, f_pos, f_neg), friction)
-    dp = (load + np.where(moving, np.sign(rate) * friction, 0.0)) / gear.ram_area
+    force = load + np.where(moving, np.sign(rate) * friction, 0.0)
+    e = cfg.effect('ram_inertia')
+    if e is not None and n > 1:
+        # the ram's speed along its axis, H / cos^2(alpha) dalpha/dt, differentiated
+        force = force + float(e['mass_kg']) * np.gradient(h / np.cos(alpha) ** 2 * rate, dt)
+    dp = force / gear.ram_area
     p_stbd = cfg.return_pressure + np.maximum(dp, 0.0)
     p_port = cfg.return_pressure + np.maximum(-dp, 0.0)
     pressures = {'pressure_r1_stbd': p_stbd, 'pressure_r1_port': p_port,

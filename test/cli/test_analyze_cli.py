@@ -21,8 +21,10 @@ def test_analyze_writes_the_documented_json_and_a_report(tmp_path):
         assert set(d[key]) == {'value', 'ci95'} and len(d[key]['ci95']) == 2
     assert d['clearance_2z_mm']['ci95'][1] is None          # the ram never clamps at 0.6 mm
     assert d['clearance_zgb_mm']['ci95'][0] <= 0.25 <= d['clearance_zgb_mm']['ci95'][1]
-    assert {'k_gl_max', 'effect', 'rmse_before_kn', 'rmse_after_kn', 'verdict', 'message'} <= set(d)
-    assert d['effect'] is None and d['rmse_after_kn'] == d['rmse_before_kn']
+    assert {'k_gl_max', 'effect', 'effects', 'unexplained', 'rmse_before_kn', 'rmse_after_kn', 'verdict',
+            'message'} <= set(d)
+    assert d['effect'] is None and d['effects'] == [] and d['unexplained'] is None
+    assert d['rmse_after_kn'] == d['rmse_before_kn']
     page = html.read_text()
     assert page.count('<img') == 3 and 'data:image/png;base64,' in page
 
@@ -32,3 +34,23 @@ def test_analyze_of_a_log_without_motion_says_why(tmp_path, capsys):
     assert main(['simulate', '--program', 'hold:20', '--out', str(log)]) == 0
     assert main(['analyze', str(log), '--json', '-']) == 1
     assert 'too little steady rudder motion' in capsys.readouterr().err
+
+
+def test_an_unexplained_residual_is_located_in_the_json_and_plotted(tmp_path):
+    """The band of extra friction outside the library: ``unexplained`` names the angle band,
+    the ram and the direction, and the report plots the residual against the angle."""
+    log = tmp_path / 'band.log'
+    assert main(['simulate', '--program', 'voyage', '--effect', 'band_friction:lo_deg=8,hi_deg=14', '--seed', '21',
+                 '--out', str(log)]) == 0
+    out, html = tmp_path / 'a.json', tmp_path / 'a.html'
+    assert main(['analyze', str(log), '--json', str(out), '--report', str(html)]) == 0
+    d = json.loads(out.read_text())
+    assert d['verdict'] == 'unexplained'
+    u = d['unexplained']
+    assert set(u) >= {'variable', 'range', 'systematic_bar', 'ram', 'direction', 'message'}
+    assert u['variable'] == 'alpha_deg' and u['either_side'] and u['ram'] == 'both' and u['direction'] == 'both'
+    assert abs(u['range'][0] - 8) < 0.5 and abs(u['range'][1] - 14) < 0.5 and u['systematic_bar'] > 0.3
+    assert u['message'] in d['message'] and 'incomplete model' in d['message']
+    assert d['clearance_zgb_mm']['ci95'][0] <= 0.25 <= d['clearance_zgb_mm']['ci95'][1]
+    page = html.read_text()
+    assert page.count('<img') == 4 and 'Where the unexplained residual lives' in page

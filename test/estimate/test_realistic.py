@@ -145,9 +145,10 @@ def test_whole_log_rows_are_the_same_when_cut(r18, simulate_signals):
 def test_a_delay_that_explains_nothing_is_not_adopted(r18, simulate_signals):
     """Found by the accuracy study (autopilot, 2Z 0.4 / Z_gb 0.2 mm, seed 109, clean plant):
     a 0.05 s angle delay scored 15 % better held out, yet left the systematic part where the
-    declared model had it (0.14 bar, inside the noise). It passes screening and is not an
-    effect: the verdict stays 'declared' and says so."""
+    declared model had it (0.14 bar, inside the noise): what it takes from the mean square is
+    none of the residual's covariance with the next instant. It passes screening and is not
+    an effect: the verdict stays 'declared' and says so."""
     signals, _ = simulate_signals('autopilot:1500', 0.4, 0.2, seed=109)
     a = analyze(r18, signals, min_clearance_2z=MIN_2Z)
     assert a.verdict == 'declared' and a.effect is None, a.message
-    assert 'passed screening but leaves the systematic part' in a.message
+    assert 'angle_delay passed screening but takes nothing systematic' in a.message

@@ -105,11 +105,42 @@ def test_each_effect_changes_what_it_says(r18_params, can_db, effect, check):
         assert np.array_equal(with_e.sensors.exact['pressure_r2_stbd'], base.sensors.exact['pressure_r2_stbd'])
 
 
+def test_band_friction_adds_its_force_inside_the_band_only(r18_params, can_db):
+    base = _run(r18_params, can_db, 'hard_over_2', seed=4, noise=False)
+    e = sim.parse_effect('band_friction:f_n=8e3,lo_deg=10,hi_deg=20')
+    with_e = _run(r18_params, can_db, 'hard_over_2', seed=4, noise=False, effects=(e,))
+    moving = base.plant.rate != 0
+    deg = np.degrees(np.abs(base.plant.alpha))
+    band = moving & (deg >= 10) & (deg <= 20)
+    df = with_e.plant.friction - base.plant.friction
+    assert band.sum() > 100 and np.allclose(df[band], 8e3) and np.allclose(df[~band], 0.0)
+
+
+def test_ram_inertia_takes_mass_times_the_rams_acceleration(r18_params, r18, can_db):
+    """Against an independent derivative: the ram's position H tan(alpha) differenced twice."""
+    base = _run(r18_params, can_db, 'zigzag_10', seed=4, noise=False)
+    with_e = _run(r18_params, can_db, 'zigzag_10', seed=4, noise=False,
+                  effects=(sim.parse_effect('ram_inertia:mass_kg=5e4'),))
+    p = base.plant
+    dp = {k: with_e.plant.pressures[k] - p.pressures[k] for k in p.pressures}
+    force = (dp['pressure_r1_stbd'] - dp['pressure_r1_port']) * r18.ram_area
+    x = r18.stock_to_ram * np.tan(p.alpha)                   # the ram's position along its axis
+    dt = p.t[1] - p.t[0]
+    acc = np.gradient(np.gradient(x, dt), dt)
+    smooth = np.ones(p.t.size, bool)                          # away from the valve's switching steps
+    for k in range(-3, 4):
+        smooth &= np.roll(np.abs(np.diff(p.rate, prepend=p.rate[0])) < 1e-6, k)
+    assert smooth.sum() > 1000
+    assert np.allclose(force[smooth], 5e4 * acc[smooth], atol=2.0)
+    assert np.abs(force).max() > 100.0
+
+
 @pytest.mark.parametrize('text,msg', [
     ('nonsense', "unknown effect 'nonsense'"),
     ('viscous:c=1', "effect viscous: unknown parameter 'c'"),
     ('viscous:c_ns_per_m=abc', 'effect viscous: parameter c_ns_per_m must be a number'),
     ('pressure_offset:input=pressure_r9', 'effect pressure_offset: input must be one of'),
+    ('band_friction:lo_deg=18,hi_deg=12', 'effect band_friction: need 0 <= lo_deg < hi_deg <= 90'),
 ])
 def test_bad_effects(text, msg):
     with pytest.raises(ParameterError, match=msg):
