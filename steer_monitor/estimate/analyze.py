@@ -10,7 +10,8 @@ n_eff (rows / variance inflation): the held-out deviance n_eff ln(MSE_cv before 
 reach ``MIN_CV_DEVIANCE`` and the BIC fall by ``MIN_BIC_DROP`` ("very strong" evidence, 10,
 plus 2 ln 10 for the ten or so candidates each round tests: at 10, one clean log in 168
 adopted a 34 t ram inertia at a BIC drop of 10.2). The best delay of the 50 ms grid is
-refined in 10 ms steps, then to the millisecond by a parabola. A fixed share of the error would not do: an effect at a fifth of the simulator's
+refined to 5 ms where the parabola through it and its neighbours puts the optimum more
+than 10 ms away. A fixed share of the error would not do: an effect at a fifth of the simulator's
 defaults takes 1 % of it, far above the noise on a log's 40 000 rows. An effect whose
 coefficients break its physics is refused. Among those passing, the largest held-out gain is
 refitted and adopted if what it takes from the residual is systematic: the residual's
@@ -47,7 +48,7 @@ from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import EstimateError, Observations, build_observations
 from steer_monitor.model.gear import GearParams
 
-__all__ = ['DELAY_REFINE_S', 'DELAY_REFINE_STEPS', 'EXPLAINED_RATIO', 'MAX_TRIED', 'MIN_BIC_DROP', 'MIN_CV_DEVIANCE',
+__all__ = ['DELAY_KEEP_S', 'DELAY_STEP_S', 'DELAY_VERTEX_S', 'EXPLAINED_RATIO', 'MAX_TRIED', 'MIN_BIC_DROP', 'MIN_CV_DEVIANCE',
            'MIN_SYSTEMATIC_SHARE', 'OUTLIER_SIGMAS',
            'SIGNS', 'SYSTEMATIC_LAG_STEPS', 'Analysis', 'Screening', 'Step', 'analyze', 'grid_2z_from',
            'outlier_instants', 'refusal']
@@ -59,8 +60,9 @@ OUTLIER_SIGMAS = 5.0     # instants set aside before screening (see outlier_inst
 MIN_SYSTEMATIC_SHARE = 0.5  # of what an adopted effect takes from the mean square, the lag-1 part's share
 SYSTEMATIC_LAG_STEPS = 1
 MAX_TRIED = 3            # passing candidates refitted per round, best held-out gain first
-DELAY_REFINE_S = 0.01    # the best delay of the 50 ms grid refined in 10 ms steps
-DELAY_REFINE_STEPS = 4   # to +-40 ms
+DELAY_STEP_S = 0.05      # the delay grid's step (effects.DELAYS_S)
+DELAY_KEEP_S = 0.01      # a grid point stands unless the parabola's vertex lies further off
+DELAY_VERTEX_S = 0.005   # the vertex, and its neighbours, to 5 ms
 BLOCK_NS = 60_000_000_000
 MIN_SEGMENT_SAMPLES = 20
 
@@ -286,26 +288,28 @@ def _screen(gear: GearParams, signals: Mapping[str, Series], base: _Base, grid_2
         screened.append((_screening(cand, rss, n, cv, tz, zg, p, rss0, n0, cv0, p0, n_eff, values), cand))
     delay_obs: dict[float, tuple[Observations, NDArray[np.bool_]]] = {}
     if delays:
-        # the grid's steps are 50 ms: a delay between two of them leaves half a step of it,
-        # which other candidates then take; refine around the best in DELAY_REFINE_S steps
-        tau0 = min(delays, key=lambda d: d[0])[1].angle_shift_s
-        for k in range(-DELAY_REFINE_STEPS, DELAY_REFINE_STEPS + 1):
-            tau = round(tau0 + k * DELAY_REFINE_S, 3)
-            if k and tau > 0:
-                delay_trial(Candidate('angle_delay', fixed={'tau_s': tau}, angle_shift_s=tau))
-        # then to the millisecond: the vertex of the parabola through the best and its two
-        # neighbours (a delay 5 ms off leaves enough for weak candidates to take, and they
-        # then lean on the clearances)
+        # The grid's steps are 50 ms: a delay between two of them leaves up to half a step,
+        # which weak candidates then take (and lean on the clearances: a 0.125 s delay read
+        # as 0.10 or 0.15 s put Z_gb 0.08 mm off). The vertex of the parabola through the
+        # best grid point and its neighbours says where the optimum lies; when it is more
+        # than DELAY_KEEP_S from the grid point, the vertex (to DELAY_VERTEX_S) and its
+        # neighbours are tried. Nearer, the grid point stands: finer steps scored on the
+        # quick ratio follow its noise (a clean 0.25 s delay moved by 5-10 ms and left a
+        # small viscous column something to take).
         score = {d[1].angle_shift_s: d[0] for d in delays}
         tau1 = min(score, key=score.__getitem__)
-        lo, hi = round(tau1 - DELAY_REFINE_S, 3), round(tau1 + DELAY_REFINE_S, 3)
+        lo, hi = round(tau1 - DELAY_STEP_S, 3), round(tau1 + DELAY_STEP_S, 3)
         if lo in score and hi in score:
             curv = score[lo] - 2 * score[tau1] + score[hi]
             if curv > 0:
-                step = 0.5 * DELAY_REFINE_S * (score[lo] - score[hi]) / curv
-                tau = round(tau1 + max(-DELAY_REFINE_S, min(DELAY_REFINE_S, step)), 3)
-                if tau > 0 and tau not in score:
-                    delay_trial(Candidate('angle_delay', fixed={'tau_s': tau}, angle_shift_s=tau))
+                step = 0.5 * DELAY_STEP_S * (score[lo] - score[hi]) / curv
+                step = max(-0.5 * DELAY_STEP_S, min(0.5 * DELAY_STEP_S, step))
+                if abs(step) > DELAY_KEEP_S:
+                    centre = round((tau1 + step) / DELAY_VERTEX_S) * DELAY_VERTEX_S
+                    for k in (-1, 0, 1):
+                        tau = round(centre + k * DELAY_VERTEX_S, 3)
+                        if tau > 0 and tau not in score:
+                            delay_trial(Candidate('angle_delay', fixed={'tau_s': tau}, angle_shift_s=tau))
         say('candidate angle_delay')
         _, cand, o, r, rb, o_mask, base_mask = min(delays, key=lambda d: d[0])
         o_a, o_b = _halves(o)

@@ -90,10 +90,11 @@ def test_an_effect_outside_the_library_is_located_and_the_clearances_stay_honest
     assert 'incomplete model' in a.message
 
 
-def test_a_delay_between_the_grid_steps_is_found_to_the_millisecond(r18, simulate_signals):
+def test_a_delay_between_the_grid_steps_is_found_to_a_few_milliseconds(r18, simulate_signals):
     """Found by the sensitivity study: a 0.125 s delay, between the 50 ms grid's steps, was
     read as 0.10 or 0.15 s, and the rest of it taken by viscous and pressure friction, which
-    then put Z_gb at 0.02 mm (truth 0.1). Refined to the millisecond it is one effect."""
+    then put Z_gb at 0.02 mm (truth 0.1). Refined where the grid's parabola says the optimum
+    lies between its points, it is one effect."""
     signals, _ = simulate_signals('realistic:1500', 0.3, 0.3, ('angle_delay:tau_s=0.137',), seed=314)
     a = analyze(r18, signals, min_clearance_2z=MIN_2Z)
     assert [s.name for s in a.steps] == ['angle_delay'], a.message
