@@ -230,17 +230,16 @@ class _Base:
     parts: tuple[Rows, Rows]
     extra: tuple[F.Column, ...]
     est: ClearanceEstimate
-    shift_s: float = 0.0
 
 
 def _base(gear: GearParams, obs: Observations, keep: NDArray[np.bool_], extra: tuple[F.Column, ...],
-          grid_2z: NDArray, shift_s: float = 0.0, est: ClearanceEstimate | None = None) -> _Base:
+          grid_2z: NDArray, est: ClearanceEstimate | None = None) -> _Base:
     z = z_columns(obs, gear)
     rows = make_rows(obs, z, keep)
     a_half, b_half = _halves(obs)
     parts = (make_rows(obs, z, a_half & keep), make_rows(obs, z, b_half & keep))
     est = est or estimate_clearances(gear, obs, rows, extra, grid_2z=grid_2z)
-    return _Base(obs, z, keep, rows, parts, extra, est, shift_s)
+    return _Base(obs, z, keep, rows, parts, extra, est)
 
 
 def _screen(gear: GearParams, signals: Mapping[str, Series], base: _Base, grid_2z: NDArray, adopted: set[str],
@@ -355,7 +354,7 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
             say(f'refit with {cand.name}')
             if cand.angle_shift_s:
                 o, o_mask = delay_obs[cand.angle_shift_s]
-                trial = _base(gear, o, o_mask, base.extra, grid_2z, cand.angle_shift_s)
+                trial = _base(gear, o, o_mask, base.extra, grid_2z)
             else:
                 trial = replace(base, extra=base.extra + cand.columns,
                                 est=estimate_clearances(gear, base.obs, base.rows, base.extra + cand.columns,
