@@ -148,7 +148,7 @@ def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: 
     cfg = sim.SimConfig(program=PROGRAMMES[case.programme], gaps=Gaps.from_mm(case.two_z_mm, case.z_gb_mm),
                         max_duration_s=7200.0, effects=tuple(sim.parse_effect(e) for e in case.effects))
     s = sim.run(params, cfg, db, smap, case.seed)
-    signals = Decoder(db, smap).decode_arrays(s.frames)
+    signals = Decoder(db, smap).decode_arrays(s.frames, final=True)
     a = analyze(gear, signals, min_clearance_2z=min_clearance_2z_from_params(params))
     f = a.final
 

@@ -17,6 +17,7 @@ from typing import Any
 
 from steer_monitor.can.decoder import Decoder
 from steer_monitor.can.fastlogs import in_time_order, iter_log_blocks, log_end_ns
+from steer_monitor.can.frames import FrameArrays
 from steer_monitor.can.logs import LogError
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import load_setup
@@ -48,6 +49,7 @@ def _decoded(paths: list[Path], db: object, smap: object, rejects: RejectCounter
                 yield 'block', decoder.decode_arrays(block), len(block)
         except LogError as exc:
             yield 'error', str(exc), 0
+    yield 'block', decoder.decode_arrays(FrameArrays.empty(), final=True), 0   # frames held at the end
     yield 'done', dict(rejects.snapshot().counts), 0
 
 

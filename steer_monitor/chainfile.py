@@ -21,11 +21,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
 
 from steer_monitor.errors import ParameterError
 from steer_monitor.model.backlash import ChainJoint
 from steer_monitor.model.fits import parse_fit
+from steer_monitor.yamlfile import load_yaml
 
 __all__ = ['Chain', 'load_chain']
 
@@ -97,14 +97,7 @@ def _joint(i: int, item: Any) -> ChainJoint:
 def load_chain(path: str | Path) -> Chain:
     """Read and check a chain file; errors name the file and the bad key."""
     path = Path(path)
-    try:
-        doc = yaml.safe_load(path.read_text(encoding='utf-8'))
-    except OSError as exc:
-        msg = f'cannot read chain file {path}: {exc.strerror or exc}'
-        raise ParameterError(msg) from exc
-    except yaml.YAMLError as exc:
-        msg = f'chain file {path} is not valid YAML: {exc}'
-        raise ParameterError(msg) from exc
+    doc = load_yaml(path, 'chain file')
     try:
         if not isinstance(doc, Mapping) or not isinstance(doc.get('chain'), Mapping):
             msg = 'expected a top-level "chain:" mapping'

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 __all__ = [
     'FitError',
+    'InputError',
     'ModelError',
+    'OutputError',
     'ParameterError',
     'SteerMonitorError',
 ]
@@ -32,3 +34,12 @@ class FitError(SteerMonitorError, ValueError):
 
 class ModelError(SteerMonitorError, ValueError):
     """The physical model cannot be evaluated for the given inputs (e.g. the ram buckles)."""
+
+
+class InputError(SteerMonitorError, ValueError):
+    """An input file cannot be read as what it claims to be (the message names the file)."""
+
+
+class OutputError(SteerMonitorError):
+    """An output cannot be written (no such directory, permission denied, disk full...);
+    the message names the path. Nothing half-written is left under that name."""

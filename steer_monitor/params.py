@@ -22,7 +22,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import yaml
 
 from steer_monitor.errors import ParameterError
 from steer_monitor.model.fits import parse_fit
@@ -30,6 +29,7 @@ from steer_monitor.model.friction import FrictionParams
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.torque import TorqueCurve
 from steer_monitor.resources import default_config
+from steer_monitor.yamlfile import load_yaml
 
 __all__ = [
     'NODE_NAME',
@@ -130,6 +130,9 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               'cylinder pressures below this are physically impossible [bar]', -10.0, 0.0),
     ParamSpec('can.max_pressure_bar', 'double', 400.0,
               'cylinder pressures above this are physically impossible [bar]', 0.0, 2000.0, True),
+    ParamSpec('can.max_time_jump_s', 'double', 5.0,
+              'a frame this far in time from the frames before and after it is a time jump, '
+              'rejected unless about 0.5 s of frames confirm the new time (a clock step) [s]', 0.01, 86400.0, True),
     # The node.
     ParamSpec('node.hardware_id', 'string', 'steering_gear', 'hardware_id of the diagnostics'),
     ParamSpec('diagnostics.stale_after_s', 'double', 2.0,
@@ -304,16 +307,7 @@ def load_params_file(path: str | Path, node_name: str = NODE_NAME) -> dict[str, 
     merged under the node's own entry as ROS 2 does).
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding='utf-8')
-    except OSError as exc:
-        msg = f'cannot read parameters file {path}: {exc.strerror or exc}'
-        raise ParameterError(msg) from exc
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        msg = f'parameters file {path} is not valid YAML: {exc}'
-        raise ParameterError(msg) from exc
+    doc = load_yaml(path, 'parameters file')
     if not isinstance(doc, Mapping):
         msg = f'parameters file {path}: expected "{node_name}: ros__parameters:" at the top'
         raise ParameterError(msg)

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from steer_monitor.atomic import atomic_path, ensure_dir
 from steer_monitor.model.loadshare import LoadSharing
 from steer_monitor.model.study import GapSensitivity, Landmarks
 
@@ -53,9 +54,12 @@ def plot_load_sharing(alpha: NDArray[np.float64], res: LoadSharing, path: str | 
     ax2.grid(True, alpha=0.3)
     fig.suptitle(title)
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    ensure_dir(path.parent)
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=110)
+    finally:
+        plt.close(fig)
     return path
 
 
@@ -73,7 +77,10 @@ def plot_gap_sensitivity(study: GapSensitivity, path: str | Path, title: str) ->
     ax.legend()
     ax.set_title(title)
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    ensure_dir(path.parent)
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=110)
+    finally:
+        plt.close(fig)
     return path

@@ -20,10 +20,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from steer_monitor.atomic import atomic_path, os_reason
 from steer_monitor.can.decoder import Decoder
-from steer_monitor.can.fastlogs import in_time_order
+from steer_monitor.can.fastlogs import in_time_order, iter_log_blocks
 from steer_monitor.can.frames import Frame
-from steer_monitor.can.logs import LogError, iter_log
+from steer_monitor.can.logs import LogError
 from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, McapWriter
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import load_setup
@@ -69,12 +70,12 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
     """Replay ``logs`` into ``output`` (an MCAP). ``frames``: record the raw frames too, as
     the node does. ``progress`` is called with the number of frames done since its last call."""
     if not logs:
-        msg = 'replay: no log given'
+        msg = 'no log given'
         raise ReplayError(msg)
     paths = in_time_order([Path(p) for p in logs])
     for p in paths:
         if not p.is_file():
-            msg = f'replay: log {p} does not exist'
+            msg = f'log {p} does not exist'
             raise ReplayError(msg)
     _, params, db, smap = load_setup(config)
     gear = gear_from_params(params)
@@ -90,42 +91,61 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
     pipeline = Pipeline(Decoder(db, smap, rejects), rejects, monitor, diag, jobs)
     topics = {key: topic_name(key, node_name) for key in TOPICS}
     encoders = {key: FAST_ENCODERS[dt] for key, (_, dt) in TOPICS.items() if dt in FAST_ENCODERS}
-    try:
-        writer = McapWriter(output)
-    except OSError as exc:
-        msg = f'replay: cannot write {output}: {exc.strerror or exc}'
-        raise ReplayError(msg) from exc
-    with writer:
-        for key, (_, datatype) in TOPICS.items():
-            writer.add_schema(datatype, msgdef(datatype))
-            writer.add_channel(topics[key], datatype)
-        if frames:
-            writer.add_schema(FRAME_DATATYPE, FRAME_MSGDEF)
-            writer.add_channel(FRAME_TOPIC, FRAME_DATATYPE)
+    with atomic_path(output) as tmp:
+        try:
+            writer = McapWriter(tmp)
+        except OSError as exc:
+            msg = f'cannot write {output}: {os_reason(exc)}'
+            raise ReplayError(msg) from exc
+        with writer:
+            _run(paths, pipeline, writer, topics, encoders, frames, rejects, summary, progress)
+        if summary.frames == 0:     # nothing to write: no output rather than an empty one
+            msg = summary.errors[0] if summary.errors else 'no frame in ' + ', '.join(str(p) for p in paths)
+            raise ReplayError(msg)
+    summary.rejects = dict(sorted(rejects.snapshot().counts.items()))
+    if est is not None:
+        summary.estimate, summary.motion_s = est.estimate, est.motion_s
+    return summary
 
-        def emit(outs: list[Output]) -> None:
-            for o in outs:
-                if isinstance(o, StateOut):
-                    msgs = state_messages(o)
-                    summary.states += 1
+
+def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict[str, str],
+         encoders: dict[str, Any], frames: bool, rejects: RejectCounter, summary: ReplaySummary,
+         progress: Callable[[int], None] | None) -> None:
+    """Feed every frame of ``paths`` through ``pipeline``, writing what it emits (and the
+    frames) to ``writer``."""
+    for key, (_, datatype) in TOPICS.items():
+        writer.add_schema(datatype, msgdef(datatype))
+        writer.add_channel(topics[key], datatype)
+    if frames:
+        writer.add_schema(FRAME_DATATYPE, FRAME_MSGDEF)
+        writer.add_channel(FRAME_TOPIC, FRAME_DATATYPE)
+
+    def emit(outs: list[Output]) -> None:
+        for o in outs:
+            if isinstance(o, StateOut):
+                msgs = state_messages(o)
+                summary.states += 1
+            else:
+                msgs = diag_messages(o)
+                summary.diagnostics += 1
+            for key, t_ns, fields in msgs:
+                fast = encoders.get(key)
+                if fast is not None:
+                    writer.write_cdr(topics[key], fast(fields), t_ns)
                 else:
-                    msgs = diag_messages(o)
-                    summary.diagnostics += 1
-                for key, t_ns, fields in msgs:
-                    fast = encoders.get(key)
-                    if fast is not None:
-                        writer.write_cdr(topics[key], fast(fields), t_ns)
-                    else:
-                        writer.write(topics[key], fields, t_ns)
+                    writer.write(topics[key], fields, t_ns)
 
-        batch: list[Frame] = []
-        for path in paths:
-            n_log = 0
-            try:
-                for frame in iter_log(path, rejects):
-                    if summary.first_ns is None:
-                        summary.first_ns = frame.t_ns
-                    summary.last_ns = frame.t_ns
+    batch: list[Frame] = []
+    for path in paths:
+        n_log = 0
+        try:
+            for block in iter_log_blocks(path, rejects):
+                for frame in block.frames():
+                    t = pipeline.clock(frame.t_ns)       # a glitched stamp does not stretch the span
+                    if t is not None:
+                        if summary.first_ns is None:
+                            summary.first_ns = t
+                        summary.last_ns = t
                     if frames:
                         batch.append(frame)
                     outs = pipeline.feed(frame)
@@ -137,19 +157,15 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
                     n_log += 1
                     if progress is not None and n_log % FRAME_BATCH == 0:
                         progress(FRAME_BATCH)
-            except LogError as exc:
-                summary.errors.append(str(exc))
-            if progress is not None:
-                progress(n_log % FRAME_BATCH)
-            summary.frames += n_log
-        if batch:
-            writer.write_frames(batch)
-        emit(pipeline.finish())
-        pipeline.close()
-    summary.rejects = dict(sorted(rejects.snapshot().counts.items()))
-    if est is not None:
-        summary.estimate, summary.motion_s = est.estimate, est.motion_s
-    return summary
+        except LogError as exc:
+            summary.errors.append(str(exc))
+        if progress is not None:
+            progress(n_log % FRAME_BATCH)
+        summary.frames += n_log
+    if batch:
+        writer.write_frames(batch)
+    emit(pipeline.finish())
+    pipeline.close()
 
 
 def summary_json(s: ReplaySummary) -> dict[str, Any]:

@@ -11,6 +11,7 @@ from steer_monitor import sim
 from steer_monitor.can.logs import LogWriter
 from steer_monitor.can.mcapio import FRAME_TOPIC
 from steer_monitor.cli import main as cli
+from steer_monitor.errors import OutputError
 from steer_monitor.replay import ReplayError, replay
 
 pytestmark = pytest.mark.slow
@@ -88,7 +89,8 @@ def test_a_broken_log_keeps_what_came_before_and_goes_on(tmp_path, logs, capsys)
     assert _read(tmp_path / 'out.mcap')['/diagnostics']           # the output is finished and readable
     rc = cli.main(['replay', str(logs['a.log']), str(cut), '--out', str(tmp_path / 'cli.mcap')])
     assert rc == 1
-    assert 'error:' in capsys.readouterr().out
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith('steer-monitor replay: error: ') and 'cut.mcap' in err[0]
 
 
 @pytest.mark.parametrize(('args', 'message'), [
@@ -101,7 +103,7 @@ def test_bad_inputs_are_named(tmp_path, args, message):
 
 
 def test_unwritable_output_is_named(tmp_path, logs):
-    with pytest.raises(ReplayError, match='cannot write'):
+    with pytest.raises(OutputError, match='cannot write .*: no directory'):
         replay([logs['a.log']], tmp_path / 'no' / 'such' / 'dir' / 'x.mcap')
 
 

@@ -16,7 +16,7 @@ from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
 
 __all__ = ['BusError', 'BusReader', 'ListenOnlyBus', 'ListenOnlyError', 'frame_from_message',
-           'message_from_frame']
+           'message_from_frame', 'socketcan_listen_only', 'transmit_refusal']
 
 
 class BusError(SteerMonitorError):
@@ -45,8 +45,67 @@ def message_from_frame(frame: Frame) -> Any:
                        channel=frame.channel or None)
 
 
+#: python-can interfaces whose constructor takes a listen-only (silent) option, and how
+_SILENT_KWARGS: dict[str, dict[str, Any]] = {
+    'slcan': {'listen_only': True},
+    'vector': {'listen_only': True},
+    'nixnet': {'listen_only': True},
+    'kvaser': {'driver_mode': False},        # canlib.DRIVER_MODE_SILENT
+}
+
+
+def _link_info(channel: str) -> dict[str, Any] | None:
+    """``linkinfo`` of a network link from ``ip -details -json link show`` (None: no ``ip``,
+    no such link, or no answer)."""
+    import json
+    import shutil
+    import subprocess
+    ip = shutil.which('ip')
+    if ip is None:
+        return None
+    try:
+        done = subprocess.run([ip, '-details', '-json', 'link', 'show', 'dev', channel], capture_output=True,
+                              text=True, timeout=2.0, check=False)
+        info = json.loads(done.stdout)[0].get('linkinfo')
+    except (OSError, subprocess.SubprocessError, ValueError, LookupError, TypeError, AttributeError):
+        return None
+    return info if isinstance(info, dict) else None
+
+
+def socketcan_listen_only(channel: str) -> bool | None:
+    """Whether a socketcan link is in listen-only mode (``ip link set CH type can listen-only
+    on``); None when it cannot be told or the link has no CAN controller (vcan)."""
+    info = _link_info(channel)
+    if info is None or info.get('info_kind') != 'can':
+        return None
+    return 'LISTEN-ONLY' in (info.get('info_data') or {}).get('ctrlmode', [])
+
+
+def transmit_refusal(interface: str, channel: str) -> str | None:
+    """Why frames may not be sent onto ``interface:channel`` without the user saying it is
+    meant (None: a bus no vessel hears: python-can's ``virtual``, or a socketcan link whose
+    kind the kernel reports as ``vcan``)."""
+    if interface == 'virtual':
+        return None
+    if interface == 'socketcan':
+        info = _link_info(channel)
+        if info is not None and info.get('info_kind') == 'vcan':
+            return None
+        kind = 'cannot be read' if info is None else f"is {info.get('info_kind') or 'not a virtual link'}"
+        return f'socketcan:{channel} is not known to be a vcan link (its kind {kind})'
+    return f'{interface}:{channel} is a hardware interface'
+
+
 class ListenOnlyBus:
-    """A python-can bus the monitor can only read from. Context manager; close is idempotent."""
+    """A python-can bus the monitor can only read from. Context manager; close is idempotent.
+
+    Besides refusing ``send``, it asks the interface to keep the controller silent (no
+    acknowledgements, no error frames) where python-can offers that: the ``listen_only`` or
+    ``driver_mode`` option (slcan, vector, nixnet, kvaser), the passive state (pcan, systec).
+    socketcan sets it on the link, outside the program; it is read back. ``silent`` says
+    what holds: True (the controller is silent), False (it is not: it acknowledges frames),
+    None (cannot be told, or no controller: virtual, vcan); ``silent_how`` says how in words.
+    """
 
     def __init__(self, interface: str, channel: str, bitrate: int | None = None, **kwargs: Any) -> None:
         import can
@@ -56,12 +115,33 @@ class ListenOnlyBus:
         options: dict[str, Any] = dict(kwargs)
         if bitrate is not None and interface not in ('virtual', 'socketcan'):
             options['bitrate'] = bitrate  # socketcan takes the bit rate from the link
+        silent_kwargs = _SILENT_KWARGS.get(interface, {})
+        if interface == 'systec':
+            silent_kwargs = {'state': can.BusState.PASSIVE}
         try:
-            self._bus = can.Bus(interface=interface, channel=channel, receive_own_messages=False, **options)
-        except (can.CanError, OSError, ValueError, ImportError, NotImplementedError) as exc:
+            self._bus = can.Bus(interface=interface, channel=channel, receive_own_messages=False,
+                                **options, **silent_kwargs)
+        except (can.CanError, OSError, ValueError, ImportError, NotImplementedError, TypeError) as exc:
             msg = f'cannot open CAN bus {interface}:{channel}: {exc}'
             raise BusError(msg) from exc
         self._closed = False
+        self.silent: bool | None = None
+        if silent_kwargs:
+            self.silent, self.silent_how = True, f'listen-only asked of the {interface} interface'
+        elif interface == 'pcan':
+            try:
+                self._bus.state = can.BusState.PASSIVE
+                self.silent, self.silent_how = True, 'pcan set to listen-only (passive)'
+            except (can.CanError, NotImplementedError, OSError) as exc:
+                self.silent, self.silent_how = False, f'pcan refused listen-only: {exc}'
+        elif interface == 'socketcan':
+            self.silent = socketcan_listen_only(channel)
+            self.silent_how = {True: f'{channel} is listen-only (set on the link)',
+                               False: f'{channel} is NOT listen-only: its controller acknowledges frames '
+                                      f'(ip link set {channel} type can listen-only on)',
+                               None: f'{channel}: no CAN controller, or its mode cannot be read'}[self.silent]
+        else:
+            self.silent_how = f'{interface}: no controller or no listen-only option in python-can'
 
     def send(self, *args: Any, **kwargs: Any) -> None:
         """Refuse: the monitor never transmits on the steering bus."""
@@ -114,7 +194,8 @@ class BusReader:
 
     def __init__(self, opener: Callable[[], ListenOnlyBus], rejects: RejectCounter,
                  backoff_initial: float = 0.5, backoff_max: float = 10.0,
-                 poll: float = 0.2, sleep: Callable[[float], Any] | None = None, batch: float = 0.0) -> None:
+                 poll: float = 0.2, sleep: Callable[[float], Any] | None = None, batch: float = 0.0,
+                 on_open: Callable[[ListenOnlyBus], None] | None = None) -> None:
         if not (0.0 <= batch < poll):
             msg = f'read batch {batch:g} s must be at least 0 and shorter than the poll of {poll:g} s'
             raise ValueError(msg)
@@ -125,6 +206,7 @@ class BusReader:
         self.poll = poll
         self.batch = batch
         self._sleep = sleep
+        self._on_open = on_open          # hears each bus opened (e.g. to report its listen-only mode)
         self.bus: ListenOnlyBus | None = None
         self.last_error = ''
 
@@ -153,6 +235,8 @@ class BusReader:
                         self._wait(backoff, stop)
                         backoff = min(backoff * 2, self.backoff_max)
                         continue
+                    if self._on_open is not None:
+                        self._on_open(self.bus)
                     if failed:
                         self.rejects.add('bus_reopen', f'{self.bus.interface}:{self.bus.channel}')
                         failed = False

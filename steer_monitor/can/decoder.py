@@ -4,8 +4,10 @@ Both paths apply the same checks in the same order and count every refusal in a
 :class:`~steer_monitor.can.rejects.RejectCounter`:
 
 1. frame level: error frame, remote frame, 11-bit identifier, PGN not in the DBC, wrong
-   length, time earlier than the previous frame with the same identifier, duplicate
-   (same identifier, data and time as the previous accepted one);
+   length; a time jump (:mod:`~steer_monitor.can.timejump`: a frame far from the stream's
+   time, unless confirmed by the frames after it, which then wait for that); time earlier
+   than the previous frame with the same identifier, duplicate (same identifier, data and
+   time as the previous accepted one);
 2. the frame matches no input's instance/source: ``unmapped`` (once per frame);
 3. per mapped field: not available, error value, physically impossible.
 
@@ -24,6 +26,7 @@ from steer_monitor.can.codec import CanDatabase, MessageLayout
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, Frame, FrameArrays, pgn_of
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.signals import SignalMap, SignalSpec
+from steer_monitor.can.timejump import HELD, REJECTED, RELEASED, JumpFilter
 
 __all__ = ['Decoder', 'Sample', 'Series', 'SignalSet', 'collect']
 
@@ -78,11 +81,14 @@ class Decoder:
         self.map = signal_map
         self.rejects = rejects if rejects is not None else RejectCounter()
         self._last: dict[int, tuple[int, bytes]] = {}
+        self.jumps = JumpFilter(signal_map.max_jump_ns)
+        self._held: list[tuple[Frame, MessageLayout]] = []     # frame by frame, after a jump
+        self._held_fa = FrameArrays.empty()                     # the same, block by block
         self.frames_seen = 0
 
     # --- frame-level checks shared by both paths -----------------------------------------
     def _frame_layout(self, frame: Frame) -> MessageLayout | None:
-        """Frame-level checks; the layout of an acceptable frame, None (counted) otherwise."""
+        """Structural checks; the layout of an acceptable frame, None (counted) otherwise."""
         r = self.rejects
         if frame.is_error:
             r.add('error_frame', f'at t={frame.t_ns} ns')
@@ -102,17 +108,26 @@ class Decoder:
             r.add('wrong_length', f'{layout.name} {_id_text(frame.can_id)} has {len(frame.data)} bytes, '
                                   f'expected {layout.length}')
             return None
+        return layout
+
+    def _in_order(self, frame: Frame, layout: MessageLayout) -> bool:
+        """Time and duplicate checks against the last accepted frame of the identifier."""
+        r = self.rejects
         last = self._last.get(frame.can_id)
         if last is not None:
             if frame.t_ns < last[0]:
                 r.add('time_backwards', f'{layout.name} {_id_text(frame.can_id)} at {frame.t_ns} ns '
                                         f'after {last[0]} ns')
-                return None
+                return False
             if frame.t_ns == last[0] and bytes(frame.data) == last[1]:
                 r.add('duplicate', f'{layout.name} {_id_text(frame.can_id)} at {frame.t_ns} ns')
-                return None
+                return False
         self._last[frame.can_id] = (frame.t_ns, bytes(frame.data))
-        return layout
+        return True
+
+    def _jumped(self, frame: Frame) -> None:
+        self.rejects.add('time_jump', f'{_id_text(frame.can_id)} at {frame.t_ns} ns, more than '
+                                      f'{self.jumps.max_jump_ns / 1e9:g} s from the frames around it')
 
     @staticmethod
     def _matches(spec: SignalSpec, raw: dict[str, int]) -> bool:
@@ -121,11 +136,54 @@ class Decoder:
 
     # --- one frame -----------------------------------------------------------------------
     def decode(self, frame: Frame) -> list[Sample]:
-        """Samples of one frame (cantools decode); rejects are counted, never raised."""
+        """Samples of one frame (cantools decode); rejects are counted, never raised.
+
+        A frame after a time jump is held until its chain is confirmed (see
+        :mod:`~steer_monitor.can.timejump`), so a call may return the samples of frames
+        passed earlier, in their order, or none yet."""
         self.frames_seen += 1
         layout = self._frame_layout(frame)
         if layout is None:
             return []
+        if len(self._held_fa):
+            self._held = [(f, self.db.message(int(pgn_of(f.can_id)))) for f in self._held_fa.frames()]
+            self._held_fa = FrameArrays.empty()
+        rejected, released = self.jumps.push(frame.t_ns)
+        self._held.append((frame, layout))
+        for f, _ in self._held[:rejected]:
+            self._jumped(f)
+        rest = self._held[rejected:]
+        cut = len(rest) - released
+        self._held = rest[:cut]
+        out: list[Sample] = []
+        for f, lay in rest[cut:]:
+            if self._in_order(f, lay):
+                out += self._fields(f, lay)
+        return out
+
+    def finish(self) -> list[Sample]:
+        """End of the stream. Frames still held are decided: a chain after a time jump is
+        too short to be believed and is rejected as ``time_jump``; the stream's first
+        chain (no jump seen, just fewer than ``CONFIRM_FRAMES`` frames) is released, and
+        its samples are returned."""
+        if len(self._held_fa):
+            self._held = [(f, self.db.message(int(pgn_of(f.can_id)))) for f in self._held_fa.frames()]
+            self._held_fa = FrameArrays.empty()
+        held, self._held = self._held, []
+        start = self.jumps.ref_ns is None
+        self.jumps.finish()
+        out: list[Sample] = []
+        for f, lay in held:
+            if not start:
+                self._jumped(f)
+            elif self._in_order(f, lay):
+                out += self._fields(f, lay)
+        if start and held:
+            self.jumps.ref_ns = held[-1][0].t_ns
+        return out
+
+    def _fields(self, frame: Frame, layout: MessageLayout) -> list[Sample]:
+        """The samples of an accepted frame's mapped fields."""
         raw = self.db.decode_raw(layout, frame.data)
         specs = [s for s in self.map.for_pgn(layout.pgn) if self._matches(s, raw)]
         if not specs:
@@ -151,10 +209,12 @@ class Decoder:
         return out
 
     # --- many frames ---------------------------------------------------------------------
-    def decode_arrays(self, fa: FrameArrays) -> SignalSet:
+    def decode_arrays(self, fa: FrameArrays, final: bool = False) -> SignalSet:
         """Series per input from a block of frames, vectorized with numpy.
 
-        Gives the same samples and reject counts as :meth:`decode` frame by frame.
+        Gives the same samples and reject counts as :meth:`decode` frame by frame; with
+        ``final`` (the stream's last block; may be empty), as :meth:`decode` of each frame
+        followed by :meth:`finish`.
         """
         n = len(fa)
         self.frames_seen += n
@@ -183,6 +243,32 @@ class Decoder:
         hit = ok & ~length_ok
         r.add('wrong_length', 'in a log block', n=int(hit.sum()))
         ok &= length_ok
+        if self._held:
+            self._held_fa = FrameArrays.concat([self._held_fa, FrameArrays.from_frames(f for f, _ in self._held)])
+            self._held = []
+        if len(self._held_fa):     # frames held after a jump come first, structurally checked already
+            fa = FrameArrays.concat([self._held_fa, fa])
+            ok = np.concatenate([np.ones(len(self._held_fa), bool), ok])
+            pgns = pgn_of(fa.can_id.astype(np.uint32))
+        rows = np.nonzero(ok)[0]
+        verdict = self.jumps.run_block(fa.t_ns[rows])
+        jumped = rows[verdict == REJECTED]
+        if jumped.size:
+            i = int(jumped[0])
+            r.add('time_jump', f'{_id_text(int(fa.can_id[i]))} at {int(fa.t_ns[i])} ns and others, more than '
+                               f'{self.jumps.max_jump_ns / 1e9:g} s from the frames around them', n=int(jumped.size))
+        if final and (verdict == HELD).any():    # see finish()
+            if self.jumps.ref_ns is None:
+                verdict[verdict == HELD] = RELEASED
+                self.jumps.ref_ns = int(fa.t_ns[rows[-1]])
+            else:
+                held = rows[verdict == HELD]
+                r.add('time_jump', f'{_id_text(int(fa.can_id[held[0]]))} at {int(fa.t_ns[held[0]])} ns and '
+                                   f'others at the end', n=int(held.size))
+                verdict[verdict == HELD] = REJECTED
+            self.jumps.finish()
+        self._held_fa = fa.take(rows[verdict == HELD])
+        ok[rows[verdict != RELEASED]] = False
         ok &= self._time_checks(fa, ok)
 
         words = CanDatabase.words(fa.data)

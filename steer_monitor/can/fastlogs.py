@@ -22,8 +22,10 @@ them on every kind of line), which remains the reference and the fallback:
 
 from __future__ import annotations
 
+import os
 import re
 import struct
+import zlib
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import IO, Any
@@ -447,51 +449,86 @@ _CHUNK = 0x06
 _DATA_END = 0x0F
 
 
-def _top_records(fh: IO[bytes], path: Path) -> Iterator[tuple[int, bytes]]:
-    """(opcode, body) of the data section's records, read sequentially. mcap's StreamReader
-    builds an object per message-index entry as well (most of its time on a log); here
-    everything but chunks, schemas, channels and loose messages is stepped over."""
+def _top_records(fh: IO[bytes], path: Path) -> Iterator[tuple[int, int, bytes]]:
+    """(offset, opcode, body) of the data section's records, read sequentially. mcap's
+    StreamReader builds an object per message-index entry as well (most of its time on a
+    log); here everything but chunks, schemas, channels and loose messages is stepped over."""
     if fh.read(8) != _MAGIC:
         msg = f'{path}: not an MCAP file (no magic)'
         raise LogError(msg)
+    size = os.fstat(fh.fileno()).st_size if hasattr(fh, 'fileno') else None
     while True:
+        at = fh.tell()
         head = fh.read(9)
         if len(head) < 9:
-            msg = f'{path}: MCAP breaks off (no footer) after {fh.tell()} bytes; frames before it were read'
+            msg = f'{path}: MCAP breaks off (no footer) after {at} bytes; frames before it were read'
             raise LogError(msg)
         op, ln = struct.unpack('<BQ', head)
         if op in (_FOOTER, _DATA_END):
             return
+        if size is not None and at + 9 + ln > size:
+            msg = (f'{path}: MCAP breaks off inside a record at byte {at} (it claims {ln} bytes, the file '
+                   f'ends first); frames before it were read')
+            raise LogError(msg)
         if op in (_CHUNK, _SCHEMA, _CHANNEL, _MSG):
             body = fh.read(ln)
             if len(body) < ln:
-                msg = f'{path}: MCAP breaks off inside a record at {fh.tell()} bytes; frames before it were read'
+                msg = f'{path}: MCAP breaks off inside a record at byte {at}; frames before it were read'
                 raise LogError(msg)
-            yield op, body
+            yield at, op, body
         else:
             fh.seek(ln, 1)
 
 
+class CorruptChunk(ValueError):
+    """A chunk whose records cannot be trusted (CRC mismatch, broken compression)."""
+
+
 def _chunk_records(body: bytes, path: Path, dctx: Any) -> bytes:
-    size, = struct.unpack_from('<Q', body, 16)
-    compression, off = _string(body, 28)
-    (n,) = struct.unpack_from('<Q', body, off)
+    """The records of a chunk, decompressed and checked against the chunk's CRC (when the
+    writer set one); :class:`CorruptChunk` otherwise."""
+    import zstandard
+
+    try:
+        size, crc = struct.unpack_from('<QI', body, 16)
+        compression, off = _string(body, 28)
+        (n,) = struct.unpack_from('<Q', body, off)
+    except struct.error as exc:
+        msg = 'chunk header cut short'
+        raise CorruptChunk(msg) from exc
     data = body[off + 8:off + 8 + n]
-    if compression == '':
-        return data
-    if compression == 'zstd':
-        return dctx.decompress(data, max_output_size=size)
-    if compression == 'lz4':
-        import lz4.frame
-        return lz4.frame.decompress(data)
-    msg = f'{path}: MCAP chunk compressed with {compression!r}, which this reader does not know'
-    raise LogError(msg)
+    if len(data) < n:
+        msg = 'chunk records cut short'
+        raise CorruptChunk(msg)
+    try:
+        if compression == '':
+            out = data
+        elif compression == 'zstd':
+            out = dctx.decompress(data, max_output_size=size)
+        elif compression == 'lz4':
+            import lz4.frame
+            out = lz4.frame.decompress(data)
+        else:
+            msg = f'{path}: MCAP chunk compressed with {compression!r}, which this reader does not know'
+            raise LogError(msg)
+    except (zstandard.ZstdError, RuntimeError, ValueError) as exc:
+        msg = f'{compression} data broken ({exc})'
+        raise CorruptChunk(msg) from exc
+    if len(out) != size:
+        msg = f'{len(out)} bytes decompressed, the chunk says {size}'
+        raise CorruptChunk(msg)
+    if crc and zlib.crc32(out) != crc:
+        msg = 'CRC mismatch'
+        raise CorruptChunk(msg)
+    return out
 
 
-def iter_mcap_blocks(path: str | Path) -> Iterator[FrameArrays]:
+def iter_mcap_blocks(path: str | Path, rejects: RejectCounter | None = None) -> Iterator[FrameArrays]:
     """Frames of every ``can_msgs/msg/Frame`` channel of an MCAP in file order, a chunk (or a
-    few) at a time. A file cut short yields every frame before the cut, then raises
-    :class:`LogError`."""
+    few) at a time. Every chunk is checked against its CRC: a corrupt one is counted in
+    ``rejects`` (``corrupt_chunk``) and skipped, the chunks after it are read, and at the end
+    :class:`LogError` says what was skipped. A file cut short yields every frame before the
+    cut, then raises :class:`LogError`."""
     import zstandard
 
     path = Path(path)
@@ -500,11 +537,19 @@ def iter_mcap_blocks(path: str | Path) -> Iterator[FrameArrays]:
     dctx = zstandard.ZstdDecompressor()
     pending: list[FrameArrays] = []
     held = 0
+    corrupt: list[str] = []
     with fh:
         try:
-            for op, body in _top_records(fh, path):
+            for at, op, body in _top_records(fh, path):
                 if op == _CHUNK:
-                    parts = _walk_records(_chunk_records(body, path, dctx), state)
+                    try:
+                        records = _chunk_records(body, path, dctx)
+                    except CorruptChunk as exc:
+                        corrupt.append(f'byte {at}: {exc}')
+                        if rejects is not None:
+                            rejects.add('corrupt_chunk', f'{path.name} chunk at byte {at}: {exc}')
+                        continue
+                    parts = _walk_records(records, state)
                 else:   # a schema, channel or message outside chunks: walk it as a one-record chunk
                     parts = _walk_records(struct.pack('<BQ', op, len(body)) + body, state)
                 if parts:
@@ -513,7 +558,7 @@ def iter_mcap_blocks(path: str | Path) -> Iterator[FrameArrays]:
                     if held >= BLOCK_FRAMES:
                         yield FrameArrays.concat(pending)
                         pending, held = [], 0
-        except (LogError, ValueError, struct.error, zstandard.ZstdError) as exc:
+        except (LogError, ValueError, struct.error) as exc:
             if pending:
                 yield FrameArrays.concat(pending)
             if isinstance(exc, LogError):
@@ -522,6 +567,10 @@ def iter_mcap_blocks(path: str | Path) -> Iterator[FrameArrays]:
             raise LogError(msg) from exc
     if pending:
         yield FrameArrays.concat(pending)
+    if corrupt:
+        msg = (f'{path}: {len(corrupt)} corrupt chunk(s) skipped ({corrupt[0]}'
+               + (', ...' if len(corrupt) > 1 else '') + '); the frames before and after them were read')
+        raise LogError(msg)
 
 
 def iter_log_blocks(path: str | Path, rejects: RejectCounter | None = None) -> Iterator[FrameArrays]:
@@ -532,7 +581,7 @@ def iter_log_blocks(path: str | Path, rejects: RejectCounter | None = None) -> I
         yield from iter_candump_blocks(path, rejects)
         return
     if suffix == '.mcap':
-        yield from iter_mcap_blocks(path)
+        yield from iter_mcap_blocks(path, rejects)
         return
     block: list[Any] = []
     for frame in iter_log(path, rejects):

@@ -13,7 +13,7 @@ import numpy as np
 from steer_monitor.can.frames import Frame
 
 __all__ = ['DEFAULT_QOS', 'FRAME_DATATYPE', 'FRAME_MSGDEF', 'FRAME_TOPIC', 'McapWriter', 'frame_cdr',
-           'frame_message', 'frame_records', 'iter_mcap_frames']
+           'frame_message', 'frame_records', 'iter_mcap_frames', 'ros_time']
 
 FRAME_TOPIC = '/steering_can/rx'
 FRAME_DATATYPE = 'can_msgs/msg/Frame'
@@ -44,6 +44,19 @@ DEFAULT_QOS = ('- history: 3\n  depth: 0\n  reliability: 1\n  durability: 2\n'
 
 
 _CDR_HEADER = b'\x00\x01\x00\x00'  # CDR, little-endian
+_SEC_MAX = (1 << 31) - 1
+
+
+def ros_time(t_ns: int) -> tuple[int, int]:
+    """(sec, nanosec) of a ``builtin_interfaces/Time`` for ``t_ns`` [ns since 1970].
+
+    ROS time holds seconds in an int32, so it ends on 2038-01-19 (and starts in 1901). A time
+    outside that is stamped (0, 0), ROS's "unset"; the MCAP record's log time (uint64 ns)
+    still carries it, and every reader here takes the log time when the stamp is unset."""
+    sec, nsec = divmod(int(t_ns), 1_000_000_000)
+    if not -_SEC_MAX - 1 <= sec <= _SEC_MAX:
+        return 0, 0
+    return sec, nsec
 
 
 def frame_cdr(frame: Frame, frame_id: str = 'steering_can') -> bytes:
@@ -51,7 +64,7 @@ def frame_cdr(frame: Frame, frame_id: str = 'steering_can') -> bytes:
     generic encoder; ``test_mcapio`` checks they are identical)."""
     fid = frame_id.encode() + b'\x00'
     pad = (-len(fid)) % 4
-    sec, nsec = divmod(frame.t_ns, 1_000_000_000)
+    sec, nsec = ros_time(frame.t_ns)
     data = bytes(frame.data[:8]).ljust(8, b'\x00')
     return b''.join((_CDR_HEADER, struct.pack('<iII', sec, nsec, len(fid)), fid, b'\x00' * pad,
                      struct.pack('<I4B', frame.can_id, frame.is_remote, frame.is_extended, frame.is_error,
@@ -83,7 +96,9 @@ def frame_records(frames: Sequence[Frame], channel_id: int, frame_id: str = 'ste
     rec['log_time'] = t
     rec['publish_time'] = t
     rec['cdr_header'] = np.void(_CDR_HEADER)
-    rec['sec'], rec['nsec'] = np.divmod(t, 1_000_000_000)
+    sec, nsec = np.divmod(t, 1_000_000_000)
+    unset = (sec > _SEC_MAX) | (sec < -_SEC_MAX - 1)      # see ros_time
+    rec['sec'], rec['nsec'] = np.where(unset, 0, sec), np.where(unset, 0, nsec)
     rec['fid_len'] = len(frame_id.encode()) + 1
     rec['fid'] = np.void(fid)
     rec['id'] = np.fromiter((f.can_id for f in frames), np.uint32, n)
@@ -98,8 +113,9 @@ def frame_records(frames: Sequence[Frame], channel_id: int, frame_id: str = 'ste
 def frame_message(frame: Frame, frame_id: str = 'steering_can') -> dict[str, Any]:
     """The can_msgs/msg/Frame fields of a frame."""
     data = bytes(frame.data[:8]).ljust(8, b'\0')
+    sec, nsec = ros_time(frame.t_ns)
     return {
-        'header': {'stamp': {'sec': frame.t_ns // 1_000_000_000, 'nanosec': frame.t_ns % 1_000_000_000},
+        'header': {'stamp': {'sec': sec, 'nanosec': nsec},
                    'frame_id': frame_id},
         'id': frame.can_id, 'is_rtr': frame.is_remote, 'is_extended': frame.is_extended,
         'is_error': frame.is_error, 'dlc': min(len(frame.data), 8), 'data': list(data),
@@ -231,7 +247,7 @@ def iter_mcap_frames(stream: IO[bytes], topic: str | None = None) -> Iterator[Fr
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
 
-    reader = make_reader(_Sequential(stream), decoder_factories=[DecoderFactory()])
+    reader = make_reader(_Sequential(stream), validate_crcs=True, decoder_factories=[DecoderFactory()])
     for schema, channel, message, msg in reader.iter_decoded_messages(log_time_order=False):
         if schema is None or schema.name != FRAME_DATATYPE or (topic is not None and channel.topic != topic):
             continue

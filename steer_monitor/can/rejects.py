@@ -11,17 +11,22 @@ import threading
 from collections import Counter
 from dataclasses import dataclass
 
-__all__ = ['REASONS', 'RejectCounter', 'RejectSnapshot']
+__all__ = ['MAX_DETAIL', 'REASONS', 'RejectCounter', 'RejectSnapshot']
+
+#: longest example text kept per reason [characters]
+MAX_DETAIL = 200
 
 #: reason code -> what it means, as shown to engineers.
 REASONS: dict[str, str] = {
     'malformed_record': 'log record that cannot be parsed',
+    'corrupt_chunk': 'MCAP chunk failing its CRC or decompression (its frames are not used)',
     'error_frame': 'CAN error frame',
     'remote_frame': 'remote transmission request (NMEA 2000 sends none)',
     'not_extended': 'standard 11-bit identifier (NMEA 2000 uses 29-bit identifiers)',
     'unknown_id': 'unknown identifier: PGN not in the DBC',
     'wrong_length': 'wrong data length for the PGN',
     'time_backwards': 'timestamp earlier than the previous frame with this identifier',
+    'time_jump': 'timestamp far from the frames around it (a glitch, or a clock step too short to believe)',
     'duplicate': 'duplicate frame: same identifier, data and time as the previous one',
     'unmapped': 'no input is mapped to this frame\'s instance or source',
     'not_available': 'field not available (all-ones value)',
@@ -66,6 +71,8 @@ class RejectCounter:
             self._counts[reason] += n
             if signal:
                 self._by_signal[(reason, signal)] += n
+            if len(detail) > MAX_DETAIL:      # a hostile 50 MB line is not an example
+                detail = detail[:MAX_DETAIL] + f'... ({len(detail)} characters)'
             self._last[reason] = f'{REASONS[reason]}: {detail}' if detail else REASONS[reason]
 
     def merge(self, other: RejectSnapshot) -> None:

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from steer_monitor.can.codec import CanDatabase
+from steer_monitor.can.timejump import DEFAULT_MAX_JUMP_NS
 from steer_monitor.errors import ParameterError
 
 __all__ = ['INPUTS', 'PRESSURE_INPUTS', 'SignalMap', 'SignalSpec']
@@ -43,6 +44,8 @@ class SignalMap:
     """The inputs carried on this bus, checked against a DBC."""
 
     specs: tuple[SignalSpec, ...]
+    #: a frame more than this from the frames around it is a time jump [ns]
+    max_jump_ns: int = DEFAULT_MAX_JUMP_NS
 
     def __post_init__(self) -> None:
         by_pgn: dict[int, list[SignalSpec]] = {}
@@ -92,4 +95,4 @@ class SignalMap:
             lo, hi = limits.get(name, (p_lo, p_hi))
             specs.append(SignalSpec(name, pgn, p[f'signals.{name}.field'], p[f'signals.{name}.instance'],
                                     p[f'signals.{name}.source'], lo, hi, p[f'signals.{name}.rate_hz']))
-        return cls(tuple(specs))
+        return cls(tuple(specs), round(p['can.max_time_jump_s'] * 1e9))

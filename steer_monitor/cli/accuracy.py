@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from steer_monitor import accuracy as A
+from steer_monitor.atomic import atomic_write, write_text
 from steer_monitor.can.setup import can_setup
 from steer_monitor.cli.output import dump_json
 from steer_monitor.errors import ParameterError
@@ -251,7 +252,7 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
         if str(out_md) == '-':
             out.write(doc)
         else:
-            Path(out_md).write_text(doc, encoding='utf-8')
+            write_text(out_md, doc)
     if json_out is not None:
         payload = {'summary': summary, 'cases': [r.to_json() for r in results]}
         if sens is not None:
@@ -259,7 +260,7 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
         if str(json_out) == '-':
             dump_json(payload, out)
         else:
-            with open(json_out, 'w', encoding='utf-8') as fh:
+            with atomic_write(json_out, 'w', encoding='utf-8') as fh:
                 dump_json(payload, fh)
     a = summary['all']
     if str(out_md) != '-' and str(json_out) != '-':

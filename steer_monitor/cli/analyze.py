@@ -37,12 +37,13 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from steer_monitor.can.decoder import Decoder
-from steer_monitor.can.logs import read_log_arrays
+from steer_monitor.atomic import atomic_write
+from steer_monitor.can.decodelog import decode_logs
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import load_setup
-from steer_monitor.cli.output import dump_json
+from steer_monitor.cli.output import dump_json, report_read_errors
 from steer_monitor.estimate.analyze import Analysis, analyze
+from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.estimate.batch import ClearanceEstimate
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
 
@@ -137,25 +138,34 @@ def analysis_json(a: Analysis) -> dict[str, Any]:
 
 
 def analyze_log(path: str | Path, config: str | Path | None = None, progress: bool = False) -> tuple[Analysis, dict[str, Any]]:
+    """The analysis of one log and its JSON. A log that breaks off or holds corrupt chunks is
+    analysed on what could be read; ``data.read_errors`` says what was wrong."""
     config_path, params, db, smap = load_setup(config)
     gear = gear_from_params(params)
     rejects = RejectCounter()
-    fa = read_log_arrays(path, rejects)
-    signals = Decoder(db, smap, rejects).decode_arrays(fa)
+    logs = decode_logs([path], db, smap, rejects)
     say = (lambda msg: print(f'  {msg} ...', file=sys.stderr)) if progress else None
-    a = analyze(gear, signals, min_clearance_2z=min_clearance_2z_from_params(params),
-                progress=say)
+    try:
+        a = analyze(gear, logs.signals, min_clearance_2z=min_clearance_2z_from_params(params), progress=say)
+    except EstimateError as exc:
+        if logs.errors:      # say why the data are short as well
+            raise EstimateError(f'{exc} ({logs.errors[0]})') from exc
+        raise
     out = analysis_json(a)
-    out['data'] = {'log': str(path), 'frames': len(fa),
-                   'span_s': float((fa.t_ns.max() - fa.t_ns.min()) / 1e9) if len(fa) else 0.0,
+    out['data'] = {'log': str(path), 'frames': logs.frames, 'span_s': logs.span_s,
                    'rejects': dict(sorted(rejects.snapshot().counts.items())),
+                   'read_errors': list(logs.errors),
                    'config': str(config_path)}
     return a, out
 
 
 def run(path: str | Path, config: str | Path | None = None, json_out: str | Path | None = None,
-        report: str | Path | None = None, out: TextIO | None = None) -> int:
+        report: str | Path | None = None, out: TextIO | None = None, err: TextIO | None = None) -> int:
+    """Analyse ``path``; 0 when it was read whole, 1 when it broke off or had corrupt parts
+    (the outputs are still written, from what could be read; one line per problem on
+    ``err``)."""
     out = out or sys.stdout
+    err = err or sys.stderr
     t0 = time.perf_counter()
     a, result = analyze_log(path, config, progress=sys.stderr.isatty())
     result['analysis_s'] = round(time.perf_counter() - t0, 2)
@@ -163,14 +173,14 @@ def run(path: str | Path, config: str | Path | None = None, json_out: str | Path
         if str(json_out) == '-':
             dump_json(result, out)
         else:
-            with open(json_out, 'w', encoding='utf-8') as fh:
+            with atomic_write(json_out, 'w', encoding='utf-8') as fh:
                 dump_json(result, fh)
     if report is not None:
         from steer_monitor.report.analysis import write_analysis_report
         write_analysis_report(a, result, report)
     if json_out is None or str(json_out) != '-':
         _summary(result, out)
-    return 0
+    return report_read_errors('analyze', result['data']['read_errors'], err)
 
 
 def _fmt(d: dict[str, Any], unit: str) -> str:

@@ -15,12 +15,10 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from steer_monitor.can.decoder import Decoder
-from steer_monitor.can.frames import Frame, FrameArrays
-from steer_monitor.can.logs import LogError, iter_log
+from steer_monitor.can.decodelog import decode_logs
 from steer_monitor.can.rejects import REASONS, RejectCounter
 from steer_monitor.can.setup import load_setup
-from steer_monitor.cli.output import dump_json, table
+from steer_monitor.cli.output import dump_json, report_read_errors, table
 
 __all__ = ['inspect_log', 'register', 'run']
 
@@ -29,22 +27,19 @@ MAX_GAPS_LISTED = 50
 
 
 def _iso(t_ns: int) -> str:
-    return datetime.fromtimestamp(t_ns / 1e9, tz=timezone.utc).isoformat(timespec='milliseconds')
+    try:
+        return datetime.fromtimestamp(t_ns / 1e9, tz=timezone.utc).isoformat(timespec='milliseconds')
+    except (ValueError, OverflowError, OSError):   # beyond what datetime holds (year 9999)
+        return f'{t_ns} ns since 1970'
 
 
 def inspect_log(path: str | Path, config: str | Path | None = None) -> dict[str, Any]:
+    """What a log holds (streamed through the column readers: memory is one block of frames
+    and the decoded samples). ``read_error``: what broke off or was corrupt, else None."""
     _, _, db, smap = load_setup(config)
     rejects = RejectCounter()
-    frames: list[Frame] = []
-    read_error = None
-    try:
-        for frame in iter_log(path, rejects):
-            frames.append(frame)
-    except LogError as exc:
-        read_error = str(exc)  # keep what was read before it
-    fa = FrameArrays.from_frames(frames)
-    decoder = Decoder(db, smap, rejects)
-    series = decoder.decode_arrays(fa)
+    logs = decode_logs([path], db, smap, rejects)
+    series = logs.signals
     snap = rejects.snapshot()
     signals: dict[str, Any] = {}
     for spec in smap.specs:
@@ -64,46 +59,46 @@ def inspect_log(path: str | Path, config: str | Path | None = None) -> dict[str,
                      for i in gap_idx[:MAX_GAPS_LISTED]],
             'rejects': {reason: n for (reason, name), n in snap.by_signal.items() if name == spec.name},
         }
-    t_all = fa.t_ns
+    first, last = logs.first_ns, logs.last_ns
     return {
         'log': str(path),
-        'frames': len(fa),
-        'start_ns': int(t_all.min()) if len(fa) else None,
-        'end_ns': int(t_all.max()) if len(fa) else None,
-        'start': _iso(int(t_all.min())) if len(fa) else None,
-        'end': _iso(int(t_all.max())) if len(fa) else None,
-        'span_s': float((t_all.max() - t_all.min()) / 1e9) if len(fa) else 0.0,
+        'frames': logs.frames,
+        'start_ns': first,
+        'end_ns': last,
+        'start': _iso(first) if first is not None else None,
+        'end': _iso(last) if last is not None else None,
+        'span_s': logs.span_s,
         'signals': signals,
         'rejects': dict(sorted(snap.counts.items())),
         'reject_reasons': {k: REASONS[k] for k in sorted(snap.counts)},
         'reject_examples': dict(sorted(snap.last.items())),
-        'read_error': read_error,
+        'read_error': '; '.join(logs.errors) or None,
     }
 
 
 def run(path: str | Path, config: str | Path | None = None, as_json: bool = False,
-        out: TextIO | None = None) -> int:
+        out: TextIO | None = None, err: TextIO | None = None) -> int:
+    """Print what ``path`` holds; 1 (with one line on ``err``) when it broke off or had
+    corrupt parts, whose readable frames are counted."""
     out = out or sys.stdout
+    err = err or sys.stderr
     s = inspect_log(path, config)
     if as_json:
         dump_json(s, out)
-        return 0 if s['read_error'] is None else 1
-    out.write(f"{s['log']}: {s['frames']} frames, {s['span_s']:.1f} s"
-              + (f" ({s['start']} .. {s['end']})" if s['frames'] else '') + '\n')
-    table(['signal', 'PGN', 'inst', 'samples', 'rate Hz', 'expected', 'gaps>1s'],
-          [[name, v['pgn'], v['instance'], v['samples'],
-            '-' if v['rate_hz'] is None else f"{v['rate_hz']:.2f}", f"{v['expected_rate_hz']:g}",
-            v['gaps_over_1s']] for name, v in s['signals'].items()], out)
-    if s['rejects']:
-        out.write('\nrejects:\n')
-        table(['reason', 'count', 'latest'], [[k, n, s['reject_examples'].get(k, '')]
-                                               for k, n in s['rejects'].items()], out)
     else:
-        out.write('\nno rejects\n')
-    if s['read_error']:
-        out.write(f"\nread error: {s['read_error']}\n")
-        return 1
-    return 0
+        out.write(f"{s['log']}: {s['frames']} frames, {s['span_s']:.1f} s"
+                  + (f" ({s['start']} .. {s['end']})" if s['start'] else '') + '\n')
+        table(['signal', 'PGN', 'inst', 'samples', 'rate Hz', 'expected', 'gaps>1s'],
+              [[name, v['pgn'], v['instance'], v['samples'],
+                '-' if v['rate_hz'] is None else f"{v['rate_hz']:.2f}", f"{v['expected_rate_hz']:g}",
+                v['gaps_over_1s']] for name, v in s['signals'].items()], out)
+        if s['rejects']:
+            out.write('\nrejects:\n')
+            table(['reason', 'count', 'latest'], [[k, n, s['reject_examples'].get(k, '')]
+                                                   for k, n in s['rejects'].items()], out)
+        else:
+            out.write('\nno rejects\n')
+    return report_read_errors('inspect', [s['read_error']] if s['read_error'] else [], err)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -28,22 +28,40 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line(text: str) -> str:
+    return ' '.join(str(text).split()) or '(no message)'
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one subcommand. Every failure is one line on stderr and exit status 1 (argparse's
+    usage errors: 2); never a traceback."""
     parser = build_parser()
     args = parser.parse_args(argv)
     single_blas_thread()
+    where = f'steer-monitor {args.command}'
     try:
         return int(args.handler(args))
     except SteerMonitorError as exc:
-        print(f'steer-monitor {args.command}: error: {exc}', file=sys.stderr)
+        print(f'{where}: error: {_one_line(str(exc))}', file=sys.stderr)
         return 1
     except BrokenPipeError:  # e.g. piped into head: not an error of ours
         import os
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except KeyboardInterrupt:
-        print(f'steer-monitor {args.command}: interrupted', file=sys.stderr)
+        print(f'{where}: interrupted', file=sys.stderr)
         return 130
+    except OSError as exc:     # a path the command did not convert itself
+        name = exc.filename if exc.filename is not None else ''
+        print(f'{where}: error: {name}{": " if name else ""}{_one_line(exc.strerror or str(exc))}', file=sys.stderr)
+        return 1
+    except MemoryError:
+        print(f'{where}: error: out of memory (the input is larger than this machine can hold)', file=sys.stderr)
+        return 1
+    except Exception as exc:  # a defect of ours: still one line, and say so
+        print(f'{where}: error: internal error, please report it: {type(exc).__name__}: {_one_line(str(exc))}',
+              file=sys.stderr)
+        return 1
 
 
 if __name__ == '__main__':

@@ -7,7 +7,7 @@ import math
 from collections.abc import Sequence
 from typing import Any, TextIO
 
-__all__ = ['dump_json', 'table']
+__all__ = ['dump_json', 'report_read_errors', 'table']
 
 
 def _clean(obj: Any) -> Any:
@@ -38,3 +38,11 @@ def table(headers: Sequence[str], rows: Sequence[Sequence[Any]], out: TextIO) ->
         out.write('  '.join(line).rstrip() + '\n')
         if k == 0:
             out.write('  '.join('-' * w for w in widths) + '\n')
+
+
+def report_read_errors(command: str, errors: Sequence[str], err: TextIO) -> int:
+    """One line on ``err`` per input that broke off or had corrupt parts (the command's
+    output was made from what could be read); the exit status: 1 with any, else 0."""
+    for e in errors:
+        err.write(f'steer-monitor {command}: error: {e}\n')
+    return 1 if errors else 0

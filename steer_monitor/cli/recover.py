@@ -8,23 +8,34 @@ import sys
 from pathlib import Path
 from typing import TextIO
 
-from steer_monitor.cli.output import dump_json
+from steer_monitor.cli.output import dump_json, report_read_errors
 from steer_monitor.record.recover import recover
 
 __all__ = ['register', 'run']
 
 
 def run(path: str | Path, output: str | Path | None = None, as_json: bool = False,
-        out: TextIO | None = None) -> int:
+        out: TextIO | None = None, err: TextIO | None = None) -> int:
+    """Recover ``path``. 0 when everything readable was copied (a file cut short is what this
+    is for); 1 when corrupt chunks were dropped, with one line on ``err`` saying which."""
     out = out or sys.stdout
+    err = err or sys.stderr
     r = recover(path, output)
     if as_json:
         dump_json(dataclasses.asdict(r), out)
-        return 0
-    span = '' if r.first_ns is None else f', {(r.last_ns - r.first_ns) / 1e9:.1f} s'
-    state = 'the file was complete' if r.complete else f'the file was cut short ({r.stopped_at})'
-    out.write(f'recovered {r.messages} messages on {r.channels} channels{span} from {r.source} '
-              f'into {r.output}; {state}\n')
+    else:
+        span = '' if r.first_ns is None or r.last_ns is None else f', {(r.last_ns - r.first_ns) / 1e9:.1f} s'
+        if r.complete:
+            state = 'the file was complete'
+        elif r.stopped_at is not None:
+            state = f'the file was cut short ({r.stopped_at})'
+        else:
+            state = 'the file ended normally'
+        out.write(f'recovered {r.messages} messages on {r.channels} channels{span} from {r.source} '
+                  f'into {r.output}; {state}\n')
+    if r.dropped:
+        return report_read_errors('recover', [f'{r.source}: {len(r.dropped)} corrupt chunk(s) dropped ('
+                                              + r.dropped[0] + (', ...' if len(r.dropped) > 1 else '') + ')'], err)
     return 0
 
 

@@ -13,18 +13,21 @@ import time
 from pathlib import Path
 from typing import TextIO
 
-from steer_monitor.cli.output import dump_json
+from steer_monitor.cli.output import dump_json, report_read_errors
 
 __all__ = ['register', 'run']
 
 
 def run(logs: list[str], out_path: str | Path, config: str | Path | None = None, frames: bool = True,
-        as_json: bool = False, out: TextIO | None = None) -> int:
+        as_json: bool = False, out: TextIO | None = None, err: TextIO | None = None) -> int:
+    """Replay ``logs`` into ``out_path``; 1 (one line per log on ``err``) when a log broke
+    off or had corrupt parts, whose readable frames were replayed."""
     from tqdm import tqdm
 
     from steer_monitor.replay import replay, summary_json
 
     out = out or sys.stdout
+    err = err or sys.stderr
     t0 = time.perf_counter()
     with tqdm(unit='frame', unit_scale=True, disable=not sys.stderr.isatty(), file=sys.stderr,
               desc='replay') as bar:
@@ -44,11 +47,9 @@ def run(logs: list[str], out_path: str | Path, config: str | Path | None = None,
             z, g = fe['clearance_2z_mm'], fe['clearance_zgb_mm']
             out.write(f"final online estimate: 2Z {z['value']:.3f} mm, Z_gb {g['value']:.3f} mm "
                       f"({fe['motion_s']:.0f} s of motion)\n")
-        for err in summary.errors:
-            out.write(f'error: {err}\n')
         if summary.rejects:
             out.write('rejected: ' + ', '.join(f'{k} {v}' for k, v in summary.rejects.items()) + '\n')
-    return 1 if summary.errors else 0
+    return report_read_errors('replay', summary.errors, err)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

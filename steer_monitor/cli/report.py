@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from steer_monitor.cli.output import dump_json
+from steer_monitor.cli.output import dump_json, report_read_errors
 from steer_monitor.monitor.messages import CLEARANCE_LABELS
 
 __all__ = ['online_track', 'register', 'run']
@@ -36,7 +36,7 @@ def online_track(paths: list[Path]) -> Any:
             continue
         try:
             with open(path, 'rb') as fh:
-                reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+                reader = make_reader(fh, validate_crcs=True, decoder_factories=[DecoderFactory()])
                 summary = reader.get_summary()
                 topics = [c.topic for c in summary.channels.values() if c.topic.endswith('/clearances')] \
                     if summary is not None else []
@@ -57,10 +57,7 @@ def online_track(paths: list[Path]) -> Any:
 
 
 def _analysis(paths: list[Path], config_path: Path, params: dict[str, Any], since_ns: int) -> tuple[Any, str]:
-    from steer_monitor.can.decoder import Decoder
-    from steer_monitor.can.fastlogs import iter_log_blocks
-    from steer_monitor.can.frames import FrameArrays
-    from steer_monitor.can.logs import LogError
+    from steer_monitor.can.decodelog import decode_logs
     from steer_monitor.can.rejects import RejectCounter
     from steer_monitor.can.setup import can_setup
     from steer_monitor.estimate.analyze import analyze
@@ -68,34 +65,30 @@ def _analysis(paths: list[Path], config_path: Path, params: dict[str, Any], sinc
     from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
 
     db, smap = can_setup(params, config_path)
-    parts = []
-    for path in paths:
-        try:
-            for block in iter_log_blocks(path):
-                keep = block.t_ns >= since_ns
-                if keep.any():
-                    parts.append(block.take(keep))
-        except LogError:
-            pass   # reported by the review already
-    if not parts:
+    logs = decode_logs(paths, db, smap, RejectCounter(), since_ns=since_ns)   # breaks: in the review already
+    if logs.first_ns is None:
         return None, 'no data for the model check'
-    signals = Decoder(db, smap, RejectCounter()).decode_arrays(FrameArrays.concat(parts))
     try:
-        return analyze(gear_from_params(params), signals, min_clearance_2z=min_clearance_2z_from_params(params)), ''
+        return analyze(gear_from_params(params), logs.signals,
+                       min_clearance_2z=min_clearance_2z_from_params(params)), ''
     except EstimateError as exc:
         return None, f'model check not made: {exc}'
 
 
 def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, analysis_hours: float = 3.0,
-        as_json: bool = False, out: TextIO | None = None) -> int:
+        as_json: bool = False, out: TextIO | None = None, err: TextIO | None = None) -> int:
+    """Review ``logs`` into ``out_dir``; 1 (one line per log on ``err``) when a log broke off
+    or had corrupt parts (the page is made from what could be read and says so)."""
     from tqdm import tqdm
 
     from steer_monitor.batchpath import review_logs
+    from steer_monitor.can.logs import LogError
     from steer_monitor.errors import ParameterError
     from steer_monitor.params import gear_from_params, load_config
     from steer_monitor.report.review import ReportInput, write_review_report
 
     out = out or sys.stdout
+    err = err or sys.stderr
     if analysis_hours < 0:
         msg = f'--analysis-hours must be >= 0, got {analysis_hours}'
         raise ParameterError(msg)
@@ -108,6 +101,9 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
     t0 = time.perf_counter()
     with tqdm(unit='frame', unit_scale=True, disable=not sys.stderr.isatty(), file=sys.stderr, desc='review') as bar:
         batch = review_logs(paths, config_path, progress=bar.update)
+    if batch.frames == 0:           # nothing to show: no page rather than an empty one
+        msg = batch.errors[0] if batch.errors else 'no frame in ' + ', '.join(str(p) for p in paths)
+        raise LogError(msg)
     r = batch.review
     analysis, note = None, 'no data'
     if len(r.t_ns) and analysis_hours > 0:
@@ -129,9 +125,7 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
                    'model_check': None if analysis is None else analysis.verdict, 'elapsed_s': round(elapsed, 2)}, out)
     else:
         out.write(f'report of {batch.frames} frames written to {page} ({elapsed:.1f} s)\n')
-        for err in batch.errors:
-            out.write(f'error: {err}\n')
-    return 1 if batch.errors else 0
+    return report_read_errors('report', batch.errors, err)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

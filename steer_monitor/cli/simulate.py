@@ -11,7 +11,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-from steer_monitor.can.logs import LogError, LogWriter
+from steer_monitor.atomic import atomic_path, write_text
+from steer_monitor.can.logs import LogWriter
 from steer_monitor.can.setup import load_setup
 from steer_monitor.cli.output import dump_json
 from steer_monitor.errors import ParameterError
@@ -51,11 +52,26 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
         bus: str | None = None, speed_factor: float = 1.0, seed: int = 0,
         gap_2z_mm: float | None = None, gap_zgb_mm: float | None = None,
         speed_profile: str | None = None, effects: Sequence[str] = (), noise: bool = True,
-        max_duration_s: float = 7200.0, as_json: bool = False, out: TextIO | None = None) -> int:
+        max_duration_s: float = 7200.0, as_json: bool = False, out: TextIO | None = None,
+        real_bus: bool = False) -> int:
+    """Simulate into a file or onto a bus. Onto anything but python-can's ``virtual`` bus or
+    a vcan link only with ``real_bus`` (``--i-know-this-is-a-real-bus``): a simulator's frames
+    on a vessel's steering bus would be read as the rudder."""
     out = out or sys.stdout
     if (out_path is None) == (bus is None):
         msg = 'give exactly one of --out FILE and --bus INTERFACE:CHANNEL'
         raise ParameterError(msg)
+    if bus is not None:
+        from steer_monitor.can.bus import transmit_refusal
+        interface, sep, channel = bus.partition(':')
+        if not sep or not channel:
+            msg = f'--bus {bus!r}: expected INTERFACE:CHANNEL, e.g. virtual:steering or socketcan:vcan0'
+            raise ParameterError(msg)
+        refusal = transmit_refusal(interface, channel)
+        if refusal is not None and not real_bus:
+            msg = (f'--bus {bus}: {refusal}; the simulator sends only onto virtual buses unless you add '
+                   '--i-know-this-is-a-real-bus')
+            raise ParameterError(msg)
     if not (math.isfinite(speed_factor) and speed_factor >= 0):
         msg = f'--speed-factor must be >= 0 (0: as fast as possible), got {speed_factor!r}'
         raise ParameterError(msg)
@@ -73,17 +89,14 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
         path = Path(out_path)
         tpath = truth_path(path)
         progress = _progress(len(result.frames), sys.stderr.isatty() and not as_json)
-        with LogWriter(path) as writer, progress:
-            for i, frame in enumerate(result.frames.frames(channel='can0')):
-                writer.write(frame)
-                if i % 4096 == 4095:
-                    progress.update(4096)
-            progress.update(len(result.frames) % 4096)
-        try:
-            tpath.write_text(json.dumps(truth, indent=2) + '\n', encoding='utf-8')
-        except OSError as exc:
-            msg = f'cannot write truth file {tpath}: {exc.strerror or exc}'
-            raise LogError(msg) from exc
+        with atomic_path(path) as tmp:
+            with LogWriter(tmp) as writer, progress:
+                for i, frame in enumerate(result.frames.frames(channel='can0')):
+                    writer.write(frame)
+                    if i % 4096 == 4095:
+                        progress.update(4096)
+                progress.update(len(result.frames) % 4096)
+            write_text(tpath, json.dumps(truth, indent=2) + '\n')
         truth['output'] = str(path)
         truth['truth_file'] = str(tpath)
     else:
@@ -91,10 +104,7 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
 
         from steer_monitor.can.bus import BusError
         from steer_monitor.sim.live import play
-        interface, sep, channel = bus.partition(':')
-        if not sep or not channel:
-            msg = f'--bus {bus!r}: expected INTERFACE:CHANNEL, e.g. virtual:steering or socketcan:vcan0'
-            raise ParameterError(msg)
+        interface, _, channel = bus.partition(':')
         try:
             handle = can.Bus(interface=interface, channel=channel)
         except (can.CanError, OSError, ValueError, ImportError) as exc:
@@ -137,6 +147,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--no-noise', action='store_true', help='no sensor noise (quantisation stays)')
     p.add_argument('--max-duration', type=float, default=7200.0, help='cut the programme after this many seconds')
     p.add_argument('--json', action='store_true', help='print the truth as JSON')
+    p.add_argument('--i-know-this-is-a-real-bus', dest='real_bus', action='store_true',
+                   help='allow --bus on a hardware interface (the frames are sent onto that bus)')
     p.set_defaults(handler=lambda a: run(a.config, a.program, a.out, a.bus, a.speed_factor, a.seed,
                                          a.gap_2z, a.gap_zgb, a.speed_profile, a.effect, not a.no_noise,
-                                         a.max_duration, a.json))
+                                         a.max_duration, a.json, real_bus=a.real_bus))

@@ -15,11 +15,11 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from steer_monitor.atomic import atomic_write, ensure_dir
 from steer_monitor.cli import backlash as backlash_cli
 from steer_monitor.cli.fit import fit_summary
 from steer_monitor.cli.loadshare import loadshare_rows
 from steer_monitor.cli.output import dump_json, table
-from steer_monitor.errors import ParameterError
 from steer_monitor.model.gear import Gaps
 from steer_monitor.model.study import gap_sensitivity
 from steer_monitor.params import gear_from_params, load_params_file
@@ -36,12 +36,7 @@ PAPER = {'guide_onset_deg': 10.0, 'crossover_deg': 21.0, 'k_gl_max': 0.59, 'k_gl
 def run(out_dir: str | Path = 'out', config: str | Path | None = None,
         out: TextIO | None = None) -> int:
     out = out or sys.stdout
-    out_dir = Path(out_dir)
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        msg = f'cannot create output directory {out_dir}: {exc.strerror or exc}'
-        raise ParameterError(msg) from exc
+    out_dir = ensure_dir(out_dir)
     params = load_params_file(config or default_config())
     gear = gear_from_params(params)
     summary: dict[str, Any] = {'gear': params['gear.name']}
@@ -101,7 +96,7 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None,
     summary['backlash'] = backlash_cli.backlash_summary(chain_path, 0.0, 8.0)
 
     summary['files'] = {'fig7': str(fig7), 'gap_study': str(gap_png)}
-    with open(out_dir / 'summary.json', 'w', encoding='utf-8') as fh:
+    with atomic_write(out_dir / 'summary.json', 'w', encoding='utf-8') as fh:
         dump_json(summary, fh)
     out.write(f'\nWrote {fig7}, {gap_png} and {out_dir / "summary.json"}\n')
     return 0

@@ -242,6 +242,17 @@ def _base(gear: GearParams, obs: Observations, keep: NDArray[np.bool_], extra: t
     return _Base(obs, z, keep, rows, parts, extra, est)
 
 
+def unexplained_inflation(est: ClearanceEstimate) -> float:
+    """The factor on the residual variance for intervals from a model known to be incomplete:
+    (noise² + systematic²) / noise² of the residual that nothing explained, i.e. its
+    systematic part counted as noise. The located nuisance takes the misfit's place in the
+    fit, but not its whole effect on the clearances (on the simulator's angle-band friction
+    a Z_gb interval missed the truth by 0.002 mm with the nuisance alone)."""
+    if not (math.isfinite(est.noise_rms) and math.isfinite(est.smooth_rms)) or est.noise_rms <= 0:
+        return 1.0
+    return 1.0 + (est.smooth_rms / est.noise_rms) ** 2
+
+
 def _screen(gear: GearParams, signals: Mapping[str, Series], base: _Base, grid_2z: NDArray, adopted: set[str],
             say: Callable[[str], None]) -> tuple[list[tuple[Screening, Candidate]], dict[float, tuple[Observations, NDArray[np.bool_]]]]:
     """Every candidate not yet adopted, scored against ``base`` (best held-out gain first),
@@ -255,7 +266,10 @@ def _screen(gear: GearParams, signals: Mapping[str, Series], base: _Base, grid_2
     n_eff = n0 / est.inflation
     seal, mu_b, mu_g = (est.fit.get(k) for k in ('seal_friction_n', 'mu_bushing', 'mu_guide'))
     screened: list[tuple[Screening, Candidate]] = []
-    delays: list[tuple[float, Candidate, Observations, Rows, Rows, NDArray[np.bool_], NDArray[np.bool_]]] = []
+    # every delay's score; the shifted observations and rows only of the best so far (each
+    # trial's are tens of MB on a long log, and a dozen are tried)
+    score: dict[float, float] = {}
+    best: list[tuple[float, Candidate, Observations, Rows, Rows, NDArray[np.bool_], NDArray[np.bool_]]] = []
     steady_t = obs.t_ns[obs.moving & keep]
     a_half, b_half = _halves(obs)
 
@@ -273,7 +287,10 @@ def _screen(gear: GearParams, signals: Mapping[str, Series], base: _Base, grid_2
             return
         f, fb = (F.fit_at(gear, basis, x.moments, at[0], at[1], F.axial_load(gear, basis, x.moments, coef_t),
                           F.speed_scale_columns(x.moments) + base.extra) for x in (r, rb))
-        delays.append(((f.rss / f.n) / (fb.rss / fb.n), cand, o, r, rb, o_mask, base_mask))
+        ratio = (f.rss / f.n) / (fb.rss / fb.n)
+        score[cand.angle_shift_s] = ratio
+        if not best or ratio < best[0][0]:
+            best[:] = [(ratio, cand, o, r, rb, o_mask, base_mask)]
 
     for cand in candidates(z, (seal, mu_b, mu_g)):
         if cand.name in adopted:
@@ -286,7 +303,7 @@ def _screen(gear: GearParams, signals: Mapping[str, Series], base: _Base, grid_2
         values = {c.name: float(v) for c, v in zip(cand.columns, coef[coef.size - len(cand.columns):])}
         screened.append((_screening(cand, rss, n, cv, tz, zg, p, rss0, n0, cv0, p0, n_eff, values), cand))
     delay_obs: dict[float, tuple[Observations, NDArray[np.bool_]]] = {}
-    if delays:
+    if best:
         # The grid's steps are 50 ms: a delay between two of them leaves up to half a step,
         # which weak candidates then take (and lean on the clearances: a 0.125 s delay read
         # as 0.10 or 0.15 s put Z_gb 0.08 mm off). The vertex of the parabola through the
@@ -295,8 +312,7 @@ def _screen(gear: GearParams, signals: Mapping[str, Series], base: _Base, grid_2
         # neighbours are tried. Nearer, the grid point stands: finer steps scored on the
         # quick ratio follow its noise (a clean 0.25 s delay moved by 5-10 ms and left a
         # small viscous column something to take).
-        score = {d[1].angle_shift_s: d[0] for d in delays}
-        tau1 = min(score, key=score.__getitem__)
+        tau1 = best[0][1].angle_shift_s
         lo, hi = round(tau1 - DELAY_STEP_S, 3), round(tau1 + DELAY_STEP_S, 3)
         if lo in score and hi in score:
             curv = score[lo] - 2 * score[tau1] + score[hi]
@@ -310,7 +326,7 @@ def _screen(gear: GearParams, signals: Mapping[str, Series], base: _Base, grid_2
                         if tau > 0 and tau not in score:
                             delay_trial(Candidate('angle_delay', fixed={'tau_s': tau}, angle_shift_s=tau))
         say('candidate angle_delay')
-        _, cand, o, r, rb, o_mask, base_mask = min(delays, key=lambda d: d[0])
+        _, cand, o, r, rb, o_mask, base_mask = best[0]
         o_a, o_b = _halves(o)
         zc = z_columns(o, gear)
         rss, n, cv, tz, zg, p, _ = _score(gear, basis, r, (make_rows(o, zc, o_a & o_mask), make_rows(o, zc, o_b & o_mask)),
@@ -394,10 +410,14 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
         if cols:
             rows = make_rows(base.obs, {**base.z, **zl}, base.keep & ~located.near_ends(base.obs))
             try:
-                final = estimate_clearances(gear, base.obs, rows, base.extra + cols, grid_2z=grid_2z)
+                final = estimate_clearances(gear, base.obs, rows, base.extra + cols, grid_2z=grid_2z,
+                                            model_inflation=unexplained_inflation(base.est))
                 nuisance = True
             except EstimateError:       # too little motion left outside the term: keep the model's
                 pass
+    if not nuisance:                    # the model's own fit, its intervals counting the misfit as noise
+        final = estimate_clearances(gear, base.obs, base.rows, base.extra, grid_2z=grid_2z,
+                                    model_inflation=unexplained_inflation(base.est))
     msg = _message('unexplained', declared, base.est, closest, names)
     msg += f'; {located.message(gear.ram_area)}' if located is not None else '; no observed variable carries it'
     msg += ('; the clearances are fitted with that term as a nuisance and rest on an incomplete model' if nuisance

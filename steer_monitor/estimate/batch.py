@@ -231,14 +231,17 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, 
 
 def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: Sequence[F.Column] = (),
                         grid_2z: NDArray = F.GRID_2Z, grid_zgb: NDArray = F.GRID_ZGB,
-                        load: NDArray[np.float64] | None = None) -> ClearanceEstimate:
+                        load: NDArray[np.float64] | None = None, model_inflation: float = 1.0) -> ClearanceEstimate:
     """Fit, profile and bound (see the module docstring). The load scale per speed group
-    (:func:`~steer_monitor.estimate.fit.speed_scale_columns`) is fitted with the model."""
+    (:func:`~steer_monitor.estimate.fit.speed_scale_columns`) is fitted with the model.
+    ``model_inflation`` (>= 1) multiplies the residual variance's inflation: what a model
+    known to be incomplete cannot explain, counted as noise in the intervals."""
     basis = F.TorqueBasis(gear.max_rudder)
     mom = rows.moments
     extra = tuple(extra) + F.speed_scale_columns(mom)
     pr, best, tz, zg, load = _profile_fit(gear, basis, mom, extra, grid_2z, grid_zgb, load)
     resid, vif = residuals_and_inflation(gear, basis, rows, obs.t_ns, best.coef, tz, zg, load, extra)
+    vif *= max(model_inflation, 1.0)
     noise, smooth = residual_parts(resid, obs.t_ns)
     max_seen = float(np.nanmax(np.abs(obs.alpha[rows.obs_index])))
     return _bound(gear, basis, mom, pr, best, tz, zg, load, extra, vif, max_seen, resid, noise, smooth)

@@ -39,7 +39,7 @@ from steer_monitor.can.signals import PRESSURE_INPUTS
 from steer_monitor.errors import SteerMonitorError
 
 __all__ = ['GRID_NS', 'HALF_WINDOW_NS', 'MOVING_RATE', 'SEGMENT_NS', 'STEADY_FRACTION', 'EstimateError', 'Observations',
-           'build_observations', 'grid_times']
+           'build_observations', 'data_grid', 'grid_times']
 
 GRID_NS = 50_000_000
 HALF_WINDOW_NS = 300_000_000
@@ -48,6 +48,8 @@ SEGMENT_NS = 100_000_000              # the five segments of the steadiness test
 STEADY_FRACTION = 0.5                 # each segment's rate against the window's
 MAX_GAP_NS = 250_000_000              # angle and pressures: up to 2.5 of the slower period
 SLOW_GAP_NS = 10_000_000_000          # ship speed (1 Hz) and oil temperature (0.5 Hz)
+LONG_GAP_NS = 60_000_000_000          # no angle this long: the grid skips the stretch ...
+GAP_PAD_NS = 1_000_000_000            # ... keeping this much at each side
 
 
 class EstimateError(SteerMonitorError, ValueError):
@@ -98,6 +100,22 @@ def grid_times(start_ns: int, end_ns: int) -> NDArray[np.int64]:
     if end_ns <= first:
         return np.zeros(0, np.int64)
     return np.arange(first, int(end_ns), GRID_NS, dtype=np.int64)
+
+
+def data_grid(sample_ns: NDArray[np.int64], start_ns: int, end_ns: int) -> NDArray[np.int64]:
+    """:func:`grid_times` over [start_ns, end_ns), less the stretches of more than
+    ``LONG_GAP_NS`` without a sample (``sample_ns`` sorted), which keep ``GAP_PAD_NS`` of grid
+    at each side (no valid angle there, so no motion). The grid's size is bounded by the data
+    present: a log that resumes after a day, or a clock step of years, does not allocate a
+    grid point every 50 ms in between."""
+    ts = np.asarray(sample_ns, np.int64)
+    cut = np.nonzero(np.diff(ts) > LONG_GAP_NS)[0] if ts.size > 1 else np.zeros(0, np.intp)
+    if cut.size == 0:
+        return grid_times(start_ns, end_ns)
+    lo = np.concatenate([[start_ns], ts[cut + 1] - GAP_PAD_NS])
+    hi = np.concatenate([ts[cut] + GAP_PAD_NS, [end_ns]])
+    parts = [grid_times(max(int(a), start_ns), min(int(b), end_ns)) for a, b in zip(lo, hi) if b > a]
+    return np.concatenate(parts) if parts else np.zeros(0, np.int64)
 
 
 def _interp(series: Series | None, t: NDArray[np.int64], max_gap: int, shift_ns: int = 0) -> NDArray[np.float64]:
@@ -227,7 +245,7 @@ def build_observations(signals: Mapping[str, Series], ram_area: float, *,
     a_t = angle.t_ns - np.int64(shift_ns)
     t0 = int(a_t[0]) if start_ns is None else start_ns
     t1 = int(a_t[-1]) + 1 if end_ns is None else end_ns
-    t = grid_times(t0, t1)
+    t = data_grid(a_t, t0, t1)
     # the motion is judged on the grid and one point either side of it, so that the
     # erosion at a span's ends does not depend on where a log or a fold is cut
     t_ext = np.concatenate([t[:1] - GRID_NS, t, t[-1:] + GRID_NS]) if t.size else t

@@ -23,6 +23,7 @@ converge to the batch estimate.
 
 from __future__ import annotations
 
+import bisect
 import json
 import math
 import os
@@ -48,6 +49,7 @@ __all__ = ['FULL_EVERY_S', 'LAG_NS', 'OnlineEstimate', 'OnlineEstimator']
 LAG_NS = 1_000_000_000          # a second is processed once the data are this far beyond it
 KEEP_NS = 3_000_000_000         # raw samples kept behind the processed edge
 CHUNK_NS = 1_000_000_000
+SKIP_NS = 60_000_000_000        # a stretch this long without angle samples is skipped, not walked
 FULL_EVERY_S = 300.0            # seconds of motion between full profiles
 LOCAL = 1                       # local search: +-1 grid step on each axis (a hill climb)
 REPROFILE_EVERY_S = 30.0        # at most one extra full profile per this much motion when a local
@@ -126,6 +128,10 @@ class OnlineEstimator:
             return False
         changed = False
         while self._latest_ns - self._done_ns >= CHUNK_NS + LAG_NS:
+            if self._latest_ns - self._done_ns > SKIP_NS:
+                self._skip_gap()
+                if self._latest_ns - self._done_ns < CHUNK_NS + LAG_NS:
+                    break
             end = self._done_ns + CHUNK_NS
             self._fold(self._done_ns, end)
             self._done_ns = end
@@ -133,6 +139,20 @@ class OnlineEstimator:
         if self._new_motion > 0 and self.moments.samples >= MIN_MOTION_SAMPLES:
             changed = self.refit()
         return changed
+
+    def _skip_gap(self) -> None:
+        """Over a stretch without angle samples (a pause in the log, a clock step) go straight
+        to the whole second before the next sample's window, so the work is bounded by the
+        data present, not by the time between them."""
+        assert self._done_ns is not None
+        buf = self._buf['rudder_angle']
+        i = bisect.bisect_left(buf, self._done_ns - HALF_WINDOW_NS, key=lambda tv: tv[0])
+        if i >= len(buf):
+            return
+        ahead = buf[i][0] - HALF_WINDOW_NS - self._done_ns
+        if ahead > SKIP_NS:
+            self._done_ns += ahead // CHUNK_NS * CHUNK_NS
+            self._trim(self._done_ns - KEEP_NS)
 
     def _series(self) -> dict[str, Series]:
         out = {}

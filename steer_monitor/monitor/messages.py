@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from steer_monitor.can.mcapio import ros_time
 from steer_monitor.monitor.diagnostics import Status
 from steer_monitor.monitor.live import LiveState
 from steer_monitor.monitor.pipeline import DiagOut, StateOut
@@ -57,7 +58,9 @@ def topic_name(key: str, node_name: str = 'steer_monitor', namespace: str = '/')
 
 
 def stamp(t_ns: int) -> dict[str, int]:
-    return {'sec': t_ns // 1_000_000_000, 'nanosec': t_ns % 1_000_000_000}
+    """A header stamp; unset (0, 0) outside ROS time's int32 seconds (see ``ros_time``)."""
+    sec, nanosec = ros_time(t_ns)
+    return {'sec': sec, 'nanosec': nanosec}
 
 
 def _array(labels: tuple[str, ...], data: list[float]) -> dict[str, Any]:

@@ -228,8 +228,28 @@ class Pipeline:
     def feed(self, frame: Frame) -> list[Output]:
         """Take one frame; returns what became due before it (the frame itself is in the
         next output)."""
-        t = frame.t_ns
         out: list[Output] = []
+        self.frames += 1
+        samples = self.decoder.decode(frame)
+        self._advance(self.clock(frame.t_ns), out)
+        self._take(samples)
+        return out
+
+    def clock(self, t_ns: int) -> int | None:
+        """The stream's time after a frame stamped ``t_ns``: its own stamp when it lies
+        within the time-jump limit of what the decoder has accepted, else that accepted time
+        (a glitched stamp does not move the schedule); None before the decoder has accepted
+        any time."""
+        jumps = self.decoder.jumps
+        ref = jumps.ref_ns
+        if ref is None:
+            return None
+        return t_ns if abs(t_ns - ref) <= jumps.max_jump_ns else ref
+
+    def _advance(self, t: int | None, out: list[Output]) -> None:
+        """Move the schedule to time ``t``: the state of a slot that ended, whole seconds."""
+        if t is None:
+            return
         slot = t // SLOT_NS
         if self._slot is None:
             self._slot = slot
@@ -238,8 +258,8 @@ class Pipeline:
             self._emit_state(out)
             self._slot = slot
             self._seconds_until(t, out)
-        self.frames += 1
-        samples = self.decoder.decode(frame)
+
+    def _take(self, samples: list[Sample]) -> None:
         self.last_changed_state = False
         if samples:
             mon = self.monitor
@@ -249,7 +269,6 @@ class Pipeline:
                 self._samples.extend(samples)
             self._state_pending = mon.changed
             self.last_changed_state = mon.changed
-        return out
 
     def idle(self, now_ns: int, margin_ns: int = 50 * 1_000_000) -> list[Output]:
         """Live only: the bus has been quiet; emit the state of a slot that ended more than
@@ -269,6 +288,10 @@ class Pipeline:
         """End of input (offline): the last slot's state and the whole second after the
         last frame, as the live node emits them once the bus has gone quiet."""
         out: list[Output] = []
+        samples = self.decoder.finish()
+        if samples:
+            self._advance(max(s.t_ns for s in samples), out)
+            self._take(samples)
         if self._slot is None:
             return out
         self._emit_state(out)

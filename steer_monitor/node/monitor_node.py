@@ -35,7 +35,7 @@ from steer_monitor.can.setup import can_setup
 from steer_monitor.errors import ParameterError, SteerMonitorError
 from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.estimate.online import OnlineEstimator
-from steer_monitor.monitor.diagnostics import ERROR, OK, DiagnosticsBuilder, DiagnosticsConfig, Status
+from steer_monitor.monitor.diagnostics import ERROR, OK, WARN, DiagnosticsBuilder, DiagnosticsConfig, Status
 from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages
 from steer_monitor.monitor.pipeline import (DiagOut, EstimateSnapshot, Output, Pipeline, StateOut,
@@ -88,6 +88,7 @@ class MonitorNode(Node):
         self.latencies_ns: deque[int] = deque(maxlen=LATENCY_WINDOW)
         self.frames_received = 0
         self._last_diag = time.monotonic()
+        self._bus_mode: tuple[bool | None, str] = (None, 'bus not opened yet')
         self._stop = threading.Event()
         self._closed = False
         self.estimator: OnlineEstimator | None = None
@@ -96,13 +97,30 @@ class MonitorNode(Node):
         interface, channel = p['can.interface'], p['can.channel']
         opener = bus_opener or (lambda: ListenOnlyBus(interface, channel, p['can.bitrate']))
         self.reader = BusReader(opener, self.rejects, p['can.reopen_backoff_initial_s'],
-                                p['can.reopen_backoff_max_s'], poll=POLL_S, batch=p['can.read_batch_ms'] * 1e-3)
+                                p['can.reopen_backoff_max_s'], poll=POLL_S, batch=p['can.read_batch_ms'] * 1e-3,
+                                on_open=self._bus_opened)
         self._reader_thread = threading.Thread(target=self._read, name='steer_monitor-can', daemon=True)
         self.create_timer(1.0, self._silent_diagnostics)
         self._reader_thread.start()
         self.get_logger().info(
             f'listening on {interface}:{channel} (listen-only); {len(smap.specs)} inputs mapped; '
             + (f'recording to {p["recording.directory"]}' if self.recorder else 'recording off'))
+
+    def _bus_opened(self, bus: ListenOnlyBus) -> None:
+        """Keep what the bus handle says of its controller, for the CAN bus status."""
+        self._bus_mode = (getattr(bus, 'silent', None), getattr(bus, 'silent_how', 'not reported'))
+
+    def _bus_status(self) -> Status:
+        """The node's own status of its bus: whether the controller is silent (listen-only),
+        and the last bus error. WARN when the controller is known to acknowledge frames."""
+        silent, how = self._bus_mode
+        p = self.params
+        values = (('interface', f"{p['can.interface']}:{p['can.channel']}"),
+                  ('controller_silent', {True: 'yes', False: 'no', None: 'unknown'}[silent]),
+                  ('controller_mode', how), ('last_bus_error', self.reader.last_error or 'none'))
+        level = WARN if silent is False else OK
+        message = how if silent is not None else f'listen-only cannot be confirmed: {how}'
+        return Status('steer_monitor: CAN bus', level, message, p['node.hardware_id'], values)
 
     # --- estimator ---------------------------------------------------------------------------
     def _start_estimator(self) -> ThreadedEstimatorJobs:
@@ -174,7 +192,8 @@ class MonitorNode(Node):
 
     def _publish_diag(self, o: DiagOut) -> None:
         rec = self._recording_status()
-        for key, t_ns, fields in diag_messages(o, () if rec is None else (rec,)):
+        extra = (self._bus_status(),) + (() if rec is None else (rec,))
+        for key, t_ns, fields in diag_messages(o, extra):
             self._publish(key, fields, t_ns)
         self._last_diag = time.monotonic()
 

@@ -7,8 +7,12 @@
   SIGKILL loses at most the last second, and ``steer-monitor recover`` makes the rest readable;
 * every file is finished on :meth:`Recorder.close` (the node calls it on SIGINT/SIGTERM);
 * a full or read-only disk does not stop the caller: the recorder reports the error in its
-  status (a diagnostic ERROR), counts what it could not write, and tries again every
-  ``retry_s`` seconds.
+  status (a diagnostic ERROR until a write reaches the disk again), counts what it could not
+  write, and every ``retry_s`` seconds looks whether the directory takes data again (free
+  space for two chunks, write permission) before it opens a file, so a full disk is not
+  filled with empty files. The file that failed is cut back to its last complete chunk
+  (``recover`` makes it readable); nothing flushed before the failure is lost;
+* ``messages`` counts what reached the disk, so it never falls; ``failed`` what was lost.
 
 Callers hand over already-serialized CDR (``write``) or frames (``write_frame``, or
 ``write_frames`` for a batch: one queue entry, records packed at once); nothing here
@@ -35,7 +39,9 @@ __all__ = ['Recorder', 'RecorderStatus']
 
 @dataclass(frozen=True)
 class RecorderStatus:
-    """What the recorder reports: ``ok`` False while writing fails."""
+    """What the recorder reports: ``ok`` False from a failed write until a write reaches the
+    disk again; ``messages`` written to disk (never falls), ``failed`` lost to write errors,
+    ``dropped`` lost to a full queue."""
 
     ok: bool
     message: str
@@ -82,6 +88,7 @@ class Recorder:
         self.dropped = 0
         self.failed = 0
         self._pending = 0  # added to the writer but not yet flushed to the file
+        self._good_offset = 0  # bytes of the current file known to be written whole
         self._error: str | None = None
         self._closed = False
         self.add_topic(FRAME_TOPIC, FRAME_DATATYPE, FRAME_MSGDEF)
@@ -119,7 +126,7 @@ class Recorder:
         with self._lock:
             current = str(self.files[-1]) if self._writer is not None and self.files else None
             if self._error is not None:
-                message = f'cannot record: {self._error}'
+                message = f'cannot record: {self._error}; retrying every {self.retry_s:g} s'
             elif self._closed:
                 message = f'closed after {len(self.files)} file(s)'
             elif current is None:
@@ -181,22 +188,47 @@ class Recorder:
     def _fail(self, exc: OSError) -> None:
         with self._lock:
             self._error = f'{exc.strerror or exc}' + (f': {exc.filename}' if exc.filename else '')
-            # What was buffered for the file is lost with it: count it as failed, not recorded.
-            self.messages -= self._pending
+            # what was buffered for the file is lost with it
             self.failed += self._pending
             self._pending = 0
-        try:
-            if self._stream is not None:
-                self._stream.close()
-        except OSError:
-            pass
+        stream = self._stream
         self._writer = self._stream = None
+        if stream is not None:
+            try:        # closing writes out what the buffer holds, as far as it goes ...
+                stream.close()
+            except OSError:
+                pass
+            try:        # ... so the file is cut back to its last whole chunk after: recover reads it cleanly
+                os.truncate(self.files[-1], self._good_offset)
+            except OSError:
+                pass
         self._next_retry = self._clock() + self.retry_s
+
+    def _can_write(self) -> bool:
+        """Whether the directory takes data again: writable, with room for two chunks."""
+        try:
+            self.directory.mkdir(parents=True, exist_ok=True)
+            st = os.statvfs(self.directory)
+        except OSError as exc:
+            with self._lock:
+                self._error = f'{exc.strerror or exc}: {self.directory}'
+            return False
+        if not os.access(self.directory, os.W_OK):
+            with self._lock:
+                self._error = f'not writable: {self.directory}'
+            return False
+        if st.f_bavail * st.f_frsize < 2 * self.chunk_size + (64 << 10):
+            with self._lock:
+                self._error = f'No space left on device: {self.directory} has {st.f_bavail * st.f_frsize} bytes free'
+            return False
+        return True
 
     def _write_item(self, topic: str, payload: Any, log_time_ns: int, now: float) -> None:
         count = len(payload) if isinstance(payload, list) else 1   # a batch of frames or one message
         if self._writer is None:
-            if self._error is not None and now < self._next_retry:
+            if self._error is not None and (now < self._next_retry or not self._can_write()):
+                if now >= self._next_retry:
+                    self._next_retry = now + self.retry_s
                 self.failed += count
                 return
             if not self._guard(lambda: self._open(log_time_ns, now)):
@@ -208,7 +240,6 @@ class Recorder:
                 return
         ok = self._guard(lambda: self._add(topic, payload, log_time_ns))
         if ok:
-            self.messages += count
             self._pending += count
         else:
             self.failed += count
@@ -227,7 +258,7 @@ class Recorder:
         with self._lock:
             self._stream, self._writer = stream, writer
             self.files.append(path)
-            self._error = None
+        self._good_offset = 0
         self._opened_at = self._last_flush = now
 
     def _add(self, topic: str, payload: Any, log_time_ns: int) -> None:
@@ -248,7 +279,12 @@ class Recorder:
 
     def _flush(self) -> None:
         self._writer.flush()
-        self._pending = 0
+        self._stream.flush()
+        with self._lock:        # on disk (or in the page cache): counted, and the error is over
+            self.messages += self._pending
+            self._pending = 0
+            self._error = None
+        self._good_offset = self._stream.tell()
 
     def _finish(self) -> None:
         if self._writer is None:
@@ -259,6 +295,12 @@ class Recorder:
             writer.close()  # finishes the MCAP; the stream stays ours to sync and close
             stream.flush()
             os.fsync(stream.fileno())
-            self._pending = 0
-        finally:
+            with self._lock:
+                self.messages += self._pending
+                self._pending = 0
+                self._error = None
+        except OSError:
+            self._stream = stream      # _fail cuts it back to its last whole chunk and closes it
+            raise
+        else:
             stream.close()

@@ -1,14 +1,22 @@
-"""Make an unfinished MCAP readable again (after a crash or a SIGKILL).
+"""Make an unfinished or damaged MCAP readable again (after a crash, a SIGKILL, a bad disk).
 
-Reads the file record by record, as far as it is intact, and writes every schema, channel
-and message found into a new, finished MCAP (zstd chunks, summary, CRCs).
+Reads the file record by record, as far as its framing holds, and writes every schema,
+channel and message found into a new, finished MCAP (zstd chunks, summary, CRCs). Each
+chunk is checked before its messages are copied: a chunk whose CRC does not match, or whose
+compression is broken, is dropped (never rewritten under fresh, valid CRCs) and the result
+says which and why; the chunks after it are read on. The output is written to a temporary
+name and renamed when finished.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import io
+import zlib
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
+from steer_monitor.atomic import atomic_path, os_reason
 from steer_monitor.errors import SteerMonitorError
 
 __all__ = ['RecoverError', 'RecoverResult', 'recover']
@@ -20,6 +28,10 @@ class RecoverError(SteerMonitorError):
 
 @dataclass(frozen=True)
 class RecoverResult:
+    """What ``recover`` copied: ``complete`` when the file ended with its footer and nothing
+    was dropped; ``stopped_at`` why reading stopped early (None: it did not); ``dropped`` one
+    text per chunk left out and why."""
+
     source: str
     output: str
     messages: int
@@ -28,57 +40,114 @@ class RecoverResult:
     last_ns: int | None
     complete: bool
     stopped_at: str | None
+    dropped: list[str] = field(default_factory=list)
+
+
+def _chunk_records(chunk: Any) -> bytes:
+    """The records of an mcap ``Chunk``, decompressed and checked; ValueError saying why not."""
+    if chunk.compression == 'zstd':
+        import zstandard
+        try:
+            data = zstandard.ZstdDecompressor().decompress(chunk.data, max_output_size=chunk.uncompressed_size)
+        except zstandard.ZstdError as exc:
+            msg = f'zstd data broken ({exc})'
+            raise ValueError(msg) from exc
+    elif chunk.compression == 'lz4':
+        import lz4.frame
+        try:
+            data = lz4.frame.decompress(chunk.data)
+        except RuntimeError as exc:
+            msg = f'lz4 data broken ({exc})'
+            raise ValueError(msg) from exc
+    elif chunk.compression == '':
+        data = chunk.data
+    else:
+        msg = f'unknown compression {chunk.compression!r}'
+        raise ValueError(msg)
+    if len(data) != chunk.uncompressed_size:
+        msg = f'{len(data)} bytes decompressed, the chunk says {chunk.uncompressed_size}'
+        raise ValueError(msg)
+    if chunk.uncompressed_crc and zlib.crc32(data) != chunk.uncompressed_crc:
+        msg = 'CRC mismatch'
+        raise ValueError(msg)
+    return data
 
 
 def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult:
     """Copy what is readable of ``path`` into ``output`` (default ``<name>.recovered.mcap``)."""
-    from mcap.records import Channel, Footer, Message, Schema
+    from mcap.exceptions import EndOfFile
+    from mcap.records import Channel, Chunk, Footer, Message, Schema
     from mcap.stream_reader import StreamReader
     from mcap.writer import CompressionType, Writer
 
     src = Path(path)
     dst = Path(output) if output is not None else src.with_name(src.stem + '.recovered.mcap')
-    if dst.resolve() == src.resolve():
+    try:
+        same = dst.resolve() == src.resolve()
+    except OSError:
+        same = False
+    if same:
         msg = f'recover would overwrite its input {src}; give another output'
         raise RecoverError(msg)
     try:
         fin = open(src, 'rb')
     except OSError as exc:
-        msg = f'cannot open {src}: {exc.strerror or exc}'
+        msg = f'cannot open {src}: {os_reason(exc)}'
         raise RecoverError(msg) from exc
     schemas: dict[int, int] = {}
     channels: dict[int, int] = {}
     count = 0
     first = last = None
-    complete = False
+    footer = False
     stopped = None
-    with fin, open(dst, 'wb') as fout:
-        writer = Writer(fout, compression=CompressionType.ZSTD, enable_crcs=True)
-        writer.start(profile='ros2', library='steer_monitor recover')
+    dropped: list[str] = []
+
+    def copy(record: Any) -> None:
+        nonlocal count, first, last
+        if isinstance(record, Schema) and record.id not in schemas:
+            schemas[record.id] = writer.register_schema(record.name, record.encoding, record.data)
+        elif isinstance(record, Channel) and record.id not in channels:
+            channels[record.id] = writer.register_channel(
+                record.topic, record.message_encoding, schemas.get(record.schema_id, 0), dict(record.metadata))
+        elif isinstance(record, Message) and record.channel_id in channels:
+            writer.add_message(channels[record.channel_id], log_time=record.log_time,
+                               publish_time=record.publish_time, data=record.data, sequence=record.sequence)
+            count += 1
+            first = record.log_time if first is None else min(first, record.log_time)
+            last = record.log_time if last is None else max(last, record.log_time)
+
+    with fin, atomic_path(dst) as tmp:
         try:
-            for record in StreamReader(fin, record_size_limit=1 << 30).records:
-                if isinstance(record, Schema) and record.id not in schemas:
-                    schemas[record.id] = writer.register_schema(record.name, record.encoding, record.data)
-                elif isinstance(record, Channel) and record.id not in channels:
-                    channels[record.id] = writer.register_channel(
-                        record.topic, record.message_encoding, schemas.get(record.schema_id, 0),
-                        dict(record.metadata))
-                elif isinstance(record, Message) and record.channel_id in channels:
-                    writer.add_message(channels[record.channel_id], log_time=record.log_time,
-                                       publish_time=record.publish_time, data=record.data,
-                                       sequence=record.sequence)
-                    count += 1
-                    first = record.log_time if first is None else min(first, record.log_time)
-                    last = record.log_time if last is None else max(last, record.log_time)
-                elif isinstance(record, Footer):
-                    complete = True
-        except Exception as exc:  # the cut: mcap raises its own errors on a partial record
-            stopped = f'{type(exc).__name__}: {exc}'
+            fout = open(tmp, 'wb')
+        except OSError as exc:
+            msg = f'cannot write {dst}: {os_reason(exc)}'
+            raise RecoverError(msg) from exc
+        with fout:
+            writer = Writer(fout, compression=CompressionType.ZSTD, enable_crcs=True)
+            writer.start(profile='ros2', library='steer_monitor recover')
+            try:
+                for record in StreamReader(fin, record_size_limit=1 << 30, emit_chunks=True).records:
+                    if isinstance(record, Chunk):
+                        try:
+                            inner = _chunk_records(record)
+                        except ValueError as exc:
+                            dropped.append(f'chunk of messages {record.message_start_time}..'
+                                           f'{record.message_end_time} ns: {exc}')
+                            continue
+                        try:
+                            for r in StreamReader(io.BytesIO(inner), skip_magic=True).records:
+                                copy(r)
+                        except EndOfFile:    # the end of the chunk's records, not of the file
+                            pass
+                    elif isinstance(record, Footer):
+                        footer = True
+                    else:
+                        copy(record)
+            except Exception as exc:  # the cut or broken framing: mcap raises its own errors
+                stopped = f'{type(exc).__name__}: {exc}'
             if count == 0 and not schemas:
-                writer.finish()
-                fout.close()
-                dst.unlink(missing_ok=True)
-                msg = f'{src} holds no readable MCAP records ({stopped})'
-                raise RecoverError(msg) from exc
-        writer.finish()
-    return RecoverResult(str(src), str(dst), count, len(channels), first, last, complete, stopped)
+                msg = f'{src} holds no readable MCAP records ({stopped or "; ".join(dropped) or "empty"})'
+                raise RecoverError(msg)
+            writer.finish()
+    return RecoverResult(str(src), str(dst), count, len(channels), first, last,
+                         footer and not dropped and stopped is None, stopped, dropped)

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from steer_monitor.atomic import write_text
 from steer_monitor.estimate.analyze import Analysis
 from steer_monitor.estimate.intervals import CHI2_1_95
 
@@ -160,5 +161,5 @@ table{{border-collapse:collapse}}tr:nth-child(even){{background:#f2f2f2}}img{{ma
 </body></html>
 """
     path = Path(path)
-    path.write_text(page, encoding='utf-8')
+    write_text(path, page)
     return path

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from steer_monitor.atomic import ensure_dir, write_bytes, write_text
 from steer_monitor.estimate.analyze import Analysis
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import load_sharing_at
@@ -199,8 +200,7 @@ def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
     import matplotlib
     matplotlib.use('Agg')
 
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = ensure_dir(out_dir)
     r = inp.review
     t0 = int(r.t_ns[0]) if len(r.t_ns) else 0
     figs = {
@@ -213,7 +213,7 @@ def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
     images: dict[str, bytes] = {}
     for key, fig in figs.items():
         images[key] = _png(fig)
-        (out_dir / f'{key}.png').write_bytes(images[key])
+        write_bytes(out_dir / f'{key}.png', images[key])
     esc = html.escape
     span_h = (int(r.t_ns[-1]) - t0) / 3.6e12 if len(r.t_ns) else 0.0
     rows = [('log', inp.title), ('frames', f'{inp.frames:,d}'), ('data', f'{span_h:.2f} h, '
@@ -278,5 +278,5 @@ paper 000 (backlash from the fits).</p>
 </body></html>
 """
     path = out_dir / 'index.html'
-    path.write_text(page, encoding='utf-8')
+    write_text(path, page)     # last: a page is never there without its plots
     return path

@@ -230,3 +230,20 @@ def test_socketcan_vcan0_round_trip(r18_params, db, smap):
     assert n == len(frames)
     assert rejects.snapshot().total == 0
     assert len(collect(samples, smap.names)['rudder_angle']) > 10
+
+
+def test_virtual_bus_says_it_has_no_controller_to_silence():
+    from steer_monitor.can.bus import ListenOnlyBus
+    with ListenOnlyBus('virtual', 'silent_check') as bus:
+        assert bus.silent is None and 'no controller' in bus.silent_how
+
+
+@pytest.mark.parametrize('interface,channel,refused', [
+    ('virtual', 'x', None),
+    ('socketcan', 'can0', 'socketcan:can0 is not known to be a vcan link'),
+    ('pcan', 'PCAN_USBBUS1', 'pcan:PCAN_USBBUS1 is a hardware interface'),
+])
+def test_transmit_refusal(interface, channel, refused):
+    from steer_monitor.can.bus import transmit_refusal
+    got = transmit_refusal(interface, channel)
+    assert (got is None) if refused is None else got.startswith(refused)

@@ -21,7 +21,7 @@ ENCODE = serialize_dynamic(FRAME_DATATYPE, FRAME_MSGDEF)[FRAME_DATATYPE]
        ext=st.booleans(), err=st.booleans(), rtr=st.booleans(),
        frame_id=st.text(alphabet='abcdefgh_/', max_size=12))
 def test_packed_cdr_equals_generic_encoder(t, can_id, data, ext, err, rtr, frame_id):
-    f = Frame(t % (2**31 * 10**9), can_id, data, ext, err, rtr)
+    f = Frame(t, can_id, data, ext, err, rtr)     # past 2038 both leave the stamp unset
     assert frame_cdr(f, frame_id) == ENCODE(frame_message(f, frame_id))
 
 
@@ -68,3 +68,27 @@ def test_write_frames_across_chunk_rollover_reads_back_with_crcs():
     back = list(iter_mcap_frames(buf))
     assert back == [Frame(f.t_ns, f.can_id, f.data, f.is_extended, f.is_error, f.is_remote, 'steering_can')
                     for f in frames]
+
+
+@pytest.mark.parametrize('t_ns', [
+    (1 << 31) * 1_000_000_000 - 1,          # the last nanosecond ROS time holds (2038-01-19)
+    (1 << 31) * 1_000_000_000,              # the first it does not
+    4_102_444_800_123_456_789,              # 2100
+    9_000_000_000_000_000_000,              # 2255
+])
+def test_times_past_2038_are_kept_in_the_log_time(tmp_path, t_ns):
+    """ROS time has int32 seconds: past 2038 the header stamp is left unset (0, 0) and the
+    record's uint64 log time carries the time; both readers take it from there."""
+    from steer_monitor.can.fastlogs import iter_mcap_blocks
+    from steer_monitor.can.mcapio import ros_time
+    f = Frame(t_ns, 0x09F10D10, bytes(8))
+    sec, nsec = ros_time(t_ns)
+    assert (sec, nsec) == ((t_ns // 10**9, t_ns % 10**9) if t_ns < (1 << 31) * 10**9 else (0, 0))
+    path = tmp_path / 'late.mcap'
+    with McapWriter(path) as w:
+        w.write_frames([f, Frame(t_ns + 1000, 0x09F10D10, bytes(8))])
+        w.write_frame(Frame(t_ns + 2000, 0x09F10D10, bytes(8)))
+    blocks = list(iter_mcap_blocks(path))
+    assert [int(t) for b in blocks for t in b.t_ns] == [t_ns, t_ns + 1000, t_ns + 2000]
+    with open(path, 'rb') as fh:
+        assert [g.t_ns for g in iter_mcap_frames(fh)] == [t_ns, t_ns + 1000, t_ns + 2000]

@@ -95,3 +95,32 @@ def test_window_slopes_match_polyfit(seed):
         ok = ~np.isnan(ref)
         np.testing.assert_allclose(got[ok], ref[ok], rtol=1e-7, atol=1e-9)
     assert np.isin(t, ts).any() and np.isnan(before).any()
+
+
+def test_the_grid_skips_long_stretches_without_data():
+    """A log that resumes ten years later (a confirmed clock step): the grid covers the data,
+    not the decade, and every instant that has data is aligned as without the step."""
+    ten_years = np.int64(10 * 365 * 86400 * 10**9)
+    sig = _signals()
+    half = 5 * 10**9
+
+    def shifted(s):
+        t = s.t_ns.copy()
+        t[t >= half] += ten_years
+        return Series(t, s.value)
+    jumped = {k: shifted(v) for k, v in sig.items()}
+    a = build_observations(sig, 0.045)
+    b = build_observations(jumped, 0.045)
+    assert len(b) < len(a) + 100
+    far = 2 * 10**9       # the windows reach across the cut up to about a second
+    keep_a = np.abs(a.t_ns - half) > far
+    keep_b = np.abs(np.where(b.t_ns > ten_years // 2, b.t_ns - ten_years, b.t_ns) - half) > far
+    np.testing.assert_array_equal(a.direction[keep_a], b.direction[keep_b])
+    np.testing.assert_array_equal(a.alpha[keep_a], b.alpha[keep_b])
+    np.testing.assert_array_equal(a.force[keep_a], b.force[keep_b])
+
+
+def test_data_grid_is_the_plain_grid_without_long_gaps():
+    from steer_monitor.estimate.observe import data_grid
+    ts = np.arange(0, 100 * 10**9, 10**8, dtype=np.int64) + 1_767_225_600 * 10**9
+    np.testing.assert_array_equal(data_grid(ts, int(ts[0]), int(ts[-1]) + 1), grid_times(int(ts[0]), int(ts[-1]) + 1))

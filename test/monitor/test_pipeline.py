@@ -9,6 +9,7 @@ import pytest
 
 from steer_monitor import sim
 from steer_monitor.can import Decoder, Frame, RejectCounter
+from steer_monitor.can.timejump import CONFIRM_FRAMES
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.online import OnlineEstimate
 from steer_monitor.model import Gaps
@@ -77,9 +78,12 @@ def test_a_gap_in_the_data(r18_params, can_db, frames, gap_s):
     for f in frames[:cut]:
         p.feed(f)
     before = p._next_second
-    out = p.feed(later[0])
+    # a gap longer than the time-jump limit (5 s) holds the frames after it until
+    # CONFIRM_FRAMES of them confirm the new time; then the seconds of the gap come at once
+    n = CONFIRM_FRAMES if gap_s > 5.0 else 1
+    out = [o for f in later[:n] for o in p.feed(f)]
     secs = [o.t_ns for o in out if isinstance(o, DiagOut)]
-    last = later[0].t_ns // SECOND_NS * SECOND_NS
+    last = later[n - 1].t_ns // SECOND_NS * SECOND_NS
     assert secs[0] == before and secs[-1] == last
     assert len(secs) == min(MAX_GAP_SECONDS + 1, (last - before) // SECOND_NS + 1)
     assert all(isinstance(o, DiagOut) for o in out[1:])

@@ -91,9 +91,13 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
         time.sleep(1.2)
         d = h.latest()
         names = ['steer_monitor: CAN input', 'steer_monitor: clearances', 'steer_monitor: guide beam',
-                 'steer_monitor: steering performance', 'steer_monitor: model health', 'steer_monitor: recording']
+                 'steer_monitor: steering performance', 'steer_monitor: model health', 'steer_monitor: CAN bus',
+                 'steer_monitor: recording']
         assert list(d) == names
         assert _level(d['steer_monitor: CAN input']) == OK
+        bus = _values(d['steer_monitor: CAN bus'])   # a virtual bus: no controller to make silent
+        assert _level(d['steer_monitor: CAN bus']) == OK and bus['controller_silent'] == 'unknown'
+        assert bus['interface'] == f'virtual:{channel}' and bus['last_bus_error'] == 'none'
         cl = _values(d['steer_monitor: clearances'])
         gb = d['steer_monitor: guide beam']
         # the onset the model gives for the clearances in use (10 deg at the true ones; about
@@ -193,7 +197,8 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
     seconds = set(again['/diagnostics']) & set(live['/diagnostics'])
     assert set(again['/diagnostics']) - seconds <= {max(again['/diagnostics'])} and len(seconds) > 50
     for t in seconds:
-        recorded = [st for st in live['/diagnostics'][t].status if st.name != 'steer_monitor: recording']
+        recorded = [st for st in live['/diagnostics'][t].status
+                    if st.name not in ('steer_monitor: recording', 'steer_monitor: CAN bus')]   # the node's own
         assert _same(recorded, again['/diagnostics'][t].status), t
         for topic in ('/steer_monitor/clearances', '/steer_monitor/clearance_source'):
             assert _same(live[topic][t], again[topic][t]), (topic, t)

@@ -115,7 +115,8 @@ def test_disk_full_is_reported_and_recording_resumes(tmp_path):
     try:
         for i in range(200):
             rec.write_frame(_frame(i))
-        _wait(lambda: rec.status().messages == 200)
+        _wait(lambda: rec.files and rec._queue.empty())
+        time.sleep(0.2)  # the last batch taken is written (messages count only once flushed)
         clock[0] = 1.5   # the first flush hits the full device
         rec.write_frame(_frame(200))
         deadline = time.time() + 5
@@ -123,9 +124,13 @@ def test_disk_full_is_reported_and_recording_resumes(tmp_path):
             time.sleep(0.01)
         st = rec.status()
         assert not st.ok and 'No space left on device' in st.message
-        clock[0] = 7.0   # past retry_s: a new file
+        clock[0] = 7.0   # past retry_s: a new file, but ERROR until a write reaches the disk
         for i in range(201, 260):
             rec.write_frame(_frame(i))
+        _wait(lambda: rec.status().files == 2)
+        assert not rec.status().ok
+        clock[0] = 8.5   # the next flush succeeds
+        rec.write_frame(_frame(260))
         deadline = time.time() + 5
         while not rec.status().ok and time.time() < deadline:
             time.sleep(0.01)
@@ -134,7 +139,80 @@ def test_disk_full_is_reported_and_recording_resumes(tmp_path):
         rec.close()
     st = rec.status()
     assert st.failed > 0 and st.files == 2
-    assert 0 < len(_read_all(rec.files[-1])[FRAME_TOPIC]) <= 59
+    assert 0 < len(_read_all(rec.files[-1])[FRAME_TOPIC]) <= 60
+
+
+@pytest.fixture
+def small_tmpfs(tmp_path):
+    """A 512 KiB tmpfs (root and a kernel that allows the mount; skipped otherwise)."""
+    where = tmp_path / 'small'
+    where.mkdir()
+    if os.geteuid() != 0:
+        pytest.skip('mounting a small tmpfs needs root; the disk-full test runs in CI as root')
+    done = subprocess.run(['mount', '-t', 'tmpfs', '-o', 'size=512k', 'tmpfs', str(where)],
+                          capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        pytest.skip(f'cannot mount a small tmpfs here: {done.stderr.strip() or done.returncode}')
+    try:
+        yield where
+    finally:
+        subprocess.run(['umount', '-l', str(where)], check=False)
+
+
+def test_full_tmpfs_keeps_one_file_retries_and_loses_nothing_written(small_tmpfs):
+    """A real full file system: writes fail with ENOSPC; while it is full the recorder keeps
+    ERROR, does not open a file per retry, its message count never falls; once space is
+    freed it records again in one new file; the first file, recovered, holds every frame
+    counted as written before the failure."""
+    filler = small_tmpfs / 'filler.bin'
+    filler.write_bytes(os.urandom(300 << 10))      # 300 KiB of the 512 taken: room for ~200 KiB
+    clock = [0.0]
+    rec = Recorder(small_tmpfs / 'rec', retry_s=5.0, chunk_size=16 << 10, clock=lambda: clock[0])
+    seen: list[int] = []
+    i = 0
+    try:
+        while rec.status().ok:                      # fill the disk, one flush a "second"
+            for _ in range(2000):
+                rec.write_frame(_frame(i))
+                i += 1
+            clock[0] += 1.5
+            rec.write_frame(_frame(i))
+            i += 1
+            time.sleep(0.05)
+            seen.append(rec.status().messages)
+            assert i < 2_000_000, 'the disk never filled'
+        written_before = rec.status().messages
+        assert written_before > 0 and rec.status().files == 1
+        assert 'No space left on device' in rec.status().message
+        for _ in range(4):                          # retries while still full: no new file
+            clock[0] += 6.0
+            for _ in range(200):
+                rec.write_frame(_frame(i))
+                i += 1
+            time.sleep(0.05)
+            st = rec.status()
+            seen.append(st.messages)
+            assert not st.ok and st.files == 1, st
+        filler.unlink()                             # space again
+        clock[0] += 6.0
+        for _ in range(300):
+            rec.write_frame(_frame(i))
+            i += 1
+        _wait(lambda: rec.status().files == 2)
+        clock[0] += 1.5
+        rec.write_frame(_frame(i))
+        i += 1
+        _wait(lambda: rec.status().ok)
+        seen.append(rec.status().messages)
+    finally:
+        rec.close()
+    assert seen == sorted(seen), 'the message count fell'
+    st = rec.status()
+    assert st.files == 2 and st.failed > 0
+    assert st.messages + st.failed + st.dropped == i
+    first = recover(rec.files[0], small_tmpfs / 'first.recovered.mcap')
+    assert first.messages == written_before
+    assert len(_read_all(rec.files[1])[FRAME_TOPIC]) == st.messages - written_before
 
 
 def test_read_only_location_is_reported_not_raised():

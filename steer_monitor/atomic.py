@@ -1,0 +1,98 @@
+"""Outputs written whole or not at all: a temporary name beside the target, renamed at the end.
+
+A reader (or a later run) never sees a half-written JSON, page, plot or MCAP: the bytes go to
+``.<stem>.<pid>.tmp<suffix>`` in the target's directory, are flushed, and replace the target with
+``os.replace`` (atomic on POSIX within one file system). On any error the temporary file is
+removed and an :class:`~steer_monitor.errors.OutputError` names the target and what the
+system said (no such directory, permission denied, disk full, ...).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Iterator
+from pathlib import Path
+from typing import IO, Any
+
+from steer_monitor.errors import OutputError
+
+__all__ = ['atomic_path', 'atomic_write', 'ensure_dir', 'os_reason', 'write_bytes', 'write_text']
+
+
+def os_reason(exc: OSError) -> str:
+    """The system's words for an OS error, without the file name (the caller names it)."""
+    return exc.strerror or type(exc).__name__
+
+
+def ensure_dir(path: str | Path) -> Path:
+    """Create an output directory (and parents); :class:`OutputError` when it cannot be."""
+    p = Path(path)
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except FileExistsError as exc:
+        msg = f'cannot write into {p}: it exists and is not a directory'
+        raise OutputError(msg) from exc
+    except OSError as exc:
+        msg = f'cannot create the output directory {p}: {os_reason(exc)}'
+        raise OutputError(msg) from exc
+    return p
+
+
+def _check_target(target: Path) -> None:
+    if target.is_dir():
+        msg = f'cannot write {target}: it is a directory'
+        raise OutputError(msg)
+    if not target.parent.is_dir():
+        msg = f'cannot write {target}: no directory {target.parent}'
+        raise OutputError(msg)
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A temporary path to write ``path``'s content to (by any writer, e.g. matplotlib);
+    renamed to ``path`` when the block ends without an exception, removed otherwise."""
+    target = Path(path)
+    _check_target(target)
+    # the suffix kept last, for writers that choose the format by it (.log, .mcap)
+    tmp = target.with_name(f'.{target.stem}.{os.getpid()}.tmp{target.suffix}')
+    try:
+        yield tmp
+        os.replace(tmp, target)
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        msg = f'cannot write {target}: {os_reason(exc)}'
+        raise OutputError(msg) from exc
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
+@contextlib.contextmanager
+def atomic_write(path: str | Path, mode: str = 'w', **kwargs: Any) -> Iterator[IO[Any]]:
+    """``open(path, mode)`` written through :func:`atomic_path` (flushed and fsynced before
+    the rename, so a crash leaves the old file or the new one)."""
+    with atomic_path(path) as tmp:
+        try:
+            fh = open(tmp, mode, **kwargs)
+        except OSError as exc:
+            msg = f'cannot write {path}: {os_reason(exc)}'
+            raise OutputError(msg) from exc
+        with fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+
+
+def write_text(path: str | Path, text: str) -> None:
+    """Write a UTF-8 text file atomically."""
+    with atomic_write(path, 'w', encoding='utf-8') as fh:
+        fh.write(text)
+
+
+def write_bytes(path: str | Path, data: bytes) -> None:
+    """Write a binary file atomically."""
+    with atomic_write(path, 'wb') as fh:
+        fh.write(data)

@@ -1,0 +1,125 @@
+"""Timestamps that jump: a glitched frame or a host clock step must not poison a stream.
+
+The frames of a bus arrive in time order, a few milliseconds apart. A frame whose time lies
+more than ``max_jump_ns`` from the frame before it starts a *new chain*. A chain is held
+until it has ``CONFIRM_FRAMES`` frames; then it is taken as the stream's new time (a clock
+step, or a log that resumes after a pause) and all its frames are released. A chain that
+ends (by another jump) before that is rejected as ``time_jump``, unless its end returns to
+the established time, which then simply goes on: one far-future frame, or a short burst of
+them, costs those frames only. The first frames of a stream form a chain too, so a glitched
+first frame is not taken as the stream's time.
+
+Only the times of frames that passed the structural checks (identifier, length) take part,
+in arrival order over all identifiers. A confirmed step *back* in time is accepted here and
+its frames are then refused per identifier as ``time_backwards`` until the clock passes the
+last accepted time again: the decoder never reorders, and overlapping times would mix two
+periods of data.
+
+:class:`JumpFilter` decides frame by frame (live: a chain's frames wait for its confirmation,
+at most ``CONFIRM_FRAMES`` frames) or a block at a time (logs), with the same verdicts either
+way. Pure Python and numpy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ['CONFIRM_FRAMES', 'DEFAULT_MAX_JUMP_NS', 'HELD', 'REJECTED', 'RELEASED', 'JumpFilter']
+
+#: frames a new chain needs before its time is believed (about half a second of a steering bus)
+CONFIRM_FRAMES = 50
+DEFAULT_MAX_JUMP_NS = 5_000_000_000
+RELEASED, HELD, REJECTED = 1, 0, -1
+
+
+@dataclass
+class JumpFilter:
+    """Per-stream state of the jump rule (see the module docstring).
+
+    ``ref_ns``: the time of the last released frame (None before the first confirmation);
+    ``pending``: the times of the chain being held, in arrival order.
+    """
+
+    max_jump_ns: int = DEFAULT_MAX_JUMP_NS
+    confirm: int = CONFIRM_FRAMES
+    ref_ns: int | None = None
+    pending: list[int] = field(default_factory=list)
+
+    def _near(self, a: int, b: int) -> bool:
+        return abs(a - b) <= self.max_jump_ns
+
+    # --- frame by frame --------------------------------------------------------------------
+    def push(self, t_ns: int) -> tuple[int, int]:
+        """One frame's time. Returns (rejected, released): the number of held frames now
+        rejected (the oldest ones) and the number now released, counting this frame last;
+        a frame neither released nor rejected is held."""
+        rejected = 0
+        if self.pending:
+            if self._near(t_ns, self.pending[-1]):
+                self.pending.append(t_ns)
+                return self._confirm_if_long(rejected)
+            rejected = len(self.pending)
+            self.pending = []
+            if self.ref_ns is not None and self._near(t_ns, self.ref_ns):
+                self.ref_ns = t_ns
+                return rejected, 1
+        elif self.ref_ns is not None and self._near(t_ns, self.ref_ns):
+            self.ref_ns = t_ns
+            return 0, 1
+        self.pending = [t_ns]
+        return self._confirm_if_long(rejected)
+
+    def _confirm_if_long(self, rejected: int) -> tuple[int, int]:
+        if len(self.pending) >= self.confirm:
+            n = len(self.pending)
+            self.ref_ns = self.pending[-1]
+            self.pending = []
+            return rejected, n
+        return rejected, 0
+
+    def finish(self) -> int:
+        """End of the stream: the held chain cannot be confirmed; returns how many frames of
+        it are rejected."""
+        n = len(self.pending)
+        self.pending = []
+        return n
+
+    # --- a block at a time -------------------------------------------------------------------
+    def run_block(self, t_ns: NDArray[np.int64]) -> NDArray[np.int8]:
+        """Verdicts on a block of times: ``RELEASED`` (1), ``REJECTED`` (-1) or ``HELD`` (0),
+        shape (n,), as :meth:`push` frame by frame would give them by the end of the block.
+
+        The frames still held come last. The caller keeps them and passes their times again,
+        first, with the next block: the held chain is forgotten here and re-run from its
+        first frame (which was a jump, so the re-run takes the same course). Vectorized over
+        the stretches between jumps, so a block without any costs a few array operations.
+        """
+        t = np.asarray(t_ns, np.int64)
+        n = t.size
+        out = np.zeros(n, np.int8)
+        self.pending = []
+        if n == 0:
+            return out
+        gaps = np.nonzero(np.abs(np.diff(t)) > self.max_jump_ns)[0] + 1
+        starts = [0, *gaps.tolist()]
+        ends = [*gaps.tolist(), n]
+        chain = -1          # first row of the held chain in this block (-1: none)
+        for a, b in zip(starts, ends):
+            first = int(t[a])
+            if chain >= 0:                         # a jump ends the held chain
+                out[chain:a] = REJECTED
+                chain = -1
+                self.pending = []
+            if self.ref_ns is not None and self._near(first, self.ref_ns):
+                out[a:b] = RELEASED                # the established time goes on
+                self.ref_ns = int(t[b - 1])
+            elif b - a >= self.confirm:            # a new chain, long enough at once
+                out[a:b] = RELEASED
+                self.ref_ns = int(t[b - 1])
+            else:                                  # a new chain, held
+                chain = a
+                self.pending = t[a:b].tolist()
+        return out

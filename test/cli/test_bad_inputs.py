@@ -1,0 +1,330 @@
+"""Every subcommand over a corpus of bad inputs: one line on stderr naming what was wrong,
+exit 1 (2 for usage), never a traceback, nothing half-written, nothing readable lost.
+
+The corpus is made from a short simulated log and recording: empty, junk, truncated at many
+offsets, flipped bytes, reversed lines, odd whitespace, a 5 MB line, non-UTF-8 bytes, one
+far-future frame, times past 2038, corrupt MCAP chunks (CRC and compression), bad output
+paths, bad YAML (non-UTF-8, deep nesting, an alias bomb, a list, junk)."""
+
+from __future__ import annotations
+
+import random
+from pathlib import Path
+
+import pytest
+
+from steer_monitor.cli.main import main
+from test.conftest import REPO
+
+LOG_COMMANDS = ('inspect', 'analyze', 'report', 'replay')
+
+
+@pytest.fixture(scope='module')
+def base(tmp_path_factory) -> dict[str, Path]:
+    """A 20 s simulated candump log and MCAP, a 70 s MCAP with small uncompressed chunks
+    (for CRC damage) and a replay recording of the short log."""
+    d = tmp_path_factory.mktemp('base')
+    for name in ('short.log', 'short.mcap'):
+        assert main(['simulate', '--program', 'hard_over_2', '--max-duration', '20', '--seed', '3',
+                     '--out', str(d / name)]) == 0
+    assert main(['simulate', '--program', 'hard_over_2', '--seed', '3', '--out', str(d / 'long.log')]) == 0
+    _uncompressed_mcap(d / 'long.log', d / 'chunks.mcap')
+    assert main(['replay', str(d / 'short.log'), '--out', str(d / 'rec.mcap')]) == 0
+    return {'log': d / 'short.log', 'mcap': d / 'short.mcap', 'chunks': d / 'chunks.mcap', 'rec': d / 'rec.mcap',
+            'long': d / 'long.log'}
+
+
+def _uncompressed_mcap(log: Path, out: Path) -> None:
+    """The frames of ``log`` in an MCAP of 8 KiB uncompressed chunks (with CRCs): a flipped
+    byte inside one changes a frame silently unless the CRC is checked."""
+    from mcap.writer import CompressionType, Writer
+
+    from steer_monitor.can.fastlogs import read_log_fast
+    from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, DEFAULT_QOS, frame_cdr
+    fa = read_log_fast(log)
+    with open(out, 'wb') as fh:
+        w = Writer(fh, chunk_size=8192, compression=CompressionType.NONE, enable_crcs=True)
+        w.start(profile='ros2', library='test')
+        sid = w.register_schema(FRAME_DATATYPE, 'ros2msg', FRAME_MSGDEF.encode())
+        cid = w.register_channel(FRAME_TOPIC, 'cdr', sid, {'offered_qos_profiles': DEFAULT_QOS})
+        for f in fa.frames():
+            w.add_message(cid, log_time=f.t_ns, publish_time=f.t_ns, data=frame_cdr(f))
+        w.finish()
+
+
+def _chunk_spans(path: Path) -> list[tuple[int, int]]:
+    """(start, end) byte offsets of the chunk records' data in an MCAP."""
+    import struct
+    b = path.read_bytes()
+    pos, out = 8, []
+    while pos + 9 <= len(b):
+        op, ln = struct.unpack_from('<BQ', b, pos)
+        if op == 0x06:
+            out.append((pos + 9 + 40, pos + 9 + ln))   # past the chunk header, to its end
+        if op in (0x0F, 0x02):
+            break
+        pos += 9 + ln
+    return out
+
+
+def _run(capsys, argv: list[str]) -> tuple[int, list[str], str]:
+    try:
+        rc = main(argv)
+    except SystemExit as exc:       # argparse: usage errors
+        rc = exc.code
+    captured = capsys.readouterr()
+    lines = [line for line in captured.err.splitlines() if line.strip()]
+    return rc, lines, captured.out
+
+
+def _argv(command: str, path: Path, out: Path) -> list[str]:
+    return {'inspect': ['inspect', str(path), '--json'],
+            'analyze': ['analyze', str(path), '--json', str(out / 'a.json')],
+            'report': ['report', str(path), '--out', str(out / 'page'), '--analysis-hours', '0'],
+            'replay': ['replay', str(path), '--out', str(out / 'r.mcap'), '--no-frames'],
+            'recover': ['recover', str(path), '--out', str(out / 'rc.mcap')]}[command]
+
+
+def _no_temporaries(root: Path) -> None:
+    left = [p for p in root.rglob('*') if '.tmp' in p.name]
+    assert not left, left
+
+
+def _check(capsys, command: str, path: Path, out: Path, want_rc: int | None, want: str | None) -> list[str]:
+    out.mkdir(exist_ok=True)
+    rc, lines, _ = _run(capsys, _argv(command, path, out))
+    assert rc in (0, 1), (command, path.name, rc, lines)
+    assert not any('Traceback' in line or 'internal error' in line for line in lines), lines
+    if rc:
+        assert len(lines) == 1 and lines[0].startswith(f'steer-monitor {command}: error: '), lines
+    if want_rc is not None:
+        assert rc == want_rc, (command, path.name, lines)
+    if want is not None:
+        assert any(want in line for line in lines), (command, path.name, lines)
+    _no_temporaries(out)
+    return lines
+
+
+def _flip(data: bytes, n: int, lo: int, hi: int, seed: int) -> bytes:
+    rng = random.Random(seed)
+    b = bytearray(data)
+    for _ in range(n):
+        b[rng.randrange(lo, hi)] ^= 0xFF
+    return bytes(b)
+
+
+CANDUMP_CASES = {
+    # name: (bytes from the good log, inspect's exit status)
+    'empty': (lambda b: b'', 0),
+    'junk': (lambda b: random.Random(5).randbytes(4000), 0),
+    'reversed': (lambda b: b'\n'.join(reversed(b.splitlines())) + b'\n', 0),
+    'crlf_tabs': (lambda b: b.replace(b' ', b' \t ').replace(b'\n', b'\r\n'), 0),
+    'huge_line': (lambda b: b[:3000] + b'x' * 5_000_000 + b'\n' + b[3000:], 0),
+    'non_utf8': (lambda b: b[:3000] + b'\xff\xfe\x80' + b[3000:], 0),
+    'flipped': (lambda b: _flip(b, 64, 0, len(b), 1), 0),
+    'future_frame': (lambda b: b[:6000] + b'(4102444800.000000) can0 09F10D10#00F80000FFFFFFFF\n' + b[6000:], 0),
+    'past_2038': (lambda b: b.replace(b'(1767', b'(2267'), 0),
+}
+
+
+@pytest.mark.parametrize('case', sorted(CANDUMP_CASES))
+def test_bad_candump_logs(base, tmp_path, capsys, case):
+    make, inspect_rc = CANDUMP_CASES[case]
+    path = tmp_path / f'{case}.log'
+    path.write_bytes(make(base['log'].read_bytes()))
+    (tmp_path / 'o1').mkdir()
+    rc, lines, out = _run(capsys, _argv('inspect', path, tmp_path / 'o1'))
+    assert rc == inspect_rc and not lines, lines
+    assert len(out) < 100_000          # a 5 MB line is not a 5 MB example
+    lines = _check(capsys, 'replay', path, tmp_path / 'o2', None, None)
+    if case in ('empty', 'junk'):
+        assert lines == [f'steer-monitor replay: error: no frame in {path}']
+        assert not (tmp_path / 'o2' / 'r.mcap').exists()
+
+
+def test_one_far_future_frame_costs_that_frame_only(base, tmp_path, capsys):
+    """The issue's case: a glitched rudder frame 75 years ahead poisoned its identifier
+    (every later frame time_backwards) and made the grids span decades."""
+    import json
+    lines = base['long'].read_bytes().splitlines(keepends=True)
+    rudder = next(line for line in lines[2000:] if b' 09F10D10#' in line)
+    glitch = b'(4102444800.000000) can0 ' + rudder.split(b' can0 ', 1)[1]
+    path = tmp_path / 'glitch.log'
+    path.write_bytes(b''.join(lines[:2000]) + glitch + b''.join(lines[2000:]))
+    got = {}
+    for p in (base['long'], path):
+        rc, _, out = _run(capsys, ['inspect', str(p), '--json'])
+        assert rc == 0
+        got[p] = json.loads(out)
+    g, b = got[base['long']], got[path]
+    assert b['rejects'] == {**g['rejects'], 'time_jump': 1}
+    assert b['signals']['rudder_angle']['samples'] == g['signals']['rudder_angle']['samples']
+    assert b['span_s'] == g['span_s']
+
+
+def test_corrupt_chunk_is_skipped_counted_and_reported(base, tmp_path, capsys):
+    """Flipped bytes inside an uncompressed chunk: without the CRC the frames would pass on
+    altered. Every reader refuses that chunk, keeps the chunks before and after it, and says
+    so; recover drops it and says why."""
+    import json
+    good = base['chunks'].read_bytes()
+    spans = _chunk_spans(base['chunks'])
+    assert len(spans) > 10
+    lo, hi = spans[len(spans) // 2]
+    path = tmp_path / 'flipped.mcap'
+    path.write_bytes(_flip(good, 8, lo + 100, hi - 100, 2))
+    rc, lines, out = _run(capsys, ['inspect', str(path), '--json'])
+    assert rc == 1 and len(lines) == 1 and '1 corrupt chunk(s) skipped' in lines[0] and 'CRC mismatch' in lines[0]
+    s = json.loads(out)
+    rc, _, ref = _run(capsys, ['inspect', str(base['chunks']), '--json'])
+    r = json.loads(ref)
+    assert s['rejects'].get('corrupt_chunk') == 1
+    assert 0 < r['frames'] - s['frames'] < 200                # one chunk's frames, the rest kept
+    assert s['end_ns'] == r['end_ns'] and s['start_ns'] == r['start_ns']
+    out_dir = tmp_path / 'o'
+    _check(capsys, 'replay', path, out_dir, 1, 'corrupt chunk')
+    assert (out_dir / 'r.mcap').stat().st_size > 0             # made from what could be read
+    lines = _check(capsys, 'recover', path, out_dir, 1, 'corrupt chunk(s) dropped')
+    assert 'CRC mismatch' in lines[0]
+
+
+@pytest.mark.parametrize('where', ['zstd', 'recording'])
+def test_flipped_compressed_chunk(base, tmp_path, capsys, where):
+    src = base['mcap'] if where == 'zstd' else base['rec']
+    lo, hi = _chunk_spans(src)[0]
+    path = tmp_path / f'{where}.mcap'
+    path.write_bytes(_flip(src.read_bytes(), 64, lo + 50, hi - 50, 3))
+    for command in ('inspect', 'replay'):
+        lines = _check(capsys, command, path, tmp_path / command, 1, None)
+        assert 'corrupt chunk' in lines[0] or 'no frame' in lines[0], lines
+    _check(capsys, 'recover', path, tmp_path / 'rc', 1, None)
+
+
+@pytest.mark.parametrize('fraction', [0.0, 0.001, 0.1, 0.37, 0.5, 0.81, 0.999])
+def test_truncated_recordings(base, tmp_path, capsys, fraction):
+    data = base['rec'].read_bytes()
+    cut = int(len(data) * fraction)
+    path = tmp_path / f'cut{cut}.mcap'
+    path.write_bytes(data[:cut])
+    for command in ('inspect', 'replay', 'recover'):
+        lines = _check(capsys, command, path, tmp_path / command, None, None)
+        if lines:
+            assert str(path) in lines[0]
+
+
+def test_cut_one_byte_short_is_analysed_and_says_so(base, tmp_path, capsys):
+    """A recording cut inside its summary still holds every frame: analyze and report use
+    them all, and, the file being damaged, say it and exit 1 like the others."""
+    data = base['chunks'].read_bytes()
+    path = tmp_path / 'short_by_one.mcap'
+    path.write_bytes(data[:-1])
+    for command in ('inspect', 'replay'):
+        _check(capsys, command, path, tmp_path / command, None, None)
+
+
+@pytest.mark.parametrize('command', LOG_COMMANDS + ('recover',))
+def test_unwritable_and_directory_outputs(base, tmp_path, capsys, command):
+    src = base['rec'] if command == 'recover' else base['log']
+    if command == 'inspect':
+        return     # writes nothing
+    # a file's directory that does not exist (report makes its directory, so: one under a file)
+    (tmp_path / 'plain').write_text('x')
+    bad_dir = tmp_path / 'plain' / 'dir' if command == 'report' else tmp_path / 'no' / 'such' / 'dir'
+    rc, lines, _ = _run(capsys, _argv(command, src, bad_dir))
+    assert rc == 1 and len(lines) == 1, lines
+    if command == 'report':
+        assert 'cannot create the output directory' in lines[0] and 'Not a directory' in lines[0], lines
+    else:
+        assert f'no directory {bad_dir}' in lines[0], lines
+    # a directory where a file is wanted
+    (tmp_path / 'isdir').mkdir()
+    target = {'analyze': ['analyze', str(src), '--json', str(tmp_path / 'isdir')],
+              'report': ['report', str(src), '--out', str(tmp_path / 'afile'), '--analysis-hours', '0'],
+              'replay': ['replay', str(src), '--out', str(tmp_path / 'isdir')],
+              'recover': ['recover', str(src), '--out', str(tmp_path / 'isdir')]}[command]
+    if command == 'report':
+        (tmp_path / 'afile').write_text('x')
+    rc, lines, _ = _run(capsys, target)
+    assert rc == 1 and len(lines) == 1, lines
+    assert 'is a directory' in lines[0] or 'not a directory' in lines[0], lines
+    _no_temporaries(tmp_path)
+
+
+BAD_YAML = {
+    'non_utf8': (lambda cfg: cfg[:200] + b'\xff' + cfg[200:], 'is not UTF-8 text (byte 0xFF at offset 200)'),
+    'nested': (lambda cfg: b'a: ' + b'[' * 5000, 'is nested too deeply to be a parameters file'),
+    'alias_bomb': (lambda cfg: b'a: &a ["x","x","x","x","x","x","x","x","x"]\n'
+                   + b''.join(f'{c}: &{c} [{",".join(["*" + p] * 9)}]\n'.encode()
+                              for p, c in zip('abcdefgh', 'bcdefghi')), 'YAML aliases (*name) are not accepted'),
+    'empty': (lambda cfg: b'', 'expected "steer_monitor: ros__parameters:" at the top'),
+    'a_list': (lambda cfg: b'- 1\n- 2\n', 'expected "steer_monitor: ros__parameters:" at the top'),
+    'junk': (lambda cfg: bytes(range(1, 128)) * 3, 'parameters file'),
+    'huge': (lambda cfg: b'#' * (2 << 20), 'it cannot be a parameters file'),
+}
+
+
+@pytest.mark.parametrize('case', sorted(BAD_YAML))
+@pytest.mark.parametrize('command', ['inspect', 'loadshare', 'simulate'])
+def test_bad_parameters_files(base, tmp_path, capsys, case, command):
+    make, phrase = BAD_YAML[case]
+    cfg = tmp_path / f'{case}.yaml'
+    cfg.write_bytes(make((REPO / 'config' / 'r18.yaml').read_bytes()))
+    argv = {'inspect': ['inspect', str(base['log']), '--config', str(cfg)],
+            'loadshare': ['loadshare', '--config', str(cfg)],
+            'simulate': ['simulate', '--config', str(cfg), '--out', str(tmp_path / 's.log')]}[command]
+    rc, lines, _ = _run(capsys, argv)
+    assert rc == 1 and len(lines) == 1 and str(cfg) in lines[0] and phrase in lines[0], lines
+    assert not (tmp_path / 's.log').exists()
+
+
+def test_bad_chain_file(tmp_path, capsys):
+    chain = tmp_path / 'chain.yaml'
+    chain.write_bytes(b'chain: &c [*c]\n')
+    rc, lines, _ = _run(capsys, ['backlash', str(chain)])
+    assert rc == 1 and len(lines) == 1 and 'chain file' in lines[0], lines
+
+
+@pytest.mark.parametrize('argv', [['inspect'], ['replay', 'x.log'], ['analyze', '--json'], ['nonsense']])
+def test_usage_errors_exit_2(capsys, argv):
+    rc, lines, _ = _run(capsys, argv)
+    assert rc == 2 and lines and not any('Traceback' in line for line in lines)
+
+
+def test_missing_log(tmp_path, capsys):
+    for command in LOG_COMMANDS:
+        rc, lines, _ = _run(capsys, _argv(command, tmp_path / 'missing.log', tmp_path))
+        assert rc == 1 and len(lines) == 1 and 'missing.log' in lines[0], (command, lines)
+
+
+@pytest.mark.parametrize('bus', ['socketcan:can0', 'pcan:PCAN_USBBUS1', 'kvaser:0'])
+def test_simulator_refuses_real_buses(capsys, bus):
+    rc, lines, _ = _run(capsys, ['simulate', '--bus', bus, '--max-duration', '1'])
+    assert rc == 1 and len(lines) == 1 and '--i-know-this-is-a-real-bus' in lines[0], lines
+
+
+def test_clock_step_of_years_is_bounded_by_the_data(base, tmp_path, capsys):
+    """A host clock stepped ten years ahead mid-log (and kept there): the step is confirmed,
+    not rejected; analyze's grid, the online estimator and replay's schedule follow the data,
+    not the decade between (before: 47-57 GiB asked for, replay hung); the estimate is the
+    one without the step, to the rows the cut takes."""
+    import json
+    lines = base['long'].read_bytes().splitlines(keepends=True)
+    half = len(lines) // 2
+    ten_years = 10 * 365 * 86400
+
+    def later(line: bytes) -> bytes:
+        sec, rest = line[1:].split(b'.', 1)
+        return b'(' + str(int(sec) + ten_years).encode() + b'.' + rest
+    path = tmp_path / 'stepped.log'
+    path.write_bytes(b''.join(lines[:half]) + b''.join(later(x) for x in lines[half:]))
+    got = {}
+    for p in (base['long'], path):
+        rc, lines_err, _ = _run(capsys, ['analyze', str(p), '--json', str(tmp_path / f'{p.stem}.json')])
+        assert rc == 0, lines_err
+        got[p] = json.loads((tmp_path / f'{p.stem}.json').read_text())
+    a, b = got[base['long']], got[path]
+    assert 'time_jump' not in b['data']['rejects']
+    for key in ('clearance_2z_mm', 'clearance_zgb_mm'):
+        assert b[key]['value'] == pytest.approx(a[key]['value'], abs=0.03), key
+    rc, err, _ = _run(capsys, ['replay', str(path), '--out', str(tmp_path / 'r.mcap'), '--no-frames'])
+    assert rc == 0, err

@@ -1,0 +1,70 @@
+"""Outputs written whole or not at all."""
+
+from __future__ import annotations
+
+import pytest
+
+from steer_monitor.atomic import atomic_path, atomic_write, ensure_dir, write_bytes, write_text
+from steer_monitor.errors import OutputError
+
+
+def test_write_replaces_whole_and_leaves_no_temporary(tmp_path):
+    target = tmp_path / 'a.json'
+    target.write_text('old')
+    write_text(target, 'new')
+    assert target.read_text() == 'new'
+    write_bytes(tmp_path / 'b.png', b'\x89PNG')
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['a.json', 'b.png']
+
+
+def test_an_error_midway_keeps_the_old_file(tmp_path):
+    target = tmp_path / 'a.json'
+    target.write_text('old')
+    with pytest.raises(RuntimeError, match='midway'):
+        with atomic_write(target) as fh:
+            fh.write('half')
+            raise RuntimeError('midway')
+    assert target.read_text() == 'old'
+    assert [p.name for p in tmp_path.iterdir()] == ['a.json']
+
+
+def test_the_temporary_keeps_the_suffix(tmp_path):
+    with atomic_path(tmp_path / 'x.mcap') as tmp:
+        assert tmp.suffix == '.mcap' and tmp.parent == tmp_path and tmp.name.startswith('.x.')
+        tmp.write_bytes(b'1')
+    assert (tmp_path / 'x.mcap').read_bytes() == b'1'
+
+
+@pytest.mark.parametrize('where,message', [
+    ('missing/dir/a.json', 'cannot write {p}: no directory'),
+    ('adir', 'cannot write {p}: it is a directory'),
+])
+def test_bad_targets_are_named(tmp_path, where, message):
+    (tmp_path / 'adir').mkdir()
+    p = tmp_path / where
+    with pytest.raises(OutputError) as err:
+        write_text(p, 'x')
+    assert str(err.value).startswith(message.format(p=p))
+
+
+def test_ensure_dir(tmp_path):
+    assert ensure_dir(tmp_path / 'a' / 'b').is_dir()
+    (tmp_path / 'f').write_text('x')
+    with pytest.raises(OutputError, match='it exists and is not a directory'):
+        ensure_dir(tmp_path / 'f')
+    with pytest.raises(OutputError, match='cannot create the output directory .*Not a directory'):
+        ensure_dir(tmp_path / 'f' / 'g')
+
+
+def test_a_read_only_directory(tmp_path):
+    import os
+    d = tmp_path / 'ro'
+    d.mkdir()
+    d.chmod(0o500)
+    try:
+        if os.access(d, os.W_OK):
+            pytest.skip('running as a user the permission bits do not stop (root)')
+        with pytest.raises(OutputError, match='Permission denied'):
+            write_text(d / 'a.txt', 'x')
+    finally:
+        d.chmod(0o700)
