@@ -136,15 +136,19 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
                     writer.write(topics[key], fields, t_ns)
 
     batch: list[Frame] = []
+    early: int | None = None     # the first stamp, while the stream's first frames await confirmation
+    jump = pipeline.decoder.jumps.max_jump_ns
     for path in paths:
         n_log = 0
         try:
             for block in iter_log_blocks(path, rejects):
                 for frame in block.frames():
                     t = pipeline.clock(frame.t_ns)       # a glitched stamp does not stretch the span
-                    if t is not None:
-                        if summary.first_ns is None:
-                            summary.first_ns = t
+                    if t is None:
+                        early = frame.t_ns if early is None else early
+                    else:
+                        if summary.first_ns is None:     # the confirmed stream's own start
+                            summary.first_ns = early if early is not None and 0 <= t - early <= jump else t
                         summary.last_ns = t
                     if frames:
                         batch.append(frame)

@@ -125,12 +125,15 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
         cl = _values(h.latest()['steer_monitor: clearances'])
         assert cl['clearance_source'] == 'estimated'
         # one 52 s hard-over (the 25-minute accuracy is the batch tests' and docs/accuracy.md's):
-        # the point is near the truth and so is the interval. Not "the interval holds it": a
-        # 95 % interval misses one realisation in twenty, and this one is played in real time
-        # through a virtual bus whose arrival times move with the machine's load (a CI run
-        # with the accuracy study beside it got [0.255, ...] at 0.25).
-        assert float(cl['clearance_zgb_lo_mm']) - 0.02 <= 0.25 <= float(cl['clearance_zgb_hi_mm']) + 0.02
-        assert float(cl['clearance_zgb_mm']) == pytest.approx(0.25, abs=0.06)
+        # the interval is near the truth, within 0.02 mm: not "holds it", since a 95 % interval
+        # misses one realisation in twenty, and this one is played in real time through a
+        # virtual bus whose arrival times move with the machine's load (a CI run with the
+        # accuracy study beside it got [0.255, ...] at 0.25). The point is only promised inside
+        # its interval: on 52 s the interval spans about 0.1-0.4 mm, and points from 0.19 to
+        # 0.33 were seen on the same playback.
+        lo, hi = float(cl['clearance_zgb_lo_mm']), float(cl['clearance_zgb_hi_mm'])
+        assert lo - 0.02 <= 0.25 <= hi + 0.02
+        assert lo <= float(cl['clearance_zgb_mm']) <= hi
         assert cl['clearance_2z_hi_mm'] == 'n/a' and float(cl['clearance_2z_lo_mm']) <= 0.6  # a bound only
         # K_gl max of the true gear over the hard-over is 0.59; 52 s of data leave 2Z (which sets
         # it through clamping) a bound only, so the point may sit anywhere in the interval
