@@ -17,7 +17,7 @@ from typing import IO, Any
 
 from steer_monitor.errors import OutputError
 
-__all__ = ['atomic_path', 'atomic_write', 'ensure_dir', 'os_reason', 'write_bytes', 'write_text']
+__all__ = ['atomic_path', 'atomic_write', 'check_target', 'ensure_dir', 'os_reason', 'write_bytes', 'write_text']
 
 
 def os_reason(exc: OSError) -> str:
@@ -39,12 +39,19 @@ def ensure_dir(path: str | Path) -> Path:
     return p
 
 
-def _check_target(target: Path) -> None:
+def check_target(path: str | Path) -> None:
+    """:class:`OutputError` now if ``path`` cannot be written later (a directory, no parent
+    directory, a parent without write permission): commands that work for minutes before
+    they write check their outputs first."""
+    target = Path(path)
     if target.is_dir():
         msg = f'cannot write {target}: it is a directory'
         raise OutputError(msg)
     if not target.parent.is_dir():
         msg = f'cannot write {target}: no directory {target.parent}'
+        raise OutputError(msg)
+    if not os.access(target.parent, os.W_OK):
+        msg = f'cannot write {target}: {target.parent} is not writable'
         raise OutputError(msg)
 
 
@@ -53,7 +60,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     """A temporary path to write ``path``'s content to (by any writer, e.g. matplotlib);
     renamed to ``path`` when the block ends without an exception, removed otherwise."""
     target = Path(path)
-    _check_target(target)
+    check_target(target)
     # the suffix kept last, for writers that choose the format by it (.log, .mcap)
     tmp = target.with_name(f'.{target.stem}.{os.getpid()}.tmp{target.suffix}')
     try:

@@ -51,6 +51,11 @@ def load_yaml(path: str | Path, what: str) -> Any:
         raise ParameterError(msg) from exc
     try:
         return yaml.load(text, Loader=_Loader)  # noqa: S506 - _Loader is the safe loader without aliases
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        where = f' (line {mark.line + 1}, column {mark.column + 1})' if mark is not None else ''
+        msg = f'{what} {path} is not valid YAML: {exc.problem or exc.context}{where}'
+        raise ParameterError(msg) from exc
     except yaml.YAMLError as exc:
         msg = f'{what} {path} is not valid YAML: ' + ' '.join(str(exc).split())
         raise ParameterError(msg) from exc

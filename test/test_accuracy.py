@@ -89,7 +89,7 @@ def test_cli_writes_table_and_json(tmp_path, capsys):
     (['--programmes', 'sea_trial'], "unknown study programme 'sea_trial'"),
     (['--grid-2z-mm', '0.1,x'], '--grid-2z-mm: expected a comma-separated list of positive millimetres'),
     (['--grid-zgb-mm', '-0.1'], '--grid-zgb-mm: expected a comma-separated list of positive millimetres'),
-    (['--out', '/nonexistent/dir/acc.md'], 'directory /nonexistent/dir does not exist'),
+    (['--out', '/nonexistent/dir/acc.md'], 'cannot write /nonexistent/dir/acc.md: no directory /nonexistent/dir'),
 ])
 def test_bad_arguments_are_named(argv, message, capsys):
     assert main(['accuracy', *argv]) == 1

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from steer_monitor import accuracy as A
-from steer_monitor.atomic import atomic_write, write_text
+from steer_monitor.atomic import atomic_write, check_target, write_text
 from steer_monitor.can.setup import can_setup
 from steer_monitor.cli.output import dump_json
 from steer_monitor.errors import ParameterError
@@ -222,12 +222,9 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
     config_path = str(config or default_config())
     params = load_params_file(config_path)
     can_setup(params, config_path)   # a bad config fails here, not in every worker
-    for target in (out_md, json_out):
+    for target in (out_md, json_out):     # before an hour of work, not after
         if target is not None and str(target) != '-':
-            parent = Path(target).parent
-            if not parent.is_dir():
-                msg = f'cannot write {target}: directory {parent} does not exist'
-                raise ParameterError(msg)
+            check_target(target)
     from tqdm import tqdm
     jobs = jobs or min(len(todo), os.cpu_count() or 1)
     bar = tqdm(total=len(todo), unit='log', disable=not sys.stderr.isatty(), file=sys.stderr, desc='accuracy')

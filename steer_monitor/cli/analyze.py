@@ -37,7 +37,7 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from steer_monitor.atomic import atomic_write
+from steer_monitor.atomic import atomic_write, check_target
 from steer_monitor.can.decodelog import decode_logs
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import load_setup
@@ -166,6 +166,9 @@ def run(path: str | Path, config: str | Path | None = None, json_out: str | Path
     ``err``)."""
     out = out or sys.stdout
     err = err or sys.stderr
+    for target in (json_out, report):     # before minutes of work, not after
+        if target is not None and str(target) != '-':
+            check_target(target)
     t0 = time.perf_counter()
     a, result = analyze_log(path, config, progress=sys.stderr.isatty())
     result['analysis_s'] = round(time.perf_counter() - t0, 2)

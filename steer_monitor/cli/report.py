@@ -81,6 +81,7 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
     or had corrupt parts (the page is made from what could be read and says so)."""
     from tqdm import tqdm
 
+    from steer_monitor.atomic import ensure_dir
     from steer_monitor.batchpath import review_logs
     from steer_monitor.can.logs import LogError
     from steer_monitor.errors import ParameterError
@@ -98,6 +99,7 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
             msg = f'log {p} does not exist'
             raise ParameterError(msg)
     config_path, params = load_config(config)
+    ensure_dir(out_dir)               # before the review, not after
     t0 = time.perf_counter()
     with tqdm(unit='frame', unit_scale=True, disable=not sys.stderr.isatty(), file=sys.stderr, desc='review') as bar:
         batch = review_logs(paths, config_path, progress=bar.update)

@@ -10,6 +10,11 @@ __all__ = ['register', 'run']
 
 
 def run(params_file: str, ros_args: Sequence[str] = ()) -> int:
+    """Start the node. The parameters file is read and checked here first (one line naming the
+    file and the key when it is bad), so rcl never meets a file it would refuse with a C
+    traceback of its own."""
+    from steer_monitor.params import load_params_file
+    load_params_file(params_file)
     from steer_monitor.node.monitor_node import main
     return main(['steer-monitor', '--ros-args', '--params-file', params_file, *ros_args])
 

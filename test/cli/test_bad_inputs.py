@@ -328,3 +328,22 @@ def test_clock_step_of_years_is_bounded_by_the_data(base, tmp_path, capsys):
         assert b[key]['value'] == pytest.approx(a[key]['value'], abs=0.03), key
     rc, err, _ = _run(capsys, ['replay', str(path), '--out', str(tmp_path / 'r.mcap'), '--no-frames'])
     assert rc == 0, err
+
+
+@pytest.mark.parametrize('argv,phrase', [
+    (['analyze', '{log}', '--json', '{tmp}/no/dir/a.json'], 'cannot write {tmp}/no/dir/a.json: no directory'),
+    (['analyze', '{log}', '--report', '{tmp}'], 'cannot write {tmp}: it is a directory'),
+    (['accuracy', '--out', '{tmp}/no/dir/acc.md'], 'cannot write {tmp}/no/dir/acc.md: no directory'),
+    (['study', '--out', '{log}/x'], 'cannot create the output directory {log}/x'),
+    (['loadshare', '--plot', '{log}/x.png'], 'cannot write into {log}: it exists and is not a directory'),
+    (['run', '--params-file', '{tmp}/missing.yaml'], 'cannot read parameters file {tmp}/missing.yaml'),
+    (['fit', '240 Q9/f9'], 'only hole-basis fits'),
+    (['backlash', '{tmp}/missing.yaml'], 'cannot read chain file {tmp}/missing.yaml'),
+])
+def test_the_other_subcommands_fail_in_one_line_before_their_work(base, tmp_path, capsys, argv, phrase):
+    """Outputs are checked before minutes of work (analyze, accuracy), not after; the node's
+    parameters file is read by us before rcl, which would print its own C error first."""
+    fill = {'log': str(base['log']), 'tmp': str(tmp_path)}
+    rc, lines, _ = _run(capsys, [a.format(**fill) for a in argv])
+    assert rc == 1 and len(lines) == 1, lines
+    assert phrase.format(**fill) in lines[0] and 'internal error' not in lines[0], lines
