@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -53,6 +54,11 @@ def plot_load_sharing(alpha: NDArray[np.float64], res: LoadSharing, path: str | 
     ax2.set_title('(b) guide-beam load coefficient')
     ax2.grid(True, alpha=0.3)
     fig.suptitle(title)
+    return _save(plt, fig, path)
+
+
+def _save(plt: Any, fig: Any, path: str | Path) -> Path:
+    """Write ``fig`` to ``path`` (its directory made, the file whole or not at all); close it."""
     path = Path(path)
     ensure_dir(path.parent)
     try:
@@ -76,11 +82,4 @@ def plot_gap_sensitivity(study: GapSensitivity, path: str | Path, title: str) ->
     ax.grid(True, alpha=0.3)
     ax.legend()
     ax.set_title(title)
-    path = Path(path)
-    ensure_dir(path.parent)
-    try:
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=110)
-    finally:
-        plt.close(fig)
-    return path
+    return _save(plt, fig, path)

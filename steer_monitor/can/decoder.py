@@ -145,9 +145,7 @@ class Decoder:
         layout = self._frame_layout(frame)
         if layout is None:
             return []
-        if len(self._held_fa):
-            self._held = [(f, self.db.message(int(pgn_of(f.can_id)))) for f in self._held_fa.frames()]
-            self._held_fa = FrameArrays.empty()
+        self._held_to_frames()
         rejected, released = self.jumps.push(frame.t_ns)
         self._held.append((frame, layout))
         for f, _ in self._held[:rejected]:
@@ -166,9 +164,7 @@ class Decoder:
         too short to be believed and is rejected as ``time_jump``; the stream's first
         chain (no jump seen, just fewer than ``CONFIRM_FRAMES`` frames) is released, and
         its samples are returned."""
-        if len(self._held_fa):
-            self._held = [(f, self.db.message(int(pgn_of(f.can_id)))) for f in self._held_fa.frames()]
-            self._held_fa = FrameArrays.empty()
+        self._held_to_frames()
         held, self._held = self._held, []
         start = self.jumps.ref_ns is None
         self.jumps.finish()
@@ -181,6 +177,13 @@ class Decoder:
         if start and held:
             self.jumps.ref_ns = held[-1][0].t_ns
         return out
+
+    def _held_to_frames(self) -> None:
+        """Frames held by the block path, handed to the frame path (the two are not mixed
+        often, but a stream may be fed both ways)."""
+        if len(self._held_fa):
+            self._held = [(f, self.db.message(int(pgn_of(f.can_id)))) for f in self._held_fa.frames()]
+            self._held_fa = FrameArrays.empty()
 
     def _fields(self, frame: Frame, layout: MessageLayout) -> list[Sample]:
         """The samples of an accepted frame's mapped fields."""
