@@ -10,6 +10,7 @@ line or MCAP summary, says where the windows fall). The results are the same as 
 
 from __future__ import annotations
 
+import datetime
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,14 +39,14 @@ class BatchRun:
     errors: list[str]
 
 
-def _decoded(paths: list[Path], db: object, smap: object, rejects: RejectCounter
-             ) -> Iterator[tuple[str, Any, int]]:
+def _decoded(paths: list[Path], db: object, smap: object, rejects: RejectCounter,
+             date: datetime.date | None = None) -> Iterator[tuple[str, Any, int]]:
     """Read and decode ``paths`` in order: ('block', signals, frames) per block, ('error',
     text, 0) for a log that breaks off, and last ('done', reject counts, 0)."""
     decoder = Decoder(db, smap, rejects)  # type: ignore[arg-type]
     for path in paths:
         try:
-            for block in iter_log_blocks(path, rejects):
+            for block in iter_log_blocks(path, rejects, date):
                 yield 'block', decoder.decode_arrays(block), len(block)
         except LogError as exc:
             yield 'error', str(exc), 0
@@ -53,11 +54,11 @@ def _decoded(paths: list[Path], db: object, smap: object, rejects: RejectCounter
     yield 'done', dict(rejects.snapshot().counts), 0
 
 
-def _produce(paths: list[Path], db: object, smap: object, out: object) -> None:
+def _produce(paths: list[Path], db: object, smap: object, out: object, date: datetime.date | None) -> None:
     """:func:`_decoded` in a second process, onto the queue ``out``."""
     rejects = RejectCounter()
     try:
-        for item in _decoded(paths, db, smap, rejects):
+        for item in _decoded(paths, db, smap, rejects, date):
             out.put(item)  # type: ignore[attr-defined]
     except BaseException as exc:   # a defect: say so rather than leave the reader waiting
         out.put(('error', f'reading failed: {type(exc).__name__}: {exc}', 0))  # type: ignore[attr-defined]
@@ -65,13 +66,13 @@ def _produce(paths: list[Path], db: object, smap: object, out: object) -> None:
 
 
 def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *, jobs: int | None = None,
-                progress: Callable[[int], None] | None = None) -> BatchRun:
+                progress: Callable[[int], None] | None = None, date: datetime.date | None = None) -> BatchRun:
     """Review ``logs`` (taken in order of their first frame) with the configuration's gear and
     signal map. A log that breaks off gives what came before; the error is reported."""
     import multiprocessing as mp
     import os
 
-    paths = in_time_order([Path(p) for p in logs])
+    paths = in_time_order([Path(p) for p in logs], date)
     _, params, db, smap = load_setup(config)
     gear = gear_from_params(params)
     jobs = min(jobs or os.cpu_count() or 1, 2)
@@ -85,11 +86,11 @@ def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *,
     if jobs > 1:
         ctx = mp.get_context('fork')
         queue = ctx.Queue(maxsize=4)
-        proc = ctx.Process(target=_produce, args=(paths, db, smap, queue), daemon=True)
+        proc = ctx.Process(target=_produce, args=(paths, db, smap, queue, date), daemon=True)
         proc.start()
         items: Iterator[tuple[str, Any, int]] = iter(queue.get, None)
     else:
-        items = _decoded(paths, db, smap, RejectCounter())
+        items = _decoded(paths, db, smap, RejectCounter(), date)
     try:
         for kind, payload, n in items:
             if kind == 'block':

@@ -184,6 +184,10 @@ PARAMETERS: tuple[ParamSpec, ...] = (
                   'instance field to match (-1: any)', -1, 255),
         ParamSpec(f'signals.{name}.source', 'integer', source,
                   'source field to match (-1: any)', -1, 255),
+        ParamSpec(f'signals.{name}.address', 'integer', -1,
+                  'CAN source address to match (-1: any)', -1, 253),
+        ParamSpec(f'signals.{name}.device_name', 'string', '',
+                  "device NAME to match, 16 hex digits from address claims ('': any)"),
         ParamSpec(f'signals.{name}.rate_hz', 'double', rate, f'expected rate of {name} [Hz]',
                   0.0, 1000.0, True),
     )

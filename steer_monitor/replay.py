@@ -15,6 +15,7 @@ the break; the replay goes on with the next one and reports the error.
 
 from __future__ import annotations
 
+import datetime
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -66,13 +67,13 @@ class ReplaySummary:
 
 def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | None = None, *,
            frames: bool = True, estimator: bool = True, node_name: str = 'steer_monitor',
-           progress: Callable[[int], None] | None = None) -> ReplaySummary:
+           progress: Callable[[int], None] | None = None, date: datetime.date | None = None) -> ReplaySummary:
     """Replay ``logs`` into ``output`` (an MCAP). ``frames``: record the raw frames too, as
     the node does. ``progress`` is called with the number of frames done since its last call."""
     if not logs:
         msg = 'no log given'
         raise ReplayError(msg)
-    paths = in_time_order([Path(p) for p in logs])
+    paths = in_time_order([Path(p) for p in logs], date)
     for p in paths:
         if not p.is_file():
             msg = f'log {p} does not exist'
@@ -98,7 +99,7 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
             msg = f'cannot write {output}: {os_reason(exc)}'
             raise ReplayError(msg) from exc
         with writer:
-            _run(paths, pipeline, writer, topics, encoders, frames, rejects, summary, progress)
+            _run(paths, pipeline, writer, topics, encoders, frames, rejects, summary, progress, date)
         if summary.frames == 0:     # nothing to write: no output rather than an empty one
             msg = summary.errors[0] if summary.errors else 'no frame in ' + ', '.join(str(p) for p in paths)
             raise ReplayError(msg)
@@ -110,7 +111,7 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
 
 def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict[str, str],
          encoders: dict[str, Any], frames: bool, rejects: RejectCounter, summary: ReplaySummary,
-         progress: Callable[[int], None] | None) -> None:
+         progress: Callable[[int], None] | None, date: datetime.date | None) -> None:
     """Feed every frame of ``paths`` through ``pipeline``, writing what it emits (and the
     frames) to ``writer``."""
     for key, (_, datatype) in TOPICS.items():
@@ -141,7 +142,7 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
     for path in paths:
         n_log = 0
         try:
-            for block in iter_log_blocks(path, rejects):
+            for block in iter_log_blocks(path, rejects, date):
                 for frame in block.frames():
                     t = pipeline.clock(frame.t_ns)       # a glitched stamp does not stretch the span
                     if t is None:

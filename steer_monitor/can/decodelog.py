@@ -9,6 +9,7 @@ line per log, for the command to report.
 
 from __future__ import annotations
 
+import datetime
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -51,9 +52,11 @@ class DecodedLogs:
 
 
 def decode_logs(paths: Sequence[str | Path], db: CanDatabase, smap: SignalMap, rejects: RejectCounter, *,
-                since_ns: int | None = None, progress: Callable[[int], None] | None = None) -> DecodedLogs:
+                since_ns: int | None = None, progress: Callable[[int], None] | None = None,
+                date: datetime.date | None = None) -> DecodedLogs:
     """Read and decode ``paths`` in the order given as one stream (frames before ``since_ns``
-    left out); rejects are counted in ``rejects``. ``progress`` hears the frames of each block."""
+    left out); rejects are counted in ``rejects``. ``progress`` hears the frames of each block.
+    ``date``: of a YDWG raw log's first line (:func:`~steer_monitor.can.gateway.ydwg_date`)."""
     decoder = Decoder(db, smap, rejects)
     parts: dict[str, list[Series]] = {name: [] for name in smap.names}
     frames = 0
@@ -66,7 +69,7 @@ def decode_logs(paths: Sequence[str | Path], db: CanDatabase, smap: SignalMap, r
 
     for path in paths:
         try:
-            for block in iter_log_blocks(path, rejects):
+            for block in iter_log_blocks(path, rejects, date):
                 frames += len(block)
                 if progress is not None:
                     progress(len(block))

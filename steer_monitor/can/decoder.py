@@ -3,12 +3,15 @@
 Both paths apply the same checks in the same order and count every refusal in a
 :class:`~steer_monitor.can.rejects.RejectCounter`:
 
-1. frame level: error frame, remote frame, 11-bit identifier, PGN not in the DBC, wrong
-   length; a time jump (:mod:`~steer_monitor.can.timejump`: a frame far from the stream's
+1. frame level: error frame, remote frame, 11-bit identifier, an ISO address claim (read
+   into the device table, :mod:`~steer_monitor.can.devices`, then counted), PGN not in the
+   DBC, wrong length; a time jump (:mod:`~steer_monitor.can.timejump`: a frame far from the stream's
    time, unless confirmed by the frames after it, which then wait for that); time earlier
    than the previous frame with the same identifier, duplicate (same identifier, data and
    time as the previous accepted one);
-2. the frame matches no input's instance/source: ``unmapped`` (once per frame);
+2. the frame matches no input's instance, source field, address or device: ``unmapped``
+   (once per frame). The device holding a frame's address is the one at the frame's
+   arrival, in both paths, whenever the frame is decided;
 3. per mapped field: not available, error value, physically impossible.
 
 What passes becomes a sample: (t_ns, input name, SI value).
@@ -23,6 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from steer_monitor.can.codec import CanDatabase, MessageLayout
+from steer_monitor.can.devices import ADDRESS_CLAIM_PGN, DeviceName, DeviceTable, format_name
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, Frame, FrameArrays, pgn_of
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.signals import SignalMap, SignalSpec
@@ -82,9 +86,37 @@ class Decoder:
         self.rejects = rejects if rejects is not None else RejectCounter()
         self._last: dict[int, tuple[int, bytes]] = {}
         self.jumps = JumpFilter(signal_map.max_jump_ns)
-        self._held: list[tuple[Frame, MessageLayout]] = []     # frame by frame, after a jump
-        self._held_fa = FrameArrays.empty()                     # the same, block by block
+        self._held: list[tuple[Frame, MessageLayout, int]] = []  # frame by frame, after a jump
+        self._held_fa = FrameArrays.empty()                     # the same, block by block,
+        self._held_owner = np.zeros(0, np.int16)                # with their owners
         self.frames_seen = 0
+        #: who holds which address (seeded with the map's devices given an address too)
+        self.devices = DeviceTable()
+        self._owner_lut = np.full(256, -1, np.int16)
+        for spec in signal_map.specs:
+            if spec.device_name is not None and spec.address >= 0:
+                self.devices.seed(spec.address, spec.device_name)
+        self._update_owners()
+
+    # --- devices ---------------------------------------------------------------------------
+    def _update_owners(self) -> None:
+        """The map's device index (into ``map.device_names``) holding each address; -1: none."""
+        self._owner_lut[:] = -1
+        for k, name in enumerate(self.map.device_names):
+            address = self.devices.address_of(name)
+            if address is not None:
+                self._owner_lut[address] = k
+
+    def _claim(self, can_id: int, data: bytes, dlc: int) -> None:
+        """An address claim: counted, and read into the device table when well formed."""
+        if dlc != 8:
+            self.rejects.add('wrong_length', f'address claim {_id_text(can_id)} has {dlc} bytes, expected 8')
+            return
+        name = DeviceName.from_data(data).name
+        self.devices.claim(can_id & 0xFF, name)
+        if self.map.device_names:
+            self._update_owners()
+        self.rejects.add('address_claim', f'device {format_name(name)} at address {can_id & 0xFF}')
 
     # --- frame-level checks shared by both paths -----------------------------------------
     def _frame_layout(self, frame: Frame) -> MessageLayout | None:
@@ -100,6 +132,9 @@ class Decoder:
             r.add('not_extended', f'0x{frame.can_id:03X}')
             return None
         pgn = int(pgn_of(frame.can_id))
+        if pgn == ADDRESS_CLAIM_PGN:
+            self._claim(frame.can_id, frame.data, len(frame.data))
+            return None
         layout = self.db.message(pgn)
         if layout is None:
             r.add('unknown_id', f'{_id_text(frame.can_id)} (PGN {pgn})')
@@ -129,10 +164,12 @@ class Decoder:
         self.rejects.add('time_jump', f'{_id_text(frame.can_id)} at {frame.t_ns} ns, more than '
                                       f'{self.jumps.max_jump_ns / 1e9:g} s from the frames around it')
 
-    @staticmethod
-    def _matches(spec: SignalSpec, raw: dict[str, int]) -> bool:
-        return ((spec.instance < 0 or raw.get('Instance') == spec.instance)
-                and (spec.source < 0 or raw.get('Source') == spec.source))
+    def _matches(self, spec: SignalSpec, raw: dict[str, int], address: int, owner: int) -> bool:
+        instance = raw.get('Instance')
+        return ((spec.instance < 0 or instance == spec.instance or (instance == 255 and spec.bound))
+                and (spec.source < 0 or raw.get('Source') == spec.source)
+                and (spec.address < 0 or spec.device_name is not None or address == spec.address)
+                and (spec.device_name is None or (owner >= 0 and self.map.device_names[owner] == spec.device_name)))
 
     # --- one frame -----------------------------------------------------------------------
     def decode(self, frame: Frame) -> list[Sample]:
@@ -147,16 +184,16 @@ class Decoder:
             return []
         self._held_to_frames()
         rejected, released = self.jumps.push(frame.t_ns)
-        self._held.append((frame, layout))
-        for f, _ in self._held[:rejected]:
+        self._held.append((frame, layout, int(self._owner_lut[frame.can_id & 0xFF])))
+        for f, _, _ in self._held[:rejected]:
             self._jumped(f)
         rest = self._held[rejected:]
         cut = len(rest) - released
         self._held = rest[:cut]
         out: list[Sample] = []
-        for f, lay in rest[cut:]:
+        for f, lay, owner in rest[cut:]:
             if self._in_order(f, lay):
-                out += self._fields(f, lay)
+                out += self._fields(f, lay, owner)
         return out
 
     def finish(self) -> list[Sample]:
@@ -169,11 +206,11 @@ class Decoder:
         start = self.jumps.ref_ns is None
         self.jumps.finish()
         out: list[Sample] = []
-        for f, lay in held:
+        for f, lay, owner in held:
             if not start:
                 self._jumped(f)
             elif self._in_order(f, lay):
-                out += self._fields(f, lay)
+                out += self._fields(f, lay, owner)
         if start and held:
             self.jumps.ref_ns = held[-1][0].t_ns
         return out
@@ -182,16 +219,21 @@ class Decoder:
         """Frames held by the block path, handed to the frame path (the two are not mixed
         often, but a stream may be fed both ways)."""
         if len(self._held_fa):
-            self._held = [(f, self.db.message(int(pgn_of(f.can_id)))) for f in self._held_fa.frames()]
+            self._held = [(f, self.db.message(int(pgn_of(f.can_id))), int(o))  # type: ignore[misc]
+                          for f, o in zip(self._held_fa.frames(), self._held_owner)]
             self._held_fa = FrameArrays.empty()
+            self._held_owner = np.zeros(0, np.int16)
 
-    def _fields(self, frame: Frame, layout: MessageLayout) -> list[Sample]:
-        """The samples of an accepted frame's mapped fields."""
+    def _fields(self, frame: Frame, layout: MessageLayout, owner: int) -> list[Sample]:
+        """The samples of an accepted frame's mapped fields (``owner``: the map's device
+        holding the frame's address when it arrived, -1: none)."""
         raw = self.db.decode_raw(layout, frame.data)
-        specs = [s for s in self.map.for_pgn(layout.pgn) if self._matches(s, raw)]
+        address = frame.can_id & 0xFF
+        specs = [s for s in self.map.for_pgn(layout.pgn) if self._matches(s, raw, address, owner)]
         if not specs:
             self.rejects.add('unmapped', f'{layout.name} {_id_text(frame.can_id)} instance '
-                                         f'{raw.get("Instance", "-")} source {raw.get("Source", "-")}')
+                                         f'{raw.get("Instance", "-")} source field {raw.get("Source", "-")} '
+                                         f'address {address}')
             return []
         out = []
         for spec in specs:
@@ -231,6 +273,9 @@ class Decoder:
         r.add('not_extended', 'in a log block', n=int(hit.sum()))
         ok &= ~hit
         pgns = pgn_of(fa.can_id.astype(np.uint32))
+        claims = ok & (pgns == ADDRESS_CLAIM_PGN)
+        owner = self._owners(fa, np.nonzero(claims)[0])
+        ok &= ~claims
         known = np.zeros(n, bool)
         length_ok = np.zeros(n, bool)
         for pgn, layout in self.db.by_pgn.items():
@@ -247,11 +292,13 @@ class Decoder:
         r.add('wrong_length', 'in a log block', n=int(hit.sum()))
         ok &= length_ok
         if self._held:
-            self._held_fa = FrameArrays.concat([self._held_fa, FrameArrays.from_frames(f for f, _ in self._held)])
+            self._held_fa = FrameArrays.concat([self._held_fa, FrameArrays.from_frames(f for f, _, _ in self._held)])
+            self._held_owner = np.concatenate([self._held_owner, np.array([o for _, _, o in self._held], np.int16)])
             self._held = []
         if len(self._held_fa):     # frames held after a jump come first, structurally checked already
             fa = FrameArrays.concat([self._held_fa, fa])
             ok = np.concatenate([np.ones(len(self._held_fa), bool), ok])
+            owner = np.concatenate([self._held_owner, owner])
             pgns = pgn_of(fa.can_id.astype(np.uint32))
         rows = np.nonzero(ok)[0]
         verdict = self.jumps.run_block(fa.t_ns[rows])
@@ -271,6 +318,7 @@ class Decoder:
                 verdict[verdict == HELD] = REJECTED
             self.jumps.finish()
         self._held_fa = fa.take(rows[verdict == HELD])
+        self._held_owner = owner[rows[verdict == HELD]]
         ok[rows[verdict != RELEASED]] = False
         ok &= self._time_checks(fa, ok)
 
@@ -284,13 +332,18 @@ class Decoder:
             w = words[rows]
             inst = CanDatabase.extract(layout.fields['Instance'], w) if 'Instance' in layout.fields else None
             src = CanDatabase.extract(layout.fields['Source'], w) if 'Source' in layout.fields else None
+            address = fa.can_id[rows] & 0xFF
             mapped = np.zeros(rows.size, bool)
             for spec in self.map.for_pgn(pgn):
                 sel = np.ones(rows.size, bool)
                 if spec.instance >= 0:
-                    sel &= inst == spec.instance
+                    sel &= (inst == spec.instance) | ((inst == 255) & spec.bound)
                 if spec.source >= 0:
                     sel &= src == spec.source
+                if spec.address >= 0 and spec.device_name is None:    # with a NAME: where it starts
+                    sel &= address == spec.address
+                if spec.device_name is not None:
+                    sel &= owner[rows] == self.map.device_names.index(spec.device_name)
                 mapped |= sel
                 f = layout.fields[spec.field]
                 raw = CanDatabase.extract(f, w[sel])
@@ -312,6 +365,20 @@ class Decoder:
         return {name: Series(np.concatenate(out_t[name]) if out_t[name] else np.zeros(0, np.int64),
                              np.concatenate(out_v[name]) if out_v[name] else np.zeros(0, np.float64))
                 for name in self.map.names}
+
+    def _owners(self, fa: FrameArrays, claims: NDArray[np.intp]) -> NDArray[np.int16]:
+        """Each row's owner (the map's device holding its address when it arrived, -1: none),
+        reading the address claims at rows ``claims`` in order; shape (n,)."""
+        address = (fa.can_id & 0xFF).astype(np.intp)
+        owner = np.empty(len(fa), np.int16)
+        start = 0
+        for c in claims.tolist():
+            owner[start:c] = self._owner_lut[address[start:c]]
+            self._claim(int(fa.can_id[c]), fa.data[c].tobytes(), int(fa.dlc[c]))
+            owner[c] = -1
+            start = c + 1
+        owner[start:] = self._owner_lut[address[start:]]
+        return owner
 
     def _time_checks(self, fa: FrameArrays, ok: NDArray[np.bool_]) -> NDArray[np.bool_]:
         """Time-backwards and duplicate checks per identifier, continuing from earlier calls."""

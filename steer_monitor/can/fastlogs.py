@@ -17,11 +17,13 @@ them on every kind of line), which remains the reference and the fallback:
   records of equal size on one channel (how both the recorder and the log writer lay them
   out) is found with one vectorized comparison, and each field read as a strided view of its
   type. Other records are stepped over.
-* other formats (``.asc``, ``.blf``): python-can, gathered into blocks.
+* other formats (ASC, BLF through python-can; the gateway logs of :mod:`~steer_monitor.can.gateway`):
+  read frame by frame, gathered into blocks.
 """
 
 from __future__ import annotations
 
+import datetime
 import os
 import re
 import struct
@@ -35,8 +37,7 @@ from numpy.typing import NDArray
 
 from steer_monitor.can import digits
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, FrameArrays
-from steer_monitor.can.logs import (CAN_ERR_FLAG, READ_SUFFIXES, LogError, _candump_line, _suffix, candump_line,
-                                   iter_log, open_log)
+from steer_monitor.can.logs import CAN_ERR_FLAG, LogError, _candump_line, candump_line, iter_log, log_format, open_log
 from steer_monitor.can.mcapio import FRAME_DATATYPE
 from steer_monitor.can.rejects import RejectCounter
 
@@ -573,18 +574,20 @@ def iter_mcap_blocks(path: str | Path, rejects: RejectCounter | None = None) -> 
         raise LogError(msg)
 
 
-def iter_log_blocks(path: str | Path, rejects: RejectCounter | None = None) -> Iterator[FrameArrays]:
-    """Any supported log as blocks of columns, in file order."""
+def iter_log_blocks(path: str | Path, rejects: RejectCounter | None = None,
+                    date: datetime.date | None = None) -> Iterator[FrameArrays]:
+    """Any supported log as blocks of columns, in file order (``date``: see
+    :func:`~steer_monitor.can.logs.iter_log`)."""
     path = Path(path)
-    suffix = _suffix(path, READ_SUFFIXES)
-    if suffix == '.log':
+    fmt = log_format(path)
+    if fmt == 'candump':
         yield from iter_candump_blocks(path, rejects)
         return
-    if suffix == '.mcap':
+    if fmt == 'mcap':
         yield from iter_mcap_blocks(path, rejects)
         return
     block: list[Any] = []
-    for frame in iter_log(path, rejects):
+    for frame in iter_log(path, rejects, date):
         block.append(frame)
         if len(block) >= BLOCK_FRAMES // 4:
             yield FrameArrays.from_frames(block)
@@ -598,14 +601,15 @@ def log_end_ns(path: str | Path) -> int | None:
     statistics), or None when it cannot be told without reading the whole log."""
     path = Path(path)
     try:
-        if path.suffix.lower() == '.log':
+        fmt = log_format(path)
+        if fmt == 'candump':
             with open(path, 'rb') as fh:
                 fh.seek(max(fh.seek(0, 2) - 4096, 0))
                 for line in reversed(fh.read().splitlines()):
                     m = _LINE.match(line.strip())
                     if m is not None:
                         return int(m.group(1)) * 1_000_000_000 + int(m.group(2).ljust(9, b'0'))
-        elif path.suffix.lower() == '.mcap':
+        elif fmt == 'mcap':
             from mcap.reader import make_reader
             with open(path, 'rb') as fh:
                 summary = make_reader(fh).get_summary()
@@ -616,10 +620,10 @@ def log_end_ns(path: str | Path) -> int | None:
     return None
 
 
-def first_frame_ns(path: str | Path) -> int | None:
+def first_frame_ns(path: str | Path, date: datetime.date | None = None) -> int | None:
     """The time of a log's first frame (None: no frame can be read), for putting logs in order."""
     try:
-        for block in iter_log_blocks(path):
+        for block in iter_log_blocks(path, date=date):
             if len(block):
                 return int(block.t_ns[0])
     except LogError:
@@ -627,18 +631,19 @@ def first_frame_ns(path: str | Path) -> int | None:
     return None
 
 
-def in_time_order(paths: list[Path]) -> list[Path]:
+def in_time_order(paths: list[Path], date: datetime.date | None = None) -> list[Path]:
     """Logs in order of their first frame; one without a readable frame goes last (its error
     is reported when it is read)."""
     def key(p: Path) -> int:
-        t = first_frame_ns(p)
+        t = first_frame_ns(p, date)
         return 1 << 62 if t is None else t
     return sorted(paths, key=key) if len(paths) > 1 else list(paths)
 
 
-def read_log_fast(path: str | Path, rejects: RejectCounter | None = None) -> FrameArrays:
+def read_log_fast(path: str | Path, rejects: RejectCounter | None = None,
+                  date: datetime.date | None = None) -> FrameArrays:
     """A whole log as columns (the blocks of :func:`iter_log_blocks` joined)."""
-    return FrameArrays.concat(list(iter_log_blocks(path, rejects)))
+    return FrameArrays.concat(list(iter_log_blocks(path, rejects, date)))
 
 
 def write_candump_arrays(fh: IO[bytes], fa: FrameArrays, channel: str = 'can0') -> None:

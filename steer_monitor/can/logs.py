@@ -1,4 +1,10 @@
-"""CAN log files: candump ``.log``, Vector ``.asc`` and ``.blf``, and MCAP.
+"""CAN log files: candump, Vector ASC and BLF, MCAP, and NMEA 2000 gateways' logs (CANboat
+plain, YDWG raw: :mod:`~steer_monitor.can.gateway`).
+
+A log's format is told by its content (:func:`log_format`: the MCAP and BLF magic, the shape
+of the first text lines), and by its suffix when the content does not tell (an empty or
+damaged file), so a candump capture saved as ``.txt`` or a gateway's ``.raw`` file is read
+as what it is.
 
 Reading yields :class:`~steer_monitor.can.frames.Frame` records (or columns for a whole
 file). Records that cannot be parsed are counted as ``malformed_record`` and skipped; a
@@ -12,6 +18,7 @@ is a read format here: writers produce ``.log``, ``.blf`` and ``.mcap``, byte-re
 
 from __future__ import annotations
 
+import datetime
 import re
 from collections.abc import Iterator
 from pathlib import Path
@@ -19,14 +26,20 @@ from typing import Any, BinaryIO
 
 from steer_monitor.can.bus import frame_from_message, message_from_frame
 from steer_monitor.can.frames import Frame, FrameArrays
+from steer_monitor.can.gateway import CANBOAT_LINE, YDWG_LINE, canboat_frames, ydwg_date, ydwg_frames
 from steer_monitor.can.mcapio import McapWriter, iter_mcap_frames
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
 
-__all__ = ['READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'candump_line', 'iter_log', 'open_log',
-           'read_log_arrays']
+__all__ = ['FORMATS', 'READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'candump_line', 'iter_log',
+           'log_format', 'open_log', 'read_log_arrays']
 
 READ_SUFFIXES = ('.log', '.asc', '.blf', '.mcap')
+#: formats read, by the name :func:`log_format` gives them
+FORMATS = {'candump': 'candump -L', 'asc': 'Vector ASC', 'blf': 'Vector BLF', 'mcap': 'MCAP',
+           'canboat': 'CANboat plain (actisense-serial)', 'ydwg': 'Yacht Devices YDWG raw'}
+_BY_SUFFIX = {'.log': 'candump', '.asc': 'asc', '.blf': 'blf', '.mcap': 'mcap'}
+_SNIFF_BYTES = 4096
 WRITE_SUFFIXES = ('.log', '.blf', '.mcap')
 
 CAN_ERR_FLAG = 0x20000000
@@ -43,6 +56,50 @@ def _suffix(path: Path, allowed: tuple[str, ...]) -> str:
         msg = f'{path}: unsupported log format {suffix or "(no suffix)"!r} (supported: {", ".join(allowed)})'
         raise LogError(msg)
     return suffix
+
+
+def log_format(path: str | Path) -> str:
+    """The format of a log to read (a key of :data:`FORMATS`), by content, else by suffix.
+
+    Raises:
+        LogError: the file cannot be opened, or neither its content nor its suffix is a
+            format read here.
+    """
+    path = Path(path)
+    with open_log(path) as fh:
+        try:
+            head = fh.read(_SNIFF_BYTES)
+        except OSError as exc:
+            msg = f'cannot read log {path}: {exc.strerror or exc}'
+            raise LogError(msg) from exc
+    if head.startswith(b'\x89MCAP'):
+        return 'mcap'
+    if head.startswith(b'LOGG'):
+        return 'blf'
+    lines = head.split(b'\n')
+    if len(head) == _SNIFF_BYTES:
+        lines = lines[:-1]          # the last may be cut
+    for raw in lines[:20]:
+        line = raw.decode('ascii', 'replace').strip()
+        if not line or line.startswith('#'):
+            continue
+        if _CANDUMP.match(line):
+            return 'candump'
+        if CANBOAT_LINE.match(line):
+            return 'canboat'
+        if YDWG_LINE.match(line):
+            return 'ydwg'
+        if line.lower().startswith(('date ', 'base ', 'begin triggerblock')):
+            return 'asc'
+    fmt = _BY_SUFFIX.get(path.suffix.lower())
+    if fmt is None and not head:
+        msg = f'{path}: empty file: no CAN frames'
+        raise LogError(msg)
+    if fmt is None:
+        msg = (f'{path}: unsupported log format {path.suffix.lower() or "(no suffix)"!r}: its content is none of '
+               f'{", ".join(FORMATS.values())} (suffixes: {", ".join(READ_SUFFIXES)})')
+        raise LogError(msg)
+    return fmt
 
 
 def open_log(path: Path) -> BinaryIO:
@@ -76,25 +133,39 @@ def _candump_line(line: str, lineno: int, rejects: RejectCounter | None, path: P
                  is_extended=len(ident) == 8, is_error=is_error, is_remote=bool(rtr), channel=channel)
 
 
-def iter_log(path: str | Path, rejects: RejectCounter | None = None) -> Iterator[Frame]:
-    """Frames of a log file in file order. Bad records are counted in ``rejects``."""
+def iter_log(path: str | Path, rejects: RejectCounter | None = None, date: datetime.date | None = None
+             ) -> Iterator[Frame]:
+    """Frames of a log file in file order. Bad records are counted in ``rejects``. ``date``:
+    the date of a YDWG log's first line (see :func:`~steer_monitor.can.gateway.ydwg_date`)."""
     path = Path(path)
-    suffix = _suffix(path, READ_SUFFIXES)
+    fmt = log_format(path)
+    if fmt == 'ydwg':
+        try:
+            day, _ = ydwg_date(path, date)
+        except OSError as exc:
+            msg = f'cannot read log {path}: {exc.strerror or exc}'
+            raise LogError(msg) from exc
     with open_log(path) as fh:
-        if suffix == '.log':
+        if fmt == 'canboat':
+            yield from canboat_frames(fh, path, rejects)
+            return
+        if fmt == 'ydwg':
+            yield from ydwg_frames(fh, path, day, rejects)
+            return
+        if fmt == 'candump':
             for lineno, raw in enumerate(fh, 1):
                 frame = _candump_line(raw.decode('ascii', 'replace'), lineno, rejects, path)
                 if frame is not None:
                     yield frame
             return
-        if suffix == '.mcap':
+        if fmt == 'mcap':
             try:
                 yield from iter_mcap_frames(fh)
             except Exception as exc:  # mcap raises its own record/CRC errors
                 msg = f'{path}: MCAP breaks off or is corrupt ({type(exc).__name__}: {exc}); frames before it were read'
                 raise LogError(msg) from exc
             return
-    yield from _iter_python_can(path, suffix)
+    yield from _iter_python_can(path, '.' + fmt)
 
 
 def _iter_python_can(path: Path, suffix: str) -> Iterator[Frame]:
@@ -124,9 +195,10 @@ def _iter_python_can(path: Path, suffix: str) -> Iterator[Frame]:
             raise LogError(msg)
 
 
-def read_log_arrays(path: str | Path, rejects: RejectCounter | None = None) -> FrameArrays:
+def read_log_arrays(path: str | Path, rejects: RejectCounter | None = None,
+                    date: datetime.date | None = None) -> FrameArrays:
     """A whole log as columns."""
-    return FrameArrays.from_frames(iter_log(path, rejects))
+    return FrameArrays.from_frames(iter_log(path, rejects, date))
 
 
 def candump_line(frame: Frame, channel: str) -> str:

@@ -31,6 +31,7 @@ a value from below)::
 from __future__ import annotations
 
 import argparse
+import datetime
 import math
 import sys
 import time
@@ -41,7 +42,7 @@ from steer_monitor.atomic import atomic_write, check_target
 from steer_monitor.can.decodelog import decode_logs
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import load_setup
-from steer_monitor.cli.output import dump_json, report_read_errors
+from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors
 from steer_monitor.estimate.analyze import Analysis, analyze
 from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.estimate.batch import ClearanceEstimate
@@ -137,13 +138,14 @@ def analysis_json(a: Analysis) -> dict[str, Any]:
     }
 
 
-def analyze_log(path: str | Path, config: str | Path | None = None, progress: bool = False) -> tuple[Analysis, dict[str, Any]]:
+def analyze_log(path: str | Path, config: str | Path | None = None, progress: bool = False,
+                date: datetime.date | None = None) -> tuple[Analysis, dict[str, Any]]:
     """The analysis of one log and its JSON. A log that breaks off or holds corrupt chunks is
     analysed on what could be read; ``data.read_errors`` says what was wrong."""
     config_path, params, db, smap = load_setup(config)
     gear = gear_from_params(params)
     rejects = RejectCounter()
-    logs = decode_logs([path], db, smap, rejects)
+    logs = decode_logs([path], db, smap, rejects, date=date)
     say = (lambda msg: print(f'  {msg} ...', file=sys.stderr)) if progress else None
     try:
         a = analyze(gear, logs.signals, min_clearance_2z=min_clearance_2z_from_params(params), progress=say)
@@ -160,7 +162,8 @@ def analyze_log(path: str | Path, config: str | Path | None = None, progress: bo
 
 
 def run(path: str | Path, config: str | Path | None = None, json_out: str | Path | None = None,
-        report: str | Path | None = None, out: TextIO | None = None, err: TextIO | None = None) -> int:
+        report: str | Path | None = None, out: TextIO | None = None, err: TextIO | None = None,
+        date: datetime.date | None = None) -> int:
     """Analyse ``path``; 0 when it was read whole, 1 when it broke off or had corrupt parts
     (the outputs are still written, from what could be read; one line per problem on
     ``err``)."""
@@ -170,7 +173,8 @@ def run(path: str | Path, config: str | Path | None = None, json_out: str | Path
         if target is not None and str(target) != '-':
             check_target(target)
     t0 = time.perf_counter()
-    a, result = analyze_log(path, config, progress=sys.stderr.isatty())
+    date_notes('analyze', [path], date, err)
+    a, result = analyze_log(path, config, progress=sys.stderr.isatty(), date=date)
     result['analysis_s'] = round(time.perf_counter() - t0, 2)
     if json_out is not None:
         if str(json_out) == '-':
@@ -212,4 +216,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--config', help='ROS 2 parameters file (default: packaged R-18)')
     p.add_argument('--json', dest='json_out', metavar='OUT', help="write the JSON answer here ('-': stdout)")
     p.add_argument('--report', metavar='OUT.html', help='write a self-contained HTML report')
-    p.set_defaults(handler=lambda a: run(a.log, a.config, a.json_out, a.report))
+    add_date_option(p)
+    p.set_defaults(handler=lambda a: run(a.log, a.config, a.json_out, a.report, date=a.date))

@@ -8,8 +8,10 @@ pressure silent for over 1.05 s, a 0.5 Hz temperature silent for over 3 s).
 from __future__ import annotations
 
 import argparse
+import datetime
+import math
 import sys
-from datetime import datetime, timezone
+from datetime import datetime as _datetime, timezone
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -18,7 +20,8 @@ import numpy as np
 from steer_monitor.can.decodelog import decode_logs
 from steer_monitor.can.rejects import REASONS, RejectCounter
 from steer_monitor.can.setup import load_setup
-from steer_monitor.cli.output import dump_json, report_read_errors, table
+from steer_monitor.can.devices import format_name
+from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors, table
 
 __all__ = ['inspect_log', 'register', 'run']
 
@@ -28,17 +31,18 @@ MAX_GAPS_LISTED = 50
 
 def _iso(t_ns: int) -> str:
     try:
-        return datetime.fromtimestamp(t_ns / 1e9, tz=timezone.utc).isoformat(timespec='milliseconds')
+        return _datetime.fromtimestamp(t_ns / 1e9, tz=timezone.utc).isoformat(timespec='milliseconds')
     except (ValueError, OverflowError, OSError):   # beyond what datetime holds (year 9999)
         return f'{t_ns} ns since 1970'
 
 
-def inspect_log(path: str | Path, config: str | Path | None = None) -> dict[str, Any]:
+def inspect_log(path: str | Path, config: str | Path | None = None, date: datetime.date | None = None
+                ) -> dict[str, Any]:
     """What a log holds (streamed through the column readers: memory is one block of frames
     and the decoded samples). ``read_error``: what broke off or was corrupt, else None."""
     _, _, db, smap = load_setup(config)
     rejects = RejectCounter()
-    logs = decode_logs([path], db, smap, rejects)
+    logs = decode_logs([path], db, smap, rejects, date=date)
     series = logs.signals
     snap = rejects.snapshot()
     signals: dict[str, Any] = {}
@@ -48,8 +52,11 @@ def inspect_log(path: str | Path, config: str | Path | None = None) -> dict[str,
         d = np.diff(t)
         gap_idx = np.nonzero(d > GAP_NS + 1e9 / spec.rate_hz)[0]
         signals[spec.name] = {
-            'pgn': spec.pgn, 'instance': spec.instance, 'source': spec.source,
+            'pgn': spec.pgn, 'instance': spec.instance, 'source': spec.source, 'address': spec.address,
+            'device_name': format_name(spec.device_name) if spec.device_name is not None else None,
             'samples': len(s),
+            'min': float(s.value.min()) if len(s) else None,     # SI: rad, Pa, m/s, K
+            'max': float(s.value.max()) if len(s) else None,
             'first_ns': int(t[0]) if t.size else None,
             'last_ns': int(t[-1]) if t.size else None,
             'rate_hz': (float((t.size - 1) / ((t[-1] - t[0]) / 1e9)) if t.size > 1 and t[-1] > t[0] else None),
@@ -76,22 +83,36 @@ def inspect_log(path: str | Path, config: str | Path | None = None) -> dict[str,
     }
 
 
+def _range(name: str, lo: float | None, hi: float | None) -> str:
+    """A signal's range in the units engineers read: degrees, bar, knots... at this edge only."""
+    if lo is None or hi is None:
+        return '-'
+    if name.startswith('rudder'):
+        return f'{math.degrees(lo):+.1f}..{math.degrees(hi):+.1f} deg'
+    if name.startswith('pressure'):
+        return f'{lo / 1e5:.1f}..{hi / 1e5:.1f} bar'
+    if name == 'oil_temperature':
+        return f'{lo - 273.15:.1f}..{hi - 273.15:.1f} degC'
+    return f'{lo:.2f}..{hi:.2f} m/s'
+
+
 def run(path: str | Path, config: str | Path | None = None, as_json: bool = False,
-        out: TextIO | None = None, err: TextIO | None = None) -> int:
+        out: TextIO | None = None, err: TextIO | None = None, date: datetime.date | None = None) -> int:
     """Print what ``path`` holds; 1 (with one line on ``err``) when it broke off or had
     corrupt parts, whose readable frames are counted."""
     out = out or sys.stdout
     err = err or sys.stderr
-    s = inspect_log(path, config)
+    date_notes('inspect', [path], date, err)
+    s = inspect_log(path, config, date)
     if as_json:
         dump_json(s, out)
     else:
         out.write(f"{s['log']}: {s['frames']} frames, {s['span_s']:.1f} s"
                   + (f" ({s['start']} .. {s['end']})" if s['start'] else '') + '\n')
-        table(['signal', 'PGN', 'inst', 'samples', 'rate Hz', 'expected', 'gaps>1s'],
-              [[name, v['pgn'], v['instance'], v['samples'],
+        table(['signal', 'PGN', 'inst', 'addr', 'samples', 'rate Hz', 'expected', 'gaps>1s', 'range'],
+              [[name, v['pgn'], v['instance'], v['address'], v['samples'],
                 '-' if v['rate_hz'] is None else f"{v['rate_hz']:.2f}", f"{v['expected_rate_hz']:g}",
-                v['gaps_over_1s']] for name, v in s['signals'].items()], out)
+                v['gaps_over_1s'], _range(name, v['min'], v['max'])] for name, v in s['signals'].items()], out)
         if s['rejects']:
             out.write('\nrejects:\n')
             table(['reason', 'count', 'latest'], [[k, n, s['reject_examples'].get(k, '')]
@@ -104,8 +125,9 @@ def run(path: str | Path, config: str | Path | None = None, as_json: bool = Fals
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser('inspect', help='what a CAN log holds',
                        description='Frames, samples per signal, rejects per reason, time span and '
-                                   'gaps over 1 s of a CAN log (.log, .asc, .blf, .mcap).')
+                                   'gaps over 1 s of a CAN log (candump, ASC, BLF, MCAP, CANboat plain, YDWG raw).')
     p.add_argument('log', help='the log file')
     p.add_argument('--config', help='ROS 2 parameters file with the DBC and signal map (default: packaged R-18)')
+    add_date_option(p)
     p.add_argument('--json', action='store_true', help='print JSON')
-    p.set_defaults(handler=lambda a: run(a.log, a.config, a.json))
+    p.set_defaults(handler=lambda a: run(a.log, a.config, a.json, date=a.date))

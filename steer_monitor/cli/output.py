@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import argparse
+import datetime
 import json
 import math
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any, TextIO
 
-__all__ = ['dump_json', 'report_read_errors', 'table']
+__all__ = ['add_date_option', 'date_notes', 'dump_json', 'report_read_errors', 'table']
 
 
 def _clean(obj: Any) -> Any:
@@ -46,3 +49,35 @@ def report_read_errors(command: str, errors: Sequence[str], err: TextIO) -> int:
     for e in errors:
         err.write(f'steer-monitor {command}: error: {e}\n')
     return 1 if errors else 0
+
+
+def _date(text: str) -> datetime.date:
+    try:
+        return datetime.date.fromisoformat(text)
+    except ValueError:
+        msg = f'expected a date as YYYY-MM-DD, got {text!r}'
+        raise argparse.ArgumentTypeError(msg) from None
+
+
+def add_date_option(p: argparse.ArgumentParser) -> None:
+    """``--date``: the date of a YDWG raw log's first line (it writes the time of day only)."""
+    p.add_argument('--date', type=_date, metavar='YYYY-MM-DD',
+                   help="date (UTC) of the first line of YDWG raw logs, which hold the time of day only "
+                        "(default: a date in the file name, else the file's modification date)")
+
+
+def date_notes(command: str, paths: Sequence[str | Path], date: datetime.date | None, err: TextIO) -> None:
+    """Say, on ``err``, which date each YDWG raw log is read with and where it came from."""
+    from steer_monitor.can.gateway import ydwg_date
+    from steer_monitor.can.logs import LogError, log_format
+
+    for path in paths:
+        try:
+            if log_format(path) != 'ydwg':
+                continue
+            day, source = ydwg_date(path, date)
+        except (LogError, OSError):
+            continue            # the reader reports it
+        hint = '' if source == 'given' else '; give --date if that is wrong'
+        err.write(f'steer-monitor {command}: note: {path}: YDWG raw log (time of day only) read as starting on '
+                  f'{day.isoformat()} UTC, the date {"given" if source == "given" else "from " + source}{hint}\n')

@@ -8,18 +8,20 @@ published live for the same frames (see :mod:`steer_monitor.replay`).
 from __future__ import annotations
 
 import argparse
+import datetime
 import sys
 import time
 from pathlib import Path
 from typing import TextIO
 
-from steer_monitor.cli.output import dump_json, report_read_errors
+from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors
 
 __all__ = ['register', 'run']
 
 
 def run(logs: list[str], out_path: str | Path, config: str | Path | None = None, frames: bool = True,
-        as_json: bool = False, out: TextIO | None = None, err: TextIO | None = None) -> int:
+        as_json: bool = False, out: TextIO | None = None, err: TextIO | None = None,
+        date: datetime.date | None = None) -> int:
     """Replay ``logs`` into ``out_path``; 1 (one line per log on ``err``) when a log broke
     off or had corrupt parts, whose readable frames were replayed."""
     from tqdm import tqdm
@@ -28,10 +30,11 @@ def run(logs: list[str], out_path: str | Path, config: str | Path | None = None,
 
     out = out or sys.stdout
     err = err or sys.stderr
+    date_notes('replay', logs, date, err)
     t0 = time.perf_counter()
     with tqdm(unit='frame', unit_scale=True, disable=not sys.stderr.isatty(), file=sys.stderr,
               desc='replay') as bar:
-        summary = replay(logs, out_path, config, frames=frames, progress=bar.update)
+        summary = replay(logs, out_path, config, frames=frames, progress=bar.update, date=date)
     result = summary_json(summary)
     elapsed = time.perf_counter() - t0
     result['elapsed_s'] = round(elapsed, 2)
@@ -63,4 +66,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--no-frames', dest='frames', action='store_false',
                    help='do not copy the raw frames into the output')
     p.add_argument('--json', action='store_true', help='print the summary as JSON')
-    p.set_defaults(handler=lambda a: run(a.logs, a.out, a.config, a.frames, a.json))
+    add_date_option(p)
+    p.set_defaults(handler=lambda a: run(a.logs, a.out, a.config, a.frames, a.json, date=a.date))

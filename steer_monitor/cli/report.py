@@ -10,12 +10,13 @@ check is about the gear as it is now and keeps its cost bounded on a long log.
 from __future__ import annotations
 
 import argparse
+import datetime
 import sys
 import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from steer_monitor.cli.output import dump_json, report_read_errors
+from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors
 from steer_monitor.monitor.messages import CLEARANCE_LABELS
 
 __all__ = ['online_track', 'register', 'run']
@@ -56,7 +57,8 @@ def online_track(paths: list[Path]) -> Any:
     return OnlineTrack(t, *(d[:, k] for k in range(6)))
 
 
-def _analysis(paths: list[Path], config_path: Path, params: dict[str, Any], since_ns: int) -> tuple[Any, str]:
+def _analysis(paths: list[Path], config_path: Path, params: dict[str, Any], since_ns: int,
+              date: datetime.date | None = None) -> tuple[Any, str]:
     from steer_monitor.can.decodelog import decode_logs
     from steer_monitor.can.rejects import RejectCounter
     from steer_monitor.can.setup import can_setup
@@ -65,7 +67,7 @@ def _analysis(paths: list[Path], config_path: Path, params: dict[str, Any], sinc
     from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
 
     db, smap = can_setup(params, config_path)
-    logs = decode_logs(paths, db, smap, RejectCounter(), since_ns=since_ns)   # breaks: in the review already
+    logs = decode_logs(paths, db, smap, RejectCounter(), since_ns=since_ns, date=date)   # breaks: in the review already
     if logs.first_ns is None:
         return None, 'no data for the model check'
     try:
@@ -76,7 +78,8 @@ def _analysis(paths: list[Path], config_path: Path, params: dict[str, Any], sinc
 
 
 def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, analysis_hours: float = 3.0,
-        as_json: bool = False, out: TextIO | None = None, err: TextIO | None = None) -> int:
+        as_json: bool = False, out: TextIO | None = None, err: TextIO | None = None,
+        date: datetime.date | None = None) -> int:
     """Review ``logs`` into ``out_dir``; 1 (one line per log on ``err``) when a log broke off
     or had corrupt parts (the page is made from what could be read and says so)."""
     from tqdm import tqdm
@@ -100,16 +103,17 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
             raise ParameterError(msg)
     config_path, params = load_config(config)
     ensure_dir(out_dir)               # before the review, not after
+    date_notes('report', paths, date, err)
     t0 = time.perf_counter()
     with tqdm(unit='frame', unit_scale=True, disable=not sys.stderr.isatty(), file=sys.stderr, desc='review') as bar:
-        batch = review_logs(paths, config_path, progress=bar.update)
+        batch = review_logs(paths, config_path, progress=bar.update, date=date)
     if batch.frames == 0:           # nothing to show: no page rather than an empty one
         msg = batch.errors[0] if batch.errors else 'no frame in ' + ', '.join(str(p) for p in paths)
         raise LogError(msg)
     r = batch.review
     analysis, note = None, 'no data'
     if len(r.t_ns) and analysis_hours > 0:
-        analysis, note = _analysis(paths, config_path, params, int(r.t_ns[-1] - analysis_hours * 3.6e12))
+        analysis, note = _analysis(paths, config_path, params, int(r.t_ns[-1] - analysis_hours * 3.6e12), date)
     elif analysis_hours == 0:
         note = 'model check not asked for (--analysis-hours 0)'
     title = ', '.join(p.name for p in paths)
@@ -142,4 +146,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--analysis-hours', type=float, default=3.0,
                    help='hours of data at the end for the model check (0: none; default 3)')
     p.add_argument('--json', action='store_true', help='print a summary as JSON')
-    p.set_defaults(handler=lambda a: run(a.logs, a.out, a.config, a.analysis_hours, a.json))
+    add_date_option(p)
+    p.set_defaults(handler=lambda a: run(a.logs, a.out, a.config, a.analysis_hours, a.json, date=a.date))

@@ -1,0 +1,191 @@
+"""``steer-monitor discover LOG...``: what is on the bus, and the signal map proposed for it.
+
+Lists one stream per PGN, source address and instance (frames, rate, time span and, for
+PGNs of the DBC, each field's range of valid values), the devices that claimed an address,
+and the ``signals`` map :func:`~steer_monitor.can.discover.propose` makes of them. Every
+choice among several senders and every input not found is a note, printed on stderr too.
+``--write-config OUT.yaml`` writes the parameters file (``--config``, or the packaged one)
+with that map, ready for ``inspect --config OUT.yaml`` and ``run``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, TextIO
+
+import yaml
+
+from steer_monitor.atomic import atomic_path, check_target
+from steer_monitor.can.discover import RULES, Discovery, propose
+from steer_monitor.can.fastlogs import iter_log_blocks
+from steer_monitor.can.logs import LogError
+from steer_monitor.can.rejects import REASONS, RejectCounter
+from steer_monitor.can.setup import dbc_path, load_setup
+from steer_monitor.can.signals import INPUTS, REQUIRED
+from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors, table
+from steer_monitor.errors import InputError, ParameterError
+from steer_monitor.params import NODE_NAME, load_params_file
+from steer_monitor.resources import config_dir
+
+__all__ = ['discover', 'register', 'run', 'write_config']
+
+_SIGNAL_KEYS = ('pgn', 'field', 'instance', 'source', 'address', 'device_name', 'rate_hz')
+
+
+def _pgn_names(path: str | Path | None) -> dict[int, str]:
+    """PGN -> name from CANboat's PGN database (``canboat.json``), when given."""
+    if path is None:
+        return {}
+    try:
+        with open(path, encoding='utf-8') as fh:
+            doc = json.load(fh)
+        return {int(p['PGN']): str(p.get('Description') or p.get('Id')) for p in doc['PGNs']}
+    except OSError as exc:
+        msg = f'cannot read PGN database {path}: {exc.strerror or exc}'
+        raise InputError(msg) from exc
+    except (ValueError, KeyError, TypeError) as exc:
+        msg = f'PGN database {path} is not CANboat\'s canboat.json ({type(exc).__name__}: {exc})'
+        raise InputError(msg) from exc
+
+
+def discover(paths: Sequence[str | Path], config: str | Path | None = None, date: datetime.date | None = None,
+             pgn_database: str | Path | None = None) -> dict[str, Any]:
+    """What ``paths`` hold, as the JSON of ``discover --json`` (plus ``read_errors``)."""
+    setup = load_setup(config)
+    disc = Discovery(setup.db, _pgn_names(pgn_database))
+    rejects = RejectCounter()
+    errors: list[str] = []
+    for path in paths:
+        try:
+            for block in iter_log_blocks(path, rejects, date):
+                disc.add(block)
+        except LogError as exc:
+            errors.append(str(exc))
+    if disc.frames == 0:
+        msg = '; '.join(errors) if errors else 'no CAN frames in ' + ', '.join(str(p) for p in paths)
+        raise InputError(msg)
+    proposed, notes = propose(disc, setup.smap, REQUIRED)
+    snap = rejects.snapshot()
+    for reason, n in sorted(snap.counts.items()):
+        notes.append(f'{n} record(s) are not listed: {REASONS[reason]}')
+    for reason, n in sorted(disc.skipped.items()):
+        if n:
+            notes.append(f'{n} frame(s) are not listed: {REASONS[reason]}')
+    return {
+        'logs': [str(p) for p in paths],
+        'config': str(setup.config_path),
+        'frames': disc.frames,
+        'streams': [s.as_dict() for s in disc.sorted_streams()],
+        'devices': [d.as_dict() for d in sorted(disc.devices.values(), key=lambda d: (d.source, d.name))],
+        'proposed': proposed,
+        'rule': RULES,
+        'notes': notes,
+        'rejects': dict(sorted(snap.counts.items())),
+        'read_errors': errors,
+    }
+
+
+def _nest(flat: dict[str, Any]) -> dict[str, Any]:
+    tree: dict[str, Any] = {}
+    for key, value in flat.items():
+        node = tree
+        *parents, last = key.split('.')
+        for p in parents:
+            node = node.setdefault(p, {})
+        node[last] = value
+    return tree
+
+
+def write_config(out: str | Path, config: str | Path | None, proposed: dict[str, dict[str, Any]],
+                 logs: Sequence[str], notes: Sequence[str]) -> None:
+    """The parameters file ``config`` (the packaged one when None), its ``signals`` replaced by
+    ``proposed``, written to ``out`` (atomically; checked to load before it is renamed)."""
+    setup = load_setup(config)
+    params = dict(setup.params)
+    for name in INPUTS:
+        if name in proposed:
+            for key in _SIGNAL_KEYS:
+                params[f'signals.{name}.{key}'] = proposed[name][key]
+    dbc = dbc_path(params, setup.config_path)
+    if dbc.parent.resolve() != config_dir().resolve():     # a vessel's own DBC: where it is
+        params['can.dbc_file'] = str(dbc.resolve())
+    header = [f'# Written by steer-monitor discover from {", ".join(logs)}', f'# on {datetime.date.today()}, '
+              f'from {setup.config_path}. Check the signals map before running.', '#',
+              '# Rule: ' + RULES, '#'] + [f'# note: {n}' for n in notes]
+    body = yaml.safe_dump({NODE_NAME: {'ros__parameters': _nest(params)}}, sort_keys=False,
+                          default_flow_style=False, width=120)
+    text = '\n'.join(h.replace('\n', ' ') for h in header) + '\n' + body
+    with atomic_path(out) as tmp:
+        tmp.write_text(text, encoding='utf-8')
+        try:
+            load_params_file(tmp)
+        except ParameterError as exc:   # a defect of ours if it happens: nothing is written
+            msg = f'the proposed parameters do not validate: {exc}'
+            raise ParameterError(msg) from exc
+
+
+def _fmt_range(f: dict[str, Any]) -> str:
+    if f['min'] is None:
+        return 'n/a'
+    return f"{f['min']:.4g}..{f['max']:.4g} {f['unit']}".strip()
+
+
+def run(paths: Sequence[str | Path], config: str | Path | None = None, date: datetime.date | None = None,
+        as_json: bool = False, write: str | Path | None = None, pgn_database: str | Path | None = None,
+        out: TextIO | None = None, err: TextIO | None = None) -> int:
+    """Print what the logs hold and the proposed map; write it with ``write``. 1 (one line
+    per log on ``err``) when a log broke off or had corrupt parts."""
+    out = out or sys.stdout
+    err = err or sys.stderr
+    if write is not None:
+        check_target(write)
+    date_notes('discover', paths, date, err)
+    d = discover(paths, config, date, pgn_database)
+    if as_json:
+        dump_json({k: v for k, v in d.items() if k != 'read_errors'}, out)
+    else:
+        out.write(f"{', '.join(d['logs'])}: {d['frames']} frames, {len(d['streams'])} streams, "
+                  f"{len(d['devices'])} devices\n\n")
+        rows = []
+        for s in d['streams']:
+            fields = {k: f for k, f in s['fields'].items() if k not in ('SID', 'Instance')}
+            rows.append([s['pgn'], s['name'] or '?', s['source'], '-' if s['instance'] is None else s['instance'],
+                         s['frames'], '-' if s['rate_hz'] is None else f"{s['rate_hz']:.1f}",
+                         '; '.join(f'{k} {_fmt_range(f)}' for k, f in fields.items())])
+        table(['PGN', 'name', 'addr', 'inst', 'frames', 'Hz', 'fields (valid range)'], rows, out)
+        if d['devices']:
+            out.write('\ndevices (address claims):\n')
+            table(['addr', 'NAME', 'manufacturer', 'function', 'class', 'claims'],
+                  [[v['source'], v['name_hex'], v['manufacturer_code'], v['device_function'], v['device_class'],
+                    v['claims']] for v in d['devices']], out)
+        out.write('\nproposed signals:\n')
+        table(['input', 'PGN', 'field', 'inst', 'source', 'addr', 'device', 'Hz'],
+              [[n, v['pgn'], v['field'], v['instance'], v['source'], v['address'], v['device_name'] or '-',
+                v['rate_hz']] for n, v in d['proposed'].items()], out)
+    for note in d['notes']:
+        err.write(f'steer-monitor discover: note: {note}\n')
+    if write is not None:
+        write_config(write, config, d['proposed'], d['logs'], d['notes'])
+        err.write(f'steer-monitor discover: wrote {write}: check it, then: steer-monitor inspect LOG --config {write}\n')
+    return report_read_errors('discover', d['read_errors'], err)
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser('discover', help='what is on a CAN bus, and a signal map for it',
+                       description='Streams (PGN, source address, instance) with rates and field ranges, devices '
+                                   'from address claims, and a proposed signals map, from CAN logs of any '
+                                   'format read (candump, ASC, BLF, MCAP, CANboat plain, YDWG raw).')
+    p.add_argument('logs', nargs='+', help='log files (a minute of the bus is enough)')
+    p.add_argument('--config', help='parameters file whose DBC and map say where inputs are looked for, and which '
+                                    '--write-config starts from (default: packaged R-18)')
+    add_date_option(p)
+    p.add_argument('--write-config', metavar='OUT.yaml', help='write the parameters file with the proposed map')
+    p.add_argument('--pgn-database', metavar='canboat.json',
+                   help="CANboat's PGN database, to name the PGNs the DBC does not know")
+    p.add_argument('--json', action='store_true', help='print JSON')
+    p.set_defaults(handler=lambda a: run(a.logs, a.config, a.date, a.json, a.write_config, a.pgn_database))

@@ -1,0 +1,138 @@
+"""``steer-monitor discover`` on real captures, as a new user would: discover, write the
+parameters file, inspect with it and see the rudder; and its bad inputs."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import pytest
+
+from steer_monitor.cli.main import main
+from steer_monitor.params import load_params_file
+from test.can.test_gateway import MERRIMAC, REALBUS, SUSTERANNA, SUSTERANNA_2020, capture
+
+
+@pytest.mark.parametrize('path, extra, address, samples', [
+    (SUSTERANNA, [], 26, 256), (SUSTERANNA_2020, [], 32, 117), (MERRIMAC, ['--date', '2020-08-22'], 13, 13)],
+    ids=lambda x: getattr(x, 'name', str(x)))
+def test_discover_then_inspect_sees_the_rudder(tmp_path, capsys, path, extra, address, samples):
+    capture(path)
+    out = tmp_path / 'vessel.yaml'
+    assert main(['discover', str(path), '--write-config', str(out), '--json'] + extra) == 0
+    cap = capsys.readouterr()
+    d = json.loads(cap.out)
+    assert set(d) >= {'streams', 'devices', 'proposed', 'notes'}
+    for s in d['streams']:
+        assert set(s) >= {'pgn', 'name', 'source', 'instance', 'frames', 'rate_hz', 'first_ns', 'last_ns', 'fields'}
+    assert d['proposed']['rudder_angle']['address'] == address
+    for note in d['notes']:                                  # never silently: every note on stderr too
+        assert f'steer-monitor discover: note: {note}' in cap.err
+    params = load_params_file(out)
+    assert params['signals.rudder_angle.address'] == address
+    assert main(['inspect', str(path), '--config', str(out), '--json'] + extra) == 0
+    s = json.loads(capsys.readouterr().out)
+    rudder = s['signals']['rudder_angle']
+    assert rudder['samples'] == samples and rudder['min'] is not None
+    assert 'rudder' not in ''.join(s['reject_examples'].get('unmapped', ''))
+    assert 'multi_frame' not in s['rejects'] or s['rejects']['multi_frame'] > 0
+
+
+def test_text_output_and_ambiguity_on_stderr(tmp_path, capsys):
+    capture(SUSTERANNA)
+    assert main(['discover', str(SUSTERANNA), '--pgn-database', str(REALBUS / 'canboat.json')]) == 0
+    cap = capsys.readouterr()
+    assert 'Rudder' in cap.out and 'Vessel Heading' in cap.out          # named from canboat.json
+    assert 'devices (address claims):' in cap.out and 'C0508C002FB89064' in cap.out
+    assert 'steer-monitor discover: note: ship_speed: 3 senders of 128259' in cap.err
+    assert 'a barometer, never a ram chamber' in cap.err
+
+
+def test_ydwg_date_is_said(tmp_path, capsys):
+    capture(MERRIMAC)
+    assert main(['inspect', str(MERRIMAC), '--date', '2020-08-22', '--json']) == 0
+    cap = capsys.readouterr()
+    assert json.loads(cap.out)['start'].startswith('2020-08-22T00:29:58')
+    assert 'YDWG raw log (time of day only) read as starting on 2020-08-22 UTC, the date given' in cap.err
+    copy = tmp_path / 'merrimac-2021-03-04.raw'
+    shutil.copy(MERRIMAC, copy)
+    assert main(['discover', str(copy)]) == 0
+    assert 'starting on 2021-03-04 UTC, the date from the file name; give --date if that is wrong' \
+        in capsys.readouterr().err
+
+
+@pytest.mark.parametrize('args, status, message', [
+    (['--date', '22/08/2020'], 2, "expected a date as YYYY-MM-DD, got '22/08/2020'"),
+    (['--write-config', '/nonexistent/dir/x.yaml'], 1, 'cannot write /nonexistent/dir/x.yaml: no directory'),
+    (['--pgn-database', '/nonexistent.json'], 1, 'cannot read PGN database /nonexistent.json'),
+    (['--config', '/nonexistent.yaml'], 1, '/nonexistent.yaml'),
+])
+def test_bad_options_are_one_line(capsys, args, status, message):
+    capture(SUSTERANNA)
+    with pytest.raises(SystemExit) if status == 2 else _nothing():
+        assert main(['discover', str(SUSTERANNA)] + args) == status
+    err = capsys.readouterr().err
+    assert message in err and 'Traceback' not in err
+
+
+class _nothing:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+@pytest.mark.parametrize('content, message', [
+    (b'', 'x.raw: empty file: no CAN frames'),
+    (b'this is not a log\n', "unsupported log format '.raw'"),
+])
+def test_bad_logs_are_one_line(tmp_path, capsys, content, message):
+    path = tmp_path / 'x.raw'
+    path.write_bytes(content)
+    assert main(['discover', str(path)]) == 1
+    err = capsys.readouterr().err
+    assert message in err and err.count('\n') == 1
+
+
+def test_a_pgn_database_that_is_not_canboats(tmp_path, capsys):
+    capture(SUSTERANNA)
+    bad = tmp_path / 'x.json'
+    bad.write_text('{"PGNs": 3}')
+    assert main(['discover', str(SUSTERANNA), '--pgn-database', str(bad)]) == 1
+    assert "is not CANboat's canboat.json" in capsys.readouterr().err
+
+
+def test_a_log_of_no_frames(tmp_path, capsys):
+    path = tmp_path / 'x.log'
+    path.write_text('garbage\n')
+    assert main(['discover', str(path)]) == 1
+    err = capsys.readouterr().err
+    assert f'no CAN frames in {path}' in err and err.count('\n') == 1
+
+
+def test_a_bad_device_name_in_the_parameters(tmp_path, capsys):
+    capture(SUSTERANNA)
+    out = tmp_path / 'vessel.yaml'
+    assert main(['discover', str(SUSTERANNA), '--write-config', str(out)]) == 0
+    capsys.readouterr()
+    out.write_text(out.read_text().replace("device_name: ''", "device_name: not-a-name", 1))
+    assert main(['inspect', str(SUSTERANNA), '--config', str(out)]) == 1
+    err = capsys.readouterr().err
+    assert "device_name: expected a device NAME as 16 hex digits (as discover prints it), got 'not-a-name'" in err
+
+
+def test_replay_reads_a_gateway_log_with_its_date(tmp_path, capsys):
+    capture(MERRIMAC)
+    cfg = tmp_path / 'vessel.yaml'
+    assert main(['discover', str(MERRIMAC), '--date', '2020-08-22', '--write-config', str(cfg)]) == 0
+    capsys.readouterr()
+    assert main(['replay', str(MERRIMAC), '--date', '2020-08-22', '--config', str(cfg), '--out',
+                 str(tmp_path / 'r.mcap'), '--json']) == 0
+    cap = capsys.readouterr()
+    r = json.loads(cap.out)
+    assert r['frames'] == 914
+    assert 'read as starting on 2020-08-22 UTC, the date given' in cap.err
+    from steer_monitor.can.fastlogs import read_log_fast
+    frames = read_log_fast(tmp_path / 'r.mcap')
+    assert len(frames) == 914 and str(frames.t_ns[0]).startswith('15980')     # 2020-08-22
