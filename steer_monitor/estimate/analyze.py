@@ -169,19 +169,19 @@ def _covered(train: Moments, score: Moments, basis: F.TorqueBasis) -> NDArray[np
     return ok
 
 
-def _cv_mse(gear: GearParams, basis: F.TorqueBasis, parts: tuple[Rows, Rows], coef_torque: NDArray,
+def _cv_mse(gear: GearParams, basis: F.TorqueBasis, parts: tuple[Moments, Moments], coef_torque: NDArray,
             two_z: float, z_gb: float, extra: tuple[F.Column, ...]) -> float:
     """Held-out mean square: fit on each half at the given clearances, score on the other
     (the bins of the other half inside the angles the fitting half covers)."""
-    if min(part.moments.samples for part in parts) < 50:
+    if min(part.samples for part in parts) < 50:
         return math.nan
     total, n = 0.0, 0.0
     for fit_on, score_on in ((0, 1), (1, 0)):
-        fmom = parts[fit_on].moments
+        fmom = parts[fit_on]
         xtx, xty, names = F.normal_equations(gear, basis, fmom, two_z, z_gb,
                                              F.axial_load(gear, basis, fmom, coef_torque), extra)
         coef = F.solve_normal_equations(basis, xtx, xty, names)
-        mom = parts[score_on].moments
+        mom = parts[score_on]
         keep = _covered(fmom, mom, basis)
         if not keep.any():          # the scoring half lies wholly outside the fitting half's angles
             continue
@@ -193,14 +193,14 @@ def _cv_mse(gear: GearParams, basis: F.TorqueBasis, parts: tuple[Rows, Rows], co
     return total / n if n > 0 else math.nan
 
 
-def _score(gear: GearParams, basis: F.TorqueBasis, rows: Rows, parts: tuple[Rows, Rows], coef_torque: NDArray,
+def _score(gear: GearParams, basis: F.TorqueBasis, mom: Moments, parts: tuple[Moments, Moments], coef_torque: NDArray,
            extra: tuple[F.Column, ...], grid_2z: NDArray, declared_at: tuple[float, float]
            ) -> tuple[float, float, float, float, float, int, NDArray[np.float64]]:
     """(in-sample RSS, rows, held-out MSE, 2Z, Z_gb, parameters) at the candidate's optimum:
     a coarse pass over the grid, then the full resolution around its best point and around
     the declared model's estimate ``declared_at`` (2Z, Z_gb) [m] (a ram that clamps makes the
-    profile in 2Z narrower than the coarse step, so the coarse pass alone can miss it)."""
-    mom = rows.moments
+    profile in 2Z narrower than the coarse step, so the coarse pass alone can miss it). ``mom``:
+    the rows' moments; ``parts``: those of the two halves."""
     load = F.axial_load(gear, basis, mom, coef_torque)
     pr = F.profile(gear, basis, mom, load, extra, grid_2z[::3], F.GRID_ZGB[::3])
     best: tuple[float, float, float, int, NDArray[np.float64]] = (math.inf, 0.0, 0.0, 0, np.zeros(0))
@@ -220,14 +220,14 @@ def _score(gear: GearParams, basis: F.TorqueBasis, rows: Rows, parts: tuple[Rows
 @dataclass(frozen=True)
 class _Base:
     """The model the next round screens against: its observations (the angle read later once
-    a delay is adopted), z columns, the instants it keeps, its rows, their two halves, the
-    adopted effects' columns and its estimate."""
+    a delay is adopted), the instants it keeps, its rows, their two halves' moments, the
+    adopted effects' columns and its estimate. Its z columns are not kept (tens of MB on a
+    long log): :func:`_z_subset` makes again those a step needs."""
 
     obs: Observations
-    z: dict[str, NDArray[np.float64]]
     keep: NDArray[np.bool_]
     rows: Rows
-    parts: tuple[Rows, Rows]
+    parts: tuple[Moments, Moments]       # the two halves' moments (their rows are not kept)
     extra: tuple[F.Column, ...]
     est: ClearanceEstimate
 
@@ -237,9 +237,21 @@ def _base(gear: GearParams, obs: Observations, keep: NDArray[np.bool_], extra: t
     z = z_columns(obs, gear)
     rows = make_rows(obs, z, keep)
     a_half, b_half = _halves(obs)
-    parts = (make_rows(obs, z, a_half & keep), make_rows(obs, z, b_half & keep))
+    parts = (make_rows(obs, z, a_half & keep).moments, make_rows(obs, z, b_half & keep).moments)
     est = est or estimate_clearances(gear, obs, rows, extra, grid_2z=grid_2z)
-    return _Base(obs, z, keep, rows, parts, extra, est)
+    return _Base(obs, keep, rows, parts, extra, est)
+
+
+def _z_subset(obs: Observations, gear: GearParams, names: set[str]
+              ) -> tuple[dict[str, NDArray[np.float64]], NDArray[np.bool_], tuple[str, ...]]:
+    """The z columns ``names`` of ``obs``, the instants where every z column is finite (with
+    them as a mask, rows built from the subset are the rows built from all columns), and the
+    names of all columns."""
+    z = z_columns(obs, gear)
+    valid = np.ones(len(obs), bool)
+    for arr in z.values():
+        valid &= np.all(np.isfinite(arr), axis=1) if arr.ndim == 2 else np.isfinite(arr)
+    return {k: z[k] for k in names}, valid, tuple(z)
 
 
 def unexplained_inflation(est: ClearanceEstimate) -> float:
@@ -258,52 +270,58 @@ def _screen(gear: GearParams, signals: Mapping[str, Series], base: _Base, grid_2
     """Every candidate not yet adopted, scored against ``base`` (best held-out gain first),
     and the shifted observations of the best delay (with the instants it keeps)."""
     basis = F.TorqueBasis(gear.max_rudder)
-    est, obs, z, rows, parts, keep = base.est, base.obs, base.z, base.rows, base.parts, base.keep
+    est, obs, rows, parts, keep = base.est, base.obs, base.rows, base.parts, base.keep
+    # the trials fit only the adopted columns: their rows carry those z columns alone
+    needed = {c.z for c in base.extra if c.z}
+    z, z_valid, z_names = _z_subset(obs, gear, needed)
     coef_t = est.fit.coef[:basis.size]
     at = (est.two_z.value, est.z_gb.value)
     nuisance = F.speed_scale_columns(rows.moments) + base.extra
-    rss0, n0, cv0, _, _, p0, _ = _score(gear, basis, rows, parts, coef_t, nuisance, grid_2z, at)
+    rss0, n0, cv0, _, _, p0, _ = _score(gear, basis, rows.moments, parts, coef_t, nuisance, grid_2z, at)
     n_eff = n0 / est.inflation
     seal, mu_b, mu_g = (est.fit.get(k) for k in ('seal_friction_n', 'mu_bushing', 'mu_guide'))
     screened: list[tuple[Screening, Candidate]] = []
-    # every delay's score; the shifted observations and rows only of the best so far (each
+    # every delay's score; its observations and rows are rebuilt for the best one only (each
     # trial's are tens of MB on a long log, and a dozen are tried)
     score: dict[float, float] = {}
-    best: list[tuple[float, Candidate, Observations, Rows, Rows, NDArray[np.bool_], NDArray[np.bool_]]] = []
     steady_t = obs.t_ns[obs.moving & keep]
     a_half, b_half = _halves(obs)
 
-    def delay_trial(cand: Candidate) -> None:
+    def shifted(tau: float) -> tuple[Observations, NDArray[np.bool_], NDArray[np.bool_]]:
         # The shifted angle judges steady motion at other instants. Scored on its own
         # instants against the base model on all of them, a delay would win or lose by
         # which rows it kept, not by how well it fits: both are scored on the instants
         # steady under either reading.
-        o = build_observations(signals, gear.ram_area, angle_shift_s=cand.angle_shift_s)
+        o = build_observations(signals, gear.ram_area, angle_shift_s=tau)
         o_mask = np.isin(o.t_ns, steady_t)
         base_mask = np.isin(obs.t_ns, o.t_ns[o.moving & o_mask]) & keep
-        r = make_rows(o, z_columns(o, gear), o_mask)
-        rb = make_rows(obs, z, base_mask)
-        if min(r.moments.samples, rb.moments.samples) < 200:
-            return
-        f, fb = (F.fit_at(gear, basis, x.moments, at[0], at[1], F.axial_load(gear, basis, x.moments, coef_t),
-                          F.speed_scale_columns(x.moments) + base.extra) for x in (r, rb))
-        ratio = (f.rss / f.n) / (fb.rss / fb.n)
-        score[cand.angle_shift_s] = ratio
-        if not best or ratio < best[0][0]:
-            best[:] = [(ratio, cand, o, r, rb, o_mask, base_mask)]
+        return o, o_mask, base_mask
 
-    for cand in candidates(z, (seal, mu_b, mu_g)):
+    def delay_trial(cand: Candidate) -> None:
+        o, o_mask, base_mask = shifted(cand.angle_shift_s)
+        zo, o_valid, _ = _z_subset(o, gear, needed)
+        m = make_rows(o, zo, o_mask & o_valid).moments
+        del o, zo
+        mb = make_rows(obs, z, base_mask & z_valid).moments
+        if min(m.samples, mb.samples) < 200:
+            return
+        f, fb = (F.fit_at(gear, basis, x, at[0], at[1], F.axial_load(gear, basis, x, coef_t),
+                          F.speed_scale_columns(x) + base.extra) for x in (m, mb))
+        score[cand.angle_shift_s] = (f.rss / f.n) / (fb.rss / fb.n)
+
+    for cand in candidates(dict.fromkeys(z_names), (seal, mu_b, mu_g)):  # type: ignore[arg-type]
         if cand.name in adopted:
             continue
         if cand.angle_shift_s:
             delay_trial(cand)
             continue
         say(f'candidate {cand.name}')
-        rss, n, cv, tz, zg, p, coef = _score(gear, basis, rows, parts, coef_t, nuisance + cand.columns, grid_2z, at)
+        rss, n, cv, tz, zg, p, coef = _score(gear, basis, rows.moments, parts, coef_t, nuisance + cand.columns, grid_2z,
+                                             at)
         values = {c.name: float(v) for c, v in zip(cand.columns, coef[coef.size - len(cand.columns):])}
         screened.append((_screening(cand, rss, n, cv, tz, zg, p, rss0, n0, cv0, p0, n_eff, values), cand))
     delay_obs: dict[float, tuple[Observations, NDArray[np.bool_]]] = {}
-    if best:
+    if score:
         # The grid's steps are 50 ms: a delay between two of them leaves up to half a step,
         # which weak candidates then take (and lean on the clearances: a 0.125 s delay read
         # as 0.10 or 0.15 s put Z_gb 0.08 mm off). The vertex of the parabola through the
@@ -312,7 +330,7 @@ def _screen(gear: GearParams, signals: Mapping[str, Series], base: _Base, grid_2
         # neighbours are tried. Nearer, the grid point stands: finer steps scored on the
         # quick ratio follow its noise (a clean 0.25 s delay moved by 5-10 ms and left a
         # small viscous column something to take).
-        tau1 = best[0][1].angle_shift_s
+        tau1 = min(score, key=score.__getitem__)      # the first tried of the best, as scanned
         lo, hi = round(tau1 - DELAY_STEP_S, 3), round(tau1 + DELAY_STEP_S, 3)
         if lo in score and hi in score:
             curv = score[lo] - 2 * score[tau1] + score[hi]
@@ -326,14 +344,22 @@ def _screen(gear: GearParams, signals: Mapping[str, Series], base: _Base, grid_2
                         if tau > 0 and tau not in score:
                             delay_trial(Candidate('angle_delay', fixed={'tau_s': tau}, angle_shift_s=tau))
         say('candidate angle_delay')
-        _, cand, o, r, rb, o_mask, base_mask = best[0]
+        tau = min(score, key=score.__getitem__)
+        cand = Candidate('angle_delay', fixed={'tau_s': tau}, angle_shift_s=tau)
+        o, o_mask, base_mask = shifted(tau)
         o_a, o_b = _halves(o)
-        zc = z_columns(o, gear)
-        rss, n, cv, tz, zg, p, _ = _score(gear, basis, r, (make_rows(o, zc, o_a & o_mask), make_rows(o, zc, o_b & o_mask)),
-                                       coef_t, F.speed_scale_columns(r.moments) + base.extra, grid_2z, at)
-        rss_b, n_b, cv_b, _, _, p_b, _ = _score(gear, basis, rb, (make_rows(obs, z, a_half & base_mask),
-                                                                   make_rows(obs, z, b_half & base_mask)),
-                                                coef_t, F.speed_scale_columns(rb.moments) + base.extra, grid_2z, at)
+        zc, o_valid, _ = _z_subset(o, gear, needed)
+        o_keep = o_mask & o_valid
+        m = make_rows(o, zc, o_keep).moments
+        halves = (make_rows(o, zc, o_a & o_keep).moments, make_rows(o, zc, o_b & o_keep).moments)
+        del zc
+        rss, n, cv, tz, zg, p, _ = _score(gear, basis, m, halves, coef_t, F.speed_scale_columns(m) + base.extra,
+                                          grid_2z, at)
+        b_keep = base_mask & z_valid
+        mb = make_rows(obs, z, b_keep).moments
+        halves = (make_rows(obs, z, a_half & b_keep).moments, make_rows(obs, z, b_half & b_keep).moments)
+        rss_b, n_b, cv_b, _, _, p_b, _ = _score(gear, basis, mb, halves, coef_t, F.speed_scale_columns(mb) + base.extra,
+                                                grid_2z, at)
         screened.append((_screening(cand, rss, n, cv, tz, zg, p + 1, rss_b, n_b, cv_b, p_b, n_b / est.inflation),
                          cand))
         delay_obs[cand.angle_shift_s] = (o, o_mask)
@@ -408,7 +434,7 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
         say('refit with the located term as a nuisance')
         zl, cols = located.columns(base.obs)
         if cols:
-            rows = make_rows(base.obs, {**base.z, **zl}, base.keep & ~located.near_ends(base.obs))
+            rows = make_rows(base.obs, {**z_columns(base.obs, gear), **zl}, base.keep & ~located.near_ends(base.obs))
             try:
                 final = estimate_clearances(gear, base.obs, rows, base.extra + cols, grid_2z=grid_2z,
                                             model_inflation=unexplained_inflation(base.est))
