@@ -14,6 +14,9 @@ setup(
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
         (f'share/{PACKAGE}', ['package.xml']),
         (f'share/{PACKAGE}/config', sorted(glob('config/*.yaml') + glob('config/*.dbc'))),
+        (f'share/{PACKAGE}/config/aggregator', sorted(glob('config/aggregator/*.yaml'))),
+        (f'share/{PACKAGE}/launch', sorted(glob('launch/*.launch.py'))),
+        (f'share/{PACKAGE}/systemd', sorted(glob('systemd/*.service'))),
     ],
     python_requires='>=3.10',
     install_requires=[

@@ -38,6 +38,7 @@ from steer_monitor.monitor.pipeline import Output, Pipeline, StateOut, SyncEstim
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
 from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.record.msgdefs import msgdef
+from steer_monitor.record.provenance import run_metadata
 
 __all__ = ['ReplayError', 'ReplaySummary', 'replay', 'summary_json']
 
@@ -78,7 +79,7 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
         if not p.is_file():
             msg = f'log {p} does not exist'
             raise ReplayError(msg)
-    _, params, db, smap = load_setup(config)
+    config_path, params, db, smap = load_setup(config)
     gear = gear_from_params(params)
     rejects = RejectCounter()
     monitor = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params))
@@ -99,6 +100,8 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
             msg = f'cannot write {output}: {os_reason(exc)}'
             raise ReplayError(msg) from exc
         with writer:
+            for name, data in run_metadata(params, config_path, 'steer-monitor replay').items():
+                writer.add_metadata(name, data)
             _run(paths, pipeline, writer, topics, encoders, frames, rejects, summary, progress, date)
         if summary.frames == 0:     # nothing to write: no output rather than an empty one
             msg = summary.errors[0] if summary.errors else 'no frame in ' + ', '.join(str(p) for p in paths)
@@ -180,8 +183,7 @@ def summary_json(s: ReplaySummary) -> dict[str, Any]:
     def iv(v: Any, scale: float) -> dict[str, Any] | None:
         if v is None:
             return None
-        return {'value': v.value * scale, 'ci95': [None if v.lo is None else v.lo * scale,
-                                                   None if v.hi is None else v.hi * scale]}
+        return v.scaled(scale, 6)
     span = 0.0 if s.first_ns is None or s.last_ns is None else (s.last_ns - s.first_ns) / 1e9
     return {'output': s.output, 'logs': s.logs, 'frames': s.frames, 'span_s': round(span, 3), 'states': s.states,
             'diagnostics': s.diagnostics, 'rejects': s.rejects, 'errors': s.errors,

@@ -16,10 +16,16 @@ __all__ = ['single_blas_thread']
 _limiter: object | None = None
 
 
-def single_blas_thread() -> None:
+def single_blas_thread() -> bool:
     """Limit the BLAS libraries numpy and scipy loaded to one thread, for the rest of the
-    process (idempotent)."""
+    process (idempotent). Returns whether it could: threadpoolctl is optional (rosdep has no
+    key for it; without it the answers are the same, the estimator's CPU up to double)."""
     global _limiter
     if _limiter is None:
-        from threadpoolctl import threadpool_limits
-        _limiter = threadpool_limits(limits=1, user_api='blas')
+        try:
+            from threadpoolctl import threadpool_limits
+        except ImportError:
+            _limiter = False
+        else:
+            _limiter = threadpool_limits(limits=1, user_api='blas')
+    return _limiter is not False

@@ -65,6 +65,9 @@ def test_pip_install_layout(tmp_path):
                    check=True, env=_env(), cwd=tmp_path)
     share = prefix / 'share' / 'steer_monitor'
     assert (share / 'package.xml').is_file()
+    for part in ('launch/monitor.launch.py', 'systemd/steer-monitor.service',
+                 'config/aggregator/steer_monitor_analyzers.yaml'):
+        assert (share / part).is_file(), part
     assert (share / 'config' / 'r18.yaml').is_file()
     assert (share / 'config' / 'r18_chain.yaml').is_file()
     assert (prefix / 'share' / 'ament_index' / 'resource_index' / 'packages' / 'steer_monitor').is_file()
@@ -90,6 +93,9 @@ def test_colcon_build_layout(tmp_path):
     install = ws / 'install' / 'steer_monitor'
     share = install / 'share' / 'steer_monitor'
     assert (share / 'package.xml').is_file()
+    for part in ('launch/monitor.launch.py', 'systemd/steer-monitor.service',
+                 'config/aggregator/steer_monitor_analyzers.yaml'):
+        assert (share / part).is_file(), part
     assert (install / 'share' / 'ament_index' / 'resource_index' / 'packages' / 'steer_monitor').is_file()
     # Where `ros2 run steer_monitor <exe>` looks: lib/<package>/<exe>.
     script = install / 'lib' / 'steer_monitor' / 'steer-monitor'

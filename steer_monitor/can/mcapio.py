@@ -143,6 +143,10 @@ class McapWriter:
         self._encoders: dict[str, Any] = {}
         self._closed = False
 
+    def add_metadata(self, name: str, data: dict[str, str]) -> None:
+        """Write an MCAP metadata record (``mcap info`` and the readers list them)."""
+        self._writer.add_metadata(name, dict(data))
+
     def add_schema(self, datatype: str, msgdef: str) -> None:
         """Register a ros2msg schema (once per datatype)."""
         if datatype not in self._schemas:

@@ -4,9 +4,9 @@ clearances from a log, find what the declared model lacks, and say how sure that
 The JSON (units in the key names; intervals are 95 %, ``hi`` null when the data only bound
 a value from below)::
 
-    clearance_2z_mm, clearance_zgb_mm      {"value", "ci95": [lo, hi]}   (final model)
-    k_gl_max                               {"value", "ci95": [lo, hi]}
-    seal_friction_n, mu_bushing, mu_guide  {"value", "ci95": [lo, hi]}
+    clearance_2z_mm, clearance_zgb_mm      {"value", "ci95": [lo, hi], "bounded"}   (final model)
+    k_gl_max                               {"value", "ci95": [lo, hi], "bounded"}
+    seal_friction_n, mu_bushing, mu_guide  {"value", "ci95": [lo, hi], "bounded"}
     effects                                the adopted effects in order, each {"name", "params",
                                            "rmse_before_bar", "rmse_after_bar", "rmse_before_kn",
                                            "rmse_after_kn", "systematic_before_bar",

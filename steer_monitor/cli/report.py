@@ -89,6 +89,7 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
     from steer_monitor.can.logs import LogError
     from steer_monitor.errors import ParameterError
     from steer_monitor.params import gear_from_params, load_config
+    from steer_monitor.record.provenance import parameters_digest
     from steer_monitor.report.review import ReportInput, write_review_report
 
     out = out or sys.stdout
@@ -119,15 +120,19 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
     title = ', '.join(p.name for p in paths)
     inp = ReportInput(title, gear_from_params(params), r, analysis, note, online_track(paths), batch.frames,
                       batch.rejects, batch.errors, params['clearances.limit_2z_mm'] * 1e-3,
-                      params['clearances.limit_zgb_mm'] * 1e-3, params['diagnostics.solas_hard_over_s'])
+                      params['clearances.limit_zgb_mm'] * 1e-3, params['diagnostics.solas_hard_over_s'],
+                      params['hydraulics.pumps'], params['hydraulics.ram_speed_per_pump_mm_s'] * 1e-3,
+                      params['diagnostics.clearance_warn_share'], params['node.hardware_id'], params['gear.name'],
+                      str(config_path), parameters_digest(params))
     page = write_review_report(inp, out_dir)
     elapsed = time.perf_counter() - t0
     if as_json:
         e = r.estimates[-1].estimate if r.estimates else None
         dump_json({'page': str(page), 'frames': batch.frames, 'errors': batch.errors, 'notes': r.notes,
                    'estimates': len(r.estimates), 'hard_overs_s': [round(h.seconds, 2) for h in r.hard_overs],
-                   'clearance_2z_mm': None if e is None else round(e.two_z.value * 1e3, 4),
-                   'clearance_zgb_mm': None if e is None else round(e.z_gb.value * 1e3, 4),
+                   'clearance_2z_mm': None if e is None else e.two_z.scaled(1e3),
+                   'clearance_zgb_mm': None if e is None else e.z_gb.scaled(1e3),
+                   'k_gl_max': None if e is None else e.k_gl_max.scaled(1.0),
                    'model_check': None if analysis is None else analysis.verdict, 'elapsed_s': round(elapsed, 2)}, out)
     else:
         out.write(f'report of {batch.frames} frames written to {page} ({elapsed:.1f} s)\n')

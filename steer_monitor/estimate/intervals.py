@@ -45,10 +45,12 @@ class Interval:
         return (self.lo is None or x >= self.lo - 1e-12) and (self.hi is None or x <= self.hi + 1e-12)
 
     def scaled(self, k: float, digits: int = 4) -> dict[str, object]:
-        """``{"value", "ci95": [lo, hi]}`` in units of 1/k (e.g. k = 1e3 for mm)."""
+        """``{"value", "ci95": [lo, hi], "bounded"}`` in units of 1/k (e.g. k = 1e3 for mm):
+        the one JSON shape of an estimate in every command; ``bounded`` false when an end of
+        the interval is open (None)."""
         def r(v: float | None) -> float | None:
             return None if v is None else round(v * k, digits)
-        return {'value': r(self.value), 'ci95': [r(self.lo), r(self.hi)]}
+        return {'value': r(self.value), 'ci95': [r(self.lo), r(self.hi)], 'bounded': not self.one_sided}
 
 
 def inflation(resid: NDArray[np.float64], t_ns: NDArray[np.int64], step_ns: int) -> float:

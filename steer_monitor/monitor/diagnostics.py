@@ -17,8 +17,13 @@ import numpy as np
 from steer_monitor.can.rejects import RejectSnapshot
 from steer_monitor.can.signals import REQUIRED, SignalMap
 from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.hardover import hard_over_time, pumps_running
 from steer_monitor.model.loadshare import load_sharing_at
 from steer_monitor.model.study import landmarks
+from steer_monitor.monitor.verdict import ERROR as VERDICT_ERROR
+from steer_monitor.monitor.verdict import OK as VERDICT_OK
+from steer_monitor.monitor.verdict import WARN as VERDICT_WARN
+from steer_monitor.monitor.verdict import clearance_verdict
 from steer_monitor.monitor.live import ARRIVALS_KEPT_NS, RATE_WINDOW_NS, LiveMonitor
 
 __all__ = ['ERROR', 'OK', 'STALE', 'WARN', 'DiagnosticsBuilder', 'DiagnosticsConfig', 'Status']
@@ -54,6 +59,10 @@ class DiagnosticsConfig:
     guide_idle_warn_deg: float = 10.0
     solas_hard_over_s: float = 28.0
     residual_warn_bar: float = 3.0
+    #: the gear's main pumps (SOLAS's hard-over time is judged with all of them running)
+    pumps: int = 2
+    #: ram speed one pump gives [m/s]
+    ram_speed_per_pump: float = 15e-3
 
     @classmethod
     def from_params(cls, p: Mapping[str, Any]) -> DiagnosticsConfig:
@@ -62,7 +71,8 @@ class DiagnosticsConfig:
                    limit_2z=p['clearances.limit_2z_mm'] * 1e-3, limit_zgb=p['clearances.limit_zgb_mm'] * 1e-3,
                    guide_idle_warn_deg=p['diagnostics.guide_idle_warn_deg'],
                    solas_hard_over_s=p['diagnostics.solas_hard_over_s'],
-                   residual_warn_bar=p['diagnostics.residual_warn_bar'])
+                   residual_warn_bar=p['diagnostics.residual_warn_bar'],
+                   pumps=p['hydraulics.pumps'], ram_speed_per_pump=p['hydraulics.ram_speed_per_pump_mm_s'] * 1e-3)
 
 
 def _f(x: float | None, fmt: str = '.3f') -> str:
@@ -76,19 +86,22 @@ class DiagnosticsBuilder:
         self.cfg = cfg
         self.smap = smap
         self.gear = gear
-        self._onset_cache: tuple[Gaps, float | None] | None = None
+        self._onset_cache: dict[Gaps, float | None] = {}
 
     def _status(self, item: str, level: int, message: str, values: list[tuple[str, str]]) -> Status:
         return Status(PREFIX + item, level, message, self.cfg.hardware_id, tuple(values))
 
     def guide_onset_deg(self, gaps: Gaps) -> float | None:
         """Angle from which the guide beam carries load at service speed (None: never)."""
-        if self._onset_cache is None or self._onset_cache[0] != gaps:
+        if gaps.z_gb <= 0:
+            return 0.0              # in contact from the start: carries load at any angle
+        if gaps not in self._onset_cache:
             alpha = np.radians(np.arange(0.0, math.degrees(self.gear.max_rudder) + 1e-9, 0.1))
             marks = landmarks(alpha, load_sharing_at(self.gear, alpha, gaps))
-            onset = None if marks.guide_onset is None else math.degrees(marks.guide_onset)
-            self._onset_cache = (gaps, onset)
-        return self._onset_cache[1]
+            if len(self._onset_cache) >= 8:
+                self._onset_cache.pop(next(iter(self._onset_cache)))
+            self._onset_cache[gaps] = None if marks.guide_onset is None else math.degrees(marks.guide_onset)
+        return self._onset_cache[gaps]
 
     def build(self, mon: LiveMonitor, rejects: RejectSnapshot, now_ns: int,
               recording: Status | None = None) -> list[Status]:
@@ -132,6 +145,12 @@ class DiagnosticsBuilder:
         return self._status('CAN input', level, message, values)
 
     def clearances(self, mon: LiveMonitor) -> Status:
+        """Levels decided on the interval, not the point: ERROR when its lower end is past the
+        limit, WARN when its lower end passes the warn share of it, or when the point passes
+        the limit with an interval narrow enough to say so; an interval wider than the limit
+        itself that reaches from below the warn share to past the limit is too wide to judge:
+        OK, and the message says so.
+        Clearances not yet estimated are OK: the configured values are shown, not judged."""
         cfg = self.cfg
         gaps = mon.gaps
         interval = mon.gaps_interval or {}
@@ -145,18 +164,28 @@ class DiagnosticsBuilder:
                        (f'clearance_{key}_hi_mm', _f(None if hi is None else hi * 1e3)),
                        (f'limit_{key}_mm', f'{limit * 1e3:.3f}')]
             name = '2Z' if key == '2z' else 'Z_gb'
-            if interval and hi is None and lo is not None:
-                # the data only bound it from below: judge the bound, say so
-                level = ERROR if lo > limit else WARN if lo >= cfg.clearance_warn_share * limit else OK
-                parts.append(f'{name} >= {lo * 1e3:.3f} mm (lower bound only: not reached at the loads seen)')
-            else:
-                level = ERROR if value > limit else WARN if value >= cfg.clearance_warn_share * limit else OK
+            if not interval or lo is None:
                 parts.append(f'{name} {value * 1e3:.3f} mm ({value / limit:.0%} of limit)')
+                continue
+            v = clearance_verdict(value, lo, hi, limit, cfg.clearance_warn_share)
+            level = {VERDICT_OK: OK, VERDICT_WARN: WARN, VERDICT_ERROR: ERROR}[v.level]
+            if hi is None:       # the data only bound it from below: judge the bound, say so
+                text = (f'{name} >= {lo * 1e3:.3f} mm (lower bound only: not reached at the loads seen; '
+                        f'{lo / limit:.0%} of limit)')
+            else:
+                text = (f'{name} {value * 1e3:.3f} mm [{lo * 1e3:.3f} .. {hi * 1e3:.3f}] '
+                        f'({value / limit:.0%} of limit)')
+                if v.note:
+                    text += f': {v.note}'
+            parts.append(text)
             worst = max(worst, level)
         if not mon.gaps_interval:
             values.append(('clearance_interval', 'none: configured values, not estimated'))
+            message = 'not yet estimated; configured ' + '; '.join(parts)
+        else:
+            message = f"{'; '.join(parts)} [{mon.gaps_source}]"
         values += sorted(mon.estimate_info.items())
-        return self._status('clearances', worst, f"{'; '.join(parts)} [{mon.gaps_source}]", values)
+        return self._status('clearances', worst, message, values)
 
     def guide_beam(self, mon: LiveMonitor) -> Status:
         onset = self.guide_onset_deg(mon.gaps)
@@ -169,15 +198,36 @@ class DiagnosticsBuilder:
                        ('lateral_force_kn', f'{state.share.lateral / 1e3:.1f}'),
                        ('ram_force_kn', f'{state.share.ram_force / 1e3:.1f}'),
                        ('guide_force_kn', f'{state.share.guide_force / 1e3:.1f}')]
-        if onset is None or onset > self.cfg.guide_idle_warn_deg:
-            level = WARN
+        idle = onset is None or onset > self.cfg.guide_idle_warn_deg
+        if idle:
             message = ('guide beam carries nothing over the whole range' if onset is None else
                        f'guide beam idle up to {onset:.2f} deg (warn above {self.cfg.guide_idle_warn_deg:g} deg)')
         else:
-            level, message = OK, f'guide beam carries load from {onset:.2f} deg'
+            message = f'guide beam carries load from {onset:.2f} deg'
+        # judged on the estimate, not the configured values, and on its interval: WARN only
+        # when the guide is idle beyond the warning even at the smallest Z_gb the data allow
+        level = OK
+        if not mon.gaps_interval:
+            message += ' at the configured clearances (judged once they are estimated)'
+        elif idle:
+            lo = mon.gaps_interval.get('zgb', (None, None))[0]
+            onset_lo = onset if lo is None else self.guide_onset_deg(Gaps(mon.gaps.two_z, lo))
+            values.append(('guide_onset_lo_deg', _f(onset_lo, '.2f')))
+            if onset_lo is None or onset_lo > self.cfg.guide_idle_warn_deg:
+                level = WARN
+            else:
+                message += f' (from {onset_lo:.2f} deg at the low end of the Z_gb interval: not judged)'
         if k_now is not None:
             message += f'; K_gl now {k_now:.2f}'
         return self._status('guide beam', level, message, values)
+
+    def pumps_running(self, hard_over_s: float) -> int:
+        """Pumps that ran a hard-over of ``hard_over_s`` [s] (:mod:`~steer_monitor.model.hardover`)."""
+        return pumps_running(hard_over_s, self.gear.stock_to_ram, self.cfg.ram_speed_per_pump, self.cfg.pumps)
+
+    def one_pump_hard_over_s(self) -> float:
+        """The hard-over time of one pump at its nominal ram speed [s]."""
+        return hard_over_time(self.gear.stock_to_ram, self.cfg.ram_speed_per_pump)
 
     def performance(self, mon: LiveMonitor) -> Status:
         values = [('hard_over_s', _f(mon.hard_over_s, '.1f')),
@@ -186,10 +236,17 @@ class DiagnosticsBuilder:
         if mon.hard_over_s is None:
             parts.append('no hard-over seen yet')
         else:
-            ok = mon.hard_over_s <= self.cfg.solas_hard_over_s
-            level = OK if ok else WARN
-            parts.append(f'hard-over 35 deg to 30 deg the other side in {mon.hard_over_s:.1f} s '
-                         f"({'within' if ok else 'OVER'} SOLAS {self.cfg.solas_hard_over_s:g} s)")
+            pumps = self.pumps_running(mon.hard_over_s)
+            values.append(('hard_over_pumps', str(pumps)))
+            head = (f'hard-over 35 deg to 30 deg the other side in {mon.hard_over_s:.1f} s with '
+                    f"{pumps} pump{'s' if pumps > 1 else ''}")
+            if pumps < self.cfg.pumps:     # SOLAS's time is for the gear's pumps: reported, not judged
+                parts.append(f'{head}, as its time says (one pump: {self.one_pump_hard_over_s():.0f} s; SOLAS '
+                             f'{self.cfg.solas_hard_over_s:g} s is judged with {self.cfg.pumps})')
+            else:
+                ok = mon.hard_over_s <= self.cfg.solas_hard_over_s
+                level = OK if ok else WARN
+                parts.append(f"{head} ({'within' if ok else 'OVER'} SOLAS {self.cfg.solas_hard_over_s:g} s)")
         r = mon.response
         values += [('order_deg', _f(None if r is None else math.degrees(r.order), '.2f')),
                    ('response_direction_ok', 'n/a' if r is None or r.direction_ok is None else str(r.direction_ok).lower()),

@@ -30,6 +30,7 @@ from steer_monitor.can.decoder import Sample
 from steer_monitor.can.signals import INPUTS
 from steer_monitor.model.friction import FrictionParams, friction_force
 from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
 from steer_monitor.model.loadshare import ShareScalar, load_sharing_scalar
 
 __all__ = ['ARRIVALS_KEPT_NS', 'RATE_WINDOW_NS', 'LiveMonitor', 'LiveState', 'Response']
@@ -41,9 +42,13 @@ SLOPE_WINDOW_NS = 500_000_000
 HALF_WINDOW_NS = 300_000_000   # each side of a pressure sample, for the residual
 MOVING_RATE = 0.2 * DEG        # rad/s: below this the rudder is at rest
 RESIDUAL_SAMPLES = 1200        # about a minute of motion at 20 Hz
-HARD_OVER_DEG = 34.5           # "at 35 deg", allowing for sensor noise and the valve dead band
-OTHER_SIDE_DEG = 29.5          # "at 30 deg" likewise: the valve stops within its dead band
+HARD_OVER_DEG = HARD_OVER_FROM_DEG   # "at 35 deg", allowing for sensor noise and the valve dead band
+OTHER_SIDE_DEG = HARD_OVER_TO_DEG    # "at 30 deg" likewise: the valve stops within its dead band
 ORDER_STEP = 1.0 * DEG
+#: after an order step, how long the rudder may still move the old way: the rate read here
+#: is a slope over SLOPE_WINDOW_NS, so a turn shows half a window late, and the pump's valve
+#: takes a moment to reverse the flow (the simulated gear stops in one 10 ms step)
+REVERSAL_NS = SLOPE_WINDOW_NS + 500_000_000
 _PRESSURE_INDEX = {'pressure_r1_stbd': 0, 'pressure_r1_port': 1, 'pressure_r2_stbd': 2, 'pressure_r2_port': 3}
 
 
@@ -86,6 +91,8 @@ class LiveMonitor:
                  priors: FrictionParams | None = None) -> None:
         self.gear = gear
         self.gaps = gaps
+        #: the clearances of the parameters file, before any estimate
+        self.configured = gaps
         self.gaps_source = gaps_source
         self.gaps_interval: dict[str, tuple[float, float | None]] | None = None
         self.estimate_info: dict[str, str] = {}   # what the estimator adds to the diagnostics
@@ -110,6 +117,8 @@ class LiveMonitor:
         """Use new clearance values (e.g. from the estimator) and say where they come from;
         with ``friction``, the friction estimated together with them (the model's residual
         needs both from the same fit: a clamped ram with the configured mu_b is not the fit)."""
+        if source != self.gaps_source:
+            self.residuals.clear()       # residuals of other clearances say nothing of the model
         self.gaps, self.gaps_source, self.gaps_interval = gaps, source, interval
         if friction is not None:
             self.priors = friction
@@ -219,6 +228,11 @@ class LiveMonitor:
         speed = self.signals['ship_speed'].last_value
         speed = None if math.isnan(speed) else speed
         area = gear.ram_area
+        # a clearance the estimate bounds only from below: the data never saw the ram clamp (or
+        # the beam touch), so where the live model puts one, its residual judges a guess
+        iv = self.gaps_interval or {}
+        open_2z = '2z' in iv and iv['2z'][1] is None
+        open_zgb = 'zgb' in iv and iv['zgb'][1] is None
         while self._pending and self._pending[0][0] <= t_end:
             t, force_1, force_2 = self._pending.popleft()
             i = bisect.bisect_right(times, t) - 1
@@ -232,6 +246,8 @@ class LiveMonitor:
             (t_a, a_a), (t_b, a_b) = hist[i], hist[i + 1]
             alpha = a_a + (a_b - a_a) * (t - t_a) / (t_b - t_a)
             m = load_sharing_scalar(gear, alpha, gear.torque.scalar(alpha, speed), gaps.two_z, gaps.z_gb)
+            if (open_2z and m.lateral > m.f_theta) or (open_zgb and m.lateral > m.f_z):
+                continue      # a clamp or contact the estimate has not seen yet: no evidence either way
             f_fr = float(friction_force(pri, m.r_a, m.r_e, m.m_a, m.guide_force, gear.bushing_length))
             predicted = math.copysign(m.axial, alpha) + direction * f_fr
             self.residuals.append((force_1 - predicted) / area / 1e5)
@@ -261,7 +277,10 @@ class LiveMonitor:
         moving = abs(self.rate) > MOVING_RATE
         if r.direction_ok is None and moving:
             wanted = math.copysign(1.0, r.order - alpha) if abs(r.order - alpha) > 0.2 * DEG else 0.0
-            r.direction_ok = wanted == 0.0 or math.copysign(1.0, self.rate) == wanted
+            ok = wanted == 0.0 or math.copysign(1.0, self.rate) == wanted
+            if not ok and t_ns - r.t_step_ns < REVERSAL_NS:
+                return        # still stopping and turning from before the order: judged later
+            r.direction_ok = ok
             r.delay_s = (t_ns - r.t_step_ns) / 1e9
         if not moving and (t_ns - r.t_step_ns) > 2_000_000_000:
             r.accuracy = abs(r.order - alpha)

@@ -44,6 +44,7 @@ from steer_monitor.node.params_ros import declare_parameters
 from steer_monitor.node.rosmsg import message_class, to_ros
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
 from steer_monitor.record.msgdefs import msgdef
+from steer_monitor.record.provenance import run_metadata
 from steer_monitor.record.recorder import Recorder
 from steer_monitor.threads import single_blas_thread
 
@@ -64,7 +65,9 @@ class MonitorNode(Node):
                  context: Any = None, bus_opener: Callable[[], ListenOnlyBus] | None = None,
                  config_path: str | None = None) -> None:
         super().__init__(node_name, context=context, parameter_overrides=list(parameter_overrides or []))
-        single_blas_thread()   # the estimator's profiles: a second BLAS thread only spins
+        if not single_blas_thread():   # the estimator's profiles: a second BLAS thread only spins
+            self.get_logger().info('threadpoolctl is not installed: BLAS keeps its own threads '
+                                   '(same answers, more CPU; pip install threadpoolctl)')
         # the estimator thread's profiles run Python and numpy under the GIL for up to a second;
         # the reader thread gets the GIL back within 1 ms of asking, not the default 5 ms
         sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL_S))
@@ -81,7 +84,8 @@ class MonitorNode(Node):
         if p['recording.enabled']:
             self.recorder = Recorder(p['recording.directory'], p['recording.prefix'],
                                      int(p['recording.max_file_mb'] * (1 << 20)),
-                                     p['recording.max_file_minutes'] * 60.0)
+                                     p['recording.max_file_minutes'] * 60.0,
+                                     metadata=run_metadata(p, config_path))
         self._make_publishers()
         self._lock = threading.Lock()          # guards the pipeline and the live model
         self._unpublished: list[int] = []      # bus timestamps of state-changing frames not yet published

@@ -44,10 +44,23 @@ def declare_parameters(node: Any) -> dict[str, Any]:
     if unknown:
         msg = f'unknown parameter {unknown[0]}' + (f' (and {len(unknown) - 1} more)' if len(unknown) > 1 else '')
         raise ParameterError(msg)
+    # Without any gear parameter (no parameters file given), the packaged one is the default,
+    # said in the log: a node started bare monitors the R-18 gear it describes rather than
+    # failing on the first required parameter. Given some, a missing required one is an error:
+    # another gear's file must not be completed silently with R-18 values.
+    packaged: dict[str, Any] = {}
+    if not any(name.startswith('gear.') for name in overrides):
+        from steer_monitor.params import load_params_file
+        from steer_monitor.resources import default_config
+        path = default_config()
+        packaged = load_params_file(path)
+        node.get_logger().info(f'no gear parameters given: using the packaged parameters file {path}')
     values: dict[str, Any] = {}
     for spec in PARAMETERS:
         descriptor = _descriptor(spec)
-        default = spec.default if spec.default is not None else type_of[spec.kind]
+        default = packaged.get(spec.name, spec.default)
+        if default is None:
+            default = type_of[spec.kind]
         try:
             param = node.declare_parameter(spec.name, default, descriptor)
         except InvalidParameterTypeException as exc:

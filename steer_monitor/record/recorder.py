@@ -65,8 +65,11 @@ class Recorder:
     def __init__(self, directory: str | Path, prefix: str = 'steer_monitor', max_bytes: int = 512 << 20,
                  max_seconds: float = 3600.0, flush_interval_s: float = 1.0, retry_s: float = 5.0,
                  queue_size: int = 200_000, chunk_size: int = 1 << 20,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic,
+                 metadata: dict[str, dict[str, str]] | None = None) -> None:
         self.directory = Path(directory)
+        #: MCAP metadata records written at the start of every file (name -> string map)
+        self.metadata = dict(metadata or {})
         self.prefix = prefix
         self.max_bytes = max_bytes
         self.max_seconds = max_seconds
@@ -252,6 +255,8 @@ class Recorder:
         stream = open(path, 'wb')
         try:
             writer = McapWriter(stream, chunk_size=self.chunk_size)
+            for name, data in self.metadata.items():
+                writer.add_metadata(name, data)
         except BaseException:
             stream.close()
             raise

@@ -76,7 +76,7 @@ def _chunk_records(chunk: Any) -> bytes:
 def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult:
     """Copy what is readable of ``path`` into ``output`` (default ``<name>.recovered.mcap``)."""
     from mcap.exceptions import EndOfFile
-    from mcap.records import Channel, Chunk, Footer, Message, Schema
+    from mcap.records import Channel, Chunk, Footer, Message, Metadata, Schema
     from mcap.stream_reader import StreamReader
     from mcap.writer import CompressionType, Writer
 
@@ -96,6 +96,7 @@ def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult
         raise RecoverError(msg) from exc
     schemas: dict[int, int] = {}
     channels: dict[int, int] = {}
+    metadata: set[str] = set()
     count = 0
     first = last = None
     footer = False
@@ -109,6 +110,9 @@ def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult
         elif isinstance(record, Channel) and record.id not in channels:
             channels[record.id] = writer.register_channel(
                 record.topic, record.message_encoding, schemas.get(record.schema_id, 0), dict(record.metadata))
+        elif isinstance(record, Metadata) and record.name not in metadata:
+            metadata.add(record.name)          # what the recording was made with: kept
+            writer.add_metadata(record.name, dict(record.metadata))
         elif isinstance(record, Message) and record.channel_id in channels:
             writer.add_message(channels[record.channel_id], log_time=record.log_time,
                                publish_time=record.publish_time, data=record.data, sequence=record.sequence)

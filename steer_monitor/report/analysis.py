@@ -108,17 +108,42 @@ def residual_figure(a: Analysis) -> Any:
     effect = 'no effect adopted' if not a.steps else 'with ' + ', '.join(s.name for s in a.steps)
     if a.located is not None:
         effect += ', located term as a nuisance'
-    fig, ax = plt.subplots(2, 1, figsize=(10, 5), sharex=True)
-    for k, (est, obs, title) in enumerate(((a.declared, a.observations, 'declared model'),
-                                           (a.final, a.final_observations, f'final model ({effect})'))):
+    panels = [(a.declared, a.observations, 'declared model')]
+    if a.steps or a.located is not None:      # else the final model is the declared one: one panel
+        panels.append((a.final, a.final_observations, f'final model ({effect})'))
+    else:
+        panels = [(a.declared, a.observations, 'declared model (no effect adopted: it is the final model)')]
+    fig, ax = plt.subplots(len(panels), 1, figsize=(12, 2.6 * len(panels) + 0.4), sharex=True, squeeze=False)
+    ax = ax[:, 0]
+    for k, (est, obs, title) in enumerate(panels):
         t = (obs.t_ns - obs.t_ns[0]) / 1e9
         both = np.isfinite(est.residual)
         r = np.where(both.any(1), np.nansum(est.residual, 1) / np.maximum(both.sum(1), 1), np.nan) / bar
         ax[k].plot(t, r, '.', ms=1.5, color='tab:blue')
         ax[k].set_ylabel('residual [bar]')
         ax[k].set_title(f'{title}: RMS {est.rms / bar:.2f} bar, systematic {est.smooth_rms / bar:.2f} bar')
-    ax[1].set_xlabel('time [s]')
+    ax[-1].set_xlabel('time [s]')
     return fig
+
+
+def _words(d: Any) -> str:
+    """Parameters as an engineer reads them: ``v_s_mm_s 3; f_st_n 15000 [12000 .. 18000]``, not
+    a Python dict."""
+    if not d:
+        return '-'
+    if not isinstance(d, dict):
+        return str(d)
+    out = []
+    for k, v in d.items():
+        if isinstance(v, dict) and 'value' in v:
+            lo, hi = v.get('ci95', [None, None])
+            out.append(f"{k} {v['value']:g} [{'-' if lo is None else f'{lo:g}'} .. "
+                       f"{'unbounded' if hi is None else f'{hi:g}'}]")
+        elif isinstance(v, float):
+            out.append(f'{k} {v:g}')
+        else:
+            out.append(f'{k} {v}')
+    return '; '.join(out)
 
 
 def write_analysis_report(a: Analysis, result: dict[str, Any], path: str | Path) -> Path:
@@ -134,12 +159,12 @@ def write_analysis_report(a: Analysis, result: dict[str, Any], path: str | Path)
                    for name, key in (('2Z [mm]', 'clearance_2z_mm'), ('Z_gb [mm]', 'clearance_zgb_mm'),
                                      ('K_gl max', 'k_gl_max'), ('F_s [N]', 'seal_friction_n'),
                                      ('mu_b', 'mu_bushing'), ('mu_g', 'mu_guide')))
-    scr = ''.join(f"<tr><td>{esc(s['name'])}</td><td>{esc(str(s['fixed']))}</td><td>{s['held_out_gain']:.3f}</td>"
+    scr = ''.join(f"<tr><td>{esc(s['name'])}</td><td>{esc(_words(s['fixed']))}</td><td>{s['held_out_gain']:.3f}</td>"
                   f"<td>{s['delta_bic']:.1f}</td><td>{s['rmse_bar']:.3f}</td><td>{'yes' if s['passes'] else 'no'}</td></tr>"
                   for s in result['screening'])
     effects = result['effects']
     eff = 'none' if not effects else '; '.join(
-        f"{esc(e['name'])} ({e['rmse_before_bar']} &rarr; {e['rmse_after_bar']} bar): {esc(str(e['params']))}"
+        f"{esc(e['name'])} ({e['rmse_before_bar']} &rarr; {e['rmse_after_bar']} bar): {esc(_words(e['params']))}"
         for e in effects)
     img = ''.join(f'<h2>{esc(title)}</h2><img alt="{esc(key)}" src="data:image/png;base64,{plots[key]}">'
                   for key, title in (('profiles', 'Clearance profiles'), ('torque', 'Tiller torque'),

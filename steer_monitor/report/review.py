@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 from steer_monitor.atomic import ensure_dir, write_bytes, write_text
 from steer_monitor.estimate.analyze import Analysis
 from steer_monitor.model.gear import GearParams
+from steer_monitor.model.hardover import pumps_running
 from steer_monitor.model.loadshare import load_sharing_at
 from steer_monitor.report.analysis import residual_figure
 from steer_monitor.review import ReviewResult
@@ -69,6 +70,15 @@ class ReportInput:
     limit_2z: float
     limit_zgb: float
     solas_s: float
+    #: the gear's pumps (SOLAS's time is judged with all running) and one pump's ram speed [m/s]
+    pumps: int = 2
+    ram_speed_per_pump: float = 15e-3
+    warn_share: float = 0.8
+    #: where it came from: vessel (hardware id), gear name, parameters file and digest
+    hardware_id: str = ''
+    gear_name: str = ''
+    config: str = ''
+    parameters_sha256: str = ''
 
 
 def _png(fig: Any) -> bytes:
@@ -79,8 +89,22 @@ def _png(fig: Any) -> bytes:
     return buf.getvalue()
 
 
-def _hours(t_ns: NDArray[np.int64], t0: int) -> NDArray[np.float64]:
-    return (t_ns - t0) / 3.6e12
+@dataclass(frozen=True)
+class _TimeAxis:
+    """Time since the first frame in the unit that suits the log's span: s under 2 min, min
+    under 2 h, else h."""
+
+    t0: int
+    div: float
+    unit: str
+
+    @classmethod
+    def of(cls, t0: int, t1: int) -> _TimeAxis:
+        span = (t1 - t0) / 1e9
+        return cls(t0, 1e9, 's') if span < 120 else cls(t0, 6e10, 'min') if span < 7200 else cls(t0, 3.6e12, 'h')
+
+    def __call__(self, t_ns: NDArray[np.int64]) -> NDArray[np.float64]:
+        return (np.asarray(t_ns) - self.t0) / self.div
 
 
 def _message_fig(text: str) -> Any:
@@ -91,25 +115,28 @@ def _message_fig(text: str) -> Any:
     return fig
 
 
-def _timeseries(r: ReviewResult, t0: int) -> Any:
+def _timeseries(r: ReviewResult, tx: _TimeAxis) -> Any:
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(2, 1, figsize=(10, 5.2), sharex=True)
-    h = _hours(r.t_ns, t0)
+    fig, ax = plt.subplots(2, 1, figsize=(12, 5.6), sharex=True)
+    h = tx(r.t_ns)
     ax[0].plot(h, np.degrees(r.alpha), 'k-', lw=0.6)
     ax[0].set_ylabel('rudder angle [deg]')
     ax[0].axhline(35, color='0.7', lw=0.6, ls=':')
     ax[0].axhline(-35, color='0.7', lw=0.6, ls=':')
-    for k, label in enumerate(('ram 1 stbd', 'ram 1 port', 'ram 2 stbd', 'ram 2 port')):
-        ax[1].plot(h, r.pressure[:, k] / 1e5, lw=0.6, label=label)
+    # ram 2 dashed over ram 1 solid: the two rams read nearly alike, and one would hide the other
+    styles = (('ram 1 stbd', 'tab:green', '-', 1.2), ('ram 1 port', 'tab:red', '-', 1.2),
+              ('ram 2 stbd', 'darkgreen', '--', 0.9), ('ram 2 port', 'darkred', '--', 0.9))
+    for k, (label, color, ls, lw) in enumerate(styles):
+        ax[1].plot(h, r.pressure[:, k] / 1e5, ls=ls, color=color, lw=lw, label=label)
     ax[1].set_ylabel('pressure [bar]')
-    ax[1].set_xlabel('time since the first frame [h] (one point per second of data)')
-    ax[1].legend(ncol=4, fontsize=8, loc='upper right')
+    ax[1].set_xlabel(f'time since the first frame [{tx.unit}] (one point per second of data)')
+    ax[1].legend(ncol=4, fontsize=8, loc='lower center', bbox_to_anchor=(0.5, 1.0), frameon=False)
     return fig
 
 
 def _loadsharing(r: ReviewResult, gear: GearParams) -> Any:
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.0))
     sh = r.share
     deg = np.degrees(r.alpha)
     curve = np.radians(np.linspace(-math.degrees(gear.max_rudder), math.degrees(gear.max_rudder), 281))
@@ -127,62 +154,77 @@ def _loadsharing(r: ReviewResult, gear: GearParams) -> Any:
     ax[0].set_xlabel('rudder angle [deg]')
     ax[0].set_ylabel('K_gl = F_gb / (F_r + F_gb)')
     ax[0].set_ylim(-0.05, 1.05)
-    ax[0].legend(fontsize=8)
+    ax[0].legend(fontsize=8, loc='lower center', bbox_to_anchor=(0.5, 1.02), ncol=3, frameon=False)
     ax[1].plot(cdeg, model.ram_force / 1e3, 'k-', lw=1, label='F_r model')
     ax[1].plot(cdeg, model.guide_force / 1e3, 'k--', lw=1, label='F_gb model')
     ax[1].set_xlabel('rudder angle [deg]')
     ax[1].set_ylabel('lateral force [kN]')
-    ax[1].legend(fontsize=8)
+    ax[1].legend(fontsize=8, loc='lower center', bbox_to_anchor=(0.5, 1.02), ncol=2, frameon=False)
     src = 'estimated' if r.gaps_source == 'estimated' else 'configured'
     fig.suptitle(f'at the {src} clearances 2Z {r.gaps.two_z * 1e3:.3f} mm, Z_gb {r.gaps.z_gb * 1e3:.3f} mm',
-                 fontsize=10)
+                 fontsize=10, y=1.1)
     return fig
 
 
-def _clearances(inp: ReportInput, t0: int) -> Any:
+def _clearances(inp: ReportInput, tx: _TimeAxis) -> Any:
     import matplotlib.pyplot as plt
     r = inp.review
-    fig, ax = plt.subplots(1, 2, figsize=(10, 3.8), sharex=True)
+    fig, ax = plt.subplots(1, 2, figsize=(12, 4.0), sharex=True)
     for k, (name, attr, limit) in enumerate((('2Z', 'two_z', inp.limit_2z), ('Z_gb', 'z_gb', inp.limit_zgb))):
         a = ax[k]
         if inp.online is not None and len(inp.online.t_ns):
             o = inp.online
-            hours = _hours(o.t_ns, t0)
+            hours = tx(o.t_ns)
             a.plot(hours, getattr(o, attr) * 1e3, '-', color='tab:purple', lw=0.8, label='online (published)')
             lo, hi = getattr(o, attr + '_lo') * 1e3, getattr(o, attr + '_hi') * 1e3
             a.fill_between(hours, lo, np.where(np.isfinite(hi), hi, np.nan), color='tab:purple', alpha=0.15, lw=0)
         for w in r.estimates:
             iv = getattr(w.estimate, attr)
-            x = float(_hours(np.array([w.t_end_ns]), t0)[0])
+            x = float(tx(np.array([w.t_end_ns]))[0])
             lo = iv.lo if iv.lo is not None else iv.value
+            first = w is r.estimates[0]
             if iv.hi is None:        # a lower bound only: draw it as one
                 a.annotate('', xy=(x, lo * 1e3 + 0.08), xytext=(x, lo * 1e3),
                            arrowprops={'arrowstyle': '->', 'color': 'tab:blue'})
-                a.plot([x], [lo * 1e3], '_', ms=12, color='tab:blue')
+                a.plot([x], [lo * 1e3], '_', ms=12, color='tab:blue',
+                       label='batch: lower bound only' if first else None)
             else:
                 a.errorbar([x], [iv.value * 1e3], yerr=[[iv.value * 1e3 - lo * 1e3], [iv.hi * 1e3 - iv.value * 1e3]],
-                           fmt='o', color='tab:blue', capsize=4)
+                           fmt='o', color='tab:blue', capsize=4,
+                           label='batch: estimate, 95 % interval' if first else None)
         a.axhline(limit * 1e3, color='tab:red', ls='--', lw=1, label=f'limit {limit * 1e3:.3f} mm')
         a.set_ylabel(f'{name} [mm]')
-        a.set_xlabel('data up to [h]')
+        a.set_xlabel(f'data up to [{tx.unit}]')
         a.set_ylim(bottom=0)
         a.set_title(f'{name}: estimate with 95 % interval (arrow: lower bound only)', fontsize=9)
-        a.legend(fontsize=8)
+        a.legend(fontsize=8, loc='lower center', bbox_to_anchor=(0.5, 1.08), ncol=2, frameon=False)
     return fig
 
 
-def _hardover(r: ReviewResult, t0: int, solas: float) -> Any:
+def _pumps(inp: ReportInput, seconds: float) -> int:
+    return pumps_running(seconds, inp.gear.stock_to_ram, inp.ram_speed_per_pump, inp.pumps)
+
+
+def _hardover(r: ReviewResult, tx: _TimeAxis, inp: ReportInput) -> Any:
+    """Hard-over times with the pumps that ran them: judged against SOLAS (green within, red
+    over) only with all the gear's pumps; with fewer, grey and not judged."""
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(10, 3.2))
+    solas = inp.solas_s
+    fig, ax = plt.subplots(figsize=(12, 3.4))
     if r.hard_overs:
-        x = _hours(np.array([h.t_leave_ns for h in r.hard_overs]), t0)
+        x = tx(np.array([h.t_leave_ns for h in r.hard_overs]))
         y = np.array([h.seconds for h in r.hard_overs])
-        colors = ['tab:green' if v <= solas else 'tab:red' for v in y]
-        ax.bar(x, y, width=max((x.max() - x.min()) / 80, 0.01), color=colors)
-        for xi, yi in zip(x, y):
-            ax.text(xi, yi, f'{yi:.1f} s', ha='center', va='bottom', fontsize=8)
-    ax.axhline(solas, color='tab:red', ls='--', lw=1, label=f'SOLAS {solas:g} s (35 deg to 30 deg the other side)')
-    ax.set_xlabel('time of leaving hard over [h]')
+        n = [_pumps(inp, v) for v in y]
+        colors = ['tab:gray' if k < inp.pumps else 'tab:green' if v <= solas else 'tab:red' for v, k in zip(y, n)]
+        span = float(tx(np.array([int(r.t_ns[-1])]))[0]) if len(r.t_ns) else float(x.max()) + 1.0
+        ax.bar(x, y, width=max(span, 1e-9) / 60, color=colors)      # one bar is a bar, not the whole plot
+        ax.set_xlim(0, max(span, float(x.max())) * 1.02 + 1e-9)
+        for xi, yi, k in zip(x, y, n):
+            ax.text(xi, yi, f"{yi:.1f} s\n{k} pump{'s' if k > 1 else ''}", ha='center', va='bottom', fontsize=8)
+        ax.set_ylim(0, max(float(y.max()), solas) * 1.3)
+    ax.axhline(solas, color='tab:red', ls='--', lw=1,
+               label=f'SOLAS {solas:g} s (35 deg to 30 deg the other side, {inp.pumps} pumps; grey: fewer, not judged)')
+    ax.set_xlabel(f'time of leaving hard over [{tx.unit}]')
     ax.set_ylabel('hard-over time [s]')
     ax.legend(fontsize=8, loc='lower right')
     return fig
@@ -195,6 +237,47 @@ def _iv_text(iv: Any, scale: float, unit: str) -> str:
     return f'{v} {unit} [{lo} .. {hi}]'
 
 
+def _utc(t_ns: int) -> str:
+    from datetime import datetime, timezone
+    return datetime.fromtimestamp(t_ns / 1e9, tz=timezone.utc).strftime('%Y-%m-%d %H:%M:%S UTC')
+
+
+def _verdict_block(inp: ReportInput) -> str:
+    """One box per clearance: OK / WARN / OVER LIMIT (the live diagnostics' rule, on the whole
+    log's estimate and its interval), % of limit, the interval; then where the page came from."""
+    from steer_monitor import __version__
+    from steer_monitor.monitor.verdict import clearance_verdict
+
+    esc = html.escape
+    r = inp.review
+    boxes = []
+    e = r.estimates[-1].estimate if r.estimates else None
+    for name, what, limit, iv in (('2Z', 'ram bushing', inp.limit_2z, None if e is None else e.two_z),
+                                  ('Z_gb', 'guide slipper', inp.limit_zgb, None if e is None else e.z_gb)):
+        if iv is None:
+            boxes.append(f'<div class="box NONE" id="verdict-{name}"><h2>{name} ({what})</h2>'
+                         f'<div class="big">NOT ESTIMATED</div><div>too little steady motion in the log</div></div>')
+            continue
+        v = clearance_verdict(iv.value, iv.lo, iv.hi, limit, inp.warn_share)
+        if iv.hi is None:
+            point = f'at least {iv.lo * 1e3:.3f} mm ({iv.lo / limit:.0%} of the {limit * 1e3:.3f} mm limit)'
+            rng = 'the ram never clamped at the loads seen: no upper bound'
+        else:
+            point = f'{iv.value * 1e3:.3f} mm, {v.share:.0%} of the {limit * 1e3:.3f} mm limit'
+            rng = f'95 % interval {iv.lo * 1e3:.3f} .. {iv.hi * 1e3:.3f} mm'
+        if iv.hi is None and name == 'Z_gb':
+            rng = 'the guide beam never touched at the loads seen: no upper bound'
+        boxes.append(f'<div class="box {v.label.split()[0]}" id="verdict-{name}"><h2>{name} ({what})</h2>'
+                     f'<div class="big">{v.label}</div><div>{esc(point)}</div><div>{esc(rng)}</div>'
+                     + (f'<div>{esc(v.note)}</div>' if v.note and iv.hi is not None else '') + '</div>')
+    span = (f'{_utc(int(r.t_ns[0]))} to {_utc(int(r.t_ns[-1]))}' if len(r.t_ns) else 'no rudder angle')
+    prov = (f'{esc(inp.gear_name)} gear; data {esc(span)}; parameters {esc(inp.config or "(packaged)")} '
+            f'(SHA-256 {esc(inp.parameters_sha256[:12])}); steer_monitor {esc(__version__)}. '
+            f'OK below {inp.warn_share:.0%} of a limit; WARN from it, OVER LIMIT when even the interval\'s '
+            f'low end is past the limit.')
+    return f'<div class="verdict">{"".join(boxes)}</div><p class="prov">{prov}</p>'
+
+
 def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
     """Write ``index.html`` and the PNGs into ``out_dir``; returns the page's path."""
     import matplotlib
@@ -203,18 +286,20 @@ def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
     out_dir = ensure_dir(out_dir)
     r = inp.review
     t0 = int(r.t_ns[0]) if len(r.t_ns) else 0
+    tx = _TimeAxis.of(t0, int(r.t_ns[-1]) if len(r.t_ns) else 0)
     figs = {
-        'timeseries': _timeseries(r, t0) if len(r.t_ns) else _message_fig('no rudder angle in the log'),
+        'timeseries': _timeseries(r, tx) if len(r.t_ns) else _message_fig('no rudder angle in the log'),
         'loadsharing': _loadsharing(r, inp.gear),
-        'clearances': _clearances(inp, t0),
+        'clearances': _clearances(inp, tx),
         'residual': residual_figure(inp.analysis) if inp.analysis is not None else _message_fig(inp.analysis_note),
-        'hardover': _hardover(r, t0, inp.solas_s),
+        'hardover': _hardover(r, tx, inp),
     }
     images: dict[str, bytes] = {}
     for key, fig in figs.items():
         images[key] = _png(fig)
         write_bytes(out_dir / f'{key}.png', images[key])
     esc = html.escape
+    verdict = _verdict_block(inp)
     span_h = (int(r.t_ns[-1]) - t0) / 3.6e12 if len(r.t_ns) else 0.0
     rows = [('log', inp.title), ('frames', f'{inp.frames:,d}'), ('data', f'{span_h:.2f} h, '
                                                                     f'{r.motion_s / 60:.0f} min of steady rudder motion')]
@@ -226,9 +311,16 @@ def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
     else:
         rows.append(('clearances', 'not estimated: ' + '; '.join(r.notes)))
     if r.hard_overs:
-        worst = max(h.seconds for h in r.hard_overs)
-        rows.append(('hard-overs', f'{len(r.hard_overs)}, slowest {worst:.1f} s '
-                                   f"({'within' if worst <= inp.solas_s else 'OVER'} SOLAS {inp.solas_s:g} s)"))
+        full = [h.seconds for h in r.hard_overs if _pumps(inp, h.seconds) >= inp.pumps]
+        text = f'{len(r.hard_overs)}'
+        if full:
+            worst = max(full)
+            text += (f'; with all {inp.pumps} pumps: {len(full)}, slowest {worst:.1f} s '
+                     f"({'within' if worst <= inp.solas_s else 'OVER'} SOLAS {inp.solas_s:g} s)")
+        if len(full) < len(r.hard_overs):
+            text += (f'; with fewer pumps: {len(r.hard_overs) - len(full)} (not judged against SOLAS, which '
+                     f'assumes {inp.pumps})')
+        rows.append(('hard-overs', text))
     else:
         rows.append(('hard-overs', 'none in the log'))
     if inp.analysis is not None:
@@ -250,8 +342,9 @@ def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
                       'large 2Z is, only that it is at least this.',
         'residual': 'Ram-force residual of the fitted model, in bar of cylinder pressure: what the '
                     'declared model leaves, and what is left after the effect the data support.',
-        'hardover': 'From leaving 35 deg to reaching 30 deg the other side, as SOLAS II-1/29 asks. '
-                    'Red bars: over the limit.',
+        'hardover': 'From leaving 35 deg to reaching 30 deg the other side, as SOLAS II-1/29 asks, with the '
+                    'pumps that ran it (told from its time). Green: within SOLAS with all pumps; red: over it; '
+                    'grey: fewer pumps, reported and not judged.',
     }
     body = ''.join(
         f'<section id="{key}"><h2>{esc(title)}</h2>'
@@ -262,14 +355,18 @@ def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
 <html lang="en"><head><meta charset="utf-8"><title>steer_monitor report: {esc(inp.title)}</title>
 <style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}}
 th,td{{padding:3px 12px;text-align:left;vertical-align:top}}table{{border-collapse:collapse}}
-tr:nth-child(even){{background:#f2f2f2}}img.plot{{max-width:100%;display:block}}.caption{{color:#555;font-size:90%}}
-section{{margin-top:2em}}</style>
+tr:nth-child(even){{background:#f2f2f2}}img.plot{{width:100%;display:block}}.caption{{color:#555;font-size:90%}}
+section{{margin-top:2em}}.verdict{{display:flex;gap:1em;margin:1em 0}}
+.box{{flex:1;border-radius:6px;padding:0.6em 1em;color:#fff}}.box h2{{margin:0;font-size:120%}}
+.box .big{{font-size:160%;font-weight:bold}}.OK{{background:#2e7d32}}.WARN{{background:#ef6c00}}
+.OVER{{background:#c62828}}.NONE{{background:#757575}}.prov{{color:#555;font-size:90%}}</style>
 <script>window.addEventListener('load', function () {{
   var imgs = document.querySelectorAll('img.plot'), ok = 0;
   imgs.forEach(function (i) {{ var r = i.complete && i.naturalWidth > 0; i.dataset.rendered = r ? 'yes' : 'no'; if (r) ok++; }});
   document.body.dataset.plotsRendered = ok + '/' + imgs.length;
 }});</script></head>
-<body><h1>Steering gear report</h1>
+<body><h1>Steering gear report: {esc(inp.hardware_id or inp.gear_name)}</h1>
+{verdict}
 <table>{table}</table>
 {'<ul class="notes">' + notes + '</ul>' if notes else ''}
 {body}

@@ -18,7 +18,8 @@ def test_analyze_writes_the_documented_json_and_a_report(tmp_path):
     assert main(['analyze', str(log), '--json', str(out), '--report', str(html)]) == 0
     d = json.loads(out.read_text())
     for key in ('clearance_2z_mm', 'clearance_zgb_mm'):
-        assert set(d[key]) == {'value', 'ci95'} and len(d[key]['ci95']) == 2
+        assert set(d[key]) == {'value', 'ci95', 'bounded'} and len(d[key]['ci95']) == 2
+        assert d[key]['bounded'] == (None not in d[key]['ci95'])
     assert d['clearance_2z_mm']['ci95'][1] is None          # the ram never clamps at 0.6 mm
     assert d['clearance_zgb_mm']['ci95'][0] <= 0.25 <= d['clearance_zgb_mm']['ci95'][1]
     assert {'k_gl_max', 'effect', 'effects', 'unexplained', 'rmse_before_kn', 'rmse_after_kn', 'verdict',

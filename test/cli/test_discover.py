@@ -136,3 +136,9 @@ def test_replay_reads_a_gateway_log_with_its_date(tmp_path, capsys):
     from steer_monitor.can.fastlogs import read_log_fast
     frames = read_log_fast(tmp_path / 'r.mcap')
     assert len(frames) == 914 and str(frames.t_ns[0]).startswith('15980')     # 2020-08-22
+    from mcap.reader import make_reader
+    with open(tmp_path / 'r.mcap', 'rb') as fh:
+        meta = {m.name: m.metadata for m in make_reader(fh).iter_metadata()}
+    assert meta['steer_monitor']['writer'] == 'steer-monitor replay'
+    assert meta['steer_monitor']['parameters_file'] == str(cfg)
+    assert json.loads(meta['steer_monitor.parameters']['signals.rudder_angle.address']) == 13

@@ -280,3 +280,26 @@ def test_recover_cli_and_errors(tmp_path, capsys):
         recover(junk)
     assert main(['recover', str(tmp_path / 'missing.mcap')]) == 1
     assert 'cannot open' in capsys.readouterr().err
+
+
+def test_every_file_says_what_it_was_made_with(tmp_path, r18_params):
+    """Version, gear and the parameters as MCAP metadata in each file, also after rotation
+    and after recover."""
+    from mcap.reader import make_reader
+
+    from steer_monitor.record.provenance import PARAMETERS_RECORD, RUN_RECORD, parameters_digest, run_metadata
+
+    meta = run_metadata(r18_params, 'config/r18.yaml')
+    with Recorder(tmp_path, max_bytes=20_000, chunk_size=4096, flush_interval_s=0.0, metadata=meta) as rec:
+        for k in range(3000):
+            rec.write_frame(_frame(k))
+    assert len(rec.files) >= 2
+    for path in rec.files:
+        with open(path, 'rb') as fh:
+            got = {m.name: m.metadata for m in make_reader(fh).iter_metadata()}
+        assert got[RUN_RECORD]['gear'] == 'R-18' and got[RUN_RECORD]['parameters_sha256'] == parameters_digest(r18_params)
+        assert got[RUN_RECORD]['parameters_file'] == 'config/r18.yaml'
+        assert json.loads(got[PARAMETERS_RECORD]['gear.stock_to_ram_m']) == r18_params['gear.stock_to_ram_m']
+    out = recover(rec.files[0], tmp_path / 'recovered.mcap')
+    with open(out.output, 'rb') as fh:
+        assert {m.name for m in make_reader(fh).iter_metadata()} == {RUN_RECORD, PARAMETERS_RECORD}

@@ -61,6 +61,12 @@ def test_page_renders_every_plot_in_chromium(tmp_path, logs, which, capsys):
     for key in PLOTS:
         assert re.search(rf'id="plot-{key}"[^>]*data-rendered="yes"|data-rendered="yes"[^>]*id="plot-{key}"', dom), key
     assert '2Z (ram bushing)' in dom and 'hard-overs' in dom
+    for name in ('2Z', 'Z_gb'):        # the verdict, first on the page
+        box = re.search(rf'id="verdict-{name}">(.*?)</div></div>', dom)
+        assert box is not None and re.search(r'class="big">(OK|WARN|OVER LIMIT|NOT ESTIMATED)<', box.group(1)), name
+    assert 'R-18 gear; data 20' in dom and 'SHA-256' in dom and 'steer_monitor 0.1.0' in dom
+    for key in ('clearance_2z_mm', 'clearance_zgb_mm', 'k_gl_max'):
+        assert set(summary[key]) == {'value', 'ci95', 'bounded'}
     shot = tmp_path / 'shot.png'
     _chromium('--window-size=1200,5000', f'--screenshot={shot}', page.as_uri())
     import matplotlib.image as mpimg

@@ -1,0 +1,177 @@
+"""Alarms that are right: no WARN or ERROR on a clean plant in any programme, the levels of
+the clearances decided on their intervals, the order-response check allowing the reversal,
+and the faults still found (a worn gear, an undeclared friction)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from steer_monitor import sim
+from steer_monitor.can import Decoder, RejectCounter
+from steer_monitor.can.decoder import Sample
+from steer_monitor.estimate.intervals import Interval
+from steer_monitor.model import Gaps
+from steer_monitor.monitor import ERROR, OK, WARN, DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
+from steer_monitor.monitor.diagnostics import LEVEL_NAMES
+from steer_monitor.monitor.live import REVERSAL_NS
+from steer_monitor.monitor.pipeline import DiagOut, EstimateSnapshot, Pipeline, SyncEstimatorJobs, apply_estimate, \
+    estimator_from_params
+from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
+
+#: every helm programme, one after the other (about 70 minutes of data)
+EVERY_PROGRAMME = ('hard_over_2,hard_over_1,zigzag_10,zigzag_25,autopilot:300,autopilot_db:300,hold:60,'
+                   'hold_at:-20/45,speed:8,pumps:1,zigzag_15,autopilot:120,pumps:2,speed:16,voyage,realistic:900')
+T0 = 1_767_225_600_000_000_000
+
+
+def _replay(params, can_db, program, gaps_mm, seed, effects=()):
+    """Every diagnostic the node would publish for a simulated run: [(t_s, status)]."""
+    db, smap = can_db
+    gear = gear_from_params(params)
+    s = sim.run(params, sim.SimConfig(program=program, gaps=Gaps.from_mm(*gaps_mm),
+                                      effects=tuple(sim.parse_effect(e) for e in effects)), db, smap, seed)
+    rejects = RejectCounter()
+    mon = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params))
+    diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(params), smap, gear)
+    p = Pipeline(Decoder(db, smap, rejects), rejects, mon, diag, SyncEstimatorJobs(estimator_from_params(gear, params)))
+    t0 = int(s.frames.t_ns[0])
+    out = []
+    for f in s.frames.frames():
+        out += [o for o in p.feed(f) if isinstance(o, DiagOut)]
+    out += [o for o in p.finish() if isinstance(o, DiagOut)]
+    return [((o.t_ns - t0) / 1e9, st) for o in out for st in o.statuses]
+
+
+def test_no_alarm_on_a_clean_plant_in_any_programme(r18_params, can_db):
+    """Seed, clearances and programmes unlike those the rules were tried on (seed 7, 0.4/0.1
+    mm, one programme at a time)."""
+    statuses = _replay(r18_params, can_db, EVERY_PROGRAMME, (0.45, 0.12), 11)
+    assert len(statuses) > 5 * 3600
+    fresh = next(t for t, st in statuses if st.name.endswith('CAN input') and st.level == OK)
+    alarms = [(round(t), st.name, LEVEL_NAMES[st.level], st.message) for t, st in statuses if t >= fresh and st.level]
+    assert alarms == []
+    names = {st.name for _, st in statuses}
+    assert names == {'steer_monitor: CAN input', 'steer_monitor: clearances', 'steer_monitor: guide beam',
+                     'steer_monitor: steering performance', 'steer_monitor: model health'}
+
+
+def test_a_worn_gear_is_found(r18_params, can_db):
+    statuses = _replay(r18_params, can_db, 'voyage', (0.75, 0.33), 5)
+    clearances = [st for _, st in statuses if st.name.endswith('clearances')]
+    assert clearances[-1].level == ERROR and 'Z_gb' in clearances[-1].message
+    assert any(st.level == WARN for _, st in statuses if st.name.endswith('guide beam'))
+
+
+def test_an_undeclared_friction_is_found(r18_params, can_db):
+    statuses = _replay(r18_params, can_db, 'hard_over_2,zigzag_20,zigzag_10', (0.45, 0.12), 5, effects=['viscous'])
+    assert any(st.level == WARN for _, st in statuses if st.name.endswith('model health'))
+
+
+# --- the rules, one by one ------------------------------------------------------------------
+@pytest.fixture
+def builder(r18_params, can_db):
+    return DiagnosticsBuilder(DiagnosticsConfig.from_params(r18_params), can_db[1], gear_from_params(r18_params))
+
+
+@pytest.fixture
+def mon(r18_params):
+    return LiveMonitor(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25))
+
+
+MM = 1e-3
+
+
+@pytest.mark.parametrize('zgb, interval, level, text', [
+    (0.10, (0.05, 0.15), OK, 'Z_gb 0.100 mm [0.050 .. 0.150] (40% of limit)'),
+    (0.22, (0.20, 0.24), WARN, 'Z_gb 0.220 mm [0.200 .. 0.240] (88% of limit)'),          # low end at 80 %
+    (0.28, (0.26, 0.30), ERROR, 'Z_gb 0.280 mm [0.260 .. 0.300] (112% of limit)'),
+    (0.35, (0.113, 0.429), OK, 'too wide to judge yet'),                                  # the issue's case
+    (0.35, (0.21, 0.43), WARN, 'Z_gb 0.350 mm [0.210 .. 0.430] (140% of limit)'),
+    (0.30, (0.19, 0.31), WARN, '(120% of limit)'),                # the point past the limit, judgeable
+    (0.10, (0.10, None), OK, 'Z_gb >= 0.100 mm (lower bound only'),
+    (0.30, (0.26, None), ERROR, 'Z_gb >= 0.260 mm (lower bound only'),
+])
+def test_clearance_levels_on_the_interval(builder, mon, zgb, interval, level, text):
+    lo, hi = interval
+    mon.set_gaps(Gaps(0.3 * MM, zgb * MM), 'estimated',
+                 {'2z': (0.25 * MM, 0.35 * MM), 'zgb': (lo * MM, None if hi is None else hi * MM)})
+    st = builder.clearances(mon)
+    assert (LEVEL_NAMES[st.level], text in st.message) == (LEVEL_NAMES[level], True), st.message
+
+
+def test_configured_clearances_are_shown_not_judged(builder, mon):
+    mon.set_gaps(Gaps(0.7 * MM, 0.3 * MM), 'configured')
+    st = builder.clearances(mon)
+    assert st.level == OK
+    assert st.message == 'not yet estimated; configured 2Z 0.700 mm (117% of limit); Z_gb 0.300 mm (120% of limit)'
+
+
+def test_guide_idle_judged_on_the_estimate_and_its_interval(builder, mon):
+    assert builder.guide_beam(mon).level == OK                    # configured: 10.01 deg, not judged
+    mon.set_gaps(Gaps(0.4 * MM, 0.26 * MM), 'estimated', {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.1 * MM, 0.4 * MM)})
+    st = builder.guide_beam(mon)
+    assert st.level == OK and 'at the low end of the Z_gb interval: not judged' in st.message
+    mon.set_gaps(Gaps(0.4 * MM, 0.3 * MM), 'estimated', {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.27 * MM, 0.33 * MM)})
+    st = builder.guide_beam(mon)
+    assert st.level == WARN and float(st.value('guide_onset_lo_deg')) > 10.0
+
+
+def _angle_and_order(mon, t_s, alpha_deg, order_deg=None):
+    mon.update(Sample(T0 + int(t_s * 1e9), 'rudder_angle', math.radians(alpha_deg)))
+    if order_deg is not None:
+        mon.update(Sample(T0 + int(t_s * 1e9), 'rudder_order', math.radians(order_deg)))
+
+
+def _reversal(mon, turn_after_s):
+    """Rudder moving to port at 2 deg/s towards a -8.7 deg order; the order steps to 0 at
+    t = 3 s; the rudder goes on to port for ``turn_after_s`` and then turns to starboard."""
+    alpha = 0.0
+    for k in range(120):
+        t = k * 0.1
+        if t < 3.0 + turn_after_s:
+            alpha -= 0.2
+        else:
+            alpha += 0.2
+        _angle_and_order(mon, t, alpha, -8.7 if t < 3.0 else 0.0)
+
+
+def test_a_reversal_after_an_order_step_is_no_fault(mon):
+    _reversal(mon, 0.3)
+    r = mon.response
+    assert r is not None and r.direction_ok is True
+    assert 0.3 <= r.delay_s <= REVERSAL_NS / 1e9 + 0.1
+
+
+def test_a_rudder_going_on_against_the_order_is_a_fault(builder, mon):
+    _reversal(mon, 3.0)
+    assert mon.response.direction_ok is False
+    st = builder.performance(mon)
+    assert st.level == ERROR and 'rudder moved AGAINST the order' in st.message
+
+
+def test_residuals_restart_when_the_clearances_become_estimated(mon):
+    mon.residuals.extend([4.0] * 100)
+    mon.set_gaps(Gaps(0.4 * MM, 0.1 * MM), 'estimated', {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.05 * MM, 0.15 * MM)})
+    assert not mon.residuals
+    mon.residuals.append(0.5)
+    mon.set_gaps(Gaps(0.41 * MM, 0.1 * MM), 'estimated', {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.05 * MM, 0.15 * MM)})
+    assert list(mon.residuals) == [0.5]                       # a new estimate of the same kind: kept
+
+
+def _snapshot(two_z: Interval, z_gb: Interval) -> EstimateSnapshot:
+    from steer_monitor.estimate.online import OnlineEstimate
+    k = Interval(0.5, 0.4, 0.6)
+    est = OnlineEstimate(two_z=two_z, z_gb=z_gb, k_gl_max=k, rows=1000.0, t_ns=T0, full=True,
+                         friction=(9000.0, 0.13, 0.05))
+    return EstimateSnapshot(est, 100.0)
+
+
+def test_a_clearance_bounded_from_below_keeps_the_configured_value(mon):
+    """The ram never clamped: any 2Z above 0.06 mm fits; the live model keeps 0.6 mm, not the
+    bound (which would clamp its ram at the first load beyond those seen)."""
+    assert apply_estimate(mon, _snapshot(Interval(0.06 * MM, 0.06 * MM, None), Interval(0.1 * MM, 0.08 * MM, 0.12 * MM)))
+    assert mon.gaps == Gaps(0.6 * MM, 0.1 * MM)
+    assert apply_estimate(mon, _snapshot(Interval(0.7 * MM, 0.7 * MM, None), Interval(0.1 * MM, 0.08 * MM, 0.12 * MM)))
+    assert mon.gaps.two_z == pytest.approx(0.7 * MM)           # a bound above the configured value wins
