@@ -262,6 +262,7 @@ class DiagnosticsBuilder:
     def model_health(self, mon: LiveMonitor) -> Status:
         rms = mon.residual_rms_bar()
         values = [('residual_rms_bar', _f(rms, '.2f')), ('residual_samples', str(len(mon.residuals))),
+                  ('residual_instants_not_judged', str(mon.residuals_skipped)),
                   ('residual_warn_bar', f'{self.cfg.residual_warn_bar:g}')]
         if rms is None:
             return self._status('model health', OK, 'no motion seen yet: residual not evaluated', values)

@@ -91,8 +91,6 @@ class LiveMonitor:
                  priors: FrictionParams | None = None) -> None:
         self.gear = gear
         self.gaps = gaps
-        #: the clearances of the parameters file, before any estimate
-        self.configured = gaps
         self.gaps_source = gaps_source
         self.gaps_interval: dict[str, tuple[float, float | None]] | None = None
         self.estimate_info: dict[str, str] = {}   # what the estimator adds to the diagnostics
@@ -105,6 +103,9 @@ class LiveMonitor:
         self._state: LiveState | None = None
         self.rate = 0.0
         self.residuals: deque[float] = deque(maxlen=RESIDUAL_SAMPLES)
+        #: instants of motion left out of the residual: the live model clamps the ram (or
+        #: touches the beam) where the estimate bounds that clearance from below only
+        self.residuals_skipped = 0
         self._hard_over: tuple[float, int] | None = None  # (side, time last at hard over)
         self.hard_over_s: float | None = None
         self.response: Response | None = None
@@ -247,7 +248,8 @@ class LiveMonitor:
             alpha = a_a + (a_b - a_a) * (t - t_a) / (t_b - t_a)
             m = load_sharing_scalar(gear, alpha, gear.torque.scalar(alpha, speed), gaps.two_z, gaps.z_gb)
             if (open_2z and m.lateral > m.f_theta) or (open_zgb and m.lateral > m.f_z):
-                continue      # a clamp or contact the estimate has not seen yet: no evidence either way
+                self.residuals_skipped += 1   # a clamp or contact the estimate has not seen: no evidence
+                continue
             f_fr = float(friction_force(pri, m.r_a, m.r_e, m.m_a, m.guide_force, gear.bushing_length))
             predicted = math.copysign(m.axial, alpha) + direction * f_fr
             self.residuals.append((force_1 - predicted) / area / 1e5)

@@ -168,10 +168,31 @@ def _snapshot(two_z: Interval, z_gb: Interval) -> EstimateSnapshot:
     return EstimateSnapshot(est, 100.0)
 
 
-def test_a_clearance_bounded_from_below_keeps_the_configured_value(mon):
-    """The ram never clamped: any 2Z above 0.06 mm fits; the live model keeps 0.6 mm, not the
-    bound (which would clamp its ram at the first load beyond those seen)."""
+def test_an_estimate_is_used_with_its_own_friction(mon):
+    """Clearances and the friction fitted at them go to the live model as a pair, a lower
+    bound as it is: its residual is judged by one fit."""
     assert apply_estimate(mon, _snapshot(Interval(0.06 * MM, 0.06 * MM, None), Interval(0.1 * MM, 0.08 * MM, 0.12 * MM)))
-    assert mon.gaps == Gaps(0.6 * MM, 0.1 * MM)
-    assert apply_estimate(mon, _snapshot(Interval(0.7 * MM, 0.7 * MM, None), Interval(0.1 * MM, 0.08 * MM, 0.12 * MM)))
-    assert mon.gaps.two_z == pytest.approx(0.7 * MM)           # a bound above the configured value wins
+    assert mon.gaps == Gaps(0.06 * MM, 0.1 * MM) and mon.priors.mu_bushing == 0.13
+    assert mon.gaps_interval == {'2z': (0.06 * MM, None), 'zgb': (0.08 * MM, 0.12 * MM)}
+
+
+def test_residual_not_judged_where_an_open_clearance_would_clamp(r18_params, can_db):
+    """2Z bounded from below only: instants where the live model's ram clamps are left out
+    of the residual; with a bounded 2Z they count."""
+    _, mon_open, _ = _fed(r18_params, can_db, {'2z': (0.06 * MM, None), 'zgb': (0.05 * MM, 0.15 * MM)})
+    _, mon_closed, _ = _fed(r18_params, can_db, {'2z': (0.05 * MM, 0.07 * MM), 'zgb': (0.05 * MM, 0.15 * MM)})
+    assert mon_open.residuals_skipped > 500 and mon_closed.residuals_skipped == 0
+    assert len(mon_closed.residuals) == 1200
+
+
+def _fed(params, can_db, interval):
+    db, smap = can_db
+    gear = gear_from_params(params)
+    s = sim.run(params, sim.SimConfig(program='hard_over_2', gaps=Gaps.from_mm(0.06, 0.1)), db, smap, 3)
+    mon = LiveMonitor(gear, Gaps(0.06 * MM, 0.1 * MM))
+    mon.set_gaps(Gaps(0.06 * MM, 0.1 * MM), 'estimated', interval)
+    dec = Decoder(db, smap)
+    for f in s.frames.frames():
+        for sample in dec.decode(f):
+            mon.update(sample)
+    return s, mon, dec
