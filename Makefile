@@ -18,7 +18,7 @@ $(STAMP): setup.py setup.cfg package.xml requirements-ros.txt requirements-dev.t
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -c constraints.txt pip setuptools wheel
 	$(BIN)/python -m pip install -c constraints.txt -r requirements-ros.txt -r requirements-dev.txt
-	$(BIN)/python -m pip install -c constraints.txt -e .
+	$(BIN)/python -m pip install -c constraints.txt -e '.[ashore]'
 	touch $@
 
 demo: $(STAMP)

@@ -28,6 +28,8 @@ MODULE_KEYS = {'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'yaml': 'pyth
                'builtin_interfaces': 'rclpy', 'launch': 'launch', 'launch_ros': 'launch_ros'}
 #: imported, deliberately without a key (none exists): optional at run time
 OPTIONAL = {'threadpoolctl'}
+#: ashore only (steer-monitor fleet; setup.py's 'ashore' extra), never imported by the vessel side
+ASHORE = {'dask', 'distributed', 'pyarrow'}
 
 
 def _depends(kind: str) -> list[str]:
@@ -70,8 +72,18 @@ def test_every_imported_package_is_declared():
     sources = sorted((REPO / 'steer_monitor').rglob('*.py')) + sorted((REPO / 'launch').glob('*.py'))
     third_party = _imports(sources) - set(sys.stdlib_module_names) - {'steer_monitor', '__future__'}
     declared = set(_depends('exec_depend'))
-    missing = {m: MODULE_KEYS.get(m) for m in third_party - OPTIONAL if MODULE_KEYS.get(m) not in declared}
+    missing = {m: MODULE_KEYS.get(m) for m in third_party - OPTIONAL - ASHORE if MODULE_KEYS.get(m) not in declared}
     assert missing == {}
+
+
+def test_ashore_dependencies_stay_ashore():
+    """Dask and pyarrow are imported only by the ashore subpackage and the fleet command,
+    which the node never imports."""
+    vessel_side = [p for p in sorted((REPO / 'steer_monitor').rglob('*.py'))
+                   if 'ashore' not in p.parts and p.name != 'fleet.py']
+    assert _imports(vessel_side) & ASHORE == set()
+    extras = (REPO / 'setup.py').read_text()
+    assert "'ashore': ['dask[distributed]" in extras and 'pyarrow' in extras
 
 
 def test_launch_file_declares_its_arguments():

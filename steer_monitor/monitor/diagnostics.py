@@ -29,6 +29,8 @@ from steer_monitor.monitor.live import ARRIVALS_KEPT_NS, RATE_WINDOW_NS, LiveMon
 __all__ = ['ERROR', 'OK', 'STALE', 'WARN', 'DiagnosticsBuilder', 'DiagnosticsConfig', 'Status']
 
 OK, WARN, ERROR, STALE = 0, 1, 2, 3
+#: residual samples (both rams) before model health is judged: about 15 s of steady motion
+MIN_JUDGED_SAMPLES = 600
 LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR', STALE: 'STALE'}
 PREFIX = 'steer_monitor: '
 
@@ -266,6 +268,12 @@ class DiagnosticsBuilder:
                   ('residual_warn_bar', f'{self.cfg.residual_warn_bar:g}')]
         if rms is None:
             return self._status('model health', OK, 'no motion seen yet: residual not evaluated', values)
+        if len(mon.residuals) < MIN_JUDGED_SAMPLES:
+            # a few seconds of motion since the clearances changed source: an early estimate's
+            # friction (fitted on half a hard-over) is not the model's health
+            return self._status('model health', OK,
+                                f'declared model residual {rms:.2f} bar RMS over {len(mon.residuals)} samples of motion: '
+                                f'judged from {MIN_JUDGED_SAMPLES}', values)
         level = WARN if rms > self.cfg.residual_warn_bar else OK
         return self._status('model health', level,
                             f'declared model residual {rms:.2f} bar RMS over the last {len(mon.residuals)} samples of motion',

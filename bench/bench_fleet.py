@@ -1,0 +1,91 @@
+"""The fleet on Dask: logs per second with 1 and 2 local workers against the single-process
+batch path on the same logs, and the peak memory of each worker process.
+
+Thirty-two simulated logs of about four minutes of the gear's traffic each (hard-overs and
+zig-zags, ~6,000 frames), written as candump. The single-process figure calls the task
+function in a loop (no Dask); the Dask figures run ``run_fleet`` on a fresh LocalCluster
+(its start-up and the workers' imports timed apart) with nothing kept from earlier runs. Worker memory is
+each worker process's peak RSS (``/proc/<pid>/status`` VmHWM) read through the client at the
+end. Prints one line per configuration and the ratios measured in this run.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import time
+from pathlib import Path
+
+from steer_monitor import sim
+from steer_monitor.can.fastlogs import write_candump_arrays
+from steer_monitor.can.setup import load_setup
+from steer_monitor.model import Gaps
+
+LOGS = 32
+T0_NS = 1_767_225_600_000_000_000
+
+
+def make_logs(root: Path) -> list[Path]:
+    _, params, db, smap = load_setup(None)
+    vessel = root / 'bench_vessel'
+    vessel.mkdir()
+    out = []
+    for k in range(LOGS):
+        s = sim.run(params, sim.SimConfig(program='hard_over_2,zigzag_20,zigzag_10', gaps=Gaps.from_mm(0.35, 0.15),
+                                          start_ns=T0_NS + k * 86_400_000_000_000), db, smap, k)
+        path = vessel / f'day_{k:02d}.log'
+        with open(path, 'wb') as fh:
+            write_candump_arrays(fh, s.frames)
+        out.append(path)
+    return out
+
+
+def _hwm_kb() -> int:
+    with open('/proc/self/status') as fh:
+        for line in fh:
+            if line.startswith('VmHWM:'):
+                return int(line.split()[1])
+    return 0
+
+
+def main() -> dict:
+    from distributed import Client, LocalCluster
+
+    from steer_monitor.ashore.fleet import run_fleet
+    from steer_monitor.ashore.logresult import analyse_log
+
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        logs = make_logs(Path(tmp))
+        t0 = time.perf_counter()
+        for p in logs:
+            analyse_log('bench_vessel', str(p), None, '', '')
+        single = LOGS / (time.perf_counter() - t0)
+        out['single_process_logs_per_s'] = round(single, 2)
+        print(f'single process (no Dask): {single:.2f} logs/s')
+        for workers in (1, 2):
+            res = Path(tmp) / f'out{workers}'
+            res.mkdir()
+            t0 = time.perf_counter()
+            with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host='127.0.0.1',
+                              dashboard_address=None, silence_logs=50) as cluster, Client(cluster) as client:
+                client.run(lambda: __import__('steer_monitor.batchpath'))     # what a warm worker has
+                t1 = time.perf_counter()
+                run = run_fleet([logs[0].parent], res, client=client)
+                t2 = time.perf_counter()
+                hwm = client.run(_hwm_kb)
+            rate = LOGS / (t2 - t1)
+            peak = max(hwm.values()) / 1024
+            assert run.analysed == LOGS and not run.failed
+            out[f'dask_{workers}_workers_logs_per_s'] = round(rate, 2)
+            out[f'dask_{workers}_workers_startup_s'] = round(t1 - t0, 1)
+            out[f'dask_{workers}_workers_peak_worker_mb'] = round(peak)
+            print(f'Dask, {workers} worker(s): {rate:.2f} logs/s ({rate / single:.2f} x single process), after '
+                  f'{t1 - t0:.1f} s of cluster start-up; peak worker RSS {peak:.0f} MB')
+    print(f"2 workers / 1 worker: {out['dask_2_workers_logs_per_s'] / out['dask_1_workers_logs_per_s']:.2f}")
+    return out
+
+
+if __name__ == '__main__':
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    main()

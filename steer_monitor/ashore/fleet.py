@@ -1,0 +1,267 @@
+"""The fleet: vessels' log directories in, every log estimated on Dask distributed, results
+kept, trends and limit dates out.
+
+A vessel is a directory (its name is the vessel's): its logs in any format the tool reads,
+found recursively, and optionally its own parameters file ``steer_monitor.yaml`` at its top.
+Each log is one task, :func:`~steer_monitor.ashore.logresult.analyse_log`, on an in-process
+``LocalCluster`` (worker processes on this machine, scheduler on the loopback address) or an
+existing cluster (``scheduler``). A task whose worker dies is run again by Dask; a log that
+fails for good is reported with its error, never fatal for the fleet.
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+import math
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from steer_monitor.ashore.logresult import LogResult, analyse_log, file_digest
+from steer_monitor.ashore.store import load_results, save_results
+from steer_monitor.errors import InputError
+from steer_monitor.estimate.intervals import Interval
+from steer_monitor.estimate.trend import YEAR_S, Trend, TrendPoint, fit_trend
+from steer_monitor.monitor.verdict import LABELS, clearance_verdict
+from steer_monitor.params import load_config
+from steer_monitor.record.provenance import parameters_digest
+
+__all__ = ['LOG_SUFFIXES', 'VESSEL_CONFIG', 'FleetRun', 'Vessel', 'find_vessels', 'fleet_json', 'run_fleet']
+
+LOG_SUFFIXES = ('.log', '.asc', '.blf', '.mcap', '.raw')
+VESSEL_CONFIG = 'steer_monitor.yaml'
+TASK_RETRIES = 2
+
+
+@dataclass(frozen=True)
+class Vessel:
+    """One vessel: name, directory, parameters file (None: the fleet's), logs in path order."""
+
+    name: str
+    path: Path
+    config: Path | None
+    logs: tuple[Path, ...]
+
+
+@dataclass
+class FleetRun:
+    """What a run did: per vessel its results (in time order) and params; counts."""
+
+    vessels: list[Vessel]
+    results: dict[str, list[LogResult]]
+    params: dict[str, dict[str, Any]]
+    analysed: int = 0
+    reused: int = 0
+    failed: list[str] = field(default_factory=list)
+
+
+def find_vessels(dirs: Sequence[str | Path], config: str | Path | None = None) -> list[Vessel]:
+    """The vessels of ``dirs``; :class:`InputError` naming a directory that is not one."""
+    out = []
+    names: dict[str, Path] = {}
+    for d in dirs:
+        path = Path(d)
+        if not path.is_dir():
+            msg = f'vessel directory {path} does not exist or is not a directory'
+            raise InputError(msg)
+        name = path.resolve().name
+        if name in names:
+            msg = f'two vessels named {name!r}: {names[name]} and {path} (a vessel is named by its directory)'
+            raise InputError(msg)
+        names[name] = path
+        own = path / VESSEL_CONFIG
+        logs = tuple(sorted(p for p in path.rglob('*') if p.is_file() and p.suffix.lower() in LOG_SUFFIXES
+                            and not any(part.startswith('.') for part in p.relative_to(path).parts)))
+        out.append(Vessel(name, path, own if own.is_file() else (Path(config) if config else None), logs))
+    return out
+
+
+def _client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
+    """(client, cluster or None): an existing scheduler, or a LocalCluster on loopback."""
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            return Client(scheduler, timeout='20s'), None
+        except (OSError, TimeoutError) as exc:
+            msg = f'cannot reach the Dask scheduler {scheduler}: {exc}'
+            raise InputError(msg) from exc
+    n = workers or os.cpu_count() or 1
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host='127.0.0.1',
+                           dashboard_address=None, silence_logs=50)
+    return Client(cluster), cluster
+
+
+def run_fleet(dirs: Sequence[str | Path], out: str | Path, *, workers: int | None = None,
+              scheduler: str | None = None, config: str | Path | None = None,
+              progress: Callable[[int, int], None] | None = None, client: Any = None) -> FleetRun:
+    """Estimate every log not kept yet, keep all results under ``out``; ``progress`` hears
+    (tasks done, tasks in all). ``client``: a Dask client to use as it is (left open)."""
+    from distributed import as_completed
+
+    vessels = find_vessels(dirs, config)
+    out = Path(out)
+    kept = load_results(out)
+    run = FleetRun(vessels, {}, {})
+    todo: list[tuple[Vessel, Path, str, str]] = []
+    for v in vessels:
+        path, params = load_config(v.config)
+        run.params[v.name] = params
+        cfg_sha = parameters_digest(params)
+        run.results[v.name] = []
+        for log in v.logs:
+            try:
+                sha = file_digest(log)
+            except OSError as exc:
+                run.failed.append(f'{v.name}: {log}: {exc.strerror or exc}')
+                continue
+            r = kept.get((sha, cfg_sha))
+            if r is not None and not r.error:
+                run.results[v.name].append(r if r.log == str(log) else _moved(r, v.name, log))
+                run.reused += 1
+            else:
+                todo.append((v, log, sha, cfg_sha))
+    if todo:
+        own = client is None
+        cluster = None
+        if own:
+            client, cluster = _client(workers, scheduler)
+        try:
+            futures = {client.submit(analyse_log, v.name, str(log), None if v.config is None else str(v.config),
+                                     sha, cfg_sha, key=f'steer_monitor-log-{v.name}-{sha[:16]}-{cfg_sha[:8]}',
+                                     retries=TASK_RETRIES, pure=False): (v, log, sha, cfg_sha)
+                       for v, log, sha, cfg_sha in todo}
+            done = 0
+            for fut in as_completed(futures):
+                v, log, sha, cfg_sha = futures[fut]
+                try:
+                    r = fut.result()
+                except Exception as exc:      # failed for good (after Dask's retries)
+                    nan = math.nan
+                    r = LogResult(v.name, str(log), sha, cfg_sha, 0, 0, 0, *(nan,) * 9, '[]', '[]',
+                                  f'task failed: {type(exc).__name__}: {exc}')
+                run.results[v.name].append(r)
+                run.analysed += 1
+                done += 1
+                if progress is not None:
+                    progress(done, len(futures))
+        finally:
+            if own:
+                client.close()
+            if cluster is not None:
+                cluster.close()
+    for name, rs in run.results.items():
+        rs.sort(key=lambda r: (r.start_ns, r.log))
+        run.failed += [f'{name}: {r.log}: {r.error}' for r in rs if r.error]
+    # keep what was kept for other vessels or logs too: a rerun of part of the fleet loses nothing
+    current = {(r.log_sha256, r.config_sha256): r for rs in run.results.values() for r in rs}
+    save_results(out, list({**kept, **current}.values()))
+    return run
+
+
+def _moved(r: LogResult, vessel: str, log: Path) -> LogResult:
+    from dataclasses import replace
+    return replace(r, vessel=vessel, log=str(log))
+
+
+def _utc(t_s: float | None) -> str | None:
+    if t_s is None or not math.isfinite(t_s):
+        return None
+    try:
+        return datetime.datetime.fromtimestamp(t_s, tz=datetime.timezone.utc).date().isoformat()
+    except (OverflowError, OSError, ValueError):
+        return None
+
+
+def _est(value: float, lo: float, hi: float) -> dict[str, Any] | None:
+    if not math.isfinite(value):
+        return None
+    iv = Interval(value, None if math.isnan(lo) else lo, None if math.isnan(hi) else hi)
+    return iv.scaled(1e3)
+
+
+def _points(rs: list[LogResult], attr: str) -> list[TrendPoint]:
+    pts = []
+    for r in rs:
+        value, lo, hi = getattr(r, attr), getattr(r, attr + '_lo'), getattr(r, attr + '_hi')
+        if r.error or not math.isfinite(value) or not r.end_ns:
+            continue
+        t = (r.start_ns + r.end_ns) / 2e9
+        pts.append(TrendPoint(t, value, None if math.isnan(lo) else lo, None if math.isnan(hi) else hi))
+    return pts
+
+
+def vessel_trends(rs: list[LogResult], params: dict[str, Any]) -> dict[str, tuple[Trend | None, list[TrendPoint]]]:
+    """Per clearance (JSON key): its trend (None: too few estimates) and the points."""
+    out = {}
+    for key, attr, limit in (('clearance_2z_mm', 'two_z', params['clearances.limit_2z_mm'] * 1e-3),
+                             ('clearance_zgb_mm', 'z_gb', params['clearances.limit_zgb_mm'] * 1e-3)):
+        pts = _points(rs, attr)
+        out[key] = (fit_trend(pts, limit), pts)
+    return out
+
+
+def _trend_json(tr: Trend | None, limit: float, logs: list[str]) -> dict[str, Any] | None:
+    if tr is None:
+        return None
+    r = tr.rate
+    k = YEAR_S * 1e3
+    return {'rate_mm_per_year': {'value': round(r.value * k, 5),
+                                 'ci95': [round(r.lo * k, 5), round(r.hi * k, 5)]},  # type: ignore[operator]
+            'limit_mm': round(limit * 1e3, 4),
+            'limit_date_utc': _utc(tr.limit_t),
+            'limit_date_ci95': [_utc(tr.limit_t_lo), _utc(tr.limit_t_hi)] if tr.limit_t is not None else None,
+            'estimates_used': tr.used, 'lower_bounds_used': tr.bounds,
+            'outliers': [logs[i] for i in tr.outliers]}
+
+
+def fleet_json(run: FleetRun) -> dict[str, Any]:
+    """The fleet as ``fleet.json`` holds it."""
+    vessels = []
+    for v in run.vessels:
+        p = run.params[v.name]
+        rs = run.results[v.name]
+        share = p['diagnostics.clearance_warn_share']
+        logs = []
+        for r in rs:
+            verdicts = {}
+            for key, attr, limit in (('clearance_2z_mm', 'two_z', p['clearances.limit_2z_mm'] * 1e-3),
+                                     ('clearance_zgb_mm', 'z_gb', p['clearances.limit_zgb_mm'] * 1e-3)):
+                value, lo, hi = getattr(r, attr), getattr(r, attr + '_lo'), getattr(r, attr + '_hi')
+                if math.isfinite(value):
+                    verdicts[key] = clearance_verdict(value, None if math.isnan(lo) else lo,
+                                                      None if math.isnan(hi) else hi, limit, share)
+            worst = max((vd.level for vd in verdicts.values()), default=None)
+            logs.append({'log': r.log, 'start_utc': _iso(r.start_ns), 'end_utc': _iso(r.end_ns), 'frames': r.frames,
+                         'clearance_2z_mm': _est(r.two_z, r.two_z_lo, r.two_z_hi),
+                         'clearance_zgb_mm': _est(r.z_gb, r.z_gb_lo, r.z_gb_hi),
+                         'k_gl_max': None if not math.isfinite(r.k_gl_max) else
+                         Interval(r.k_gl_max, None if math.isnan(r.k_gl_max_lo) else r.k_gl_max_lo,
+                                  None if math.isnan(r.k_gl_max_hi) else r.k_gl_max_hi).scaled(1.0),
+                         'verdict': None if worst is None else LABELS[worst],
+                         'verdicts': {k: vd.label for k, vd in verdicts.items()},
+                         'hard_overs_s': [round(h['seconds'], 2) for h in json.loads(r.hard_overs_json)],
+                         'error': r.error or None})
+        trends = vessel_trends(rs, p)
+        vessels.append({'name': v.name, 'config': None if v.config is None else str(v.config),
+                        'logs': logs,
+                        'trend': {key: _trend_json(tr, p[f'clearances.limit_{key.split("_")[1]}_mm'] * 1e-3,
+                                                   [r.log for r in rs])
+                                  for key, (tr, _) in trends.items()}})
+    vessels.sort(key=_soonest)
+    return {'vessels': vessels, 'analysed': run.analysed, 'reused': run.reused, 'failed': run.failed}
+
+
+def _soonest(v: dict[str, Any]) -> str:
+    dates = [t['limit_date_utc'] for t in v['trend'].values() if t is not None and t['limit_date_utc']]
+    return min(dates) if dates else '9999-12-31'
+
+
+def _iso(t_ns: int) -> str | None:
+    if not t_ns:
+        return None
+    return datetime.datetime.fromtimestamp(t_ns / 1e9, tz=datetime.timezone.utc).isoformat(timespec='seconds')
+

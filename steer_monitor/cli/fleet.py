@@ -1,0 +1,73 @@
+"""``steer-monitor fleet VESSEL_DIR... --out DIR``: every vessel's logs estimated on Dask
+distributed, results kept in ``DIR/results.parquet`` (a rerun analyses only new or changed
+logs), ``DIR/fleet.json`` and ``DIR/index.html`` with each clearance's wear trend and the
+date it reaches its limit."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TextIO
+
+from steer_monitor.atomic import ensure_dir, write_text
+from steer_monitor.cli.output import dump_json
+
+__all__ = ['register', 'run']
+
+
+def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = None, scheduler: str | None = None,
+        config: str | Path | None = None, as_json: bool = False, out: TextIO | None = None,
+        err: TextIO | None = None) -> int:
+    """Run the fleet; 1 (one line per log on ``err``) when some log failed for good, whose
+    vessel's other logs are in the results."""
+    import json
+
+    from tqdm import tqdm
+
+    from steer_monitor.ashore.fleet import fleet_json, run_fleet
+    from steer_monitor.ashore.fleetpage import write_fleet_page
+
+    out = out or sys.stdout
+    err = err or sys.stderr
+    if workers is not None and workers < 1:
+        from steer_monitor.errors import ParameterError
+        raise ParameterError(f'--workers must be at least 1, got {workers}')
+    out_dir = ensure_dir(out_dir)
+    with tqdm(unit='log', disable=not sys.stderr.isatty(), file=sys.stderr, desc='fleet') as bar:
+        def progress(done: int, total: int) -> None:
+            bar.total = total
+            bar.update(done - bar.n)
+        fleet = run_fleet(dirs, out_dir, workers=workers, scheduler=scheduler, config=config, progress=progress)
+    data = fleet_json(fleet)
+    write_text(out_dir / 'fleet.json', json.dumps(data, indent=2, allow_nan=False) + '\n')
+    page = write_fleet_page(fleet, out_dir / 'index.html')
+    if as_json:
+        dump_json(data, out)
+    else:
+        for v in data['vessels']:
+            dates = {k: t['limit_date_utc'] for k, t in v['trend'].items() if t is not None}
+            soon = min((d for d in dates.values() if d), default=None)
+            out.write(f"{v['name']}: {len(v['logs'])} logs; " +
+                      (f'first limit reached {soon}' if soon else 'no limit date (no wear detected or too few logs)')
+                      + '\n')
+        out.write(f"{data['analysed']} analysed, {data['reused']} kept from earlier runs -> {page}\n")
+    for line in data['failed']:
+        err.write(f'steer-monitor fleet: error: {line}\n')
+    return 1 if data['failed'] else 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser('fleet', help="every vessel's logs on Dask: wear trends and limit dates",
+                       description='Estimate every log of each vessel directory (its name is the vessel\'s; its '
+                                   'own parameters in steer_monitor.yaml if present) as tasks on Dask distributed, '
+                                   'keep the results, and fit each clearance\'s wear trend and limit date.')
+    p.add_argument('vessels', nargs='+', metavar='VESSEL_DIR', help='one directory per vessel')
+    p.add_argument('--out', required=True, metavar='DIR', help='results.parquet, fleet.json and index.html')
+    g = p.add_mutually_exclusive_group()
+    g.add_argument('--workers', type=int, help='worker processes of a local cluster (default: the cores)')
+    g.add_argument('--scheduler', metavar='ADDRESS', help='an existing Dask scheduler, e.g. tcp://host:8786')
+    p.add_argument('--config', help='parameters for vessels without their own steer_monitor.yaml')
+    p.add_argument('--json', action='store_true', help='print fleet.json')
+    p.set_defaults(handler=lambda a: run(a.vessels, a.out, a.workers, a.scheduler, a.config, a.json))

@@ -1,0 +1,126 @@
+"""The fleet on a 2-worker Dask LocalCluster: two simulated vessels over a year of monthly
+logs, one wearing at a known rate and one not; a worker killed mid-run; kept results reused;
+a broken log reported, not fatal."""
+
+from __future__ import annotations
+
+import datetime
+import json
+import os
+import signal
+
+import pytest
+
+from steer_monitor import sim
+from steer_monitor.can.fastlogs import write_candump_arrays
+from steer_monitor.model import Gaps
+
+pytestmark = pytest.mark.slow
+
+T0_NS = 1_767_225_600_000_000_000          # 2026-01-01
+MONTH_NS = int(365.25 / 12 * 86400e9)
+ZGB0_MM, ZGB_RATE_MM_YEAR = 0.10, 0.12     # the wearing vessel's guide slipper
+PROGRAM = 'hard_over_2,zigzag_20,zigzag_10'
+
+
+@pytest.fixture(scope='module')
+def fleet_dirs(tmp_path_factory, r18_params, can_db):
+    db, smap = can_db
+    root = tmp_path_factory.mktemp('fleet')
+    for name, rate in (('wearing', ZGB_RATE_MM_YEAR), ('steady', 0.0)):
+        d = root / name / 'recordings'
+        d.mkdir(parents=True)
+        for k in range(12):
+            zgb = ZGB0_MM + rate * k / 12
+            s = sim.run(r18_params, sim.SimConfig(program=PROGRAM, gaps=Gaps.from_mm(0.35, zgb),
+                                                  start_ns=T0_NS + k * MONTH_NS), db, smap, 100 + k)
+            with open(d / f'{name}_{k:02d}.log', 'wb') as fh:
+                write_candump_arrays(fh, s.frames)
+    return root
+
+
+@pytest.fixture(scope='module')
+def client():
+    from distributed import Client, LocalCluster
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host='127.0.0.1',
+                      dashboard_address=None, silence_logs=50) as cluster, Client(cluster) as c:
+        yield c
+
+
+def _kill_one_worker(client):
+    pids = client.run(os.getpid)
+    os.kill(next(iter(pids.values())), signal.SIGKILL)
+
+
+def test_a_year_of_a_fleet_with_a_worker_killed(tmp_path, fleet_dirs, client):
+    from steer_monitor.ashore.fleet import fleet_json, run_fleet
+
+    killed = []
+
+    def progress(done, total):
+        if done == 3 and not killed:        # mid-run: its tasks go to the other worker, nothing lost
+            _kill_one_worker(client)
+            killed.append(done)
+
+    out = tmp_path / 'out'
+    out.mkdir()
+    run = run_fleet([fleet_dirs / 'wearing', fleet_dirs / 'steady'], out, progress=progress, client=client)
+    assert killed and run.analysed == 24 and run.failed == []
+    data = fleet_json(run)
+    by = {v['name']: v for v in data['vessels']}
+    assert [v['name'] for v in data['vessels']] == ['wearing', 'steady']        # the soonest limit first
+    wearing = by['wearing']['trend']['clearance_zgb_mm']
+    lo, hi = wearing['rate_mm_per_year']['ci95']
+    assert lo <= ZGB_RATE_MM_YEAR <= hi and lo > 0
+    true_date = (datetime.date(2026, 1, 1)
+                 + datetime.timedelta(days=365.25 * (0.25 - ZGB0_MM) / ZGB_RATE_MM_YEAR)).isoformat()
+    d_lo, d_hi = wearing['limit_date_ci95']
+    assert d_lo <= true_date <= d_hi, (wearing, true_date)
+    assert by['steady']['trend']['clearance_zgb_mm']['limit_date_utc'] is None
+    assert all(lg['verdict'] in ('OK', 'WARN', 'OVER LIMIT') for v in data['vessels'] for lg in v['logs'])
+    log0 = by['wearing']['logs'][0]
+    assert log0['start_utc'].startswith('2026-01-01') and set(log0['clearance_zgb_mm']) == {'value', 'ci95', 'bounded'}
+
+    # a rerun analyses nothing new: the kept results are used
+    again = run_fleet([fleet_dirs / 'wearing', fleet_dirs / 'steady'], out, client=client)
+    assert again.analysed == 0 and again.reused == 24
+    assert fleet_json(again)['vessels'] == data['vessels']
+
+
+def test_cli_with_a_broken_log_and_a_vessel_of_its_own_parameters(tmp_path, fleet_dirs, capsys):
+    """The command end to end (its own 2-worker LocalCluster): a log that is not a log is
+    one line on stderr and exit 1; everything else is in fleet.json and the page."""
+    import shutil
+
+    from steer_monitor.cli.main import main
+    from test.conftest import R18_YAML
+
+    vessel = tmp_path / 'mv_example'
+    shutil.copytree(fleet_dirs / 'wearing', vessel)
+    (vessel / 'recordings' / 'broken.log').write_bytes(b'\x00\x01 not a log\n')
+    shutil.copy(R18_YAML, vessel / 'steer_monitor.yaml')
+    out = tmp_path / 'out'
+    rc = main(['fleet', str(vessel), '--out', str(out), '--workers', '2', '--json'])
+    cap = capsys.readouterr()
+    assert rc == 1
+    assert 'steer-monitor fleet: error: mv_example:' in cap.err and 'broken.log' in cap.err
+    data = json.loads(cap.out)
+    v = data['vessels'][0]
+    assert v['name'] == 'mv_example' and v['config'].endswith('steer_monitor.yaml') and len(v['logs']) == 13
+    assert v['trend']['clearance_zgb_mm']['limit_date_utc'] is not None
+    assert json.loads((out / 'fleet.json').read_text()) == data
+    page = (out / 'index.html').read_text()
+    assert 'mv_example' in page and 'data:image/png;base64,' in page
+    assert (out / 'results.parquet').is_file()
+
+
+@pytest.mark.parametrize('args, message', [
+    (['/nonexistent/vessel'], 'vessel directory /nonexistent/vessel does not exist'),
+    (['{tmp}', '--workers', '0'], '--workers must be at least 1, got 0'),
+])
+def test_bad_arguments_are_one_line(tmp_path, capsys, args, message):
+    from steer_monitor.cli.main import main
+    args = [a.replace('{tmp}', str(tmp_path)) for a in args]
+    assert main(['fleet', *args, '--out', str(tmp_path / 'out')]) == 1
+    err = capsys.readouterr().err
+    assert message in err and err.count('\n') == 1

@@ -1,0 +1,110 @@
+"""The wear trend: rate and limit date with honest intervals, bounds used as bounds, an
+outlying log resisted, no date without detected wear."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+from steer_monitor.estimate.trend import YEAR_S, Z95, TrendPoint, _band_crossing, fit_trend
+
+T0 = 1_767_225_600.0          # 2026-01-01
+MM = 1e-3
+
+
+def monthly(rate_mm_year, c0_mm, sigma_mm, rng, months=12, bound_every=0, outlier=None):
+    """A year of monthly estimates of a clearance growing at ``rate_mm_year``."""
+    pts = []
+    for k in range(months):
+        t = T0 + k * YEAR_S / 12
+        true = (c0_mm + rate_mm_year * k / 12) * MM
+        s = sigma_mm[k % len(sigma_mm)] * MM if isinstance(sigma_mm, list) else sigma_mm * MM
+        v = true + rng.normal(0, s)
+        if outlier is not None and k == outlier:
+            v += 12 * s
+        if bound_every and k % bound_every == 1:
+            pts.append(TrendPoint(t, v, true - abs(rng.normal(0, s)) - 2 * s, None))   # a bound below the truth
+        else:
+            pts.append(TrendPoint(t, v, v - Z95 * s, v + Z95 * s))
+    return pts
+
+
+def true_date(rate_mm_year, c0_mm, limit_mm):
+    return T0 + (limit_mm - c0_mm) / rate_mm_year * YEAR_S
+
+
+def test_band_crossing_against_a_root_finder():
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        d, b = -abs(rng.normal(0.1, 0.05)), abs(rng.normal(0.01, 0.002))
+        vaa, vbb = rng.uniform(1e-5, 1e-4), rng.uniform(1e-7, 1e-6)
+        vab = rng.uniform(-0.5, 0.5) * math.sqrt(vaa * vbb)
+        if b * b <= Z95 ** 2 * vbb:
+            continue
+        lo, hi = _band_crossing(d, b, vaa, vbb, vab)
+
+        def g(tau, d=d, b=b, vaa=vaa, vbb=vbb, vab=vab):
+            return (d + b * tau) ** 2 - Z95 ** 2 * (vaa + tau * tau * vbb + 2 * tau * vab)
+        centre = -d / b
+        assert g(centre) < 0
+        assert lo == pytest.approx(brentq(g, centre - 1e6, centre), rel=1e-9, abs=1e-9)
+        assert hi == pytest.approx(brentq(g, centre, centre + 1e6), rel=1e-9, abs=1e-9)
+
+
+@pytest.mark.parametrize('rate, c0, sigma', [(0.10, 0.12, 0.01), (0.05, 0.15, 0.01), (0.20, 0.05, [0.01, 0.03])])
+def test_rate_and_date_intervals_cover_the_truth(rate, c0, sigma):
+    """Coverage over 200 simulated vessels: the 95 % intervals hold the truth about 95 % of
+    the time (a binomial 95 % band for 200 trials reaches down to 0.91)."""
+    rng = np.random.default_rng(7)
+    hit_rate = hit_date = dated = 0
+    n = 200
+    for _ in range(n):
+        tr = fit_trend(monthly(rate, c0, sigma, rng), 0.25 * MM)
+        assert tr is not None
+        hit_rate += tr.rate.lo * YEAR_S / MM <= rate <= tr.rate.hi * YEAR_S / MM     # in mm/year
+        if tr.limit_t is not None:
+            dated += 1
+            hit_date += tr.limit_t_lo <= true_date(rate, c0, 0.25) <= tr.limit_t_hi
+    assert hit_rate / n >= 0.91
+    assert dated / n >= 0.9 and hit_date / dated >= 0.91
+
+
+def test_no_wear_gives_no_date():
+    rng = np.random.default_rng(3)
+    dates = [fit_trend(monthly(0.0, 0.12, 0.01, rng), 0.25 * MM).limit_t for _ in range(200)]
+    assert sum(d is None for d in dates) >= 0.93 * 200        # the rate's interval holds zero
+
+
+def test_an_outlying_log_does_not_carry_the_line():
+    rng = np.random.default_rng(5)
+    pts = monthly(0.10, 0.12, 0.005, rng, outlier=11)          # the last month 12 sigma high
+    tr = fit_trend(pts, 0.25 * MM)
+    assert tr.outliers == (11,)
+    assert tr.rate.value * YEAR_S / MM == pytest.approx(0.10, abs=0.02)
+    plain = np.polyfit([p.t_s for p in pts], [p.value for p in pts], 1)[0] * YEAR_S / MM
+    assert plain > 0.13                                        # least squares is pulled up
+
+
+def test_lower_bounds_are_bounds():
+    """Bounds below the truth change nothing; a bound above the line pulls it up."""
+    rng = np.random.default_rng(9)
+    pts = monthly(0.10, 0.12, 0.01, rng, bound_every=3)
+    with_bounds = fit_trend(pts, 0.25 * MM)
+    two_sided = fit_trend([p for p in pts if p.hi is not None], 0.25 * MM)
+    assert with_bounds.bounds == 4 and with_bounds.used == 8
+    assert with_bounds.rate.value == pytest.approx(two_sided.rate.value, rel=1e-6)
+    high = pts + [TrendPoint(T0 + YEAR_S, 0.0, 0.30 * MM, None)]          # at least 0.30 mm at the end
+    assert fit_trend(high, 0.25 * MM).at(T0 + YEAR_S) > two_sided.at(T0 + YEAR_S)
+
+
+@pytest.mark.parametrize('pts', [
+    [],
+    [TrendPoint(T0, 1e-4, 0.9e-4, 1.1e-4), TrendPoint(T0 + 1e6, 1e-4, 0.9e-4, 1.1e-4)],
+    [TrendPoint(T0, 1e-4, 0.9e-4, 1.1e-4)] * 3,                                   # no time span
+    [TrendPoint(T0 + k, 1e-4, 1e-4, None) for k in range(5)],                    # bounds only
+])
+def test_too_little_to_fit(pts):
+    assert fit_trend(pts, 0.25 * MM) is None
