@@ -68,7 +68,7 @@ def main() -> dict:
             res.mkdir()
             t0 = time.perf_counter()
             with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host='127.0.0.1',
-                              dashboard_address=None, silence_logs=50) as cluster, Client(cluster) as client:
+                              dashboard_address='127.0.0.1:0', silence_logs=50) as cluster, Client(cluster) as client:
                 client.run(lambda: __import__('steer_monitor.batchpath'))     # what a warm worker has
                 t1 = time.perf_counter()
                 run = run_fleet([logs[0].parent], res, client=client)

@@ -91,7 +91,7 @@ def _client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
             raise InputError(msg) from exc
     n = workers or os.cpu_count() or 1
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host='127.0.0.1',
-                           dashboard_address=None, silence_logs=50)
+                           dashboard_address='127.0.0.1:0', silence_logs=50)
     return Client(cluster), cluster
 
 

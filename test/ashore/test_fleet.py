@@ -43,7 +43,7 @@ def fleet_dirs(tmp_path_factory, r18_params, can_db):
 def client():
     from distributed import Client, LocalCluster
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host='127.0.0.1',
-                      dashboard_address=None, silence_logs=50) as cluster, Client(cluster) as c:
+                      dashboard_address='127.0.0.1:0', silence_logs=50) as cluster, Client(cluster) as c:
         yield c
 
 
