@@ -140,9 +140,7 @@ def run_fleet(dirs: Sequence[str | Path], out: str | Path, *, workers: int | Non
                 try:
                     r = fut.result()
                 except Exception as exc:      # failed for good (after Dask's retries)
-                    nan = math.nan
-                    r = LogResult(v.name, str(log), sha, cfg_sha, 0, 0, 0, *(nan,) * 9, '[]', '[]',
-                                  f'task failed: {type(exc).__name__}: {exc}')
+                    r = LogResult.failed(v.name, str(log), sha, cfg_sha, f'task failed: {type(exc).__name__}: {exc}')
                 run.results[v.name].append(r)
                 run.analysed += 1
                 done += 1
@@ -176,21 +174,27 @@ def _utc(t_s: float | None) -> str | None:
         return None
 
 
-def _est(value: float, lo: float, hi: float) -> dict[str, Any] | None:
+def _interval(r: LogResult, attr: str) -> Interval | None:
+    """A result's estimate ``attr`` (``two_z``, ``z_gb``, ``k_gl_max``) as an Interval (NaN
+    ends: open); None when there is none."""
+    value, lo, hi = getattr(r, attr), getattr(r, attr + '_lo'), getattr(r, attr + '_hi')
     if not math.isfinite(value):
         return None
-    iv = Interval(value, None if math.isnan(lo) else lo, None if math.isnan(hi) else hi)
-    return iv.scaled(1e3)
+    return Interval(value, None if math.isnan(lo) else lo, None if math.isnan(hi) else hi)
+
+
+def _est(r: LogResult, attr: str, k: float = 1e3) -> dict[str, Any] | None:
+    iv = _interval(r, attr)
+    return None if iv is None else iv.scaled(k)
 
 
 def _points(rs: list[LogResult], attr: str) -> list[TrendPoint]:
     pts = []
     for r in rs:
-        value, lo, hi = getattr(r, attr), getattr(r, attr + '_lo'), getattr(r, attr + '_hi')
-        if r.error or not math.isfinite(value) or not r.end_ns:
+        iv = _interval(r, attr)
+        if r.error or iv is None or not r.end_ns:
             continue
-        t = (r.start_ns + r.end_ns) / 2e9
-        pts.append(TrendPoint(t, value, None if math.isnan(lo) else lo, None if math.isnan(hi) else hi))
+        pts.append(TrendPoint((r.start_ns + r.end_ns) / 2e9, iv.value, iv.lo, iv.hi))
     return pts
 
 
@@ -230,17 +234,13 @@ def fleet_json(run: FleetRun) -> dict[str, Any]:
             verdicts = {}
             for key, attr, limit in (('clearance_2z_mm', 'two_z', p['clearances.limit_2z_mm'] * 1e-3),
                                      ('clearance_zgb_mm', 'z_gb', p['clearances.limit_zgb_mm'] * 1e-3)):
-                value, lo, hi = getattr(r, attr), getattr(r, attr + '_lo'), getattr(r, attr + '_hi')
-                if math.isfinite(value):
-                    verdicts[key] = clearance_verdict(value, None if math.isnan(lo) else lo,
-                                                      None if math.isnan(hi) else hi, limit, share)
+                iv = _interval(r, attr)
+                if iv is not None:
+                    verdicts[key] = clearance_verdict(iv.value, iv.lo, iv.hi, limit, share)
             worst = max((vd.level for vd in verdicts.values()), default=None)
             logs.append({'log': r.log, 'start_utc': _iso(r.start_ns), 'end_utc': _iso(r.end_ns), 'frames': r.frames,
-                         'clearance_2z_mm': _est(r.two_z, r.two_z_lo, r.two_z_hi),
-                         'clearance_zgb_mm': _est(r.z_gb, r.z_gb_lo, r.z_gb_hi),
-                         'k_gl_max': None if not math.isfinite(r.k_gl_max) else
-                         Interval(r.k_gl_max, None if math.isnan(r.k_gl_max_lo) else r.k_gl_max_lo,
-                                  None if math.isnan(r.k_gl_max_hi) else r.k_gl_max_hi).scaled(1.0),
+                         'clearance_2z_mm': _est(r, 'two_z'), 'clearance_zgb_mm': _est(r, 'z_gb'),
+                         'k_gl_max': _est(r, 'k_gl_max', 1.0),
                          'verdict': None if worst is None else LABELS[worst],
                          'verdicts': {k: vd.label for k, vd in verdicts.items()},
                          'hard_overs_s': [round(h['seconds'], 2) for h in json.loads(r.hard_overs_json)],

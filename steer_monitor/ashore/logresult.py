@@ -52,6 +52,12 @@ class LogResult:
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
 
+    @classmethod
+    def failed(cls, vessel: str, log: str, log_sha256: str, config_sha256: str, error: str) -> LogResult:
+        """The result of a log that could not be estimated at all: ``error`` says why."""
+        nan = float('nan')
+        return cls(vessel, log, log_sha256, config_sha256, 0, 0, 0, *(nan,) * 9, '[]', '[]', error)
+
 
 def _iv(iv: Any) -> tuple[float, float, float]:
     nan = float('nan')
@@ -69,19 +75,17 @@ def analyse_log(vessel: str, log: str, config: str | None, log_sha256: str, conf
     from steer_monitor.threads import single_blas_thread
 
     single_blas_thread()
-    nan = float('nan')
     try:
         run = review_logs([log], config, jobs=1)
     except SteerMonitorError as exc:
-        return LogResult(vessel, log, log_sha256, config_sha256, 0, 0, 0, *(nan,) * 9, '[]', '[]', str(exc))
+        return LogResult.failed(vessel, log, log_sha256, config_sha256, str(exc))
     except (OSError, MemoryError) as exc:
-        return LogResult(vessel, log, log_sha256, config_sha256, 0, 0, 0, *(nan,) * 9, '[]', '[]',
-                         f'{type(exc).__name__}: {exc}')
+        return LogResult.failed(vessel, log, log_sha256, config_sha256, f'{type(exc).__name__}: {exc}')
     except Exception as exc:   # a defect of ours: kept as this log's error, with where it happened
         where = traceback.extract_tb(exc.__traceback__)[-1]
-        return LogResult(vessel, log, log_sha256, config_sha256, 0, 0, 0, *(nan,) * 9, '[]', '[]',
-                         f'internal error, please report it: {type(exc).__name__}: {exc} '
-                         f'({Path(where.filename).name}:{where.lineno})')
+        return LogResult.failed(vessel, log, log_sha256, config_sha256,
+                                f'internal error, please report it: {type(exc).__name__}: {exc} '
+                                f'({Path(where.filename).name}:{where.lineno})')
     r = run.review
     e = r.estimates[-1].estimate if r.estimates else None
     start = int(r.t_ns[0]) if len(r.t_ns) else 0

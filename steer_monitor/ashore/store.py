@@ -59,6 +59,7 @@ def save_results(directory: str | Path, results: Iterable[LogResult]) -> Path:
 
 
 def _schema():  # type: ignore[no-untyped-def]
+    """The table's columns, from the record's fields (annotations are strings here)."""
     import pyarrow as pa
-    kinds = {int: pa.int64(), float: pa.float64(), str: pa.string()}
-    return pa.schema([(f.name, kinds[{'int': int, 'float': float, 'str': str}[f.type]]) for f in fields(LogResult)])
+    kinds = {'int': pa.int64(), 'float': pa.float64(), 'str': pa.string()}
+    return pa.schema([(f.name, kinds[f.type]) for f in fields(LogResult)])

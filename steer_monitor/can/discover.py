@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from steer_monitor.can.codec import CanDatabase
-from steer_monitor.can.devices import ADDRESS_CLAIM_PGN, DeviceName, format_name
+from steer_monitor.can.devices import ADDRESS_CLAIM_PGN, DeviceName, DeviceTable, format_name
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, FrameArrays, pgn_of
 from steer_monitor.can.signals import PRESSURE_INPUTS, SignalMap, SignalSpec
 
@@ -101,6 +101,7 @@ class Discovery:
         self.pgn_names.setdefault(ADDRESS_CLAIM_PGN, 'ISO Address Claim')
         self.streams: dict[tuple[int, int, int | None], Stream] = {}
         self.devices: dict[int, Device] = {}
+        self._table = DeviceTable()             # who holds which address, claim after claim
         #: frames that are no stream: error, remote, 11-bit
         self.skipped: Counter[str] = Counter()
         self.frames = 0
@@ -195,11 +196,11 @@ class Discovery:
         dev.last_ns = t_ns
         if source not in dev.addresses:
             dev.addresses.append(source)
+        self._table.claim(source, name)
 
     def name_at(self, source: int) -> int | None:
-        """The NAME that last claimed ``source`` (None: no claim of it seen)."""
-        found = [d for d in self.devices.values() if d.source == source]
-        return max(found, key=lambda d: d.last_ns).name if found else None
+        """The NAME holding ``source`` after the claims seen (None: none holds it)."""
+        return self._table.name_at(source)
 
     def sorted_streams(self) -> list[Stream]:
         return sorted(self.streams.values(), key=lambda s: (s.pgn, s.source, -1 if s.instance is None else s.instance))

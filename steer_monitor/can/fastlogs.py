@@ -37,7 +37,8 @@ from numpy.typing import NDArray
 
 from steer_monitor.can import digits
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, FrameArrays
-from steer_monitor.can.logs import CAN_ERR_FLAG, LogError, _candump_line, candump_line, iter_log, log_format, open_log
+from steer_monitor.can.logs import (CAN_ERR_FLAG, LogError, _candump_line, candump_line, iter_log_as, log_format,
+                                   open_log)
 from steer_monitor.can.mcapio import FRAME_DATATYPE
 from steer_monitor.can.rejects import RejectCounter
 
@@ -587,7 +588,7 @@ def iter_log_blocks(path: str | Path, rejects: RejectCounter | None = None,
         yield from iter_mcap_blocks(path, rejects)
         return
     block: list[Any] = []
-    for frame in iter_log(path, rejects, date):
+    for frame in iter_log_as(path, fmt, rejects, date):
         block.append(frame)
         if len(block) >= BLOCK_FRAMES // 4:
             yield FrameArrays.from_frames(block)

@@ -32,7 +32,7 @@ from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
 
 __all__ = ['FORMATS', 'READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'candump_line', 'iter_log',
-           'log_format', 'open_log', 'read_log_arrays']
+           'iter_log_as', 'log_format', 'open_log', 'read_log_arrays']
 
 READ_SUFFIXES = ('.log', '.asc', '.blf', '.mcap')
 #: formats read, by the name :func:`log_format` gives them
@@ -138,7 +138,12 @@ def iter_log(path: str | Path, rejects: RejectCounter | None = None, date: datet
     """Frames of a log file in file order. Bad records are counted in ``rejects``. ``date``:
     the date of a YDWG log's first line (see :func:`~steer_monitor.can.gateway.ydwg_date`)."""
     path = Path(path)
-    fmt = log_format(path)
+    yield from iter_log_as(path, log_format(path), rejects, date)
+
+
+def iter_log_as(path: Path, fmt: str, rejects: RejectCounter | None = None, date: datetime.date | None = None
+                ) -> Iterator[Frame]:
+    """:func:`iter_log` of a log whose format (:func:`log_format`) is known already."""
     if fmt == 'ydwg':
         try:
             day, _ = ydwg_date(path, date)

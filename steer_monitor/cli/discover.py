@@ -25,7 +25,7 @@ from steer_monitor.can.discover import RULES, Discovery, propose
 from steer_monitor.can.fastlogs import iter_log_blocks
 from steer_monitor.can.logs import LogError
 from steer_monitor.can.rejects import REASONS, RejectCounter
-from steer_monitor.can.setup import dbc_path, load_setup
+from steer_monitor.can.setup import Setup, dbc_path, load_setup
 from steer_monitor.can.signals import INPUTS, REQUIRED
 from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors, table
 from steer_monitor.errors import InputError, ParameterError
@@ -53,10 +53,10 @@ def _pgn_names(path: str | Path | None) -> dict[int, str]:
         raise InputError(msg) from exc
 
 
-def discover(paths: Sequence[str | Path], config: str | Path | None = None, date: datetime.date | None = None,
+def discover(paths: Sequence[str | Path], setup: Setup, date: datetime.date | None = None,
              pgn_database: str | Path | None = None) -> dict[str, Any]:
-    """What ``paths`` hold, as the JSON of ``discover --json`` (plus ``read_errors``)."""
-    setup = load_setup(config)
+    """What ``paths`` hold, read with ``setup``'s DBC and map, as the JSON of
+    ``discover --json`` (plus ``read_errors``)."""
     disc = Discovery(setup.db, _pgn_names(pgn_database))
     rejects = RejectCounter()
     errors: list[str] = []
@@ -101,11 +101,10 @@ def _nest(flat: dict[str, Any]) -> dict[str, Any]:
     return tree
 
 
-def write_config(out: str | Path, config: str | Path | None, proposed: dict[str, dict[str, Any]],
+def write_config(out: str | Path, setup: Setup, proposed: dict[str, dict[str, Any]],
                  logs: Sequence[str], notes: Sequence[str]) -> None:
-    """The parameters file ``config`` (the packaged one when None), its ``signals`` replaced by
-    ``proposed``, written to ``out`` (atomically; checked to load before it is renamed)."""
-    setup = load_setup(config)
+    """``setup``'s parameters file with its ``signals`` replaced by ``proposed``, written to
+    ``out`` (atomically; checked to load before it is renamed)."""
     params = dict(setup.params)
     for name in INPUTS:
         if name in proposed:
@@ -145,7 +144,8 @@ def run(paths: Sequence[str | Path], config: str | Path | None = None, date: dat
     if write is not None:
         check_target(write)
     date_notes('discover', paths, date, err)
-    d = discover(paths, config, date, pgn_database)
+    setup = load_setup(config)
+    d = discover(paths, setup, date, pgn_database)
     if as_json:
         dump_json({k: v for k, v in d.items() if k != 'read_errors'}, out)
     else:
@@ -170,7 +170,7 @@ def run(paths: Sequence[str | Path], config: str | Path | None = None, date: dat
     for note in d['notes']:
         err.write(f'steer-monitor discover: note: {note}\n')
     if write is not None:
-        write_config(write, config, d['proposed'], d['logs'], d['notes'])
+        write_config(write, setup, d['proposed'], d['logs'], d['notes'])
         err.write(f'steer-monitor discover: wrote {write}: check it, then: steer-monitor inspect LOG --config {write}\n')
     return report_read_errors('discover', d['read_errors'], err)
 

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import TextIO
 
 from steer_monitor.atomic import ensure_dir, write_text
-from steer_monitor.cli.output import dump_json
+from steer_monitor.cli.output import dump_json, report_read_errors
 
 __all__ = ['register', 'run']
 
@@ -53,9 +53,7 @@ def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = N
                       (f'first limit reached {soon}' if soon else 'no limit date (no wear detected or too few logs)')
                       + '\n')
         out.write(f"{data['analysed']} analysed, {data['reused']} kept from earlier runs -> {page}\n")
-    for line in data['failed']:
-        err.write(f'steer-monitor fleet: error: {line}\n')
-    return 1 if data['failed'] else 0
+    return report_read_errors('fleet', data['failed'], err)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -20,15 +20,12 @@ from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.hardover import hard_over_time, pumps_running
 from steer_monitor.model.loadshare import load_sharing_at
 from steer_monitor.model.study import landmarks
-from steer_monitor.monitor.verdict import ERROR as VERDICT_ERROR
-from steer_monitor.monitor.verdict import OK as VERDICT_OK
-from steer_monitor.monitor.verdict import WARN as VERDICT_WARN
-from steer_monitor.monitor.verdict import clearance_verdict
+from steer_monitor.monitor.verdict import ERROR, OK, WARN, clearance_verdict
 from steer_monitor.monitor.live import ARRIVALS_KEPT_NS, RATE_WINDOW_NS, LiveMonitor
 
 __all__ = ['ERROR', 'OK', 'STALE', 'WARN', 'DiagnosticsBuilder', 'DiagnosticsConfig', 'Status']
 
-OK, WARN, ERROR, STALE = 0, 1, 2, 3
+STALE = 3          # REP-107 levels: OK, WARN and ERROR (0, 1, 2) are the verdict's own
 #: residual samples (both rams) before model health is judged: about 15 s of steady motion
 MIN_JUDGED_SAMPLES = 600
 LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR', STALE: 'STALE'}
@@ -170,7 +167,7 @@ class DiagnosticsBuilder:
                 parts.append(f'{name} {value * 1e3:.3f} mm ({value / limit:.0%} of limit)')
                 continue
             v = clearance_verdict(value, lo, hi, limit, cfg.clearance_warn_share)
-            level = {VERDICT_OK: OK, VERDICT_WARN: WARN, VERDICT_ERROR: ERROR}[v.level]
+            level = v.level
             if hi is None:       # the data only bound it from below: judge the bound, say so
                 text = (f'{name} >= {lo * 1e3:.3f} mm (lower bound only: not reached at the loads seen; '
                         f'{lo / limit:.0%} of limit)')

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 __all__ = ['ERROR', 'OK', 'WARN', 'Verdict', 'clearance_verdict']
 
-OK, WARN, ERROR = 0, 1, 2
+OK, WARN, ERROR = 0, 1, 2      # REP-107's levels (diagnostic_msgs/DiagnosticStatus); the diagnostics use them
 LABELS = {OK: 'OK', WARN: 'WARN', ERROR: 'OVER LIMIT'}
 
 
