@@ -32,6 +32,7 @@ __all__ = ['MIN_MOTION_SAMPLES', 'ClearanceEstimate', 'Rows', 'box_holds', 'coar
 
 MIN_MOTION_SAMPLES = 200     # rows (ram x instant) of steady motion: 5 s of moving rudder
 SMOOTH_LAG_STEPS = 4         # 200 ms: sensor noise is uncorrelated this far apart
+PREDICT_CHUNK = 1 << 16      # rows per step of predict_rows
 
 
 @dataclass(frozen=True)
@@ -63,12 +64,10 @@ def make_rows(obs: Observations, z: Mapping[str, NDArray[np.float64]] | None = N
         keep &= np.all(np.isfinite(arr), axis=1) if arr.ndim == 2 else np.isfinite(arr)
     if mask is not None:
         keep &= mask
-    sub = obs.select(keep)
-    zsub = {k: v[keep] for k, v in z.items()}
-    keys, aa, v2, u, idx = rows_from_observations(sub, zsub)
+    keys, aa, v2, u, idx = rows_from_observations(obs, z, keep)
     mom = Moments.from_rows(keys, aa, v2, u, (SPEED_Z, *z))
-    ram = np.nonzero(np.isfinite(sub.force) & sub.moving[:, None])[1]
-    return Rows(mom, np.searchsorted(mom.keys, keys), u, np.nonzero(keep)[0][idx], ram)
+    ram = np.nonzero(np.isfinite(obs.force) & keep[:, None])[1]
+    return Rows(mom, np.searchsorted(mom.keys, keys), u, idx, ram)
 
 
 @dataclass(frozen=True)
@@ -146,9 +145,15 @@ def residual_parts(resid: NDArray[np.float64], t_ns: NDArray[np.int64]) -> tuple
 
 def predict_rows(gear: GearParams, basis: F.TorqueBasis, rows: Rows, coef: NDArray[np.float64], two_z: float,
                  z_gb: float, load: NDArray[np.float64], extra: Sequence[F.Column] = ()) -> NDArray[np.float64]:
-    """Predicted y per row [N] with coefficients ``coef`` at the given clearances."""
+    """Predicted y per row [N] with coefficients ``coef`` at the given clearances. In chunks
+    of ``PREDICT_CHUNK`` rows: the design per row is (rows, columns), hundreds of MB on a
+    day's log, where the prediction is one number per row."""
     cols, zs, _ = F.design_at(gear, basis, rows.moments, two_z, z_gb, load, extra)
-    return (cols[rows.bin_of_row] * rows.u[:, zs]) @ coef
+    out = np.empty(rows.bin_of_row.size)
+    for i in range(0, out.size, PREDICT_CHUNK):
+        sl = slice(i, i + PREDICT_CHUNK)
+        out[sl] = (cols[rows.bin_of_row[sl]] * rows.u[sl][:, zs]) @ coef
+    return out
 
 
 def residuals_and_inflation(gear: GearParams, basis: F.TorqueBasis, rows: Rows, t_ns: NDArray[np.int64],

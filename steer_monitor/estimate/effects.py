@@ -28,7 +28,7 @@ hard-over time shows them, not this residual.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,8 +39,8 @@ from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import GRID_NS, Observations
 from steer_monitor.model.gear import GearParams
 
-__all__ = ['DELAYS_S', 'STRIBECK_SPEEDS_MM_S', 'Candidate', 'candidates', 'low_side_offsets',
-           'z_columns']
+__all__ = ['DELAYS_S', 'STRIBECK_SPEEDS_MM_S', 'Candidate', 'candidates', 'iter_z_columns',
+           'low_side_offsets', 'z_columns']
 
 STRIBECK_SPEEDS_MM_S = (1.0, 2.0, 3.0, 5.0, 8.0)
 DELAYS_S = tuple(round(0.05 * k, 2) for k in range(1, 21))   # 0.05 .. 1.0 s
@@ -74,17 +74,21 @@ def _friction_feature(seal: float, mu_b: float, mu_g: float) -> Callable[[Moment
 
 def z_columns(obs: Observations, gear: GearParams) -> dict[str, NDArray[np.float64]]:
     """Per-sample columns the candidates multiply with (NaN where not available)."""
+    return dict(iter_z_columns(obs, gear))
+
+
+def iter_z_columns(obs: Observations, gear: GearParams) -> Iterator[tuple[str, NDArray[np.float64]]]:
+    """:func:`z_columns` one at a time, (name, column of shape (n,) or (n, 2)): a caller that
+    keeps a few of them (or only their validity) does not hold all of them at once."""
     n = len(obs)
     cos2 = np.cos(obs.alpha) ** 2
     v_ram = gear.stock_to_ram / cos2 * np.abs(obs.rate)
-    z: dict[str, NDArray[np.float64]] = {
-        'ram1': np.tile([1.0, 0.0], (n, 1)),
-        'ram2': np.tile([0.0, 1.0], (n, 1)),
-        'v_ram': v_ram,
-        'abs_y': np.abs(obs.force),
-    }
+    yield 'ram1', np.tile([1.0, 0.0], (n, 1))
+    yield 'ram2', np.tile([0.0, 1.0], (n, 1))
+    yield 'v_ram', v_ram
+    yield 'abs_y', np.abs(obs.force)
     for vs in STRIBECK_SPEEDS_MM_S:
-        z[f'stribeck_{vs:g}'] = np.exp(-(v_ram / (vs * 1e-3)) ** 2)
+        yield f'stribeck_{vs:g}', np.exp(-(v_ram / (vs * 1e-3)) ** 2)
     # ram acceleration along its axis: d/dt (H tan alpha)'' ~ H / cos^2 alpha * alpha''
     rate = np.where(np.isfinite(obs.rate), obs.rate, np.nan)
     acc = np.full(n, np.nan)
@@ -95,10 +99,9 @@ def z_columns(obs: Observations, gear: GearParams) -> dict[str, NDArray[np.float
         gap = np.zeros(n, bool)
         gap[1:-1] = (steps[1:] != GRID_NS) | (steps[:-1] != GRID_NS)
         acc[gap] = np.nan
-    z['accel'] = np.where(np.isfinite(acc), gear.stock_to_ram / cos2 * acc, 0.0)
+    yield 'accel', np.where(np.isfinite(acc), gear.stock_to_ram / cos2 * acc, 0.0)
     if np.isfinite(obs.oil_temp).any():
-        z['dtemp'] = obs.oil_temp - float(np.nanmean(obs.oil_temp))
-    return z
+        yield 'dtemp', obs.oil_temp - float(np.nanmean(obs.oil_temp))
 
 
 def candidates(z: dict[str, NDArray], declared: tuple[float, float, float]) -> list[Candidate]:

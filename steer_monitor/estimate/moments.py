@@ -159,7 +159,9 @@ class Moments:
         mean = np.empty((b, q))
         for i in range(q):
             mean[:, i] = np.bincount(inv, u[:, i], minlength=b) / np.maximum(count, 1.0)
-        dev = u - mean[inv]
+        dev = np.empty_like(u)          # column by column: no (n, q) temporary of the means
+        for i in range(q):
+            dev[:, i] = u[:, i] - mean[inv, i]
         scatter = np.zeros((b, q, q))
         for i in range(q):
             for j in range(i, q):
@@ -214,22 +216,29 @@ class Moments:
                    np.asarray(d['scatter'], float))
 
 
-def rows_from_observations(obs: Observations, z: dict[str, NDArray[np.float64]] | None = None
-                           ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64],
+def rows_from_observations(obs: Observations, z: dict[str, NDArray[np.float64]] | None = None,
+                           mask: NDArray[np.bool_] | None = None) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64],
                                       NDArray[np.float64], NDArray[np.intp]]:
     """Rows for :meth:`Moments.from_rows` from steady-motion samples, one per valid ram force.
 
     Returns (keys, |alpha|, speed^2, u, index of the observation each row came from), with
     u = [1, speed_ratio, z.., y]: its z columns are named ``(SPEED_Z, *z)``.
     ``z`` holds per-observation columns of shape (n,) or per-ram columns of shape (n, 2).
+    ``mask`` (n,): only those observations (the same rows as from ``obs.select(mask)``, with
+    indices into ``obs``, and no copy of it).
     """
     z = z or {}
-    idx_obs, ram = np.nonzero(np.isfinite(obs.force) & obs.moving[:, None])
+    valid = np.isfinite(obs.force) & obs.moving[:, None]
+    if mask is not None:
+        valid &= mask[:, None]
+    idx_obs, ram = np.nonzero(valid)
     alpha = obs.alpha[idx_obs]
     speed = obs.speed[idx_obs]
     keys = bin_keys(alpha, obs.direction[idx_obs], speed)
-    cols = [np.ones(idx_obs.size), speed_ratio(keys, speed * speed)]
-    for arr in z.values():
-        cols.append(arr[idx_obs, ram] if arr.ndim == 2 else arr[idx_obs])
-    cols.append(obs.force[idx_obs, ram])
-    return keys, np.abs(alpha), speed * speed, np.stack(cols, axis=1), idx_obs
+    u = np.empty((idx_obs.size, len(z) + 3))    # filled column by column: no second copy
+    u[:, 0] = 1.0
+    u[:, 1] = speed_ratio(keys, speed * speed)
+    for i, arr in enumerate(z.values(), start=2):
+        u[:, i] = arr[idx_obs, ram] if arr.ndim == 2 else arr[idx_obs]
+    u[:, -1] = obs.force[idx_obs, ram]
+    return keys, np.abs(alpha), speed * speed, u, idx_obs
