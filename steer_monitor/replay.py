@@ -68,9 +68,11 @@ class ReplaySummary:
 
 def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | None = None, *,
            frames: bool = True, estimator: bool = True, node_name: str = 'steer_monitor',
-           progress: Callable[[int], None] | None = None, date: datetime.date | None = None) -> ReplaySummary:
+           progress: Callable[[int, int | None], None] | None = None,
+           date: datetime.date | None = None) -> ReplaySummary:
     """Replay ``logs`` into ``output`` (an MCAP). ``frames``: record the raw frames too, as
-    the node does. ``progress`` is called with the number of frames done since its last call."""
+    the node does. ``progress`` is called with the number of frames done since its last call
+    and the data time reached [ns] (None before the stream's time is confirmed)."""
     if not logs:
         msg = 'no log given'
         raise ReplayError(msg)
@@ -114,7 +116,7 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
 
 def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict[str, str],
          encoders: dict[str, Any], frames: bool, rejects: RejectCounter, summary: ReplaySummary,
-         progress: Callable[[int], None] | None, date: datetime.date | None) -> None:
+         progress: Callable[[int, int | None], None] | None, date: datetime.date | None) -> None:
     """Feed every frame of ``paths`` through ``pipeline``, writing what it emits (and the
     frames) to ``writer``."""
     for key, (_, datatype) in TOPICS.items():
@@ -164,11 +166,11 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
                         batch = []
                     n_log += 1
                     if progress is not None and n_log % FRAME_BATCH == 0:
-                        progress(FRAME_BATCH)
+                        progress(FRAME_BATCH, summary.last_ns)
         except LogError as exc:
             summary.errors.append(str(exc))
         if progress is not None:
-            progress(n_log % FRAME_BATCH)
+            progress(n_log % FRAME_BATCH, summary.last_ns)
         summary.frames += n_log
     if batch:
         writer.write_frames(batch)

@@ -21,20 +21,20 @@ __all__ = ['register', 'run']
 
 def run(logs: list[str], out_path: str | Path, config: str | Path | None = None, frames: bool = True,
         as_json: bool = False, out: TextIO | None = None, err: TextIO | None = None,
-        date: datetime.date | None = None) -> int:
+        date: datetime.date | None = None, progress: bool = False) -> int:
     """Replay ``logs`` into ``out_path``; 1 (one line per log on ``err``) when a log broke
-    off or had corrupt parts, whose readable frames were replayed."""
-    from tqdm import tqdm
-
+    off or had corrupt parts, whose readable frames were replayed. A progress bar (data
+    time, percentage, ETA) on a terminal, or anywhere with ``progress``."""
+    from steer_monitor.cli.progress import DataTimeProgress, log_spans
     from steer_monitor.replay import replay, summary_json
 
     out = out or sys.stdout
     err = err or sys.stderr
     date_notes('replay', logs, date, err)
     t0 = time.perf_counter()
-    with tqdm(unit='frame', unit_scale=True, disable=not sys.stderr.isatty(), file=sys.stderr,
-              desc='replay') as bar:
-        summary = replay(logs, out_path, config, frames=frames, progress=bar.update, date=date)
+    show = progress or sys.stderr.isatty()
+    with DataTimeProgress(log_spans(logs, date) if show else None, 'replay', sys.stderr, force=progress) as bar:
+        summary = replay(logs, out_path, config, frames=frames, progress=bar, date=date)
     result = summary_json(summary)
     elapsed = time.perf_counter() - t0
     result['elapsed_s'] = round(elapsed, 2)
@@ -66,5 +66,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--no-frames', dest='frames', action='store_false',
                    help='do not copy the raw frames into the output')
     p.add_argument('--json', action='store_true', help='print the summary as JSON')
+    p.add_argument('--progress', action='store_true',
+                   help='show the progress bar on stderr even when it is not a terminal')
     add_date_option(p)
-    p.set_defaults(handler=lambda a: run(a.logs, a.out, a.config, a.frames, a.json, date=a.date))
+    p.set_defaults(handler=lambda a: run(a.logs, a.out, a.config, a.frames, a.json, date=a.date,
+                                         progress=a.progress))

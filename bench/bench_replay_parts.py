@@ -1,0 +1,124 @@
+"""Where the per-frame replay's time goes, on an hour of simulated gear traffic (candump,
+about 330,000 frames), with python-can's candump reader on the same file in the same run.
+
+Each part of :func:`steer_monitor.replay.replay` is timed by wrapping its entry points with
+a clock (the wrappers' own cost, about a microsecond a call, is counted in the parts and
+shown apart as the difference between the timed and an untimed run):
+
+* decode: ``Decoder.decode``, one call per frame;
+* live model: ``LiveMonitor.update`` per sample and ``LiveMonitor.state`` per 10 ms slot
+  (rate, residual, load sharing);
+* diagnostics: ``DiagnosticsBuilder.build``, once per second of data;
+* online estimator: the jobs (``SyncEstimatorJobs.submit``: folding each second, the local
+  step after each second of motion, the full profiles);
+* messages: turning states and diagnostics into message fields and CDR, and writing them
+  (with the frames) to the MCAP;
+* the rest: reading the log into frames and the pipeline's schedule, by difference.
+
+Run: ``python -m bench.bench_replay_parts`` (part of ``make bench``).
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import sys
+import tempfile
+import time
+from collections import defaultdict
+from pathlib import Path
+
+HOUR_PROGRAM = 'voyage,autopilot:2100'
+
+
+def _make_log(path: Path) -> int:
+    from steer_monitor import sim
+    from steer_monitor.can.fastlogs import write_candump_arrays
+    from steer_monitor.can.setup import can_setup
+    from steer_monitor.params import load_params_file
+    from steer_monitor.resources import default_config
+
+    config = default_config()
+    params = load_params_file(config)
+    db, smap = can_setup(params, config)
+    fa = sim.run(params, sim.SimConfig(program=HOUR_PROGRAM), db, smap, seed=100).frames
+    with open(path, 'wb') as fh:
+        write_candump_arrays(fh, fa)
+    return len(fa)
+
+
+def _timed(spent: dict[str, float], part: str, fn):
+    clock = time.perf_counter
+
+    @functools.wraps(fn)
+    def wrapper(*a, **k):
+        t0 = clock()
+        try:
+            return fn(*a, **k)
+        finally:
+            spent[part] += clock() - t0
+    return wrapper
+
+
+def _instrument(spent: dict[str, float]) -> None:
+    import steer_monitor.replay as R
+    from steer_monitor.can.decoder import Decoder
+    from steer_monitor.can.mcapio import McapWriter
+    from steer_monitor.monitor.diagnostics import DiagnosticsBuilder
+    from steer_monitor.monitor.live import LiveMonitor
+    from steer_monitor.monitor.pipeline import SyncEstimatorJobs
+
+    Decoder.decode = _timed(spent, 'decode', Decoder.decode)
+    LiveMonitor.update = _timed(spent, 'live model', LiveMonitor.update)
+    LiveMonitor.state = property(_timed(spent, 'live model', LiveMonitor.state.fget))
+    DiagnosticsBuilder.build = _timed(spent, 'diagnostics', DiagnosticsBuilder.build)
+    SyncEstimatorJobs.submit = _timed(spent, 'online estimator', SyncEstimatorJobs.submit)
+    for name in ('write_cdr', 'write', 'write_frames'):
+        setattr(McapWriter, name, _timed(spent, 'messages', getattr(McapWriter, name)))
+    R.state_messages = _timed(spent, 'messages', R.state_messages)
+    R.diag_messages = _timed(spent, 'messages', R.diag_messages)
+
+
+def main() -> int:
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    import can
+
+    from steer_monitor.replay import replay
+
+    print('== per-frame replay: where the time goes (an hour of simulated gear traffic, candump) ==')
+    with tempfile.TemporaryDirectory() as tmp:
+        log = Path(tmp) / 'hour.log'
+        n = _make_log(log)
+        t0 = time.perf_counter()
+        k = sum(1 for _ in can.CanutilsLogReader(str(log)))
+        t_can = time.perf_counter() - t0
+        assert k == n, (k, n)
+        t0 = time.perf_counter()
+        s = replay([log], Path(tmp) / 'plain.mcap')
+        t_plain = time.perf_counter() - t0
+        spent: dict[str, float] = defaultdict(float)
+        _instrument(spent)
+        t0 = time.perf_counter()
+        replay([log], Path(tmp) / 'timed.mcap')
+        t_timed = time.perf_counter() - t0
+    span_s = (s.last_ns - s.first_ns) / 1e9 if s.first_ns is not None and s.last_ns is not None else 0.0
+    print(f'log: {n:,d} frames, {span_s:,.0f} s of data; {s.states:,d} states, {s.diagnostics:,d} diagnostics, '
+          f'{s.motion_s:,.0f} s of rudder motion learned')
+    print(f'python-can CanutilsLogReader: {n / t_can:12,.0f} frames/s ({t_can:.2f} s)')
+    print(f'replay, untimed:              {n / t_plain:12,.0f} frames/s ({t_plain:.2f} s; '
+          f'{n / t_plain / (n / t_can):.2f} x python-can)')
+    print(f'replay, timed:                {n / t_timed:12,.0f} frames/s ({t_timed:.2f} s)')
+    parts = dict(spent)
+    parts['reading and schedule (rest)'] = t_timed - sum(spent.values())
+    for part, sec in sorted(parts.items(), key=lambda kv: -kv[1]):
+        print(f'  {part:28s} {sec:7.2f} s  {100 * sec / t_timed:5.1f} %  ({1e6 * sec / n:6.1f} us per frame)')
+    est = parts.get('online estimator', 0.0)
+    rest = t_timed - est
+    print(f'without the online estimator the rest would run at {n / rest:,.0f} frames/s; the estimator alone, '
+          f'at {1e3 * est / max(s.motion_s, 1.0):.1f} ms per second of motion, bounds a replay at '
+          f'{n / est:,.0f} frames/s on this log')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
