@@ -29,10 +29,12 @@ from steer_monitor.monitor.verdict import LABELS, clearance_verdict
 from steer_monitor.params import load_config
 from steer_monitor.record.provenance import parameters_digest
 
-__all__ = ['LOG_SUFFIXES', 'VESSEL_CONFIG', 'FleetRun', 'Vessel', 'find_vessels', 'fleet_json', 'run_fleet']
+__all__ = ['LOG_SUFFIXES', 'REPORTS_DIR', 'VESSEL_CONFIG', 'FleetRun', 'Vessel', 'find_vessels', 'fleet_json',
+           'report_path', 'run_fleet']
 
 LOG_SUFFIXES = ('.log', '.asc', '.blf', '.mcap', '.raw')
 VESSEL_CONFIG = 'steer_monitor.yaml'
+REPORTS_DIR = 'reports'
 TASK_RETRIES = 2
 
 
@@ -56,6 +58,7 @@ class FleetRun:
     analysed: int = 0
     reused: int = 0
     failed: list[str] = field(default_factory=list)
+    out: Path | None = None          # the output directory (report pages are looked for there)
 
 
 def find_vessels(dirs: Sequence[str | Path], config: str | Path | None = None) -> list[Vessel]:
@@ -95,17 +98,27 @@ def _client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
     return Client(cluster), cluster
 
 
+def report_path(vessel: str, log_sha256: str, config_sha256: str) -> Path:
+    """Where a log's report page lies under the fleet's output directory (relative): one per
+    log content and parameters, like the kept results."""
+    return Path(REPORTS_DIR, vessel, f'{log_sha256[:16]}-{config_sha256[:8]}', 'index.html')
+
+
 def run_fleet(dirs: Sequence[str | Path], out: str | Path, *, workers: int | None = None,
               scheduler: str | None = None, config: str | Path | None = None,
-              progress: Callable[[int, int], None] | None = None, client: Any = None) -> FleetRun:
+              progress: Callable[[int, int], None] | None = None, client: Any = None,
+              reports: bool = True) -> FleetRun:
     """Estimate every log not kept yet, keep all results under ``out``; ``progress`` hears
-    (tasks done, tasks in all). ``client``: a Dask client to use as it is (left open)."""
+    (tasks done, tasks in all). ``client``: a Dask client to use as it is (left open).
+    ``reports``: each log's report page too (:func:`report_path`; the workers write it, so
+    on a cluster ``out`` must be on a file system they share, as the logs are); a kept result
+    whose page is missing is made again."""
     from distributed import as_completed
 
     vessels = find_vessels(dirs, config)
     out = Path(out)
     kept = load_results(out)
-    run = FleetRun(vessels, {}, {})
+    run = FleetRun(vessels, {}, {}, out=out)
     todo: list[tuple[Vessel, Path, str, str]] = []
     for v in vessels:
         path, params = load_config(v.config)
@@ -119,7 +132,8 @@ def run_fleet(dirs: Sequence[str | Path], out: str | Path, *, workers: int | Non
                 run.failed.append(f'{v.name}: {log}: {exc.strerror or exc}')
                 continue
             r = kept.get((sha, cfg_sha))
-            if r is not None and not r.error:
+            page_kept = not reports or (out / report_path(v.name, sha, cfg_sha)).is_file()
+            if r is not None and not r.error and page_kept:
                 run.results[v.name].append(r if r.log == str(log) else _moved(r, v.name, log))
                 run.reused += 1
             else:
@@ -130,8 +144,11 @@ def run_fleet(dirs: Sequence[str | Path], out: str | Path, *, workers: int | Non
         if own:
             client, cluster = _client(workers, scheduler)
         try:
+            def page_dir(v: Vessel, sha: str, cfg_sha: str) -> str | None:
+                return str((out / report_path(v.name, sha, cfg_sha)).parent.resolve()) if reports else None
             futures = {client.submit(analyse_log, v.name, str(log), None if v.config is None else str(v.config),
-                                     sha, cfg_sha, key=f'steer_monitor-log-{v.name}-{sha[:16]}-{cfg_sha[:8]}',
+                                     sha, cfg_sha, page_dir(v, sha, cfg_sha),
+                                     key=f'steer_monitor-log-{v.name}-{sha[:16]}-{cfg_sha[:8]}',
                                      retries=TASK_RETRIES, pure=False): (v, log, sha, cfg_sha)
                        for v, log, sha, cfg_sha in todo}
             done = 0
@@ -244,6 +261,8 @@ def fleet_json(run: FleetRun) -> dict[str, Any]:
                          'verdict': None if worst is None else LABELS[worst],
                          'verdicts': {k: vd.label for k, vd in verdicts.items()},
                          'hard_overs_s': [round(h['seconds'], 2) for h in json.loads(r.hard_overs_json)],
+                         'report': _report(run, v.name, r),
+                         'read_errors': json.loads(r.read_errors_json),
                          'error': r.error or None})
         trends = vessel_trends(rs, p)
         vessels.append({'name': v.name, 'config': None if v.config is None else str(v.config),
@@ -253,6 +272,12 @@ def fleet_json(run: FleetRun) -> dict[str, Any]:
                                   for key, (tr, _) in trends.items()}})
     vessels.sort(key=_soonest)
     return {'vessels': vessels, 'analysed': run.analysed, 'reused': run.reused, 'failed': run.failed}
+
+
+def _report(run: FleetRun, vessel: str, r: LogResult) -> str | None:
+    """The log's report page relative to the output directory, None when there is none."""
+    rel = report_path(vessel, r.log_sha256, r.config_sha256)
+    return str(rel) if run.out is not None and (run.out / rel).is_file() else None
 
 
 def _soonest(v: dict[str, Any]) -> str:

@@ -72,7 +72,7 @@ def write_fleet_page(run: FleetRun, path: str | Path) -> Path:
     for v in data['vessels']:
         rs = run.results[v['name']]
         rows = ''.join(
-            f"<tr><td>{esc(Path(lg['log']).name)}</td><td>{esc(lg['start_utc'] or '-')}</td>"
+            f"<tr><td>{_log_cell(lg)}</td><td>{esc(lg['start_utc'] or '-')}</td>"
             f"<td>{_iv(lg['clearance_2z_mm'])}</td><td>{_iv(lg['clearance_zgb_mm'])}</td>"
             f"<td class=\"{esc((lg['verdict'] or 'NONE').split()[0])}\">{esc(lg['verdict'] or lg['error'] or '-')}</td></tr>"
             for lg in v['logs'])
@@ -102,6 +102,14 @@ analysed in this run, {data['reused']} kept from earlier runs, {len(data['failed
     path = Path(path)
     write_text(path, page)
     return path
+
+
+def _log_cell(lg: dict[str, Any]) -> str:
+    """The log's name, a link to its report page when there is one."""
+    name = html.escape(Path(lg['log']).name)
+    if not lg.get('report'):
+        return name
+    return f'<a href="{html.escape(Path(lg["report"]).as_posix(), quote=True)}">{name}</a>'
 
 
 def _iv(d: dict[str, Any] | None) -> str:

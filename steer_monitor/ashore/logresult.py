@@ -66,10 +66,13 @@ def _iv(iv: Any) -> tuple[float, float, float]:
     return (float(iv.value), nan if iv.lo is None else float(iv.lo), nan if iv.hi is None else float(iv.hi))
 
 
-def analyse_log(vessel: str, log: str, config: str | None, log_sha256: str, config_sha256: str) -> LogResult:
+def analyse_log(vessel: str, log: str, config: str | None, log_sha256: str, config_sha256: str,
+                report_dir: str | None = None) -> LogResult:
     """Review one log on the batch path (in this process) and flatten the whole log's
-    estimate. A log that cannot be read at all is a result with ``error`` set, not an
-    exception: the fleet goes on, and says so."""
+    estimate; with ``report_dir``, write its report page there too (from the same review,
+    without the model check, which ``steer-monitor report`` makes). A log that cannot be
+    read at all is a result with ``error`` set, not an exception: the fleet goes on, and says
+    so; a page that cannot be written is said in the result's read errors."""
     from steer_monitor.batchpath import review_logs
     from steer_monitor.errors import SteerMonitorError
     from steer_monitor.threads import single_blas_thread
@@ -86,6 +89,12 @@ def analyse_log(vessel: str, log: str, config: str | None, log_sha256: str, conf
         return LogResult.failed(vessel, log, log_sha256, config_sha256,
                                 f'internal error, please report it: {type(exc).__name__}: {exc} '
                                 f'({Path(where.filename).name}:{where.lineno})')
+    errors = list(run.errors)
+    if report_dir is not None and run.frames:
+        try:
+            _write_report(log, config, run, report_dir)
+        except SteerMonitorError as exc:
+            errors.append(f'report not written: {exc}')
     r = run.review
     e = r.estimates[-1].estimate if r.estimates else None
     start = int(r.t_ns[0]) if len(r.t_ns) else 0
@@ -93,5 +102,14 @@ def analyse_log(vessel: str, log: str, config: str | None, log_sha256: str, conf
     hard = [{'t_leave_ns': int(h.t_leave_ns), 'seconds': float(h.seconds)} for h in r.hard_overs]
     return LogResult(vessel, log, log_sha256, config_sha256, start, end, int(run.frames),
                      *_iv(None if e is None else e.two_z), *_iv(None if e is None else e.z_gb),
-                     *_iv(None if e is None else e.k_gl_max), json.dumps(hard), json.dumps(run.errors),
+                     *_iv(None if e is None else e.k_gl_max), json.dumps(hard), json.dumps(errors),
                      '' if e is not None or run.frames else (run.errors[0] if run.errors else 'no frames'))
+
+
+def _write_report(log: str, config: str | None, run: Any, report_dir: str) -> None:
+    from steer_monitor.params import load_config
+    from steer_monitor.report.logreport import report_input, write_report_dir
+
+    config_path, params = load_config(config)
+    note = 'model check not made in a fleet run: steer-monitor report LOG makes it'
+    write_report_dir(report_input([Path(log)], run, params, config_path, None, note), report_dir)

@@ -19,9 +19,9 @@ __all__ = ['register', 'run']
 
 def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = None, scheduler: str | None = None,
         config: str | Path | None = None, as_json: bool = False, out: TextIO | None = None,
-        err: TextIO | None = None) -> int:
+        err: TextIO | None = None, reports: bool = True) -> int:
     """Run the fleet; 1 (one line per log on ``err``) when some log failed for good, whose
-    vessel's other logs are in the results."""
+    vessel's other logs are in the results. ``reports``: each log's report page too."""
     import json
 
     from tqdm import tqdm
@@ -39,7 +39,8 @@ def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = N
         def progress(done: int, total: int) -> None:
             bar.total = total
             bar.update(done - bar.n)
-        fleet = run_fleet(dirs, out_dir, workers=workers, scheduler=scheduler, config=config, progress=progress)
+        fleet = run_fleet(dirs, out_dir, workers=workers, scheduler=scheduler, config=config, progress=progress,
+                          reports=reports)
     data = fleet_json(fleet)
     write_text(out_dir / 'fleet.json', json.dumps(data, indent=2, allow_nan=False) + '\n')
     page = write_fleet_page(fleet, out_dir / 'index.html')
@@ -68,4 +69,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.add_argument('--scheduler', metavar='ADDRESS', help='an existing Dask scheduler, e.g. tcp://host:8786')
     p.add_argument('--config', help='parameters for vessels without their own steer_monitor.yaml')
     p.add_argument('--json', action='store_true', help='print fleet.json')
-    p.set_defaults(handler=lambda a: run(a.vessels, a.out, a.workers, a.scheduler, a.config, a.json))
+    p.add_argument('--no-reports', dest='reports', action='store_false',
+                   help="do not write each log's report page (DIR/reports/VESSEL/...; about a second a log)")
+    p.set_defaults(handler=lambda a: run(a.vessels, a.out, a.workers, a.scheduler, a.config, a.json,
+                                         reports=a.reports))

@@ -17,44 +17,8 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors
-from steer_monitor.monitor.messages import CLEARANCE_LABELS
 
-__all__ = ['online_track', 'register', 'run']
-
-
-
-def online_track(paths: list[Path]) -> Any:
-    """The clearances a node published (``*/clearances``) in MCAP inputs, or None."""
-    import numpy as np
-    from mcap.reader import make_reader
-    from mcap_ros2.decoder import DecoderFactory
-
-    from steer_monitor.report.review import OnlineTrack
-
-    rows: list[tuple[int, list[float]]] = []
-    for path in paths:
-        if path.suffix.lower() != '.mcap':
-            continue
-        try:
-            with open(path, 'rb') as fh:
-                reader = make_reader(fh, validate_crcs=True, decoder_factories=[DecoderFactory()])
-                summary = reader.get_summary()
-                topics = [c.topic for c in summary.channels.values() if c.topic.endswith('/clearances')] \
-                    if summary is not None else []
-                if not topics:
-                    continue
-                for _, _, message, msg in reader.iter_decoded_messages(topics=topics):
-                    dims = msg.layout.dim
-                    if dims and dims[0].label == ','.join(CLEARANCE_LABELS) and len(msg.data) == 6:
-                        rows.append((message.log_time, list(msg.data)))
-        except Exception:   # a recording cut short has no summary: the plot goes without it
-            continue
-    if not rows:
-        return None
-    rows.sort(key=lambda r: r[0])
-    t = np.array([r[0] for r in rows], np.int64)
-    d = np.array([r[1] for r in rows], float)
-    return OnlineTrack(t, *(d[:, k] for k in range(6)))
+__all__ = ['register', 'run']
 
 
 def _analysis(paths: list[Path], config_path: Path, params: dict[str, Any], since_ns: int,
@@ -88,9 +52,9 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
     from steer_monitor.batchpath import review_logs
     from steer_monitor.can.logs import LogError
     from steer_monitor.errors import ParameterError
-    from steer_monitor.params import gear_from_params, load_config
-    from steer_monitor.record.provenance import parameters_digest
-    from steer_monitor.report.review import ReportInput, write_review_report
+    from steer_monitor.params import load_config
+    from steer_monitor.report.logreport import report_input
+    from steer_monitor.report.review import write_review_report
 
     out = out or sys.stdout
     err = err or sys.stderr
@@ -117,14 +81,7 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
         analysis, note = _analysis(paths, config_path, params, int(r.t_ns[-1] - analysis_hours * 3.6e12), date)
     elif analysis_hours == 0:
         note = 'model check not asked for (--analysis-hours 0)'
-    title = ', '.join(p.name for p in paths)
-    inp = ReportInput(title, gear_from_params(params), r, analysis, note, online_track(paths), batch.frames,
-                      batch.rejects, batch.errors, params['clearances.limit_2z_mm'] * 1e-3,
-                      params['clearances.limit_zgb_mm'] * 1e-3, params['diagnostics.solas_hard_over_s'],
-                      params['hydraulics.pumps'], params['hydraulics.ram_speed_per_pump_mm_s'] * 1e-3,
-                      params['diagnostics.clearance_warn_share'], params['node.hardware_id'], params['gear.name'],
-                      str(config_path), parameters_digest(params))
-    page = write_review_report(inp, out_dir)
+    page = write_review_report(report_input(paths, batch, params, config_path, analysis, note), out_dir)
     elapsed = time.perf_counter() - t0
     if as_json:
         e = r.estimates[-1].estimate if r.estimates else None

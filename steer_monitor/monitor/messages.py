@@ -12,14 +12,26 @@ topic (under the node's name)    type                           content
                                                                  [rad], velocity [rad/s],
                                                                  effort = tiller torque from
                                                                  the pressures [N m]
-~/load_sharing                   std_msgs/Float64MultiArray      labelled: lateral_n,
+~/load_sharing                   sensor_msgs/JointState          named (``name`` and
+                                                                 ``position``): lateral_n,
                                                                  ram_force_n, guide_force_n,
                                                                  k_gl, deflection_m, r_a_n,
                                                                  r_e_n, m_a_nm, case
-~/clearances                     std_msgs/Float64MultiArray      labelled: gap_2z_m, lo, hi,
-                                                                 gap_zgb_m, lo, hi (NaN: none)
+~/clearances                     sensor_msgs/JointState          named: gap_2z_m, gap_2z_lo_m,
+                                                                 gap_2z_hi_m, gap_2z_bounded,
+                                                                 and the same for gap_zgb
+                                                                 (NaN: no bound; bounded 1
+                                                                 when both ends are known)
 ~/clearance_source               std_msgs/String                 configured / estimated
 ================================ ============================== ===========================
+
+Named values ride in ``sensor_msgs/JointState`` (one name per value, in ``position``;
+``velocity`` and ``effort`` NaN, not empty: rclpy's Fast-CDR pads an empty sequence of
+doubles in a way rosbags refuses to read): a standard stamped message that PlotJuggler, Foxglove
+and rosbags read by name, where a ``Float64MultiArray`` is read by index. A package of our
+own message types would need colcon and a compiler on every shore computer that reads a
+recording. Readers here also take the older ``Float64MultiArray`` form (labels in its
+layout).
 """
 
 from __future__ import annotations
@@ -32,18 +44,22 @@ from steer_monitor.monitor.diagnostics import Status
 from steer_monitor.monitor.live import LiveState
 from steer_monitor.monitor.pipeline import DiagOut, StateOut
 
-__all__ = ['CLEARANCE_LABELS', 'LOAD_LABELS', 'TOPICS', 'diag_messages', 'state_messages', 'stamp', 'topic_name']
+__all__ = ['CLEARANCE_LABELS', 'CLEARANCE_LABELS_V1', 'LOAD_LABELS', 'TOPICS', 'diag_messages', 'state_messages',
+           'stamp', 'topic_name']
 
 LOAD_LABELS = ('lateral_n', 'ram_force_n', 'guide_force_n', 'k_gl', 'deflection_m', 'r_a_n', 'r_e_n',
                'm_a_nm', 'case')
-CLEARANCE_LABELS = ('gap_2z_m', 'gap_2z_lo_m', 'gap_2z_hi_m', 'gap_zgb_m', 'gap_zgb_lo_m', 'gap_zgb_hi_m')
+CLEARANCE_LABELS = ('gap_2z_m', 'gap_2z_lo_m', 'gap_2z_hi_m', 'gap_2z_bounded',
+                    'gap_zgb_m', 'gap_zgb_lo_m', 'gap_zgb_hi_m', 'gap_zgb_bounded')
+#: the labels of recordings made before the clearances were named (Float64MultiArray)
+CLEARANCE_LABELS_V1 = ('gap_2z_m', 'gap_2z_lo_m', 'gap_2z_hi_m', 'gap_zgb_m', 'gap_zgb_lo_m', 'gap_zgb_hi_m')
 
 #: key -> (topic relative to the node, ROS datatype)
 TOPICS = {
     'diagnostics': ('/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray'),
     'rudder': ('~/rudder', 'sensor_msgs/msg/JointState'),
-    'load_sharing': ('~/load_sharing', 'std_msgs/msg/Float64MultiArray'),
-    'clearances': ('~/clearances', 'std_msgs/msg/Float64MultiArray'),
+    'load_sharing': ('~/load_sharing', 'sensor_msgs/msg/JointState'),
+    'clearances': ('~/clearances', 'sensor_msgs/msg/JointState'),
     'clearance_source': ('~/clearance_source', 'std_msgs/msg/String'),
 }
 
@@ -63,10 +79,11 @@ def stamp(t_ns: int) -> dict[str, int]:
     return {'sec': sec, 'nanosec': nanosec}
 
 
-def _array(labels: tuple[str, ...], data: list[float]) -> dict[str, Any]:
-    return {'layout': {'dim': [{'label': ','.join(labels), 'size': len(labels), 'stride': len(labels)}],
-                       'data_offset': 0},
-            'data': data}
+def _named(t_ns: int, labels: tuple[str, ...], values: list[float]) -> dict[str, Any]:
+    """A JointState carrying ``values`` by name (see the module docstring)."""
+    nan = [math.nan] * len(values)
+    return {'header': {'stamp': stamp(t_ns), 'frame_id': 'steering_gear'}, 'name': list(labels),
+            'position': values, 'velocity': nan, 'effort': nan}
 
 
 def state_messages(out: StateOut) -> list[tuple[str, int, dict[str, Any]]]:
@@ -79,7 +96,7 @@ def state_messages(out: StateOut) -> list[tuple[str, int, dict[str, Any]]]:
         'effort': [math.copysign(st.torque_measured or 0.0, st.alpha)]})]
     if st.share is not None:
         sh = st.share
-        msgs.append(('load_sharing', st.t_ns, _array(LOAD_LABELS, [
+        msgs.append(('load_sharing', st.t_ns, _named(st.t_ns, LOAD_LABELS, [
             sh.lateral, sh.ram_force, sh.guide_force, sh.k_gl, sh.deflection, sh.r_a, sh.r_e, sh.m_a,
             float(sh.case)])))
     return msgs
@@ -93,11 +110,11 @@ def diag_messages(out: DiagOut, extra: tuple[Status, ...] = ()) -> list[tuple[st
                 for s in (*out.statuses, *extra)]
     interval = out.interval or {}
 
-    def bound(key: str, i: int) -> float:
-        v = interval.get(key, (None, None))[i]
-        return math.nan if v is None else float(v)
+    def bounds(key: str) -> list[float]:
+        lo, hi = (math.nan if v is None else float(v) for v in interval.get(key, (None, None)))
+        return [lo, hi, 1.0 if math.isfinite(lo) and math.isfinite(hi) else 0.0]
     g = out.gaps
     return [('diagnostics', out.t_ns, {'header': {'stamp': stamp(out.t_ns), 'frame_id': ''}, 'status': statuses}),
-            ('clearances', out.t_ns, _array(CLEARANCE_LABELS, [g.two_z, bound('2z', 0), bound('2z', 1),
-                                                               g.z_gb, bound('zgb', 0), bound('zgb', 1)])),
+            ('clearances', out.t_ns,
+             _named(out.t_ns, CLEARANCE_LABELS, [g.two_z, *bounds('2z'), g.z_gb, *bounds('zgb')])),
             ('clearance_source', out.t_ns, {'data': out.source})]

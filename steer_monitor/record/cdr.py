@@ -1,10 +1,11 @@
-"""Direct CDR encoders for the two messages published a hundred times a second
-(``sensor_msgs/msg/JointState`` and ``std_msgs/msg/Float64MultiArray``).
+"""A direct CDR encoder for the message published a hundred times a second
+(``sensor_msgs/msg/JointState``: the rudder, the load sharing, the clearances).
 
 Why our own: mcap-ros2-support's generic encoder walks the schema per message and costs
-about 150 us each, which made it most of a replay's time; these cost a few us. They take the
-same field dicts (:mod:`steer_monitor.monitor.messages`) and give the same bytes (checked
-against the generic encoder in the tests). Little-endian CDR with its 4-byte encapsulation
+about 150 us each, which made it most of a replay's time; this costs a few us. It takes the
+same field dicts (:mod:`steer_monitor.monitor.messages`) and gives the same bytes (checked
+against the generic encoder in the tests; rclpy's Fast-CDR reads them back, empty sequences
+included, though it pads those differently when it writes). Little-endian CDR with its 4-byte encapsulation
 header; alignment counts from after that header.
 """
 
@@ -14,7 +15,7 @@ import struct
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ['FAST_ENCODERS', 'encode_float64_multiarray', 'encode_joint_state']
+__all__ = ['FAST_ENCODERS', 'encode_joint_state']
 
 _HEADER = b'\x00\x01\x00\x00'
 
@@ -71,20 +72,6 @@ def encode_joint_state(m: dict[str, Any]) -> bytes:
     return w.done()
 
 
-def encode_float64_multiarray(m: dict[str, Any]) -> bytes:
-    w = _Writer()
-    dims = m['layout']['dim']
-    w.u32(len(dims))
-    for d in dims:
-        w.string(d['label'])
-        w.u32(d['size'])
-        w.u32(d['stride'])
-    w.u32(m['layout']['data_offset'])
-    w.doubles(m['data'])
-    return w.done()
-
-
 FAST_ENCODERS: dict[str, Callable[[dict[str, Any]], bytes]] = {
     'sensor_msgs/msg/JointState': encode_joint_state,
-    'std_msgs/msg/Float64MultiArray': encode_float64_multiarray,
 }

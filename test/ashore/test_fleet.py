@@ -81,10 +81,26 @@ def test_a_year_of_a_fleet_with_a_worker_killed(tmp_path, fleet_dirs, client):
     log0 = by['wearing']['logs'][0]
     assert log0['start_utc'].startswith('2026-01-01') and set(log0['clearance_zgb_mm']) == {'value', 'ci95', 'bounded'}
 
+    # each log's report page, from the same review, whole (written aside and renamed)
+    for v in data['vessels']:
+        for lg in v['logs']:
+            page = out / lg['report']
+            assert lg['report'].startswith(f"reports/{v['name']}/") and page.is_file(), lg
+            assert os.path.basename(lg['log']) in page.read_text()
+            assert (page.parent / 'clearances.png').stat().st_size > 5000
+    assert not list(out.glob('reports/*/.*.tmp'))
+
     # a rerun analyses nothing new: the kept results are used
     again = run_fleet([fleet_dirs / 'wearing', fleet_dirs / 'steady'], out, client=client)
     assert again.analysed == 0 and again.reused == 24
     assert fleet_json(again)['vessels'] == data['vessels']
+
+    # a log whose page went missing is made again, unless pages are not asked for
+    import shutil
+    shutil.rmtree((out / log0['report']).parent)
+    assert run_fleet([fleet_dirs / 'wearing'], out, client=client, reports=False).analysed == 0
+    assert run_fleet([fleet_dirs / 'wearing'], out, client=client).analysed == 1
+    assert (out / log0['report']).is_file()
 
 
 def test_cli_with_a_broken_log_and_a_vessel_of_its_own_parameters(tmp_path, fleet_dirs, capsys):
@@ -111,6 +127,8 @@ def test_cli_with_a_broken_log_and_a_vessel_of_its_own_parameters(tmp_path, flee
     assert json.loads((out / 'fleet.json').read_text()) == data
     page = (out / 'index.html').read_text()
     assert 'mv_example' in page and 'data:image/png;base64,' in page
+    links = [lg['report'] for lg in v['logs'] if lg['report']]
+    assert len(links) == 12 and all(f'<a href="{link}">' in page for link in links)   # not the broken log
     assert (out / 'results.parquet').is_file()
 
 

@@ -15,6 +15,7 @@ import can
 import pytest
 
 from steer_monitor import sim
+from steer_monitor.monitor.messages import LOAD_LABELS
 from steer_monitor.sim.live import play
 from test.conftest import R18_YAML, REPO
 
@@ -30,7 +31,7 @@ class Harness:
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
         from rclpy.executors import SingleThreadedExecutor
-        from std_msgs.msg import Float64MultiArray
+        from sensor_msgs.msg import JointState
 
         from steer_monitor.node.monitor_node import MonitorNode
         from steer_monitor.node.params_ros import overrides_from_file
@@ -45,7 +46,7 @@ class Harness:
         self.diags: list = []
         self.loads: list = []
         self.listener.create_subscription(DiagnosticArray, '/diagnostics', self.diags.append, 10)
-        self.listener.create_subscription(Float64MultiArray, '/steer_monitor/load_sharing', self.loads.append, 10)
+        self.listener.create_subscription(JointState, '/steer_monitor/load_sharing', self.loads.append, 10)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self.executor.add_node(self.listener)
@@ -124,7 +125,7 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
         assert _level(health) == OK, v
         assert int(v['residual_samples']) < 600 or float(v['residual_rms_bar']) < 3.0, v
         assert _level(d['steer_monitor: recording']) == OK
-        assert h.loads and len(h.loads[-1].data) == 9
+        assert h.loads and list(h.loads[-1].name) == list(LOAD_LABELS) and len(h.loads[-1].position) == 9
         # The online estimate has replaced the configured clearances (true: 0.6 / 0.25 mm). The
         # estimate of the last second of data reaches the live model 10 s of data time later
         # (APPLY_DELAY_NS; the node goes on counting seconds while the bus is silent).

@@ -78,7 +78,7 @@ def test_page_renders_every_plot_in_chromium(tmp_path, logs, which, capsys):
 
 
 def test_online_estimates_of_a_replay_are_read(logs):
-    from steer_monitor.cli.report import online_track
+    from steer_monitor.report.logreport import online_track
     track = online_track([logs['replay']])
     assert track is not None and len(track.t_ns) > 100
     assert (track.t_ns[1:] > track.t_ns[:-1]).all()
@@ -93,3 +93,27 @@ def test_bad_arguments_are_named(tmp_path, logs, args, message, capsys):
     args = [a.format(log=logs['log']) for a in args]
     assert cli.main(['report', *args, '--out', str(tmp_path / 'x')]) == 1
     assert message in capsys.readouterr().err
+
+
+def test_clearances_of_older_recordings_are_read(tmp_path):
+    """Recordings made before the clearances were named carry them as a labelled
+    Float64MultiArray; the report reads those too (and leaves other arrays alone)."""
+    import math
+
+    from steer_monitor.can.mcapio import McapWriter
+    from steer_monitor.report.logreport import online_track
+    from steer_monitor.monitor.messages import CLEARANCE_LABELS_V1
+    from steer_monitor.record import msgdef
+    dt = 'std_msgs/msg/Float64MultiArray'
+    path = tmp_path / 'old.mcap'
+    with McapWriter(path) as w:
+        w.add_schema(dt, msgdef(dt))
+        w.add_channel('/steer_monitor/clearances', dt)
+        for k, labels in enumerate((CLEARANCE_LABELS_V1, ('something', 'else'))):
+            data = [0.6e-3, 0.2e-3, math.nan, 0.25e-3, 0.24e-3, 0.27e-3][:len(labels)]
+            w.write('/steer_monitor/clearances', {'layout': {'dim': [{'label': ','.join(labels), 'size': len(labels),
+                                                                      'stride': len(labels)}], 'data_offset': 0},
+                                                  'data': data}, 1_700_000_000_000_000_000 + k * 1_000_000_000)
+    track = online_track([path])
+    assert track is not None and track.t_ns.tolist() == [1_700_000_000_000_000_000]
+    assert math.isclose(track.z_gb[0], 0.25e-3) and math.isnan(track.two_z_hi[0])
