@@ -249,7 +249,7 @@ class Review:
         slice_of = sub.t_ns // SLICE_NS
         for k in np.unique(slice_of).tolist():
             part = sub.select(slice_of == k)
-            keys, aa, v2, u, _ = rows_from_observations(part)
+            keys, aa, v2, u, _, _ = rows_from_observations(part)
             if keys.size:
                 mom = Moments.from_rows(keys, aa, v2, u, (SPEED_Z,))
                 self._slices[k] = self._slices[k].merge(mom) if k in self._slices else mom

@@ -64,9 +64,8 @@ def make_rows(obs: Observations, z: Mapping[str, NDArray[np.float64]] | None = N
         keep &= np.all(np.isfinite(arr), axis=1) if arr.ndim == 2 else np.isfinite(arr)
     if mask is not None:
         keep &= mask
-    keys, aa, v2, u, idx = rows_from_observations(obs, z, keep)
+    keys, aa, v2, u, idx, ram = rows_from_observations(obs, z, keep)
     mom = Moments.from_rows(keys, aa, v2, u, (SPEED_Z, *z))
-    ram = np.nonzero(np.isfinite(obs.force) & keep[:, None])[1]
     return Rows(mom, np.searchsorted(mom.keys, keys), u, idx, ram)
 
 

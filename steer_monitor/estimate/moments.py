@@ -217,12 +217,13 @@ class Moments:
 
 
 def rows_from_observations(obs: Observations, z: dict[str, NDArray[np.float64]] | None = None,
-                           mask: NDArray[np.bool_] | None = None) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64],
-                                      NDArray[np.float64], NDArray[np.intp]]:
+                           mask: NDArray[np.bool_] | None = None
+                           ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64],
+                                      NDArray[np.float64], NDArray[np.intp], NDArray[np.intp]]:
     """Rows for :meth:`Moments.from_rows` from steady-motion samples, one per valid ram force.
 
-    Returns (keys, |alpha|, speed^2, u, index of the observation each row came from), with
-    u = [1, speed_ratio, z.., y]: its z columns are named ``(SPEED_Z, *z)``.
+    Returns (keys, |alpha|, speed^2, u, index of the observation each row came from, its ram
+    0 or 1), with u = [1, speed_ratio, z.., y]: its z columns are named ``(SPEED_Z, *z)``.
     ``z`` holds per-observation columns of shape (n,) or per-ram columns of shape (n, 2).
     ``mask`` (n,): only those observations (the same rows as from ``obs.select(mask)``, with
     indices into ``obs``, and no copy of it).
@@ -241,4 +242,4 @@ def rows_from_observations(obs: Observations, z: dict[str, NDArray[np.float64]] 
     for i, arr in enumerate(z.values(), start=2):
         u[:, i] = arr[idx_obs, ram] if arr.ndim == 2 else arr[idx_obs]
     u[:, -1] = obs.force[idx_obs, ram]
-    return keys, np.abs(alpha), speed * speed, u, idx_obs
+    return keys, np.abs(alpha), speed * speed, u, idx_obs, ram

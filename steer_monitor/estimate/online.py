@@ -188,10 +188,9 @@ class OnlineEstimator:
         if not keep.any():
             return
         sub = obs.select(keep)
-        keys, aa, v2, u, idx = rows_from_observations(sub)
+        keys, aa, v2, u, idx, ram = rows_from_observations(sub)
         if keys.size == 0:
             return
-        ram = np.nonzero(np.isfinite(sub.force) & sub.moving[:, None])[1]
         self._recent.extend(zip(sub.t_ns[idx].tolist(), ram.tolist(), keys.tolist(), aa.tolist(),
                                 v2.tolist(), u[:, -1].tolist()))
         motion = float(np.count_nonzero(keep)) * GRID_NS / 1e9
