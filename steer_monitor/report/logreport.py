@@ -18,7 +18,7 @@ from steer_monitor.atomic import os_reason
 from steer_monitor.errors import OutputError
 from steer_monitor.monitor.messages import CLEARANCE_LABELS_V1
 
-__all__ = ['online_track', 'report_input', 'write_report_dir']
+__all__ = ['online_track', 'remove_report_debris', 'report_input', 'write_report_dir']
 
 
 def online_track(paths: Sequence[Path]) -> Any:
@@ -90,6 +90,23 @@ def report_input(paths: Sequence[Path], batch: Any, params: dict[str, Any], conf
                        params['node.hardware_id'], params['gear.name'], str(config_path), parameters_digest(params))
 
 
+def _temp_dir(out_dir: Path, pid: int | str) -> Path:
+    return out_dir.with_name(f'.{out_dir.name}.{pid}.tmp')
+
+
+def remove_report_debris(out_dir: str | Path) -> int:
+    """Remove what writers of the page ``out_dir`` killed mid-write left beside it (their
+    temporary directories); call it only when no writer of that page is running. Returns how
+    many were removed."""
+    out_dir = Path(out_dir)
+    n = 0
+    for tmp in out_dir.parent.glob(_temp_dir(out_dir, '*').name):
+        if tmp.is_dir():
+            shutil.rmtree(tmp, ignore_errors=True)
+            n += 1
+    return n
+
+
 def write_report_dir(inp: Any, out_dir: str | Path) -> Path:
     """Write the page into ``out_dir`` whole or not at all: into a temporary directory beside
     it, then renamed (an earlier page there is replaced). For pages many workers write into
@@ -97,7 +114,7 @@ def write_report_dir(inp: Any, out_dir: str | Path) -> Path:
     from steer_monitor.report.review import write_review_report
 
     out_dir = Path(out_dir)
-    tmp = out_dir.with_name(f'.{out_dir.name}.{os.getpid()}.tmp')
+    tmp = _temp_dir(out_dir, os.getpid())
     try:
         out_dir.parent.mkdir(parents=True, exist_ok=True)
         shutil.rmtree(tmp, ignore_errors=True)

@@ -97,10 +97,18 @@ def test_a_year_of_a_fleet_with_a_worker_killed(tmp_path, fleet_dirs, client):
 
     # a log whose page went missing is made again, unless pages are not asked for
     import shutil
-    shutil.rmtree((out / log0['report']).parent)
+    page_dir = (out / log0['report']).parent
+    shutil.rmtree(page_dir)
+    # and what a worker killed while writing that page left beside it goes with the rerun
+    debris = page_dir.with_name(f'.{page_dir.name}.99999.tmp')
+    (debris / 'half').mkdir(parents=True)
+    other = page_dir.with_name('.unrelated.99999.tmp')
+    other.mkdir()
     assert run_fleet([fleet_dirs / 'wearing'], out, client=client, reports=False).analysed == 0
+    assert debris.is_dir()
     assert run_fleet([fleet_dirs / 'wearing'], out, client=client).analysed == 1
     assert (out / log0['report']).is_file()
+    assert not debris.exists() and other.is_dir()
 
 
 def test_cli_with_a_broken_log_and_a_vessel_of_its_own_parameters(tmp_path, fleet_dirs, capsys):
