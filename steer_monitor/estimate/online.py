@@ -43,6 +43,7 @@ from steer_monitor.estimate.intervals import Interval, inflation
 from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations, speed_ratio
 from steer_monitor.estimate.observe import (GRID_NS, HALF_WINDOW_NS, MOVING_RATE, EstimateError, build_observations)
 from steer_monitor.model.gear import GearParams
+from steer_monitor.model.torque import TorqueTable
 
 __all__ = ['FULL_EVERY_S', 'LAG_NS', 'OnlineEstimate', 'OnlineEstimator']
 
@@ -72,6 +73,19 @@ class OnlineEstimate:
     t_ns: int
     full: bool
     friction: tuple[float, float, float] = (math.nan, math.nan, math.nan)   # F_s [N], mu_b, mu_g at the point
+    #: the torque fitted with that friction: B-spline coefficients of ``F.TorqueBasis`` at
+    #: service speed [N m] (empty when not known), and the largest |alpha| learned [rad]
+    torque_coef: tuple[float, ...] = ()
+    max_angle: float = 0.0
+
+    def torque_table(self, gear: GearParams, step: float = math.radians(0.05)) -> TorqueTable | None:
+        """The fitted torque as a table up to :attr:`max_angle` (None when not known)."""
+        if not self.torque_coef or not self.max_angle > step:
+            return None
+        basis = F.TorqueBasis(gear.max_rudder)
+        top = min(self.max_angle, gear.max_rudder)
+        angles = np.append(np.arange(0.0, top, step), top)
+        return TorqueTable(angles, basis.torque(np.asarray(self.torque_coef), angles), gear.torque.service_speed)
 
 
 def _gear_signature(gear: GearParams) -> list[float]:
@@ -250,8 +264,15 @@ class OnlineEstimator:
         self.estimate = OnlineEstimate(_moved(prev.two_z, tz) if prev else Interval(tz, None, None),
                                        _moved(prev.z_gb, zg) if prev else Interval(zg, None, None),
                                        prev.k_gl_max if prev else Interval(math.nan, None, None), mom.samples,
-                                       self._latest_ns or 0, False, self._friction(self._coef))
+                                       self._latest_ns or 0, False, *self._fitted(self._coef))
         return True
+
+    def _fitted(self, coef: NDArray[np.float64]) -> tuple[tuple[float, float, float], tuple[float, ...], float]:
+        """The estimate's model beside its clearances: friction, torque coefficients and the
+        largest |alpha| the moments hold (the mean of the outermost angle bin) [rad]."""
+        mom = self.moments
+        top = float(mom.abs_alpha[mom.count > 0].max()) if len(mom) else 0.0
+        return self._friction(coef), tuple(float(c) for c in coef[:self.basis.size]), top
 
     def _friction(self, coef: NDArray[np.float64] | None) -> tuple[float, float, float]:
         """(F_s, mu_b, mu_g) of a fit's coefficients (they follow the torque coefficients)."""
@@ -272,7 +293,7 @@ class OnlineEstimator:
         self._coef = est.fit.coef
         self._motion_since_full = 0.0
         self.estimate = OnlineEstimate(est.two_z, est.z_gb, est.k_gl_max, self.moments.samples,
-                                       self._latest_ns or 0, True, self._friction(self._coef))
+                                       self._latest_ns or 0, True, *self._fitted(self._coef))
         self.last_full = est
         return True
 
@@ -342,12 +363,14 @@ def _iv_json(iv: Interval) -> list[float | None]:
 
 def _estimate_to_json(e: OnlineEstimate) -> dict[str, object]:
     return {'two_z': _iv_json(e.two_z), 'z_gb': _iv_json(e.z_gb), 'k_gl_max': _iv_json(e.k_gl_max),
-            'rows': e.rows, 't_ns': e.t_ns, 'full': e.full, 'friction': list(e.friction)}
+            'rows': e.rows, 't_ns': e.t_ns, 'full': e.full, 'friction': list(e.friction),
+            'torque_coef': list(e.torque_coef), 'max_angle': e.max_angle}
 
 
 def _estimate_from_json(d: dict) -> OnlineEstimate:
     return OnlineEstimate(Interval(*d['two_z']), Interval(*d['z_gb']), Interval(*d['k_gl_max']), float(d['rows']),
-                          int(d['t_ns']), bool(d['full']), tuple(float(x) for x in d['friction']))  # type: ignore[arg-type]
+                          int(d['t_ns']), bool(d['full']), tuple(float(x) for x in d['friction']),  # type: ignore[arg-type]
+                          tuple(float(x) for x in d.get('torque_coef', ())), float(d.get('max_angle', 0.0)))
 
 
 def _moved(iv: Interval, value: float) -> Interval:

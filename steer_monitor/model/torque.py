@@ -13,7 +13,7 @@ from scipy.interpolate import PchipInterpolator
 
 from steer_monitor.errors import ParameterError
 
-__all__ = ['TorqueCurve']
+__all__ = ['TorqueCurve', 'TorqueTable']
 
 
 @dataclass(frozen=True, eq=False)
@@ -100,4 +100,52 @@ class TorqueCurve:
         m = np.sign(a) * m
         if speed is not None:
             m = m * (np.asarray(speed, dtype=float) / self.service_speed) ** 2
+        return m
+
+
+@dataclass(frozen=True, eq=False)
+class TorqueTable:
+    """A tiller torque curve known as a table, up to the largest angle it was learned at: the
+    torque an estimate fitted (the estimator's torque is a free smooth curve, and its friction
+    is what the data leave beside *that* curve, not beside the configured one).
+
+    Attributes:
+        angles: |alpha| of the table, shape (k,), strictly increasing from 0 [rad].
+        torques: torque at service speed at those angles, shape (k,) [N m].
+        service_speed: the speed at which the table holds [m/s]; scales with (V / V_s)^2.
+
+    Odd in alpha; :meth:`scalar` interpolates linearly and gives NaN beyond the last angle
+    (the fit says nothing there), so a caller can tell "not known" from a value.
+    """
+
+    angles: NDArray[np.float64]
+    torques: NDArray[np.float64]
+    service_speed: float
+
+    def __post_init__(self) -> None:
+        angles = np.asarray(self.angles, dtype=float)
+        torques = np.asarray(self.torques, dtype=float)
+        if angles.ndim != 1 or angles.shape != torques.shape or angles.size < 2 or angles[0] != 0.0 \
+                or np.any(np.diff(angles) <= 0) or not np.all(np.isfinite(torques)):
+            msg = 'torque table needs at least 2 finite points at strictly increasing angles from 0'
+            raise ParameterError(msg)
+        object.__setattr__(self, '_grid', angles.tolist())
+        object.__setattr__(self, '_table', torques.tolist())
+
+    @property
+    def max_angle(self) -> float:
+        """The largest |alpha| the table holds [rad]."""
+        return self._grid[-1]  # type: ignore[attr-defined, no-any-return]
+
+    def scalar(self, alpha: float, speed: float | None = None) -> float:
+        """Torque [N m] of one sample (NaN beyond :attr:`max_angle`), without numpy."""
+        grid, table = self._grid, self._table  # type: ignore[attr-defined]
+        mag = abs(alpha)
+        if mag > grid[-1]:
+            return math.nan
+        i = min(bisect.bisect_right(grid, mag) - 1, len(grid) - 2)
+        m = table[i] + (table[i + 1] - table[i]) * (mag - grid[i]) / (grid[i + 1] - grid[i])
+        m = math.copysign(m, alpha) if alpha != 0 else 0.0
+        if speed is not None:
+            m *= (speed / self.service_speed) ** 2
         return m

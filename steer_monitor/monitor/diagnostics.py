@@ -264,6 +264,11 @@ class DiagnosticsBuilder:
                   ('residual_instants_not_judged', str(mon.residuals_skipped)),
                   ('residual_warn_bar', f'{self.cfg.residual_warn_bar:g}')]
         if rms is None:
+            if mon.residuals_skipped:
+                return self._status('model health', OK,
+                                    f'residual not judged: the model in use cannot judge any of the last '
+                                    f'{mon.residuals_skipped} instants of motion (a clearance bounded from below '
+                                    'only, or angles beyond those it learned)', values)
             return self._status('model health', OK, 'no motion seen yet: residual not evaluated', values)
         if len(mon.residuals) < MIN_JUDGED_SAMPLES:
             # a few seconds of motion since the clearances changed source: an early estimate's

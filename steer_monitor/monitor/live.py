@@ -8,7 +8,9 @@ pressure sample it evaluates:
   Fa = A_r |p_stbd - p_port| (mean of the two rams), the tiller torque it implies,
   M = Fa n H / cos^2(alpha), and the scalar load-sharing solver with the current clearances.
   While the rudder moves Fa includes friction (the estimator of the clearances separates it);
-* the residual of the declared model with the configured friction (design doc section 4):
+* the residual of the declared model (design doc section 4), with the configured torque and
+  friction until an estimate gives its clearances with the torque and friction fitted at
+  them (then the last minute of motion is judged again under that fit):
   A_r (p_stbd - p_port) against sign(alpha) Fa_model + sign(dalpha/dt) F_fr, only where the
   rudder moves steadily (at rest the pressure only bounds friction). Each pressure sample is
   held 0.3 s and counted only when the angle's slope on both sides of it is above the motion
@@ -32,6 +34,7 @@ from steer_monitor.model.friction import FrictionParams, friction_force
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
 from steer_monitor.model.loadshare import ShareScalar, load_sharing_scalar
+from steer_monitor.model.torque import TorqueTable
 
 __all__ = ['ARRIVALS_KEPT_NS', 'RATE_WINDOW_NS', 'LiveMonitor', 'LiveState', 'Response']
 
@@ -95,6 +98,8 @@ class LiveMonitor:
         self.gaps_interval: dict[str, tuple[float, float | None]] | None = None
         self.estimate_info: dict[str, str] = {}   # what the estimator adds to the diagnostics
         self.priors = priors or FrictionParams()
+        #: the tiller torque fitted with the clearances in use (None: the configured curve)
+        self.torque: TorqueTable | None = None
         self.signals: dict[str, _Signal] = {name: _Signal() for name in INPUTS}
         self._history: deque[tuple[int, float]] = deque()   # the last 0.9 s of angles
         self._pending: deque[tuple[int, float, float]] = deque()  # (t, ram 1 force, ram 2 force)
@@ -102,10 +107,13 @@ class LiveMonitor:
         self._dirty = False
         self._state: LiveState | None = None
         self.rate = 0.0
-        self.residuals: deque[float] = deque(maxlen=RESIDUAL_SAMPLES)
-        #: instants of motion left out of the residual: the live model clamps the ram (or
-        #: touches the beam) where the estimate bounds that clearance from below only
-        self.residuals_skipped = 0
+        # the last minute of steady motion since the clearances' source last changed, per
+        # instant (alpha [rad], speed [m/s] or None, direction +-1, ram forces [N]), and its
+        # residual pair [bar] under the model in use (None: not judged); a new estimate
+        # recomputes them all, so the residual judges the model now in use, never a mix of
+        # models replaced since (an early fit used for seconds left 17 bar in the window)
+        self._motion: deque[tuple[float, float | None, float, float, float]] = deque(maxlen=RESIDUAL_SAMPLES // 2)
+        self._resid: deque[tuple[float, float] | None] = deque(maxlen=RESIDUAL_SAMPLES // 2)
         self._hard_over: tuple[float, int] | None = None  # (side, time last at hard over)
         self.hard_over_s: float | None = None
         self.response: Response | None = None
@@ -114,15 +122,53 @@ class LiveMonitor:
     # --- clearances ----------------------------------------------------------------------
     def set_gaps(self, gaps: Gaps, source: str,
                  interval: dict[str, tuple[float, float | None]] | None = None,
-                 friction: FrictionParams | None = None) -> None:
+                 friction: FrictionParams | None = None, torque: TorqueTable | None = None) -> None:
         """Use new clearance values (e.g. from the estimator) and say where they come from;
-        with ``friction``, the friction estimated together with them (the model's residual
-        needs both from the same fit: a clamped ram with the configured mu_b is not the fit)."""
+        with ``friction`` and ``torque``, the friction and tiller torque estimated together with
+        them (the model's residual needs all three from the same fit: the fit's friction beside
+        the configured torque is not the fit; torque and friction trade off on a few
+        manoeuvres, and such a mix put the residual of a clean gear at 3-10 bar)."""
         if source != self.gaps_source:
-            self.residuals.clear()       # residuals of other clearances say nothing of the model
+            self._motion.clear()    # motion judged under other clearances says nothing of these
         self.gaps, self.gaps_source, self.gaps_interval = gaps, source, interval
         if friction is not None:
             self.priors = friction
+        self.torque = torque
+        self._resid = deque(map(self._residual_pair, self._motion), maxlen=self._resid.maxlen)
+
+    @property
+    def residuals(self) -> list[float]:
+        """The model's pressure residuals [bar] over the last minute of steady motion, two per
+        judged instant (one per ram), under the model now in use."""
+        return [r for pair in self._resid if pair is not None for r in pair]
+
+    @property
+    def residuals_skipped(self) -> int:
+        """Instants of that minute the model in use cannot judge: where it clamps the ram (or
+        touches the beam) at a clearance the estimate bounds from below only, or beyond the
+        angles its fitted torque was learned at."""
+        return sum(pair is None for pair in self._resid)
+
+    def _residual_pair(self, instant: tuple[float, float | None, float, float, float]) -> tuple[float, float] | None:
+        """The residual [bar] of each ram at one instant of steady motion under the model in
+        use: A_r (p_stbd - p_port) against sign(alpha) Fa + direction F_fr; None where the
+        model cannot judge it."""
+        alpha, speed, direction, force_1, force_2 = instant
+        gear, gaps = self.gear, self.gaps
+        torque = (self.torque or gear.torque).scalar(alpha, speed)
+        if math.isnan(torque):           # beyond the angles the fitted torque was learned at
+            return None
+        m = load_sharing_scalar(gear, alpha, torque, gaps.two_z, gaps.z_gb)
+        # a clearance the estimate bounds only from below: the data never saw the ram clamp (or
+        # the beam touch), so where the live model puts one, its residual judges a guess
+        iv = self.gaps_interval or {}
+        if ('2z' in iv and iv['2z'][1] is None and m.lateral > m.f_theta) or \
+                ('zgb' in iv and iv['zgb'][1] is None and m.lateral > m.f_z):
+            return None
+        f_fr = float(friction_force(self.priors, m.r_a, m.r_e, m.m_a, m.guide_force, gear.bushing_length))
+        predicted = math.copysign(m.axial, alpha) + direction * f_fr
+        area = gear.ram_area
+        return (force_1 - predicted) / area / 1e5, (force_2 - predicted) / area / 1e5
 
     # --- input ---------------------------------------------------------------------------
     def update(self, sample: Sample) -> None:
@@ -225,15 +271,8 @@ class LiveMonitor:
         hist = list(self._history)
         times = [t for t, _ in hist]
         judged: dict[int, float] = {}
-        gear, gaps, pri = self.gear, self.gaps, self.priors
         speed = self.signals['ship_speed'].last_value
         speed = None if math.isnan(speed) else speed
-        area = gear.ram_area
-        # a clearance the estimate bounds only from below: the data never saw the ram clamp (or
-        # the beam touch), so where the live model puts one, its residual judges a guess
-        iv = self.gaps_interval or {}
-        open_2z = '2z' in iv and iv['2z'][1] is None
-        open_zgb = 'zgb' in iv and iv['zgb'][1] is None
         while self._pending and self._pending[0][0] <= t_end:
             t, force_1, force_2 = self._pending.popleft()
             i = bisect.bisect_right(times, t) - 1
@@ -246,14 +285,9 @@ class LiveMonitor:
                 continue
             (t_a, a_a), (t_b, a_b) = hist[i], hist[i + 1]
             alpha = a_a + (a_b - a_a) * (t - t_a) / (t_b - t_a)
-            m = load_sharing_scalar(gear, alpha, gear.torque.scalar(alpha, speed), gaps.two_z, gaps.z_gb)
-            if (open_2z and m.lateral > m.f_theta) or (open_zgb and m.lateral > m.f_z):
-                self.residuals_skipped += 1   # a clamp or contact the estimate has not seen: no evidence
-                continue
-            f_fr = float(friction_force(pri, m.r_a, m.r_e, m.m_a, m.guide_force, gear.bushing_length))
-            predicted = math.copysign(m.axial, alpha) + direction * f_fr
-            self.residuals.append((force_1 - predicted) / area / 1e5)
-            self.residuals.append((force_2 - predicted) / area / 1e5)
+            instant = (alpha, speed, direction, force_1, force_2)
+            self._motion.append(instant)
+            self._resid.append(self._residual_pair(instant))
 
     def _track_hard_over(self, t_ns: int, alpha: float) -> None:
         deg = alpha / DEG
@@ -305,6 +339,7 @@ class LiveMonitor:
 
     def residual_rms_bar(self) -> float | None:
         """RMS of the declared model's pressure residual over the last minute of motion [bar]."""
-        if not self.residuals:
+        res = self.residuals
+        if not res:
             return None
-        return math.sqrt(sum(r * r for r in self.residuals) / len(self.residuals))
+        return math.sqrt(sum(r * r for r in res) / len(res))

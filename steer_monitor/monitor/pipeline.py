@@ -195,12 +195,16 @@ def apply_estimate(monitor: LiveMonitor, snap: EstimateSnapshot) -> bool:
         return False
     interval = {'2z': (e.two_z.lo, e.two_z.hi), 'zgb': (e.z_gb.lo, e.z_gb.hi)}
     fr = FrictionParams(*e.friction)
-    # The clearances with the friction fitted at them, as a pair: a clearance the data only
-    # bound from below keeps the fit's own value (the configured one with the fit's friction
-    # was tried: an early fit's mu_b of 0.47 with the configured 2Z put the residual at 17 bar
-    # in the demo). Where that clearance would clamp the model's ram beyond what the fit saw,
-    # the residual is not judged (LiveMonitor).
-    monitor.set_gaps(Gaps(e.two_z.value, e.z_gb.value), 'estimated', interval, fr)  # type: ignore[arg-type]
+    # The clearances with the torque and friction fitted at them, as one model: a clearance the
+    # data only bound from below keeps the fit's own value (the configured one with the fit's
+    # friction was tried: an early fit's mu_b of 0.47 with the configured 2Z put the residual at
+    # 17 bar in the demo), and the fit's friction goes with the fit's torque (beside the
+    # configured torque it left 3-10 bar on a clean gear). Where that clearance would clamp the
+    # model's ram beyond what the fit saw, or beyond the angles it learned, the residual is not
+    # judged; the minute of motion the residual covers is judged again under the new model
+    # (LiveMonitor).
+    monitor.set_gaps(Gaps(e.two_z.value, e.z_gb.value), 'estimated', interval, fr,  # type: ignore[arg-type]
+                     e.torque_table(monitor.gear))
     k = e.k_gl_max
     monitor.estimate_info = {'k_gl_max_estimated': f'{k.value:.3f}',
                              'k_gl_max_lo': 'n/a' if k.lo is None else f'{k.lo:.3f}',

@@ -47,3 +47,26 @@ def test_scalar_table_matches_pchip(curve):
     for a in np.concatenate([rng.uniform(-0.7, 0.7, 2000), [0.0, 1e-9, np.radians(35.0), np.radians(40.0)]]):
         assert curve.scalar(float(a)) == pytest.approx(float(curve(a)), abs=1.0)
         assert curve.scalar(float(a), 5.0) == pytest.approx(float(curve(a, 5.0)), abs=1.0)
+
+
+def test_table_interpolates_is_odd_and_unknown_beyond_its_last_angle():
+    import math
+
+    from steer_monitor.model.torque import TorqueTable
+
+    t = TorqueTable(np.radians([0.0, 10.0, 20.0]), np.array([0.0, 400e3, 600e3]), 7.0)
+    assert t.max_angle == pytest.approx(math.radians(20.0))
+    assert t.scalar(math.radians(15.0)) == pytest.approx(500e3)
+    assert t.scalar(math.radians(-5.0)) == pytest.approx(-200e3)
+    assert t.scalar(math.radians(20.0)) == pytest.approx(600e3) and t.scalar(0.0) == 0.0
+    assert t.scalar(math.radians(10.0), 14.0) == pytest.approx(4 * 400e3)
+    assert math.isnan(t.scalar(math.radians(20.01)))
+
+
+@pytest.mark.parametrize('angles, torques', [([0.0], [0.0]), ([0.1, 0.2], [0.0, 1.0]), ([0.0, 0.2, 0.1], [0, 1, 2]),
+                                             ([0.0, 0.1], [0.0, float('nan')])])
+def test_bad_tables(angles, torques):
+    from steer_monitor.model.torque import TorqueTable
+
+    with pytest.raises(ParameterError, match='torque table needs at least 2 finite points'):
+        TorqueTable(np.array(angles), np.array(torques, dtype=float), 7.0)

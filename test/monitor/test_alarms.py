@@ -13,6 +13,7 @@ from steer_monitor.can import Decoder, RejectCounter
 from steer_monitor.can.decoder import Sample
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.model import Gaps
+from steer_monitor.model.friction import FrictionParams
 from steer_monitor.monitor import ERROR, OK, WARN, DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
 from steer_monitor.monitor.diagnostics import LEVEL_NAMES
 from steer_monitor.monitor.live import REVERSAL_NS
@@ -151,13 +152,55 @@ def test_a_rudder_going_on_against_the_order_is_a_fault(builder, mon):
     assert st.level == ERROR and 'rudder moved AGAINST the order' in st.message
 
 
-def test_residuals_restart_when_the_clearances_become_estimated(mon):
-    mon.residuals.extend([4.0] * 100)
-    mon.set_gaps(Gaps(0.4 * MM, 0.1 * MM), 'estimated', {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.05 * MM, 0.15 * MM)})
-    assert not mon.residuals
-    mon.residuals.append(0.5)
-    mon.set_gaps(Gaps(0.41 * MM, 0.1 * MM), 'estimated', {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.05 * MM, 0.15 * MM)})
-    assert list(mon.residuals) == [0.5]                       # a new estimate of the same kind: kept
+def test_residuals_restart_when_the_clearances_become_estimated(r18_params, can_db):
+    """Motion judged under the configured clearances is dropped when an estimate arrives; a
+    later estimate judges the same minute again under its own model, so the window holds the
+    residuals a monitor would have had with that model all along (never a mix)."""
+    iv = {'2z': (0.05 * MM, 0.07 * MM), 'zgb': (0.05 * MM, 0.15 * MM)}
+    first, last = FrictionParams(20e3, 0.05, 0.02), FrictionParams(9e3, 0.13, 0.05)
+    _, changed, _ = _fed(r18_params, can_db, iv, first)
+    before = changed.residual_rms_bar()
+    changed.set_gaps(Gaps(0.06 * MM, 0.1 * MM), 'estimated', iv, last)
+    _, along, _ = _fed(r18_params, can_db, iv, last)
+    assert len(changed.residuals) == len(along.residuals) == 1200
+    assert changed.residuals == pytest.approx(along.residuals, rel=1e-12, abs=1e-12)
+    assert changed.residual_rms_bar() != pytest.approx(before, rel=0.01)
+    changed.set_gaps(Gaps(0.6 * MM, 0.25 * MM), 'configured')
+    assert changed.residuals == [] and changed.residual_rms_bar() is None
+
+
+def test_a_short_lived_early_fit_leaves_no_alarm_behind(r18_params, can_db):
+    """The node's 52 s hard-over with arrival times as a loaded machine gives them (frames
+    late by an exponential few tenths of a ms, and now and then a burst held back up to
+    200 ms, arriving together): an early fit, with a friction the data soon correct, was in
+    use for seconds and its 15-17 bar residuals stayed in the window (model health WARN on a
+    clean gear). The residual now judges the model in use."""
+    import dataclasses
+
+    import numpy as np
+
+    db, smap = can_db
+    gear = gear_from_params(r18_params)
+    frames = sim.run(r18_params, sim.SimConfig(program='hard_over_2', max_duration_s=52.0), db, smap, seed=3).frames
+    t = frames.t_ns.astype(np.int64)
+    for seed in (5, 6):                 # the two arrival patterns that left 17 and 15 bar
+        rng = np.random.default_rng(seed)
+        late = (rng.exponential(0.5, t.size) * 1e6).astype(np.int64)
+        burst = rng.random(t.size) < 0.002
+        late[burst] += (rng.uniform(20, 200, burst.sum()) * 1e6).astype(np.int64)
+        arrival = np.maximum.accumulate(t + late)
+        rejects = RejectCounter()
+        mon = LiveMonitor(gear, gaps_from_params(r18_params), 'configured', friction_from_params(r18_params))
+        diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(r18_params), smap, gear)
+        p = Pipeline(Decoder(db, smap, rejects), rejects, mon, diag,
+                     SyncEstimatorJobs(estimator_from_params(gear, r18_params)))
+        last = None
+        for f, ta in zip(frames.frames(), arrival.tolist()):
+            last = next((o for o in reversed(p.feed(dataclasses.replace(f, t_ns=ta))) if isinstance(o, DiagOut)), last)
+        health = next(st for st in last.statuses if st.name.endswith('model health'))
+        assert mon.gaps_source == 'estimated'
+        assert health.level == OK, health.message
+        assert mon.residual_rms_bar() is None or mon.residual_rms_bar() < 1.0, health.message
 
 
 def _snapshot(two_z: Interval, z_gb: Interval) -> EstimateSnapshot:
@@ -174,6 +217,29 @@ def test_an_estimate_is_used_with_its_own_friction(mon):
     assert apply_estimate(mon, _snapshot(Interval(0.06 * MM, 0.06 * MM, None), Interval(0.1 * MM, 0.08 * MM, 0.12 * MM)))
     assert mon.gaps == Gaps(0.06 * MM, 0.1 * MM) and mon.priors.mu_bushing == 0.13
     assert mon.gaps_interval == {'2z': (0.06 * MM, None), 'zgb': (0.08 * MM, 0.12 * MM)}
+    assert mon.torque is None                  # no fitted torque in the estimate: the configured one
+
+
+def test_an_estimate_is_used_with_its_own_torque(mon):
+    """The torque fitted with the friction goes with it, up to the angles it was learned at."""
+    import dataclasses
+
+    import numpy as np
+
+    from steer_monitor.estimate import fit as F
+
+    gear = mon.gear
+    basis = F.TorqueBasis(gear.max_rudder)
+    grid = np.radians(np.linspace(0.0, 35.0, 200))
+    coef, *_ = np.linalg.lstsq(basis(grid), np.abs(gear.torque(grid)) * 0.9, rcond=None)   # a tenth weaker
+    snap = _snapshot(Interval(0.4 * MM, 0.3 * MM, 0.5 * MM), Interval(0.1 * MM, 0.08 * MM, 0.12 * MM))
+    snap = EstimateSnapshot(dataclasses.replace(snap.estimate, torque_coef=tuple(coef), max_angle=math.radians(30)), 100.0)
+    assert apply_estimate(mon, snap)
+    for deg in (3.0, 12.5, 29.9):
+        a = math.radians(deg)
+        assert mon.torque.scalar(-a) == pytest.approx(-0.9 * gear.torque.scalar(a), rel=2e-3)
+        assert mon.torque.scalar(a, 2 * gear.torque.service_speed) == pytest.approx(4 * mon.torque.scalar(a))
+    assert math.isnan(mon.torque.scalar(math.radians(30.5)))
 
 
 def test_residual_not_judged_where_an_open_clearance_would_clamp(r18_params, can_db):
@@ -181,16 +247,21 @@ def test_residual_not_judged_where_an_open_clearance_would_clamp(r18_params, can
     of the residual; with a bounded 2Z they count."""
     _, mon_open, _ = _fed(r18_params, can_db, {'2z': (0.06 * MM, None), 'zgb': (0.05 * MM, 0.15 * MM)})
     _, mon_closed, _ = _fed(r18_params, can_db, {'2z': (0.05 * MM, 0.07 * MM), 'zgb': (0.05 * MM, 0.15 * MM)})
-    assert mon_open.residuals_skipped > 500 and mon_closed.residuals_skipped == 0
+    # both over the same last minute of motion (600 instants, two rams each)
+    assert mon_open.residuals_skipped + len(mon_open.residuals) // 2 == 600
+    assert mon_open.residuals_skipped > 250 and mon_closed.residuals_skipped == 0
     assert len(mon_closed.residuals) == 1200
+    # judged again when the clearance becomes bounded: every instant counts
+    mon_open.set_gaps(mon_open.gaps, 'estimated', {'2z': (0.05 * MM, 0.07 * MM), 'zgb': (0.05 * MM, 0.15 * MM)})
+    assert mon_open.residuals_skipped == 0 and mon_open.residuals == pytest.approx(mon_closed.residuals)
 
 
-def _fed(params, can_db, interval):
+def _fed(params, can_db, interval, friction=None):
     db, smap = can_db
     gear = gear_from_params(params)
     s = sim.run(params, sim.SimConfig(program='hard_over_2', gaps=Gaps.from_mm(0.06, 0.1)), db, smap, 3)
     mon = LiveMonitor(gear, Gaps(0.06 * MM, 0.1 * MM))
-    mon.set_gaps(Gaps(0.06 * MM, 0.1 * MM), 'estimated', interval)
+    mon.set_gaps(Gaps(0.06 * MM, 0.1 * MM), 'estimated', interval, friction)
     dec = Decoder(db, smap)
     for f in s.frames.frames():
         for sample in dec.decode(f):
