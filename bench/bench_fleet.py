@@ -3,7 +3,8 @@ batch path on the same logs, and the peak memory of each worker process.
 
 Thirty-two simulated logs of about four minutes of the gear's traffic each (hard-overs and
 zig-zags, ~6,000 frames), written as candump. The single-process figure calls the task
-function in a loop (no Dask); the Dask figures run ``run_fleet`` on a fresh LocalCluster
+function in a loop (no Dask, no report pages); the Dask figures run ``run_fleet`` without
+report pages (the same work) on a fresh LocalCluster
 (its start-up and the workers' imports timed apart) with nothing kept from earlier runs. Worker memory is
 each worker process's peak RSS (``/proc/<pid>/status`` VmHWM) read through the client at the
 end. Prints one line per configuration and the ratios measured in this run.
@@ -71,7 +72,7 @@ def main() -> dict:
                               dashboard_address='127.0.0.1:0', silence_logs=50) as cluster, Client(cluster) as client:
                 client.run(lambda: __import__('steer_monitor.batchpath'))     # what a warm worker has
                 t1 = time.perf_counter()
-                run = run_fleet([logs[0].parent], res, client=client)
+                run = run_fleet([logs[0].parent], res, client=client, reports=False)   # the same work as above
                 t2 = time.perf_counter()
                 hwm = client.run(_hwm_kb)
             rate = LOGS / (t2 - t1)

@@ -195,6 +195,8 @@ def _uniform_frames(pb: bytes | bytearray, a: NDArray[np.uint8]) -> FrameArrays 
         return None
     if not (a[stride - 1::stride] == 10).all():
         return None
+    if np.count_nonzero(a < 32) != a.size // stride:     # a tab or other control byte: the line parser's
+        return None
     lay = _layout(bytes(a[:stride - 1]))
     if lay is None:
         return None
@@ -207,20 +209,20 @@ def _uniform_frames(pb: bytes | bytearray, a: NDArray[np.uint8]) -> FrameArrays 
     return fa if good.all() else None
 
 
-def _templates(pb: bytes | bytearray, a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp]
-               ) -> tuple[list[FrameArrays], list[NDArray[np.intp]], NDArray[np.bool_]]:
+def _templates(pb: bytes | bytearray, a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp],
+               skip: NDArray[np.bool_]) -> tuple[list[FrameArrays], list[NDArray[np.intp]], NDArray[np.bool_]]:
     """Lines of one length whose delimiters sit where the first such line has them (a log is
-    mostly one or a few line layouts), parsed by words at fixed offsets. Returns frames,
-    their lines, and a mask of the lines handled."""
+    mostly one or a few line layouts), parsed by words at fixed offsets; not the lines of
+    ``skip``. Returns frames, their lines, and a mask of the lines handled."""
     n = starts.size
     done = np.zeros(n, bool)
     parts: list[FrameArrays] = []
     lines: list[NDArray[np.intp]] = []
-    length = ends - starts
+    length = np.where(skip, -1, ends - starts)
     values, counts = np.unique(length, return_counts=True)
     every = np.ndarray((len(pb) - 7,), '<u8', buffer=pb, strides=(1,))    # the word at every byte
     for L, count in zip(values.tolist(), counts.tolist()):
-        if count < 16:
+        if count < 16 or L < 0:
             continue
         first_row = int(np.argmax(length == L))
         lay = _layout(bytes(a[starts[first_row]:ends[first_row]]))
@@ -235,13 +237,29 @@ def _templates(pb: bytes | bytearray, a: NDArray[np.uint8], starts: NDArray[np.i
     return parts, lines, done
 
 
-def _parse_candump(pb: bytes | bytearray, a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp]
-                   ) -> tuple[FrameArrays, NDArray[np.bool_]]:
+def _odd_lines(a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp], newlines_and_crs: int
+               ) -> NDArray[np.bool_]:
+    """Mask of the lines holding a control byte (a tab, say) other than their newline and a
+    stripped CR. One comparison over the block when there is none."""
+    skip = np.zeros(starts.size, bool)
+    if np.count_nonzero(a < 32) == newlines_and_crs:
+        return skip
+    ctrl = np.flatnonzero(a < 32)
+    ctrl = ctrl[a[ctrl] != 10]
+    owner = np.searchsorted(starts, ctrl, side='right') - 1
+    inside = (owner >= 0) & (ctrl < ends[np.clip(owner, 0, None)])      # not a stripped CR
+    skip[owner[inside]] = True
+    return skip
+
+
+def _parse_candump(pb: bytes | bytearray, a: NDArray[np.uint8], starts: NDArray[np.intp], ends: NDArray[np.intp],
+                   skip: NDArray[np.bool_]) -> tuple[FrameArrays, NDArray[np.bool_]]:
     """Vectorized parse of lines ``a[starts[i]:ends[i]]`` (no newline; ``a`` is ``pb``
     without its padding). Returns the frames of the lines of the usual shape, in line order,
-    and a mask of those lines."""
-    parts, lines, mask = _templates(pb, a, starts, ends)
-    rest = np.nonzero(~mask)[0]
+    and a mask of those lines. The lines of ``skip`` (a control byte: :func:`_odd_lines`) are
+    left to the line parser, which judges whitespace (here only the two spaces delimit)."""
+    parts, lines, mask = _templates(pb, a, starts, ends, skip)
+    rest = np.nonzero(~mask & ~skip)[0]
     if rest.size:
         # the other lines: find each delimiter's line; the usual shape has exactly one of
         # each (two spaces)
@@ -326,7 +344,7 @@ def iter_candump_blocks(path: str | Path, rejects: RejectCounter | None = None,
                 starts, ends = starts[:-1], ends[:-1]
             cr = (ends > starts) & (a[np.clip(ends - 1, 0, None)] == 13)
             ends = ends - cr
-            fa, mask = _parse_candump(ba, a, starts, ends)
+            fa, mask = _parse_candump(ba, a, starts, ends, _odd_lines(a, starts, ends, nl.size + int(cr.sum())))
             slow = np.nonzero(~mask)[0]
             if slow.size:
                 fa = _merge_slow(fa, mask, slow, a, starts, ends, lineno, rejects, path)
