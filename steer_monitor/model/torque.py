@@ -75,17 +75,8 @@ class TorqueCurve:
 
     def scalar(self, alpha: float, speed: float | None = None) -> float:
         """Torque [N m] of one sample, without numpy (for the live path)."""
-        grid, table = self._grid, self._table  # type: ignore[attr-defined]
-        mag = abs(alpha)
-        if mag >= grid[-1]:
-            m = table[-1]
-        else:
-            i = bisect.bisect_right(grid, mag) - 1
-            m = table[i] + (table[i + 1] - table[i]) * (mag - grid[i]) / (grid[i + 1] - grid[i])
-        m = math.copysign(m, alpha) if alpha != 0 else 0.0
-        if speed is not None:
-            m *= (speed / self.service_speed) ** 2
-        return m
+        table = self._table  # type: ignore[attr-defined]
+        return _lookup(self._grid, table, alpha, speed, self.service_speed, table[-1])  # type: ignore[attr-defined]
 
     def __call__(self, alpha: ArrayLike, speed: ArrayLike | None = None) -> NDArray[np.float64]:
         """Torque [N m] at rudder angle ``alpha`` [rad], optionally at ship speed [m/s].
@@ -139,13 +130,20 @@ class TorqueTable:
 
     def scalar(self, alpha: float, speed: float | None = None) -> float:
         """Torque [N m] of one sample (NaN beyond :attr:`max_angle`), without numpy."""
-        grid, table = self._grid, self._table  # type: ignore[attr-defined]
-        mag = abs(alpha)
-        if mag > grid[-1]:
-            return math.nan
+        return _lookup(self._grid, self._table, alpha, speed, self.service_speed, math.nan)  # type: ignore[attr-defined]
+
+
+def _lookup(grid: list[float], table: list[float], alpha: float, speed: float | None, service_speed: float,
+            beyond: float) -> float:
+    """One sample's torque [N m] from a table over |alpha| (linear between its points,
+    ``beyond`` past its last angle), odd in alpha, scaled with (speed / service_speed)^2."""
+    mag = abs(alpha)
+    if mag > grid[-1]:
+        m = beyond
+    else:
         i = min(bisect.bisect_right(grid, mag) - 1, len(grid) - 2)
         m = table[i] + (table[i + 1] - table[i]) * (mag - grid[i]) / (grid[i + 1] - grid[i])
-        m = math.copysign(m, alpha) if alpha != 0 else 0.0
-        if speed is not None:
-            m *= (speed / self.service_speed) ** 2
-        return m
+    m = math.copysign(m, alpha) if alpha != 0 else 0.0
+    if speed is not None:
+        m *= (speed / service_speed) ** 2
+    return m
