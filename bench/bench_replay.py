@@ -114,7 +114,7 @@ def _case(kind: str, path: str) -> dict:
 def _run_case(kind: str, path: Path) -> dict:
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
     root = Path(__file__).resolve().parent.parent
-    env['PYTHONPATH'] = str(root) + os.pathsep + env.get('PYTHONPATH', '')
+    env['PYTHONPATH'] = os.pathsep.join([str(root / 'steer_monitor'), str(root)]) + os.pathsep + env.get('PYTHONPATH', '')
     out = subprocess.run([sys.executable, '-m', 'bench.bench_replay', '--case', kind, str(path)],
                          env=env, cwd=root, capture_output=True, text=True, check=True)
     return json.loads(out.stdout.strip().splitlines()[-1])

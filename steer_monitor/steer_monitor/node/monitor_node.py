@@ -80,6 +80,8 @@ class MonitorNode(Node):
         self.monitor = LiveMonitor(self.gear, gaps_from_params(p), 'configured', friction_from_params(p))
         self.diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(p), smap, self.gear)
         self.diag.guide_onset_deg(self.monitor.gaps)  # warm the cache before the first frame
+        # the message types before anything opens: a package not built stops the node here
+        self._classes = {key: message_class(datatype) for key, (_, datatype) in TOPICS.items()}
         self.recorder: Recorder | None = None
         if p['recording.enabled']:
             self.recorder = Recorder(p['recording.directory'], p['recording.prefix'],
@@ -95,6 +97,7 @@ class MonitorNode(Node):
         self._bus_mode: tuple[bool | None, str] = (None, 'bus not opened yet')
         self._stop = threading.Event()
         self._closed = False
+        self._closing = False
         self.estimator: OnlineEstimator | None = None
         jobs = self._start_estimator() if p['estimator.enabled'] else None
         self.pipeline = Pipeline(Decoder(db, smap, self.rejects), self.rejects, self.monitor, self.diag, jobs)
@@ -171,7 +174,7 @@ class MonitorNode(Node):
     def _make_publishers(self) -> None:
         self._pubs: dict[str, tuple[Any, str]] = {}
         for key, (topic, datatype) in TOPICS.items():
-            pub = self.create_publisher(message_class(datatype), topic, 10)
+            pub = self.create_publisher(self._classes[key], topic, 10)
             self._pubs[key] = (pub, datatype)
             if self.recorder is not None:
                 self.recorder.add_topic(pub.topic_name, datatype, msgdef(datatype))
@@ -179,7 +182,11 @@ class MonitorNode(Node):
     def _publish(self, key: str, fields: dict[str, Any], t_ns: int) -> None:
         pub, datatype = self._pubs[key]
         msg = to_ros(datatype, fields)
-        pub.publish(msg)
+        try:
+            pub.publish(msg)
+        except Exception:    # rclpy's errors once its context is shut down; only while closing
+            if not self._closing:
+                raise
         if self.recorder is not None:
             self.recorder.write(pub.topic_name, serialize_message(msg), t_ns)
 
@@ -266,12 +273,28 @@ class MonitorNode(Node):
         self._closed = True
         self._stop.set()
         self._reader_thread.join(5)
+        if not self._reader_thread.is_alive():
+            self._finish_outputs()
         self.pipeline.close()            # waits for the running estimator job
         self._save_estimator()
         self.reader.close()
         if self.recorder is not None:
             self.recorder.close()
         self.destroy_node()
+
+    def _finish_outputs(self) -> None:
+        """On stopping: the state of the last frames and the second they end in, as a replay
+        of the recording ends (the bus did not go quiet long enough for them to go out), so
+        the recording holds what its frames gave. Published if ROS still runs (a signal may
+        have shut its context down), recorded either way."""
+        try:
+            with self._lock:
+                outs = self.pipeline.finish()
+        except SteerMonitorError as exc:
+            self.get_logger().error(f'last outputs not processed: {exc}')
+            return
+        self._closing = True
+        self._publish_outputs(outs)
 
     def __enter__(self) -> MonitorNode:
         return self

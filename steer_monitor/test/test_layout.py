@@ -15,18 +15,30 @@ from pathlib import Path
 
 import pytest
 
-from test.conftest import REPO
+from test.conftest import PKG, ROOT
 
 pytestmark = pytest.mark.layout
 
 BIN = Path(sys.executable).parent
 
 
+IGNORE = shutil.ignore_patterns('.venv', '.git', 'build', 'install', 'log', 'out', '__pycache__', '*.egg-info',
+                                '.pytest_cache', '.hypothesis')
+
+
 def _source_copy(tmp_path: Path) -> Path:
+    """A copy of the steer_monitor package (what pip installs) -> its directory."""
     src = tmp_path / 'src' / 'steer_monitor'
-    ignore = shutil.ignore_patterns('.venv', '.git', 'build', 'install', 'log', 'out', '__pycache__',
-                                    '*.egg-info', '.pytest_cache', '.hypothesis')
-    shutil.copytree(REPO, src, ignore=ignore)
+    shutil.copytree(PKG, src, ignore=IGNORE)
+    return src
+
+
+def _repository_copy(tmp_path: Path) -> Path:
+    """A copy of the repository's two ROS packages as a clone in a workspace's src/ holds them
+    -> the src directory."""
+    src = tmp_path / 'src'
+    for name in ('steer_monitor', 'steer_monitor_msgs'):
+        shutil.copytree(ROOT / name, src / 'steer_monitor' / name, ignore=IGNORE)
     return src
 
 
@@ -85,11 +97,21 @@ def test_pip_install_layout(tmp_path):
 
 @pytest.mark.skipif(shutil.which('colcon', path=str(BIN)) is None, reason='colcon-core is not installed')
 def test_colcon_build_layout(tmp_path):
-    src = _source_copy(tmp_path)
+    """``colcon build`` in a workspace whose src/ holds the repository finds both packages,
+    builds the messages with the ROS 2 pip wheels (CMake and a C compiler from the system),
+    and the node's package runs from the install; the typed messages go through rclpy."""
+    src = _repository_copy(tmp_path)
     ws = tmp_path / 'ws'
     ws.mkdir()
-    subprocess.run([str(BIN / 'colcon'), 'build', '--base-paths', str(src.parent)], cwd=ws, check=True,
-                   env=_env(), capture_output=True)
+    venv = str(Path(sys.prefix))
+    done = subprocess.run([str(BIN / 'colcon'), 'build', '--base-paths', str(src), '--event-handlers',
+                           'console_direct-', '--cmake-args', f'-DPython3_EXECUTABLE={sys.executable}',
+                           '-DBUILD_TESTING=OFF'], cwd=ws, env=_env(
+        PATH=f'{BIN}{os.pathsep}{os.environ.get("PATH", "")}', CMAKE_PREFIX_PATH=venv, AMENT_PREFIX_PATH=venv),
+        capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    assert 'Finished <<< steer_monitor_msgs' in done.stdout and 'Finished <<< steer_monitor ' in done.stdout
+    _check_messages(ws / 'install' / 'steer_monitor_msgs')
     install = ws / 'install' / 'steer_monitor'
     share = install / 'share' / 'steer_monitor'
     assert (share / 'package.xml').is_file()
@@ -106,3 +128,50 @@ def test_colcon_build_layout(tmp_path):
     site = install / 'lib' / f'python{sys.version_info.major}.{sys.version_info.minor}' / 'site-packages'
     env = _env(PYTHONPATH=str(site), AMENT_PREFIX_PATH=str(install))
     _check_installed(sys.executable, script, env, share)
+
+
+ROUND_TRIP = """
+import math, time
+import rclpy
+from rclpy.serialization import deserialize_message, serialize_message
+from steer_monitor_msgs.msg import Clearances, LoadSharing
+from steer_monitor.node.rosmsg import to_ros
+m = to_ros('steer_monitor_msgs/msg/Clearances', {
+    'header': {'stamp': {'sec': 7, 'nanosec': 8}, 'frame_id': 'steering_gear'},
+    'gap_2z_m': {'value': 6e-4, 'lo': 5e-4, 'hi': math.nan, 'bounded': False},
+    'gap_zgb_m': {'value': 2.5e-4, 'lo': 2.4e-4, 'hi': 2.7e-4, 'bounded': True}})
+assert deserialize_message(serialize_message(m), Clearances).gap_zgb_m.hi == 2.7e-4
+ctx = rclpy.Context()
+rclpy.init(context=ctx)
+node = rclpy.create_node('layout_check', context=ctx)
+from rclpy.executors import SingleThreadedExecutor
+ex = SingleThreadedExecutor(context=ctx)
+ex.add_node(node)
+got = []
+node.create_subscription(Clearances, '/layout_check/clearances', got.append, 10)
+pub = node.create_publisher(Clearances, '/layout_check/clearances', 10)
+deadline = time.time() + 20
+while not got and time.time() < deadline:
+    pub.publish(m)
+    ex.spin_once(timeout_sec=0.1)
+assert got and got[0].gap_2z_m.value == 6e-4 and math.isnan(got[0].gap_2z_m.hi), got
+import steer_monitor_msgs
+print('ok', LoadSharing.STAGE_GUIDE, steer_monitor_msgs.__file__)
+ex.shutdown()
+node.destroy_node()
+rclpy.shutdown(context=ctx)
+"""
+
+
+def _check_messages(install: Path) -> None:
+    """The built message package from its install (what ``source install/setup.bash`` puts on
+    the paths): rclpy serializes, publishes (loopback) and receives a Clearances."""
+    site = install / 'lib' / f'python{sys.version_info.major}.{sys.version_info.minor}' / 'site-packages'
+    assert (install / 'share' / 'steer_monitor_msgs' / 'msg' / 'Clearances.msg').is_file()
+    env = _env(PYTHONPATH=f'{site}{os.pathsep}{PKG}', LD_LIBRARY_PATH=str(install / 'lib'),
+               AMENT_PREFIX_PATH=f'{install}{os.pathsep}{sys.prefix}')
+    env.pop('_ROS_WHEELS_BOOTSTRAP_COMPLETE', None)   # the venv's start-up adds its own libraries again
+    out = subprocess.run([sys.executable, '-c', ROUND_TRIP], env=env, capture_output=True, text=True, timeout=120,
+                         cwd=install)
+    assert out.returncode == 0 and out.stdout.split()[:2] == ['ok', '4'], out.stderr[-2000:]
+    assert Path(out.stdout.split()[2]).is_relative_to(install)   # the build's module, not the venv's

@@ -58,8 +58,11 @@ def online_track(paths: Sequence[Path]) -> Any:
 
 def _clearance_values(msg: Any) -> list[float] | None:
     """2Z, its low and high bound, Z_gb, its bounds [m] (NaN: none) from a ``~/clearances``
-    message: named values in a JointState, or a recording's older labelled Float64MultiArray;
-    None for anything else."""
+    message: a ``steer_monitor_msgs/Clearances``, or an older recording's named values in a
+    JointState or labelled Float64MultiArray; None for anything else."""
+    two_z, z_gb = getattr(msg, 'gap_2z_m', None), getattr(msg, 'gap_zgb_m', None)
+    if two_z is not None and z_gb is not None:
+        return [float(v) for e in (two_z, z_gb) for v in (e.value, e.lo, e.hi)]
     names = getattr(msg, 'name', None)
     if names is not None:
         by_name = dict(zip(names, getattr(msg, 'position', [])))

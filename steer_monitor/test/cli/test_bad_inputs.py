@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from steer_monitor.cli.main import main
-from test.conftest import REPO
+from test.conftest import PKG
 
 LOG_COMMANDS = ('inspect', 'analyze', 'report', 'replay')
 
@@ -268,7 +268,7 @@ BAD_YAML = {
 def test_bad_parameters_files(base, tmp_path, capsys, case, command):
     make, phrase = BAD_YAML[case]
     cfg = tmp_path / f'{case}.yaml'
-    cfg.write_bytes(make((REPO / 'config' / 'r18.yaml').read_bytes()))
+    cfg.write_bytes(make((PKG / 'config' / 'r18.yaml').read_bytes()))
     argv = {'inspect': ['inspect', str(base['log']), '--config', str(cfg)],
             'loadshare': ['loadshare', '--config', str(cfg)],
             'simulate': ['simulate', '--config', str(cfg), '--out', str(tmp_path / 's.log')]}[command]

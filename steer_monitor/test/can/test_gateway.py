@@ -15,9 +15,9 @@ from steer_monitor.can.fastlogs import iter_log_blocks, read_log_fast
 from steer_monitor.can.gateway import canboat_id, ydwg_date
 from steer_monitor.can.logs import LogError, iter_log, log_format
 from steer_monitor.can.setup import load_setup
-from test.conftest import REPO
+from test.conftest import PKG, SHARED
 
-REALBUS = REPO.parent / 'shared' / 'realbus'
+REALBUS = SHARED / 'realbus'
 SUSTERANNA = REALBUS / 'susteranna-actisense-serial.raw'
 SUSTERANNA_2020 = REALBUS / 'susteranna2020.raw'
 MERRIMAC = REALBUS / 'merrimac-ydwg-2020.raw'
@@ -175,13 +175,13 @@ def test_block_reader_gives_the_frame_readers_frames(path):
 
 def _rudder_config(tmp_path, address):
     """The packaged parameters with the rudder mapped by address, any instance."""
-    text = (REPO / 'config' / 'r18.yaml').read_text()
+    text = (PKG / 'config' / 'r18.yaml').read_text()
     text = text.replace('rudder_angle:     {pgn: 127245, field: Position, instance: 0, source: -1, rate_hz: 10.0}',
                         f'rudder_angle:     {{pgn: 127245, field: Position, instance: -1, source: -1, '
                         f'address: {address}, rate_hz: 10.0}}')
     path = tmp_path / 'vessel.yaml'
     path.write_text(text)
-    (tmp_path / 'nmea2000_steering.dbc').write_text((REPO / 'config' / 'nmea2000_steering.dbc').read_text())
+    (tmp_path / 'nmea2000_steering.dbc').write_text((PKG / 'config' / 'nmea2000_steering.dbc').read_text())
     return path
 
 

@@ -9,9 +9,9 @@ import pytest
 
 from steer_monitor.cli import backlash, fit, loadshare, study
 from steer_monitor.cli.main import main
-from test.conftest import REPO
+from test.conftest import PKG
 
-CHAIN = REPO / 'config' / 'r18_chain.yaml'
+CHAIN = PKG / 'config' / 'r18_chain.yaml'
 
 
 def _json(run, *args, **kwargs):

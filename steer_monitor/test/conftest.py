@@ -13,8 +13,10 @@ os.environ.setdefault('MPLBACKEND', 'Agg')
 from steer_monitor.model import GearParams  # noqa: E402
 from steer_monitor.params import gear_from_params, load_params_file  # noqa: E402
 
-REPO = Path(__file__).resolve().parent.parent
-R18_YAML = REPO / 'config' / 'r18.yaml'
+PKG = Path(__file__).resolve().parent.parent   # this ROS package: steer_monitor/ in the repository
+ROOT = PKG.parent                               # the repository (steer_monitor and steer_monitor_msgs)
+SHARED = ROOT.parent / 'shared'                 # ../shared beside the repository
+R18_YAML = PKG / 'config' / 'r18.yaml'
 
 
 @pytest.fixture(scope='session')

@@ -117,3 +117,30 @@ def test_clearances_of_older_recordings_are_read(tmp_path):
     track = online_track([path])
     assert track is not None and track.t_ns.tolist() == [1_700_000_000_000_000_000]
     assert math.isclose(track.z_gb[0], 0.25e-3) and math.isnan(track.two_z_hi[0])
+
+
+def test_clearances_of_jointstate_recordings_are_read(tmp_path):
+    """Recordings made between the two (named values in a JointState, with a ``bounded``
+    flag per clearance) are read by name; a JointState without those names is left alone."""
+    import math
+
+    from steer_monitor.can.mcapio import McapWriter
+    from steer_monitor.record import msgdef
+    from steer_monitor.report.logreport import online_track
+    dt = 'sensor_msgs/msg/JointState'
+    names = ['gap_2z_m', 'gap_2z_lo_m', 'gap_2z_hi_m', 'gap_2z_bounded',
+             'gap_zgb_m', 'gap_zgb_lo_m', 'gap_zgb_hi_m', 'gap_zgb_bounded']
+    values = [0.6e-3, 0.2e-3, math.nan, 0.0, 0.25e-3, 0.24e-3, 0.27e-3, 1.0]
+    path = tmp_path / 'joint.mcap'
+    with McapWriter(path) as w:
+        w.add_schema(dt, msgdef(dt))
+        w.add_channel('/steer_monitor/clearances', dt)
+        for k, (n, v) in enumerate(((names, values), (['rudder'], [0.1]))):
+            w.write('/steer_monitor/clearances', {
+                'header': {'stamp': {'sec': 0, 'nanosec': 0}, 'frame_id': ''}, 'name': n, 'position': v,
+                'velocity': [math.nan] * len(v), 'effort': [math.nan] * len(v)},
+                1_700_000_000_000_000_000 + k * 1_000_000_000)
+    track = online_track([path])
+    assert track is not None and track.t_ns.tolist() == [1_700_000_000_000_000_000]
+    assert math.isclose(track.two_z[0], 0.6e-3) and math.isclose(track.z_gb_hi[0], 0.27e-3)
+    assert math.isnan(track.two_z_hi[0])

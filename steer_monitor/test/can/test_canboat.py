@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from test.conftest import REPO
+from test.conftest import PKG, SHARED
 
-CANBOAT = REPO.parent / 'shared' / 'realbus' / 'canboat.json'
+CANBOAT = SHARED / 'realbus' / 'canboat.json'
 
 
 @pytest.fixture(scope='module')

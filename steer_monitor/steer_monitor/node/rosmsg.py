@@ -6,15 +6,28 @@ import importlib
 from functools import cache
 from typing import Any
 
+from steer_monitor.errors import SteerMonitorError
+
 __all__ = ['message_class', 'to_ros']
 
 
 @cache
 def message_class(datatype: str) -> type:
-    """``pkg/msg/Type`` or ``pkg/Type`` -> the rclpy message class."""
+    """``pkg/msg/Type`` or ``pkg/Type`` -> the rclpy message class. A package that is not
+    built or not on the paths raises :class:`SteerMonitorError` naming it."""
     parts = datatype.split('/')
     pkg, name = parts[0], parts[-1]
-    return getattr(importlib.import_module(f'{pkg}.msg'), name)
+    try:
+        module = importlib.import_module(f'{pkg}.msg')
+    except ImportError as exc:
+        hint = (' (build it: colcon build --packages-up-to steer_monitor, then source install/setup.bash; '
+                'in the venv: make venv)') if pkg == 'steer_monitor_msgs' else ''
+        raise SteerMonitorError(f'message type {datatype}: cannot import {pkg}: {exc}{hint}') from None
+    try:
+        return getattr(module, name)
+    except AttributeError:
+        raise SteerMonitorError(f'message type {datatype}: {pkg} has no message {name} '
+                                '(an older build of the package? rebuild it)') from None
 
 
 @cache

@@ -12,12 +12,16 @@ from pathlib import Path
 import pytest
 import yaml
 
-from test.conftest import REPO
+from test.conftest import PKG, ROOT, SHARED
 
-ROSDEP = REPO.parent / 'shared' / 'rosdep'
+ROSDEP = SHARED / 'rosdep'
 #: ROS packages (resolved by rosdistro's distribution file, not by the rosdep key files)
 ROS_PACKAGES = {'rclpy', 'rcl_interfaces', 'ament_index_python', 'diagnostic_msgs', 'std_msgs', 'sensor_msgs',
-                'launch', 'launch_ros', 'diagnostic_aggregator'}
+                'launch', 'launch_ros', 'diagnostic_aggregator', 'ament_cmake', 'rosidl_default_generators',
+                'rosidl_default_runtime'}
+#: the packages of this repository (colcon builds them together; rosdep skips them)
+WORKSPACE = {'steer_monitor', 'steer_monitor_msgs'}
+MANIFESTS = [PKG / 'package.xml', ROOT / 'steer_monitor_msgs' / 'package.xml']
 #: imported top-level module -> the rosdep key that installs it
 MODULE_KEYS = {'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'yaml': 'python3-yaml',
                'matplotlib': 'python3-matplotlib', 'can': 'python3-can', 'cantools': 'python3-cantools-pip',
@@ -32,8 +36,8 @@ OPTIONAL = {'threadpoolctl'}
 ASHORE = {'dask', 'distributed', 'pyarrow'}
 
 
-def _depends(kind: str) -> list[str]:
-    root = ET.parse(REPO / 'package.xml').getroot()
+def _depends(kind: str, manifest: Path = PKG / 'package.xml') -> list[str]:
+    root = ET.parse(manifest).getroot()
     return [e.text.strip() for e in root.findall(kind) if e.text]
 
 
@@ -47,10 +51,11 @@ def rosdep_keys() -> dict[str, dict]:
     return keys
 
 
-@pytest.mark.parametrize('kind', ['exec_depend', 'test_depend', 'depend', 'build_depend'])
-def test_every_key_resolves_on_ubuntu_and_debian(rosdep_keys, kind):
-    for key in _depends(kind):
-        if key in ROS_PACKAGES:
+@pytest.mark.parametrize('manifest', MANIFESTS, ids=lambda p: p.parent.name)
+@pytest.mark.parametrize('kind', ['exec_depend', 'test_depend', 'depend', 'build_depend', 'buildtool_depend'])
+def test_every_key_resolves_on_ubuntu_and_debian(rosdep_keys, kind, manifest):
+    for key in _depends(kind, manifest):
+        if key in ROS_PACKAGES or key in WORKSPACE:
             continue
         assert key in rosdep_keys, f'{key} is not a rosdep key'
         rule = rosdep_keys[key]
@@ -69,25 +74,38 @@ def _imports(paths: list[Path]) -> set[str]:
 
 
 def test_every_imported_package_is_declared():
-    sources = sorted((REPO / 'steer_monitor').rglob('*.py')) + sorted((REPO / 'launch').glob('*.py'))
+    sources = sorted((PKG / 'steer_monitor').rglob('*.py')) + sorted((PKG / 'launch').glob('*.py'))
     third_party = _imports(sources) - set(sys.stdlib_module_names) - {'steer_monitor', '__future__'}
     declared = set(_depends('exec_depend'))
     missing = {m: MODULE_KEYS.get(m) for m in third_party - OPTIONAL - ASHORE if MODULE_KEYS.get(m) not in declared}
     assert missing == {}
 
 
+def test_every_published_message_package_is_declared():
+    """The node imports its message types by name (rosmsg.message_class), which the import
+    scan above does not see: each type's package is an exec_depend, and ours is built here."""
+    from steer_monitor.monitor.messages import TOPICS
+    declared = set(_depends('exec_depend'))
+    packages = {datatype.split('/')[0] for _, datatype in TOPICS.values()}
+    assert packages - declared == set()
+    ours = ET.parse(MANIFESTS[1]).getroot()
+    assert ours.findtext('name') == 'steer_monitor_msgs' and 'steer_monitor_msgs' in packages
+    assert ours.findtext('member_of_group') == 'rosidl_interface_packages'
+    assert ours.findtext('version') == ET.parse(MANIFESTS[0]).getroot().findtext('version')
+
+
 def test_ashore_dependencies_stay_ashore():
     """Dask and pyarrow are imported only by the ashore subpackage and the fleet command,
     which the node never imports."""
-    vessel_side = [p for p in sorted((REPO / 'steer_monitor').rglob('*.py'))
+    vessel_side = [p for p in sorted((PKG / 'steer_monitor').rglob('*.py'))
                    if 'ashore' not in p.parts and p.name != 'fleet.py']
     assert _imports(vessel_side) & ASHORE == set()
-    extras = (REPO / 'setup.py').read_text()
+    extras = (PKG / 'setup.py').read_text()
     assert "'ashore': ['dask[distributed]" in extras and 'pyarrow' in extras
 
 
 def test_launch_file_declares_its_arguments():
-    src = (REPO / 'launch' / 'monitor.launch.py').read_text(encoding='utf-8')
+    src = (PKG / 'launch' / 'monitor.launch.py').read_text(encoding='utf-8')
     tree = ast.parse(src)
     assert any(isinstance(n, ast.FunctionDef) and n.name == 'generate_launch_description' for n in tree.body)
     args = [n.args[0].value for n in ast.walk(tree) if isinstance(n, ast.Call)
@@ -96,7 +114,7 @@ def test_launch_file_declares_its_arguments():
 
 
 def test_aggregator_analyzer_expects_every_status():
-    doc = yaml.safe_load((REPO / 'config' / 'aggregator' / 'steer_monitor_analyzers.yaml').read_text())
+    doc = yaml.safe_load((PKG / 'config' / 'aggregator' / 'steer_monitor_analyzers.yaml').read_text())
     a = doc['analyzers']['ros__parameters']['steering_gear']
     assert a['type'] == 'diagnostic_aggregator/GenericAnalyzer' and a['startswith'] == ['steer_monitor:']
     from steer_monitor.monitor.diagnostics import PREFIX
@@ -107,7 +125,7 @@ def test_aggregator_analyzer_expects_every_status():
 def test_systemd_unit_stops_with_sigint_and_restarts():
     unit = configparser.ConfigParser(strict=False, interpolation=None)
     unit.optionxform = str
-    unit.read_string((REPO / 'systemd' / 'steer-monitor.service').read_text())
+    unit.read_string((PKG / 'systemd' / 'steer-monitor.service').read_text())
     svc = unit['Service']
     assert svc['KillSignal'] == 'SIGINT' and svc['Restart'] == 'on-failure'
     assert 'ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST' in svc['Environment']

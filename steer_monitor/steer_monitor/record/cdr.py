@@ -1,5 +1,6 @@
-"""A direct CDR encoder for the message published a hundred times a second
-(``sensor_msgs/msg/JointState``: the rudder, the load sharing, the clearances).
+"""Direct CDR encoders for the messages published a hundred times a second
+(``sensor_msgs/msg/JointState``: the rudder; ``steer_monitor_msgs/msg/LoadSharing``) and with
+each second's diagnostics (``steer_monitor_msgs/msg/Clearances``).
 
 Why our own: mcap-ros2-support's generic encoder walks the schema per message and costs
 about 150 us each, which made it most of a replay's time; this costs a few us. It takes the
@@ -15,7 +16,7 @@ import struct
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ['FAST_ENCODERS', 'encode_joint_state']
+__all__ = ['FAST_ENCODERS', 'encode_clearances', 'encode_joint_state', 'encode_load_sharing']
 
 _HEADER = b'\x00\x01\x00\x00'
 
@@ -39,6 +40,22 @@ class _Writer:
         self.align(4)
         self.buf += struct.pack('<i', v)
 
+    def f64(self, *values: float) -> None:
+        self.align(8)
+        self.buf += struct.pack(f'<{len(values)}d', *values)
+
+    def i8(self, v: int) -> None:
+        self.buf += struct.pack('<b', v)
+
+    def u8(self, v: int) -> None:
+        self.buf += struct.pack('<B', v)
+
+    def header(self, h: dict[str, Any]) -> None:
+        """``std_msgs/Header``: stamp (int32 sec, uint32 nanosec) and frame_id."""
+        self.i32(h['stamp']['sec'])
+        self.u32(h['stamp']['nanosec'])
+        self.string(h['frame_id'])
+
     def string(self, s: str) -> None:
         raw = s.encode()
         self.u32(len(raw) + 1)
@@ -61,10 +78,7 @@ class _Writer:
 
 def encode_joint_state(m: dict[str, Any]) -> bytes:
     w = _Writer()
-    h = m['header']
-    w.i32(h['stamp']['sec'])
-    w.u32(h['stamp']['nanosec'])
-    w.string(h['frame_id'])
+    w.header(m['header'])
     w.strings(m['name'])
     w.doubles(m['position'])
     w.doubles(m['velocity'])
@@ -72,6 +86,33 @@ def encode_joint_state(m: dict[str, Any]) -> bytes:
     return w.done()
 
 
+_LOAD_SHARING_F64 = ('lateral_n', 'ram_force_n', 'guide_force_n', 'k_gl', 'deflection_m', 'r_a_n', 'r_e_n', 'm_a_nm')
+
+
+def encode_load_sharing(m: dict[str, Any]) -> bytes:
+    """``steer_monitor_msgs/msg/LoadSharing`` (field order of its ``.msg``)."""
+    w = _Writer()
+    w.header(m['header'])
+    w.f64(*(m[k] for k in _LOAD_SHARING_F64))
+    w.i8(m['load_case'])
+    w.u8(m['stages'])
+    return w.done()
+
+
+def encode_clearances(m: dict[str, Any]) -> bytes:
+    """``steer_monitor_msgs/msg/Clearances``: the header, then 2Z and Z_gb as ``Estimate``s
+    (value, lo, hi: float64; bounded: bool)."""
+    w = _Writer()
+    w.header(m['header'])
+    for key in ('gap_2z_m', 'gap_zgb_m'):
+        e = m[key]
+        w.f64(e['value'], e['lo'], e['hi'])
+        w.u8(1 if e['bounded'] else 0)
+    return w.done()
+
+
 FAST_ENCODERS: dict[str, Callable[[dict[str, Any]], bytes]] = {
     'sensor_msgs/msg/JointState': encode_joint_state,
+    'steer_monitor_msgs/msg/LoadSharing': encode_load_sharing,
+    'steer_monitor_msgs/msg/Clearances': encode_clearances,
 }

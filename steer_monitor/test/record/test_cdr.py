@@ -1,0 +1,126 @@
+"""The direct CDR encoder gives the generic encoder's bytes, and rclpy reads them."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from steer_monitor.record import msgdef
+from steer_monitor.record.cdr import FAST_ENCODERS
+
+
+def _generic(datatype: str):
+    from mcap_ros2._dynamic import serialize_dynamic
+    return serialize_dynamic(datatype, msgdef(datatype))[datatype]
+
+
+JOINT = [
+    {'header': {'stamp': {'sec': 1_700_000_000, 'nanosec': 123_456_789}, 'frame_id': 'rudder_stock'},
+     'name': ['rudder'], 'position': [0.5], 'velocity': [-0.01], 'effort': [1.25e6]},
+    {'header': {'stamp': {'sec': 0, 'nanosec': 0}, 'frame_id': ''},
+     'name': [], 'position': [], 'velocity': [], 'effort': []},
+    {'header': {'stamp': {'sec': -5, 'nanosec': 1}, 'frame_id': 'ab'},
+     'name': ['a', 'bcd', ''], 'position': [1.0, 2.0, math.nan], 'velocity': [math.inf], 'effort': []},
+]
+
+
+@pytest.mark.parametrize('fields', JOINT)
+def test_joint_state_matches_the_generic_encoder(fields):
+    dt = 'sensor_msgs/msg/JointState'
+    assert FAST_ENCODERS[dt](fields) == _generic(dt)(fields)
+
+
+def test_rclpy_serializes_the_same_message():
+    """The node records rclpy's serialization; replay writes these bytes. They decode to the
+    same values (rclpy leaves its alignment padding unset, so the padding bytes may differ).
+    The rudder's message, that is: Fast-CDR pads an empty sequence of doubles where the
+    generic encoder does not (see the next test)."""
+    from mcap_ros2._dynamic import generate_dynamic
+    from rclpy.serialization import serialize_message
+
+    from steer_monitor.node.rosmsg import to_ros
+    dt = 'sensor_msgs/msg/JointState'
+    decode = generate_dynamic(dt, msgdef(dt))[dt]
+    for fields in JOINT[:1]:
+        ours, theirs = FAST_ENCODERS[dt](fields), serialize_message(to_ros(dt, fields))
+        assert repr(decode(ours)) == repr(decode(theirs))
+
+
+def _typed_fields(key: str) -> tuple[str, dict]:
+    """(datatype, fields) of the monitor's own message ``key``, built as the node builds it."""
+    from steer_monitor.model.gear import Gaps
+    from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages
+    from steer_monitor.monitor.pipeline import DiagOut
+    if key == 'clearances':
+        interval = {'2z': (0.2e-3, None), 'zgb': (0.24e-3, 0.27e-3)}
+        out = DiagOut(1_700_000_000_250_000_000, (), Gaps(0.6e-3, 0.25e-3), interval, 'estimated')
+        fields = next(f for k, _, f in diag_messages(out) if k == key)
+    else:
+        from steer_monitor.model.loadshare import ShareScalar
+        from steer_monitor.monitor.live import LiveState
+        from steer_monitor.monitor.pipeline import StateOut
+        share = ShareScalar(lateral=1e5, axial=3e5, ram_force=6e4, guide_force=4e4, k_gl=0.4, deflection=1e-4,
+                            r_a=5e4, r_e=1e4, m_a=2e3, f_theta=7e4, f_z=9e4, case=-3, stages=5)
+        st = LiveState(1_700_000_000_250_000_000, 0.3, 0.01, True, 1e6, share, Gaps(0.6e-3, 0.25e-3))
+        fields = next(f for k, _, f in state_messages(StateOut(st)) if k == key)
+    return TOPICS[key][1], fields
+
+
+TYPED = ['load_sharing', 'clearances']
+
+
+@pytest.mark.parametrize('key', TYPED)
+def test_typed_messages_match_the_generic_encoder(key):
+    """Our encoders of ``steer_monitor_msgs`` against mcap-ros2-support's, which walks the
+    ``.msg`` definitions (alignment of the doubles after the header's string, the int8, the
+    uint8 and the bool between two Estimates)."""
+    dt, fields = _typed_fields(key)
+    assert FAST_ENCODERS[dt](fields) == _generic(dt)(fields)
+    for frame_id in ('', 'a', 'abcdefg'):   # every alignment of what follows the string
+        f = dict(fields, header=dict(fields['header'], frame_id=frame_id))
+        assert FAST_ENCODERS[dt](f) == _generic(dt)(f)
+
+
+@pytest.mark.parametrize('key', TYPED)
+def test_rclpy_and_rosbags_read_the_typed_messages(key):
+    """What replay writes, rclpy (Fast-CDR, what ``ros2 bag play`` hands on) reads back to the
+    same fields; what the node records (rclpy's bytes), rosbags reads with the definitions
+    registered from the package's ``.msg`` files."""
+    from rclpy.serialization import deserialize_message, serialize_message
+    from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+
+    from steer_monitor.node.rosmsg import message_class, to_ros
+    dt, fields = _typed_fields(key)
+    msg = deserialize_message(FAST_ENCODERS[dt](fields), message_class(dt))
+    assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (1_700_000_000, 250_000_000)
+    assert msg.header.frame_id == 'steering_gear'
+    store = get_typestore(Stores.ROS2_KILTED)
+    for name in ('Estimate', 'Clearances', 'LoadSharing'):
+        t = f'steer_monitor_msgs/msg/{name}'
+        store.register(get_types_from_msg(_msg_text(name), t))
+    again = store.deserialize_cdr(serialize_message(to_ros(dt, fields)), dt)
+    if key == 'clearances':
+        for got in (msg, again):
+            z2, zgb = got.gap_2z_m, got.gap_zgb_m
+            assert (z2.value, z2.lo, z2.bounded) == (0.6e-3, 0.2e-3, False) and math.isnan(z2.hi)
+            assert (zgb.value, zgb.lo, zgb.hi, zgb.bounded) == (0.25e-3, 0.24e-3, 0.27e-3, True)
+    else:
+        for got in (msg, again):
+            assert [got.lateral_n, got.ram_force_n, got.guide_force_n, got.k_gl, got.deflection_m, got.r_a_n,
+                    got.r_e_n, got.m_a_nm] == [1e5, 6e4, 4e4, 0.4, 1e-4, 5e4, 1e4, 2e3]
+            assert (got.load_case, got.stages) == (-3, 5)
+        assert msg.STAGE_GUIDE == 4
+
+
+def _msg_text(name: str) -> str:
+    from test.conftest import ROOT
+    return (ROOT / 'steer_monitor_msgs' / 'msg' / f'{name}.msg').read_text()
+
+
+def test_installed_definitions_are_the_packages():
+    """What replay embeds in its MCAP (the installed ``.msg`` files, via ``msgdef``) is this
+    checkout's ``steer_monitor_msgs``: a stale build in the environment would record a schema
+    the messages do not follow."""
+    for name in ('Estimate', 'Clearances', 'LoadSharing'):
+        assert msgdef(f'steer_monitor_msgs/msg/{name}').startswith(_msg_text(name).rstrip('\n'))
