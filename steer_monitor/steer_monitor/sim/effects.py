@@ -20,7 +20,10 @@ stribeck              extra friction near zero ram speed (Stribeck):
                       F_fr += F_st exp(-(|v| / v_s)^2) (f_st_n = 15e3 N, v_s_mm_s = 3.0)
 ram_inertia           the moving mass (rams, crosshead, and the rudder's moment of
                       inertia seen at the rams, J / H^2) takes m a_ram from the ram force
-                      (mass_kg = 60e3 kg)
+                      (mass_kg = 60e3 kg); a mass does not change speed at once, so the
+                      rudder's rate follows the valve's through a first-order lag
+                      (rate_lag_s = 0.1 s; without it every valve step would be an
+                      infinite acceleration, a spike in the pressures no real gear shows)
 band_friction         *outside the analysis library*: a scored stretch of both rams'
                       bushings adds friction while the rudder is between two angles on
                       either side, F_fr += f_n for lo_deg <= |alpha| <= hi_deg
@@ -50,7 +53,7 @@ EFFECTS: dict[str, dict[str, float | str]] = {
     'temp_friction': {'k_per_k': 0.02, 't_ref_c': 40.0},
     'pressure_friction': {'k': 0.03},
     'stribeck': {'f_st_n': 15e3, 'v_s_mm_s': 3.0},
-    'ram_inertia': {'mass_kg': 60e3},
+    'ram_inertia': {'mass_kg': 60e3, 'rate_lag_s': 0.1},
     'band_friction': {'f_n': 12e3, 'lo_deg': 12.0, 'hi_deg': 18.0},
 }
 
@@ -99,6 +102,9 @@ def parse_effect(text: str) -> Effect:
         raise ParameterError(msg)
     if name == 'angle_delay' and not 0 <= float(params['tau_s']) <= 5:
         msg = f'effect angle_delay: tau_s must lie in 0..5 s, got {params["tau_s"]}'
+        raise ParameterError(msg)
+    if name == 'ram_inertia' and not 0 <= float(params['rate_lag_s']) <= 5:
+        msg = f'effect ram_inertia: rate_lag_s must lie in 0..5 s, got {params["rate_lag_s"]}'
         raise ParameterError(msg)
     if name == 'band_friction' and not 0 <= float(params['lo_deg']) < float(params['hi_deg']) <= 90:
         msg = f'effect band_friction: need 0 <= lo_deg < hi_deg <= 90, got {params["lo_deg"]} and {params["hi_deg"]}'

@@ -160,6 +160,11 @@ def simulate(gear: GearParams, cfg: SimConfig, ram_speed_per_pump: float, pumps_
     heading = np.zeros(n_max)
     pumps = np.zeros(n_max, np.int8)
     a = psi = r = 0.0
+    # with a moving mass, the ram's speed follows the valve's through a first-order lag
+    inertia = cfg.effect('ram_inertia')
+    lag = float(inertia['rate_lag_s']) if inertia is not None else 0.0
+    follow = min(1.0, dt / lag) if lag > 0 else 0.0
+    w_ram = 0.0
     n = n_max
     for i in range(n_max):
         t = i * dt
@@ -175,6 +180,8 @@ def simulate(gear: GearParams, cfg: SimConfig, ram_speed_per_pump: float, pumps_
             w = math.copysign(min(w_max, abs(err) / dt), err)
         else:
             w = max(-w_max, min(w_max, kp_valve * err))
+        if follow:
+            w = w_ram = w_ram + (w - w_ram) * follow
         if program.speed_target is None:
             v_ship = float(_speed_at(speed_fn, np.array([t]))[0])
         else:                       # an engine order: the hull follows with its lag

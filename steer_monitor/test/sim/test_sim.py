@@ -117,22 +117,46 @@ def test_band_friction_adds_its_force_inside_the_band_only(r18_params, can_db):
 
 
 def test_ram_inertia_takes_mass_times_the_rams_acceleration(r18_params, r18, can_db):
-    """Against an independent derivative: the ram's position H tan(alpha) differenced twice."""
-    base = _run(r18_params, can_db, 'zigzag_10', seed=4, noise=False)
+    """Against an independent derivative: the ram's position H tan(alpha) differenced twice.
+    The same motion with no mass (mass_kg=0, the same rate lag) is the reference."""
+    base = _run(r18_params, can_db, 'zigzag_10', seed=4, noise=False,
+                effects=(sim.parse_effect('ram_inertia:mass_kg=0'),))
     with_e = _run(r18_params, can_db, 'zigzag_10', seed=4, noise=False,
                   effects=(sim.parse_effect('ram_inertia:mass_kg=5e4'),))
     p = base.plant
+    assert np.array_equal(p.alpha, with_e.plant.alpha)
     dp = {k: with_e.plant.pressures[k] - p.pressures[k] for k in p.pressures}
     force = (dp['pressure_r1_stbd'] - dp['pressure_r1_port']) * r18.ram_area
     x = r18.stock_to_ram * np.tan(p.alpha)                   # the ram's position along its axis
     dt = p.t[1] - p.t[0]
     acc = np.gradient(np.gradient(x, dt), dt)
     smooth = np.ones(p.t.size, bool)                          # away from the valve's switching steps
+    jerk = np.abs(np.diff(p.rate, n=2, prepend=p.rate[:2]))
     for k in range(-3, 4):
-        smooth &= np.roll(np.abs(np.diff(p.rate, prepend=p.rate[0])) < 1e-6, k)
+        smooth &= np.roll(jerk < 1e-6, k)
     assert smooth.sum() > 1000
     assert np.allclose(force[smooth], 5e4 * acc[smooth], atol=2.0)
     assert np.abs(force).max() > 100.0
+
+
+def test_ram_inertia_moves_the_rudder_with_a_finite_acceleration(r18_params, r18, can_db):
+    """A mass cannot change speed at once: with ram_inertia the rate follows the valve through
+    its lag, so the inertia force stays within m v_max / lag (the old plant stepped the rate
+    and put m v / dt, tens of bar, into single pressure samples). Without the effect the
+    rate still steps as the valve opens (the motion of every other log is unchanged)."""
+    lag, mass, prog = 0.1, 6e4, 'hard_over_2,zigzag_10'
+    runs = {m: _run(r18_params, can_db, prog, seed=5, noise=False,
+                    effects=(sim.parse_effect(f'ram_inertia:mass_kg={m:g},rate_lag_s={lag}'),)).plant
+            for m in (0.0, mass)}
+    p = runs[mass]
+    dt = p.t[1] - p.t[0]
+    assert np.abs(np.diff(p.rate)).max() <= 1.001 * np.abs(p.rate).max() * dt / lag
+    v_max = 2 * 0.015                                          # ram speed with two pumps [m/s]
+    dp = {k: p.pressures[k] - runs[0.0].pressures[k] for k in p.pressures}
+    force = r18.ram_area * (dp['pressure_r1_stbd'] - dp['pressure_r1_port'])
+    assert 0.3 * mass * v_max / lag < np.abs(force).max() <= 1.01 * mass * v_max / lag
+    clean = _run(r18_params, can_db, prog, seed=5, noise=False).plant
+    assert np.abs(np.diff(clean.rate)).max() > 0.5 * np.abs(clean.rate).max()   # the valve's steps
 
 
 @pytest.mark.parametrize('text,msg', [
@@ -141,6 +165,7 @@ def test_ram_inertia_takes_mass_times_the_rams_acceleration(r18_params, r18, can
     ('viscous:c_ns_per_m=abc', 'effect viscous: parameter c_ns_per_m must be a number'),
     ('pressure_offset:input=pressure_r9', 'effect pressure_offset: input must be one of'),
     ('band_friction:lo_deg=18,hi_deg=12', 'effect band_friction: need 0 <= lo_deg < hi_deg <= 90'),
+    ('ram_inertia:rate_lag_s=-1', 'effect ram_inertia: rate_lag_s must lie in 0..5 s'),
 ])
 def test_bad_effects(text, msg):
     with pytest.raises(ParameterError, match=msg):
