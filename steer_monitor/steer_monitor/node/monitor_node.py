@@ -8,10 +8,11 @@ frames (``steer-monitor replay``) publishes the same values. The clearance estim
 jobs on its own thread and keeps its state on disk; its results reach the live model a fixed 10 s
 of data time after each job started. The executor's 1 Hz timer publishes diagnostics on wall
 time only when the bus has been silent for more than 1.5 s (that is where STALE shows). The
-recorder writes MCAP on its own thread. SIGINT and SIGTERM shut down cleanly, save the
-estimator state and finish the MCAP file.
+recorder writes MCAP on its own thread. SIGINT and SIGTERM shut down cleanly: the outputs of
+the last frames, the estimator state, and the MCAP file finished.
 
-Topics (all standard message types) are listed in :mod:`steer_monitor.monitor.messages`.
+Topics (standard message types and steer_monitor_msgs) are listed in
+:mod:`steer_monitor.monitor.messages`.
 """
 
 from __future__ import annotations
