@@ -50,9 +50,7 @@ def _hwm_kb() -> int:
 
 
 def main() -> dict:
-    from distributed import Client, LocalCluster
-
-    from steer_monitor.ashore.fleet import run_fleet
+    from steer_monitor.ashore.fleet import make_client, run_fleet
     from steer_monitor.ashore.logresult import analyse_log
 
     out = {}
@@ -68,8 +66,8 @@ def main() -> dict:
             res = Path(tmp) / f'out{workers}'
             res.mkdir()
             t0 = time.perf_counter()
-            with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host='127.0.0.1',
-                              dashboard_address='127.0.0.1:0', silence_logs=50) as cluster, Client(cluster) as client:
+            client, cluster = make_client(workers, None)     # the LocalCluster run_fleet makes
+            with cluster, client:
                 client.run(lambda: __import__('steer_monitor.batchpath'))     # what a warm worker has
                 t1 = time.perf_counter()
                 run = run_fleet([logs[0].parent], res, client=client, reports=False)   # the same work as above

@@ -41,10 +41,17 @@ def fleet_dirs(tmp_path_factory, r18_params, can_db):
 
 @pytest.fixture(scope='module')
 def client():
-    from distributed import Client, LocalCluster
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host='127.0.0.1',
-                      dashboard_address='127.0.0.1:0', silence_logs=50) as cluster, Client(cluster) as c:
+    from steer_monitor.ashore.fleet import make_client
+    c, cluster = make_client(2, None)      # the LocalCluster run_fleet makes
+    with cluster, c:
         yield c
+
+
+def test_workers_run_without_dask_malloc_trim(client):
+    """Dask's MALLOC_TRIM_THRESHOLD_ made the analysis three times slower on a worker
+    (glibc maps and unmaps every large temporary); its other settings stay."""
+    env = client.run(lambda: (os.environ.get('MALLOC_TRIM_THRESHOLD_'), os.environ.get('OMP_NUM_THREADS')))
+    assert len(env) == 2 and set(env.values()) == {(None, '1')}
 
 
 def _kill_one_worker(client):
