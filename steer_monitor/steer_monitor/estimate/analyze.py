@@ -51,7 +51,7 @@ from steer_monitor.model.gear import GearParams
 
 __all__ = ['DELAY_KEEP_S', 'DELAY_STEP_S', 'DELAY_VERTEX_S', 'EXPLAINED_RATIO', 'MAX_TRIED', 'MIN_BIC_DROP', 'MIN_CV_DEVIANCE',
            'MIN_SYSTEMATIC_SHARE', 'OUTLIER_SIGMAS',
-           'SIGNS', 'SYSTEMATIC_LAG_STEPS', 'Analysis', 'Screening', 'Step', 'analyze', 'block_ns', 'grid_2z_from',
+           'SIGNS', 'SYSTEMATIC_LAG_STEPS', 'CAVEATS', 'Analysis', 'Screening', 'Step', 'analyze', 'block_ns', 'grid_2z_from',
            'outlier_instants', 'refusal']
 
 MIN_CV_DEVIANCE = 10.0   # held-out deviance on the effective sample size
@@ -573,8 +573,23 @@ def _effect_params(cand: Candidate, final: ClearanceEstimate, obs: Observations)
     return out
 
 
+#: what an adopted effect's parameters cannot say, added to the message when it is adopted
+CAVEATS = {
+    'ram_inertia': 'the mass is an apparent one: it reads low where the rudder changes speed faster than '
+                   "the angle's samples show (27 t for 60 t on a simulated voyage, docs/residual-loop.md), and "
+                   'beside strong viscous friction a timing skew between angle and pressures looks like a mass',
+}
+
+
 def _message(verdict: str, declared: ClearanceEstimate, final: ClearanceEstimate | None,
              best: Screening | None, names: list[str] | None = None) -> str:
+    text = _verdict_text(verdict, declared, final, best, names)
+    caveats = [f'{n}: {CAVEATS[n]}' for n in names or [] if n in CAVEATS]
+    return text + (f' ({"; ".join(caveats)})' if caveats else '')
+
+
+def _verdict_text(verdict: str, declared: ClearanceEstimate, final: ClearanceEstimate | None,
+                  best: Screening | None, names: list[str] | None) -> str:
     bar = 1e5 * declared.ram_area
     added = ', then '.join(names or [])
     if verdict == 'declared':

@@ -111,3 +111,17 @@ def test_unexplained_inflation_counts_the_systematic_part_as_noise():
     assert unexplained_inflation(NS(noise_rms=0.35e5, smooth_rms=0.0)) == 1.0
     assert unexplained_inflation(NS(noise_rms=0.35e5, smooth_rms=0.47e5)) == pytest.approx(1 + (0.47 / 0.35) ** 2)
     assert unexplained_inflation(NS(noise_rms=float('nan'), smooth_rms=1.0)) == 1.0
+
+
+def test_an_adopted_inertia_says_what_its_mass_cannot():
+    """The fitted mass reads low (docs/residual-loop.md): the message says so whenever
+    ram_inertia is adopted, and says nothing of it otherwise."""
+    from types import SimpleNamespace as NS
+
+    from steer_monitor.estimate.analyze import CAVEATS, _message
+    est = NS(ram_area=0.05, rms=0.35 * 5e3, smooth_rms=0.05 * 5e3)
+    with_it = _message('effect', est, est, None, ['viscous', 'ram_inertia'])
+    assert with_it.startswith('added viscous, then ram_inertia: residual 0.35 -> 0.35 bar RMS')
+    assert with_it.endswith(f'(ram_inertia: {CAVEATS["ram_inertia"]})') and 'reads low' in with_it
+    assert 'apparent' not in _message('effect', est, est, None, ['viscous'])
+    assert 'apparent' in _message('unexplained', est, est, None, ['ram_inertia'])
