@@ -72,8 +72,8 @@ def stamp(t_ns: int) -> dict[str, int]:
     return {'sec': sec, 'nanosec': nanosec}
 
 
-def _header(t_ns: int) -> dict[str, Any]:
-    return {'stamp': stamp(t_ns), 'frame_id': 'steering_gear'}
+def _header(t_ns: int, frame_id: str = 'steering_gear') -> dict[str, Any]:
+    return {'stamp': stamp(t_ns), 'frame_id': frame_id}
 
 
 def _estimate(value: float, bounds: tuple[float | None, float | None]) -> dict[str, Any]:
@@ -87,7 +87,7 @@ def state_messages(out: StateOut) -> list[tuple[str, int, dict[str, Any]]]:
     pressures are known, the load sharing."""
     st: LiveState = out.state
     msgs: list[tuple[str, int, dict[str, Any]]] = [('rudder', st.t_ns, {
-        'header': {'stamp': stamp(st.t_ns), 'frame_id': 'rudder_stock'},
+        'header': _header(st.t_ns, 'rudder_stock'),
         'name': ['rudder'], 'position': [st.alpha], 'velocity': [st.rate],
         'effort': [math.copysign(st.torque_measured or 0.0, st.alpha)]})]
     if st.share is not None:
@@ -107,7 +107,7 @@ def diag_messages(out: DiagOut, extra: tuple[Status, ...] = ()) -> list[tuple[st
                 for s in (*out.statuses, *extra)]
     interval = out.interval or {}
     g = out.gaps
-    return [('diagnostics', out.t_ns, {'header': {'stamp': stamp(out.t_ns), 'frame_id': ''}, 'status': statuses}),
+    return [('diagnostics', out.t_ns, {'header': _header(out.t_ns, ''), 'status': statuses}),
             ('clearances', out.t_ns, {'header': _header(out.t_ns),
                                       'gap_2z_m': _estimate(g.two_z, interval.get('2z', (None, None))),
                                       'gap_zgb_m': _estimate(g.z_gb, interval.get('zgb', (None, None)))}),

@@ -227,10 +227,9 @@ def simulate(gear: GearParams, cfg: SimConfig, ram_speed_per_pump: float, pumps_
         f_neg = (friction - k * u) / (1.0 + k)
         friction = np.where(moving, np.where(u + f_pos >= 0, f_pos, f_neg), friction)
     force = load + np.where(moving, np.sign(rate) * friction, 0.0)
-    e = cfg.effect('ram_inertia')
-    if e is not None and n > 1:
+    if inertia is not None and n > 1:
         # the ram's speed along its axis, H / cos^2(alpha) dalpha/dt, differentiated
-        force = force + float(e['mass_kg']) * np.gradient(h / np.cos(alpha) ** 2 * rate, dt)
+        force = force + float(inertia['mass_kg']) * np.gradient(h / np.cos(alpha) ** 2 * rate, dt)
     dp = force / gear.ram_area
     p_stbd = cfg.return_pressure + np.maximum(dp, 0.0)
     p_port = cfg.return_pressure + np.maximum(-dp, 0.0)
