@@ -606,11 +606,17 @@ def iter_log_blocks(path: str | Path, rejects: RejectCounter | None = None,
         yield from iter_mcap_blocks(path, rejects)
         return
     block: list[Any] = []
-    for frame in iter_log_as(path, fmt, rejects, date):
-        block.append(frame)
-        if len(block) >= BLOCK_FRAMES // 4:
+    try:
+        for frame in iter_log_as(path, fmt, rejects, date):
+            block.append(frame)
+            if len(block) >= BLOCK_FRAMES // 4:
+                yield FrameArrays.from_frames(block)
+                block = []
+    except LogError:
+        # a log that breaks off gives the frames before the break, then the error
+        if block:
             yield FrameArrays.from_frames(block)
-            block = []
+        raise
     if block:
         yield FrameArrays.from_frames(block)
 

@@ -10,8 +10,8 @@ import pytest
 
 from steer_monitor import sim
 from steer_monitor.can import FrameArrays, RejectCounter
-from steer_monitor.can.fastlogs import iter_candump_blocks, iter_mcap_blocks, log_end_ns, read_log_fast, \
-    write_candump_arrays
+from steer_monitor.can.fastlogs import iter_candump_blocks, iter_log_blocks, iter_mcap_blocks, log_end_ns, \
+    read_log_fast, write_candump_arrays
 from steer_monitor.can.logs import LogError, LogWriter, iter_log, read_log_arrays
 from steer_monitor.can.mcapio import McapWriter
 
@@ -124,6 +124,29 @@ def test_cut_mcap_keeps_what_came_before(tmp_path, simulated):
     bad.write_bytes(b'not an mcap at all')
     with pytest.raises(LogError, match='not an MCAP file'):
         list(iter_mcap_blocks(bad))
+
+
+def test_cut_blf_gives_its_frames_before_the_error(tmp_path, simulated):
+    """python-can's BLF reader stops quietly at a cut container and the reader raises after
+    the last frame: the block reader must hand over the frames it holds before the error
+    (it once dropped every frame of a cut BLF shorter than a block)."""
+    path = tmp_path / 'x.blf'
+    with LogWriter(path) as w:
+        for f in simulated.frames():
+            w.write(f)
+    cut = tmp_path / 'cut.blf'
+    cut.write_bytes(path.read_bytes()[: path.stat().st_size * 2 // 3])
+    ref = []
+    with pytest.raises(LogError, match='breaks off or is corrupt') as want:
+        for f in iter_log(cut):
+            ref.append(f)
+    got = []
+    with pytest.raises(LogError, match='breaks off or is corrupt') as err:
+        for block in iter_log_blocks(cut):
+            got.append(block)
+    assert str(err.value) == str(want.value)
+    assert 0 < len(ref) < len(simulated)
+    _same(FrameArrays.concat(got), FrameArrays.from_frames(ref))
 
 
 def test_candump_writer_is_the_log_writer(tmp_path, simulated):
