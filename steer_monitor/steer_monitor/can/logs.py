@@ -10,7 +10,9 @@ Reading yields :class:`~steer_monitor.can.frames.Frame` records (or columns for 
 file). Records that cannot be parsed are counted as ``malformed_record`` and skipped; a
 file that breaks off mid-way yields what came before and then raises :class:`LogError`, so
 nothing read is lost. candump files are parsed here (python-can's reader stops at the first
-bad line); ``.asc`` and ``.blf`` go through python-can. python-can gives float seconds:
+bad line); ``.asc`` and ``.blf`` go through python-can (an ASC line it cannot parse is
+counted and skipped here, where its reader would stop; an ASC file without its closing
+``End TriggerBlock`` was cut short). python-can gives float seconds:
 those are kept to the microsecond, the resolution every format here holds. An ``.asc`` file
 carries its start time only to the millisecond (frame times relative to it are exact), so it
 is a read format here: writers produce ``.log``, ``.blf`` and ``.mcap``, byte-reproducible.
@@ -170,14 +172,79 @@ def iter_log_as(path: Path, fmt: str, rejects: RejectCounter | None = None, date
                 msg = f'{path}: MCAP breaks off or is corrupt ({type(exc).__name__}: {exc}); frames before it were read'
                 raise LogError(msg) from exc
             return
-    yield from _iter_python_can(path, '.' + fmt)
+    yield from _iter_python_can(path, '.' + fmt, rejects)
 
 
-def _iter_python_can(path: Path, suffix: str) -> Iterator[Frame]:
+class _Lines:
+    """A text file's lines, counted, for naming a line the ASC reader could not parse; the
+    last line that is not blank is kept, to tell a file that was cut short."""
+
+    def __init__(self, fh: Any) -> None:
+        self.fh = fh
+        self.lineno = 0
+        self.line = ''
+        self.last = ''
+
+    def __iter__(self) -> _Lines:
+        return self
+
+    def __next__(self) -> str:
+        line = next(self.fh)
+        self.lineno += 1
+        self.line = line
+        if line.strip():
+            self.last = line
+        return line
+
+    def close(self) -> None:
+        self.fh.close()
+
+
+def _asc_reader(path: Path, rejects: RejectCounter | None) -> tuple[Any, _Lines]:
+    """python-can's ASC reader over ``path``, a frame line it cannot parse counted as
+    ``malformed_record`` and skipped instead of ending the log (its own reader stops at the
+    first one, losing the rest of the file). Read as Latin-1, so no byte is a decoding error:
+    a damaged byte in a frame line makes that line malformed."""
     import can
+
     try:
-        reader: Any = (can.ASCReader(str(path), relative_timestamp=False) if suffix == '.asc'
-                       else can.BLFReader(str(path)))
+        lines = _Lines(open(path, encoding='latin-1', newline=None))
+    except OSError as exc:
+        msg = f'cannot read {path}: {exc.strerror or exc}'
+        raise LogError(msg) from exc
+
+    def tolerant(process: Any) -> Any:
+        def parse(self: Any, line: str, msg_kwargs: dict[str, Any]) -> Any:
+            try:
+                return process(self, line, msg_kwargs)
+            except (ValueError, IndexError, TypeError):
+                if rejects is not None:
+                    rejects.add('malformed_record', f'{path.name} line {lines.lineno}: {lines.line.strip()[:60]!r}')
+                return None
+        return parse
+
+    class Reader(can.ASCReader):  # type: ignore[misc]
+        _process_classic_can_frame = tolerant(can.ASCReader._process_classic_can_frame)
+        _process_fd_can_frame = tolerant(can.ASCReader._process_fd_can_frame)
+
+    try:
+        return Reader(lines, relative_timestamp=False), lines
+    except Exception as exc:
+        lines.close()
+        msg = f'cannot read {path}: {type(exc).__name__}: {exc}'
+        raise LogError(msg) from exc
+
+
+def _iter_python_can(path: Path, suffix: str, rejects: RejectCounter | None = None) -> Iterator[Frame]:
+    import can
+    lines: _Lines | None = None
+    try:
+        if suffix == '.asc':
+            reader, lines = _asc_reader(path, rejects)
+        else:
+            reader = can.BLFReader(str(path))
+    except LogError:
+        raise
     except Exception as exc:
         msg = f'cannot read {path}: {type(exc).__name__}: {exc}'
         raise LogError(msg) from exc
@@ -191,6 +258,10 @@ def _iter_python_can(path: Path, suffix: str) -> Iterator[Frame]:
         raise LogError(msg) from exc
     finally:
         reader.stop()
+    if lines is not None and lines.lineno and lines.last.strip().lower() != 'end triggerblock':
+        # a Vector ASC file ends with its trigger block's end; without it, it was cut short
+        msg = f'{path}: log breaks off (the ASC file ends without "End TriggerBlock"); {n} frames before it were read'
+        raise LogError(msg)
     if suffix == '.blf':
         # python-can stops quietly at a cut container; the header knows the real size.
         size = path.stat().st_size

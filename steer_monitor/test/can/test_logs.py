@@ -48,23 +48,29 @@ def test_every_format_decodes_to_the_same_samples(tmp_path, can_db, simulated, s
         assert np.array_equal(got[name].value, reference[name].value)
 
 
-def test_asc_decodes_to_the_same_samples(tmp_path, can_db, simulated):
-    """ASC (written by python-can, as Vector tools would) holds its start to the millisecond:
-    values and relative times come back exactly, the absolute start within 1 ms."""
+def _write_asc(path: Path, frames: FrameArrays) -> Path:
+    """An ASC file as python-can writes it, with the trigger block's milliseconds written as
+    Vector tools write them: python-can 4.6 writes them unpadded ("00:00:00.7" for 7 ms) and
+    then reads them as 700 ms."""
+    import re
+
     import can
 
     from steer_monitor.can.bus import message_from_frame
-    db, smap = can_db
-    path = tmp_path / 'x.asc'
     with can.ASCWriter(str(path)) as w:
-        for f in simulated.frames.frames():
+        for f in frames.frames():
             w.on_message_received(message_from_frame(f))
-    # python-can 4.6 writes the trigger block's milliseconds unpadded ("00:00:00.7" for 7 ms)
-    # and then reads them as 700 ms; Vector tools write three digits. Write it as they do.
-    import re
     text = re.sub(r'(Begin Triggerblock .* \d\d:\d\d:\d\d)\.(\d{1,3}) ',
                   lambda m: f'{m.group(1)}.{m.group(2).zfill(3)} ', path.read_text())
     path.write_text(text)
+    return path
+
+
+def test_asc_decodes_to_the_same_samples(tmp_path, can_db, simulated):
+    """ASC (written by python-can, as Vector tools would) holds its start to the millisecond:
+    values and relative times come back exactly, the absolute start within 1 ms."""
+    db, smap = can_db
+    path = _write_asc(tmp_path / 'x.asc', simulated.frames)
     back = read_log_arrays(path)
     ref = simulated.frames
     assert len(back) == len(ref)
@@ -172,3 +178,48 @@ def test_writer_close_is_idempotent(tmp_path, simulated):
     w.close()
     w.close()
     assert len(list(iter_log(tmp_path / 'x.mcap'))) == 1
+
+
+def _frame_lines(text: str) -> list[int]:
+    return [i for i, line in enumerate(text.splitlines(keepends=True)) if ' Rx ' in line]
+
+
+@pytest.mark.parametrize('damage', ['letter in the id', 'byte not UTF-8', 'payload byte cut'])
+def test_asc_line_that_cannot_be_parsed_is_counted_and_the_rest_read(tmp_path, simulated, damage):
+    """python-can's ASC reader ends the log at the first frame line it cannot parse; here that
+    line is counted and the frames after it are read. (A line no longer shaped like a frame,
+    say with a non-letter in its id, is skipped as the reader skips events it does not know.)"""
+    path = _write_asc(tmp_path / 'x.asc', simulated.frames)
+    lines = path.read_bytes().splitlines(keepends=True)
+    k = _frame_lines(path.read_text())[len(simulated.frames) // 2]
+    tokens = lines[k].split()       # time, channel, id, Rx, d, dlc, payload bytes
+    token = tokens[2] if damage == 'letter in the id' else tokens[-2]
+    bad = {'letter in the id': b'1Z' + token[2:], 'byte not UTF-8': b'\xe9' + token[1:],
+           'payload byte cut': b'G'}[damage]
+    lines[k] = lines[k].replace(b' ' + token + b' ', b' ' + bad + b' ', 1)
+    assert bad in lines[k]
+    path.write_bytes(b''.join(lines))
+    rejects = RejectCounter()
+    back = FrameArrays.from_frames(list(iter_log(path, rejects)))
+    keep = np.ones(len(simulated.frames), bool)
+    keep[len(simulated.frames) // 2] = False
+    assert len(back) == len(simulated.frames) - 1
+    assert np.array_equal(back.can_id, simulated.frames.can_id[keep])
+    assert np.array_equal(back.data, simulated.frames.data[keep])
+    snap = rejects.snapshot()
+    assert snap.counts == {'malformed_record': 1}
+    assert snap.last['malformed_record'].startswith(f'log record that cannot be parsed: x.asc line {k + 1}: ')
+
+
+def test_cut_asc_keeps_what_came_before_and_says_so(tmp_path, simulated):
+    path = _write_asc(tmp_path / 'x.asc', simulated.frames)
+    data = path.read_bytes()
+    cut = tmp_path / 'cut.asc'
+    cut.write_bytes(data[: len(data) * 2 // 3])
+    got = []
+    with pytest.raises(LogError, match=r'cut\.asc: log breaks off \(the ASC file ends without "End TriggerBlock"\); '
+                                       r'\d+ frames before it were read'):
+        for f in iter_log(cut):
+            got.append(f)
+    assert 0 < len(got) < len(simulated.frames)
+    assert [f.can_id for f in got[:-1]] == simulated.frames.can_id[:len(got) - 1].tolist()
