@@ -71,6 +71,8 @@ def _drop(section, key):
     (_set('clearances', 'gap_2z_mm', -0.1), 'parameter clearances.gap_2z_mm: must be >= 0, got -0.1'),
     (_set('gear', 'ram_inner_diameter_m', 0.3), 'ram_inner_diameter must lie in'),
     (_set('gear', 'max_rudder_deg', 55.0), 'max_rudder 55.0 deg moves the crosshead'),
+    (_set('gear', 'bushing_length_m', 2.0), r'bushing_length must be shorter than bushing_span \(the bushings at A and E '
+                                            r'would overlap\), got 2.0 with span 1.6'),
 ])
 def test_bad_values_are_named(tmp_path, mutate, msg):
     with pytest.raises(ParameterError, match=msg):

@@ -6,7 +6,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from steer_monitor.can.codec import CanDatabase, load_dbc
+from steer_monitor.can.codec import CanDatabase, DbcError, load_dbc
 from steer_monitor.can.signals import SignalMap
 from steer_monitor.params import load_config
 from steer_monitor.resources import config_dir
@@ -20,11 +20,16 @@ def dbc_path(params: Mapping[str, Any], config_path: str | Path | None = None) -
     name = Path(params['can.dbc_file'])
     if name.is_absolute():
         return name
+    packaged = config_dir() / name
     if config_path is not None:
         beside = Path(config_path).resolve().parent / name
         if beside.is_file():
             return beside
-    return config_dir() / name
+        if not packaged.is_file():
+            msg = (f'cannot read DBC file {name} (parameter can.dbc_file): not beside the parameters file '
+                   f'({beside}) nor in the packaged config directory ({packaged.parent})')
+            raise DbcError(msg)
+    return packaged
 
 
 def can_setup(params: Mapping[str, Any], config_path: str | Path | None = None) -> tuple[CanDatabase, SignalMap]:

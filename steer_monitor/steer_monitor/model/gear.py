@@ -63,6 +63,10 @@ class GearParams:
             msg = (f'ram_inner_diameter must lie in [0, ram_outer_diameter), got '
                    f'{self.ram_inner_diameter!r} with outer {self.ram_outer_diameter!r}')
             raise ParameterError(msg)
+        if self.bushing_length >= self.bushing_span:
+            msg = (f'bushing_length must be shorter than bushing_span (the bushings at A and E would '
+                   f'overlap), got {self.bushing_length!r} with span {self.bushing_span!r}')
+            raise ParameterError(msg)
         if not (isinstance(self.rams, int) and self.rams >= 1):
             msg = f'rams must be a whole number >= 1, got {self.rams!r}'
             raise ParameterError(msg)
