@@ -3,7 +3,7 @@ exit 1 (2 for usage), never a traceback, nothing half-written, nothing readable 
 
 The corpus is made from a short simulated log and recording: empty, junk, truncated at many
 offsets, flipped bytes, reversed lines, odd whitespace, a 5 MB line, non-UTF-8 bytes, one
-far-future frame, times past 2038, corrupt MCAP chunks (CRC and compression), bad output
+far-future frame, times past 2038, corrupt MCAP chunks (CRC and compression), cut BLF and ASC logs, bad output
 paths, bad YAML (non-UTF-8, deep nesting, an alias bomb, a list, junk)."""
 
 from __future__ import annotations
@@ -220,6 +220,37 @@ def test_cut_one_byte_short_is_analysed_and_says_so(base, tmp_path, capsys):
     path.write_bytes(data[:-1])
     for command in ('inspect', 'replay'):
         _check(capsys, command, path, tmp_path / command, None, None)
+
+
+@pytest.mark.parametrize('suffix', ['.blf', '.asc'])
+def test_cut_blf_and_asc_are_analysed_and_say_so(base, tmp_path, capsys, suffix):
+    """A BLF or ASC log cut short: every command uses the frames before the cut and says the
+    log breaks off (exit 1). The block readers once dropped a cut BLF's frames altogether."""
+    import json
+
+    from steer_monitor.can.fastlogs import read_log_fast
+    from steer_monitor.can.logs import LogWriter
+    from test.can.test_logs import _write_asc
+    frames = read_log_fast(base['long'])
+    whole = tmp_path / f'whole{suffix}'
+    if suffix == '.blf':
+        with LogWriter(whole) as w:
+            for f in frames.frames():
+                w.write(f)
+    else:
+        _write_asc(whole, frames)
+    path = tmp_path / f'cut{suffix}'
+    path.write_bytes(whole.read_bytes()[: whole.stat().st_size * 3 // 4])
+    said = {}
+    for command in LOG_COMMANDS:
+        lines = _check(capsys, command, path, tmp_path / command, 1, 'log breaks off')
+        assert str(path) in lines[0]
+        said[command] = lines[0].removeprefix(f'steer-monitor {command}: error: ')
+    assert len(set(said.values())) == 1
+    out = json.loads((tmp_path / 'analyze' / 'a.json').read_text())
+    assert 0.5 * len(frames) < out['data']['frames'] < len(frames)
+    assert out['data']['read_errors'] == [said['analyze']]
+    assert out['clearance_zgb_mm']['value'] > 0
 
 
 @pytest.mark.parametrize('command', LOG_COMMANDS + ('recover',))
