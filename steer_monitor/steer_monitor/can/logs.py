@@ -11,8 +11,8 @@ file). Records that cannot be parsed are counted as ``malformed_record`` and ski
 file that breaks off mid-way yields what came before and then raises :class:`LogError`, so
 nothing read is lost. candump files are parsed here (python-can's reader stops at the first
 bad line); ``.asc`` and ``.blf`` go through python-can (an ASC line it cannot parse is
-counted and skipped here, where its reader would stop; an ASC file without its closing
-``End TriggerBlock`` was cut short). python-can gives float seconds:
+counted and skipped here, where its reader would stop; an ASC file whose trigger block
+has no ``End TriggerBlock`` was cut short). python-can gives float seconds:
 those are kept to the microsecond, the resolution every format here holds. An ``.asc`` file
 carries its start time only to the millisecond (frame times relative to it are exact), so it
 is a read format here: writers produce ``.log``, ``.blf`` and ``.mcap``, byte-reproducible.
@@ -176,14 +176,14 @@ def iter_log_as(path: Path, fmt: str, rejects: RejectCounter | None = None, date
 
 
 class _Lines:
-    """A text file's lines, counted, for naming a line the ASC reader could not parse; the
-    last line that is not blank is kept, to tell a file that was cut short."""
+    """A text file's lines, counted, for naming a line the ASC reader could not parse; and
+    whether a trigger block is open (begun, not ended), to tell a file that was cut short."""
 
     def __init__(self, fh: Any) -> None:
         self.fh = fh
         self.lineno = 0
         self.line = ''
-        self.last = ''
+        self.block_open = False
 
     def __iter__(self) -> _Lines:
         return self
@@ -192,8 +192,11 @@ class _Lines:
         line = next(self.fh)
         self.lineno += 1
         self.line = line
-        if line.strip():
-            self.last = line
+        head = line.lstrip()[:18].lower()
+        if head.startswith('begin triggerblock'):
+            self.block_open = True
+        elif head.startswith('end triggerblock'):
+            self.block_open = False
         return line
 
     def close(self) -> None:
@@ -258,8 +261,9 @@ def _iter_python_can(path: Path, suffix: str, rejects: RejectCounter | None = No
         raise LogError(msg) from exc
     finally:
         reader.stop()
-    if lines is not None and lines.lineno and lines.last.strip().lower() != 'end triggerblock':
-        # a Vector ASC file ends with its trigger block's end; without it, it was cut short
+    if lines is not None and lines.block_open:
+        # a trigger block begun and never ended: the file was cut short (an excerpt without
+        # any trigger block, as some tools export, is read as it is)
         msg = f'{path}: log breaks off (the ASC file ends without "End TriggerBlock"); {n} frames before it were read'
         raise LogError(msg)
     if suffix == '.blf':

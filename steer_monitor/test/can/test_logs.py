@@ -223,3 +223,20 @@ def test_cut_asc_keeps_what_came_before_and_says_so(tmp_path, simulated):
             got.append(f)
     assert 0 < len(got) < len(simulated.frames)
     assert [f.can_id for f in got[:-1]] == simulated.frames.can_id[:len(got) - 1].tolist()
+
+
+def test_asc_without_a_trigger_block_is_read_as_it_is(tmp_path):
+    """Some tools export an excerpt with the header and frame lines only, no trigger block:
+    that is not a file cut short."""
+    path = tmp_path / 'excerpt.asc'
+    path.write_text('date Tue May 27 04:09:35.000 pm 2014\n'
+                    'base hex  timestamps absolute\n'
+                    'internal events logged\n'
+                    '// version 10.0.1\n'
+                    '   0.019968 1  9F10D10x        Rx   d 8 00 F8 00 00 FF FF FF FF\n'
+                    '   0.029964 1  9F10D10x        Rx   d 8 00 F9 00 00 FF FF FF FF\n')
+    rejects = RejectCounter()
+    frames = list(iter_log(path, rejects))
+    assert [f.data[1] for f in frames] == [0xF8, 0xF9]
+    assert rejects.snapshot().total == 0
+
