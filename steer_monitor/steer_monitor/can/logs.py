@@ -11,8 +11,9 @@ file). Records that cannot be parsed are counted as ``malformed_record`` and ski
 file that breaks off mid-way yields what came before and then raises :class:`LogError`, so
 nothing read is lost. candump files are parsed here (python-can's reader stops at the first
 bad line); ``.asc`` and ``.blf`` go through python-can (an ASC line it cannot parse is
-counted and skipped here, where its reader would stop; an ASC file whose trigger block
-has no ``End TriggerBlock`` was cut short). python-can gives float seconds:
+counted and skipped here, where its reader would stop, and so is a BLF container whose data
+is damaged, as a corrupt MCAP chunk is; an ASC file whose trigger block has no
+``End TriggerBlock`` was cut short). python-can gives float seconds:
 those are kept to the microsecond, the resolution every format here holds. An ``.asc`` file
 carries its start time only to the millisecond (frame times relative to it are exact), so it
 is a read format here: writers produce ``.log``, ``.blf`` and ``.mcap``, byte-reproducible.
@@ -238,14 +239,99 @@ def _asc_reader(path: Path, rejects: RejectCounter | None) -> tuple[Any, _Lines]
         raise LogError(msg) from exc
 
 
+def _next_signature(fh: BinaryIO, start: int, signature: bytes = b'LOBJ', block: int = 1 << 20) -> int | None:
+    """The offset of the next ``signature`` at or after ``start`` in ``fh`` (None: none)."""
+    fh.seek(start)
+    pos, carry = start, b''
+    while True:
+        data = fh.read(block)
+        if not data:
+            return None
+        buf = carry + data
+        k = buf.find(signature)
+        if k >= 0:
+            return pos - len(carry) + k
+        carry = buf[-(len(signature) - 1):]
+        pos += len(data)
+
+
+def _blf_reader(path: Path, damaged: list[str], rejects: RejectCounter | None = None) -> Any:
+    """python-can's BLF reader, a container that is damaged skipped instead of ending the
+    log (its own reader stops at the first one, losing the rest of the file), as a corrupt
+    MCAP chunk is: a container whose compressed data fails its check, or an object header
+    that is not one (then the next object is looked for). Each skip is appended to
+    ``damaged`` and counted as ``corrupt_chunk``. Objects that straddle a skipped container
+    are dropped, not guessed."""
+    import zlib
+
+    import can
+    from can.io import blf
+
+    def skip(what: str) -> None:
+        damaged.append(what)
+        if rejects is not None:
+            rejects.add('corrupt_chunk', f'{path.name} {what}')
+
+    class Reader(can.BLFReader):  # type: ignore[misc]
+        def __iter__(self) -> Iterator[Any]:
+            fh = self.file
+            base = blf.OBJ_HEADER_BASE_STRUCT
+            resync = False
+            while True:
+                at = fh.tell()
+                head = fh.read(base.size)
+                if len(head) < base.size:
+                    break
+                signature, _, _, obj_size, obj_type = base.unpack(head)
+                if signature != b'LOBJ' or obj_size < base.size:
+                    skip(f'byte {at}: not an object header')
+                    nxt = _next_signature(fh, at + 1)
+                    if nxt is None:
+                        break
+                    fh.seek(nxt)
+                    self._tail, resync = b'', True
+                    continue
+                body = fh.read(obj_size - base.size)
+                fh.read(obj_size % 4)
+                if obj_type != blf.LOG_CONTAINER:
+                    continue
+                method, _ = blf.LOG_CONTAINER_STRUCT.unpack_from(body)
+                packed = body[blf.LOG_CONTAINER_STRUCT.size:]
+                try:
+                    if method == blf.NO_COMPRESSION:
+                        data = packed
+                    elif method == blf.ZLIB_DEFLATE:
+                        data = zlib.decompressobj().decompress(packed)
+                    else:
+                        msg = f'unknown compression method {method}'
+                        raise ValueError(msg)
+                except (zlib.error, ValueError) as exc:
+                    skip(f'byte {at}: container broken ({exc})')
+                    self._tail, resync = b'', True
+                    continue
+                if resync:          # the container begins inside an object the skip cut
+                    k = data.find(b'LOBJ')
+                    data = data[k:] if k >= 0 else b''
+                    resync = False
+                try:
+                    yield from self._parse_container(data)
+                except blf.BLFParseError as exc:
+                    skip(f'byte {at}: objects in the container broken ({exc or "no object header"})')
+                    self._tail, resync = b'', True
+            self.stop()
+
+    return Reader(str(path))
+
+
 def _iter_python_can(path: Path, suffix: str, rejects: RejectCounter | None = None) -> Iterator[Frame]:
     import can
     lines: _Lines | None = None
+    damaged: list[str] = []
     try:
         if suffix == '.asc':
             reader, lines = _asc_reader(path, rejects)
         else:
-            reader = can.BLFReader(str(path))
+            reader = _blf_reader(path, damaged, rejects)
     except LogError:
         raise
     except Exception as exc:
@@ -271,8 +357,13 @@ def _iter_python_can(path: Path, suffix: str, rejects: RejectCounter | None = No
         size = path.stat().st_size
         if reader.file_size and size < reader.file_size:
             msg = (f'{path}: log breaks off or is corrupt (BLF is {size} bytes, its header says '
-                   f'{reader.file_size}); {n} frames before it were read')
+                   f'{reader.file_size}); {n} frames before it were read'
+                   + (f'; {len(damaged)} damaged container(s) skipped before that' if damaged else ''))
             raise LogError(msg)
+    if damaged:
+        msg = (f'{path}: {len(damaged)} damaged container(s) skipped ({damaged[0]}'
+               + (', ...' if len(damaged) > 1 else '') + '); the frames before and after them were read')
+        raise LogError(msg)
 
 
 def read_log_arrays(path: str | Path, rejects: RejectCounter | None = None,

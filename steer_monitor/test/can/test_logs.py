@@ -240,3 +240,62 @@ def test_asc_without_a_trigger_block_is_read_as_it_is(tmp_path):
     assert [f.data[1] for f in frames] == [0xF8, 0xF9]
     assert rejects.snapshot().total == 0
 
+
+def _blf_objects(data: bytes) -> list[tuple[int, int, int]]:
+    """(offset, size, type) of a BLF file's top-level objects (the containers), read here
+    from the format: a LOGG header of its own size, then LOBJ headers with size and type."""
+    import struct
+    assert data[:4] == b'LOGG'
+    pos = struct.unpack_from('<I', data, 4)[0]
+    out = []
+    while pos + 16 <= len(data):
+        sig, _, _, size, kind = struct.unpack_from('<4sHHII', data, pos)
+        assert sig == b'LOBJ'
+        out.append((pos, size, kind))
+        pos += size + size % 4
+    return out
+
+
+@pytest.fixture(scope='module')
+def longer(r18_params, can_db):
+    """Two minutes of frames: a BLF of several containers."""
+    db, smap = can_db
+    cfg = sim.SimConfig(program='hard_over_2,zigzag_10', max_duration_s=120.0)
+    return sim.run(r18_params, cfg, db, smap, seed=11).frames
+
+
+@pytest.mark.parametrize('damage', ['compressed data', 'object header'])
+def test_damaged_blf_container_is_skipped_and_the_rest_read(tmp_path, longer, damage):
+    """python-can's BLF reader ends the log at a damaged container; here the container is
+    skipped (counted, and named in the error after the frames) and the ones after it read."""
+    path = _write(tmp_path / 'x.blf', longer)
+    data = bytearray(path.read_bytes())
+    containers = _blf_objects(bytes(data))
+    assert len(containers) >= 3
+    at, size, _ = containers[1]
+    if damage == 'compressed data':
+        data[at + size // 2] ^= 0xFF
+    else:
+        data[at:at + 4] = b'XXXX'
+    bad = tmp_path / 'bad.blf'
+    bad.write_bytes(bytes(data))
+    rejects = RejectCounter()
+    got = []
+    with pytest.raises(LogError) as err:
+        for f in iter_log(bad, rejects):
+            got.append(f)
+    assert str(err.value).startswith(f'{bad}: 1 damaged container(s) skipped (byte {at}: ')
+    assert str(err.value).endswith('); the frames before and after them were read')
+    assert rejects.snapshot().counts == {'corrupt_chunk': 1}
+    back = FrameArrays.from_frames(got)
+    # what was read is the log less one container's frames (and the objects it cut), in order
+    k = np.searchsorted(longer.t_ns, back.t_ns)
+    assert np.array_equal(longer.t_ns[k], back.t_ns) and np.array_equal(longer.data[k], back.data)
+    lost = len(longer) - len(back)
+    per_container = len(longer) / len(containers)
+    assert 0.5 * per_container < lost < 1.5 * per_container + 2
+    assert back.t_ns[-1] == longer.t_ns[-1]          # the containers after it were read
+    import can
+    with pytest.raises(Exception):                   # python-can's own reader stops there
+        list(can.BLFReader(str(bad)))
+
