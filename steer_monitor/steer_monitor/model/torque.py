@@ -78,6 +78,11 @@ class TorqueCurve:
         table = self._table  # type: ignore[attr-defined]
         return _lookup(self._grid, table, alpha, speed, self.service_speed, table[-1])  # type: ignore[attr-defined]
 
+    def scalars(self, alpha: NDArray[np.float64], speed: NDArray[np.float64]) -> NDArray[np.float64]:
+        """:meth:`scalar` over arrays (n,): the same table, ``speed`` NaN where not known."""
+        table = self._table  # type: ignore[attr-defined]
+        return _lookup_many(self._grid, table, alpha, speed, self.service_speed, table[-1])  # type: ignore[attr-defined]
+
     def __call__(self, alpha: ArrayLike, speed: ArrayLike | None = None) -> NDArray[np.float64]:
         """Torque [N m] at rudder angle ``alpha`` [rad], optionally at ship speed [m/s].
 
@@ -132,6 +137,10 @@ class TorqueTable:
         """Torque [N m] of one sample (NaN beyond :attr:`max_angle`), without numpy."""
         return _lookup(self._grid, self._table, alpha, speed, self.service_speed, math.nan)  # type: ignore[attr-defined]
 
+    def scalars(self, alpha: NDArray[np.float64], speed: NDArray[np.float64]) -> NDArray[np.float64]:
+        """:meth:`scalar` over arrays (n,): the same table, ``speed`` NaN where not known."""
+        return _lookup_many(self._grid, self._table, alpha, speed, self.service_speed, math.nan)  # type: ignore[attr-defined]
+
 
 def _lookup(grid: list[float], table: list[float], alpha: float, speed: float | None, service_speed: float,
             beyond: float) -> float:
@@ -147,3 +156,19 @@ def _lookup(grid: list[float], table: list[float], alpha: float, speed: float | 
     if speed is not None:
         m *= (speed / service_speed) ** 2
     return m
+
+
+def _lookup_many(grid: list[float], table: list[float], alpha: NDArray[np.float64], speed: NDArray[np.float64],
+                 service_speed: float, beyond: float) -> NDArray[np.float64]:
+    """:func:`_lookup` of many samples, shapes (n,): the same interpolation (each value equal
+    to the one-sample lookup to rounding), ``speed`` NaN where not known (no scaling there)."""
+    g, tb = np.asarray(grid), np.asarray(table)
+    a = np.asarray(alpha, dtype=float)
+    mag = np.abs(a)
+    i = np.clip(np.searchsorted(g, mag, side='right') - 1, 0, g.size - 2)
+    m = tb[i] + (tb[i + 1] - tb[i]) * (mag - g[i]) / (g[i + 1] - g[i])
+    m = np.where(mag > g[-1], beyond, m)
+    m = np.where(a != 0, np.copysign(m, a), 0.0)
+    v = np.asarray(speed, dtype=float)
+    return np.where(np.isnan(v), m, m * (v / service_speed) ** 2)
+

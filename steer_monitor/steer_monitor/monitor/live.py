@@ -28,12 +28,14 @@ import math
 from collections import deque
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from steer_monitor.can.decoder import Sample
 from steer_monitor.can.signals import INPUTS
 from steer_monitor.model.friction import FrictionParams, friction_force
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
-from steer_monitor.model.loadshare import ShareScalar, load_sharing_scalar
+from steer_monitor.model.loadshare import ShareScalar, load_sharing, load_sharing_scalar
 from steer_monitor.model.torque import TorqueTable
 
 __all__ = ['ARRIVALS_KEPT_NS', 'RATE_WINDOW_NS', 'LiveMonitor', 'LiveState', 'Response']
@@ -134,7 +136,7 @@ class LiveMonitor:
         if friction is not None:
             self.priors = friction
         self.torque = torque
-        self._resid = deque(map(self._residual_pair, self._motion), maxlen=self._resid.maxlen)
+        self._resid = deque(self._residual_pairs(list(self._motion)), maxlen=self._resid.maxlen)
 
     @property
     def residuals(self) -> list[float]:
@@ -169,6 +171,38 @@ class LiveMonitor:
         predicted = math.copysign(m.axial, alpha) + direction * f_fr
         area = gear.ram_area
         return (force_1 - predicted) / area / 1e5, (force_2 - predicted) / area / 1e5
+
+    def _residual_pairs(self, instants: list[tuple[float, float | None, float, float, float]]
+                        ) -> list[tuple[float, float] | None]:
+        """:meth:`_residual_pair` of many instants at once (the minute a new estimate re-judges,
+        up to 600 instants once a second of motion: one vectorized load-sharing solve instead
+        of one per instant). Equal to the one-instant results to rounding (tested)."""
+        if not instants:
+            return []
+        arr = np.array([(a, math.nan if s is None else s, d, f1, f2) for a, s, d, f1, f2 in instants])
+        alpha, speed, direction, force_1, force_2 = arr.T
+        gear, gaps = self.gear, self.gaps
+        torque = (self.torque or gear.torque).scalars(alpha, speed)
+        known = np.flatnonzero(np.isfinite(torque))   # beyond the angles the fitted torque was learned at: None
+        out: list[tuple[float, float] | None] = [None] * len(instants)
+        if known.size == 0:
+            return out
+        a = alpha[known]
+        m = load_sharing(gear, a, torque[known], gaps.two_z, gaps.z_gb)
+        iv = self.gaps_interval or {}
+        guess = np.zeros(known.size, bool)           # a clamp or contact the data never saw
+        if '2z' in iv and iv['2z'][1] is None:
+            guess |= m.lateral > m.f_theta
+        if 'zgb' in iv and iv['zgb'][1] is None:
+            guess |= m.lateral > m.f_z
+        f_fr = friction_force(self.priors, m.r_a, m.r_e, m.m_a, m.guide_force, gear.bushing_length)
+        predicted = np.copysign(m.axial, a) + direction[known] * f_fr
+        r1 = ((force_1[known] - predicted) / gear.ram_area / 1e5).tolist()
+        r2 = ((force_2[known] - predicted) / gear.ram_area / 1e5).tolist()
+        for k, i in enumerate(known.tolist()):
+            if not guess[k]:
+                out[i] = (r1[k], r2[k])
+        return out
 
     # --- input ---------------------------------------------------------------------------
     def update(self, sample: Sample) -> None:

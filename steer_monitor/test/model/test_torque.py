@@ -63,6 +63,25 @@ def test_table_interpolates_is_odd_and_unknown_beyond_its_last_angle():
     assert math.isnan(t.scalar(math.radians(20.01)))
 
 
+def test_scalars_are_the_one_sample_lookup_over_arrays(curve):
+    """The array lookup (the live monitor re-judging a minute at once) gives each sample's
+    one-sample value, to rounding: the curve's table held beyond its end, the learned table
+    NaN beyond its end; speed scaling where the speed is known (NaN: not)."""
+    import math
+
+    from steer_monitor.model.torque import TorqueTable
+    rng = np.random.default_rng(1)
+    alpha = np.concatenate([rng.uniform(-0.7, 0.7, 3000), [0.0, -0.0, 1e-12, np.radians(35.0), np.radians(-40.0)]])
+    speed = np.where(rng.random(alpha.size) < 0.3, np.nan, rng.uniform(1.0, 9.0, alpha.size))
+    table = TorqueTable(np.radians(np.arange(0.0, 20.01, 0.5)), np.linspace(0.0, 700e3, 41), 7.0)
+    for t in (curve, table):
+        got = t.scalars(alpha, speed)
+        want = [t.scalar(float(a), None if math.isnan(v) else float(v)) for a, v in zip(alpha, speed)]
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-6)
+        assert np.array_equal(np.isnan(got), np.isnan(want))
+    assert np.isnan(table.scalars(alpha, speed)[np.abs(alpha) > np.radians(20.0)]).all()
+
+
 @pytest.mark.parametrize('angles, torques', [([0.0], [0.0]), ([0.1, 0.2], [0.0, 1.0]), ([0.0, 0.2, 0.1], [0, 1, 2]),
                                              ([0.0, 0.1], [0.0, float('nan')])])
 def test_bad_tables(angles, torques):

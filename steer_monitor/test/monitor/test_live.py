@@ -204,3 +204,33 @@ def test_a_rate_window_longer_than_the_arrivals_kept_is_refused(r18_params):
     mon = LiveMonitor(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25))
     with pytest.raises(ValueError, match='rate window 31 s is longer than the 30 s of arrivals kept'):
         mon.rate_hz('oil_temperature', 0, ARRIVALS_KEPT_NS + 1_000_000_000)
+
+
+@pytest.mark.parametrize('case', ['configured', 'lower bounds only', 'fitted torque'])
+def test_a_minute_rejudged_at_once_is_each_instant_judged_alone(r18_params, case):
+    """A new estimate re-judges the kept minute of motion in one vectorized pass; each
+    instant's residual pair (or None: a clamp the data never saw, an angle beyond the fitted
+    torque) is the one-instant result, to rounding."""
+    from steer_monitor.model.friction import FrictionParams
+    from steer_monitor.model.torque import TorqueTable
+    gear = gear_from_params(r18_params)
+    gaps = Gaps.from_mm(0.1, 0.05)
+    mon = LiveMonitor(gear, Gaps.from_mm(0.6, 0.25))
+    rng = np.random.default_rng(7)
+    instants = [(float(a), None if rng.random() < 0.3 else float(rng.uniform(2.0, 9.0)), float(d), float(f1), float(f2))
+                for a, d, f1, f2 in zip(rng.uniform(-0.61, 0.61, 600), rng.choice([-1.0, 1.0], 600),
+                                        rng.uniform(-3e5, 3e5, 600), rng.uniform(-3e5, 3e5, 600))]
+    angles = np.radians(np.arange(0.0, 25.01, 0.5))
+    table = TorqueTable(angles, 1.1 * gear.torque(angles), gear.torque.service_speed) if case == 'fitted torque' else None
+    interval = {'2z': (0.05e-3, None), 'zgb': (0.0, None)} if case == 'lower bounds only' else None
+    mon.set_gaps(gaps, 'estimated' if case != 'configured' else 'configured', interval,
+                 FrictionParams(9000.0, 0.13, 0.05), table)
+    many = mon._residual_pairs(instants)
+    one = [mon._residual_pair(i) for i in instants]
+    assert [p is None for p in many] == [p is None for p in one]
+    if case != 'configured':
+        assert 0 < sum(p is None for p in one) < len(one)
+    for p, q in zip(many, one):
+        if p is not None:
+            assert p == pytest.approx(q, rel=1e-12, abs=1e-9)
+
