@@ -385,22 +385,78 @@ def _string(b: bytes, off: int) -> tuple[str, int]:
     return b[off + 4:off + 4 + n].decode('utf-8', 'replace'), off + 4 + n
 
 
+#: the fields of ROS 2's can_msgs/msg/Frame, the layout the column reader reads
+_FRAME_FIELDS = (('std_msgs/Header', 'header'), ('uint32', 'id'), ('bool', 'is_rtr'), ('bool', 'is_extended'),
+                 ('bool', 'is_error'), ('uint8', 'dlc'), ('uint8[8]', 'data'))
+
+
+def _msg_fields(definition: str) -> tuple[tuple[str, str], ...]:
+    """(type, name) of a ros2msg definition's own fields (its first section; comments,
+    blank lines and constants left out; ``Header`` as ``std_msgs/Header``)."""
+    fields = []
+    for line in definition.split('\n'):
+        if line.startswith('=' * 8):
+            break
+        words = line.split('#', 1)[0].split()
+        if len(words) < 2 or '=' in line.split('#', 1)[0]:
+            continue
+        kind = 'std_msgs/Header' if words[0] == 'Header' else words[0].replace('/msg/', '/')
+        fields.append((kind, words[1]))
+    return tuple(fields)
+
+
+def _frame_channel_problem(schema_encoding: str, schema_data: bytes, message_encoding: str) -> str | None:
+    """Why a channel whose schema is named can_msgs/msg/Frame cannot be read as one (None: it can)."""
+    if message_encoding != 'cdr':
+        return f'its messages are in {message_encoding or "no"} encoding, this tool reads CDR'
+    if schema_encoding == 'ros2msg':
+        fields = _msg_fields(schema_data.decode('utf-8', 'replace'))
+        if fields != _FRAME_FIELDS:
+            shown = ', '.join(f'{t} {n}' for t, n in fields[:8]) or 'no fields'
+            return f'its definition ({shown}) is not ROS 2\'s can_msgs/msg/Frame'
+    return None
+
+
 class _McapState:
     def __init__(self) -> None:
-        self.schemas: dict[int, str] = {}
-        self.channels: dict[int, int] = {}     # channel id -> schema id
+        self.schemas: dict[int, tuple[str, str, bytes]] = {}      # id -> name, encoding, data
+        self.channels: dict[int, tuple[int, str, str]] = {}       # id -> schema id, topic, message encoding
         self.frame_channels: set[int] = set()
+        self.refused: dict[int, str] = {}      # a can_msgs/msg/Frame channel that cannot be read -> why
+        self.refused_messages: dict[int, int] = {}
 
-    def schema(self, sid: int, name: str) -> None:
-        self.schemas[sid] = name
+    def schema(self, sid: int, name: str, encoding: str = '', data: bytes = b'') -> None:
+        self.schemas[sid] = (name, encoding, data)
         self._update()
 
-    def channel(self, cid: int, sid: int) -> None:
-        self.channels[cid] = sid
+    def channel(self, cid: int, sid: int, topic: str = '', message_encoding: str = 'cdr') -> None:
+        self.channels[cid] = (sid, topic, message_encoding)
         self._update()
 
     def _update(self) -> None:
-        self.frame_channels = {c for c, s in self.channels.items() if self.schemas.get(s) == FRAME_DATATYPE}
+        self.frame_channels = set()
+        self.refused = {}
+        for cid, (sid, _, msg_enc) in self.channels.items():
+            name, enc, data = self.schemas.get(sid, ('', '', b''))
+            if name != FRAME_DATATYPE:
+                continue
+            why = _frame_channel_problem(enc, data, msg_enc)
+            if why is None:
+                self.frame_channels.add(cid)
+            else:
+                self.refused[cid] = why
+
+    def problems(self) -> list[str]:
+        """What kept frames from being read: refused frame channels that held messages, or,
+        when no channel carries frames, the channels the file has instead."""
+        out = [f'{self.channels[c][1]}: {n} can_msgs/msg/Frame message(s) not read ({self.refused[c]})'
+               for c, n in self.refused_messages.items() if n]
+        if not self.frame_channels and not out and self.channels:
+            listed = [f'{topic} ({self.schemas.get(sid, ("?",))[0] or "no schema"}, {enc})'
+                      for sid, topic, enc in self.channels.values()]
+            out.append('no CAN frames: no can_msgs/msg/Frame channel in CDR; its channels: '
+                       + ', '.join(listed[:6]) + (f' and {len(listed) - 6} more' if len(listed) > 6 else ''))
+        return out
 
 
 _DLC_MASK = np.array([(1 << (8 * k)) - 1 for k in range(MAX_DLC)] + [(1 << 64) - 1], np.uint64)
@@ -452,13 +508,19 @@ def _walk_records(b: bytes, state: _McapState) -> list[FrameArrays]:
                 out.append(_frames_from_records(b, pos, stride, run))
                 pos += run * stride
                 continue
+            if cid in state.refused:
+                state.refused_messages[cid] = state.refused_messages.get(cid, 0) + 1
         elif op == _SCHEMA:
             (sid,) = unpack('<H', b, pos + 9)
-            name, _ = _string(b, pos + 11)
-            state.schema(sid, name)
+            name, off = _string(b, pos + 11)
+            encoding, off = _string(b, off)
+            (size,) = unpack('<I', b, off)
+            state.schema(sid, name, encoding, bytes(b[off + 4:off + 4 + size]))
         elif op == _CHANNEL:
             cid, sid = unpack('<HH', b, pos + 9)
-            state.channel(cid, sid)
+            topic, off = _string(b, pos + 13)
+            message_encoding, _ = _string(b, off)
+            state.channel(cid, sid, topic, message_encoding)
         pos += stride
     return out
 
@@ -587,10 +649,12 @@ def iter_mcap_blocks(path: str | Path, rejects: RejectCounter | None = None) -> 
             raise LogError(msg) from exc
     if pending:
         yield FrameArrays.concat(pending)
+    problems = state.problems()
     if corrupt:
-        msg = (f'{path}: {len(corrupt)} corrupt chunk(s) skipped ({corrupt[0]}'
-               + (', ...' if len(corrupt) > 1 else '') + '); the frames before and after them were read')
-        raise LogError(msg)
+        problems.insert(0, f'{len(corrupt)} corrupt chunk(s) skipped ({corrupt[0]}'
+                        + (', ...' if len(corrupt) > 1 else '') + '); the frames before and after them were read')
+    if problems:
+        raise LogError(f'{path}: ' + '; '.join(problems))
 
 
 def iter_log_blocks(path: str | Path, rejects: RejectCounter | None = None,

@@ -149,6 +149,61 @@ def test_cut_blf_gives_its_frames_before_the_error(tmp_path, simulated):
     _same(FrameArrays.concat(got), FrameArrays.from_frames(ref))
 
 
+def _mcap_with(path, schema_name, schema_encoding, definition, message_encoding, frames, topic='/steering_can/rx'):
+    """An MCAP of ``frames`` (their CDR) on one channel as given, beside a second channel."""
+    from mcap.writer import Writer
+
+    from steer_monitor.can.mcapio import frame_cdr
+    with open(path, 'wb') as fh:
+        w = Writer(fh)
+        w.start(profile='ros2', library='test')
+        sid = w.register_schema(schema_name, schema_encoding, definition.encode())
+        cid = w.register_channel(topic, message_encoding, sid)
+        other = w.register_channel('/rosout', 'cdr', w.register_schema('rcl_interfaces/msg/Log', 'ros2msg', b'uint8 level'))
+        for f in frames:
+            w.add_message(cid, log_time=f.t_ns, publish_time=f.t_ns, data=frame_cdr(f))
+        w.add_message(other, log_time=frames[0].t_ns, publish_time=0, data=b'\x00\x01\x00\x00\x14')
+        w.finish()
+    return path
+
+
+def test_frame_channel_as_rosbag2_writes_it_is_read(tmp_path, simulated):
+    """A definition with comments, the short ``Header`` and a topic of its own (as rosbag2
+    records ros2_socketcan's frames) is can_msgs/msg/Frame all the same."""
+    from steer_monitor.can.mcapio import FRAME_MSGDEF
+    definition = ('# a CAN frame\nHeader header  # stamp\nuint32 id\nbool is_rtr\nbool is_extended\nbool is_error\n'
+                  'uint8 dlc\nuint8[8] data\n' + FRAME_MSGDEF[FRAME_MSGDEF.index('====='):])
+    frames = simulated.frames()[:300]
+    path = _mcap_with(tmp_path / 'x.mcap', 'can_msgs/msg/Frame', 'ros2msg', definition, 'cdr', frames,
+                      topic='/from_can_bus')
+    got = read_log_fast(path)
+    np.testing.assert_array_equal(got.can_id, [f.can_id for f in frames])
+
+
+@pytest.mark.parametrize('case, want', [
+    ('json', r'/steering_can/rx: 300 can_msgs/msg/Frame message\(s\) not read \(its messages are in json encoding, '
+             r'this tool reads CDR\)'),
+    ('other definition', r"/steering_can/rx: 300 can_msgs/msg/Frame message\(s\) not read \(its definition "
+                         r"\(uint32 id, uint8\[\] data\) is not ROS 2's can_msgs/msg/Frame\)"),
+    ('no frame channel', r'no CAN frames: no can_msgs/msg/Frame channel in CDR; its channels: /steering_can/rx '
+                         r'\(my_msgs/msg/CanFrame, cdr\), /rosout \(rcl_interfaces/msg/Log, cdr\)'),
+])
+def test_frames_that_cannot_be_read_are_named(tmp_path, simulated, case, want):
+    """An MCAP whose CAN frames are not ROS 2 can_msgs/msg/Frame in CDR is one error naming
+    the channel and what it holds instead, not a silent empty log."""
+    from steer_monitor.can.mcapio import FRAME_MSGDEF
+    name, encoding, definition = {'json': ('can_msgs/msg/Frame', 'jsonschema', '{}'),
+                                  'other definition': ('can_msgs/msg/Frame', 'ros2msg', 'uint32 id\nuint8[] data\n'),
+                                  'no frame channel': ('my_msgs/msg/CanFrame', 'ros2msg', FRAME_MSGDEF)}[case]
+    path = _mcap_with(tmp_path / 'x.mcap', name, encoding, definition, 'json' if case == 'json' else 'cdr',
+                      simulated.frames()[:300])
+    got = []
+    with pytest.raises(LogError, match=want):
+        for block in iter_mcap_blocks(path):
+            got.append(block)
+    assert sum(len(b) for b in got) == 0
+
+
 def test_candump_writer_is_the_log_writer(tmp_path, simulated):
     ref = tmp_path / 'ref.log'
     with LogWriter(ref) as w:
