@@ -176,12 +176,27 @@ def iter_log_as(path: Path, fmt: str, rejects: RejectCounter | None = None, date
     yield from _iter_python_can(path, '.' + fmt, rejects)
 
 
+#: a line shaped like an ASC frame line (time, channel, something, Rx/Tx): one that python-can's
+#: reader then does not take as a frame was damaged, not an event it does not know
+_ASC_FRAME_SHAPE = re.compile(r'\s*\d+\.\d+\s+\d+\s+\S+\s+(?:Rx|Tx)\b')
+
+
+def _asc_frame_pattern() -> Any:
+    """python-can's pattern for an ASC line it reads as a frame."""
+    from can.io.asc import ASC_MESSAGE_REGEX
+    return ASC_MESSAGE_REGEX
+
+
 class _Lines:
     """A text file's lines, counted, for naming a line the ASC reader could not parse; and
-    whether a trigger block is open (begun, not ended), to tell a file that was cut short."""
+    whether a trigger block is open (begun, not ended), to tell a file that was cut short.
+    A line shaped like a frame that python-can's pattern for frames does not match is
+    counted as ``malformed_record`` here (the reader skips it as it skips unknown events)."""
 
-    def __init__(self, fh: Any) -> None:
+    def __init__(self, fh: Any, path: Path, rejects: RejectCounter | None) -> None:
         self.fh = fh
+        self.path = path
+        self.rejects = rejects
         self.lineno = 0
         self.line = ''
         self.block_open = False
@@ -198,6 +213,8 @@ class _Lines:
             self.block_open = True
         elif head.startswith('end triggerblock'):
             self.block_open = False
+        elif self.rejects is not None and _ASC_FRAME_SHAPE.match(line) and not _asc_frame_pattern().match(line.strip()):
+            self.rejects.add('malformed_record', f'{self.path.name} line {self.lineno}: {line.strip()[:60]!r}')
         return line
 
     def close(self) -> None:
@@ -212,7 +229,7 @@ def _asc_reader(path: Path, rejects: RejectCounter | None) -> tuple[Any, _Lines]
     import can
 
     try:
-        lines = _Lines(open(path, encoding='latin-1', newline=None))
+        lines = _Lines(open(path, encoding='latin-1', newline=None), path, rejects)
     except OSError as exc:
         msg = f'cannot read {path}: {exc.strerror or exc}'
         raise LogError(msg) from exc

@@ -184,18 +184,18 @@ def _frame_lines(text: str) -> list[int]:
     return [i for i, line in enumerate(text.splitlines(keepends=True)) if ' Rx ' in line]
 
 
-@pytest.mark.parametrize('damage', ['letter in the id', 'byte not UTF-8', 'payload byte cut'])
+@pytest.mark.parametrize('damage', ['letter in the id', 'byte not UTF-8', 'payload byte cut', 'sign in the id'])
 def test_asc_line_that_cannot_be_parsed_is_counted_and_the_rest_read(tmp_path, simulated, damage):
     """python-can's ASC reader ends the log at the first frame line it cannot parse; here that
-    line is counted and the frames after it are read. (A line no longer shaped like a frame,
-    say with a non-letter in its id, is skipped as the reader skips events it does not know.)"""
+    line is counted and the frames after it are read; so is a line still shaped like a frame
+    that the reader would skip as an event it does not know (a sign in the id)."""
     path = _write_asc(tmp_path / 'x.asc', simulated.frames)
     lines = path.read_bytes().splitlines(keepends=True)
     k = _frame_lines(path.read_text())[len(simulated.frames) // 2]
     tokens = lines[k].split()       # time, channel, id, Rx, d, dlc, payload bytes
-    token = tokens[2] if damage == 'letter in the id' else tokens[-2]
+    token = tokens[2] if damage in ('letter in the id', 'sign in the id') else tokens[-2]
     bad = {'letter in the id': b'1Z' + token[2:], 'byte not UTF-8': b'\xe9' + token[1:],
-           'payload byte cut': b'G'}[damage]
+           'payload byte cut': b'G', 'sign in the id': token[:1] + b'\xbb' + token[2:]}[damage]
     lines[k] = lines[k].replace(b' ' + token + b' ', b' ' + bad + b' ', 1)
     assert bad in lines[k]
     path.write_bytes(b''.join(lines))
