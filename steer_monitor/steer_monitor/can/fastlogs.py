@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 from steer_monitor.can import digits
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, FrameArrays
 from steer_monitor.can.logs import (CAN_ERR_FLAG, LogError, _candump_line, candump_line, iter_log_as, log_format,
-                                   open_log)
+                                   open_log, skipped_parts)
 from steer_monitor.can.mcapio import FRAME_DATATYPE
 from steer_monitor.can.rejects import RejectCounter
 
@@ -651,8 +651,7 @@ def iter_mcap_blocks(path: str | Path, rejects: RejectCounter | None = None) -> 
         yield FrameArrays.concat(pending)
     problems = state.problems()
     if corrupt:
-        problems.insert(0, f'{len(corrupt)} corrupt chunk(s) skipped ({corrupt[0]}'
-                        + (', ...' if len(corrupt) > 1 else '') + '); the frames before and after them were read')
+        problems.insert(0, skipped_parts(corrupt, 'corrupt chunk(s)'))
     if problems:
         raise LogError(f'{path}: ' + '; '.join(problems))
 

@@ -35,7 +35,7 @@ from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
 
 __all__ = ['FORMATS', 'READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'candump_line', 'iter_log',
-           'iter_log_as', 'log_format', 'open_log', 'read_log_arrays']
+           'iter_log_as', 'log_format', 'open_log', 'read_log_arrays', 'skipped_parts']
 
 READ_SUFFIXES = ('.log', '.asc', '.blf', '.mcap')
 #: formats read, by the name :func:`log_format` gives them
@@ -378,9 +378,14 @@ def _iter_python_can(path: Path, suffix: str, rejects: RejectCounter | None = No
                    + (f'; {len(damaged)} damaged container(s) skipped before that' if damaged else ''))
             raise LogError(msg)
     if damaged:
-        msg = (f'{path}: {len(damaged)} damaged container(s) skipped ({damaged[0]}'
-               + (', ...' if len(damaged) > 1 else '') + '); the frames before and after them were read')
-        raise LogError(msg)
+        raise LogError(f'{path}: ' + skipped_parts(damaged, 'damaged container(s)'))
+
+
+def skipped_parts(where: list[str], what: str) -> str:
+    """The sentence for parts of a log skipped as damaged (MCAP chunks, BLF containers):
+    how many, the first one (``where``: one text per part), and that the rest was read."""
+    return (f'{len(where)} {what} skipped ({where[0]}' + (', ...' if len(where) > 1 else '')
+            + '); the frames before and after them were read')
 
 
 def read_log_arrays(path: str | Path, rejects: RejectCounter | None = None,
