@@ -181,12 +181,6 @@ def iter_log_as(path: Path, fmt: str, rejects: RejectCounter | None = None, date
 _ASC_FRAME_SHAPE = re.compile(r'\s*\d+\.\d+\s+\d+\s+\S+\s+(?:Rx|Tx)\b')
 
 
-def _asc_frame_pattern() -> Any:
-    """python-can's pattern for an ASC line it reads as a frame."""
-    from can.io.asc import ASC_MESSAGE_REGEX
-    return ASC_MESSAGE_REGEX
-
-
 class _Lines:
     """A text file's lines, counted, for naming a line the ASC reader could not parse; and
     whether a trigger block is open (begun, not ended), to tell a file that was cut short.
@@ -194,6 +188,9 @@ class _Lines:
     counted as ``malformed_record`` here (the reader skips it as it skips unknown events)."""
 
     def __init__(self, fh: Any, path: Path, rejects: RejectCounter | None) -> None:
+        from can.io.asc import ASC_MESSAGE_REGEX   # python-can's pattern for a line it reads as a frame
+
+        self.frame_pattern = ASC_MESSAGE_REGEX
         self.fh = fh
         self.path = path
         self.rejects = rejects
@@ -213,7 +210,7 @@ class _Lines:
             self.block_open = True
         elif head.startswith('end triggerblock'):
             self.block_open = False
-        elif self.rejects is not None and _ASC_FRAME_SHAPE.match(line) and not _asc_frame_pattern().match(line.strip()):
+        elif self.rejects is not None and _ASC_FRAME_SHAPE.match(line) and not self.frame_pattern.match(line.strip()):
             self.rejects.add('malformed_record', f'{self.path.name} line {self.lineno}: {line.strip()[:60]!r}')
         return line
 
