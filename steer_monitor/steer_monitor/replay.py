@@ -32,13 +32,14 @@ from steer_monitor.can.setup import load_setup
 from steer_monitor.errors import SteerMonitorError
 from steer_monitor.estimate.online import OnlineEstimate
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig
-from steer_monitor.monitor.live import LiveMonitor
+from steer_monitor.monitor.live import LiveMonitor, LiveState
 from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages, topic_name
 from steer_monitor.monitor.pipeline import Output, Pipeline, StateOut, SyncEstimatorJobs, estimator_from_params
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
 from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.record.msgdefs import msgdef
 from steer_monitor.record.provenance import run_metadata
+from steer_monitor.record.staterecords import pack_states
 
 __all__ = ['ReplayError', 'ReplaySummary', 'replay', 'summary_json']
 
@@ -69,10 +70,13 @@ class ReplaySummary:
 def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | None = None, *,
            frames: bool = True, estimator: bool = True, node_name: str = 'steer_monitor',
            progress: Callable[[int, int | None], None] | None = None,
-           date: datetime.date | None = None) -> ReplaySummary:
+           date: datetime.date | None = None, reference: bool = False) -> ReplaySummary:
     """Replay ``logs`` into ``output`` (an MCAP). ``frames``: record the raw frames too, as
     the node does. ``progress`` is called with the number of frames done since its last call
-    and the data time reached [ns] (None before the stream's time is confirmed)."""
+    and the data time reached [ns] (None before the stream's time is confirmed).
+    ``reference``: the plain per-frame path (every message built and written one at a time, as
+    the node publishes them), kept to check the fast one against: the same file, byte for
+    byte."""
     if not logs:
         msg = 'no log given'
         raise ReplayError(msg)
@@ -104,7 +108,7 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
         with writer:
             for name, data in run_metadata(params, config_path, 'steer-monitor replay').items():
                 writer.add_metadata(name, data)
-            _run(paths, pipeline, writer, topics, encoders, frames, rejects, summary, progress, date)
+            _run(paths, pipeline, writer, topics, encoders, frames, rejects, summary, progress, date, reference)
         if summary.frames == 0:     # nothing to write: no output rather than an empty one
             msg = summary.errors[0] if summary.errors else 'no frame in ' + ', '.join(str(p) for p in paths)
             raise ReplayError(msg)
@@ -116,9 +120,11 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
 
 def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict[str, str],
          encoders: dict[str, Any], frames: bool, rejects: RejectCounter, summary: ReplaySummary,
-         progress: Callable[[int, int | None], None] | None, date: datetime.date | None) -> None:
+         progress: Callable[[int, int | None], None] | None, date: datetime.date | None,
+         reference: bool) -> None:
     """Feed every frame of ``paths`` through ``pipeline``, writing what it emits (and the
-    frames) to ``writer``."""
+    frames) to ``writer``: states packed in batches, or (``reference``) each message as it
+    comes; the same bytes either way."""
     for key, (_, datatype) in TOPICS.items():
         writer.add_schema(datatype, msgdef(datatype))
         writer.add_channel(topics[key], datatype)
@@ -126,12 +132,25 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
         writer.add_schema(FRAME_DATATYPE, FRAME_MSGDEF)
         writer.add_channel(FRAME_TOPIC, FRAME_DATATYPE)
 
+    states: list[LiveState] = []       # states not yet written, packed together (not reference)
+    rudder, share = writer.channel_id(topics['rudder']), writer.channel_id(topics['load_sharing'])
+
+    def flush_states() -> None:
+        if states:
+            p = pack_states(states, rudder, share)
+            writer.write_records(p.data, p.channels, p.log_times, p.offsets)
+            states.clear()
+
     def emit(outs: list[Output]) -> None:
         for o in outs:
             if isinstance(o, StateOut):
-                msgs = state_messages(o)
                 summary.states += 1
+                if not reference:
+                    states.append(o.state)
+                    continue
+                msgs = state_messages(o)
             else:
+                flush_states()
                 msgs = diag_messages(o)
                 summary.diagnostics += 1
             for key, t_ns, fields in msgs:
@@ -162,6 +181,7 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
                     if outs:
                         emit(outs)
                     if len(batch) >= FRAME_BATCH:
+                        flush_states()
                         writer.write_frames(batch)
                         batch = []
                     n_log += 1
@@ -172,9 +192,11 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
         if progress is not None:
             progress(n_log % FRAME_BATCH, summary.last_ns)
         summary.frames += n_log
+    flush_states()
     if batch:
         writer.write_frames(batch)
     emit(pipeline.finish())
+    flush_states()
     pipeline.close()
 
 

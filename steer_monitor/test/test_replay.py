@@ -71,6 +71,40 @@ def test_two_replays_are_identical_and_read_by_rosbags_and_mcap(tmp_path, logs):
     assert n == sum(len(v) for v in msgs.values())
 
 
+def _hostile(frames: list) -> list:
+    """The frames with what a real bus brings: a 25 s gap, an error frame, an unknown PGN, a
+    wrong length, duplicates, one frame stamped a day late, a late frame from the past."""
+    from steer_monitor.can.frames import Frame
+    t0, t1 = frames[0].t_ns, frames[-1].t_ns
+    mid = (t0 + t1) // 2
+    out = [f for f in frames if not mid <= f.t_ns < mid + 25_000_000_000]
+    k = len(out) // 3
+    g = out[k]
+    out[k:k] = [Frame(g.t_ns, 0, b'', True, True), Frame(g.t_ns, 0x09FFFF10, bytes(8)),
+                Frame(g.t_ns, g.can_id, g.data[:3]), g, g, Frame(g.t_ns + 86_400_000_000_000, g.can_id, g.data),
+                Frame(g.t_ns - 5_000_000_000, g.can_id, g.data)]
+    return out
+
+
+@pytest.mark.parametrize('case', ['all', 'no frames', 'split', 'hostile'])
+def test_the_fast_replay_writes_the_reference_bytes(tmp_path, logs, case):
+    """States are packed in batches; the file is the per-frame reference's (every message
+    built and written one at a time), byte for byte, chunk boundaries included."""
+    paths = {'split': [logs['b.mcap'], logs['a.log']]}.get(case, [logs['all.log']])
+    if case == 'hostile':
+        from steer_monitor.can.logs import iter_log
+        paths = [tmp_path / 'hostile.log']
+        with LogWriter(paths[0]) as w:
+            for f in _hostile(list(iter_log(logs['all.log']))):
+                w.write(f)
+    fast = replay(paths, tmp_path / 'fast.mcap', frames=case != 'no frames')
+    ref = replay(paths, tmp_path / 'ref.mcap', frames=case != 'no frames', reference=True)
+    assert fast.states == ref.states > 1000 and fast.rejects == ref.rejects
+    assert (tmp_path / 'fast.mcap').read_bytes() == (tmp_path / 'ref.mcap').read_bytes()
+    if case == 'hostile':
+        assert {'error_frame', 'unknown_id', 'wrong_length', 'duplicate', 'time_jump', 'time_backwards'} <= set(ref.rejects)
+
+
 def test_split_logs_in_any_order_give_the_whole_log(tmp_path, logs):
     whole = replay([logs['all.log']], tmp_path / 'whole.mcap', frames=False)
     split = replay([logs['b.mcap'], logs['a.log']], tmp_path / 'split.mcap', frames=False)

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from steer_monitor.can.frames import Frame
 
@@ -183,45 +184,84 @@ class McapWriter:
 
     def write_frames(self, frames: Sequence[Frame], topic: str = FRAME_TOPIC) -> None:
         """Write many frames: the same file as :meth:`write_frame` one by one, byte for byte
-        (``test_mcapio`` checks), at a tenth of the cost.
-
-        mcap's writer is pure Python and spends 30-45 us per message building each record
-        field by field; at the full bus rate that alone was a fifth of a core in the node.
-        Here the records of a batch are packed by numpy (:func:`frame_records`) and appended to
-        the writer's open chunk with its message index and statistics updated as
-        ``Writer.add_message`` would (mcap 1.x internals; a writer without them falls back to
-        one message at a time)."""
+        (``test_mcapio`` checks), at a tenth of the cost. The records are packed by numpy
+        (:func:`frame_records`) and appended by :meth:`write_records`."""
         if not frames:
             return
         if topic not in self._channels:
             self.add_schema(FRAME_DATATYPE, FRAME_MSGDEF)
             self.add_channel(topic, FRAME_DATATYPE)
         cid = self._channels[topic][0]
+        data, times, size = frame_records(frames, cid)
+        n = len(times)
+        self.write_records(data, np.full(n, cid, np.uint16), np.array(times, np.int64),
+                           np.arange(n + 1, dtype=np.int64) * size)
+
+    def channel_id(self, topic: str) -> int:
+        """The MCAP channel id of a registered topic (for :meth:`write_records`)."""
+        return self._channels[topic][0]
+
+    def write_records(self, data: bytes, channels: NDArray[np.uint16], log_times: NDArray[np.int64],
+                      offsets: NDArray[np.int64]) -> None:
+        """Append already-packed MCAP Message records: record ``i`` is
+        ``data[offsets[i]:offsets[i + 1]]`` on channel ``channels[i]`` at ``log_times[i]`` [ns]
+        (shapes (n,), (n,), (n + 1,)). The same file as :meth:`write_cdr` of each message in
+        turn, byte for byte, chunk boundaries included (``test_mcapio`` checks).
+
+        mcap's writer is pure Python and spends 30-45 us per message building each record
+        field by field; at the full bus rate that alone was a fifth of a core in the node, and
+        most of a replay's writing. Here the records go to the writer's open chunk with its
+        message indexes and statistics updated as ``Writer.add_message`` would, and the chunk is
+        closed after the first record that takes it past the chunk size, as ``add_message``
+        closes it (mcap 1.x internals; a writer without them gets one message at a time)."""
+        n = int(log_times.shape[0])
+        if n == 0:
+            return
         w = self._writer
         chunk = getattr(w, '_Writer__chunk_builder', None)
         stats = getattr(w, '_Writer__statistics', None)
         finalize = getattr(w, '_Writer__maybe_finalize_chunk', None)
-        if chunk is None or stats is None or finalize is None or not hasattr(chunk, 'record_writer'):
-            for f in frames:
-                self.write_frame(f, topic)
+        if chunk is None or stats is None or finalize is None or not hasattr(chunk, 'record_writer') \
+                or not hasattr(w, '_Writer__chunk_size'):
+            for i in range(n):      # a record is opcode (1), length (8), channel (2), sequence (4),
+                a, b = int(offsets[i]) + 31, int(offsets[i + 1])     # log and publish time (8, 8)
+                w.add_message(int(channels[i]), log_time=int(log_times[i]), data=data[a:b],
+                              publish_time=int(log_times[i]))
             return
-        data, times, size = frame_records(frames, cid)
-        t_min, t_max = min(times), max(times)
-        stats.message_start_time = t_min if stats.message_count == 0 else min(t_min, stats.message_start_time)
-        stats.message_end_time = max(t_max, stats.message_end_time)
-        stats.channel_message_counts[cid] += len(times)
-        stats.message_count += len(times)
-        chunk.message_start_time = t_min if chunk.num_messages == 0 else min(chunk.message_start_time, t_min)
-        chunk.message_end_time = max(chunk.message_end_time, t_max)
-        index = chunk.message_indices.get(cid)
-        if not index:
-            from mcap.records import MessageIndex
-            index = chunk.message_indices[cid] = MessageIndex(channel_id=cid, records=[])
-        start = chunk.record_writer.count
-        index.records.extend(zip(times, range(start, start + size * len(times), size)))
-        chunk.num_messages += len(times)
-        chunk.record_writer.write(data)
-        finalize()
+        from mcap.records import MessageIndex
+
+        limit = w._Writer__chunk_size  # type: ignore[attr-defined]
+        view = memoryview(data)
+        i = 0
+        while i < n:
+            start = chunk.record_writer.count
+            # the first record after which the chunk holds more than its size closes it
+            over = np.flatnonzero(start + offsets[i + 1:] - offsets[i] > limit)
+            j = n if over.size == 0 else i + int(over[0]) + 1
+            t = log_times[i:j]
+            t_min, t_max = int(t.min()), int(t.max())
+            stats.message_start_time = t_min if stats.message_count == 0 else min(t_min, stats.message_start_time)
+            stats.message_end_time = max(t_max, stats.message_end_time)
+            stats.message_count += j - i
+            chunk.message_start_time = t_min if chunk.num_messages == 0 else min(chunk.message_start_time, t_min)
+            chunk.message_end_time = max(chunk.message_end_time, t_max)
+            chunk.num_messages += j - i
+            where = (start + offsets[i:j] - offsets[i]).tolist()
+            ch = channels[i:j]
+            ids, first = np.unique(ch, return_index=True)
+            for cid in ids[np.argsort(first)].tolist():      # indexes in order of first appearance
+                sel = ch == cid
+                stats.channel_message_counts[cid] += int(np.count_nonzero(sel))
+                index = chunk.message_indices.get(cid)
+                if not index:
+                    index = chunk.message_indices[cid] = MessageIndex(channel_id=cid, records=[])
+                if sel.all():
+                    index.records.extend(zip(t.tolist(), where))
+                else:
+                    index.records.extend(zip(t[sel].tolist(), np.asarray(where)[sel].tolist()))
+            chunk.record_writer.write(view[int(offsets[i]):int(offsets[j])])
+            finalize()
+            i = j
 
     def flush(self) -> None:
         """Close the chunk in progress and write everything out (not fsync)."""

@@ -217,6 +217,9 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
         for topic in ('/steer_monitor/clearances', '/steer_monitor/clearance_source'):
             assert _same(live[topic][t], again[topic][t]), (topic, t)
     assert any(m.data == 'estimated' for m in again['/steer_monitor/clearance_source'].values())
+    # and the replay's batch writing gives the per-frame reference's file on the node's recording
+    replay([path], tmp_path / 'replay' / 'reference.mcap', reference=True)
+    assert (tmp_path / 'replay' / 'reference.mcap').read_bytes() == (tmp_path / 'replay' / 'replay.mcap').read_bytes()
 
 
 def _by_topic(path: Path) -> dict[str, dict[int, object]]:

@@ -1,0 +1,151 @@
+"""The live model's states as packed MCAP Message records, many at once.
+
+A replay writes a hundred states per second of data, each a ``sensor_msgs/JointState`` (the
+rudder) and, once the pressures are known, a ``steer_monitor_msgs/LoadSharing``. Built one by
+one (:func:`~steer_monitor.monitor.messages.state_messages`, the CDR encoders of
+:mod:`~steer_monitor.record.cdr`, ``McapWriter.write_cdr``) they cost about 15 us each, a
+sixth of a replay. Both messages have a fixed size, so here the records of a batch of states
+are filled in by numpy into templates, and the writer appends them at once
+(:meth:`~steer_monitor.can.mcapio.McapWriter.write_records`).
+
+The templates and the places of the fields in them are taken from the one-by-one path
+itself (its bytes for a state of sentinel values), so the two cannot drift apart silently;
+``test_staterecords`` checks the bytes are the same, record for record.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import cache
+
+import numpy as np
+from numpy.typing import NDArray
+
+from steer_monitor.model.gear import Gaps
+from steer_monitor.model.loadshare import ShareScalar
+from steer_monitor.monitor.live import LiveState
+from steer_monitor.monitor.messages import state_messages
+from steer_monitor.monitor.pipeline import StateOut
+from steer_monitor.record.cdr import FAST_ENCODERS
+
+__all__ = ['PackedStates', 'pack_states']
+
+_RECORD_HEADER = struct.Struct('<BQHIQQ')     # opcode, length, channel, sequence, log, publish time
+_MESSAGE = 0x05
+_SEC_MAX = (1 << 31) - 1
+
+# sentinel values: a state whose every field has a bit pattern found once in its messages
+_T_NS = 1_234_567_890 * 1_000_000_000 + 987_654_321
+_ALPHA, _RATE, _TORQUE = 0.123456789012345, -0.0234567890123456, 345678.901234567
+_SHARE = ShareScalar(lateral=11111.1234567891, axial=22222.1234567891, ram_force=33333.1234567891,
+                     guide_force=44444.1234567891, k_gl=0.555551234567891, deflection=6.66661234567891e-4,
+                     r_a=77777.1234567891, r_e=88888.1234567891, m_a=99999.1234567891, f_theta=1.0, f_z=1.0,
+                     case=-3, stages=5)
+_SHARE_FLOATS = ('lateral', 'ram_force', 'guide_force', 'k_gl', 'deflection', 'r_a', 'r_e', 'm_a')
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """One message type's record: the template (record header included) and where its fields
+    are [byte offsets into the record]."""
+
+    template: bytes
+    sec: int
+    floats: tuple[int, ...]
+    after_floats: int       # the byte after the last float (load case, stages follow there)
+
+
+def _find(raw: bytes, packed: bytes) -> int:
+    at = raw.find(packed)
+    if at < 0 or raw.find(packed, at + 1) >= 0:
+        msg = 'a sentinel is not found exactly once in a state message'
+        raise AssertionError(msg)
+    return at
+
+
+@cache
+def _layouts() -> tuple[_Layout, _Layout]:
+    """The JointState and LoadSharing records of the sentinel state, and their fields' places."""
+    state = LiveState(_T_NS, _ALPHA, _RATE, True, _TORQUE, _SHARE, Gaps(0.0, 0.0))
+    (_, _, rudder), (_, _, share) = state_messages(StateOut(state))
+    out = []
+    for datatype, fields, floats in (('sensor_msgs/msg/JointState', rudder, (_ALPHA, _RATE, _TORQUE)),
+                                     ('steer_monitor_msgs/msg/LoadSharing', share,
+                                      tuple(getattr(_SHARE, k) for k in _SHARE_FLOATS))):
+        cdr = FAST_ENCODERS[datatype](fields)
+        rec = _RECORD_HEADER.pack(_MESSAGE, _RECORD_HEADER.size - 9 + len(cdr), 0, 0, 0, 0) + cdr
+        sec, nsec = divmod(_T_NS, 1_000_000_000)
+        places = tuple(_find(rec, struct.pack('<d', v)) for v in floats)
+        out.append(_Layout(rec, _find(rec, struct.pack('<iI', sec, nsec)), places, places[-1] + 8))
+    return out[0], out[1]
+
+
+@dataclass(frozen=True)
+class PackedStates:
+    """Records ready for ``McapWriter.write_records``: ``data`` holds record ``i`` at
+    ``offsets[i]:offsets[i + 1]``, on ``channels[i]``, logged at ``log_times[i]`` [ns]."""
+
+    data: bytes
+    channels: NDArray[np.uint16]
+    log_times: NDArray[np.int64]
+    offsets: NDArray[np.int64]
+
+
+def _fill(layout: _Layout, channel: int, t: NDArray[np.int64], floats: NDArray[np.float64]) -> NDArray[np.uint8]:
+    """(n, record size) bytes of ``n`` records from the template: channel, times, stamp, the
+    floats ((n, k), in the layout's order)."""
+    n, size = t.shape[0], len(layout.template)
+    rec = np.tile(np.frombuffer(layout.template, np.uint8), (n, 1))
+    head = rec[:, :_RECORD_HEADER.size]
+    head[:, 9:11] = np.frombuffer(np.uint16(channel).tobytes(), np.uint8)
+    times = t.astype('<u8').view(np.uint8).reshape(n, 8)
+    head[:, 15:23] = times
+    head[:, 23:31] = times
+    sec, nsec = np.divmod(t, 1_000_000_000)
+    unset = (sec > _SEC_MAX) | (sec < -_SEC_MAX - 1)     # see mcapio.ros_time
+    stamp = np.empty(n, [('sec', '<i4'), ('nsec', '<u4')])
+    stamp['sec'], stamp['nsec'] = np.where(unset, 0, sec), np.where(unset, 0, nsec)
+    rec[:, layout.sec:layout.sec + 8] = stamp.view(np.uint8).reshape(n, 8)
+    f = np.ascontiguousarray(floats, '<f8').view(np.uint8).reshape(n, len(layout.floats), 8)
+    for k, at in enumerate(layout.floats):
+        rec[:, at:at + 8] = f[:, k]
+    assert rec.shape == (n, size)
+    return rec
+
+
+def pack_states(states: Sequence[LiveState], rudder_channel: int, share_channel: int) -> PackedStates:
+    """The records of ``states`` in order: each state's rudder JointState, then its LoadSharing
+    when it has one; the same bytes as ``state_messages`` encoded one by one."""
+    joint, share = _layouts()
+    n = len(states)
+    t = np.fromiter((s.t_ns for s in states), np.int64, n)
+    alpha = np.fromiter((s.alpha for s in states), float, n)
+    rate = np.fromiter((s.rate for s in states), float, n)
+    torque = np.fromiter((s.torque_measured or 0.0 for s in states), float, n)
+    rudder = _fill(joint, rudder_channel, t, np.stack([alpha, rate, np.copysign(torque, alpha)], axis=1))
+    has = np.fromiter((s.share is not None for s in states), bool, n)
+    shares = [s.share for s in states if s.share is not None]
+    m = len(shares)
+    sh = _fill(share, share_channel, t[has],
+               np.array([[getattr(x, k) for k in _SHARE_FLOATS] for x in shares], float).reshape(m, len(_SHARE_FLOATS)))
+    if m:
+        sh[:, share.after_floats] = np.array([x.case for x in shares], np.int64).astype(np.int8).view(np.uint8)
+        sh[:, share.after_floats + 1] = np.array([x.stages for x in shares], np.uint8)
+    a, b = rudder.shape[1], sh.shape[1]
+    sizes = np.where(has, a + b, a)
+    offsets = np.zeros(n + m + 1, np.int64)
+    starts = np.cumsum(sizes) - sizes           # each state's first byte
+    out = np.empty(int(sizes.sum()), np.uint8)
+    out[(starts[:, None] + np.arange(a)).ravel()] = rudder.ravel()
+    out[((starts[has] + a)[:, None] + np.arange(b)).ravel()] = sh.ravel()
+    # record order: per state, its rudder then its load sharing
+    order_t = np.repeat(t, np.where(has, 2, 1))
+    kind = np.zeros(n + m, bool)                   # True: a load-sharing record
+    pos = np.cumsum(np.where(has, 2, 1)) - 1       # the last record of each state
+    kind[pos[has]] = True
+    rec_size = np.where(kind, b, a)
+    offsets[1:] = np.cumsum(rec_size)
+    channels = np.where(kind, share_channel, rudder_channel).astype(np.uint16)
+    return PackedStates(out.tobytes(), channels, order_t, offsets)
