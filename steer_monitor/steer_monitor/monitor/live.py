@@ -87,6 +87,7 @@ class _Signal:
     last_t_ns: int | None = None
     last_value: float = math.nan
     arrivals: deque = field(default_factory=deque)
+    ordered: bool = True        # arrivals in time order (a clock step back can break it)
 
 
 class LiveMonitor:
@@ -210,6 +211,8 @@ class LiveMonitor:
         newest sample; the residual and the performance trackers see every sample."""
         sig = self.signals[sample.signal]
         sig.last_t_ns, sig.last_value = sample.t_ns, sample.value
+        if sig.arrivals and sample.t_ns < sig.arrivals[-1]:
+            sig.ordered = False
         sig.arrivals.append(sample.t_ns)
         while sig.arrivals and sig.arrivals[0] < sample.t_ns - ARRIVALS_KEPT_NS:
             sig.arrivals.popleft()
@@ -250,10 +253,17 @@ class LiveMonitor:
         if window_ns > ARRIVALS_KEPT_NS:
             msg = f'rate window {window_ns / 1e9:g} s is longer than the {ARRIVALS_KEPT_NS / 1e9:g} s of arrivals kept'
             raise ValueError(msg)
-        recent = [t for t in self.signals[name].arrivals if t >= now_ns - window_ns]
-        if len(recent) < 2 or recent[-1] == recent[0]:
+        sig = self.signals[name]
+        if sig.ordered:
+            arrivals = sig.arrivals
+            i = bisect.bisect_left(arrivals, now_ns - window_ns)
+            n, first, last = len(arrivals) - i, arrivals[i] if i < len(arrivals) else 0, arrivals[-1] if arrivals else 0
+        else:
+            recent = [t for t in sig.arrivals if t >= now_ns - window_ns]
+            n, first, last = len(recent), recent[0] if recent else 0, recent[-1] if recent else 0
+        if n < 2 or last == first:
             return 0.0
-        return (len(recent) - 1) / ((recent[-1] - recent[0]) / 1e9)
+        return (n - 1) / ((last - first) / 1e9)
 
     def silent_for(self, name: str, now_ns: int) -> float | None:
         """Seconds since the input was last heard (None: never)."""

@@ -1,6 +1,7 @@
 """Direct CDR encoders for the messages published a hundred times a second
 (``sensor_msgs/msg/JointState``: the rudder; ``steer_monitor_msgs/msg/LoadSharing``) and with
-each second's diagnostics (``steer_monitor_msgs/msg/Clearances``).
+each second's diagnostics (``diagnostic_msgs/msg/DiagnosticArray``,
+``steer_monitor_msgs/msg/Clearances``, ``std_msgs/msg/String``).
 
 Why our own: mcap-ros2-support's generic encoder walks the schema per message and costs
 about 150 us each, which made it most of a replay's time; this costs a few us. It takes the
@@ -16,7 +17,8 @@ import struct
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ['FAST_ENCODERS', 'encode_clearances', 'encode_joint_state', 'encode_load_sharing']
+__all__ = ['FAST_ENCODERS', 'encode_clearances', 'encode_diagnostic_array', 'encode_joint_state', 'encode_load_sharing',
+           'encode_string']
 
 _HEADER = b'\x00\x01\x00\x00'
 
@@ -111,7 +113,34 @@ def encode_clearances(m: dict[str, Any]) -> bytes:
     return w.done()
 
 
+def encode_diagnostic_array(m: dict[str, Any]) -> bytes:
+    """``diagnostic_msgs/msg/DiagnosticArray``: the header, then each status (byte level,
+    name, message, hardware_id, then its key/value strings)."""
+    w = _Writer()
+    w.header(m['header'])
+    w.u32(len(m['status']))
+    for st in m['status']:
+        w.u8(st['level'])
+        w.string(st['name'])
+        w.string(st['message'])
+        w.string(st['hardware_id'])
+        w.u32(len(st['values']))
+        for kv in st['values']:
+            w.string(kv['key'])
+            w.string(kv['value'])
+    return w.done()
+
+
+def encode_string(m: dict[str, Any]) -> bytes:
+    """``std_msgs/msg/String``."""
+    w = _Writer()
+    w.string(m['data'])
+    return w.done()
+
+
 FAST_ENCODERS: dict[str, Callable[[dict[str, Any]], bytes]] = {
+    'diagnostic_msgs/msg/DiagnosticArray': encode_diagnostic_array,
+    'std_msgs/msg/String': encode_string,
     'sensor_msgs/msg/JointState': encode_joint_state,
     'steer_monitor_msgs/msg/LoadSharing': encode_load_sharing,
     'steer_monitor_msgs/msg/Clearances': encode_clearances,

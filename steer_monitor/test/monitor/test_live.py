@@ -206,6 +206,24 @@ def test_a_rate_window_longer_than_the_arrivals_kept_is_refused(r18_params):
         mon.rate_hz('oil_temperature', 0, ARRIVALS_KEPT_NS + 1_000_000_000)
 
 
+@pytest.mark.parametrize('times_s', [
+    [0.0, 0.1, 0.2, 0.5, 1.0, 4.0, 6.5, 7.0],
+    [0.0, 5.0, 9.0],
+    [1.0, 2.0, 3.0, 2.5, 3.5, 4.0],          # a step back in time: read as it came, not bisected
+    [7.0],
+    [],
+])
+@pytest.mark.parametrize('now_s', [0.0, 3.0, 7.0, 9.5, 60.0])
+def test_rate_is_the_spacing_of_the_arrivals_in_the_window(r18_params, times_s, now_s):
+    from steer_monitor.can.decoder import Sample
+    mon = LiveMonitor(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25))
+    for t in times_s:
+        mon.update(Sample(int(t * 1e9), 'oil_temperature', 40.0))
+    recent = [t for t in times_s if t >= now_s - 5.0]
+    want = 0.0 if len(recent) < 2 or recent[-1] == recent[0] else (len(recent) - 1) / (recent[-1] - recent[0])
+    assert mon.rate_hz('oil_temperature', int(now_s * 1e9)) == pytest.approx(want, rel=1e-12)
+
+
 @pytest.mark.parametrize('case', ['configured', 'lower bounds only', 'fitted torque'])
 def test_a_minute_rejudged_at_once_is_each_instant_judged_alone(r18_params, case):
     """A new estimate re-judges the kept minute of motion in one vectorized pass; each

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from steer_monitor.record import msgdef
 from steer_monitor.record.cdr import FAST_ENCODERS
@@ -45,6 +47,42 @@ def test_rclpy_serializes_the_same_message():
     for fields in JOINT[:1]:
         ours, theirs = FAST_ENCODERS[dt](fields), serialize_message(to_ros(dt, fields))
         assert repr(decode(ours)) == repr(decode(theirs))
+
+
+DIAGNOSTICS = [
+    {'header': {'stamp': {'sec': 1_700_000_000, 'nanosec': 0}, 'frame_id': ''}, 'status': []},
+    {'header': {'stamp': {'sec': 1_700_000_001, 'nanosec': 5}, 'frame_id': 'x'},
+     'status': [{'level': 0, 'name': 'steer_monitor: CAN input', 'message': 'ok', 'hardware_id': 'r18',
+                 'values': [{'key': 'rate_hz', 'value': '10.0'}, {'key': '', 'value': ''}]},
+                {'level': 2, 'name': 'b', 'message': 'd\u00e9j\u00e0 vu \u00b0', 'hardware_id': '', 'values': []},
+                {'level': 3, 'name': '', 'message': 'abc', 'hardware_id': 'ab', 'values': [{'key': 'k', 'value': 'vv'}]}]},
+]
+
+
+@pytest.mark.parametrize('fields', DIAGNOSTICS)
+def test_diagnostic_array_matches_the_generic_encoder(fields):
+    dt = 'diagnostic_msgs/msg/DiagnosticArray'
+    assert FAST_ENCODERS[dt](fields) == _generic(dt)(fields)
+
+
+_TEXT = st.text(max_size=12)
+_STATUS = st.fixed_dictionaries({
+    'level': st.integers(0, 3), 'name': _TEXT, 'message': _TEXT, 'hardware_id': _TEXT,
+    'values': st.lists(st.fixed_dictionaries({'key': _TEXT, 'value': _TEXT}), max_size=4)})
+
+
+@settings(max_examples=200, deadline=None)
+@given(frame_id=_TEXT, status=st.lists(_STATUS, max_size=5))
+def test_any_diagnostic_array_matches_the_generic_encoder(frame_id, status):
+    dt = 'diagnostic_msgs/msg/DiagnosticArray'
+    fields = {'header': {'stamp': {'sec': 1_700_000_000, 'nanosec': 7}, 'frame_id': frame_id}, 'status': status}
+    assert FAST_ENCODERS[dt](fields) == _generic(dt)(fields)
+
+
+@pytest.mark.parametrize('text', ['', 'estimated', 'configured', '\u00e9'])
+def test_string_matches_the_generic_encoder(text):
+    dt = 'std_msgs/msg/String'
+    assert FAST_ENCODERS[dt]({'data': text}) == _generic(dt)({'data': text})
 
 
 def _typed_fields(key: str) -> tuple[str, dict]:
