@@ -5,15 +5,20 @@ Each part of :func:`steer_monitor.replay.replay` is timed by wrapping its entry 
 a clock (the wrappers' own cost, about a microsecond a call, is counted in the parts and
 shown apart as the difference between the timed and an untimed run):
 
-* decode: ``Decoder.decode``, one call per frame;
+* decode: ``Decoder.decode_run`` over runs of up to 4,096 frames (``Decoder.decode`` for the
+  frames it leaves to one at a time);
 * live model: ``LiveMonitor.update`` per sample and ``LiveMonitor.state`` per 10 ms slot
   (rate, residual, load sharing);
 * diagnostics: ``DiagnosticsBuilder.build``, once per second of data;
 * online estimator: the jobs (``SyncEstimatorJobs.submit``: folding each second, the local
   step after each second of motion, the full profiles);
-* messages: turning states and diagnostics into message fields and CDR, and writing them
-  (with the frames) to the MCAP;
-* the rest: reading the log into frames and the pipeline's schedule, by difference.
+* messages: packing states into MCAP records in batches, diagnostics into message fields and
+  CDR, and writing them (with the frames) to the MCAP;
+* the rest: reading the log into blocks and the pipeline's schedule, by difference.
+
+The per-frame reference (``replay(..., reference=True)``: one call per frame, every message
+built and written one at a time) is timed in the same run, and its file checked to be the
+same bytes.
 
 Run: ``python -m bench.bench_replay_parts`` (part of ``make bench``).
 """
@@ -69,13 +74,15 @@ def _instrument(spent: dict[str, float]) -> None:
     from steer_monitor.monitor.pipeline import SyncEstimatorJobs
 
     Decoder.decode = _timed(spent, 'decode', Decoder.decode)
+    Decoder.decode_run = _timed(spent, 'decode', Decoder.decode_run)
     LiveMonitor.update = _timed(spent, 'live model', LiveMonitor.update)
     LiveMonitor.state = property(_timed(spent, 'live model', LiveMonitor.state.fget))
     DiagnosticsBuilder.build = _timed(spent, 'diagnostics', DiagnosticsBuilder.build)
     SyncEstimatorJobs.submit = _timed(spent, 'online estimator', SyncEstimatorJobs.submit)
-    for name in ('write_cdr', 'write', 'write_frames'):
+    for name in ('write_cdr', 'write', 'write_frames', 'write_records'):
         setattr(McapWriter, name, _timed(spent, 'messages', getattr(McapWriter, name)))
     R.state_messages = _timed(spent, 'messages', R.state_messages)
+    R.pack_states = _timed(spent, 'messages', R.pack_states)
     R.diag_messages = _timed(spent, 'messages', R.diag_messages)
 
 
@@ -96,6 +103,10 @@ def main() -> int:
         t0 = time.perf_counter()
         s = replay([log], Path(tmp) / 'plain.mcap')
         t_plain = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        replay([log], Path(tmp) / 'reference.mcap', reference=True)
+        t_ref = time.perf_counter() - t0
+        same = (Path(tmp) / 'plain.mcap').read_bytes() == (Path(tmp) / 'reference.mcap').read_bytes()
         spent: dict[str, float] = defaultdict(float)
         _instrument(spent)
         t0 = time.perf_counter()
@@ -107,6 +118,8 @@ def main() -> int:
     print(f'python-can CanutilsLogReader: {n / t_can:12,.0f} frames/s ({t_can:.2f} s)')
     print(f'replay, untimed:              {n / t_plain:12,.0f} frames/s ({t_plain:.2f} s; '
           f'{n / t_plain / (n / t_can):.2f} x python-can)')
+    print(f'per-frame reference:          {n / t_ref:12,.0f} frames/s ({t_ref:.2f} s; replay is {t_ref / t_plain:.2f} x '
+          f'faster; {"the same bytes" if same else "FILES DIFFER"})')
     print(f'replay, timed:                {n / t_timed:12,.0f} frames/s ({t_timed:.2f} s)')
     parts = dict(spent)
     parts['reading and schedule (rest)'] = t_timed - sum(spent.values())
@@ -117,7 +130,7 @@ def main() -> int:
     print(f'without the online estimator the rest would run at {n / rest:,.0f} frames/s; the estimator alone, '
           f'at {1e3 * est / max(s.motion_s, 1.0):.1f} ms per second of motion, bounds a replay at '
           f'{n / est:,.0f} frames/s on this log')
-    return 0
+    return 0 if same else 1
 
 
 if __name__ == '__main__':

@@ -21,10 +21,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from steer_monitor.atomic import atomic_path, os_reason
 from steer_monitor.can.decoder import Decoder
 from steer_monitor.can.fastlogs import in_time_order, iter_log_blocks
-from steer_monitor.can.frames import Frame
+from steer_monitor.can.frames import Frame, FrameArrays
 from steer_monitor.can.logs import LogError
 from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, McapWriter
 from steer_monitor.can.rejects import RejectCounter
@@ -44,6 +46,7 @@ from steer_monitor.record.staterecords import pack_states
 __all__ = ['ReplayError', 'ReplaySummary', 'replay', 'summary_json']
 
 FRAME_BATCH = 4096
+MIN_RUN = 64        # frames: below this, a run the decoder cannot take at once goes one by one
 
 
 class ReplayError(SteerMonitorError):
@@ -160,41 +163,95 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
                 else:
                     writer.write(topics[key], fields, t_ns)
 
-    batch: list[Frame] = []
     early: int | None = None     # the first stamp, while the stream's first frames await confirmation
     jump = pipeline.decoder.jumps.max_jump_ns
+
+    def see(t: int | None, stamp: int) -> None:
+        """The span: the stream's time before a frame stamped ``stamp`` was taken (a glitched
+        stamp does not stretch it)."""
+        nonlocal early
+        if t is None:
+            early = stamp if early is None else early
+        else:
+            if summary.first_ns is None:     # the confirmed stream's own start
+                summary.first_ns = early if early is not None and 0 <= t - early <= jump else t
+            summary.last_ns = t
+
+    def feed(frame: Frame) -> None:
+        see(pipeline.clock(frame.t_ns), frame.t_ns)
+        outs = pipeline.feed(frame)
+        if outs:
+            emit(outs)
+
+    def feed_part(part: FrameArrays) -> None:
+        """The frames of ``part`` as runs decoded at once; where the decoder must decide
+        across frames (the stream's start, a time jump, an address claim), the largest run
+        before that is taken at once and the rest, down to ``MIN_RUN`` frames, one by one."""
+        n, pos = len(part), 0
+        while pos < n:
+            size = n - pos
+            while True:
+                piece = part.take(np.arange(pos, pos + size))
+                run = pipeline.decoder.decode_run(piece)
+                if run is not None or size <= MIN_RUN:
+                    break
+                size //= 2
+            pos += size
+            if run is None:
+                for frame in piece.frames():
+                    feed(frame)
+                continue
+            for i in (0, size - 1):
+                ti, ref = int(run.t_ns[i]), int(run.ref_before[i])
+                see(ti if abs(ti - ref) <= jump else ref, ti)
+            emit(pipeline.feed_run(run))
+
+    batch: list[Frame] = []          # reference: frames to write
+    pending: list[FrameArrays] = []  # fast: the same, as columns
+    pending_n = 0
     for path in paths:
         n_log = 0
         try:
             for block in iter_log_blocks(path, rejects, date):
-                for frame in block.frames():
-                    t = pipeline.clock(frame.t_ns)       # a glitched stamp does not stretch the span
-                    if t is None:
-                        early = frame.t_ns if early is None else early
-                    else:
-                        if summary.first_ns is None:     # the confirmed stream's own start
-                            summary.first_ns = early if early is not None and 0 <= t - early <= jump else t
-                        summary.last_ns = t
+                if reference:
+                    for frame in block.frames():
+                        if frames:
+                            batch.append(frame)
+                        feed(frame)
+                        if len(batch) >= FRAME_BATCH:
+                            writer.write_frames(batch)
+                            batch = []
+                        n_log += 1
+                        if progress is not None and n_log % FRAME_BATCH == 0:
+                            progress(FRAME_BATCH, summary.last_ns)
+                    continue
+                # fast: runs of frames decoded at once, cut where the reference writes its frames
+                pos = 0
+                while pos < len(block):
+                    k = min(len(block) - pos, FRAME_BATCH - pending_n)
+                    part = block.take(np.arange(pos, pos + k))
+                    pos += k
+                    feed_part(part)
                     if frames:
-                        batch.append(frame)
-                    outs = pipeline.feed(frame)
-                    if outs:
-                        emit(outs)
-                    if len(batch) >= FRAME_BATCH:
+                        pending.append(part)
+                        pending_n += k
+                    if pending_n >= FRAME_BATCH:
                         flush_states()
-                        writer.write_frames(batch)
-                        batch = []
-                    n_log += 1
-                    if progress is not None and n_log % FRAME_BATCH == 0:
-                        progress(FRAME_BATCH, summary.last_ns)
+                        writer.write_frames(FrameArrays.concat(pending))
+                        pending, pending_n = [], 0
+                    n_log += k
+                    if progress is not None:
+                        progress(k, summary.last_ns)
         except LogError as exc:
             summary.errors.append(str(exc))
-        if progress is not None:
+        if progress is not None and reference:
             progress(n_log % FRAME_BATCH, summary.last_ns)
         summary.frames += n_log
     flush_states()
     if batch:
         writer.write_frames(batch)
+    if pending:
+        writer.write_frames(FrameArrays.concat(pending))
     emit(pipeline.finish())
     flush_states()
     pipeline.close()

@@ -81,8 +81,9 @@ def _hostile(frames: list) -> list:
     k = len(out) // 3
     g = out[k]
     out[k:k] = [Frame(g.t_ns, 0, b'', True, True), Frame(g.t_ns, 0x09FFFF10, bytes(8)),
-                Frame(g.t_ns, g.can_id, g.data[:3]), g, g, Frame(g.t_ns + 86_400_000_000_000, g.can_id, g.data),
-                Frame(g.t_ns - 5_000_000_000, g.can_id, g.data)]
+                Frame(g.t_ns, g.can_id, g.data[:3]), g, g, Frame(g.t_ns - 5_000_000_000, g.can_id, g.data)]
+    h = out[2 * k]        # far from those: their run is decoded at once, this one's frame by frame
+    out[2 * k:2 * k] = [Frame(h.t_ns + 86_400_000_000_000, h.can_id, h.data)]
     return out
 
 

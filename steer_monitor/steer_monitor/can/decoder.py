@@ -32,7 +32,7 @@ from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.signals import SignalMap, SignalSpec
 from steer_monitor.can.timejump import HELD, REJECTED, RELEASED, JumpFilter
 
-__all__ = ['Decoder', 'Sample', 'Series', 'SignalSet', 'collect']
+__all__ = ['DecodedRun', 'Decoder', 'Sample', 'Series', 'SignalSet', 'collect']
 
 
 @dataclass(frozen=True, slots=True)
@@ -382,11 +382,18 @@ class Decoder:
 
     def _time_checks(self, fa: FrameArrays, ok: NDArray[np.bool_]) -> NDArray[np.bool_]:
         """Time-backwards and duplicate checks per identifier, continuing from earlier calls."""
-        keep = ok.copy()
+        back, dup = self._time_verdicts(fa, ok)
+        self.rejects.add('time_backwards', 'in a log block', n=int(back.sum()))
+        self.rejects.add('duplicate', 'in a log block', n=int(dup.sum()))
+        return ok & ~back & ~dup
+
+    def _time_verdicts(self, fa: FrameArrays, ok: NDArray[np.bool_]) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+        """Which of the rows ``ok`` are earlier than the last accepted frame of their
+        identifier, and which duplicate it; shapes (n,). Remembers the last accepted frames."""
+        back_all = np.zeros(len(fa), bool)
+        dup_all = np.zeros(len(fa), bool)
         rows_all = np.nonzero(ok)[0]
         ids = fa.can_id[rows_all]
-        r = self.rejects
-        n_back = n_dup = 0
         # payloads compared as one 64-bit word each
         data = np.ascontiguousarray(fa.data)
         words = data.view('<u8')[:, 0] if data.shape[1] == 8 else None
@@ -399,7 +406,6 @@ class Decoder:
             prev_max = np.maximum.accumulate(np.concatenate([[seed], t[:-1]]))
             prev_max = np.maximum(prev_max, seed)
             back = t < prev_max
-            n_back += int(back.sum())
             fwd = rows[~back]
             tf = fa.t_ns[fwd]
             same_t = np.zeros(fwd.size, bool)
@@ -417,13 +423,148 @@ class Decoder:
                     same_t[0] = tf[0] == last[0]
                     same_d[0] = first_data == last[1]
             dup = same_t & same_d
-            n_dup += int(dup.sum())
-            keep[rows[back]] = False
-            keep[fwd[dup]] = False
+            back_all[rows[back]] = True
+            dup_all[fwd[dup]] = True
             accepted = fwd[~dup]
             if accepted.size:
                 i = int(accepted[-1])
                 self._last[cid] = (int(fa.t_ns[i]), bytes(fa.data[i, :int(fa.dlc[i])]))
-        r.add('time_backwards', 'in a log block', n=n_back)
-        r.add('duplicate', 'in a log block', n=n_dup)
-        return keep
+        return back_all, dup_all
+
+    # --- a run of frames, frame by frame's answers at once ---------------------------------
+    def decode_run(self, fa: FrameArrays) -> DecodedRun | None:
+        """What :meth:`decode` of each frame of ``fa`` in turn would give, vectorized: each
+        frame's samples and rejects, indexed by frame, for a caller that must act between
+        frames (the pipeline's schedule) without a Python call per frame. The rejects are
+        *not* counted here: :meth:`DecodedRun.count_rejects` counts those of the frames up to
+        one, so a count read between frames is the frame-by-frame one.
+
+        Only for a run that holds no decision made across frames: the stream's time
+        established and no chain held after a time jump, no jump in the run, no address
+        claim. Anything else returns None with nothing changed; decode those frames one at a
+        time (:meth:`decode`)."""
+        n = len(fa)
+        jumps = self.jumps
+        if n == 0 or jumps.ref_ns is None or jumps.pending or self._held or len(self._held_fa):
+            return None
+        flags = fa.flags
+        error = (flags & FLAG_ERROR) != 0
+        remote = ~error & ((flags & FLAG_REMOTE) != 0)
+        standard = ~error & ~remote & ((flags & FLAG_EXTENDED) == 0)
+        ok = ~(error | remote | standard)
+        pgns = pgn_of(fa.can_id.astype(np.uint32))
+        if (ok & (pgns == ADDRESS_CLAIM_PGN)).any():
+            return None
+        known = np.zeros(n, bool)
+        length_ok = np.zeros(n, bool)
+        for pgn, layout in self.db.by_pgn.items():
+            is_pgn = pgns == pgn
+            known |= is_pgn
+            length_ok |= is_pgn & (fa.dlc == layout.length)
+        unknown = ok & ~known
+        wrong_length = ok & known & ~length_ok
+        ok &= known & length_ok
+        t = fa.t_ns
+        t_ok = t[ok]
+        if t_ok.size and (abs(int(t_ok[0]) - jumps.ref_ns) > jumps.max_jump_ns
+                          or (np.abs(np.diff(t_ok)) > jumps.max_jump_ns).any()):
+            return None
+        # every sound frame is released as it comes and becomes the stream's time
+        last_ok = np.maximum.accumulate(np.where(ok, np.arange(n), -1))
+        ref_after = np.where(last_ok >= 0, t[np.maximum(last_ok, 0)], jumps.ref_ns)
+        ref_before = np.concatenate([[jumps.ref_ns], ref_after[:-1]]).astype(np.int64)
+        back, dup = self._time_verdicts(fa, ok)
+        ok &= ~back & ~dup
+        events = [(np.flatnonzero(m), reason, '') for m, reason in (
+            (error, 'error_frame'), (remote, 'remote_frame'), (standard, 'not_extended'), (unknown, 'unknown_id'),
+            (wrong_length, 'wrong_length'), (back, 'time_backwards'), (dup, 'duplicate'))]
+        words = CanDatabase.words(fa.data)
+        names: list[str] = []                          # a sample's input, by its spec's number
+        s_row: list[NDArray[np.intp]] = []
+        s_spec: list[NDArray[np.intp]] = []
+        s_val: list[NDArray[np.float64]] = []
+        for pgn, layout in self.db.by_pgn.items():
+            rows = np.flatnonzero(ok & (pgns == pgn))
+            specs = self.map.for_pgn(pgn)
+            if rows.size == 0 or not specs:
+                events.append((rows, 'unmapped', ''))
+                continue
+            w = words[rows]
+            inst = CanDatabase.extract(layout.fields['Instance'], w) if 'Instance' in layout.fields else None
+            src = CanDatabase.extract(layout.fields['Source'], w) if 'Source' in layout.fields else None
+            address = fa.can_id[rows] & 0xFF
+            owner = self._owner_lut[address.astype(np.intp)]
+            mapped = np.zeros(rows.size, bool)
+            for spec in specs:                       # numbered in the PGN's order: a frame's samples' order
+                sel = np.ones(rows.size, bool)
+                if spec.instance >= 0:
+                    sel &= (inst == spec.instance) | ((inst == 255) & spec.bound)
+                if spec.source >= 0:
+                    sel &= src == spec.source
+                if spec.address >= 0 and spec.device_name is None:
+                    sel &= address == spec.address
+                if spec.device_name is not None:
+                    sel &= owner == self.map.device_names.index(spec.device_name)
+                mapped |= sel
+                f = layout.fields[spec.field]
+                raw = CanDatabase.extract(f, w[sel])
+                r = rows[sel]
+                na = raw == f.not_available
+                err = ~na & (raw == f.error)
+                phys = f.to_physical(raw.astype(np.float64))
+                bad = ~na & ~err & ~((phys >= spec.low) & (phys <= spec.high))
+                events += [(r[na], 'not_available', spec.name), (r[err], 'error_value', spec.name),
+                           (r[bad], 'out_of_range', spec.name)]
+                good = ~(na | err | bad)
+                s_row.append(r[good])
+                s_spec.append(np.full(int(good.sum()), len(names), np.intp))
+                s_val.append(phys[good])
+                names.append(spec.name)
+            events.append((rows[~mapped], 'unmapped', ''))
+        row = np.concatenate(s_row) if s_row else np.zeros(0, np.intp)
+        spec_no = np.concatenate(s_spec) if s_spec else np.zeros(0, np.intp)
+        value = np.concatenate(s_val) if s_val else np.zeros(0, np.float64)
+        order = np.lexsort((spec_no, row))
+        self.frames_seen += n
+        if t_ok.size:
+            jumps.ref_ns = int(t_ok[-1])
+        return DecodedRun(t, ref_before, ref_after, row[order], [names[i] for i in spec_no[order].tolist()],
+                          value[order], events, self.rejects)
+
+
+@dataclass
+class DecodedRun:
+    """A run of frames decoded at once (:meth:`Decoder.decode_run`). Per frame ``i`` (shapes
+    (n,)): ``t_ns`` its stamp, ``ref_before``/``ref_after`` the stream's established time
+    before and after it was decoded [ns]. Samples in frame-by-frame order: ``sample_row``
+    (the frame each comes from, non-decreasing), ``sample_name``, ``sample_value`` [SI]."""
+
+    t_ns: NDArray[np.int64]
+    ref_before: NDArray[np.int64]
+    ref_after: NDArray[np.int64]
+    sample_row: NDArray[np.intp]
+    sample_name: list[str]
+    sample_value: NDArray[np.float64]
+    events: list[tuple[NDArray[np.intp], str, str]]     # (frames, reason, input or '')
+    rejects: RejectCounter
+    _counted: int = -1                                   # rejects counted up to this frame
+
+    def __post_init__(self) -> None:
+        parts = [(rows, k) for k, (rows, _, _) in enumerate(self.events) if rows.size]
+        row = np.concatenate([r for r, _ in parts]) if parts else np.zeros(0, np.intp)
+        kind = np.concatenate([np.full(r.size, k) for r, k in parts]) if parts else np.zeros(0, np.intp)
+        order = np.argsort(row, kind='stable')
+        self._event_row, self._event_kind = row[order], kind[order]
+
+    def count_rejects(self, upto: int) -> None:
+        """Count the rejects of frames ``<= upto`` not counted yet."""
+        if upto <= self._counted:
+            return
+        lo = int(np.searchsorted(self._event_row, self._counted, 'right'))
+        hi = int(np.searchsorted(self._event_row, upto, 'right'))
+        self._counted = upto
+        if hi > lo:
+            kinds, counts = np.unique(self._event_kind[lo:hi], return_counts=True)
+            for k, c in zip(kinds.tolist(), counts.tolist()):
+                _, reason, signal = self.events[k]
+                self.rejects.add(reason, 'in a log block', signal, int(c))

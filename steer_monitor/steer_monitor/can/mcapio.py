@@ -11,7 +11,7 @@ from typing import IO, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from steer_monitor.can.frames import Frame
+from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, Frame, FrameArrays
 
 __all__ = ['DEFAULT_QOS', 'FRAME_DATATYPE', 'FRAME_MSGDEF', 'FRAME_TOPIC', 'McapWriter', 'frame_cdr',
            'frame_message', 'frame_records', 'iter_mcap_frames', 'ros_time']
@@ -82,15 +82,16 @@ def _record_dtype(frame_id: str) -> tuple[np.dtype, bytes]:
     return dtype, fid
 
 
-def frame_records(frames: Sequence[Frame], channel_id: int, frame_id: str = 'steering_can'
+def frame_records(frames: Sequence[Frame] | FrameArrays, channel_id: int, frame_id: str = 'steering_can'
                   ) -> tuple[bytes, list[int], int]:
     """MCAP Message records (opcode, length, channel, sequence 0, log and publish time = the
     frame's time, then :func:`frame_cdr`'s bytes) of many frames at once, packed by numpy:
     (the records, their log times [ns], the size of one record [bytes])."""
+    fa = frames if isinstance(frames, FrameArrays) else FrameArrays.from_frames(frames)
     dtype, fid = _record_dtype(frame_id)
-    n = len(frames)
+    n = len(fa)
     rec = np.zeros(n, dtype)
-    t = np.fromiter((f.t_ns for f in frames), np.int64, n)
+    t = fa.t_ns
     rec['opcode'] = 0x05
     rec['length'] = dtype.itemsize - 9
     rec['channel'] = channel_id
@@ -102,12 +103,14 @@ def frame_records(frames: Sequence[Frame], channel_id: int, frame_id: str = 'ste
     rec['sec'], rec['nsec'] = np.where(unset, 0, sec), np.where(unset, 0, nsec)
     rec['fid_len'] = len(frame_id.encode()) + 1
     rec['fid'] = np.void(fid)
-    rec['id'] = np.fromiter((f.can_id for f in frames), np.uint32, n)
-    flags = np.fromiter((f.is_remote | (f.is_extended << 1) | (f.is_error << 2) for f in frames), np.uint8, n)
-    rec['rtr'], rec['ext'], rec['err'] = flags & 1, (flags >> 1) & 1, (flags >> 2) & 1
-    rec['dlc'] = np.fromiter((min(len(f.data), 8) for f in frames), np.uint8, n)
-    data = b''.join([bytes(f.data[:8]).ljust(8, b'\x00') for f in frames])
-    rec['data'] = np.frombuffer(data, 'V8')
+    rec['id'] = fa.can_id
+    rec['rtr'] = (fa.flags & FLAG_REMOTE) != 0
+    rec['ext'] = (fa.flags & FLAG_EXTENDED) != 0
+    rec['err'] = (fa.flags & FLAG_ERROR) != 0
+    dlc = np.minimum(fa.dlc, MAX_DLC)                     # longer than 8 (kept as 255): its first 8 bytes
+    rec['dlc'] = dlc
+    data = np.where(np.arange(MAX_DLC) < dlc[:, None], fa.data, 0).astype(np.uint8)
+    rec['data'] = np.ascontiguousarray(data).view('V8')[:, 0]
     return rec.tobytes(), t.tolist(), dtype.itemsize
 
 
@@ -182,11 +185,12 @@ class McapWriter:
             self.add_channel(topic, FRAME_DATATYPE)
         self.write_cdr(topic, frame_cdr(frame), frame.t_ns)
 
-    def write_frames(self, frames: Sequence[Frame], topic: str = FRAME_TOPIC) -> None:
-        """Write many frames: the same file as :meth:`write_frame` one by one, byte for byte
-        (``test_mcapio`` checks), at a tenth of the cost. The records are packed by numpy
-        (:func:`frame_records`) and appended by :meth:`write_records`."""
-        if not frames:
+    def write_frames(self, frames: Sequence[Frame] | FrameArrays, topic: str = FRAME_TOPIC) -> None:
+        """Write many frames (records, or the columns of a log block): the same file as
+        :meth:`write_frame` one by one, byte for byte (``test_mcapio`` checks), at a tenth of
+        the cost. The records are packed by numpy (:func:`frame_records`) and appended by
+        :meth:`write_records`."""
+        if not len(frames):
             return
         if topic not in self._channels:
             self.add_schema(FRAME_DATATYPE, FRAME_MSGDEF)

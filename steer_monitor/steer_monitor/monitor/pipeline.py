@@ -34,7 +34,9 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from steer_monitor.can.decoder import Decoder, Sample
+import numpy as np
+
+from steer_monitor.can.decoder import DecodedRun, Decoder, Sample
 from steer_monitor.can.frames import Frame
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
@@ -242,6 +244,42 @@ class Pipeline:
         samples = self.decoder.decode(frame)
         self._advance(self.clock(frame.t_ns), out)
         self._take(samples)
+        return out
+
+    def feed_run(self, run: DecodedRun) -> list[Output]:
+        """Take a run of frames the decoder has decoded at once (:meth:`Decoder.decode_run`):
+        the same outputs, in the same order, as :meth:`feed` of each frame in turn, with the
+        rejects counted as they would have been by each second's diagnostics. Only the frames
+        that carry samples or open a new slot are visited; for the others :meth:`feed` does
+        nothing but count them."""
+        t = run.t_ns
+        n = t.shape[0]
+        out: list[Output] = []
+        if n == 0:
+            return out
+        ref = run.ref_after
+        clock = np.where(np.abs(t - ref) <= self.decoder.jumps.max_jump_ns, t, ref)
+        slot = clock // SLOT_NS
+        reached = np.maximum.accumulate(slot)
+        before = np.empty(n, np.int64)                  # the newest slot before each frame
+        before[0] = self._slot if self._slot is not None else np.iinfo(np.int64).min
+        before[1:] = np.maximum(reached[:-1], before[0])
+        visit = slot > before
+        visit[run.sample_row] = True
+        visit[-1] = True                                # it sets last_changed_state
+        if self._slot is None:
+            visit[0] = True
+        rows = np.flatnonzero(visit)
+        lo = np.searchsorted(run.sample_row, rows, 'left').tolist()
+        hi = np.searchsorted(run.sample_row, rows, 'right').tolist()
+        names, values, clocks, stamps = run.sample_name, run.sample_value.tolist(), clock.tolist(), t.tolist()
+        for i, a, b in zip(rows.tolist(), lo, hi):
+            run.count_rejects(i)
+            self._advance(clocks[i], out)
+            ti = stamps[i]
+            self._take([Sample(ti, names[k], values[k]) for k in range(a, b)])
+        run.count_rejects(n - 1)
+        self.frames += n
         return out
 
     def clock(self, t_ns: int) -> int | None:

@@ -178,3 +178,62 @@ def test_fuzz_never_raises_and_paths_agree(db, smap, frames, errors):
 def test_counter_rejects_unknown_reason():
     with pytest.raises(KeyError, match="unknown reject reason 'nope'"):
         RejectCounter().add('nope')
+
+
+def _run_against_frames(db, smap, frames):
+    """``decode_run`` of ``frames`` after an established stream, against ``decode`` of each in
+    turn: per frame, the same samples in the same order and the same reject counts so far."""
+    lead = [rudder(db, T0 - 2_000_000_000 + k * 10_000_000, k) for k in range(60)]   # the stream's time
+    d1, d2 = Decoder(db, smap), Decoder(db, smap)
+    for f in lead:
+        d1.decode(f)
+        d2.decode(f)
+    run = d2.decode_run(FrameArrays.from_frames(frames))
+    if run is None:
+        return None
+    by_frame, counts = [], []
+    for f in frames:
+        by_frame.append([(s.t_ns, s.signal, s.value) for s in d1.decode(f)])
+        snap = d1.rejects.snapshot()
+        counts.append((snap.counts, snap.by_signal))
+    got: list[list] = [[] for _ in frames]
+    for row, name, value in zip(run.sample_row.tolist(), run.sample_name, run.sample_value.tolist()):
+        got[row].append((frames[row].t_ns, name, value))
+    assert got == by_frame
+    for i in range(len(frames)):
+        run.count_rejects(i)
+        snap = d2.rejects.snapshot()
+        assert (snap.counts, snap.by_signal) == counts[i], i
+    assert d2.jumps.ref_ns == d1.jumps.ref_ns and d2.frames_seen == d1.frames_seen
+    return run
+
+
+@pytest.mark.parametrize('reason', FRAME_REASONS)
+def test_a_run_decoded_at_once_gives_each_frames_answers(db, smap, reason):
+    frames = [Frame(f.t_ns + 100_000, f.can_id, f.data, f.is_extended, f.is_error, f.is_remote)
+              for f in _case(db, reason) * 2]
+    run = _run_against_frames(db, smap, frames)
+    assert run is not None and run.rejects.snapshot().counts.get(reason, 0) >= 1
+
+
+@pytest.mark.parametrize('case', ['jump', 'claim'])
+def test_a_run_with_a_decision_across_frames_is_left_to_frame_by_frame(db, smap, case):
+    from steer_monitor.can.devices import ADDRESS_CLAIM_PGN
+    odd = (rudder(db, T0 + 3_600_000_000_000, 1) if case == 'jump'
+           else Frame(T0 + 1000, make_id(6, ADDRESS_CLAIM_PGN, 0x10), bytes(8)))
+    d = Decoder(db, smap)
+    for k in range(60):
+        d.decode(rudder(db, T0 - 2_000_000_000 + k * 10_000_000, k))
+    before = (d.jumps.ref_ns, d.frames_seen, d.rejects.snapshot().counts)
+    assert d.decode_run(FrameArrays.from_frames([rudder(db, T0, 1), odd])) is None
+    assert (d.jumps.ref_ns, d.frames_seen, d.rejects.snapshot().counts) == before
+
+
+@settings(max_examples=300, deadline=None)
+@given(frames=st.lists(frame_strategy, min_size=1, max_size=40),
+       errors=st.lists(st.booleans(), min_size=40, max_size=40))
+def test_fuzz_a_run_decoded_at_once_agrees_with_frame_by_frame(db, smap, frames, errors):
+    frames = [Frame(f.t_ns, f.can_id if f.is_extended else f.can_id & 0x7FF, f.data[:8] if e else f.data,
+                    f.is_extended, is_error=(e and i % 7 == 0), is_remote=(e and i % 11 == 0))
+              for i, (f, e) in enumerate(zip(frames, errors))]
+    _run_against_frames(db, smap, frames)

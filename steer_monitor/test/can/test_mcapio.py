@@ -101,3 +101,19 @@ def test_times_past_2038_are_kept_in_the_log_time(tmp_path, t_ns):
     assert [int(t) for b in blocks for t in b.t_ns] == [t_ns, t_ns + 1000, t_ns + 2000]
     with open(path, 'rb') as fh:
         assert [g.t_ns for g in iter_mcap_frames(fh)] == [t_ns, t_ns + 1000, t_ns + 2000]
+
+
+def test_frames_as_columns_write_the_records_bytes():
+    """A log block's columns (payload bytes past the DLC set, a frame over 8 bytes kept as DLC
+    255) give the records of the frames they hold."""
+    from steer_monitor.can.frames import FrameArrays
+    frames = _frames(300) + [Frame(1_767_225_601_000_000_000, 0x09F10D10, bytes(range(12)))]
+    fa = FrameArrays.from_frames(frames)
+    fa.data[fa.dlc < 8, -1] = 0xEE                  # bytes past the DLC are not the frame's
+    one, many = io.BytesIO(), io.BytesIO()
+    with McapWriter(one, chunk_size=4096) as w:
+        for f in frames:
+            w.write_frame(f)
+    with McapWriter(many, chunk_size=4096) as w:
+        w.write_frames(fa)
+    assert many.getvalue() == one.getvalue()
