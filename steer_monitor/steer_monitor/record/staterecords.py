@@ -15,6 +15,7 @@ itself (its bytes for a state of sentinel values), so the two cannot drift apart
 
 from __future__ import annotations
 
+import operator
 import struct
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -44,6 +45,7 @@ _SHARE = ShareScalar(lateral=11111.1234567891, axial=22222.1234567891, ram_force
                      r_a=77777.1234567891, r_e=88888.1234567891, m_a=99999.1234567891, f_theta=1.0, f_z=1.0,
                      case=-3, stages=5)
 _SHARE_FLOATS = ('lateral', 'ram_force', 'guide_force', 'k_gl', 'deflection', 'r_a', 'r_e', 'm_a')
+_share_floats = operator.attrgetter(*_SHARE_FLOATS)
 
 
 @dataclass(frozen=True)
@@ -129,7 +131,7 @@ def pack_states(states: Sequence[LiveState], rudder_channel: int, share_channel:
     shares = [s.share for s in states if s.share is not None]
     m = len(shares)
     sh = _fill(share, share_channel, t[has],
-               np.array([[getattr(x, k) for k in _SHARE_FLOATS] for x in shares], float).reshape(m, len(_SHARE_FLOATS)))
+               np.array([_share_floats(x) for x in shares], float).reshape(m, len(_SHARE_FLOATS)))
     if m:
         sh[:, share.after_floats] = np.array([x.case for x in shares], np.int64).astype(np.int8).view(np.uint8)
         sh[:, share.after_floats + 1] = np.array([x.stages for x in shares], np.uint8)

@@ -89,3 +89,20 @@ def test_effort_keeps_the_angles_sign_with_no_torque():
     (_, _, fields), = state_messages(StateOut(s))
     assert math.copysign(1.0, fields['effort'][0]) == -1.0
     assert _packed([[s]], 4096) == _one_by_one([s], 4096)
+
+
+@pytest.mark.parametrize('chunk_size', [700, 1 << 20])
+def test_packed_runs_and_single_messages_on_one_channel_keep_their_order(chunk_size):
+    """The chunk's message index holds entries of both kinds in the order they were written."""
+    states = [_state(i, i % 2 == 0) for i in range(60)]
+    buf = io.BytesIO()
+    with _writer(buf, chunk_size) as w:
+        for k in range(0, 60, 10):
+            if k % 20 == 0:
+                for s in states[k:k + 10]:
+                    for key, t_ns, fields in state_messages(StateOut(s)):
+                        w.write_cdr(key, FAST_ENCODERS[TOPICS[key][1]](fields), t_ns)
+            else:
+                p = pack_states(states[k:k + 10], w.channel_id('rudder'), w.channel_id('load_sharing'))
+                w.write_records(p.data, p.channels, p.log_times, p.offsets)
+    assert buf.getvalue() == _one_by_one(states, chunk_size)
