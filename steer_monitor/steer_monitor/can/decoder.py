@@ -547,7 +547,6 @@ class DecodedRun:
     sample_value: NDArray[np.float64]
     events: list[tuple[NDArray[np.intp], str, str]]     # (frames, reason, input or '')
     rejects: RejectCounter
-    _counted: int = -1                                   # rejects counted up to this frame
 
     def __post_init__(self) -> None:
         parts = [(rows, k) for k, (rows, _, _) in enumerate(self.events) if rows.size]
@@ -555,14 +554,15 @@ class DecodedRun:
         kind = np.concatenate([np.full(r.size, k) for r, k in parts]) if parts else np.zeros(0, np.intp)
         order = np.argsort(row, kind='stable')
         self._event_row, self._event_kind = row[order], kind[order]
+        self._next = 0                                   # the first event not counted
 
     def count_rejects(self, upto: int) -> None:
         """Count the rejects of frames ``<= upto`` not counted yet."""
-        if upto <= self._counted:
+        rows, lo = self._event_row, self._next
+        if lo >= rows.size or rows[lo] > upto:          # most frames: nothing to count
             return
-        lo = int(np.searchsorted(self._event_row, self._counted, 'right'))
-        hi = int(np.searchsorted(self._event_row, upto, 'right'))
-        self._counted = upto
+        hi = int(np.searchsorted(rows, upto, 'right'))
+        self._next = hi
         if hi > lo:
             kinds, counts = np.unique(self._event_kind[lo:hi], return_counts=True)
             for k, c in zip(kinds.tolist(), counts.tolist()):

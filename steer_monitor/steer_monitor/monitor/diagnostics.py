@@ -260,7 +260,7 @@ class DiagnosticsBuilder:
 
     def model_health(self, mon: LiveMonitor) -> Status:
         rms = mon.residual_rms_bar()
-        values = [('residual_rms_bar', _f(rms, '.2f')), ('residual_samples', str(len(mon.residuals))),
+        values = [('residual_rms_bar', _f(rms, '.2f')), ('residual_samples', str(mon.residual_count)),
                   ('residual_instants_not_judged', str(mon.residuals_skipped)),
                   ('residual_warn_bar', f'{self.cfg.residual_warn_bar:g}')]
         if rms is None:
@@ -270,13 +270,13 @@ class DiagnosticsBuilder:
                                     f'{mon.residuals_skipped} instants of motion (a clearance bounded from below '
                                     'only, or angles beyond those it learned)', values)
             return self._status('model health', OK, 'no motion seen yet: residual not evaluated', values)
-        if len(mon.residuals) < MIN_JUDGED_SAMPLES:
+        if mon.residual_count < MIN_JUDGED_SAMPLES:
             # a few seconds of motion since the clearances changed source: an early estimate's
             # friction (fitted on half a hard-over) is not the model's health
             return self._status('model health', OK,
-                                f'declared model residual {rms:.2f} bar RMS over {len(mon.residuals)} samples of motion: '
+                                f'declared model residual {rms:.2f} bar RMS over {mon.residual_count} samples of motion: '
                                 f'judged from {MIN_JUDGED_SAMPLES}', values)
         level = WARN if rms > self.cfg.residual_warn_bar else OK
         return self._status('model health', level,
-                            f'declared model residual {rms:.2f} bar RMS over the last {len(mon.residuals)} samples of motion',
+                            f'declared model residual {rms:.2f} bar RMS over the last {mon.residual_count} samples of motion',
                             values)

@@ -117,6 +117,7 @@ class LiveMonitor:
         # models replaced since (an early fit used for seconds left 17 bar in the window)
         self._motion: deque[tuple[float, float | None, float, float, float]] = deque(maxlen=RESIDUAL_SAMPLES // 2)
         self._resid: deque[tuple[float, float] | None] = deque(maxlen=RESIDUAL_SAMPLES // 2)
+        self._resid_summary: tuple[list[float], int, float | None] | None = None   # of _resid, until it changes
         self._hard_over: tuple[float, int] | None = None  # (side, time last at hard over)
         self.hard_over_s: float | None = None
         self.response: Response | None = None
@@ -138,19 +139,30 @@ class LiveMonitor:
             self.priors = friction
         self.torque = torque
         self._resid = deque(self._residual_pairs(list(self._motion)), maxlen=self._resid.maxlen)
+        self._resid_summary = None
+
+    def _summary(self) -> tuple[list[float], int, float | None]:
+        """(residuals, instants not judged, RMS [bar]) of the kept minute, worked out once
+        per change of it (the diagnostics read them several times a second, and at rest the
+        minute does not change for hours)."""
+        if self._resid_summary is None:
+            res = [r for pair in self._resid if pair is not None for r in pair]
+            rms = math.sqrt(sum(r * r for r in res) / len(res)) if res else None
+            self._resid_summary = (res, sum(pair is None for pair in self._resid), rms)
+        return self._resid_summary
 
     @property
     def residuals(self) -> list[float]:
         """The model's pressure residuals [bar] over the last minute of steady motion, two per
         judged instant (one per ram), under the model now in use."""
-        return [r for pair in self._resid if pair is not None for r in pair]
+        return list(self._summary()[0])
 
     @property
     def residuals_skipped(self) -> int:
         """Instants of that minute the model in use cannot judge: where it clamps the ram (or
         touches the beam) at a clearance the estimate bounds from below only, or beyond the
         angles its fitted torque was learned at."""
-        return sum(pair is None for pair in self._resid)
+        return self._summary()[1]
 
     def _residual_pair(self, instant: tuple[float, float | None, float, float, float]) -> tuple[float, float] | None:
         """The residual [bar] of each ram at one instant of steady motion under the model in
@@ -332,6 +344,7 @@ class LiveMonitor:
             instant = (alpha, speed, direction, force_1, force_2)
             self._motion.append(instant)
             self._resid.append(self._residual_pair(instant))
+            self._resid_summary = None
 
     def _track_hard_over(self, t_ns: int, alpha: float) -> None:
         deg = alpha / DEG
@@ -383,7 +396,9 @@ class LiveMonitor:
 
     def residual_rms_bar(self) -> float | None:
         """RMS of the declared model's pressure residual over the last minute of motion [bar]."""
-        res = self.residuals
-        if not res:
-            return None
-        return math.sqrt(sum(r * r for r in res) / len(res))
+        return self._summary()[2]
+
+    @property
+    def residual_count(self) -> int:
+        """How many residuals :attr:`residuals` holds."""
+        return len(self._summary()[0])
