@@ -111,20 +111,31 @@ def _case(kind: str, path: str) -> dict:
             'frames_per_s': round(frames / elapsed), 'peak_rss_mb': round(peak_mb), **extra}
 
 
-def _run_case(kind: str, path: Path) -> dict:
+def _child(*args: str, capture: bool = False) -> str:
+    """Run this benchmark with ``args`` in a fresh process; its stdout (when ``capture``)."""
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
     root = Path(__file__).resolve().parent.parent
     env['PYTHONPATH'] = os.pathsep.join([str(root / 'steer_monitor'), str(root)]) + os.pathsep + env.get('PYTHONPATH', '')
-    out = subprocess.run([sys.executable, '-m', 'bench.bench_replay', '--case', kind, str(path)],
-                         env=env, cwd=root, capture_output=True, text=True, check=True)
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return subprocess.run([sys.executable, '-m', 'bench.bench_replay', *args], env=env, cwd=root,
+                          capture_output=capture, text=True, check=True).stdout or ''
+
+
+def _run_case(kind: str, path: Path) -> dict:
+    out = _child('--case', kind, str(path), capture=True)
+    return json.loads(out.strip().splitlines()[-1])
 
 
 def main() -> int:
     if len(sys.argv) == 4 and sys.argv[1] == '--case':
         print(json.dumps(_case(sys.argv[2], sys.argv[3])))
         return 0
+    if sys.argv[1:] == ['--make-logs']:
+        _make_logs()
+        return 0
     print('== replay: batch path vs per-frame path (simulated R-18 logs, ~91 frames/s) ==')
+    # made in a process of their own: Linux keeps a process's peak memory across fork and exec,
+    # so the cases, started from here, would report this process's peak as theirs
+    _child('--make-logs')
     paths = _make_logs()
     results = []
     for name in ('1h.log', '1h.mcap', '24h.log', '24h.mcap'):

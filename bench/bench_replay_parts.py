@@ -1,4 +1,4 @@
-"""Where the per-frame replay's time goes, on an hour of simulated gear traffic (candump,
+"""Where the replay's time goes, on an hour of simulated gear traffic (candump,
 about 330,000 frames), with python-can's candump reader on the same file in the same run.
 
 Each part of :func:`steer_monitor.replay.replay` is timed by wrapping its entry points with
@@ -92,7 +92,7 @@ def main() -> int:
 
     from steer_monitor.replay import replay
 
-    print('== per-frame replay: where the time goes (an hour of simulated gear traffic, candump) ==')
+    print('== replay: where the time goes (an hour of simulated gear traffic, candump) ==')
     with tempfile.TemporaryDirectory() as tmp:
         log = Path(tmp) / 'hour.log'
         n = _make_log(log)

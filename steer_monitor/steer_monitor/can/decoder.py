@@ -276,12 +276,7 @@ class Decoder:
         claims = ok & (pgns == ADDRESS_CLAIM_PGN)
         owner = self._owners(fa, np.nonzero(claims)[0])
         ok &= ~claims
-        known = np.zeros(n, bool)
-        length_ok = np.zeros(n, bool)
-        for pgn, layout in self.db.by_pgn.items():
-            is_pgn = pgns == pgn
-            known |= is_pgn
-            length_ok |= is_pgn & (fa.dlc == layout.length)
+        known, length_ok = self._known(pgns, fa.dlc)
         hit = ok & ~known
         if hit.any():
             i = int(np.argmax(hit))
@@ -335,15 +330,7 @@ class Decoder:
             address = fa.can_id[rows] & 0xFF
             mapped = np.zeros(rows.size, bool)
             for spec in self.map.for_pgn(pgn):
-                sel = np.ones(rows.size, bool)
-                if spec.instance >= 0:
-                    sel &= (inst == spec.instance) | ((inst == 255) & spec.bound)
-                if spec.source >= 0:
-                    sel &= src == spec.source
-                if spec.address >= 0 and spec.device_name is None:    # with a NAME: where it starts
-                    sel &= address == spec.address
-                if spec.device_name is not None:
-                    sel &= owner[rows] == self.map.device_names.index(spec.device_name)
+                sel = self._selected(spec, inst, src, address, owner[rows])
                 mapped |= sel
                 f = layout.fields[spec.field]
                 raw = CanDatabase.extract(f, w[sel])
@@ -365,6 +352,32 @@ class Decoder:
         return {name: Series(np.concatenate(out_t[name]) if out_t[name] else np.zeros(0, np.int64),
                              np.concatenate(out_v[name]) if out_v[name] else np.zeros(0, np.float64))
                 for name in self.map.names}
+
+    def _known(self, pgns: NDArray, dlc: NDArray[np.uint8]) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+        """Rows whose PGN the DBC has, and rows of such a PGN with its data length; shapes (n,)."""
+        known = np.zeros(pgns.shape[0], bool)
+        length_ok = np.zeros(pgns.shape[0], bool)
+        for pgn, layout in self.db.by_pgn.items():
+            is_pgn = pgns == pgn
+            known |= is_pgn
+            length_ok |= is_pgn & (dlc == layout.length)
+        return known, length_ok
+
+    def _selected(self, spec: SignalSpec, inst: NDArray | None, src: NDArray | None, address: NDArray,
+                  owner: NDArray[np.int16]) -> NDArray[np.bool_]:
+        """The rows of one PGN's frames that ``spec`` takes (:meth:`_matches` over arrays):
+        instance (or 255 where the spec is bound), source field, address, or the device
+        holding the address (``owner``: the map's device index per row, -1: none)."""
+        sel = np.ones(address.shape[0], bool)
+        if spec.instance >= 0:
+            sel &= (inst == spec.instance) | ((inst == 255) & spec.bound)
+        if spec.source >= 0:
+            sel &= src == spec.source
+        if spec.address >= 0 and spec.device_name is None:    # with a NAME: where it starts
+            sel &= address == spec.address
+        if spec.device_name is not None:
+            sel &= owner == self.map.device_names.index(spec.device_name)
+        return sel
 
     def _owners(self, fa: FrameArrays, claims: NDArray[np.intp]) -> NDArray[np.int16]:
         """Each row's owner (the map's device holding its address when it arrived, -1: none),
@@ -455,12 +468,7 @@ class Decoder:
         pgns = pgn_of(fa.can_id.astype(np.uint32))
         if (ok & (pgns == ADDRESS_CLAIM_PGN)).any():
             return None
-        known = np.zeros(n, bool)
-        length_ok = np.zeros(n, bool)
-        for pgn, layout in self.db.by_pgn.items():
-            is_pgn = pgns == pgn
-            known |= is_pgn
-            length_ok |= is_pgn & (fa.dlc == layout.length)
+        known, length_ok = self._known(pgns, fa.dlc)
         unknown = ok & ~known
         wrong_length = ok & known & ~length_ok
         ok &= known & length_ok
@@ -496,15 +504,7 @@ class Decoder:
             owner = self._owner_lut[address.astype(np.intp)]
             mapped = np.zeros(rows.size, bool)
             for spec in specs:                       # numbered in the PGN's order: a frame's samples' order
-                sel = np.ones(rows.size, bool)
-                if spec.instance >= 0:
-                    sel &= (inst == spec.instance) | ((inst == 255) & spec.bound)
-                if spec.source >= 0:
-                    sel &= src == spec.source
-                if spec.address >= 0 and spec.device_name is None:
-                    sel &= address == spec.address
-                if spec.device_name is not None:
-                    sel &= owner == self.map.device_names.index(spec.device_name)
+                sel = self._selected(spec, inst, src, address, owner)
                 mapped |= sel
                 f = layout.fields[spec.field]
                 raw = CanDatabase.extract(f, w[sel])

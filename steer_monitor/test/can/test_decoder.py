@@ -157,13 +157,19 @@ frame_strategy = st.builds(
 )
 
 
+def _fuzzed(frames: list[Frame], errors: list[bool]) -> list[Frame]:
+    """The drawn frames with standard identifiers cut to 11 bits, and some made error or
+    remote frames or cut to 8 bytes."""
+    return [Frame(f.t_ns, f.can_id if f.is_extended else f.can_id & 0x7FF, f.data[:8] if e else f.data,
+                  f.is_extended, is_error=(e and i % 7 == 0), is_remote=(e and i % 11 == 0))
+            for i, (f, e) in enumerate(zip(frames, errors))]
+
+
 @settings(max_examples=400, deadline=None)
 @given(frames=st.lists(frame_strategy, min_size=1, max_size=40),
        errors=st.lists(st.booleans(), min_size=40, max_size=40))
 def test_fuzz_never_raises_and_paths_agree(db, smap, frames, errors):
-    frames = [Frame(f.t_ns, f.can_id if f.is_extended else f.can_id & 0x7FF, f.data[:8] if e else f.data,
-                    f.is_extended, is_error=(e and i % 7 == 0), is_remote=(e and i % 11 == 0))
-              for i, (f, e) in enumerate(zip(frames, errors))]
+    frames = _fuzzed(frames, errors)
     a, b = both(db, smap, frames)
     assert_same(a, b)
     samples, snap = a
@@ -233,7 +239,5 @@ def test_a_run_with_a_decision_across_frames_is_left_to_frame_by_frame(db, smap,
 @given(frames=st.lists(frame_strategy, min_size=1, max_size=40),
        errors=st.lists(st.booleans(), min_size=40, max_size=40))
 def test_fuzz_a_run_decoded_at_once_agrees_with_frame_by_frame(db, smap, frames, errors):
-    frames = [Frame(f.t_ns, f.can_id if f.is_extended else f.can_id & 0x7FF, f.data[:8] if e else f.data,
-                    f.is_extended, is_error=(e and i % 7 == 0), is_remote=(e and i % 11 == 0))
-              for i, (f, e) in enumerate(zip(frames, errors))]
+    frames = _fuzzed(frames, errors)
     _run_against_frames(db, smap, frames)
