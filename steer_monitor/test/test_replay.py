@@ -87,16 +87,23 @@ def _hostile(frames: list) -> list:
     return out
 
 
-@pytest.mark.parametrize('case', ['all', 'no frames', 'split', 'hostile'])
+@pytest.mark.parametrize('case', ['all', 'no frames', 'split', 'hostile', 'two hours apart'])
 def test_the_fast_replay_writes_the_reference_bytes(tmp_path, logs, case):
     """States are packed in batches; the file is the per-frame reference's (every message
     built and written one at a time), byte for byte, chunk boundaries included."""
     paths = {'split': [logs['b.mcap'], logs['a.log']]}.get(case, [logs['all.log']])
-    if case == 'hostile':
+    if case in ('hostile', 'two hours apart'):
+        from steer_monitor.can.frames import Frame
         from steer_monitor.can.logs import iter_log
-        paths = [tmp_path / 'hostile.log']
+        frames = list(iter_log(logs['all.log']))
+        if case == 'hostile':
+            frames = _hostile(frames)
+        else:       # a clock step (or a log that resumes) of two hours, within one file
+            half = len(frames) // 2
+            frames[half:] = [Frame(f.t_ns + 7_200_000_000_000, f.can_id, f.data) for f in frames[half:]]
+        paths = [tmp_path / 'changed.log']
         with LogWriter(paths[0]) as w:
-            for f in _hostile(list(iter_log(logs['all.log']))):
+            for f in frames:
                 w.write(f)
     fast = replay(paths, tmp_path / 'fast.mcap', frames=case != 'no frames')
     ref = replay(paths, tmp_path / 'ref.mcap', frames=case != 'no frames', reference=True)
@@ -148,3 +155,26 @@ def test_cli_json(tmp_path, logs, capsys):
     d = json.loads(capsys.readouterr().out)
     assert d['frames'] > 0 and d['errors'] == [] and d['diagnostics'] > 10
     assert FRAME_TOPIC not in _read(tmp_path / 'j.mcap')
+
+
+PROGRAMMES = ['hard_over_2', 'hard_over_1', 'zigzag_10', 'autopilot:60', 'pumps:1,autopilot_db:60', 'hold:20',
+              'hold_at:-7.3/20,zigzag_5', 'speed:8,hold:10,speed:16,zigzag_10', 'pumps:1,zigzag_10,pumps:2,zigzag_10',
+              'voyage', 'realistic']
+
+
+@pytest.mark.parametrize(('program', 'effect'), [(p, None) for p in PROGRAMMES] +
+                         [('hard_over_2,zigzag_10', e) for e in sim.EFFECTS])
+def test_every_programme_and_effect_replays_to_the_reference_bytes(tmp_path, r18_params, can_db, program, effect):
+    """Each helm programme (75 s of it) and each effect of the simulator (the analysis library's
+    and the band of friction outside it), replayed fast and by the per-frame reference."""
+    db, smap = can_db
+    effects = (sim.parse_effect(effect),) if effect else ()
+    s = sim.run(r18_params, sim.SimConfig(program=program, max_duration_s=75.0, effects=effects), db, smap, 11)
+    log = tmp_path / 'voyage.log'
+    with LogWriter(log) as w:
+        for f in s.frames.frames():
+            w.write(f)
+    fast = replay([log], tmp_path / 'fast.mcap')
+    ref = replay([log], tmp_path / 'ref.mcap', reference=True)
+    assert fast.states == ref.states > 1000 and fast.errors == ref.errors == []
+    assert (tmp_path / 'fast.mcap').read_bytes() == (tmp_path / 'ref.mcap').read_bytes()
