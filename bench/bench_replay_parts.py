@@ -17,8 +17,11 @@ shown apart as the difference between the timed and an untimed run):
 * the rest: reading the log into blocks and the pipeline's schedule, by difference.
 
 The per-frame reference (``replay(..., reference=True)``: one call per frame, every message
-built and written one at a time) is timed in the same run, and its file checked to be the
-same bytes.
+built and written one at a time, the estimator's jobs at once) and the replay with its
+estimator's jobs in a worker process (as ``steer-monitor replay`` runs on a machine with a
+second core) are timed in the same run, and their files checked to be the same bytes. The
+parts are timed on the replay with the jobs run at once (``worker=False``), so that the
+estimator's share shows. One BLAS thread, as the command line sets it.
 
 Run: ``python -m bench.bench_replay_parts`` (part of ``make bench``).
 """
@@ -88,6 +91,8 @@ def _instrument(spent: dict[str, float]) -> None:
 
 def main() -> int:
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    from steer_monitor.threads import single_blas_thread
+    single_blas_thread()
     import can
 
     from steer_monitor.replay import replay
@@ -101,25 +106,30 @@ def main() -> int:
         t_can = time.perf_counter() - t0
         assert k == n, (k, n)
         t0 = time.perf_counter()
-        s = replay([log], Path(tmp) / 'plain.mcap')
+        s = replay([log], Path(tmp) / 'plain.mcap', worker=False)
         t_plain = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        replay([log], Path(tmp) / 'worker.mcap', worker=True)
+        t_worker = time.perf_counter() - t0
         t0 = time.perf_counter()
         replay([log], Path(tmp) / 'reference.mcap', reference=True)
         t_ref = time.perf_counter() - t0
-        same = (Path(tmp) / 'plain.mcap').read_bytes() == (Path(tmp) / 'reference.mcap').read_bytes()
+        ref_bytes = (Path(tmp) / 'reference.mcap').read_bytes()
+        same = all((Path(tmp) / f'{name}.mcap').read_bytes() == ref_bytes for name in ('plain', 'worker'))
         spent: dict[str, float] = defaultdict(float)
         _instrument(spent)
         t0 = time.perf_counter()
-        replay([log], Path(tmp) / 'timed.mcap')
+        replay([log], Path(tmp) / 'timed.mcap', worker=False)
         t_timed = time.perf_counter() - t0
     span_s = (s.last_ns - s.first_ns) / 1e9 if s.first_ns is not None and s.last_ns is not None else 0.0
     print(f'log: {n:,d} frames, {span_s:,.0f} s of data; {s.states:,d} states, {s.diagnostics:,d} diagnostics, '
           f'{s.motion_s:,.0f} s of rudder motion learned')
     print(f'python-can CanutilsLogReader: {n / t_can:12,.0f} frames/s ({t_can:.2f} s)')
-    print(f'replay, untimed:              {n / t_plain:12,.0f} frames/s ({t_plain:.2f} s; '
-          f'{n / t_plain / (n / t_can):.2f} x python-can)')
-    print(f'per-frame reference:          {n / t_ref:12,.0f} frames/s ({t_ref:.2f} s; replay is {t_ref / t_plain:.2f} x '
-          f'faster; {"the same bytes" if same else "FILES DIFFER"})')
+    print(f'replay, estimator worker:     {n / t_worker:12,.0f} frames/s ({t_worker:.2f} s; '
+          f'{n / t_worker / (n / t_can):.3f} x python-can)')
+    print(f'replay, jobs at once:         {n / t_plain:12,.0f} frames/s ({t_plain:.2f} s)')
+    print(f'per-frame reference:          {n / t_ref:12,.0f} frames/s ({t_ref:.2f} s; replay is {t_ref / t_worker:.2f} x '
+          f'faster, {t_ref / t_plain:.2f} x without the worker; {"the same bytes" if same else "FILES DIFFER"})')
     print(f'replay, timed:                {n / t_timed:12,.0f} frames/s ({t_timed:.2f} s)')
     parts = dict(spent)
     parts['reading and schedule (rest)'] = t_timed - sum(spent.values())

@@ -16,7 +16,7 @@ the break; the replay goes on with the next one and reports the error.
 from __future__ import annotations
 
 import datetime
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from steer_monitor.atomic import atomic_path, os_reason
-from steer_monitor.can.decoder import Decoder
+from steer_monitor.can.decoder import DecodedRun, Decoder, Sample
 from steer_monitor.can.fastlogs import in_time_order, iter_log_blocks
 from steer_monitor.can.frames import Frame, FrameArrays
 from steer_monitor.can.logs import LogError
@@ -32,11 +32,12 @@ from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, 
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import load_setup
 from steer_monitor.errors import SteerMonitorError
-from steer_monitor.estimate.online import OnlineEstimate
+from steer_monitor.estimate.online import OnlineEstimate, OnlineEstimator
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig
 from steer_monitor.monitor.live import LiveMonitor, LiveState
 from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages, topic_name
-from steer_monitor.monitor.pipeline import Output, Pipeline, StateOut, SyncEstimatorJobs, estimator_from_params
+from steer_monitor.monitor.pipeline import JobSchedule, Output, Pipeline, StateOut, SyncEstimatorJobs, estimator_from_params
+from steer_monitor.monitor.process_jobs import JobSource, ProcessEstimatorJobs, can_fork_a_worker
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
 from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.record.msgdefs import msgdef
@@ -73,13 +74,16 @@ class ReplaySummary:
 def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | None = None, *,
            frames: bool = True, estimator: bool = True, node_name: str = 'steer_monitor',
            progress: Callable[[int, int | None], None] | None = None,
-           date: datetime.date | None = None, reference: bool = False) -> ReplaySummary:
+           date: datetime.date | None = None, reference: bool = False,
+           worker: bool | None = None) -> ReplaySummary:
     """Replay ``logs`` into ``output`` (an MCAP). ``frames``: record the raw frames too, as
     the node does. ``progress`` is called with the number of frames done since its last call
     and the data time reached [ns] (None before the stream's time is confirmed).
     ``reference``: the plain per-frame path (every message built and written one at a time, as
-    the node publishes them), kept to check the fast one against: the same file, byte for
-    byte."""
+    the node publishes them, the estimator's jobs run at once), kept to check the fast one
+    against: the same file, byte for byte. ``worker``: run the estimator's jobs in a process of
+    their own (:mod:`~steer_monitor.monitor.process_jobs`; the same file); by default when
+    there is a second core and this process can fork one safely, never for the reference."""
     if not logs:
         msg = 'no log given'
         raise ReplayError(msg)
@@ -95,11 +99,30 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
     diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(params), smap, gear)
     summary = ReplaySummary(str(output), [str(p) for p in paths])
     est = None
-    jobs = None
+    jobs: SyncEstimatorJobs | ProcessEstimatorJobs | None = None
     if estimator and params['estimator.enabled']:
         est = estimator_from_params(gear, params)
-        jobs = SyncEstimatorJobs(est, on_error=lambda exc: summary.errors.append(f'estimator update failed: {exc}'))
-    pipeline = Pipeline(Decoder(db, smap, rejects), rejects, monitor, diag, jobs)
+
+        def failed(exc: SteerMonitorError) -> None:
+            summary.errors.append(f'estimator update failed: {exc}')
+        use_worker = (can_fork_a_worker() if worker is None else worker) and not reference
+        jobs = (ProcessEstimatorJobs(est, _job_source(paths, db, smap, date), failed) if use_worker
+                else SyncEstimatorJobs(est, failed))
+    try:
+        return _replay(paths, output, config_path, params, Pipeline(Decoder(db, smap, rejects), rejects, monitor,
+                                                                    diag, jobs),
+                       summary, est, node_name, frames, progress, date, reference)
+    finally:
+        if isinstance(jobs, ProcessEstimatorJobs):
+            jobs.abort()          # closed at the end of a replay that finished; ended now otherwise
+
+
+def _replay(paths: list[Path], output: str | Path, config_path: Path, params: Any, pipeline: Pipeline,
+            summary: ReplaySummary, est: OnlineEstimator | None, node_name: str, frames: bool,
+            progress: Callable[[int, int | None], None] | None, date: datetime.date | None,
+            reference: bool) -> ReplaySummary:
+    """The replay once set up: the MCAP written atomically, the summary filled in."""
+    rejects = pipeline.rejects
     topics = {key: topic_name(key, node_name) for key in TOPICS}
     encoders = {key: FAST_ENCODERS[dt] for key, (_, dt) in TOPICS.items() if dt in FAST_ENCODERS}
     with atomic_path(output) as tmp:
@@ -184,27 +207,15 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
             emit(outs)
 
     def feed_part(part: FrameArrays) -> None:
-        """The frames of ``part`` as runs decoded at once; where the decoder must decide
-        across frames (the stream's start, a time jump, an address claim), the largest run
-        before that is taken at once and the rest, down to ``MIN_RUN`` frames, one by one."""
-        n, pos = len(part), 0
-        while pos < n:
-            size = n - pos
-            while True:
-                piece = part.take(np.arange(pos, pos + size))
-                run = pipeline.decoder.decode_run(piece)
-                if run is not None or size <= MIN_RUN:
-                    break
-                size //= 2
-            pos += size
-            if run is None:
+        for piece in runs_of(pipeline.decoder, part):
+            if isinstance(piece, FrameArrays):
                 for frame in piece.frames():
                     feed(frame)
                 continue
-            for i in (0, size - 1):
-                ti, ref = int(run.t_ns[i]), int(run.ref_before[i])
+            for i in (0, len(piece.t_ns) - 1):
+                ti, ref = int(piece.t_ns[i]), int(piece.ref_before[i])
                 see(ti if abs(ti - ref) <= jump else ref, ti)
-            emit(pipeline.feed_run(run))
+            emit(pipeline.feed_run(piece))
 
     batch: list[Frame] = []          # reference: frames to write
     pending: list[FrameArrays] = []  # fast: the same, as columns
@@ -255,6 +266,45 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
     emit(pipeline.finish())
     flush_states()
     pipeline.close()
+
+
+def runs_of(decoder: Decoder, part: FrameArrays) -> Iterator[DecodedRun | FrameArrays]:
+    """``part`` as runs the decoder has decoded at once, or, where it must decide across
+    frames (the stream's start, a time jump, an address claim), pieces of up to ``MIN_RUN``
+    frames to feed one at a time before the next is asked for; the largest run before such a
+    place is still taken at once (halving down to ``MIN_RUN``)."""
+    n, pos = len(part), 0
+    while pos < n:
+        size = n - pos
+        while True:
+            piece = part.take(np.arange(pos, pos + size))
+            run = decoder.decode_run(piece)
+            if run is not None or size <= MIN_RUN:
+                break
+            size //= 2
+        pos += size
+        yield piece if run is None else run
+
+
+def _job_source(paths: list[Path], db: Any, smap: Any, date: datetime.date | None) -> JobSource:
+    """What a worker process runs: the logs read again through the pipeline's schedule alone,
+    each estimator job handed on as the pipeline would submit it (see
+    :mod:`~steer_monitor.monitor.process_jobs`)."""
+    def source(submit: Callable[[list[Sample]], None]) -> None:
+        schedule = JobSchedule(Decoder(db, smap, RejectCounter()), submit)
+        for path in paths:
+            try:
+                for block in iter_log_blocks(path, None, date):
+                    for piece in runs_of(schedule.decoder, block):
+                        if isinstance(piece, FrameArrays):
+                            for frame in piece.frames():
+                                schedule.feed(frame)
+                        else:
+                            schedule.feed_run(piece)
+            except LogError:
+                pass                        # the pipeline reports it; the next log goes on
+        schedule.finish()
+    return source
 
 
 def summary_json(s: ReplaySummary) -> dict[str, Any]:

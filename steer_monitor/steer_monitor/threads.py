@@ -27,5 +27,9 @@ def single_blas_thread() -> bool:
         except ImportError:
             _limiter = False
         else:
+            # the limit holds for the libraries loaded when it is set: load numpy's and
+            # scipy's BLAS first (a process that had not imported them kept two threads)
+            import numpy  # noqa: F401
+            import scipy.linalg  # noqa: F401
             _limiter = threadpool_limits(limits=1, user_api='blas')
     return _limiter is not False

@@ -87,10 +87,13 @@ def _hostile(frames: list) -> list:
     return out
 
 
-@pytest.mark.parametrize('case', ['all', 'no frames', 'split', 'hostile', 'two hours apart'])
-def test_the_fast_replay_writes_the_reference_bytes(tmp_path, logs, case):
-    """States are packed in batches; the file is the per-frame reference's (every message
-    built and written one at a time), byte for byte, chunk boundaries included."""
+@pytest.mark.parametrize('worker', [False, True])
+@pytest.mark.parametrize('case', ['all', 'no frames', 'split', 'hostile', 'two hours apart', 'broken'])
+def test_the_fast_replay_writes_the_reference_bytes(tmp_path, logs, case, worker):
+    """States are packed in batches, runs of frames decoded at once, the estimator's jobs
+    run at once or (``worker``) ahead in a process of their own; the file is the per-frame
+    reference's (every message built and written one at a time), byte for byte, chunk
+    boundaries included."""
     paths = {'split': [logs['b.mcap'], logs['a.log']]}.get(case, [logs['all.log']])
     if case in ('hostile', 'two hours apart'):
         from steer_monitor.can.frames import Frame
@@ -105,9 +108,14 @@ def test_the_fast_replay_writes_the_reference_bytes(tmp_path, logs, case):
         with LogWriter(paths[0]) as w:
             for f in frames:
                 w.write(f)
-    fast = replay(paths, tmp_path / 'fast.mcap', frames=case != 'no frames')
+    if case == 'broken':            # a log that breaks off, then the next one
+        paths = [logs['a.log'], tmp_path / 'cut.mcap']
+        raw = logs['b.mcap'].read_bytes()
+        paths[1].write_bytes(raw[: len(raw) // 2])
+    fast = replay(paths, tmp_path / 'fast.mcap', frames=case != 'no frames', worker=worker)
     ref = replay(paths, tmp_path / 'ref.mcap', frames=case != 'no frames', reference=True)
-    assert fast.states == ref.states > 1000 and fast.rejects == ref.rejects
+    assert fast.states == ref.states > 1000 and fast.rejects == ref.rejects and fast.errors == ref.errors
+    assert fast.estimate == ref.estimate is not None and fast.motion_s == ref.motion_s
     assert (tmp_path / 'fast.mcap').read_bytes() == (tmp_path / 'ref.mcap').read_bytes()
     if case == 'hostile':
         assert {'error_frame', 'unknown_id', 'wrong_length', 'duplicate', 'time_jump', 'time_backwards'} <= set(ref.rejects)
@@ -174,7 +182,27 @@ def test_every_programme_and_effect_replays_to_the_reference_bytes(tmp_path, r18
     with LogWriter(log) as w:
         for f in s.frames.frames():
             w.write(f)
-    fast = replay([log], tmp_path / 'fast.mcap')
+    fast = replay([log], tmp_path / 'fast.mcap', worker=True)
     ref = replay([log], tmp_path / 'ref.mcap', reference=True)
     assert fast.states == ref.states > 1000 and fast.errors == ref.errors == []
+    assert fast.estimate == ref.estimate and fast.motion_s == ref.motion_s
     assert (tmp_path / 'fast.mcap').read_bytes() == (tmp_path / 'ref.mcap').read_bytes()
+
+
+def test_a_worker_that_dies_stops_the_replay_with_no_output(tmp_path, logs, monkeypatch):
+    """The estimator's process killed (here it exits at once): the replay says so in one line
+    and leaves no output, rather than a file without the estimates."""
+    import os
+
+    import steer_monitor.replay as R
+    from steer_monitor.errors import SteerMonitorError
+
+    def dying(paths, db, smap, date):
+        def source(submit):
+            os._exit(9)
+        return source
+    monkeypatch.setattr(R, '_job_source', dying)
+    with pytest.raises(SteerMonitorError, match=r'the estimator process ended unexpectedly \(exit code 9\)'):
+        replay([logs['all.log']], tmp_path / 'out.mcap', worker=True)
+    assert not (tmp_path / 'out.mcap').exists()
+    assert list(tmp_path.iterdir()) == []

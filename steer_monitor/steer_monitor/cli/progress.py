@@ -40,6 +40,10 @@ class DataTimeProgress:
                  force: bool = False) -> None:
         from tqdm import tqdm
 
+        # no tqdm monitor thread (it only retunes bars updated rarely; these are updated every
+        # few thousand frames): a replay forks its estimator's worker only from a process with
+        # no other thread (steer_monitor.monitor.process_jobs)
+        tqdm.monitor_interval = 0
         file = file or sys.stderr
         enabled = force or file.isatty()
         self._spans = sorted(spans) if spans else None

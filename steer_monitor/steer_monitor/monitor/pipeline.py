@@ -47,8 +47,10 @@ from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, Status
 from steer_monitor.monitor.live import LiveMonitor, LiveState
 from steer_monitor.params import min_clearance_2z_from_params
 
-__all__ = ['APPLY_DELAY_NS', 'MAX_GAP_SECONDS', 'SECOND_NS', 'SLOT_NS', 'DiagOut', 'EstimatorJobs', 'Pipeline', 'StateOut',
-           'SyncEstimatorJobs', 'ThreadedEstimatorJobs', 'apply_estimate', 'estimator_from_params', 'plausible']
+__all__ = ['APPLY_DELAY_NS', 'MAX_GAP_SECONDS', 'SECOND_NS', 'SLOT_NS', 'DiagOut', 'EstimateSnapshot', 'EstimatorJobs',
+           'JobSchedule', 'Pipeline', 'StateOut',
+           'SyncEstimatorJobs', 'ThreadedEstimatorJobs', 'apply_estimate', 'estimator_from_params', 'plausible',
+           'run_job']
 
 SLOT_NS = 10_000_000
 SECOND_NS = 1_000_000_000
@@ -102,7 +104,7 @@ def estimator_from_params(gear: GearParams, p: Mapping[str, Any]) -> OnlineEstim
                            half_life_s=p['estimator.half_life_h'] * 3600.0)
 
 
-def _job(est: OnlineEstimator, samples: list[Sample],
+def run_job(est: OnlineEstimator, samples: list[Sample],
          on_error: Callable[[SteerMonitorError], None] | None) -> EstimateSnapshot | None:
     """One job: the samples in, an update; the new estimate, or None (no change, or an update
     that failed, which ``on_error`` hears: it guards a defect, the monitoring goes on)."""
@@ -125,7 +127,7 @@ class SyncEstimatorJobs:
         self.on_error = on_error
 
     def submit(self, samples: list[Sample]) -> object:
-        return _job(self.est, samples, self.on_error)
+        return run_job(self.est, samples, self.on_error)
 
     def result(self, handle: object) -> EstimateSnapshot | None:
         return handle  # type: ignore[return-value]
@@ -149,7 +151,7 @@ class ThreadedEstimatorJobs:
 
     def _run(self, samples: list[Sample]) -> EstimateSnapshot | None:
         try:
-            return _job(self.est, samples, self.on_error)
+            return run_job(self.est, samples, self.on_error)
         finally:
             if self.after is not None:
                 self.after()
@@ -394,3 +396,26 @@ class Pipeline:
         statuses = self.diag.build(mon, self.rejects.snapshot(), now_ns)
         interval = dict(mon.gaps_interval) if mon.gaps_interval else None
         return DiagOut(now_ns, tuple(statuses), mon.gaps, interval, mon.gaps_source)
+
+
+class JobSchedule(Pipeline):
+    """The pipeline's schedule alone: the same frames in give the same estimator jobs (the
+    samples since the last whole second, at each whole second, in the same order) as a
+    :class:`Pipeline` fed them, handed to ``submit``; no live model, states or diagnostics.
+    A replay's worker process runs it over the logs to run the jobs ahead of the pipeline
+    (:mod:`~steer_monitor.monitor.process_jobs`)."""
+
+    def __init__(self, decoder: Decoder, submit: Callable[[list[Sample]], None]) -> None:
+        super().__init__(decoder, decoder.rejects, None, None, None)  # type: ignore[arg-type]
+        self._submit = submit
+
+    def _take(self, samples: list[Sample]) -> None:
+        if samples:
+            self._samples.extend(samples)
+
+    def _emit_state(self, out: list[Output]) -> None:
+        pass
+
+    def _second(self, k_ns: int, out: list[Output]) -> None:
+        samples, self._samples = self._samples, []
+        self._submit(samples)
