@@ -130,8 +130,10 @@ def _case(kind: str, path: str) -> dict:
         frames, extra = summary.frames, {}
     elapsed = time.perf_counter() - t0
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    worker_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0    # replay's estimator worker
     return {'kind': kind, 'log': Path(path).name, 'frames': frames, 'seconds': round(elapsed, 2),
-            'frames_per_s': round(frames / elapsed), 'peak_rss_mb': round(peak_mb), **extra}
+            'frames_per_s': round(frames / elapsed), 'peak_rss_mb': round(peak_mb), 'worker_peak_mb': round(worker_mb),
+            **extra}
 
 
 def _child(*args: str, capture: bool = False) -> str:
@@ -177,8 +179,9 @@ def main() -> int:
               + ', '.join(f'{r["frames_per_s"]:,d}' for r in runs[::-1]) + ' frames/s')
         scope = '' if fast['frames'] == batch['frames'] else f'  (first {fast["frames"]:,d} frames)'
         for label, r in (('reader', reader), ('replay', fast), ('reference', ref)):
+            worker = f' (its worker {r["worker_peak_mb"]} MB)' if r['worker_peak_mb'] else ''
             print(f'  {label:9s} {r["frames_per_s"]:>10,d} frames/s  {r["seconds"]:7.2f} s  '
-                  f'peak {r["peak_rss_mb"]:5d} MB{scope}')
+                  f'peak {r["peak_rss_mb"]:5d} MB{worker}{scope}')
         print(f'  replay: {fast["frames_per_s"] / reader["frames_per_s"]:.3f} x the reader, '
               f'{fast["frames_per_s"] / ref["frames_per_s"]:.2f} x its reference; '
               f'batch {batch["frames_per_s"] / fast["frames_per_s"]:.0f} x replay')

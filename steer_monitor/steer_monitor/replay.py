@@ -295,12 +295,14 @@ def _job_source(paths: list[Path], db: Any, smap: Any, date: datetime.date | Non
         for path in paths:
             try:
                 for block in iter_log_blocks(path, None, date):
-                    for piece in runs_of(schedule.decoder, block):
-                        if isinstance(piece, FrameArrays):
-                            for frame in piece.frames():
-                                schedule.feed(frame)
-                        else:
-                            schedule.feed_run(piece)
+                    for pos in range(0, len(block), FRAME_BATCH):     # a block's runs at a time: bounded memory
+                        part = block.take(np.arange(pos, min(pos + FRAME_BATCH, len(block))))
+                        for piece in runs_of(schedule.decoder, part):
+                            if isinstance(piece, FrameArrays):
+                                for frame in piece.frames():
+                                    schedule.feed(frame)
+                            else:
+                                schedule.feed_run(piece)
             except LogError:
                 pass                        # the pipeline reports it; the next log goes on
         schedule.finish()
