@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from steer_monitor.can.codec import CanDatabase, MessageLayout
+from steer_monitor.can.codec import CanDatabase, FieldLayout, MessageLayout
 from steer_monitor.can.devices import ADDRESS_CLAIM_PGN, DeviceName, DeviceTable, format_name
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, Frame, FrameArrays, pgn_of
 from steer_monitor.can.rejects import RejectCounter
@@ -264,14 +264,10 @@ class Decoder:
         n = len(fa)
         self.frames_seen += n
         r = self.rejects
-        ok = np.ones(n, bool)
-        for flag, reason in ((FLAG_ERROR, 'error_frame'), (FLAG_REMOTE, 'remote_frame')):
-            hit = ok & ((fa.flags & flag) != 0)
+        error, remote, standard = self._flag_rejects(fa.flags)
+        for hit, reason in ((error, 'error_frame'), (remote, 'remote_frame'), (standard, 'not_extended')):
             r.add(reason, 'in a log block', n=int(hit.sum()))
-            ok &= ~hit
-        hit = ok & ((fa.flags & FLAG_EXTENDED) == 0)
-        r.add('not_extended', 'in a log block', n=int(hit.sum()))
-        ok &= ~hit
+        ok = ~(error | remote | standard)
         pgns = pgn_of(fa.can_id.astype(np.uint32))
         claims = ok & (pgns == ADDRESS_CLAIM_PGN)
         owner = self._owners(fa, np.nonzero(claims)[0])
@@ -333,12 +329,8 @@ class Decoder:
                 sel = self._selected(spec, inst, src, address, owner[rows])
                 mapped |= sel
                 f = layout.fields[spec.field]
-                raw = CanDatabase.extract(f, w[sel])
+                na, err, bad, phys = self._judged(spec, f, CanDatabase.extract(f, w[sel]))
                 t = fa.t_ns[rows[sel]]
-                na = raw == f.not_available
-                err = raw == f.error
-                phys = f.to_physical(raw.astype(np.float64))
-                bad = ~na & ~err & ~((phys >= spec.low) & (phys <= spec.high))
                 r.add('not_available', f'{spec.name} in a log block', spec.name, int(na.sum()))
                 r.add('error_value', f'{spec.name} in a log block', spec.name, int(err.sum()))
                 if bad.any():
@@ -352,6 +344,27 @@ class Decoder:
         return {name: Series(np.concatenate(out_t[name]) if out_t[name] else np.zeros(0, np.int64),
                              np.concatenate(out_v[name]) if out_v[name] else np.zeros(0, np.float64))
                 for name in self.map.names}
+
+    @staticmethod
+    def _flag_rejects(flags: NDArray[np.uint8]) -> tuple[NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]]:
+        """Rows refused by their flags, each under the first reason :meth:`_frame_layout`
+        gives: error frames, remote frames, standard identifiers; shapes (n,)."""
+        error = (flags & FLAG_ERROR) != 0
+        remote = ~error & ((flags & FLAG_REMOTE) != 0)
+        standard = ~error & ~remote & ((flags & FLAG_EXTENDED) == 0)
+        return error, remote, standard
+
+    @staticmethod
+    def _judged(spec: SignalSpec, f: FieldLayout, raw: NDArray[np.int64]
+                ) -> tuple[NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_], NDArray[np.float64]]:
+        """A mapped field's raw values judged as :meth:`_fields` judges one: not available,
+        error value, out of the input's range (each row under the first that applies), and
+        the physical values [SI]; shapes (n,)."""
+        na = raw == f.not_available
+        err = ~na & (raw == f.error)
+        phys = f.to_physical(raw.astype(np.float64))
+        bad = ~na & ~err & ~((phys >= spec.low) & (phys <= spec.high))
+        return na, err, bad, phys
 
     def _known(self, pgns: NDArray, dlc: NDArray[np.uint8]) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
         """Rows whose PGN the DBC has, and rows of such a PGN with its data length; shapes (n,)."""
@@ -460,10 +473,7 @@ class Decoder:
         jumps = self.jumps
         if n == 0 or jumps.ref_ns is None or jumps.pending or self._held or len(self._held_fa):
             return None
-        flags = fa.flags
-        error = (flags & FLAG_ERROR) != 0
-        remote = ~error & ((flags & FLAG_REMOTE) != 0)
-        standard = ~error & ~remote & ((flags & FLAG_EXTENDED) == 0)
+        error, remote, standard = self._flag_rejects(fa.flags)
         ok = ~(error | remote | standard)
         pgns = pgn_of(fa.can_id.astype(np.uint32))
         if (ok & (pgns == ADDRESS_CLAIM_PGN)).any():
@@ -507,12 +517,8 @@ class Decoder:
                 sel = self._selected(spec, inst, src, address, owner)
                 mapped |= sel
                 f = layout.fields[spec.field]
-                raw = CanDatabase.extract(f, w[sel])
+                na, err, bad, phys = self._judged(spec, f, CanDatabase.extract(f, w[sel]))
                 r = rows[sel]
-                na = raw == f.not_available
-                err = ~na & (raw == f.error)
-                phys = f.to_physical(raw.astype(np.float64))
-                bad = ~na & ~err & ~((phys >= spec.low) & (phys <= spec.high))
                 events += [(r[na], 'not_available', spec.name), (r[err], 'error_value', spec.name),
                            (r[bad], 'out_of_range', spec.name)]
                 good = ~(na | err | bad)
@@ -563,8 +569,7 @@ class DecodedRun:
             return
         hi = int(np.searchsorted(rows, upto, 'right'))
         self._next = hi
-        if hi > lo:
-            kinds, counts = np.unique(self._event_kind[lo:hi], return_counts=True)
-            for k, c in zip(kinds.tolist(), counts.tolist()):
-                _, reason, signal = self.events[k]
-                self.rejects.add(reason, 'in a log block', signal, int(c))
+        kinds, counts = np.unique(self._event_kind[lo:hi], return_counts=True)
+        for k, c in zip(kinds.tolist(), counts.tolist()):
+            _, reason, signal = self.events[k]
+            self.rejects.add(reason, 'in a log block', signal, int(c))
