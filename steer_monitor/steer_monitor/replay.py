@@ -206,17 +206,6 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
         if outs:
             emit(outs)
 
-    def feed_part(part: FrameArrays) -> None:
-        for piece in runs_of(pipeline.decoder, part):
-            if isinstance(piece, FrameArrays):
-                for frame in piece.frames():
-                    feed(frame)
-                continue
-            for i in (0, len(piece.t_ns) - 1):
-                ti, ref = int(piece.t_ns[i]), int(piece.ref_before[i])
-                see(ti if abs(ti - ref) <= jump else ref, ti)
-            emit(pipeline.feed_run(piece))
-
     batch: list[Frame] = []          # reference: frames to write
     pending: list[FrameArrays] = []  # fast: the same, as columns
     pending_n = 0
@@ -242,7 +231,7 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
                     k = min(len(block) - pos, FRAME_BATCH - pending_n)
                     part = block.take(np.arange(pos, pos + k))
                     pos += k
-                    feed_part(part)
+                    emit(feed_part(pipeline, part, see))
                     if frames:
                         pending.append(part)
                         pending_n += k
@@ -266,6 +255,28 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
     emit(pipeline.finish())
     flush_states()
     pipeline.close()
+
+
+def feed_part(pipeline: Pipeline, part: FrameArrays,
+              see: Callable[[int | None, int], None] | None = None) -> list[Output]:
+    """The frames of ``part`` into ``pipeline`` as :func:`runs_of` cuts them: what the pipeline
+    emits, in order. ``see`` hears the stream's time before a frame is taken, and its stamp
+    (of every frame fed one at a time; of a run's first and last)."""
+    out: list[Output] = []
+    for piece in runs_of(pipeline.decoder, part):
+        if isinstance(piece, FrameArrays):
+            for frame in piece.frames():
+                if see is not None:
+                    see(pipeline.clock(frame.t_ns), frame.t_ns)
+                out += pipeline.feed(frame)
+            continue
+        if see is not None:
+            jump = pipeline.decoder.jumps.max_jump_ns
+            for i in (0, len(piece.t_ns) - 1):
+                ti, ref = int(piece.t_ns[i]), int(piece.ref_before[i])
+                see(ti if abs(ti - ref) <= jump else ref, ti)
+        out += pipeline.feed_run(piece)
+    return out
 
 
 def runs_of(decoder: Decoder, part: FrameArrays) -> Iterator[DecodedRun | FrameArrays]:
@@ -296,13 +307,7 @@ def _job_source(paths: list[Path], db: Any, smap: Any, date: datetime.date | Non
             try:
                 for block in iter_log_blocks(path, None, date):
                     for pos in range(0, len(block), FRAME_BATCH):     # a block's runs at a time: bounded memory
-                        part = block.take(np.arange(pos, min(pos + FRAME_BATCH, len(block))))
-                        for piece in runs_of(schedule.decoder, part):
-                            if isinstance(piece, FrameArrays):
-                                for frame in piece.frames():
-                                    schedule.feed(frame)
-                            else:
-                                schedule.feed_run(piece)
+                        feed_part(schedule, block.take(np.arange(pos, min(pos + FRAME_BATCH, len(block)))))
             except LogError:
                 pass                        # the pipeline reports it; the next log goes on
         schedule.finish()
