@@ -16,21 +16,22 @@ import tempfile
 import time
 from pathlib import Path
 
-import numpy as np
-
-from steer_monitor import sim
-from steer_monitor.can.fastlogs import write_candump_arrays
-from steer_monitor.can.frames import FrameArrays
-from steer_monitor.can.setup import can_setup
-from steer_monitor.params import load_params_file
-from steer_monitor.resources import default_config
-
 PROGRAM = 'voyage,voyage,autopilot:610'  # about one hour
 COPIES = 5
 
 
 def make_log(path: Path) -> int:
-    """Write the 1.5 M-frame log; returns its number of frames."""
+    """Write the 1.5 M-frame log; returns its number of frames. (Imports here: the process
+    that starts the measured commands stays small, its peak being handed on to them.)"""
+    import numpy as np
+
+    from steer_monitor import sim
+    from steer_monitor.can.fastlogs import write_candump_arrays
+    from steer_monitor.can.frames import FrameArrays
+    from steer_monitor.can.setup import can_setup
+    from steer_monitor.params import load_params_file
+    from steer_monitor.resources import default_config
+
     config = default_config()
     params = load_params_file(config)
     db, smap = can_setup(params, config)
