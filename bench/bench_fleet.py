@@ -68,7 +68,7 @@ def main() -> dict:
             t0 = time.perf_counter()
             client, cluster = make_client(workers, None)     # the LocalCluster run_fleet makes
             with cluster, client:
-                client.run(lambda: __import__('steer_monitor.batchpath'))     # what a warm worker has
+                client.run(lambda: __import__('steer_monitor.ashore.batchpath'))     # what a warm worker has
                 t1 = time.perf_counter()
                 run = run_fleet([logs[0].parent], res, client=client, reports=False)   # the same work as above
                 t2 = time.perf_counter()

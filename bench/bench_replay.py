@@ -9,13 +9,13 @@ under ``BENCH_DIR`` (default ``/tmp/steer_monitor_bench``).
 
 Measured, each case in a fresh process (so its peak resident memory is its own):
 
-* batch path (:func:`steer_monitor.batchpath.review_logs`): read in blocks of columns,
+* batch path (:func:`steer_monitor.ashore.batchpath.review_logs`): read in blocks of columns,
   decode, model, clearance moments, the estimates with intervals over time; frames/s end to
   end, and the part of the time spent estimating (a fixed cost per log, up to 4 + 1
   profiles, whatever its length). Timed ``BATCH_RUNS`` times, the median shown with every
   run's rate: on this machine (two vCPUs shared with other guests) one run in several is
   up to half again slower than the others;
-* ``replay`` (:func:`steer_monitor.replay.replay`, the node's pipeline: the decoder, live
+* ``replay`` (:func:`steer_monitor.ashore.replay.replay`, the node's pipeline: the decoder, live
   model, online estimator and diagnostics, topics written to MCAP, frames left out), its
   per-frame reference (``reference=True``: every frame through the pipeline one at a time,
   every message built and written alone; the same file), and a plain reader of the same file
@@ -110,7 +110,7 @@ def _case(kind: str, path: str) -> dict:
     single_blas_thread()
     t0 = time.perf_counter()
     if kind == 'batch':
-        from steer_monitor.batchpath import review_logs
+        from steer_monitor.ashore.batchpath import review_logs
         run = review_logs([path])
         frames, extra = run.frames, {'estimating_s': round(run.review.estimating_s, 2),
                                      'estimates': len(run.review.estimates)}
@@ -124,7 +124,7 @@ def _case(kind: str, path: str) -> dict:
             frames = sum(1 for _ in can.CanutilsLogReader(path))
         extra = {}
     else:
-        from steer_monitor.replay import replay
+        from steer_monitor.ashore.replay import replay
         with tempfile.TemporaryDirectory() as tmp:
             summary = replay([path], Path(tmp) / 'out.mcap', frames=False, reference=kind == 'reference')
         frames, extra = summary.frames, {}

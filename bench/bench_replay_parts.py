@@ -1,7 +1,7 @@
 """Where the replay's time goes, on an hour of simulated gear traffic (candump,
 about 330,000 frames), with python-can's candump reader on the same file in the same run.
 
-Each part of :func:`steer_monitor.replay.replay` is timed by wrapping its entry points with
+Each part of :func:`steer_monitor.ashore.replay.replay` is timed by wrapping its entry points with
 a clock (the wrappers' own cost, about a microsecond a call, is counted in the parts and
 shown apart as the difference between the timed and an untimed run):
 
@@ -69,7 +69,7 @@ def _timed(spent: dict[str, float], part: str, fn):
 
 
 def _instrument(spent: dict[str, float]) -> None:
-    import steer_monitor.replay as R
+    import steer_monitor.ashore.replay as R
     from steer_monitor.can.decoder import Decoder
     from steer_monitor.can.mcapio import McapWriter
     from steer_monitor.monitor.diagnostics import DiagnosticsBuilder
@@ -95,7 +95,7 @@ def main() -> int:
     single_blas_thread()
     import can
 
-    from steer_monitor.replay import replay
+    from steer_monitor.ashore.replay import replay
 
     print('== replay: where the time goes (an hour of simulated gear traffic, candump) ==')
     with tempfile.TemporaryDirectory() as tmp:

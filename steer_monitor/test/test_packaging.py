@@ -95,13 +95,43 @@ def test_every_published_message_package_is_declared():
 
 
 def test_ashore_dependencies_stay_ashore():
-    """Dask and pyarrow are imported only by the ashore subpackage and the fleet command,
-    which the node never imports."""
-    vessel_side = [p for p in sorted((PKG / 'steer_monitor').rglob('*.py'))
-                   if 'ashore' not in p.parts and p.name != 'fleet.py']
-    assert _imports(vessel_side) & ASHORE == set()
+    """Dask and pyarrow are imported only by the fleet's modules of the ashore subpackage and
+    the fleet command, which the node never imports."""
+    fleet = {('ashore', 'fleet.py'), ('ashore', 'store.py'), ('cli', 'fleet.py')}
+    others = [p for p in sorted((PKG / 'steer_monitor').rglob('*.py')) if p.parts[-2:] not in fleet]
+    assert _imports(others) & ASHORE == set()
     extras = (PKG / 'setup.py').read_text()
     assert "'ashore': ['dask[distributed]" in extras and 'pyarrow' in extras
+
+
+def _package_imports(path: Path) -> set[str]:
+    """The steer_monitor modules ``path`` imports, absolute names."""
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding='utf-8'))):
+        if isinstance(node, ast.Import):
+            found |= {a.name for a in node.names if a.name.startswith('steer_monitor')}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and (node.module or '').startswith('steer_monitor'):
+            found |= {f'{node.module}.{a.name}' for a in node.names}
+    return found
+
+
+#: the vessel side and the pure core: what the node runs
+VESSEL = ('can', 'model', 'estimate', 'monitor', 'node', 'record', 'sim')
+
+
+@pytest.mark.parametrize('part', VESSEL)
+def test_the_vessel_side_never_imports_the_shore_side(part):
+    for path in sorted((PKG / 'steer_monitor' / part).rglob('*.py')):
+        shore = {m for m in _package_imports(path) if m.startswith(('steer_monitor.ashore', 'steer_monitor.cli'))}
+        assert not shore, f'{path.relative_to(PKG)} imports {sorted(shore)}'
+
+
+@pytest.mark.parametrize('part', ['model', 'estimate', 'monitor'])
+def test_the_core_is_pure(part):
+    """Physics, estimation and the live monitor take arrays and records: no ROS, bus or file
+    format library."""
+    for path in sorted((PKG / 'steer_monitor' / part).rglob('*.py')):
+        assert _imports([path]) & {'rclpy', 'can', 'mcap', 'mcap_ros2', 'cantools'} == set(), path
 
 
 def test_launch_file_declares_its_arguments():

@@ -1,4 +1,12 @@
-"""Ashore, across a fleet: every vessel's logs estimated as tasks on Dask distributed, the
-results kept in Parquet between runs, and each clearance's wear trend with the date it
-reaches its limit. Dask and pyarrow are ashore dependencies (the ``ashore`` extra), never
-the node's: nothing here is imported by the vessel side."""
+"""The shore side: what reads a vessel's logs after the fact, never imported by the node.
+
+* :mod:`~steer_monitor.ashore.replay` runs the node's own pipeline over logs into MCAP, the
+  same bytes the node would have written (its estimator jobs run ahead in
+  :mod:`~steer_monitor.ashore.replay_worker`);
+* :mod:`~steer_monitor.ashore.batchpath` and :mod:`~steer_monitor.ashore.review` review
+  logs in blocks of columns, fast; :mod:`~steer_monitor.ashore.report` makes the HTML pages;
+* :mod:`~steer_monitor.ashore.fleet` estimates every vessel's logs as tasks on Dask
+  distributed, keeps the results in Parquet between runs (:mod:`~steer_monitor.ashore.store`)
+  and gives each clearance's wear trend with the date it reaches its limit. Dask and pyarrow
+  are the ``ashore`` extra's dependencies, imported by the fleet's modules only.
+"""

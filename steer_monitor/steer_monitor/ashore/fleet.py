@@ -181,7 +181,7 @@ def run_fleet(dirs: Sequence[str | Path], out: str | Path, *, workers: int | Non
                 if progress is not None:
                     progress(done, len(futures))
             if reports:        # every task has ended: what a killed worker left half-written goes
-                from steer_monitor.report.logreport import remove_report_debris
+                from steer_monitor.ashore.report.logreport import remove_report_debris
                 for v, _log, sha, cfg_sha in todo:
                     remove_report_debris((out / report_path(v.name, sha, cfg_sha)).parent)
         finally:

@@ -73,7 +73,7 @@ def analyse_log(vessel: str, log: str, config: str | None, log_sha256: str, conf
     without the model check, which ``steer-monitor report`` makes). A log that cannot be
     read at all is a result with ``error`` set, not an exception: the fleet goes on, and says
     so; a page that cannot be written is said in the result's read errors."""
-    from steer_monitor.batchpath import review_logs
+    from steer_monitor.ashore.batchpath import review_logs
     from steer_monitor.errors import SteerMonitorError
     from steer_monitor.threads import single_blas_thread
 
@@ -108,7 +108,7 @@ def analyse_log(vessel: str, log: str, config: str | None, log_sha256: str, conf
 
 def _write_report(log: str, config: str | None, run: Any, report_dir: str) -> None:
     from steer_monitor.params import load_config
-    from steer_monitor.report.logreport import report_input, write_report_dir
+    from steer_monitor.ashore.report.logreport import report_input, write_report_dir
 
     config_path, params = load_config(config)
     note = 'model check not made in a fleet run: steer-monitor report LOG makes it'

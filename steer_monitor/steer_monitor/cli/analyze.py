@@ -183,7 +183,7 @@ def run(path: str | Path, config: str | Path | None = None, json_out: str | Path
             with atomic_write(json_out, 'w', encoding='utf-8') as fh:
                 dump_json(result, fh)
     if report is not None:
-        from steer_monitor.report.analysis import write_analysis_report
+        from steer_monitor.ashore.report.analysis import write_analysis_report
         write_analysis_report(a, result, report)
     if json_out is None or str(json_out) != '-':
         _summary(result, out)

@@ -42,7 +42,7 @@ class DataTimeProgress:
 
         # no tqdm monitor thread (it only retunes bars updated rarely; these are updated every
         # few thousand frames): a replay forks its estimator's worker only from a process with
-        # no other thread (steer_monitor.monitor.process_jobs)
+        # no other thread (steer_monitor.ashore.replay_worker)
         tqdm.monitor_interval = 0
         file = file or sys.stderr
         enabled = force or file.isatty()

@@ -2,7 +2,7 @@
 offline over logs, as fast as the machine allows, writing the topics the node publishes.
 
 Deterministic: the same logs give the same file byte for byte, and the values the node
-published live for the same frames (see :mod:`steer_monitor.replay`).
+published live for the same frames (see :mod:`steer_monitor.ashore.replay`).
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ def run(logs: list[str], out_path: str | Path, config: str | Path | None = None,
     off or had corrupt parts, whose readable frames were replayed. A progress bar (data
     time, percentage, ETA) on a terminal, or anywhere with ``progress``."""
     from steer_monitor.cli.progress import DataTimeProgress, log_spans
-    from steer_monitor.replay import replay, summary_json
+    from steer_monitor.ashore.replay import replay, summary_json
 
     out = out or sys.stdout
     err = err or sys.stderr

@@ -1,7 +1,7 @@
 """``steer-monitor report LOG_OR_MCAP... --out DIR``: a page engineers read (``DIR/index.html``,
 self-contained, with its PNG plots beside it) from a CAN log, a node recording or a replay.
 
-The review runs on the batch path over the whole log (:mod:`steer_monitor.batchpath`); the
+The review runs on the batch path over the whole log (:mod:`steer_monitor.ashore.batchpath`); the
 model check (residual before and after an added effect, :func:`~steer_monitor.estimate.
 analyze.analyze`) on the last ``--analysis-hours`` of data (default 3), which is where the
 check is about the gear as it is now and keeps its cost bounded on a long log.
@@ -49,12 +49,12 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
     from tqdm import tqdm
 
     from steer_monitor.atomic import ensure_dir
-    from steer_monitor.batchpath import review_logs
+    from steer_monitor.ashore.batchpath import review_logs
     from steer_monitor.can.logs import LogError
     from steer_monitor.errors import ParameterError
     from steer_monitor.params import load_config
-    from steer_monitor.report.logreport import report_input
-    from steer_monitor.report.review import write_review_report
+    from steer_monitor.ashore.report.logreport import report_input
+    from steer_monitor.ashore.report.review import write_review_report
 
     out = out or sys.stdout
     err = err or sys.stderr

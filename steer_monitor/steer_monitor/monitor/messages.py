@@ -28,7 +28,7 @@ rosbags, Foxglove and ``steer-monitor report`` read it without them, and ``repla
 them itself (:mod:`steer_monitor.record.cdr`) from the ``.msg`` files. Recordings made before
 these types carry the clearances as named ``sensor_msgs/JointState`` values or a labelled
 ``std_msgs/Float64MultiArray``; the report reads those too
-(:func:`steer_monitor.report.logreport.online_track`).
+(:func:`steer_monitor.ashore.report.logreport.online_track`).
 """
 
 from __future__ import annotations

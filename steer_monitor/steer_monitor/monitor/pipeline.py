@@ -403,7 +403,7 @@ class JobSchedule(Pipeline):
     samples since the last whole second, at each whole second, in the same order) as a
     :class:`Pipeline` fed them, handed to ``submit``; no live model, states or diagnostics.
     A replay's worker process runs it over the logs to run the jobs ahead of the pipeline
-    (:mod:`~steer_monitor.monitor.process_jobs`)."""
+    (:mod:`~steer_monitor.ashore.replay_worker`)."""
 
     def __init__(self, decoder: Decoder, submit: Callable[[list[Sample]], None]) -> None:
         super().__init__(decoder, decoder.rejects, None, None, None)  # type: ignore[arg-type]

@@ -198,7 +198,7 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
     assert decoded == n and frames == len(run1) + len(run2)
 
     # Replay of the recorded frames publishes what the node published live on them.
-    from steer_monitor.replay import replay
+    from steer_monitor.ashore.replay import replay
     (tmp_path / 'replay').mkdir()
     replayed = replay([path], tmp_path / 'replay' / 'replay.mcap')
     assert replayed.errors == [] and replayed.frames == len(run1) + len(run2)

@@ -12,7 +12,7 @@ import pytest
 from steer_monitor import sim
 from steer_monitor.can.logs import LogWriter
 from steer_monitor.cli import main as cli
-from steer_monitor.report.review import PLOTS
+from steer_monitor.ashore.report.review import PLOTS
 
 pytestmark = pytest.mark.slow
 
@@ -22,7 +22,7 @@ CHROMIUM = next((p for p in (shutil.which(n) for n in ('chromium', 'chromium-bro
 @pytest.fixture(scope='module')
 def logs(tmp_path_factory, r18_params, can_db):
     """A candump log with hard-overs and zig-zags, and its replay (an MCAP with the node's topics)."""
-    from steer_monitor.replay import replay
+    from steer_monitor.ashore.replay import replay
     db, smap = can_db
     d = tmp_path_factory.mktemp('report')
     frames = sim.run(r18_params, sim.SimConfig(program='hard_over_2,zigzag_20,zigzag_10', max_duration_s=240.0),
@@ -78,7 +78,7 @@ def test_page_renders_every_plot_in_chromium(tmp_path, logs, which, capsys):
 
 
 def test_online_estimates_of_a_replay_are_read(logs):
-    from steer_monitor.report.logreport import online_track
+    from steer_monitor.ashore.report.logreport import online_track
     track = online_track([logs['replay']])
     assert track is not None and len(track.t_ns) > 100
     assert (track.t_ns[1:] > track.t_ns[:-1]).all()
@@ -101,7 +101,7 @@ def test_clearances_of_older_recordings_are_read(tmp_path):
     import math
 
     from steer_monitor.can.mcapio import McapWriter
-    from steer_monitor.report.logreport import online_track
+    from steer_monitor.ashore.report.logreport import online_track
     from steer_monitor.monitor.messages import CLEARANCE_LABELS_V1
     from steer_monitor.record import msgdef
     dt = 'std_msgs/msg/Float64MultiArray'
@@ -126,7 +126,7 @@ def test_clearances_of_jointstate_recordings_are_read(tmp_path):
 
     from steer_monitor.can.mcapio import McapWriter
     from steer_monitor.record import msgdef
-    from steer_monitor.report.logreport import online_track
+    from steer_monitor.ashore.report.logreport import online_track
     dt = 'sensor_msgs/msg/JointState'
     names = ['gap_2z_m', 'gap_2z_lo_m', 'gap_2z_hi_m', 'gap_2z_bounded',
              'gap_zgb_m', 'gap_zgb_lo_m', 'gap_zgb_hi_m', 'gap_zgb_bounded']

@@ -10,7 +10,7 @@ import pytest
 
 from steer_monitor.can.decoder import Sample
 from steer_monitor.errors import SteerMonitorError
-from steer_monitor.monitor.process_jobs import ProcessEstimatorJobs
+from steer_monitor.ashore.replay_worker import ProcessEstimatorJobs
 
 
 class _Counting:

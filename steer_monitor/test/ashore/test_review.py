@@ -12,7 +12,7 @@ from steer_monitor.can.logs import LogWriter
 from steer_monitor.model import Gaps
 from steer_monitor.monitor import LiveMonitor
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
-from steer_monitor.review import MAX_WINDOWS, Review
+from steer_monitor.ashore.review import MAX_WINDOWS, Review
 
 pytestmark = pytest.mark.slow
 
@@ -90,7 +90,7 @@ def test_a_log_at_rest_says_why_there_is_no_estimate(r18_params, can_db):
 
 
 def test_batch_path_one_or_two_processes(tmp_path, r18_params, can_db, voyage):
-    from steer_monitor.batchpath import review_logs
+    from steer_monitor.ashore.batchpath import review_logs
     path = tmp_path / 'v.mcap'
     with LogWriter(path) as w:
         for f in voyage.frames():

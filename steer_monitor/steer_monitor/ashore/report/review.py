@@ -26,8 +26,8 @@ from steer_monitor.estimate.analyze import Analysis
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.hardover import pumps_running
 from steer_monitor.model.loadshare import load_sharing_at
-from steer_monitor.report.analysis import residual_figure
-from steer_monitor.review import ReviewResult
+from steer_monitor.ashore.report.analysis import residual_figure
+from steer_monitor.ashore.review import ReviewResult
 
 __all__ = ['PLOTS', 'OnlineTrack', 'ReportInput', 'write_review_report']
 

@@ -1,7 +1,7 @@
 """A log's report page from its batch-path review: what ``steer-monitor report`` writes, and
 what the fleet writes beside each log's result (:mod:`steer_monitor.ashore.logresult`).
 
-The review is made once by the caller (:func:`~steer_monitor.batchpath.review_logs`); this
+The review is made once by the caller (:func:`~steer_monitor.ashore.batchpath.review_logs`); this
 module gathers what the page shows around it (the parameters, the clearances a node
 published when the inputs are its recordings) and writes it.
 """
@@ -23,12 +23,12 @@ __all__ = ['online_track', 'remove_report_debris', 'report_input', 'write_report
 
 def online_track(paths: Sequence[Path]) -> Any:
     """The clearances a node published (``*/clearances``) in MCAP inputs, as an
-    :class:`~steer_monitor.report.review.OnlineTrack`, or None."""
+    :class:`~steer_monitor.ashore.report.review.OnlineTrack`, or None."""
     import numpy as np
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
 
-    from steer_monitor.report.review import OnlineTrack
+    from steer_monitor.ashore.report.review import OnlineTrack
 
     rows: list[tuple[int, list[float]]] = []
     for path in paths:
@@ -79,11 +79,11 @@ def _clearance_values(msg: Any) -> list[float] | None:
 def report_input(paths: Sequence[Path], batch: Any, params: dict[str, Any], config_path: str | Path,
                  analysis: Any, analysis_note: str) -> Any:
     """The page's input for ``paths`` reviewed as ``batch`` (a
-    :class:`~steer_monitor.batchpath.BatchRun`) with these parameters; ``analysis``: the model
+    :class:`~steer_monitor.ashore.batchpath.BatchRun`) with these parameters; ``analysis``: the model
     check (None, and ``analysis_note`` says why)."""
     from steer_monitor.params import gear_from_params
     from steer_monitor.record.provenance import parameters_digest
-    from steer_monitor.report.review import ReportInput
+    from steer_monitor.ashore.report.review import ReportInput
 
     return ReportInput(', '.join(Path(p).name for p in paths), gear_from_params(params), batch.review, analysis,
                        analysis_note, online_track(paths), batch.frames, batch.rejects, batch.errors,
@@ -114,7 +114,7 @@ def write_report_dir(inp: Any, out_dir: str | Path) -> Path:
     """Write the page into ``out_dir`` whole or not at all: into a temporary directory beside
     it, then renamed (an earlier page there is replaced). For pages many workers write into
     one tree, where a worker that dies must not leave half a page behind. Returns the page."""
-    from steer_monitor.report.review import write_review_report
+    from steer_monitor.ashore.report.review import write_review_report
 
     out_dir = Path(out_dir)
     tmp = _temp_dir(out_dir, os.getpid())

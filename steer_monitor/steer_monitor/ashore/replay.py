@@ -37,7 +37,7 @@ from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsCon
 from steer_monitor.monitor.live import LiveMonitor, LiveState
 from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages, topic_name
 from steer_monitor.monitor.pipeline import JobSchedule, Output, Pipeline, StateOut, SyncEstimatorJobs, estimator_from_params
-from steer_monitor.monitor.process_jobs import JobSource, ProcessEstimatorJobs, can_fork_a_worker
+from steer_monitor.ashore.replay_worker import JobSource, ProcessEstimatorJobs, can_fork_a_worker
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
 from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.record.msgdefs import msgdef
@@ -82,7 +82,7 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
     ``reference``: the plain per-frame path (every message built and written one at a time, as
     the node publishes them, the estimator's jobs run at once), kept to check the fast one
     against: the same file, byte for byte. ``worker``: run the estimator's jobs in a process of
-    their own (:mod:`~steer_monitor.monitor.process_jobs`; the same file); by default when
+    their own (:mod:`~steer_monitor.ashore.replay_worker`; the same file); by default when
     there is a second core and this process can fork one safely, never for the reference."""
     if not logs:
         msg = 'no log given'
@@ -300,7 +300,7 @@ def runs_of(decoder: Decoder, part: FrameArrays) -> Iterator[DecodedRun | FrameA
 def _job_source(paths: list[Path], db: Any, smap: Any, date: datetime.date | None) -> JobSource:
     """What a worker process runs: the logs read again through the pipeline's schedule alone,
     each estimator job handed on as the pipeline would submit it (see
-    :mod:`~steer_monitor.monitor.process_jobs`)."""
+    :mod:`~steer_monitor.ashore.replay_worker`)."""
     def source(submit: Callable[[list[Sample]], None]) -> None:
         schedule = JobSchedule(Decoder(db, smap, RejectCounter()), submit)
         for path in paths:

@@ -12,7 +12,7 @@ from steer_monitor.can.logs import LogWriter
 from steer_monitor.can.mcapio import FRAME_TOPIC
 from steer_monitor.cli import main as cli
 from steer_monitor.errors import OutputError
-from steer_monitor.replay import ReplayError, replay
+from steer_monitor.ashore.replay import ReplayError, replay
 
 pytestmark = pytest.mark.slow
 
@@ -194,7 +194,7 @@ def test_a_worker_that_dies_stops_the_replay_with_no_output(tmp_path, logs, monk
     and leaves no output, rather than a file without the estimates."""
     import os
 
-    import steer_monitor.replay as R
+    import steer_monitor.ashore.replay as R
     from steer_monitor.errors import SteerMonitorError
 
     def dying(paths, db, smap, date):

@@ -1,5 +1,5 @@
 """The batch path over logs: read in blocks of columns (:mod:`steer_monitor.can.fastlogs`),
-decode vectorized, review (:mod:`steer_monitor.review`). No Python object per frame.
+decode vectorized, review (:mod:`steer_monitor.ashore.review`). No Python object per frame.
 
 With ``jobs`` > 1 (default: 2 when the machine has 2 cores) reading and decoding run in a
 second process, handing the decoded series (a tenth of the frames' bytes) to this one, which
@@ -23,7 +23,7 @@ from steer_monitor.can.logs import LogError
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import load_setup
 from steer_monitor.params import gaps_from_params, gear_from_params, min_clearance_2z_from_params
-from steer_monitor.review import Review, ReviewResult
+from steer_monitor.ashore.review import Review, ReviewResult
 
 __all__ = ['BatchRun', 'review_logs']
 
