@@ -15,7 +15,11 @@ the truth).
 The *sensitivity* part runs the realistic voyage with one undeclared effect of the analysis
 library at a fraction of the simulator's default magnitude (:data:`FRACTIONS`), with two
 effects at once, and with an effect outside the library, and records what the residual loop
-named (:func:`sensitivity_cases`, :func:`summarize_sensitivity`).
+named (:func:`sensitivity_cases`, :func:`summarize_sensitivity`). Its *hour-long* part
+(:func:`long_voyage_cases`) runs each library effect at a fifth of its default, and clean
+logs, on the realistic voyage of about an hour (:data:`LONG_PROGRAMMES`): how long a log an
+effect at the edge of detection needs, and whether a longer log makes the loop adopt effects
+that are not there.
 
 Pure: simulator and estimator only, no ROS, no bus.
 """
@@ -41,8 +45,9 @@ from steer_monitor.model.gear import Gaps
 from steer_monitor.model.loadshare import STAGE_CLAMPED, load_sharing
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
 
-__all__ = ['FRACTIONS', 'GRID_2Z_MM', 'GRID_ZGB_MM', 'MAGNITUDE', 'PAIRS', 'PROGRAMMES', 'Case', 'CaseResult', 'cases',
-           'coverage_interval', 'run_case', 'scaled_effect', 'sensitivity_cases', 'summarize', 'summarize_sensitivity']
+__all__ = ['FRACTIONS', 'GRID_2Z_MM', 'GRID_ZGB_MM', 'LONG_PROGRAMMES', 'MAGNITUDE', 'PAIRS', 'PROGRAMMES', 'Case',
+           'CaseResult', 'cases', 'coverage_interval', 'long_voyage_cases', 'programme_text', 'run_case',
+           'scaled_effect', 'sensitivity_cases', 'summarize', 'summarize_sensitivity']
 
 GRID_2Z_MM = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6)
 GRID_ZGB_MM = (0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35)
@@ -53,6 +58,10 @@ PROGRAMMES = {
     'autopilot': 'autopilot:1500',
     'realistic': 'realistic:1500',
 }
+# the sensitivity study's hour-long voyages (not in the clearance grid's default programmes)
+LONG_PROGRAMMES = {'realistic_1h': 'realistic:3000'}
+LONG_FRACTION = 0.2
+LONG_CLEAN_PER_SEED = 4     # clean hour-long logs per seed of the effects
 # the parameter that sets each library effect's size, scaled by the sensitivity fractions
 MAGNITUDE = {'viscous': 'c_ns_per_m', 'angle_delay': 'tau_s', 'pressure_offset': 'offset_bar',
              'temp_friction': 'k_per_k', 'pressure_friction': 'k', 'stribeck': 'f_st_n', 'ram_inertia': 'mass_kg'}
@@ -65,7 +74,8 @@ QUANTITIES = ('clearance_2z_mm', 'clearance_zgb_mm', 'k_gl_max', 'seal_friction_
 
 @dataclass(frozen=True)
 class Case:
-    """One simulated log: programme name (a key of :data:`PROGRAMMES`), true gaps [mm], seed."""
+    """One simulated log: programme name (a key of :data:`PROGRAMMES` or
+    :data:`LONG_PROGRAMMES`), true gaps [mm], seed."""
 
     programme: str
     two_z_mm: float
@@ -125,15 +135,22 @@ def cases(programmes: Iterable[str], grid_2z_mm: Sequence[float] = GRID_2Z_MM,
     out: list[Case] = []
     seed = first_seed
     for p in programmes:
-        if p not in PROGRAMMES:
-            msg = f'unknown study programme {p!r} (choose from: {", ".join(PROGRAMMES)})'
-            raise ValueError(msg)
+        programme_text(p)
         for _ in range(seeds):
             for tz in grid_2z_mm:
                 for zg in grid_zgb_mm:
                     out.append(Case(p, float(tz), float(zg), seed))
                     seed += 1
     return out
+
+
+def programme_text(name: str) -> str:
+    """The helm programme text of a study programme's name."""
+    try:
+        return {**PROGRAMMES, **LONG_PROGRAMMES}[name]
+    except KeyError:
+        msg = f'unknown study programme {name!r} (choose from: {", ".join([*PROGRAMMES, *LONG_PROGRAMMES])})'
+        raise ValueError(msg) from None
 
 
 def _scaled(iv: Interval, k: float) -> tuple[float, tuple[float | None, float | None]]:
@@ -145,7 +162,7 @@ def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: 
     any), run the analysis on the decoded frames and compare."""
     t0 = time.perf_counter()
     gear = gear_from_params(params)
-    cfg = sim.SimConfig(program=PROGRAMMES[case.programme], gaps=Gaps.from_mm(case.two_z_mm, case.z_gb_mm),
+    cfg = sim.SimConfig(program=programme_text(case.programme), gaps=Gaps.from_mm(case.two_z_mm, case.z_gb_mm),
                         max_duration_s=7200.0, effects=tuple(sim.parse_effect(e) for e in case.effects))
     s = sim.run(params, cfg, db, smap, case.seed)
     signals = Decoder(db, smap).decode_arrays(s.frames, final=True)
@@ -206,6 +223,24 @@ def sensitivity_cases(seeds: int = 2, first_seed: int = 5001) -> list[Case]:
     return out
 
 
+def long_voyage_cases(seeds: int = 2, first_seed: int = 6001) -> tuple[list[Case], list[Case]]:
+    """The hour-long realistic voyage (:data:`LONG_PROGRAMMES`) with each library effect at
+    :data:`LONG_FRACTION` of its default, ``seeds`` logs each, and ``LONG_CLEAN_PER_SEED *
+    seeds`` clean logs (seeds from ``first_seed + 100``) -> (with effects, clean)."""
+    (name,) = LONG_PROGRAMMES
+    with_effect, clean = [], []
+    seed = first_seed
+    for effect in MAGNITUDE:
+        for _ in range(seeds):
+            tz, zg = SENSITIVITY_CLEARANCES_MM[seed % len(SENSITIVITY_CLEARANCES_MM)]
+            with_effect.append(Case(name, tz, zg, seed, (scaled_effect(effect, LONG_FRACTION),)))
+            seed += 1
+    for seed in range(first_seed + 100, first_seed + 100 + LONG_CLEAN_PER_SEED * seeds):
+        tz, zg = SENSITIVITY_CLEARANCES_MM[seed % len(SENSITIVITY_CLEARANCES_MM)]
+        clean.append(Case(name, tz, zg, seed))
+    return with_effect, clean
+
+
 def _effect_name(spec: str) -> str:
     return spec.partition(':')[0]
 
@@ -232,6 +267,7 @@ def summarize_sensitivity(results: Sequence[CaseResult], clean: Sequence[CaseRes
             fraction = value / float(sim.EFFECTS[name][key])
         rows.append({
             'effects': list(spec), 'fraction_of_default': fraction, 'logs': len(rs),
+            'median_minutes': float(np.median([r.duration_s for r in rs])) / 60.0,
             'named': sum(inside <= set(r.adopted) for r in rs) if inside else None,
             'wrong_adoptions': sum(bool(set(r.adopted) - inside) for r in rs),
             'unexplained': sum(r.verdict == 'unexplained' for r in rs),
@@ -241,7 +277,8 @@ def summarize_sensitivity(results: Sequence[CaseResult], clean: Sequence[CaseRes
             'systematic_after_bar': float(np.median([r.systematic_after_bar for r in rs])),
         })
     return {'rows': rows, 'clean_logs': len(clean),
-            'clean_false_adoptions': sum(bool(r.adopted) for r in clean)}
+            'clean_false_adoptions': sum(bool(r.adopted) for r in clean),
+            'clean_adopted': sorted({e for r in clean for e in r.adopted})}
 
 
 def coverage_interval(hits: int, n: int) -> tuple[float, float]:

@@ -85,6 +85,7 @@ def test_cli_writes_table_and_json(tmp_path, capsys):
 @pytest.mark.parametrize(('argv', 'message'), [
     (['--seeds', '0'], '--seeds must be at least 1, got 0'),
     (['--sensitivity-seeds', '-1'], '--sensitivity-seeds must be 0 or more, got -1'),
+    (['--long-seeds', '-2'], '--long-seeds must be 0 or more, got -2'),
     (['--jobs', '0'], '--jobs must be at least 1, got 0'),
     (['--programmes', 'sea_trial'], "unknown study programme 'sea_trial'"),
     (['--grid-2z-mm', '0.1,x'], '--grid-2z-mm: expected a comma-separated list of positive millimetres'),
@@ -111,6 +112,35 @@ def test_sensitivity_cases_cover_every_library_effect_pairs_and_the_outside_one(
     assert len(specs) == len(A.MAGNITUDE) * len(A.FRACTIONS) + len(A.PAIRS) + 1
     assert ('viscous:c_ns_per_m=200000',) in specs and ('band_friction',) in specs
     assert all(c.programme == 'realistic' for c in cs) and len({c.seed for c in cs}) == len(cs)
+
+
+def test_long_voyage_cases_take_every_library_effect_at_a_fifth_and_clean_logs():
+    with_effect, clean = A.long_voyage_cases(seeds=2)
+    assert len(with_effect) == 2 * len(A.MAGNITUDE) and len(clean) == 2 * A.LONG_CLEAN_PER_SEED
+    assert {c.effects for c in with_effect} == {(A.scaled_effect(n, 0.2),) for n in A.MAGNITUDE}
+    assert ('ram_inertia:mass_kg=12000',) in {c.effects for c in with_effect}
+    assert all(c.effects == () for c in clean)
+    seeds = [c.seed for c in with_effect + clean]
+    assert len(set(seeds)) == len(seeds)                                  # every log its own seed
+    assert not set(seeds) & {c.seed for c in A.sensitivity_cases(seeds=2)}   # not the short study's logs
+    assert {c.programme for c in with_effect + clean} == set(A.LONG_PROGRAMMES)
+    assert A.programme_text('realistic_1h') == 'realistic:3000'
+    with pytest.raises(ValueError, match="unknown study programme 'x' .*realistic_1h"):
+        A.programme_text('x')
+
+
+def test_the_hour_long_table_names_minutes_and_what_clean_logs_adopted():
+    v = ('ram_inertia:mass_kg=12000',)
+    rs = [_result('realistic_1h', 0.4, 0.2, 0.2, (0.19, 0.21), effects=v, adopted=('ram_inertia',), verdict='effect'),
+          _result('realistic_1h', 0.4, 0.2, 0.2, (0.19, 0.21), effects=v, adopted=('ram_inertia', 'viscous'))]
+    clean = [_result('realistic_1h', 0.6, 0.25, 0.25, (0.24, 0.26)),
+             _result('realistic_1h', 0.6, 0.25, 0.25, (0.24, 0.26), adopted=('stribeck',), verdict='effect')]
+    s = A.summarize_sensitivity(rs, clean)
+    assert s['rows'][0]['median_minutes'] == pytest.approx(25.0) and s['clean_adopted'] == ['stribeck']
+    doc = '\n'.join(cli._long_markdown(s))
+    assert '| `ram_inertia:mass_kg=12000` | 25 | 2 | 2/2 | 1 | 2/2 | 0.05 -> 0.04 |' in doc
+    assert 'False adoption on the clean hour-long logs: 1 of 2 (adopted: `stribeck`).' in doc
+    assert '`realistic:3000`' in doc
 
 
 def test_sensitivity_summary_counts_named_wrong_and_located():

@@ -5,7 +5,8 @@ log as ``steer-monitor analyze`` would, and writes a Markdown table of the error
 95 %-interval coverage of every estimate (``--out``, default ``docs/accuracy.md``) and the
 per-case results as JSON (``--json``). With ``--sensitivity-seeds N`` (docs/accuracy.md: 2)
 it also runs the residual loop's sensitivity study (:func:`~steer_monitor.accuracy.sensitivity_cases`)
-and tabulates detection against effect magnitude. Cases run in parallel over ``--jobs``
+and tabulates detection against effect magnitude; with ``--long-seeds N`` (docs: 2) its
+hour-long part too (:func:`~steer_monitor.accuracy.long_voyage_cases`). Cases run in parallel over ``--jobs``
 processes; the outcome does not depend on the number of jobs.
 """
 
@@ -110,8 +111,33 @@ def _sensitivity_markdown(sens: dict[str, Any]) -> list[str]:
     return lines
 
 
+def _long_markdown(sens: dict[str, Any]) -> list[str]:
+    (text,) = A.LONG_PROGRAMMES.values()
+    lines = [
+        '',
+        '### On hour-long voyages',
+        '',
+        f'The same loop on the realistic voyage run about twice as long (`{text}`; other seeds than the '
+        f'table above): each library effect at {A.LONG_FRACTION:g} of its default, and '
+        f"{sens['clean_logs']} clean logs. An effect at the edge of detection on a 25-minute log "
+        'should be found on a longer one; a longer log must not make the loop adopt what is not there.',
+        '',
+        '| simulated effect | minutes (median) | logs | named | other adopted | Z_gb and 2Z covered '
+        '| systematic declared -> final bar |',
+        '|---|---:|---:|---:|---:|---:|---|',
+    ]
+    for r in sens['rows']:
+        lines.append(f"| `{' + '.join(r['effects'])}` | {r['median_minutes']:.0f} | {r['logs']} | "
+                     f"{r['named']}/{r['logs']} | {r['wrong_adoptions']} | {r['clearances_covered']}/{r['logs']} "
+                     f"| {r['systematic_before_bar']:.2f} -> {r['systematic_after_bar']:.2f} |")
+    adopted = ', '.join(f'`{e}`' for e in sens['clean_adopted']) or 'none'
+    lines += ['', f"False adoption on the clean hour-long logs: {sens['clean_false_adoptions']} of "
+                  f"{sens['clean_logs']} (adopted: {adopted})."]
+    return lines
+
+
 def markdown(results: Sequence[A.CaseResult], summary: dict[str, Any], command: str, gear: str,
-             sensitivity: dict[str, Any] | None = None) -> str:
+             sensitivity: dict[str, Any] | None = None, long: dict[str, Any] | None = None) -> str:
     """The study as a Markdown page (deterministic: no times, no host names)."""
     n = len(results)
     progs = sorted({r.case.programme for r in results}, key=list(A.PROGRAMMES).index)
@@ -174,6 +200,8 @@ def markdown(results: Sequence[A.CaseResult], summary: dict[str, Any], command: 
             f"| {g['max_systematic_bar']:.2f} |")
     if sensitivity is not None:
         lines += _sensitivity_markdown(sensitivity)
+    if long is not None:
+        lines += _long_markdown(long)
     lines += [
         '',
         '## Every log',
@@ -202,7 +230,7 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
         grid_2z_mm: Sequence[float] = A.GRID_2Z_MM, grid_zgb_mm: Sequence[float] = A.GRID_ZGB_MM,
         seeds: int = 1, jobs: int | None = None, out_md: str | Path | None = 'docs/accuracy.md',
         json_out: str | Path | None = None, command: str = 'steer-monitor accuracy',
-        out: TextIO | None = None, sensitivity_seeds: int = 0) -> int:
+        out: TextIO | None = None, sensitivity_seeds: int = 0, long_seeds: int = 0) -> int:
     out = out or sys.stdout
     if seeds < 1:
         msg = f'--seeds must be at least 1, got {seeds}'
@@ -210,13 +238,18 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
     if sensitivity_seeds < 0:
         msg = f'--sensitivity-seeds must be 0 or more, got {sensitivity_seeds}'
         raise ParameterError(msg)
+    if long_seeds < 0:
+        msg = f'--long-seeds must be 0 or more, got {long_seeds}'
+        raise ParameterError(msg)
     if jobs is not None and jobs < 1:
         msg = f'--jobs must be at least 1, got {jobs}'
         raise ParameterError(msg)
     try:
         todo = A.cases(programmes, grid_2z_mm, grid_zgb_mm, seeds)
         n_clean = len(todo)
-        todo += A.sensitivity_cases(sensitivity_seeds) if sensitivity_seeds else []
+        sens_todo = A.sensitivity_cases(sensitivity_seeds) if sensitivity_seeds else []
+        long_effects, long_clean = A.long_voyage_cases(long_seeds) if long_seeds else ([], [])
+        todo += sens_todo + long_effects + long_clean
     except ValueError as exc:
         raise ParameterError(str(exc)) from None
     config_path = str(config or default_config())
@@ -241,10 +274,13 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
                 for r in pool.map(_work, todo):
                     results.append(r)
                     bar.update(1)
-    results, sens_results = results[:n_clean], results[n_clean:]
+    results, rest = results[:n_clean], results[n_clean:]
+    sens_results, rest = rest[:len(sens_todo)], rest[len(sens_todo):]
+    long_results, long_clean_results = rest[:len(long_effects)], rest[len(long_effects):]
     summary = A.summarize(results)
     sens = A.summarize_sensitivity(sens_results, results) if sens_results else None
-    doc = markdown(results, summary, command, str(params['gear.name']), sens)
+    long = A.summarize_sensitivity(long_results, long_clean_results) if long_results else None
+    doc = markdown(results, summary, command, str(params['gear.name']), sens, long)
     if out_md is not None:
         if str(out_md) == '-':
             out.write(doc)
@@ -254,6 +290,9 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
         payload = {'summary': summary, 'cases': [r.to_json() for r in results]}
         if sens is not None:
             payload['sensitivity'] = {**sens, 'cases': [r.to_json() for r in sens_results]}
+        if long is not None:
+            payload['sensitivity_long'] = {**long, 'cases': [r.to_json() for r in long_results],
+                                           'clean_cases': [r.to_json() for r in long_clean_results]}
         if str(json_out) == '-':
             dump_json(payload, out)
         else:
@@ -282,6 +321,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--sensitivity-seeds', type=int, default=0,
                    help='logs per effect and magnitude in the residual loop\'s sensitivity study (default: 0, '
                         'none; docs/accuracy.md is made with 2)')
+    p.add_argument('--long-seeds', type=int, default=0,
+                   help=f'logs per library effect at {A.LONG_FRACTION:g} of its default on the hour-long realistic voyage, '
+                        f'and {A.LONG_CLEAN_PER_SEED} clean hour-long logs per seed (default: 0, none; '
+                        'docs/accuracy.md is made with 2)')
     p.add_argument('--out', default='docs/accuracy.md', help='Markdown table, - for stdout (default: docs/accuracy.md)')
     p.add_argument('--json', dest='json_out', help='per-case results and summary as JSON (- for stdout)')
 
@@ -290,5 +333,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                    _parse_grid(a.grid_2z_mm, A.GRID_2Z_MM, '--grid-2z-mm'),
                    _parse_grid(a.grid_zgb_mm, A.GRID_ZGB_MM, '--grid-zgb-mm'),
                    a.seeds, a.jobs, a.out, a.json_out, command='steer-monitor accuracy ' + ' '.join(sys.argv[2:]),
-                   sensitivity_seeds=a.sensitivity_seeds)
+                   sensitivity_seeds=a.sensitivity_seeds, long_seeds=a.long_seeds)
     p.set_defaults(handler=handler)
