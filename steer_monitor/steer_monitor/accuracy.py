@@ -29,25 +29,28 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from steer_monitor import sim
 from steer_monitor.can.codec import CanDatabase
 from steer_monitor.can.decoder import Decoder
+from steer_monitor.can.signals import PRESSURE_INPUTS
 from steer_monitor.can.signals import SignalMap
-from steer_monitor.estimate.analyze import analyze
-from steer_monitor.estimate.batch import k_gl_max
+from steer_monitor.estimate.analyze import analyze, declared_fit
+from steer_monitor.estimate.batch import ClearanceEstimate, k_gl_max
 from steer_monitor.estimate.intervals import Interval
+from steer_monitor.estimate.observe import Observations
 from steer_monitor.model.gear import Gaps
 from steer_monitor.model.loadshare import STAGE_CLAMPED, load_sharing
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
 
-__all__ = ['FRACTIONS', 'GRID_2Z_MM', 'GRID_ZGB_MM', 'LONG_PROGRAMMES', 'MAGNITUDE', 'PAIRS', 'PROGRAMMES', 'Case',
-           'CaseResult', 'cases', 'coverage_interval', 'long_voyage_cases', 'programme_text', 'run_case',
-           'scaled_effect', 'sensitivity_cases', 'summarize', 'summarize_sensitivity']
+__all__ = ['FRACTIONS', 'GRID_2Z_MM', 'GRID_ZGB_MM', 'LONG_PROGRAMMES', 'MAGNITUDE', 'PAIRS', 'PROGRAMMES', 'SIZE', 'Case',
+           'CaseResult', 'cases', 'coverage_interval', 'long_voyage_cases', 'model_misfit', 'programme_text', 'run_case',
+           'scaled_effect', 'sensitivity_cases', 'summarize', 'summarize_sensitivity', 'true_forces']
 
 GRID_2Z_MM = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6)
 GRID_ZGB_MM = (0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35)
@@ -65,6 +68,8 @@ LONG_CLEAN_PER_SEED = 4     # clean hour-long logs per seed of the effects
 # the parameter that sets each library effect's size, scaled by the sensitivity fractions
 MAGNITUDE = {'viscous': 'c_ns_per_m', 'angle_delay': 'tau_s', 'pressure_offset': 'offset_bar',
              'temp_friction': 'k_per_k', 'pressure_friction': 'k', 'stribeck': 'f_st_n', 'ram_inertia': 'mass_kg'}
+# ... and of the effects outside the library (set to 0 in a case's clean twin)
+SIZE = {**MAGNITUDE, 'band_friction': 'f_n'}
 FRACTIONS = (0.2, 0.5, 1.0)
 PAIRS = (('viscous', 'pressure_offset'), ('angle_delay', 'temp_friction'),
          ('pressure_friction:k=0.006', 'viscous:c_ns_per_m=2e5'))
@@ -93,7 +98,12 @@ class CaseResult:
     true ram spent clamped; ``verdict`` the analysis verdict (on clean data 'declared' is
     right); ``effect`` the first effect adopted, if any, ``adopted`` all of them in order;
     ``systematic_bar`` / ``systematic_after_bar`` the smooth residual of the declared and
-    of the final model; ``located`` the variable an unexplained residual was located on.
+    of the final model; ``located`` the variable an unexplained residual was located on;
+    ``misfit_bar`` / ``misfit_after_bar`` the declared and the final model's error against the
+    truth (:func:`model_misfit`), which only a simulation can give, and ``misfit_clean_bar``
+    the declared model's on the same seed's log without the undeclared effects (its *clean
+    twin*; NaN for a clean case): the declared model's own approximation error, which no
+    effect can take away.
     """
 
     case: Case
@@ -113,6 +123,17 @@ class CaseResult:
     systematic_after_bar: float = math.nan
     located: str | None = None
     located_range: tuple[float, float] | None = None
+    misfit_bar: float = math.nan
+    misfit_after_bar: float = math.nan
+    misfit_clean_bar: float = math.nan
+
+    @property
+    def effect_misfit(self) -> tuple[float, float]:
+        """The undeclared effects' part of the model error [bar], before and after the
+        effects adopted: the misfit in excess of the clean twin's (in quadrature; errors of
+        independent origins add so), 0 where it is below."""
+        base = self.misfit_clean_bar ** 2
+        return (math.sqrt(max(self.misfit_bar ** 2 - base, 0.0)), math.sqrt(max(self.misfit_after_bar ** 2 - base, 0.0)))
 
     def covered(self, quantity: str) -> bool:
         lo, hi = self.ci95[quantity]
@@ -192,12 +213,53 @@ def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: 
     bar = gear.ram_area * 1e5
     model = a.model or f
     loc = a.located
+    def misfit(plant: sim.SimResult, c: sim.SimConfig, est: ClearanceEstimate, obs: Observations) -> float:
+        return model_misfit(est, obs, true_forces(plant, c, obs.t_ns, gear.ram_area)) / bar
+
+    clean_misfit = math.nan
+    if case.effects:      # the clean twin: the same seed (helm, noise), each effect at size 0
+        twin_cfg = replace(cfg, effects=tuple(sim.Effect(e.name, {**e.params, SIZE[e.name]: 0.0})
+                                              for e in cfg.effects))
+        twin = sim.run(params, twin_cfg, db, smap, case.seed)
+        t_obs, t_est = declared_fit(gear, Decoder(db, smap).decode_arrays(twin.frames, final=True),
+                                    min_clearance_2z=min_clearance_2z_from_params(params))
+        clean_misfit = misfit(twin.plant, twin_cfg, t_est, t_obs)
+
     return CaseResult(case=case, duration_s=p.duration, rows=f.rows, truth=truth, estimate=est, ci95=ci,
                       clamped_share=clamped, max_angle_deg=math.degrees(f.max_angle_seen), inflation=f.inflation,
                       systematic_bar=a.declared.smooth_rms / bar, verdict=a.verdict, effect=a.effect,
                       seconds=time.perf_counter() - t0, adopted=tuple(st.name for st in a.steps),
                       systematic_after_bar=model.smooth_rms / bar, located=None if loc is None else loc.variable,
-                      located_range=None if loc is None else (loc.lo, loc.hi))
+                      located_range=None if loc is None else (loc.lo, loc.hi),
+                      misfit_bar=misfit(p, cfg, a.declared, a.observations),
+                      misfit_after_bar=misfit(p, cfg, model, a.final_observations), misfit_clean_bar=clean_misfit)
+
+
+def true_forces(plant: sim.SimResult, cfg: sim.SimConfig, t_ns: NDArray[np.int64], ram_area: float
+                ) -> NDArray[np.float64]:
+    """The ram forces [N], shape (n, 2), that the pressure transducers would read at ``t_ns``
+    without noise, quantisation or sampling: the plant's pressures at those instants (a
+    transducer's offset included, it is part of what the sensor reads)."""
+    ts = (t_ns - plant.start_ns) / 1e9
+    offset = cfg.effect('pressure_offset')
+    p = []
+    for name in PRESSURE_INPUTS:
+        value = np.interp(ts, plant.t, plant.pressures[name])
+        if offset is not None and offset['input'] == name:
+            value = value + float(offset['offset_bar']) * 1e5
+        p.append(value)
+    return np.stack([ram_area * (p[0] - p[1]), ram_area * (p[2] - p[3])], axis=1)
+
+
+def model_misfit(est: ClearanceEstimate, obs: Observations, truth: NDArray[np.float64]) -> float:
+    """RMS [N] over the instants and rams ``est`` fitted of its prediction of the ram force
+    (observed less residual) against the true force ``truth`` (shape (n, 2), at
+    ``obs.t_ns``): the part of the residual that is the model's error, not the sensors'
+    noise or the 20 Hz sampling of a pressure that steps. On a clean log it is the
+    estimation error alone; with an undeclared effect the model lacks, it holds the effect."""
+    err = truth - (obs.force - est.residual)
+    use = np.isfinite(err)
+    return float(np.sqrt(np.mean(err[use] ** 2))) if use.any() else math.nan
 
 
 def scaled_effect(name: str, fraction: float) -> str:
@@ -275,6 +337,9 @@ def summarize_sensitivity(results: Sequence[CaseResult], clean: Sequence[CaseRes
             'clearances_covered': sum(r.covered('clearance_zgb_mm') and r.covered('clearance_2z_mm') for r in rs),
             'systematic_before_bar': float(np.median([r.systematic_bar for r in rs])),
             'systematic_after_bar': float(np.median([r.systematic_after_bar for r in rs])),
+            'effect_misfit_before_bar': float(np.median([r.effect_misfit[0] for r in rs])),
+            'effect_misfit_after_bar': float(np.median([r.effect_misfit[1] for r in rs])),
+            'effect_misfit_halved': sum(r.effect_misfit[1] <= 0.5 * r.effect_misfit[0] for r in rs),
         })
     return {'rows': rows, 'clean_logs': len(clean),
             'clean_false_adoptions': sum(bool(r.adopted) for r in clean),

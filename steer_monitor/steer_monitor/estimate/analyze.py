@@ -51,8 +51,8 @@ from steer_monitor.model.gear import GearParams
 
 __all__ = ['DELAY_KEEP_S', 'DELAY_STEP_S', 'DELAY_VERTEX_S', 'EXPLAINED_RATIO', 'MAX_TRIED', 'MIN_BIC_DROP', 'MIN_CV_DEVIANCE',
            'MIN_SYSTEMATIC_SHARE', 'OUTLIER_SIGMAS',
-           'SIGNS', 'SYSTEMATIC_LAG_STEPS', 'CAVEATS', 'Analysis', 'Screening', 'Step', 'analyze', 'block_ns', 'grid_2z_from',
-           'outlier_instants', 'refusal']
+           'SIGNS', 'SYSTEMATIC_LAG_STEPS', 'CAVEATS', 'Analysis', 'Screening', 'Step', 'analyze', 'block_ns',
+           'declared_fit', 'grid_2z_from', 'outlier_instants', 'refusal']
 
 MIN_CV_DEVIANCE = 10.0   # held-out deviance on the effective sample size
 MIN_BIC_DROP = 15.0      # "very strong" (10) plus 2 ln 10 for the ~10 candidates a round tests
@@ -387,6 +387,25 @@ def _screen(gear: GearParams, signals: Mapping[str, Series], base: _Base, grid_2
     return screened, delay_obs
 
 
+def _declared(gear: GearParams, obs: Observations, grid_2z: NDArray, say: Callable[[str], None]) -> tuple[_Base, int]:
+    """The declared model fitted to ``obs`` without its outlying instants -> (it, how many)."""
+    say('declared model')
+    first = estimate_clearances(gear, obs, make_rows(obs, z_columns(obs, gear)), grid_2z=grid_2z)
+    outliers = outlier_instants(first.residual, obs.direction)
+    n_out = int(outliers.sum())
+    if outliers.any():
+        say(f'declared model without {n_out} outlying instants')
+    return _base(gear, obs, ~outliers, (), grid_2z, est=None if outliers.any() else first), n_out
+
+
+def declared_fit(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z: float = 0.0
+                 ) -> tuple[Observations, ClearanceEstimate]:
+    """The first step of :func:`analyze` alone: the observations and the declared model's
+    fit (no screening). Pure."""
+    obs = build_observations(signals, gear.ram_area)
+    return obs, _declared(gear, obs, grid_2z_from(min_clearance_2z), lambda _msg: None)[0].est
+
+
 def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z: float = 0.0,
             progress: Callable[[str], None] | None = None) -> Analysis:
     """Fit, screen, adopt effect after effect, locate what is left, refit (see the module
@@ -394,14 +413,7 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
     say = progress or (lambda _msg: None)
     grid_2z = grid_2z_from(min_clearance_2z)
     obs = build_observations(signals, gear.ram_area)
-    say('declared model')
-    first = estimate_clearances(gear, obs, make_rows(obs, z_columns(obs, gear)), grid_2z=grid_2z)
-    outliers = outlier_instants(first.residual, obs.direction)
-    keep = ~outliers
-    n_out = int(outliers.sum())
-    if outliers.any():
-        say(f'declared model without {n_out} outlying instants')
-    base = _base(gear, obs, keep, (), grid_2z, est=None if outliers.any() else first)
+    base, n_out = _declared(gear, obs, grid_2z, say)
     declared = base.est
     steps: list[Step] = []
     rounds: list[list[Screening]] = []
