@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 
+import numpy as np
 import pytest
 
 from steer_monitor import accuracy as A
@@ -163,3 +164,68 @@ def test_sensitivity_summary_counts_named_wrong_and_located():
     doc = cli.markdown(clean, A.summarize(clean), 'steer-monitor accuracy', 'R-18', s)
     assert '## Sensitivity of the residual loop' in doc and 'False adoption on the clean logs above: 1 of 2.' in doc
     assert '| `viscous:c_ns_per_m=200000` | 0.2 | 2 | 1/2 | 0 |' in doc
+
+
+def _noise_free(r18_params, db, smap, effects=()):
+    from steer_monitor import sim
+    from steer_monitor.can.decoder import Decoder
+    from steer_monitor.estimate.observe import build_observations
+    from steer_monitor.model.gear import Gaps
+    from steer_monitor.params import gear_from_params
+    gear = gear_from_params(r18_params)
+    cfg = sim.SimConfig(program='hard_over_2', gaps=Gaps.from_mm(0.3, 0.2), noise=False,
+                        effects=tuple(sim.parse_effect(e) for e in effects))
+    s = sim.run(r18_params, cfg, db, smap, 4)
+    obs = build_observations(Decoder(db, smap).decode_arrays(s.frames, final=True), gear.ram_area)
+    return gear, cfg, s, obs
+
+
+@pytest.mark.parametrize('effects', [(), ('pressure_offset:offset_bar=2',)])
+def test_true_forces_are_what_noise_free_transducers_read(r18_params, db, smap, effects):
+    """Independently of true_forces: the observations of a noise-free simulation (frames,
+    decoder, 20 Hz samples interpolated to the grid) agree with it in steady motion, to the
+    transducers' quantisation and the linear interpolation of 20 Hz samples where the load
+    bends (a few mbar, 0.05 bar at a kink of the load-sharing stages), an offset included."""
+    gear, cfg, s, obs = _noise_free(r18_params, db, smap, effects)
+    bar = gear.ram_area * 1e5
+    truth = A.true_forces(s.plant, cfg, obs.t_ns, gear.ram_area)
+    steady = obs.moving & np.roll(obs.moving, 1) & np.roll(obs.moving, -1)
+    err = (obs.force - truth)[steady] / bar
+    assert steady.sum() > 1000 and np.nanmedian(np.abs(err)) < 0.005 and np.nanmax(np.abs(err)) < 0.1
+    if effects:     # the offset on ram 1's starboard transducer is in ram 1's force
+        from dataclasses import replace
+        without = A.true_forces(s.plant, replace(cfg, effects=()), obs.t_ns, gear.ram_area)
+        assert np.allclose((truth - without)[:, 0] / bar, 2.0, atol=1e-9) and np.all(truth[:, 1] == without[:, 1])
+
+
+def test_model_misfit_is_the_rms_of_prediction_against_truth_over_fitted_instants():
+    from steer_monitor.estimate.observe import Observations
+    rng = np.random.default_rng(3)
+    n = 400
+    truth = rng.normal(0, 1e5, (n, 2))
+    model_error = rng.normal(0, 2e3, (n, 2))
+    noise = rng.normal(0, 5e3, (n, 2))
+    force = truth + noise
+    residual = force - (truth + model_error)          # observed less the prediction
+    residual[:50] = np.nan                             # instants the fit left out
+    obs = Observations(np.arange(n, dtype=np.int64), np.zeros(n), np.zeros(n), np.ones(n, np.int8), force,
+                       np.zeros((n, 4)), np.zeros(n), np.zeros(n))
+
+    class Est:
+        pass
+    est = Est()
+    est.residual = residual
+    expected = math.sqrt(np.mean(model_error[50:] ** 2))
+    assert A.model_misfit(est, obs, truth) == pytest.approx(expected, rel=1e-12)
+
+
+@pytest.mark.parametrize(('misfit', 'after', 'clean', 'expected'), [
+    (0.30, 0.20, 0.20, (math.sqrt(0.05), 0.0)),
+    (0.25, 0.21, 0.20, (0.15, math.sqrt(0.21 ** 2 - 0.04))),
+    (0.19, 0.19, 0.20, (0.0, 0.0)),                  # under the twin's: nothing of the effect shows
+])
+def test_the_effects_misfit_is_the_excess_over_the_clean_twin(misfit, after, clean, expected):
+    r = _result('realistic', 0.4, 0.2, 0.2, (0.19, 0.21))
+    from dataclasses import replace
+    r = replace(r, misfit_bar=misfit, misfit_after_bar=after, misfit_clean_bar=clean)
+    assert r.effect_misfit == pytest.approx(expected, abs=1e-12)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from steer_monitor.estimate.analyze import analyze, block_ns
+from steer_monitor.estimate.analyze import analyze, block_ns, declared_fit
 
 pytestmark = pytest.mark.slow
 
@@ -31,6 +31,11 @@ def test_clean_voyage_adds_nothing_and_finds_zgb(r18, simulate_signals):
     assert e.two_z.hi is None and e.two_z.lo <= 0.6e-3
     assert e.seal_friction.contains(9e3) and e.mu_bushing.contains(0.13) and e.mu_guide.contains(0.05)
     assert e.k_gl_max.contains(0.594) or abs(e.k_gl_max.value - 0.594) < 0.02
+    # the first step alone (the accuracy study's clean twins) is the analysis' declared fit
+    obs, est = declared_fit(r18, signals, min_clearance_2z=MIN_2Z)
+    np.testing.assert_array_equal(obs.t_ns, a.observations.t_ns)
+    np.testing.assert_array_equal(est.residual, a.declared.residual)
+    assert est.z_gb == a.declared.z_gb and est.rows == a.declared.rows
 
 
 def test_clamping_ram_bounds_2z_on_both_sides(r18, simulate_signals):
