@@ -38,8 +38,7 @@ from numpy.typing import NDArray
 from steer_monitor import sim
 from steer_monitor.can.codec import CanDatabase
 from steer_monitor.can.decoder import Decoder
-from steer_monitor.can.signals import PRESSURE_INPUTS
-from steer_monitor.can.signals import SignalMap
+from steer_monitor.can.signals import PRESSURE_INPUTS, SignalMap
 from steer_monitor.estimate.analyze import analyze, declared_fit
 from steer_monitor.estimate.batch import ClearanceEstimate, k_gl_max
 from steer_monitor.estimate.intervals import Interval
@@ -101,9 +100,9 @@ class CaseResult:
     of the final model; ``located`` the variable an unexplained residual was located on;
     ``misfit_bar`` / ``misfit_after_bar`` the declared and the final model's error against the
     truth (:func:`model_misfit`), which only a simulation can give, and ``misfit_clean_bar``
-    the declared model's on the same seed's log without the undeclared effects (its *clean
-    twin*; NaN for a clean case): the declared model's own approximation error, which no
-    effect can take away.
+    the declared model's on the same seed's log with every undeclared effect at size 0 (its
+    *clean twin*: the same helm, noise and, for a ram's mass, the same lagging rate; NaN for a
+    clean case): the declared model's own approximation error, which no effect takes away.
     """
 
     case: Case
@@ -213,6 +212,7 @@ def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: 
     bar = gear.ram_area * 1e5
     model = a.model or f
     loc = a.located
+
     def misfit(plant: sim.SimResult, c: sim.SimConfig, est: ClearanceEstimate, obs: Observations) -> float:
         return model_misfit(est, obs, true_forces(plant, c, obs.t_ns, gear.ram_area)) / bar
 
@@ -339,7 +339,8 @@ def summarize_sensitivity(results: Sequence[CaseResult], clean: Sequence[CaseRes
             'systematic_after_bar': float(np.median([r.systematic_after_bar for r in rs])),
             'effect_misfit_before_bar': float(np.median([r.effect_misfit[0] for r in rs])),
             'effect_misfit_after_bar': float(np.median([r.effect_misfit[1] for r in rs])),
-            'effect_misfit_halved': sum(r.effect_misfit[1] <= 0.5 * r.effect_misfit[0] for r in rs),
+            'effect_misfit_halved': sum(0.0 < r.effect_misfit[0] and r.effect_misfit[1] <= 0.5 * r.effect_misfit[0]
+                                        for r in rs),
         })
     return {'rows': rows, 'clean_logs': len(clean),
             'clean_false_adoptions': sum(bool(r.adopted) for r in clean),

@@ -229,3 +229,15 @@ def test_the_effects_misfit_is_the_excess_over_the_clean_twin(misfit, after, cle
     from dataclasses import replace
     r = replace(r, misfit_bar=misfit, misfit_after_bar=after, misfit_clean_bar=clean)
     assert r.effect_misfit == pytest.approx(expected, abs=1e-12)
+
+
+def test_halved_counts_only_an_effect_that_showed():
+    from dataclasses import replace
+    v = ('stribeck:f_st_n=3000',)
+    base = _result('realistic', 0.4, 0.2, 0.2, (0.19, 0.21), effects=v, adopted=('stribeck',))
+    rs = [replace(base, misfit_bar=0.25, misfit_after_bar=0.205, misfit_clean_bar=0.2),   # 0.15 -> 0.04
+          replace(base, misfit_bar=0.25, misfit_after_bar=0.24, misfit_clean_bar=0.2),    # 0.15 -> 0.13
+          replace(base, misfit_bar=0.19, misfit_after_bar=0.19, misfit_clean_bar=0.2)]    # nothing showed
+    (row,) = A.summarize_sensitivity(rs)['rows']
+    assert row['effect_misfit_halved'] == 1
+    assert row['effect_misfit_before_bar'] == pytest.approx(0.15)
