@@ -105,8 +105,21 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
 
         def failed(exc: SteerMonitorError) -> None:
             summary.errors.append(f'estimator update failed: {exc}')
+
+        # The worker's errors come when a job's result is taken, later in the data than the
+        # job ran: each goes where a job run at once would have put it, after the log errors
+        # there were when the job was submitted (and the estimator's before it).
+        inserted = 0
+
+        def others() -> int:
+            return len(summary.errors) - inserted
+
+        def failed_at(exc: SteerMonitorError, mark: int) -> None:
+            nonlocal inserted
+            summary.errors.insert(mark + inserted, f'estimator update failed: {exc}')
+            inserted += 1
         use_worker = (can_fork_a_worker() if worker is None else worker) and not reference
-        jobs = (ProcessEstimatorJobs(est, _job_source(paths, db, smap, date), failed) if use_worker
+        jobs = (ProcessEstimatorJobs(est, _job_source(paths, db, smap, date), failed_at, mark=others) if use_worker
                 else SyncEstimatorJobs(est, failed))
     try:
         return _replay(paths, output, config_path, params, Pipeline(Decoder(db, smap, rejects), rejects, monitor,

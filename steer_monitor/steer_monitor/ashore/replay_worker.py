@@ -82,11 +82,14 @@ def _serve(est: OnlineEstimator, source: JobSource, conn: Connection) -> None:
 
 class ProcessEstimatorJobs:
     """:class:`~steer_monitor.monitor.pipeline.EstimatorJobs` whose jobs a forked child makes
-    from ``source`` and runs ahead. ``on_error`` hears an update that failed (when its result
-    is taken). Close (idempotent) waits for the child; :meth:`abort` ends it at once."""
+    from ``source`` and runs ahead. ``on_error`` hears an update that failed, when its result
+    is taken: later than a job run at once would have. So that a caller can put the error where
+    the job ran, ``mark`` (if given) is called as each job is submitted and ``on_error`` hears
+    ``(error, mark)``, the mark of the job that failed. Close (idempotent) waits for the child;
+    :meth:`abort` ends it at once."""
 
     def __init__(self, est: OnlineEstimator, source: JobSource,
-                 on_error: Callable[[SteerMonitorError], None] | None = None) -> None:
+                 on_error: Callable[..., None] | None = None, *, mark: Callable[[], int] | None = None) -> None:
         ctx = multiprocessing.get_context('fork')
         self.est = est
         self.on_error = on_error
@@ -96,6 +99,8 @@ class ProcessEstimatorJobs:
         self._proc.start()
         child.close()
         self._sent: list[tuple[int, int | None]] = []      # each job's fingerprint, by handle
+        self.mark = mark
+        self._marks: list[int] = []                          # each job's mark, by handle (with mark)
         self._taken = 0
         self._closed = False
 
@@ -113,6 +118,8 @@ class ProcessEstimatorJobs:
 
     def submit(self, samples: list[Sample]) -> object:
         self._sent.append(_fingerprint(samples))
+        if self.mark is not None:
+            self._marks.append(self.mark())
         return len(self._sent) - 1
 
     def result(self, handle: object) -> EstimateSnapshot | None:
@@ -125,8 +132,12 @@ class ProcessEstimatorJobs:
         self._taken += 1
         snap, errors = payload
         for text in errors:
-            if self.on_error is not None:
+            if self.on_error is None:
+                continue
+            if self.mark is None:
                 self.on_error(SteerMonitorError(text))
+            else:
+                self.on_error(SteerMonitorError(text), self._marks[handle])
         return snap
 
     def close(self) -> None:

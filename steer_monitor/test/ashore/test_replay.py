@@ -206,3 +206,41 @@ def test_a_worker_that_dies_stops_the_replay_with_no_output(tmp_path, logs, monk
         replay([logs['all.log']], tmp_path / 'out.mcap', worker=True)
     assert not (tmp_path / 'out.mcap').exists()
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_workers_errors_stand_where_the_reference_puts_them(tmp_path, logs, monkeypatch):
+    """Estimator updates that fail, on both sides of a damaged log's error: the worker's come
+    back later than the job ran, and still stand in the reference's order."""
+    from steer_monitor.errors import FitError
+    from steer_monitor.estimate.online import OnlineEstimator
+    calls = {'n': 0}
+    real = OnlineEstimator.update
+
+    def failing(self):
+        calls['n'] += 1
+        if calls['n'] % 3 == 0:
+            msg = f'update {calls["n"]} refused'
+            raise FitError(msg)
+        return real(self)
+    monkeypatch.setattr(OnlineEstimator, 'update', failing)
+    from steer_monitor.can.logs import iter_log
+    from steer_monitor.can.mcapio import McapWriter
+    frames = list(iter_log(logs['all.log']))
+    third = len(frames) // 3
+    paths = [tmp_path / 'first.log', tmp_path / 'cut.mcap', tmp_path / 'last.log']
+    for path, part in ((paths[0], frames[:third]), (paths[2], frames[2 * third:])):
+        with LogWriter(path) as w:
+            for f in part:
+                w.write(f)
+    with McapWriter(paths[1], chunk_size=4096) as w:      # small chunks: half the file holds frames
+        for f in frames[third:2 * third]:
+            w.write_frame(f)
+    raw = paths[1].read_bytes()
+    paths[1].write_bytes(raw[: len(raw) // 2])       # the middle log breaks off
+    ref = replay(paths, tmp_path / 'ref.mcap', reference=True)
+    calls['n'] = 0
+    fast = replay(paths, tmp_path / 'fast.mcap', worker=True)
+    damaged = [i for i, e in enumerate(ref.errors) if 'cut.mcap' in e]
+    assert len(damaged) == 1 and 0 < damaged[0] < len(ref.errors) - 1, ref.errors   # errors either side
+    assert fast.errors == ref.errors
+    assert (tmp_path / 'fast.mcap').read_bytes() == (tmp_path / 'ref.mcap').read_bytes()
