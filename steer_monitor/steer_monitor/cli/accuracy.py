@@ -102,7 +102,8 @@ def _sensitivity_markdown(sens: dict[str, Any]) -> list[str]:
         '*Effect\'s misfit* is what only a simulation can show: the model\'s error against the true, '
         'noise-free force (prediction against the plant\'s pressures at the same instants) in excess of the '
         'declared model\'s error on the same seed\'s log with the effects at size 0 (its clean twin: the '
-        'fit\'s own approximation, 0.2 bar or so, which no effect removes); median over the logs, declared '
+        'declared fit\'s own error, about 0.2 bar, most of it from the load taken as constant within each 0.1° '
+        'bin of rudder angle, which no effect removes); median over the logs, declared '
         '-> final model, and on how many logs adopting the effects at least halved it. '
         'For the effect outside the library the right answer is the verdict "unexplained" with the '
         'residual located on the rudder angle, and clearance intervals that still hold the truth.',
