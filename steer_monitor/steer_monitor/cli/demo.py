@@ -21,9 +21,21 @@ from typing import Any, TextIO
 
 from steer_monitor.errors import ParameterError
 
-__all__ = ['register', 'run']
+__all__ = ['register', 'residual_text', 'run']
 
 LEVELS = {0: 'OK', 1: 'WARN', 2: 'ERROR', 3: 'STALE'}
+
+
+def residual_text(values: dict[str, str]) -> str:
+    """The residual for the console line, from the diagnostics' key values: 'x.xx bar', or
+    'n/a' with why when the model judged no instant of the last minute."""
+    rms = values.get('residual_rms_bar', 'n/a')
+    if rms != 'n/a':
+        return f'{rms} bar'
+    skipped = values.get('residual_instants_not_judged', '0')
+    if skipped not in ('0', ''):
+        return f'n/a ({skipped} instants not judged: a clearance known from below only)'
+    return 'n/a'
 
 
 def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: str = 'hard_over_2',
@@ -83,8 +95,8 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: 
                 last_line[0] = now
                 out.write(f'[{now:5.1f} s]       rudder {values.get("rudder_angle_deg", "n/a")} deg, '
                           f'K_gl {values.get("k_gl", "n/a")}, ram {values.get("ram_force_kn", "n/a")} kN, '
-                          f'guide {values.get("guide_force_kn", "n/a")} kN, residual '
-                          f'{values.get("residual_rms_bar", "n/a")} bar, hard-over {values.get("hard_over_s", "n/a")} s\n')
+                          f'guide {values.get("guide_force_kn", "n/a")} kN, residual {residual_text(values)}, '
+                          f'hard-over {values.get("hard_over_s", "n/a")} s\n')
             out.flush()
 
     listener.create_subscription(DiagnosticArray, '/diagnostics', on_diagnostics, 10)

@@ -109,3 +109,15 @@ def test_console_script_help(capsys):
     out = capsys.readouterr().out
     for command in ('fit', 'backlash', 'loadshare', 'simulate', 'inspect', 'run', 'recover', 'study', 'demo'):
         assert command in out
+
+
+@pytest.mark.parametrize(('values', 'text'), [
+    ({'residual_rms_bar': '0.68', 'residual_instants_not_judged': '3'}, '0.68 bar'),
+    ({'residual_rms_bar': 'n/a', 'residual_instants_not_judged': '412'},
+     'n/a (412 instants not judged: a clearance known from below only)'),
+    ({'residual_rms_bar': 'n/a', 'residual_instants_not_judged': '0'}, 'n/a'),
+    ({}, 'n/a'),
+])
+def test_the_demo_says_why_the_residual_is_missing(values, text):
+    from steer_monitor.cli.demo import residual_text
+    assert residual_text(values) == text
