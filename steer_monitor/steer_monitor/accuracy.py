@@ -186,7 +186,8 @@ def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: 
                         max_duration_s=7200.0, effects=tuple(sim.parse_effect(e) for e in case.effects))
     s = sim.run(params, cfg, db, smap, case.seed)
     signals = Decoder(db, smap).decode_arrays(s.frames, final=True)
-    a = analyze(gear, signals, min_clearance_2z=min_clearance_2z_from_params(params))
+    min_2z = min_clearance_2z_from_params(params)
+    a = analyze(gear, signals, min_clearance_2z=min_2z)
     f = a.final
 
     p = s.plant
@@ -222,7 +223,7 @@ def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: 
                                               for e in cfg.effects))
         twin = sim.run(params, twin_cfg, db, smap, case.seed)
         t_obs, t_est = declared_fit(gear, Decoder(db, smap).decode_arrays(twin.frames, final=True),
-                                    min_clearance_2z=min_clearance_2z_from_params(params))
+                                    min_clearance_2z=min_2z)
         clean_misfit = misfit(twin.plant, twin_cfg, t_est, t_obs)
 
     return CaseResult(case=case, duration_s=p.duration, rows=f.rows, truth=truth, estimate=est, ci95=ci,
@@ -279,10 +280,16 @@ def sensitivity_cases(seeds: int = 2, first_seed: int = 5001) -> list[Case]:
     seed = first_seed
     for spec in specs:
         for _ in range(seeds):
-            tz, zg = SENSITIVITY_CLEARANCES_MM[seed % len(SENSITIVITY_CLEARANCES_MM)]
-            out.append(Case('realistic', tz, zg, seed, spec))
+            out.append(_sensitivity_case('realistic', seed, spec))
             seed += 1
     return out
+
+
+def _sensitivity_case(programme: str, seed: int, effects: tuple[str, ...] = ()) -> Case:
+    """A case of the sensitivity study: its clearances cycle through ``SENSITIVITY_CLEARANCES_MM``
+    with the seed."""
+    tz, zg = SENSITIVITY_CLEARANCES_MM[seed % len(SENSITIVITY_CLEARANCES_MM)]
+    return Case(programme, tz, zg, seed, effects)
 
 
 def long_voyage_cases(seeds: int = 2, first_seed: int = 6001) -> tuple[list[Case], list[Case]]:
@@ -290,16 +297,14 @@ def long_voyage_cases(seeds: int = 2, first_seed: int = 6001) -> tuple[list[Case
     :data:`LONG_FRACTION` of its default, ``seeds`` logs each, and ``LONG_CLEAN_PER_SEED *
     seeds`` clean logs (seeds from ``first_seed + 100``) -> (with effects, clean)."""
     (name,) = LONG_PROGRAMMES
-    with_effect, clean = [], []
+    with_effect = []
     seed = first_seed
     for effect in MAGNITUDE:
         for _ in range(seeds):
-            tz, zg = SENSITIVITY_CLEARANCES_MM[seed % len(SENSITIVITY_CLEARANCES_MM)]
-            with_effect.append(Case(name, tz, zg, seed, (scaled_effect(effect, LONG_FRACTION),)))
+            with_effect.append(_sensitivity_case(name, seed, (scaled_effect(effect, LONG_FRACTION),)))
             seed += 1
-    for seed in range(first_seed + 100, first_seed + 100 + LONG_CLEAN_PER_SEED * seeds):
-        tz, zg = SENSITIVITY_CLEARANCES_MM[seed % len(SENSITIVITY_CLEARANCES_MM)]
-        clean.append(Case(name, tz, zg, seed))
+    clean = [_sensitivity_case(name, seed)
+             for seed in range(first_seed + 100, first_seed + 100 + LONG_CLEAN_PER_SEED * seeds)]
     return with_effect, clean
 
 

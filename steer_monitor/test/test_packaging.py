@@ -62,15 +62,20 @@ def test_every_key_resolves_on_ubuntu_and_debian(rosdep_keys, kind, manifest):
         assert 'ubuntu' in rule and 'debian' in rule, f'{key} has no ubuntu/debian rule'
 
 
-def _imports(paths: list[Path]) -> set[str]:
+def _modules(path: Path) -> set[str]:
+    """The modules ``path`` imports, absolute dotted names (``from a.b import c``: a.b and a.b.c)."""
     found: set[str] = set()
-    for path in paths:
-        for node in ast.walk(ast.parse(path.read_text(encoding='utf-8'))):
-            if isinstance(node, ast.Import):
-                found |= {a.name.split('.')[0] for a in node.names}
-            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-                found.add(node.module.split('.')[0])
+    for node in ast.walk(ast.parse(path.read_text(encoding='utf-8'))):
+        if isinstance(node, ast.Import):
+            found |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            found |= {node.module} | {f'{node.module}.{a.name}' for a in node.names}
     return found
+
+
+def _imports(paths: list[Path]) -> set[str]:
+    """The top-level packages ``paths`` import."""
+    return {m.split('.')[0] for path in paths for m in _modules(path)}
 
 
 def test_every_imported_package_is_declared():
@@ -104,17 +109,6 @@ def test_ashore_dependencies_stay_ashore():
     assert "'ashore': ['dask[distributed]" in extras and 'pyarrow' in extras
 
 
-def _package_imports(path: Path) -> set[str]:
-    """The steer_monitor modules ``path`` imports, absolute names."""
-    found: set[str] = set()
-    for node in ast.walk(ast.parse(path.read_text(encoding='utf-8'))):
-        if isinstance(node, ast.Import):
-            found |= {a.name for a in node.names if a.name.startswith('steer_monitor')}
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and (node.module or '').startswith('steer_monitor'):
-            found |= {f'{node.module}.{a.name}' for a in node.names}
-    return found
-
-
 #: the vessel side and the pure core: what the node runs
 VESSEL = ('can', 'model', 'estimate', 'monitor', 'node', 'record', 'sim')
 
@@ -122,7 +116,7 @@ VESSEL = ('can', 'model', 'estimate', 'monitor', 'node', 'record', 'sim')
 @pytest.mark.parametrize('part', VESSEL)
 def test_the_vessel_side_never_imports_the_shore_side(part):
     for path in sorted((PKG / 'steer_monitor' / part).rglob('*.py')):
-        shore = {m for m in _package_imports(path) if m.startswith(('steer_monitor.ashore', 'steer_monitor.cli'))}
+        shore = {m for m in _modules(path) if m.startswith(('steer_monitor.ashore', 'steer_monitor.cli'))}
         assert not shore, f'{path.relative_to(PKG)} imports {sorted(shore)}'
 
 

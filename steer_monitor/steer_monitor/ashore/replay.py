@@ -103,23 +103,25 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
     if estimator and params['estimator.enabled']:
         est = estimator_from_params(gear, params)
 
-        def failed(exc: SteerMonitorError) -> None:
-            summary.errors.append(f'estimator update failed: {exc}')
-
-        # The worker's errors come when a job's result is taken, later in the data than the
-        # job ran: each goes where a job run at once would have put it, after the log errors
-        # there were when the job was submitted (and the estimator's before it).
-        inserted = 0
+        inserted = 0        # the worker's errors put in so far
 
         def others() -> int:
             return len(summary.errors) - inserted
 
-        def failed_at(exc: SteerMonitorError, mark: int) -> None:
+        def failed(exc: SteerMonitorError, mark: int | None = None) -> None:
+            """A job run at once reports when it ran. The worker's errors come when a job's
+            result is taken, later in the data: each goes where a job run at once would have
+            put it, after the log errors there were when the job was submitted (``mark``)
+            and the worker's errors before it."""
             nonlocal inserted
-            summary.errors.insert(mark + inserted, f'estimator update failed: {exc}')
-            inserted += 1
+            text = f'estimator update failed: {exc}'
+            if mark is None:
+                summary.errors.append(text)
+            else:
+                summary.errors.insert(mark + inserted, text)
+                inserted += 1
         use_worker = (can_fork_a_worker() if worker is None else worker) and not reference
-        jobs = (ProcessEstimatorJobs(est, _job_source(paths, db, smap, date), failed_at, mark=others) if use_worker
+        jobs = (ProcessEstimatorJobs(est, _job_source(paths, db, smap, date), failed, mark=others) if use_worker
                 else SyncEstimatorJobs(est, failed))
     try:
         return _replay(paths, output, config_path, params, Pipeline(Decoder(db, smap, rejects), rejects, monitor,

@@ -105,7 +105,7 @@ def estimator_from_params(gear: GearParams, p: Mapping[str, Any]) -> OnlineEstim
 
 
 def run_job(est: OnlineEstimator, samples: list[Sample],
-         on_error: Callable[[SteerMonitorError], None] | None) -> EstimateSnapshot | None:
+            on_error: Callable[[SteerMonitorError], None] | None) -> EstimateSnapshot | None:
     """One job: the samples in, an update; the new estimate, or None (no change, or an update
     that failed, which ``on_error`` hears: it guards a defect, the monitoring goes on)."""
     try:
