@@ -1,5 +1,8 @@
 """Load sharing of 1,000,000 (angle, torque) samples: vectorized against a per-sample loop of
-the same solver, in the same run. Prints samples/s of each and the ratio.
+the same solver, in the same run. Prints samples/s of each and the ratio. Then the live
+monitor's scalar solver (``load_sharing_scalar``, one call per state) against its array form
+(``load_sharing_scalars``, the same numbers to the bit: how a replay solves its states), on
+batches of the size a replay solves at once.
 
 The per-sample loop runs on a slice (its rate is what is measured; running it on all 10^6
 samples would only take longer, not tell more); both rates are measured, not assumed.
@@ -12,12 +15,13 @@ import time
 
 import numpy as np
 
-from steer_monitor.model import load_sharing
+from steer_monitor.model import load_sharing, load_sharing_scalar, load_sharing_scalars
 from steer_monitor.params import gear_from_params, load_params_file
 from steer_monitor.resources import default_config
 
 N = 1_000_000
 LOOP_N = 20_000
+SCALARS_BATCH = 4_500       # states in a replay's batch of 4,096 frames (about 45 s of data)
 TARGET_S = 1.0
 
 
@@ -49,8 +53,26 @@ def main() -> dict:
           f"(target < {TARGET_S:g} s: {'met' if best < TARGET_S else 'NOT met'})")
     print(f'  per-sample : {loop_s:8.3f} s for {LOOP_N:,} samples   {loop_rate:14,.0f} samples/s')
     print(f'  ratio      : vectorized / per-sample = {vec_rate / loop_rate:,.0f}x')
+
+    m = SCALARS_BATCH * 10
+    t0 = time.perf_counter()
+    one = [load_sharing_scalar(gear, a, t, two_z, z_gb) for a, t in zip(alpha[:m].tolist(), torque[:m].tolist())]
+    scalar_rate = m / (time.perf_counter() - t0)
+    best_many = math.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        many = [load_sharing_scalars(gear, alpha[i:i + SCALARS_BATCH], torque[i:i + SCALARS_BATCH], two_z, z_gb)
+                for i in range(0, m, SCALARS_BATCH)]
+        best_many = min(best_many, time.perf_counter() - t0)
+    scalars_rate = m / best_many
+    k_many = np.concatenate([x.k_gl for x in many])
+    assert k_many.tobytes() == np.array([x.k_gl for x in one]).tobytes(), 'scalar and its array form disagree'
+    print(f'live monitor solver, {m:,} states')
+    print(f'  load_sharing_scalar, one call per state : {scalar_rate:14,.0f} states/s')
+    print(f'  load_sharing_scalars, {SCALARS_BATCH:,} at a time  : {scalars_rate:14,.0f} states/s '
+          f'({scalars_rate / scalar_rate:.1f}x; the same bits)')
     return {'vectorized_s': best, 'vectorized_rate': vec_rate, 'loop_rate': loop_rate,
-            'ratio': vec_rate / loop_rate}
+            'ratio': vec_rate / loop_rate, 'scalar_rate': scalar_rate, 'scalars_rate': scalars_rate}
 
 
 if __name__ == '__main__':

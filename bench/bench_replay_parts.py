@@ -7,13 +7,14 @@ shown apart as the difference between the timed and an untimed run):
 
 * decode: ``Decoder.decode_run`` over runs of up to 4,096 frames (``Decoder.decode`` for the
   frames it leaves to one at a time);
-* live model: ``LiveMonitor.update`` per sample and ``LiveMonitor.state`` per 10 ms slot
-  (rate, residual, load sharing);
+* live model: ``LiveMonitor.update`` per sample and ``LiveMonitor.slot_state`` per 10 ms slot
+  (rate, residual; the states' load sharing is left to the packing, below);
 * diagnostics: ``DiagnosticsBuilder.build``, once per second of data;
 * online estimator: the jobs (``SyncEstimatorJobs.submit``: folding each second, the local
   step after each second of motion, the full profiles);
-* messages: packing states into MCAP records in batches, diagnostics into message fields and
-  CDR, and writing them (with the frames) to the MCAP;
+* messages: the states' load sharing solved and the states packed into MCAP records, a
+  batch of up to 4,096 frames' states at once, diagnostics into message fields and CDR, and
+  writing them (with the frames) to the MCAP;
 * the rest: reading the log into blocks and the pipeline's schedule, by difference.
 
 The per-frame reference (``replay(..., reference=True)``: one call per frame, every message
@@ -79,7 +80,7 @@ def _instrument(spent: dict[str, float]) -> None:
     Decoder.decode = _timed(spent, 'decode', Decoder.decode)
     Decoder.decode_run = _timed(spent, 'decode', Decoder.decode_run)
     LiveMonitor.update = _timed(spent, 'live model', LiveMonitor.update)
-    LiveMonitor.state = property(_timed(spent, 'live model', LiveMonitor.state.fget))
+    LiveMonitor.slot_state = _timed(spent, 'live model', LiveMonitor.slot_state)
     DiagnosticsBuilder.build = _timed(spent, 'diagnostics', DiagnosticsBuilder.build)
     SyncEstimatorJobs.submit = _timed(spent, 'online estimator', SyncEstimatorJobs.submit)
     for name in ('write_cdr', 'write', 'write_frames', 'write_records'):

@@ -34,7 +34,7 @@ from steer_monitor.can.setup import load_setup
 from steer_monitor.errors import SteerMonitorError
 from steer_monitor.estimate.online import OnlineEstimate, OnlineEstimator
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig
-from steer_monitor.monitor.live import LiveMonitor, LiveState
+from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages, topic_name
 from steer_monitor.monitor.pipeline import JobSchedule, Output, Pipeline, StateOut, SyncEstimatorJobs, estimator_from_params
 from steer_monitor.ashore.replay_worker import JobSource, ProcessEstimatorJobs, can_fork_a_worker
@@ -95,7 +95,8 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
     config_path, params, db, smap = load_setup(config)
     gear = gear_from_params(params)
     rejects = RejectCounter()
-    monitor = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params))
+    monitor = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params),
+                          defer_share=not reference)
     diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(params), smap, gear)
     summary = ReplaySummary(str(output), [str(p) for p in paths])
     est = None
@@ -173,33 +174,55 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
         writer.add_schema(FRAME_DATATYPE, FRAME_MSGDEF)
         writer.add_channel(FRAME_TOPIC, FRAME_DATATYPE)
 
-    states: list[LiveState] = []       # states not yet written, packed together (not reference)
+    queue: list[Output] = []       # fast: outputs not yet written, their states solved and packed together
     rudder, share = writer.channel_id(topics['rudder']), writer.channel_id(topics['load_sharing'])
+    gear = pipeline.monitor.gear
 
-    def flush_states() -> None:
-        if states:
-            p = pack_states(states, rudder, share)
-            writer.write_records(p.data, p.channels, p.log_times, p.offsets)
-            states.clear()
+    def write(msgs: list[tuple[str, int, Any]]) -> None:
+        for key, t_ns, fields in msgs:
+            fast = encoders.get(key)
+            if fast is not None:
+                writer.write_cdr(topics[key], fast(fields), t_ns)
+            else:
+                writer.write(topics[key], fields, t_ns)
+
+    def flush() -> None:
+        """The queued outputs, in order: the load sharing of all their states solved at once,
+        their records packed at once and written between the diagnostics."""
+        if not queue:
+            return
+        states = [o.state for o in queue if isinstance(o, StateOut)]
+        p = pack_states(states, rudder, share, gear) if states else None
+        done = seen = 0            # records written, states passed
+
+        def records_until(end: int) -> None:
+            nonlocal done
+            if p is not None and end > done:
+                writer.write_records(p.data, p.channels[done:end], p.log_times[done:end], p.offsets[done:end + 1])
+                done = end
+        for o in queue:
+            if isinstance(o, StateOut):
+                seen += 1
+                continue
+            if seen:
+                records_until(int(p.state_ends[seen - 1]))     # type: ignore[union-attr]
+            write(diag_messages(o))
+        if seen:
+            records_until(int(p.state_ends[seen - 1]))         # type: ignore[union-attr]
+        queue.clear()
 
     def emit(outs: list[Output]) -> None:
         for o in outs:
             if isinstance(o, StateOut):
                 summary.states += 1
-                if not reference:
-                    states.append(o.state)
-                    continue
-                msgs = state_messages(o)
             else:
-                flush_states()
-                msgs = diag_messages(o)
                 summary.diagnostics += 1
-            for key, t_ns, fields in msgs:
-                fast = encoders.get(key)
-                if fast is not None:
-                    writer.write_cdr(topics[key], fast(fields), t_ns)
-                else:
-                    writer.write(topics[key], fields, t_ns)
+            if not reference:
+                queue.append(o)
+            elif isinstance(o, StateOut):
+                write(state_messages(o))
+            else:
+                write(diag_messages(o))
 
     early: int | None = None     # the first stamp, while the stream's first frames await confirmation
     jump = pipeline.decoder.jumps.max_jump_ns
@@ -223,7 +246,7 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
 
     batch: list[Frame] = []          # reference: frames to write
     pending: list[FrameArrays] = []  # fast: the same, as columns
-    pending_n = 0
+    pending_n = 0                    # fast: frames fed since the outputs and frames were last written
     for path in paths:
         n_log = 0
         try:
@@ -249,10 +272,11 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
                     emit(feed_part(pipeline, part, see))
                     if frames:
                         pending.append(part)
-                        pending_n += k
+                    pending_n += k
                     if pending_n >= FRAME_BATCH:
-                        flush_states()
-                        writer.write_frames(FrameArrays.concat(pending))
+                        flush()
+                        if pending:
+                            writer.write_frames(FrameArrays.concat(pending))
                         pending, pending_n = [], 0
                     n_log += k
                     if progress is not None:
@@ -262,13 +286,13 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
         if progress is not None and reference:
             progress(n_log % FRAME_BATCH, summary.last_ns)
         summary.frames += n_log
-    flush_states()
+    flush()
     if batch:
         writer.write_frames(batch)
     if pending:
         writer.write_frames(FrameArrays.concat(pending))
     emit(pipeline.finish())
-    flush_states()
+    flush()
     pipeline.close()
 
 

@@ -256,8 +256,8 @@ def _rss_from_weights(mom: Moments, used: Sequence[int], w: NDArray) -> NDArray[
     mean = mom.mean[:, idx]
     extra_dims = w.ndim - 2
     v = np.concatenate([-w, np.ones(w.shape[:-1] + (1,))], axis=-1)
-    s_b = scatter.reshape((scatter.shape[0],) + (1,) * extra_dims + scatter.shape[1:])
-    within = np.einsum('...i,...i->...', np.einsum('...i,...ij->...j', v, s_b), v)
+    flat = v.reshape(scatter.shape[0], -1, v.shape[-1])               # (B, G, k + 1)
+    within = np.einsum('bgj,bgj->bg', flat @ scatter, flat).reshape(v.shape[:-1])
     m_b = mean.reshape((mean.shape[0],) + (1,) * extra_dims + mean.shape[1:])
     off = np.einsum('...i,...i->...', v, m_b)
     n_b = mom.count.reshape((-1,) + (1,) * extra_dims)

@@ -196,7 +196,8 @@ def _angle_slopes(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.i
 def _steady_through(angle: Series, t: NDArray[np.int64], shift_ns: int, need: NDArray[np.float64]) -> NDArray[np.bool_]:
     """True where the angle's slope over each of the five ``SEGMENT_NS`` segments centred on
     ``t`` (+-250 ms) has the sign of ``need`` [rad/s] and at least its size."""
-    ends = [_interp(angle, t + np.int64(k * SEGMENT_NS // 2), MAX_GAP_NS, shift_ns) for k in (-5, -3, -1, 1, 3, 5)]
+    offsets = np.array([k * SEGMENT_NS // 2 for k in (-5, -3, -1, 1, 3, 5)], np.int64)
+    ends = _interp(angle, (t[None, :] + offsets[:, None]).ravel(), MAX_GAP_NS, shift_ns).reshape(offsets.size, -1)
     ok = np.ones(t.shape, bool)
     with np.errstate(invalid='ignore'):
         for a, b in zip(ends[:-1], ends[1:]):

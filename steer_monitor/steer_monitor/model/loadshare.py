@@ -25,7 +25,9 @@ Units: SI (rad, N, N m, m). Arrays broadcast over samples.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from itertools import repeat
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -55,6 +57,7 @@ __all__ = [
     'load_sharing',
     'load_sharing_at',
     'load_sharing_scalar',
+    'load_sharing_scalars',
     'paper_case',
 ]
 
@@ -356,3 +359,105 @@ def load_sharing_scalar(gear: GearParams, alpha: float, torque: float, two_z: fl
         k_gl=f_guide / fl if fl > 0 else 0.0, deflection=deflection,
         r_a=f_pinned * b / span + f_clamped * (1.0 - re_c), r_e=f_pinned * a / span + f_clamped * re_c,
         m_a=f_clamped * ma_c, f_theta=f_theta, f_z=f_z, case=case, stages=stages)
+
+
+def _each(fn: Callable[..., float], *args: object) -> Array:
+    """``fn`` of each element, in Python float arithmetic (the C library's functions, as
+    :func:`load_sharing_scalar` calls them); arrays are taken element by element, anything
+    else as a constant."""
+    cols = [a.tolist() if isinstance(a, np.ndarray) else repeat(a) for a in args]
+    n = next(a.size for a in args if isinstance(a, np.ndarray))
+    return np.fromiter(map(fn, *cols), float, n)
+
+
+def load_sharing_scalars(gear: GearParams, alpha: ArrayLike, torque: ArrayLike, two_z: ArrayLike,
+                         z_gb: ArrayLike) -> LoadSharing:
+    """:func:`load_sharing_scalar` of many samples (1-d arrays of one length, SI), the same
+    numbers to the bit.
+
+    :func:`load_sharing` agrees with the scalar solver to rounding only (its own closed forms,
+    numpy's transcendental functions); a replay that must write the node's bytes needs the
+    scalar's. Here every step is the scalar's, in its order: +, -, *, / and comparisons are
+    IEEE-754 operations that round the same in numpy as in Python, the branches are ``where``
+    of the same comparisons (Python's ``max(x, 0.0)`` and ``min`` included, NaN and signed
+    zeros alike), and tan, cos and powers are the scalar's own calls of the C library,
+    element by element. ``test_loadshare`` compares every field's bits. Raises the scalar's
+    :class:`ModelError` for the first sample it would raise on."""
+    alpha = np.asarray(alpha, float).ravel()
+    n = alpha.size
+    torque, two_z, z_gb = (np.broadcast_to(np.asarray(x, float).ravel(), (n,)) for x in (torque, two_z, z_gb))
+    if n == 0:
+        e = np.empty(0)
+        return LoadSharing(e, e, e, e, e, e, e, e, e, e, e, np.empty(0, np.int8), np.empty(0, np.uint8))
+    bad = ~(np.isfinite(two_z) & (two_z >= 0) & np.isfinite(z_gb) & (z_gb >= 0))
+    if bad.any():
+        msg = 'clearance two_z and z_gb must be finite and >= 0 m'
+        raise ModelError(msg)
+    a_abs, m_abs = np.abs(alpha), np.abs(torque)
+    span, h = gear.bushing_span, gear.stock_to_ram
+    tan_a = _each(math.tan, a_abs)
+    travel = h * tan_a
+    b = span / 2.0 + travel
+    a = span - b
+    ag = gear.guide_beam_span / 2.0 - travel
+    bg = gear.guide_beam_span - ag
+    axial = m_abs * _each(lambda x: math.cos(x) ** 2, a_abs) / (gear.rams * h)
+    fl = axial * tan_a
+    ei = gear.youngs_modulus * gear.ram_inertia
+    lam1 = a * a * b * b / (3.0 * ei * span)
+    lam2 = _each(pow, a, 3) * b * b * (3.0 * span + b) / (12.0 * ei * span**3)
+    slope = b * (span * span - b * b) / (6.0 * ei * span)
+    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
+        if gear.euler_amplification:
+            f_eu = math.pi**2 * ei / _each(pow, b, 2)
+            buckles = np.flatnonzero(axial >= f_eu)
+            if buckles.size:
+                i = int(buckles[0])
+                msg = f'axial ram force reaches {axial[i] / f_eu[i]:.2f} of the Euler force: the ram buckles'
+                raise ModelError(msg)
+            amp = 1.0 / (1.0 - axial / f_eu)
+            lam1, lam2, slope = lam1 * amp, lam2 * amp, slope * amp
+        lg_span = gear.guide_beam_span
+        lam_g = _each(pow, ag, 3) * _each(pow, bg, 3) / (3.0 * gear.youngs_modulus * gear.guide_beam_inertia
+                                                          * lg_span**3)
+        f_theta = np.where(slope > 0, (two_z / gear.bushing_length) / slope, math.inf)
+        f_z = np.where(lam1 > 0, z_gb / lam1, math.inf)
+
+        applied, f_pinned, f_clamped, f_guide, deflection = (np.zeros(n) for _ in range(5))
+        clamped, guide = np.zeros(n, bool), np.zeros(n, bool)
+        stages = np.zeros(n, np.uint8)
+        for _ in range(3):
+            lam_r = np.where(clamped, lam2, lam1)
+            share = np.where(guide, lam_g / (lam_r + lam_g), 1.0)
+            to_end = fl - applied
+            x = (f_theta - f_pinned) / share
+            to_clamp = np.where(clamped, math.inf, np.where(0.0 > x, 0.0, x))     # max(x, 0.0)
+            x = (z_gb - deflection) / lam_r
+            to_guide = np.where(guide, math.inf, np.where(lam_r > 0, np.where(0.0 > x, 0.0, x), math.inf))
+            step = np.where(to_clamp < to_end, to_clamp, to_end)                  # min(to_end, to_clamp, to_guide)
+            step = np.where(to_guide < step, to_guide, step)
+            loaded = step > 0
+            stages |= np.where(loaded, np.where(clamped, STAGE_CLAMPED, STAGE_PINNED), 0).astype(np.uint8)
+            stages |= np.where(loaded & guide, STAGE_GUIDE, 0).astype(np.uint8)
+            ram_step = share * step
+            f_clamped = np.where(clamped, f_clamped + ram_step, f_clamped)
+            f_pinned = np.where(clamped, f_pinned, f_pinned + ram_step)
+            f_guide = f_guide + (step - ram_step)
+            deflection = deflection + lam_r * ram_step
+            applied = applied + step
+            clamped = clamped | (to_clamp <= step)
+            guide = guide | (to_guide <= step)
+
+        re_c = a * a * (3.0 * span - a) / (2.0 * span**3)
+        ma_c = a * b * (span + b) / (2.0 * span**2)
+        theta_first = f_theta <= f_z
+        lower = np.where(f_z < f_theta, f_z, f_theta)                             # min(f_theta, f_z)
+        upper = np.where(f_z > f_theta, f_z, f_theta)                             # max(f_theta, f_z)
+        case = np.where(fl <= lower, np.where(theta_first, 1, 2),
+                        np.where(fl > upper, np.where(theta_first, 5, 6), np.where(theta_first, 3, 4)))
+        k_gl = np.where(fl > 0, f_guide / fl, 0.0)
+    return LoadSharing(
+        lateral=fl, axial=axial, ram_force=f_pinned + f_clamped, guide_force=f_guide, k_gl=k_gl,
+        deflection=deflection, r_a=f_pinned * b / span + f_clamped * (1.0 - re_c),
+        r_e=f_pinned * a / span + f_clamped * re_c, m_a=f_clamped * ma_c, f_theta=f_theta, f_z=f_z,
+        case=case.astype(np.int8), stages=stages)

@@ -26,7 +26,7 @@ from __future__ import annotations
 import bisect
 import math
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -71,7 +71,8 @@ class Response:
 @dataclass(frozen=True)
 class LiveState:
     """One evaluation of the live model (SI). ``share`` is None until angle and all four
-    pressures have been seen."""
+    pressures have been seen, or (``torque_measured`` set) when it was left to the caller
+    (:meth:`LiveMonitor.slot_state`)."""
 
     t_ns: int
     alpha: float
@@ -94,8 +95,10 @@ class LiveMonitor:
     """Sample-by-sample state of the gear. Not thread-safe: feed it from one thread."""
 
     def __init__(self, gear: GearParams, gaps: Gaps, gaps_source: str = 'configured',
-                 priors: FrictionParams | None = None) -> None:
+                 priors: FrictionParams | None = None, *, defer_share: bool = False) -> None:
         self.gear = gear
+        #: :meth:`slot_state` leaves the load sharing to its caller (see there)
+        self.defer_share = defer_share
         self.gaps = gaps
         self.gaps_source = gaps_source
         self.gaps_interval: dict[str, tuple[float, float | None]] | None = None
@@ -250,12 +253,27 @@ class LiveMonitor:
     @property
     def state(self) -> LiveState | None:
         """The live model at the newest sample (None until angle and all four pressures)."""
+        st = self.slot_state()
+        if st is not None and st.share is None and st.torque_measured is not None:
+            st = self._state = replace(st, share=self.share_of(st))
+        return st
+
+    def slot_state(self) -> LiveState | None:
+        """:attr:`state`, but with :attr:`defer_share` its load sharing is left to the caller
+        (``share`` None, ``torque_measured`` set): a replay solves the states of many slots
+        at once (:func:`~steer_monitor.model.loadshare.load_sharing_scalars`, the same numbers
+        as :meth:`share_of`, to the bit)."""
         if self._dirty:
             self._dirty = False
             t = max(self.signals['rudder_angle'].last_t_ns or 0,
                     *(self.signals[n].last_t_ns or 0 for n in _PRESSURE_INDEX))
             self._state = self._evaluate(t) or self._state
         return self._state
+
+    def share_of(self, state: LiveState) -> ShareScalar:
+        """The load sharing of a state from its angle, measured torque and clearances."""
+        assert state.torque_measured is not None
+        return load_sharing_scalar(self.gear, state.alpha, state.torque_measured, state.gaps.two_z, state.gaps.z_gb)
 
     def rate_hz(self, name: str, now_ns: int, window_ns: int = RATE_WINDOW_NS) -> float:
         """Arrival rate of an input (Hz) from the spacing of its arrivals in the last
@@ -391,7 +409,7 @@ class LiveMonitor:
         area = gear.ram_area
         fa = 0.5 * (abs(area * (p[0] - p[1])) + abs(area * (p[2] - p[3])))
         torque = fa * gear.rams * gear.stock_to_ram / math.cos(a) ** 2
-        share = load_sharing_scalar(gear, a, torque, self.gaps.two_z, self.gaps.z_gb)
+        share = None if self.defer_share else load_sharing_scalar(gear, a, torque, self.gaps.two_z, self.gaps.z_gb)
         return LiveState(t_ns, a, self.rate, abs(self.rate) > MOVING_RATE, torque, share, self.gaps)
 
     def residual_rms_bar(self) -> float | None:

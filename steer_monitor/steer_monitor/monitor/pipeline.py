@@ -357,7 +357,7 @@ class Pipeline:
     def _emit_state(self, out: list[Output]) -> None:
         if self._state_pending:
             self._state_pending = False
-            st = self.monitor.state
+            st = self.monitor.slot_state()
             if st is not None:
                 out.append(StateOut(st))
 

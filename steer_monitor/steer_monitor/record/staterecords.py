@@ -24,8 +24,8 @@ from functools import cache
 import numpy as np
 from numpy.typing import NDArray
 
-from steer_monitor.model.gear import Gaps
-from steer_monitor.model.loadshare import ShareScalar
+from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.loadshare import ShareScalar, load_sharing_scalars
 from steer_monitor.monitor.live import LiveState
 from steer_monitor.monitor.messages import state_messages
 from steer_monitor.monitor.pipeline import StateOut
@@ -93,6 +93,8 @@ class PackedStates:
     channels: NDArray[np.uint16]
     log_times: NDArray[np.int64]
     offsets: NDArray[np.int64]
+    #: per state, the index of the record after its own (states have one record or two)
+    state_ends: NDArray[np.int64]
 
 
 def _fill(layout: _Layout, channel: int, t: NDArray[np.int64], floats: NDArray[np.float64]) -> NDArray[np.uint8]:
@@ -117,9 +119,41 @@ def _fill(layout: _Layout, channel: int, t: NDArray[np.int64], floats: NDArray[n
     return rec
 
 
-def pack_states(states: Sequence[LiveState], rudder_channel: int, share_channel: int) -> PackedStates:
+def _shares(states: Sequence[LiveState], has: NDArray[np.bool_], alpha: NDArray[np.float64],
+            torque: NDArray[np.float64], gear: GearParams | None
+            ) -> tuple[NDArray[np.float64], NDArray[np.int8], NDArray[np.uint8]]:
+    """The load sharing of the states that have one: (floats (m, 8) in the layout's order,
+    load cases, stages). A state whose share was left to the caller
+    (:meth:`~steer_monitor.monitor.live.LiveMonitor.slot_state`) is solved here, all such at
+    once, by :func:`~steer_monitor.model.loadshare.load_sharing_scalars` (the live monitor's
+    numbers, to the bit)."""
+    m = int(np.count_nonzero(has))
+    floats = np.empty((m, len(_SHARE_FLOATS)))
+    case = np.empty(m, np.int8)
+    stages = np.empty(m, np.uint8)
+    known = [s.share for s in states if s.share is not None]
+    given = np.fromiter((s.share is not None for s in states), bool, len(states))[has]
+    if known:
+        floats[given] = np.array([_share_floats(x) for x in known], float)
+        case[given] = np.array([x.case for x in known], np.int64).astype(np.int8)
+        stages[given] = np.array([x.stages for x in known], np.uint8)
+    if not given.all():
+        assert gear is not None
+        todo = np.flatnonzero(has & np.fromiter((s.share is None for s in states), bool, len(states)))
+        two_z = np.fromiter((states[i].gaps.two_z for i in todo.tolist()), float, todo.size)
+        z_gb = np.fromiter((states[i].gaps.z_gb for i in todo.tolist()), float, todo.size)
+        ls = load_sharing_scalars(gear, alpha[todo], torque[todo], two_z, z_gb)
+        floats[~given] = np.stack([getattr(ls, k) for k in _SHARE_FLOATS], axis=1)
+        case[~given], stages[~given] = ls.case, ls.stages
+    return floats, case, stages
+
+
+def pack_states(states: Sequence[LiveState], rudder_channel: int, share_channel: int,
+                gear: GearParams | None = None) -> PackedStates:
     """The records of ``states`` in order: each state's rudder JointState, then its LoadSharing
-    when it has one; the same bytes as ``state_messages`` encoded one by one."""
+    when it has one; the same bytes as ``state_messages`` encoded one by one. With ``gear``, a
+    state whose load sharing was left to the caller (``share`` None, ``torque_measured`` set)
+    has it solved here: the bytes of the state the live monitor would have made."""
     joint, share = _layouts()
     n = len(states)
     t = np.fromiter((s.t_ns for s in states), np.int64, n)
@@ -127,14 +161,14 @@ def pack_states(states: Sequence[LiveState], rudder_channel: int, share_channel:
     rate = np.fromiter((s.rate for s in states), float, n)
     torque = np.fromiter((s.torque_measured or 0.0 for s in states), float, n)
     rudder = _fill(joint, rudder_channel, t, np.stack([alpha, rate, np.copysign(torque, alpha)], axis=1))
-    has = np.fromiter((s.share is not None for s in states), bool, n)
-    shares = [s.share for s in states if s.share is not None]
-    m = len(shares)
-    sh = _fill(share, share_channel, t[has],
-               np.array([_share_floats(x) for x in shares], float).reshape(m, len(_SHARE_FLOATS)))
+    solve = gear is not None
+    has = np.fromiter((s.share is not None or (solve and s.torque_measured is not None) for s in states), bool, n)
+    floats, case, stages = _shares(states, has, alpha, torque, gear)
+    m = floats.shape[0]
+    sh = _fill(share, share_channel, t[has], floats)
     if m:
-        sh[:, share.after_floats] = np.array([x.case for x in shares], np.int64).astype(np.int8).view(np.uint8)
-        sh[:, share.after_floats + 1] = np.array([x.stages for x in shares], np.uint8)
+        sh[:, share.after_floats] = case.view(np.uint8)
+        sh[:, share.after_floats + 1] = stages
     a, b = rudder.shape[1], sh.shape[1]
     sizes = np.where(has, a + b, a)
     offsets = np.zeros(n + m + 1, np.int64)
@@ -150,4 +184,4 @@ def pack_states(states: Sequence[LiveState], rudder_channel: int, share_channel:
     rec_size = np.where(kind, b, a)
     offsets[1:] = np.cumsum(rec_size)
     channels = np.where(kind, share_channel, rudder_channel).astype(np.uint16)
-    return PackedStates(out.tobytes(), channels, order_t, offsets)
+    return PackedStates(out.tobytes(), channels, order_t, offsets, pos + 1)

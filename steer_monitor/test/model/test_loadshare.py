@@ -4,6 +4,7 @@ cases, and the R-18 landmarks of paper 004."""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from steer_monitor.model import (
     Gaps,
     load_sharing,
     load_sharing_at,
+    load_sharing_scalar,
     ram_inertia,
     rapson_state,
 )
@@ -134,6 +136,81 @@ def test_scalar_path_equals_vectorized(r18):
             for field in ('lateral', 'axial', 'ram_force', 'guide_force', 'k_gl', 'deflection', 'r_a', 'r_e', 'm_a'):
                 assert getattr(one, field) == pytest.approx(float(getattr(vec, field)[i]), rel=1e-9, abs=1e-12), field
             assert (one.case, one.stages) == (int(vec.case[i]), int(vec.stages[i]))
+
+
+_SHARE_FIELDS = ('lateral', 'axial', 'ram_force', 'guide_force', 'k_gl', 'deflection', 'r_a', 'r_e', 'm_a',
+                 'f_theta', 'f_z')
+
+
+def _scalar_cases(gear, rng, n):
+    """Angles, torques and clearances over every case, with the edges the branches turn on:
+    zero angle, torque and clearances, the Euler limit's neighbourhood, and exact ties of
+    the load with a critical force."""
+    alpha = rng.uniform(-0.65, 0.65, n)
+    alpha[:20] = [0.0, -0.0, 1e-12, -1e-9] * 5
+    torque = gear.torque(alpha) * rng.uniform(0.0, 3.0, n)
+    torque[20:40] = 0.0
+    torque[40:60] *= -1.0
+    two_z = rng.choice([0.0, -0.0, 1e-9, 0.05e-3, 0.2e-3, 0.6e-3, 1.5e-3], n)
+    z_gb = rng.choice([0.0, -0.0, 1e-9, 0.05e-3, 0.25e-3, 1e-3], n)
+    # ties: the clearances that make F_theta or F_Z exactly the sample's lateral force
+    for i in range(60, 120):
+        one = load_sharing_scalar(gear, float(alpha[i]), float(torque[i]), 1.0, 1.0)
+        if one.lateral > 0 and math.isfinite(one.f_theta):
+            two_z[i] = one.lateral / one.f_theta if i % 2 else two_z[i]
+            z_gb[i] = one.lateral / one.f_z if not i % 2 else z_gb[i]
+    return alpha, torque, two_z, z_gb
+
+
+@pytest.mark.parametrize('euler', [False, True])
+def test_scalars_are_the_scalar_to_the_bit(r18, euler):
+    """The array form of the scalar solver gives its numbers bit for bit, every field, in
+    every case and on the branches' edges (a replay writes the node's bytes with it)."""
+    from dataclasses import replace
+
+    from steer_monitor.model import load_sharing_scalar, load_sharing_scalars
+    gear = replace(r18, euler_amplification=euler)
+    rng = np.random.default_rng(11)
+    alpha, torque, two_z, z_gb = _scalar_cases(gear, rng, 3000)
+    if euler:
+        keep = [i for i in range(alpha.size) if _buckles(gear, alpha[i], torque[i]) is None]
+        alpha, torque, two_z, z_gb = alpha[keep], torque[keep], two_z[keep], z_gb[keep]
+    vec = load_sharing_scalars(gear, alpha, torque, two_z, z_gb)
+    cases = set()
+    for i in range(alpha.size):
+        one = load_sharing_scalar(gear, float(alpha[i]), float(torque[i]), float(two_z[i]), float(z_gb[i]))
+        for field in _SHARE_FIELDS:
+            assert np.float64(getattr(one, field)).tobytes() == getattr(vec, field)[i].tobytes(), (i, field)
+        assert (one.case, one.stages) == (int(vec.case[i]), int(vec.stages[i])), i
+        cases.add(one.case)
+    assert cases == {1, 2, 3, 4, 5, 6}
+
+
+def _buckles(gear, alpha, torque):
+    from steer_monitor.model import load_sharing_scalar
+    try:
+        load_sharing_scalar(gear, float(alpha), float(torque), 0.0, 0.0)
+    except ModelError as exc:
+        return str(exc)
+    return None
+
+
+def test_scalars_raise_as_the_scalar_does(r18):
+    """The first sample the scalar solver refuses gives its message; bad clearances too."""
+    from dataclasses import replace
+
+    from steer_monitor.model import load_sharing_scalars
+    gear = replace(r18, euler_amplification=True)
+    alpha = np.array([0.3, 0.5, 0.6])
+    torque = np.array([1e6, 1e9, 1e10])
+    first = _buckles(gear, alpha[1], torque[1])
+    assert first is not None and first != _buckles(gear, alpha[2], torque[2])
+    with pytest.raises(ModelError, match=re.escape(first)):
+        load_sharing_scalars(gear, alpha, torque, 0.6e-3, 0.25e-3)
+    with pytest.raises(ModelError, match='clearance two_z and z_gb must be finite and >= 0 m'):
+        load_sharing_scalars(r18, alpha, torque, np.array([0.6e-3, -1e-4, 0.6e-3]), 0.25e-3)
+    empty = load_sharing_scalars(r18, np.empty(0), np.empty(0), 0.6e-3, 0.25e-3)
+    assert empty.k_gl.shape == (0,) and empty.case.dtype == np.int8
 
 
 def test_sign_of_angle_and_torque_does_not_matter(r18):

@@ -252,3 +252,29 @@ def test_a_minute_rejudged_at_once_is_each_instant_judged_alone(r18_params, case
         if p is not None:
             assert p == pytest.approx(q, rel=1e-12, abs=1e-9)
 
+
+
+def test_a_monitor_that_defers_the_load_sharing_leaves_it_to_its_caller(r18_params, can_db):
+    """With ``defer_share`` the slot's state has no load sharing (its torque is there to solve
+    it from); :attr:`state` still gives the whole state; both equal the eager monitor's."""
+    db, smap = can_db
+    s = sim.run(r18_params, sim.SimConfig(program='hard_over_2'), db, smap, 4)
+    gear = gear_from_params(r18_params)
+    eager, lazy = (LiveMonitor(gear, Gaps.from_mm(0.6, 0.25), defer_share=d) for d in (False, True))
+    decoder = Decoder(db, smap, RejectCounter())
+    seen = 0
+    for frame in s.frames.frames()[:3000]:
+        for sample in decoder.decode(frame):
+            eager.update(sample)
+            lazy.update(sample)
+        if eager.changed:
+            want, left = eager.slot_state(), lazy.slot_state()
+            assert lazy.changed is False
+            if want is None:
+                assert left is None
+                continue
+            assert left.share is None and left.torque_measured == want.torque_measured
+            assert lazy.share_of(left) == want.share
+            assert lazy.state == want            # the whole state, its load sharing solved
+            seen += 1
+    assert seen > 1000

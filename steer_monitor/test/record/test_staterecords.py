@@ -5,14 +5,16 @@ from __future__ import annotations
 
 import io
 import math
+from dataclasses import replace
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from steer_monitor.can.mcapio import McapWriter
 from steer_monitor.model.gear import Gaps
-from steer_monitor.model.loadshare import ShareScalar
+from steer_monitor.model.loadshare import ShareScalar, load_sharing_scalar
 from steer_monitor.monitor.live import LiveState
 from steer_monitor.monitor.messages import TOPICS, state_messages
 from steer_monitor.monitor.pipeline import StateOut
@@ -45,11 +47,11 @@ def _one_by_one(states: list[LiveState], chunk_size: int) -> bytes:
     return buf.getvalue()
 
 
-def _packed(batches: list[list[LiveState]], chunk_size: int) -> bytes:
+def _packed(batches: list[list[LiveState]], chunk_size: int, gear=None) -> bytes:
     buf = io.BytesIO()
     with _writer(buf, chunk_size) as w:
         for batch in batches:
-            p = pack_states(batch, w.channel_id('rudder'), w.channel_id('load_sharing'))
+            p = pack_states(batch, w.channel_id('rudder'), w.channel_id('load_sharing'), gear)
             w.write_records(p.data, p.channels, p.log_times, p.offsets)
     return buf.getvalue()
 
@@ -106,3 +108,25 @@ def test_packed_runs_and_single_messages_on_one_channel_keep_their_order(chunk_s
                 p = pack_states(states[k:k + 10], w.channel_id('rudder'), w.channel_id('load_sharing'))
                 w.write_records(p.data, p.channels, p.log_times, p.offsets)
     assert buf.getvalue() == _one_by_one(states, chunk_size)
+
+
+def test_states_left_to_solve_are_solved_as_the_live_monitor_solves_them(r18):
+    """States whose load sharing was left to the caller (a replay's live monitor), mixed with
+    states that carry theirs and states without a torque: packed with the gear, the bytes of
+    the states with ``load_sharing_scalar``'s answer, one by one; the records of each state
+    end where ``state_ends`` says."""
+    rng = np.random.default_rng(5)
+    full, left = [], []
+    for i in range(400):
+        alpha = float(rng.uniform(-0.62, 0.62))
+        torque = None if i % 9 == 0 else float(r18.torque(alpha) * rng.uniform(0.0, 2.0))
+        gaps = Gaps(float(rng.choice([0.0, 0.2e-3, 0.6e-3])), float(rng.choice([0.0, 0.25e-3])))
+        share = None if torque is None else load_sharing_scalar(r18, alpha, torque, gaps.two_z, gaps.z_gb)
+        s = LiveState(1_767_225_600_000_000_000 + i * 10_000_000, alpha, 0.01, True, torque, share, gaps)
+        full.append(s)
+        left.append(s if i % 4 == 0 else replace(s, share=None))
+    one = _one_by_one(full, 4096)
+    assert _packed([left[:150], left[150:]], 4096, r18) == one
+    assert _packed([left], 4096) != one            # without the gear they are states with no load sharing
+    p = pack_states(left, 1, 2, r18)
+    assert p.state_ends.tolist() == np.cumsum([1 if s.torque_measured is None else 2 for s in left]).tolist()
