@@ -27,7 +27,7 @@ from steer_monitor.atomic import atomic_path, os_reason
 from steer_monitor.can.decoder import DecodedRun, Decoder, Sample
 from steer_monitor.can.fastlogs import in_time_order, iter_log_blocks
 from steer_monitor.can.frames import Frame, FrameArrays
-from steer_monitor.can.logs import LogError
+from steer_monitor.can.logs import LogError, log_path_problem
 from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, McapWriter
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import load_setup
@@ -89,9 +89,9 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
         raise ReplayError(msg)
     paths = in_time_order([Path(p) for p in logs], date)
     for p in paths:
-        if not p.is_file():
-            msg = f'log {p} does not exist'
-            raise ReplayError(msg)
+        problem = log_path_problem(p)
+        if problem is not None:
+            raise ReplayError(problem)
     config_path, params, db, smap = load_setup(config)
     gear = gear_from_params(params)
     rejects = RejectCounter()

@@ -35,7 +35,7 @@ from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
 
 __all__ = ['FORMATS', 'READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'candump_line', 'iter_log',
-           'iter_log_as', 'log_format', 'open_log', 'read_log_arrays', 'skipped_parts']
+           'iter_log_as', 'log_format', 'log_path_problem', 'open_log', 'read_log_arrays', 'skipped_parts']
 
 READ_SUFFIXES = ('.log', '.asc', '.blf', '.mcap')
 #: formats read, by the name :func:`log_format` gives them
@@ -376,6 +376,17 @@ def _iter_python_can(path: Path, suffix: str, rejects: RejectCounter | None = No
             raise LogError(msg)
     if damaged:
         raise LogError(f'{path}: ' + skipped_parts(damaged, 'damaged container(s)'))
+
+
+def log_path_problem(path: Path) -> str | None:
+    """What is wrong with ``path`` as a log to read (None: a file)."""
+    if path.is_file():
+        return None
+    if path.is_dir():
+        return f'log {path} is a directory, not a file'
+    if path.exists():
+        return f'log {path} is not a regular file'
+    return f'log {path} does not exist'
 
 
 def skipped_parts(where: list[str], what: str) -> str:

@@ -21,7 +21,7 @@ from steer_monitor.can.decodelog import decode_logs
 from steer_monitor.can.rejects import REASONS, RejectCounter
 from steer_monitor.can.setup import load_setup
 from steer_monitor.can.devices import format_name
-from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors, table
+from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors, table
 
 __all__ = ['inspect_log', 'register', 'run']
 
@@ -102,6 +102,7 @@ def run(path: str | Path, config: str | Path | None = None, as_json: bool = Fals
     corrupt parts, whose readable frames are counted."""
     out = out or sys.stdout
     err = err or sys.stderr
+    check_logs([path])
     date_notes('inspect', [path], date, err)
     s = inspect_log(path, config, date)
     if as_json:

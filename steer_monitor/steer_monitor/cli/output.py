@@ -10,7 +10,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-__all__ = ['add_date_option', 'date_notes', 'dump_json', 'report_read_errors', 'table']
+__all__ = ['add_date_option', 'check_logs', 'date_notes', 'dump_json', 'report_read_errors', 'table']
 
 
 def _clean(obj: Any) -> Any:
@@ -41,6 +41,17 @@ def table(headers: Sequence[str], rows: Sequence[Sequence[Any]], out: TextIO) ->
         out.write('  '.join(line).rstrip() + '\n')
         if k == 0:
             out.write('  '.join('-' * w for w in widths) + '\n')
+
+
+def check_logs(paths: Sequence[str | Path]) -> None:
+    """:class:`~steer_monitor.errors.ParameterError` naming the first log that is not a file
+    (missing, a directory), before any work is done."""
+    from steer_monitor.can.logs import log_path_problem
+    from steer_monitor.errors import ParameterError
+    for p in paths:
+        problem = log_path_problem(Path(p))
+        if problem is not None:
+            raise ParameterError(problem)
 
 
 def report_read_errors(command: str, errors: Sequence[str], err: TextIO) -> int:

@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors
+from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors
 
 __all__ = ['register', 'run']
 
@@ -62,10 +62,7 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
         msg = f'--analysis-hours must be >= 0, got {analysis_hours}'
         raise ParameterError(msg)
     paths = [Path(p) for p in logs]
-    for p in paths:
-        if not p.is_file():
-            msg = f'log {p} does not exist'
-            raise ParameterError(msg)
+    check_logs(paths)
     config_path, params = load_config(config)
     ensure_dir(out_dir)               # before the review, not after
     date_notes('report', paths, date, err)

@@ -11,11 +11,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-from steer_monitor.atomic import atomic_path, write_text
-from steer_monitor.can.logs import LogWriter
+from steer_monitor.atomic import atomic_path, os_reason, write_text
+from steer_monitor.can.logs import LogError, LogWriter
 from steer_monitor.can.setup import load_setup
 from steer_monitor.cli.output import dump_json
-from steer_monitor.errors import ParameterError
+from steer_monitor.errors import OutputError, ParameterError
 from steer_monitor.model.gear import Gaps
 from steer_monitor.params import gaps_from_params
 from steer_monitor import sim
@@ -90,7 +90,13 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
         tpath = truth_path(path)
         progress = _progress(len(result.frames), sys.stderr.isatty() and not as_json)
         with atomic_path(path) as tmp:
-            with LogWriter(tmp) as writer, progress:
+            try:
+                writer = LogWriter(tmp)
+            except LogError as exc:        # it names the temporary file; the user gave path
+                cause = exc.__cause__
+                msg = f'cannot write log {path}: {os_reason(cause) if isinstance(cause, OSError) else exc}'
+                raise OutputError(msg) from exc
+            with writer, progress:
                 for i, frame in enumerate(result.frames.frames(channel='can0')):
                     writer.write(frame)
                     if i % 4096 == 4095:

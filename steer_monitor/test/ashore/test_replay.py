@@ -146,8 +146,10 @@ def test_a_broken_log_keeps_what_came_before_and_goes_on(tmp_path, logs, capsys)
 @pytest.mark.parametrize(('args', 'message'), [
     ([], 'no log given'),
     (['missing.log'], 'missing.log does not exist'),
+    (['adir'], 'adir is a directory, not a file'),
 ])
 def test_bad_inputs_are_named(tmp_path, args, message):
+    (tmp_path / 'adir').mkdir()
     with pytest.raises(ReplayError, match=message):
         replay([tmp_path / a for a in args], tmp_path / 'x.mcap')
 

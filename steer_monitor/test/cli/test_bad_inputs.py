@@ -281,6 +281,29 @@ def test_unwritable_and_directory_outputs(base, tmp_path, capsys, command):
     _no_temporaries(tmp_path)
 
 
+
+@pytest.mark.parametrize('command', LOG_COMMANDS)
+@pytest.mark.parametrize('kind', ['directory', 'missing'])
+def test_a_log_that_is_not_a_file_is_named_before_any_work(tmp_path, capsys, command, kind):
+    log = tmp_path / 'adir.log'
+    if kind == 'directory':
+        log.mkdir()
+    out = tmp_path / 'out'
+    out.mkdir()
+    rc, lines, stdout = _run(capsys, _argv(command, log, out))
+    want = 'is a directory, not a file' if kind == 'directory' else 'does not exist'
+    assert rc == 1 and lines == [f'steer-monitor {command}: error: log {log} {want}'], lines
+    assert stdout == '' and list(out.iterdir()) == []
+
+
+def test_simulate_names_the_output_it_was_given_not_its_temporary(tmp_path, capsys):
+    """A name the file system takes while the temporary name beside it (longer) is refused."""
+    target = tmp_path / ('s' * 245 + '.log')
+    rc, lines, _ = _run(capsys, ['simulate', '--program', 'hard_over_2', '--max-duration', '2', '--out', str(target)])
+    assert rc == 1 and len(lines) == 1, lines
+    assert lines[0] == f'steer-monitor simulate: error: cannot write log {target}: File name too long', lines
+    _no_temporaries(tmp_path)
+
 BAD_YAML = {
     'non_utf8': (lambda cfg: cfg[:200] + b'\xff' + cfg[200:], 'is not UTF-8 text (byte 0xFF at offset 200)'),
     'nested': (lambda cfg: b'a: ' + b'[' * 5000, 'is nested too deeply to be a parameters file'),
