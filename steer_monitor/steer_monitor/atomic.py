@@ -17,7 +17,7 @@ from typing import IO, Any
 
 from steer_monitor.errors import OutputError
 
-__all__ = ['atomic_path', 'atomic_write', 'check_target', 'ensure_dir', 'os_reason', 'write_bytes', 'write_text']
+__all__ = ['atomic_path', 'atomic_write', 'check_target', 'ensure_dir', 'os_reason', 'temporary_name', 'write_bytes', 'write_text']
 
 
 def os_reason(exc: OSError) -> str:
@@ -44,15 +44,36 @@ def check_target(path: str | Path) -> None:
     directory, a parent without write permission): commands that work for minutes before
     they write check their outputs first."""
     target = Path(path)
-    if target.is_dir():
+    try:
+        is_dir, parent_is_dir = target.is_dir(), target.parent.is_dir()
+    except OSError as exc:          # e.g. a name too long for the file system
+        msg = f'cannot write {target}: {os_reason(exc)}'
+        raise OutputError(msg) from exc
+    if is_dir:
         msg = f'cannot write {target}: it is a directory'
         raise OutputError(msg)
-    if not target.parent.is_dir():
+    if not parent_is_dir:
         msg = f'cannot write {target}: no directory {target.parent}'
         raise OutputError(msg)
     if not os.access(target.parent, os.W_OK):
         msg = f'cannot write {target}: {target.parent} is not writable'
         raise OutputError(msg)
+
+
+NAME_MAX = 255      # bytes in one file name on the file systems a log goes to (ext4, xfs, btrfs, tmpfs)
+
+
+def temporary_name(name: str) -> str:
+    """``.<stem>.<pid>.tmp<suffix>`` for a target named ``name``, its stem shortened so that
+    the temporary name is no longer than the target's could be (a target whose own name the
+    file system takes must not fail for its temporary's)."""
+    p = Path(name)
+    tail = f'.{os.getpid()}.tmp{p.suffix}'
+    stem = p.stem
+    room = NAME_MAX - 1 - len(tail.encode())
+    while len(stem.encode()) > room:
+        stem = stem[:-1]
+    return f'.{stem}{tail}'
 
 
 @contextlib.contextmanager
@@ -62,7 +83,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     target = Path(path)
     check_target(target)
     # the suffix kept last, for writers that choose the format by it (.log, .mcap)
-    tmp = target.with_name(f'.{target.stem}.{os.getpid()}.tmp{target.suffix}')
+    tmp = target.with_name(temporary_name(target.name))
     try:
         yield tmp
         os.replace(tmp, target)

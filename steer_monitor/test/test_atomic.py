@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
-from steer_monitor.atomic import atomic_path, atomic_write, ensure_dir, write_bytes, write_text
+from steer_monitor.atomic import (NAME_MAX, atomic_path, atomic_write, ensure_dir, temporary_name, write_bytes,
+                                 write_text)
 from steer_monitor.errors import OutputError
 
 
@@ -68,3 +71,19 @@ def test_a_read_only_directory(tmp_path):
             write_text(d / 'a.txt', 'x')
     finally:
         d.chmod(0o700)
+
+
+@pytest.mark.parametrize('name', ['s' * 251 + '.log', 'å' * 125 + '.mcap', 'x' * 255, 'short.json'])
+def test_a_name_the_file_system_takes_is_written_whatever_its_temporary(tmp_path, name):
+    """The temporary's stem is shortened to fit; the target keeps its whole name."""
+    assert len(temporary_name(name).encode()) <= NAME_MAX
+    assert temporary_name(name).endswith('.tmp' + Path(name).suffix)
+    write_text(tmp_path / name, 'x')
+    assert [p.name for p in tmp_path.iterdir()] == [name]
+
+
+def test_a_name_too_long_for_the_file_system_is_named(tmp_path):
+    target = tmp_path / ('s' * 256 + '.log')
+    with pytest.raises(OutputError, match=f'cannot write {target}: File name too long'):
+        write_text(target, 'x')
+    assert list(tmp_path.iterdir()) == []

@@ -380,12 +380,15 @@ def _iter_python_can(path: Path, suffix: str, rejects: RejectCounter | None = No
 
 def log_path_problem(path: Path) -> str | None:
     """What is wrong with ``path`` as a log to read (None: a file)."""
-    if path.is_file():
-        return None
-    if path.is_dir():
-        return f'log {path} is a directory, not a file'
-    if path.exists():
-        return f'log {path} is not a regular file'
+    try:
+        if path.is_file():
+            return None
+        if path.is_dir():
+            return f'log {path} is a directory, not a file'
+        if path.exists():
+            return f'log {path} is not a regular file'
+    except OSError as exc:          # e.g. a name too long for the file system
+        return f'cannot open log {path}: {exc.strerror or exc}'
     return f'log {path} does not exist'
 
 

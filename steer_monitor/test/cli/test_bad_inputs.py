@@ -283,26 +283,27 @@ def test_unwritable_and_directory_outputs(base, tmp_path, capsys, command):
 
 
 @pytest.mark.parametrize('command', LOG_COMMANDS)
-@pytest.mark.parametrize('kind', ['directory', 'missing'])
+@pytest.mark.parametrize('kind', ['directory', 'missing', 'name_too_long'])
 def test_a_log_that_is_not_a_file_is_named_before_any_work(tmp_path, capsys, command, kind):
-    log = tmp_path / 'adir.log'
+    log = tmp_path / ('s' * 300 + '.log' if kind == 'name_too_long' else 'adir.log')
     if kind == 'directory':
         log.mkdir()
     out = tmp_path / 'out'
     out.mkdir()
     rc, lines, stdout = _run(capsys, _argv(command, log, out))
-    want = 'is a directory, not a file' if kind == 'directory' else 'does not exist'
-    assert rc == 1 and lines == [f'steer-monitor {command}: error: log {log} {want}'], lines
+    want = {'directory': f'log {log} is a directory, not a file', 'missing': f'log {log} does not exist',
+            'name_too_long': f'cannot open log {log}: File name too long'}[kind]
+    assert rc == 1 and lines == [f'steer-monitor {command}: error: {want}'], lines
     assert stdout == '' and list(out.iterdir()) == []
 
 
+@pytest.mark.skipif(not Path('/proc/self').is_dir(), reason='needs Linux /proc (a directory no file can be made in)')
 def test_simulate_names_the_output_it_was_given_not_its_temporary(tmp_path, capsys):
-    """A name the file system takes while the temporary name beside it (longer) is refused."""
-    target = tmp_path / ('s' * 245 + '.log')
+    """The log's writer cannot make its (temporary) file: the message names the output."""
+    target = Path('/proc/steer_monitor_test.log')
     rc, lines, _ = _run(capsys, ['simulate', '--program', 'hard_over_2', '--max-duration', '2', '--out', str(target)])
     assert rc == 1 and len(lines) == 1, lines
-    assert lines[0] == f'steer-monitor simulate: error: cannot write log {target}: File name too long', lines
-    _no_temporaries(tmp_path)
+    assert lines[0] == f'steer-monitor simulate: error: cannot write log {target}: No such file or directory', lines
 
 BAD_YAML = {
     'non_utf8': (lambda cfg: cfg[:200] + b'\xff' + cfg[200:], 'is not UTF-8 text (byte 0xFF at offset 200)'),
