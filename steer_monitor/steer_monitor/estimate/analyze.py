@@ -32,7 +32,7 @@ model.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -52,7 +52,7 @@ from steer_monitor.model.gear import GearParams
 __all__ = ['DELAY_KEEP_S', 'DELAY_STEP_S', 'DELAY_VERTEX_S', 'EXPLAINED_RATIO', 'MAX_TRIED', 'MIN_BIC_DROP', 'MIN_CV_DEVIANCE',
            'MIN_SYSTEMATIC_SHARE', 'OUTLIER_SIGMAS',
            'SIGNS', 'SYSTEMATIC_LAG_STEPS', 'CAVEATS', 'Analysis', 'Screening', 'Step', 'analyze', 'block_ns',
-           'declared_fit', 'grid_2z_from', 'outlier_instants', 'refusal']
+           'declared_fit', 'grid_2z_from', 'outlier_instants', 'refusal', 'skew_equivalent_s']
 
 MIN_CV_DEVIANCE = 10.0   # held-out deviance on the effective sample size
 MIN_BIC_DROP = 15.0      # "very strong" (10) plus 2 ln 10 for the ~10 candidates a round tests
@@ -451,7 +451,7 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
     names = [s.name for s in steps]
     if explained:
         verdict = 'effect' if steps else 'declared'
-        msg = _message(verdict, declared, base.est, None, names)
+        msg = _message(verdict, declared, base.est, None, steps)
         if not steps and unkept:
             msg += f' ({"; ".join(unkept)})'
         return Analysis(declared, base.est, names[0] if names else None, steps[0].params if steps else {}, verdict,
@@ -475,7 +475,7 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
     if not nuisance:                    # the model's own fit, its intervals counting the misfit as noise
         final = estimate_clearances(gear, base.obs, base.rows, base.extra, grid_2z=grid_2z,
                                     model_inflation=unexplained_inflation(base.est))
-    msg = _message('unexplained', declared, base.est, closest, names)
+    msg = _message('unexplained', declared, base.est, closest, steps)
     msg += f'; {located.message(gear.ram_area)}' if located is not None else '; no observed variable carries it'
     msg += ('; the clearances are fitted with that term as a nuisance and rest on an incomplete model' if nuisance
             else '; the clearances rest on an incomplete model')
@@ -593,10 +593,29 @@ CAVEATS = {
 }
 
 
+def skew_equivalent_s(steps: Sequence[Step]) -> float | None:
+    """The timing skew [s] between angle and pressures that, with the viscous friction the
+    steps found, puts the adopted ram inertia's force into the residual: a viscous force read
+    at a rate tau late is c (v + tau a), so a mass m is also what a skew tau = m / c shows.
+    None unless both were adopted with positive values."""
+    params = {s.name: s.params for s in steps}
+    mass, visc = params.get('ram_inertia', {}).get('mass_kg'), params.get('viscous', {}).get('c_ns_per_m')
+    if not isinstance(mass, Interval) or not isinstance(visc, Interval):
+        return None
+    if not (mass.value > 0 and visc.value > 0 and math.isfinite(mass.value / visc.value)):
+        return None
+    return mass.value / visc.value
+
+
 def _message(verdict: str, declared: ClearanceEstimate, final: ClearanceEstimate | None,
-             best: Screening | None, names: list[str] | None = None) -> str:
+             best: Screening | None, steps: Sequence[Step] = ()) -> str:
+    names = [s.name for s in steps]
     text = _verdict_text(verdict, declared, final, best, names)
-    caveats = [f'{n}: {CAVEATS[n]}' for n in names or [] if n in CAVEATS]
+    caveats = [f'{n}: {CAVEATS[n]}' for n in names if n in CAVEATS]
+    skew = skew_equivalent_s(steps)
+    if skew is not None:
+        caveats.append(f'with the viscous friction found, this mass is what a skew of {1e3 * skew:.0f} ms between '
+                       f'the angle and the pressures would show')
     return text + (f' ({"; ".join(caveats)})' if caveats else '')
 
 

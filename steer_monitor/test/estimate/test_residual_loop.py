@@ -9,7 +9,7 @@ import pytest
 from steer_monitor import sim
 from steer_monitor.accuracy import MAGNITUDE, scaled_effect
 from steer_monitor.cli.analyze import analysis_json
-from steer_monitor.estimate.analyze import analyze
+from steer_monitor.estimate.analyze import analyze, skew_equivalent_s
 
 pytestmark = pytest.mark.slow
 
@@ -61,6 +61,9 @@ def test_two_effects_at_once_are_both_named(r18, simulate_signals, effects, seed
     for extra in (s for s in a.steps if s.name not in simulated):
         assert extra.name == 'ram_inertia' and 'viscous' in simulated, a.message
         assert extra.before.rms - extra.after.rms < 0.01 * _bar(a.final)
+        skew = skew_equivalent_s(a.steps)      # a few ms, as the plant's lead and the rate's lag make
+        assert skew is not None and 0.001 < skew < 0.05, skew
+        assert f'a skew of {1e3 * skew:.0f} ms between the angle and the pressures' in a.message
     assert a.verdict == 'effect'
     d, f = a.declared.smooth_rms / _bar(a.declared), a.final.smooth_rms / _bar(a.final)
     assert f <= max(0.5 * d, FLOOR_BAR), (d, f)
@@ -118,10 +121,20 @@ def test_an_adopted_inertia_says_what_its_mass_cannot():
     ram_inertia is adopted, and says nothing of it otherwise."""
     from types import SimpleNamespace as NS
 
-    from steer_monitor.estimate.analyze import CAVEATS, _message
+    from steer_monitor.estimate.analyze import CAVEATS, _message, skew_equivalent_s
+    from steer_monitor.estimate.intervals import Interval
     est = NS(ram_area=0.05, rms=0.35 * 5e3, smooth_rms=0.05 * 5e3)
-    with_it = _message('effect', est, est, None, ['viscous', 'ram_inertia'])
+    visc, inertia = NS(name='viscous', params={}), NS(name='ram_inertia', params={})
+    with_it = _message('effect', est, est, None, [visc, inertia])
     assert with_it.startswith('added viscous, then ram_inertia: residual 0.35 -> 0.35 bar RMS')
     assert with_it.endswith(f'(ram_inertia: {CAVEATS["ram_inertia"]})') and 'reads low' in with_it
-    assert 'apparent' not in _message('effect', est, est, None, ['viscous'])
-    assert 'apparent' in _message('unexplained', est, est, None, ['ram_inertia'])
+    assert 'apparent' not in _message('effect', est, est, None, [visc])
+    assert 'apparent' in _message('unexplained', est, est, None, [inertia])
+    # with both fitted: the skew that would show as that mass beside that viscous friction
+    visc = NS(name='viscous', params={'c_ns_per_m': Interval(7.5e5, 7.0e5, 8.0e5)})
+    for mass, skew in ((1.8e4, 0.024), (-1.8e4, None), (0.0, None)):
+        inertia = NS(name='ram_inertia', params={'mass_kg': Interval(mass, None, None)})
+        assert skew_equivalent_s([visc, inertia]) == (None if skew is None else pytest.approx(skew))
+        text = _message('effect', est, est, None, [visc, inertia])
+        assert ('a skew of 24 ms between the angle and the pressures' in text) == (skew is not None), text
+    assert skew_equivalent_s([inertia]) is None
