@@ -195,7 +195,8 @@ class BusReader:
     def __init__(self, opener: Callable[[], ListenOnlyBus], rejects: RejectCounter,
                  backoff_initial: float = 0.5, backoff_max: float = 10.0,
                  poll: float = 0.2, sleep: Callable[[float], Any] | None = None, batch: float = 0.0,
-                 on_open: Callable[[ListenOnlyBus], None] | None = None) -> None:
+                 on_open: Callable[[ListenOnlyBus], None] | None = None,
+                 on_error: Callable[[str], None] | None = None) -> None:
         if not (0.0 <= batch < poll):
             msg = f'read batch {batch:g} s must be at least 0 and shorter than the poll of {poll:g} s'
             raise ValueError(msg)
@@ -207,8 +208,22 @@ class BusReader:
         self.batch = batch
         self._sleep = sleep
         self._on_open = on_open          # hears each bus opened (e.g. to report its listen-only mode)
+        self._on_error = on_error        # hears a failure unlike the one before it (e.g. to log it)
+        self._reported = ''              # the failure last told to on_error since the bus was last open
         self.bus: ListenOnlyBus | None = None
         self.last_error = ''
+
+    def _failed(self, exc: BusError, backoff: float, stop: threading.Event) -> float:
+        """Count a failure, tell ``on_error`` unless it is the one told last (a bus that stays
+        down is told once, not every backoff), wait ``backoff``; the next backoff."""
+        text = str(exc)
+        self.last_error = text
+        self.rejects.add('bus_error', text)
+        if self._on_error is not None and text != self._reported:
+            self._on_error(text)
+        self._reported = text
+        self._wait(backoff, stop)
+        return min(backoff * 2, self.backoff_max)
 
     def _wait(self, seconds: float, stop: threading.Event) -> None:
         if self._sleep is not None:
@@ -229,29 +244,24 @@ class BusReader:
                     try:
                         self.bus = self._opener()
                     except BusError as exc:
-                        self.last_error = str(exc)
-                        self.rejects.add('bus_error', str(exc))
                         failed = True
-                        self._wait(backoff, stop)
-                        backoff = min(backoff * 2, self.backoff_max)
+                        backoff = self._failed(exc, backoff, stop)
                         continue
                     if self._on_open is not None:
                         self._on_open(self.bus)
                     if failed:
                         self.rejects.add('bus_reopen', f'{self.bus.interface}:{self.bus.channel}')
                         failed = False
+                    self._reported = ''
                     backoff = self.backoff_initial
                 try:
                     frame = self.bus.recv(0.0 if draining else self.poll)
                 except BusError as exc:
-                    self.last_error = str(exc)
-                    self.rejects.add('bus_error', str(exc))
                     self.bus.close()
                     self.bus = None
                     failed = True
                     draining = False
-                    self._wait(backoff, stop)
-                    backoff = min(backoff * 2, self.backoff_max)
+                    backoff = self._failed(exc, backoff, stop)
                     continue
                 if frame is not None:
                     draining = got = self.batch > 0

@@ -96,6 +96,7 @@ class MonitorNode(Node):
         self.frames_received = 0
         self._last_diag = time.monotonic()
         self._bus_mode: tuple[bool | None, str] = (None, 'bus not opened yet')
+        self._bus_down = False
         self._stop = threading.Event()
         self._closed = False
         self._closing = False
@@ -106,7 +107,7 @@ class MonitorNode(Node):
         opener = bus_opener or (lambda: ListenOnlyBus(interface, channel, p['can.bitrate']))
         self.reader = BusReader(opener, self.rejects, p['can.reopen_backoff_initial_s'],
                                 p['can.reopen_backoff_max_s'], poll=POLL_S, batch=p['can.read_batch_ms'] * 1e-3,
-                                on_open=self._bus_opened)
+                                on_open=self._bus_opened, on_error=self._bus_failed)
         self._reader_thread = threading.Thread(target=self._read, name='steer_monitor-can', daemon=True)
         self.create_timer(1.0, self._silent_diagnostics)
         self._reader_thread.start()
@@ -115,8 +116,19 @@ class MonitorNode(Node):
             + (f'recording to {p["recording.directory"]}' if self.recorder else 'recording off'))
 
     def _bus_opened(self, bus: ListenOnlyBus) -> None:
-        """Keep what the bus handle says of its controller, for the CAN bus status."""
+        """Keep what the bus handle says of its controller, for the CAN bus status; say in the
+        log that a bus which had failed is back."""
         self._bus_mode = (getattr(bus, 'silent', None), getattr(bus, 'silent_how', 'not reported'))
+        if self._bus_down:
+            self._bus_down = False
+            self.get_logger().info(f'CAN bus {bus.interface}:{bus.channel} open again')
+
+    def _bus_failed(self, text: str) -> None:
+        """A bus failure unlike the last one: in the log (the CAN bus status has it too), once,
+        not at every retry."""
+        self._bus_down = True
+        self.get_logger().warning(f'{text}; trying again every {self.params["can.reopen_backoff_max_s"]:g} s '
+                                  f'at most')
 
     def _bus_status(self) -> Status:
         """The node's own status of its bus: whether the controller is silent (listen-only),

@@ -139,6 +139,34 @@ def test_reader_reopens_with_backoff():
     assert len(got) == 2
 
 
+
+def test_reader_tells_each_failure_once_until_the_bus_is_back():
+    """``on_error`` hears a failure unlike the one before it: a bus that stays down with the same
+    error is told once, not at every retry; once the bus is open again, a new failure is told
+    even if it reads as an earlier one."""
+    opens, told = [], []
+
+    def opener():
+        opens.append(1)
+        if len(opens) in (2, 3):
+            raise BusError('cannot open CAN bus fake:flaky: no such device')
+        return FlakyBus()
+
+    rejects = RejectCounter()
+    stop = threading.Event()
+    waits = []
+    reader = BusReader(opener, rejects, backoff_initial=0.5, backoff_max=4.0, sleep=waits.append,
+                       on_error=told.append)
+    got = []
+    for frame in reader.frames(stop):
+        got.append(frame)
+        if len(got) == 3:
+            stop.set()
+    assert told == ['CAN bus fake:flaky failed: cable pulled', 'cannot open CAN bus fake:flaky: no such device',
+                    'CAN bus fake:flaky failed: cable pulled']
+    assert waits == [0.5, 1.0, 2.0, 0.5]
+    assert rejects.snapshot().counts == {'bus_error': 4, 'bus_reopen': 2}
+
 class QueueBus:
     """A bus whose frames arrive in bursts: the first burst is there at once, each later one
     arrives while the reader pauses. Records the timeout of every recv."""

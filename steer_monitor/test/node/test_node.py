@@ -327,3 +327,24 @@ def test_without_a_parameters_file_the_packaged_one_is_used(tmp_path):
             proc.kill()
     assert 'no gear parameters given: using the packaged parameters file' in err and 'r18.yaml' in err
     assert list(tmp_path.glob('*.mcap'))
+
+
+def test_a_bus_that_cannot_be_opened_is_said_in_the_log_once(tmp_path):
+    """The node keeps running (the bus may come later: it retries with backoff), and the log
+    says why it hears nothing, once, not at every retry."""
+    cmd = _node_cmd(tmp_path, '-p', 'can.interface:=nosuch', '-p', 'can.reopen_backoff_initial_s:=0.1',
+                    '-p', 'can.reopen_backoff_max_s:=0.2')
+    proc = subprocess.Popen(cmd, env=_env(), stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.time() + 20
+        while not list(tmp_path.glob('*.mcap')) and time.time() < deadline:
+            time.sleep(0.1)
+        time.sleep(2.0)                 # ten retries and more
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(15) == 0
+        err = proc.stderr.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    told = [ln for ln in err.splitlines() if 'cannot open CAN bus nosuch:' in ln]
+    assert len(told) == 1 and '[WARN]' in told[0] and 'trying again every 0.2 s at most' in told[0], err
