@@ -88,7 +88,7 @@ class MonitorNode(Node):
             self.recorder = Recorder(p['recording.directory'], p['recording.prefix'],
                                      int(p['recording.max_file_mb'] * (1 << 20)),
                                      p['recording.max_file_minutes'] * 60.0,
-                                     metadata=run_metadata(p, config_path))
+                                     metadata=run_metadata(p, config_path), on_error=self._recording_failed)
         self._make_publishers()
         self._lock = threading.Lock()          # guards the pipeline and the live model
         self._unpublished: list[int] = []      # bus timestamps of state-changing frames not yet published
@@ -114,6 +114,15 @@ class MonitorNode(Node):
         self.get_logger().info(
             f'listening on {interface}:{channel} (listen-only); {len(smap.specs)} inputs mapped; '
             + (f'recording to {p["recording.directory"]}' if self.recorder else 'recording off'))
+
+    def _recording_failed(self, text: str | None) -> None:
+        """The recorder stopped reaching the disk (or reaches it again): in the log once, the
+        recording status has it meanwhile."""
+        if text is None:
+            self.get_logger().info(f'recording to {self.params["recording.directory"]} again')
+        else:
+            self.get_logger().error(f'cannot record: {text}; messages are lost until a write reaches the disk '
+                                    f'(retried every few seconds)')
 
     def _bus_opened(self, bus: ListenOnlyBus) -> None:
         """Keep what the bus handle says of its controller, for the CAN bus status; say in the

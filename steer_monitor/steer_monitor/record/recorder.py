@@ -66,8 +66,12 @@ class Recorder:
                  max_seconds: float = 3600.0, flush_interval_s: float = 1.0, retry_s: float = 5.0,
                  queue_size: int = 200_000, chunk_size: int = 1 << 20,
                  clock: Callable[[], float] = time.monotonic,
-                 metadata: dict[str, dict[str, str]] | None = None) -> None:
+                 metadata: dict[str, dict[str, str]] | None = None,
+                 on_error: Callable[[str | None], None] | None = None) -> None:
         self.directory = Path(directory)
+        #: hears, on the writer thread, each change between recording and not: the error's text
+        #: when writes start to fail, None when one reaches the disk again (not every retry)
+        self._on_error = on_error
         #: MCAP metadata records written at the start of every file (name -> string map)
         self.metadata = dict(metadata or {})
         self.prefix = prefix
@@ -188,12 +192,19 @@ class Recorder:
             return False
         return True
 
+    def _set_error(self, text: str | None) -> None:
+        """The error now (None: writes reach the disk); ``on_error`` hears a change of state."""
+        with self._lock:
+            was, self._error = self._error, text
+        if self._on_error is not None and (was is None) != (text is None):
+            self._on_error(text)
+
     def _fail(self, exc: OSError) -> None:
         with self._lock:
-            self._error = f'{exc.strerror or exc}' + (f': {exc.filename}' if exc.filename else '')
             # what was buffered for the file is lost with it
             self.failed += self._pending
             self._pending = 0
+        self._set_error(f'{exc.strerror or exc}' + (f': {exc.filename}' if exc.filename else ''))
         stream = self._stream
         self._writer = self._stream = None
         if stream is not None:
@@ -213,16 +224,13 @@ class Recorder:
             self.directory.mkdir(parents=True, exist_ok=True)
             st = os.statvfs(self.directory)
         except OSError as exc:
-            with self._lock:
-                self._error = f'{exc.strerror or exc}: {self.directory}'
+            self._set_error(f'{exc.strerror or exc}: {self.directory}')
             return False
         if not os.access(self.directory, os.W_OK):
-            with self._lock:
-                self._error = f'not writable: {self.directory}'
+            self._set_error(f'not writable: {self.directory}')
             return False
         if st.f_bavail * st.f_frsize < 2 * self.chunk_size + (64 << 10):
-            with self._lock:
-                self._error = f'No space left on device: {self.directory} has {st.f_bavail * st.f_frsize} bytes free'
+            self._set_error(f'No space left on device: {self.directory} has {st.f_bavail * st.f_frsize} bytes free')
             return False
         return True
 
@@ -288,7 +296,7 @@ class Recorder:
         with self._lock:        # on disk (or in the page cache): counted, and the error is over
             self.messages += self._pending
             self._pending = 0
-            self._error = None
+        self._set_error(None)
         self._good_offset = self._stream.tell()
 
     def _finish(self) -> None:
@@ -303,7 +311,7 @@ class Recorder:
             with self._lock:
                 self.messages += self._pending
                 self._pending = 0
-                self._error = None
+            self._set_error(None)
         except OSError:
             self._stream = stream      # _fail cuts it back to its last whole chunk and closes it
             raise

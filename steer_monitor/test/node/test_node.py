@@ -348,3 +348,22 @@ def test_a_bus_that_cannot_be_opened_is_said_in_the_log_once(tmp_path):
             proc.kill()
     told = [ln for ln in err.splitlines() if 'cannot open CAN bus nosuch:' in ln]
     assert len(told) == 1 and '[WARN]' in told[0] and 'trying again every 0.2 s at most' in told[0], err
+
+
+def test_a_recording_that_cannot_be_written_is_said_in_the_log_once(tmp_path):
+    """Recording into a directory that cannot be made: the node runs on (diagnostics, topics),
+    and the log says the recording fails, once, not at every retry."""
+    (tmp_path / 'plain').write_text('x')
+    cmd = _node_cmd(tmp_path, '-p', f'recording.directory:={tmp_path / "plain" / "sub"}',
+                    '-p', f'estimator.state_file:={tmp_path / "estimator.npz"}')
+    proc = subprocess.Popen(cmd, env=_env(), stderr=subprocess.PIPE, text=True)
+    try:
+        time.sleep(8.0)                 # past the recorder's 5 s retry
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(15) == 0
+        err = proc.stderr.read()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    told = [ln for ln in err.splitlines() if 'cannot record:' in ln]
+    assert len(told) == 1 and '[ERROR]' in told[0] and 'Not a directory' in told[0], err

@@ -111,7 +111,8 @@ def _wait(cond, timeout=5.0):
 def test_disk_full_is_reported_and_recording_resumes(tmp_path):
     (tmp_path / 'steer_monitor_20260101T000000Z_001.mcap').symlink_to('/dev/full')
     clock = [0.0]
-    rec = Recorder(tmp_path, retry_s=5.0, clock=lambda: clock[0])
+    told: list[str | None] = []
+    rec = Recorder(tmp_path, retry_s=5.0, clock=lambda: clock[0], on_error=told.append)
     try:
         for i in range(200):
             rec.write_frame(_frame(i))
@@ -140,6 +141,8 @@ def test_disk_full_is_reported_and_recording_resumes(tmp_path):
     st = rec.status()
     assert st.failed > 0 and st.files == 2
     assert 0 < len(_read_all(rec.files[-1])[FRAME_TOPIC]) <= 60
+    # told when writes began to fail and when they reached the disk again, not at each retry
+    assert len(told) == 2 and 'No space left on device' in told[0] and told[1] is None, told
 
 
 @pytest.fixture
