@@ -72,6 +72,9 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
             msg = (f'--bus {bus}: {refusal}; the simulator sends only onto virtual buses unless you add '
                    '--i-know-this-is-a-real-bus')
             raise ParameterError(msg)
+    if not (math.isfinite(max_duration_s) and max_duration_s > 0):
+        msg = f'--max-duration must be more than 0 s, got {max_duration_s!r}'
+        raise ParameterError(msg)
     if not (math.isfinite(speed_factor) and speed_factor >= 0):
         msg = f'--speed-factor must be >= 0 (0: as fast as possible), got {speed_factor!r}'
         raise ParameterError(msg)

@@ -61,6 +61,10 @@ EFFECTS: dict[str, dict[str, float | str]] = {
 OUTSIDE_LIBRARY = ('band_friction',)
 
 _PRESSURES = ('pressure_r1_stbd', 'pressure_r1_port', 'pressure_r2_stbd', 'pressure_r2_port')
+#: sizes that have no physical meaning below zero (a friction or a mass); a temperature
+#: coefficient and a transducer offset may have either sign
+_NON_NEGATIVE = {'viscous': ('c_ns_per_m',), 'pressure_friction': ('k',), 'stribeck': ('f_st_n',),
+                 'ram_inertia': ('mass_kg',), 'band_friction': ('f_n',)}
 
 
 @dataclass(frozen=True)
@@ -97,6 +101,13 @@ def parse_effect(text: str) -> Effect:
                 msg = f'effect {name}: parameter {key} must be a number, got {value!r}'
                 raise ParameterError(msg)
             params[key] = num
+    for key in _NON_NEGATIVE.get(name, ()):
+        if not float(params[key]) >= 0:
+            msg = f'effect {name}: {key} must be 0 or more, got {params[key]:g}'
+            raise ParameterError(msg)
+    if name == 'stribeck' and not float(params['v_s_mm_s']) > 0:
+        msg = f'effect stribeck: v_s_mm_s must be more than 0, got {params["v_s_mm_s"]:g}'
+        raise ParameterError(msg)
     if name == 'pressure_offset' and params['input'] not in _PRESSURES:
         msg = f'effect pressure_offset: input must be one of {", ".join(_PRESSURES)}, got {params["input"]!r}'
         raise ParameterError(msg)

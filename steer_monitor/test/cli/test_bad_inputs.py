@@ -393,6 +393,8 @@ def test_clock_step_of_years_is_bounded_by_the_data(base, tmp_path, capsys):
     (['loadshare', '--plot', '{log}/x.png'], 'cannot write into {log}: it exists and is not a directory'),
     (['run', '--params-file', '{tmp}/missing.yaml'], 'cannot read parameters file {tmp}/missing.yaml'),
     (['fit', '240 Q9/f9'], 'only hole-basis fits'),
+    (['loadshare', '--step-deg', '1e-9'], '--step-deg must lie in [0.001, 5], got 1e-09'),
+    (['simulate', '--max-duration', '0', '--out', '{tmp}/s.log'], '--max-duration must be more than 0 s, got 0.0'),
     (['backlash', '{tmp}/missing.yaml'], 'cannot read chain file {tmp}/missing.yaml'),
 ])
 def test_the_other_subcommands_fail_in_one_line_before_their_work(base, tmp_path, capsys, argv, phrase):
