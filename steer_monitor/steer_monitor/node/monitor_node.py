@@ -97,6 +97,7 @@ class MonitorNode(Node):
         self._last_diag = time.monotonic()
         self._bus_mode: tuple[bool | None, str] = (None, 'bus not opened yet')
         self._bus_down = False
+        self._save_error: str | None = None    # the estimator state's last save failure, until one succeeds
         self._stop = threading.Event()
         self._closed = False
         self._closing = False
@@ -190,7 +191,14 @@ class MonitorNode(Node):
             path.parent.mkdir(parents=True, exist_ok=True)
             self.estimator.save(path)
         except OSError as exc:
-            self.get_logger().error(f'cannot save the estimator state to {path}: {exc}')
+            text = f'cannot save the estimator state to {path}: {exc.strerror or exc}'
+            if text != self._save_error:       # once, not at every save while it lasts
+                self.get_logger().error(text)
+            self._save_error = text
+            return
+        if self._save_error is not None:
+            self._save_error = None
+            self.get_logger().info(f'estimator state saved to {path} again')
 
     # --- set-up ------------------------------------------------------------------------------
     def _make_publishers(self) -> None:

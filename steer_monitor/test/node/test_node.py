@@ -367,3 +367,22 @@ def test_a_recording_that_cannot_be_written_is_said_in_the_log_once(tmp_path):
             proc.kill()
     told = [ln for ln in err.splitlines() if 'cannot record:' in ln]
     assert len(told) == 1 and '[ERROR]' in told[0] and 'Not a directory' in told[0], err
+
+
+def test_an_estimator_state_that_cannot_be_saved_is_said_once_until_it_can(tmp_path, capfd):
+    (tmp_path / 'plain').write_text('x')
+    h = Harness(tmp_path, f'save-{uuid.uuid4().hex[:6]}',
+                {'estimator.state_file': str(tmp_path / 'plain' / 'sub' / 'estimator.npz')})
+    try:
+        for _ in range(3):
+            h.node._save_estimator()
+        (tmp_path / 'plain').unlink()           # the directory can be made now
+        h.node._save_estimator()
+        h.node._save_estimator()
+    finally:
+        h.close()
+    err = capfd.readouterr().err.splitlines()
+    failed = [ln for ln in err if 'cannot save the estimator state' in ln]
+    again = [ln for ln in err if 'saved to' in ln and 'again' in ln]
+    assert len(failed) == 1 and 'Not a directory' in failed[0] and len(again) == 1, err
+    assert (tmp_path / 'plain' / 'sub' / 'estimator.npz').is_file()
