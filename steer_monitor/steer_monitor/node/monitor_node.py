@@ -55,6 +55,7 @@ LATENCY_WINDOW = 200_000
 POLL_S = 0.01
 SWITCH_INTERVAL_S = 0.001
 SILENT_DIAG_S = 1.5
+GUARD_LOG_S = 10.0      # a defect the node survives is logged at most this often (it may recur every frame)
 RECORD_BATCH = 256
 RECORD_BATCH_NS = 50_000_000
 
@@ -168,8 +169,8 @@ class MonitorNode(Node):
                 except EstimateError as exc:
                     self.get_logger().warning(f'{exc}; starting the estimate afresh')
         self._last_save = time.monotonic()
-        return ThreadedEstimatorJobs(est, on_error=lambda exc: self.get_logger().error(f'estimator update failed: {exc}'),
-                                     after=self._maybe_save)
+        return ThreadedEstimatorJobs(est, on_error=lambda exc: self.get_logger().error(
+            f'estimator update failed: {exc}', throttle_duration_sec=GUARD_LOG_S), after=self._maybe_save)
 
     def _maybe_save(self) -> None:
         """On the estimator's thread, after a job: save the state every ``save_every_s``."""
@@ -263,7 +264,7 @@ class MonitorNode(Node):
                         with lock:
                             outs = pipeline.feed(frame) if frame is not None else pipeline.idle(time.time_ns())
                     except SteerMonitorError as exc:  # the decoder counts rejects; this guards a defect
-                        self.get_logger().error(f'frame not processed: {exc}')
+                        self.get_logger().error(f'frame not processed: {exc}', throttle_duration_sec=GUARD_LOG_S)
                         outs = []
                     if outs:
                         self._publish_outputs(outs)

@@ -386,3 +386,28 @@ def test_an_estimator_state_that_cannot_be_saved_is_said_once_until_it_can(tmp_p
     again = [ln for ln in err if 'saved to' in ln and 'again' in ln]
     assert len(failed) == 1 and 'Not a directory' in failed[0] and len(again) == 1, err
     assert (tmp_path / 'plain' / 'sub' / 'estimator.npz').is_file()
+
+
+def test_a_defect_that_recurs_every_frame_is_logged_at_most_every_ten_seconds(tmp_path, capfd):
+    """The reader guards each frame against a defect and goes on; a defect hit by every frame
+    would put a line per frame in the log (2,000 a second on a full bus): throttled."""
+    from steer_monitor.errors import SteerMonitorError
+    channel = f'defect-{uuid.uuid4().hex[:6]}'
+    h = Harness(tmp_path, channel)
+
+    def broken(frame):
+        raise SteerMonitorError('a defect')
+    h.node.pipeline.feed = broken
+    sender = can.Bus(interface='virtual', channel=channel)
+    try:
+        for i in range(200):
+            sender.send(can.Message(arbitration_id=0x09F10D01 + i % 4, data=bytes(8), is_extended_id=True))
+        deadline = time.time() + 10
+        while h.node.frames_received < 200 and time.time() < deadline:
+            time.sleep(0.05)
+        assert h.node.frames_received == 200
+    finally:
+        sender.shutdown()
+        h.close()
+    lines = [ln for ln in capfd.readouterr().err.splitlines() if 'frame not processed: a defect' in ln]
+    assert len(lines) == 1, lines
