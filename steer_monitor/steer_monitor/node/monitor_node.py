@@ -17,6 +17,7 @@ Topics (standard message types and steer_monitor_msgs) are listed in
 
 from __future__ import annotations
 
+import math
 import sys
 import threading
 import time
@@ -123,8 +124,9 @@ class MonitorNode(Node):
         if text is None:
             self.get_logger().info(f'recording to {self.params["recording.directory"]} again')
         else:
+            retry = self.recorder.retry_s if self.recorder is not None else math.nan
             self.get_logger().error(f'cannot record: {text}; messages are lost until a write reaches the disk '
-                                    f'(retried every few seconds)')
+                                    f'(tried again every {retry:g} s)')
 
     def _bus_opened(self, bus: ListenOnlyBus) -> None:
         """Keep what the bus handle says of its controller, for the CAN bus status; say in the
