@@ -150,7 +150,7 @@ class LiveMonitor:
         minute does not change for hours)."""
         if self._resid_summary is None:
             res = [r for pair in self._resid if pair is not None for r in pair]
-            rms = math.sqrt(sum(r * r for r in res) / len(res)) if res else None
+            rms = math.sqrt(math.fsum(r * r for r in res) / len(res)) if res else None   # fsum: see _slope
             self._resid_summary = (res, sum(pair is None for pair in self._resid), rms)
         return self._resid_summary
 
@@ -303,17 +303,23 @@ class LiveMonitor:
     # --- rudder --------------------------------------------------------------------------
     @staticmethod
     def _slope(points: list[tuple[int, float]] | deque[tuple[int, float]]) -> float | None:
+        """Least-squares slope [per s] of (t [ns], value) points, from centred moments. The
+        sums are ``math.fsum`` (correctly rounded) and the squares products, so the rate is the
+        same to the bit on any Python and C library (the built-in ``sum`` is compensated from
+        Python 3.12 on, plain before; ``x ** 2`` calls the C library's pow): a replay ashore
+        writes what the node on a vessel published."""
         n = len(points)
         if n < 3:
             return None
         t0 = points[0][0]
         ts = [(t - t0) / 1e9 for t, _ in points]
-        mean_t = sum(ts) / n
-        mean_a = sum(a for _, a in points) / n
-        sxx = sum((t - mean_t) ** 2 for t in ts)
+        mean_t = math.fsum(ts) / n
+        mean_a = math.fsum(a for _, a in points) / n
+        dt = [t - mean_t for t in ts]
+        sxx = math.fsum(d * d for d in dt)
         if sxx <= 0:
             return None
-        return sum((t - mean_t) * (a - mean_a) for t, (_, a) in zip(ts, points)) / sxx
+        return math.fsum(d * (a - mean_a) for d, (_, a) in zip(dt, points)) / sxx
 
     def _on_angle(self, t_ns: int, alpha: float) -> None:
         self._history.append((t_ns, alpha))

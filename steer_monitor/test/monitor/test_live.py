@@ -278,3 +278,28 @@ def test_a_monitor_that_defers_the_load_sharing_leaves_it_to_its_caller(r18_para
             assert lazy.state == want            # the whole state, its load sharing solved
             seen += 1
     assert seen > 1000
+
+
+def test_the_rate_and_the_residual_rms_are_correctly_rounded_sums():
+    """Sums whose plain left-to-right value differs from the exact one in the last bit: the
+    monitor gives the correctly rounded one (math.fsum), the same on every Python (the built-in
+    sum is compensated from 3.12 on), so a node and a replay on different machines agree."""
+    import math
+    from collections import deque
+
+    from steer_monitor.params import gear_from_params, load_params_file
+    from steer_monitor.resources import default_config
+    # the slope: values whose plain mean loses the 1.0 beside 1e16
+    pts = [(0, 1e16), (100_000_000, 1.0), (200_000_000, -1e16), (300_000_000, 3.0)]
+    ts = [0.0, 0.1, 0.2, 0.3]
+    mean_t, mean_a = math.fsum(ts) / 4, math.fsum(a for _, a in pts) / 4
+    assert sum(a for _, a in pts) / 4 != mean_a            # plain summation differs here (3.11)
+    want = math.fsum((t - mean_t) * (a - mean_a) for t, (_, a) in zip(ts, pts)) / \
+        math.fsum((t - mean_t) * (t - mean_t) for t in ts)
+    assert LiveMonitor._slope(pts) == want
+    # the residual's RMS over the kept minute
+    mon = LiveMonitor(gear_from_params(load_params_file(default_config())), Gaps.from_mm(0.6, 0.25))
+    mon._resid = deque([(1e8, 1.0), (1.0, 1.0)])
+    res = [1e8, 1.0, 1.0, 1.0]
+    assert sum(r * r for r in res) != math.fsum(r * r for r in res)
+    assert mon.residual_rms_bar() == math.sqrt(math.fsum(r * r for r in res) / 4)
