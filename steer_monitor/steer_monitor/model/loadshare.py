@@ -27,7 +27,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from itertools import repeat
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -302,21 +301,23 @@ def load_sharing_scalar(gear: GearParams, alpha: float, torque: float, two_z: fl
     a = span - b
     ag = gear.guide_beam_span / 2.0 - travel
     bg = gear.guide_beam_span - ag
-    axial = m_abs * math.cos(a_abs) ** 2 / (gear.rams * h)
+    cos_a = math.cos(a_abs)
+    axial = m_abs * (cos_a * cos_a) / (gear.rams * h)
     fl = axial * tan_a
     ei = gear.youngs_modulus * gear.ram_inertia
     lam1 = a * a * b * b / (3.0 * ei * span)
-    lam2 = a**3 * b * b * (3.0 * span + b) / (12.0 * ei * span**3)
+    lam2 = a * a * a * b * b * (3.0 * span + b) / (12.0 * ei * span**3)
     slope = b * (span * span - b * b) / (6.0 * ei * span)
     if gear.euler_amplification:
-        f_eu = math.pi**2 * ei / b**2
+        f_eu = math.pi**2 * ei / (b * b)
         if axial >= f_eu:
             msg = f'axial ram force reaches {axial / f_eu:.2f} of the Euler force: the ram buckles'
             raise ModelError(msg)
         amp = 1.0 / (1.0 - axial / f_eu)
         lam1, lam2, slope = lam1 * amp, lam2 * amp, slope * amp
     lg_span = gear.guide_beam_span
-    lam_g = ag**3 * bg**3 / (3.0 * gear.youngs_modulus * gear.guide_beam_inertia * lg_span**3)
+    lam_g = (ag * ag * ag) * (bg * bg * bg) / (3.0 * gear.youngs_modulus * gear.guide_beam_inertia
+                                               * lg_span**3)
     f_theta = (two_z / gear.bushing_length) / slope if slope > 0 else math.inf
     f_z = z_gb / lam1 if lam1 > 0 else math.inf
 
@@ -361,13 +362,10 @@ def load_sharing_scalar(gear: GearParams, alpha: float, torque: float, two_z: fl
         m_a=f_clamped * ma_c, f_theta=f_theta, f_z=f_z, case=case, stages=stages)
 
 
-def _each(fn: Callable[..., float], *args: object) -> Array:
-    """``fn`` of each element, in Python float arithmetic (the C library's functions, as
-    :func:`load_sharing_scalar` calls them); arrays are taken element by element, anything
-    else as a constant."""
-    cols = [a.tolist() if isinstance(a, np.ndarray) else repeat(a) for a in args]
-    n = next(a.size for a in args if isinstance(a, np.ndarray))
-    return np.fromiter(map(fn, *cols), float, n)
+def _each(fn: Callable[[float], float], x: Array) -> Array:
+    """``fn`` of each element in Python float arithmetic (the C library's function, as
+    :func:`load_sharing_scalar` calls it)."""
+    return np.fromiter(map(fn, x.tolist()), float, x.size)
 
 
 def load_sharing_scalars(gear: GearParams, alpha: ArrayLike, torque: ArrayLike, two_z: ArrayLike,
@@ -380,9 +378,10 @@ def load_sharing_scalars(gear: GearParams, alpha: ArrayLike, torque: ArrayLike, 
     scalar's. Here every step is the scalar's, in its order: +, -, *, / and comparisons are
     IEEE-754 operations that round the same in numpy as in Python, the branches are ``where``
     of the same comparisons (Python's ``max(x, 0.0)`` and ``min`` included, NaN and signed
-    zeros alike), and tan, cos and powers are the scalar's own calls of the C library,
-    element by element. ``test_loadshare`` compares every field's bits. Raises the scalar's
-    :class:`ModelError` for the first sample it would raise on."""
+    zeros alike), tan and cos are the scalar's own calls of the C library, element by
+    element, and the per-sample powers are products in both (a C ``pow`` would differ from
+    them, and between libraries). ``test_loadshare`` compares every field's bits. Raises the
+    scalar's :class:`ModelError` for the first sample it would raise on."""
     alpha = np.asarray(alpha, float).ravel()
     n = alpha.size
     torque, two_z, z_gb = (np.broadcast_to(np.asarray(x, float).ravel(), (n,)) for x in (torque, two_z, z_gb))
@@ -401,15 +400,16 @@ def load_sharing_scalars(gear: GearParams, alpha: ArrayLike, torque: ArrayLike, 
     a = span - b
     ag = gear.guide_beam_span / 2.0 - travel
     bg = gear.guide_beam_span - ag
-    axial = m_abs * _each(lambda x: math.cos(x) ** 2, a_abs) / (gear.rams * h)
+    cos_a = _each(math.cos, a_abs)
+    axial = m_abs * (cos_a * cos_a) / (gear.rams * h)
     fl = axial * tan_a
     ei = gear.youngs_modulus * gear.ram_inertia
     lam1 = a * a * b * b / (3.0 * ei * span)
-    lam2 = _each(pow, a, 3) * b * b * (3.0 * span + b) / (12.0 * ei * span**3)
+    lam2 = a * a * a * b * b * (3.0 * span + b) / (12.0 * ei * span**3)
     slope = b * (span * span - b * b) / (6.0 * ei * span)
     with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
         if gear.euler_amplification:
-            f_eu = math.pi**2 * ei / _each(pow, b, 2)
+            f_eu = math.pi**2 * ei / (b * b)
             buckles = np.flatnonzero(axial >= f_eu)
             if buckles.size:
                 i = int(buckles[0])
@@ -418,8 +418,8 @@ def load_sharing_scalars(gear: GearParams, alpha: ArrayLike, torque: ArrayLike, 
             amp = 1.0 / (1.0 - axial / f_eu)
             lam1, lam2, slope = lam1 * amp, lam2 * amp, slope * amp
         lg_span = gear.guide_beam_span
-        lam_g = _each(pow, ag, 3) * _each(pow, bg, 3) / (3.0 * gear.youngs_modulus * gear.guide_beam_inertia
-                                                          * lg_span**3)
+        lam_g = (ag * ag * ag) * (bg * bg * bg) / (3.0 * gear.youngs_modulus * gear.guide_beam_inertia
+                                                   * lg_span**3)
         f_theta = np.where(slope > 0, (two_z / gear.bushing_length) / slope, math.inf)
         f_z = np.where(lam1 > 0, z_gb / lam1, math.inf)
 

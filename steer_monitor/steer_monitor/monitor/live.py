@@ -414,7 +414,8 @@ class LiveMonitor:
         gear = self.gear
         area = gear.ram_area
         fa = 0.5 * (abs(area * (p[0] - p[1])) + abs(area * (p[2] - p[3])))
-        torque = fa * gear.rams * gear.stock_to_ram / math.cos(a) ** 2
+        cos_a = math.cos(a)
+        torque = fa * gear.rams * gear.stock_to_ram / (cos_a * cos_a)
         share = None if self.defer_share else load_sharing_scalar(gear, a, torque, self.gaps.two_z, self.gaps.z_gb)
         return LiveState(t_ns, a, self.rate, abs(self.rate) > MOVING_RATE, torque, share, self.gaps)
 
