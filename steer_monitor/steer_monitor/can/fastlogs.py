@@ -454,8 +454,13 @@ class _McapState:
         if not self.frame_channels and not out and self.channels:
             listed = [f'{topic} ({self.schemas.get(sid, ("?",))[0] or "no schema"}, {enc})'
                       for sid, topic, enc in self.channels.values()]
+            ours = any(topic == '/diagnostics' or topic.startswith('/steer_monitor/')
+                       for _, topic, _ in self.channels.values())
             out.append('no CAN frames: no can_msgs/msg/Frame channel in CDR; its channels: '
-                       + ', '.join(listed[:6]) + (f' and {len(listed) - 6} more' if len(listed) > 6 else ''))
+                       + ', '.join(listed[:6]) + (f' and {len(listed) - 6} more' if len(listed) > 6 else '')
+                       + ('; these are the monitor\'s topics without the raw frames, as a replay made with '
+                          '--no-frames writes them: replay the log it was made from without --no-frames'
+                          if ours else ''))
         return out
 
 

@@ -159,6 +159,19 @@ def test_unwritable_output_is_named(tmp_path, logs):
         replay([logs['a.log']], tmp_path / 'no' / 'such' / 'dir' / 'x.mcap')
 
 
+def test_a_replay_without_frames_given_as_a_log_says_what_it_is(tmp_path, logs, capsys):
+    """Its topics are not CAN frames: every command says so and what to do, in one line."""
+    replay([logs['a.log']], tmp_path / 'nof.mcap', frames=False)
+    for command in ('inspect', 'report'):
+        argv = [command, str(tmp_path / 'nof.mcap')]
+        argv += ['--out', str(tmp_path / 'page')] if command == 'report' else []
+        assert cli.main(argv) == 1
+        err = capsys.readouterr().err.splitlines()
+        assert len(err) == 1 and 'no CAN frames' in err[0], err
+        assert err[0].endswith("these are the monitor's topics without the raw frames, as a replay made with "
+                               "--no-frames writes them: replay the log it was made from without --no-frames"), err
+
+
 def test_cli_json(tmp_path, logs, capsys):
     rc = cli.main(['replay', str(logs['a.log']), '--out', str(tmp_path / 'j.mcap'), '--json', '--no-frames'])
     assert rc == 0
