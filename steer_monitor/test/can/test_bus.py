@@ -114,9 +114,10 @@ class FlakyBus:
         self.closed = True
 
 
-def test_reader_reopens_with_backoff():
-    opens = []
-    waits = []
+def _flaky_reader(frames_wanted: int, **kw) -> tuple[list, RejectCounter, list[float]]:
+    """A reader over FlakyBus (each bus fails on its second recv) whose second and third
+    opens fail, read until ``frames_wanted`` frames: (frames, rejects, waits)."""
+    opens, waits = [], []
 
     def opener():
         opens.append(1)
@@ -126,12 +127,17 @@ def test_reader_reopens_with_backoff():
 
     rejects = RejectCounter()
     stop = threading.Event()
-    reader = BusReader(opener, rejects, backoff_initial=0.5, backoff_max=4.0, sleep=waits.append)
+    reader = BusReader(opener, rejects, backoff_initial=0.5, backoff_max=4.0, sleep=waits.append, **kw)
     got = []
     for frame in reader.frames(stop):
         got.append(frame)
-        if len(got) == 2:
+        if len(got) == frames_wanted:
             stop.set()
+    return got, rejects, waits
+
+
+def test_reader_reopens_with_backoff():
+    got, rejects, waits = _flaky_reader(2)
     snap = rejects.snapshot()
     assert snap.counts == {'bus_error': 3, 'bus_reopen': 1}
     assert snap.last['bus_error'] == 'the bus raised an error: cannot open CAN bus fake:flaky: no such device'
@@ -139,33 +145,17 @@ def test_reader_reopens_with_backoff():
     assert len(got) == 2
 
 
-
 def test_reader_tells_each_failure_once_until_the_bus_is_back():
     """``on_error`` hears a failure unlike the one before it: a bus that stays down with the same
     error is told once, not at every retry; once the bus is open again, a new failure is told
     even if it reads as an earlier one."""
-    opens, told = [], []
-
-    def opener():
-        opens.append(1)
-        if len(opens) in (2, 3):
-            raise BusError('cannot open CAN bus fake:flaky: no such device')
-        return FlakyBus()
-
-    rejects = RejectCounter()
-    stop = threading.Event()
-    waits = []
-    reader = BusReader(opener, rejects, backoff_initial=0.5, backoff_max=4.0, sleep=waits.append,
-                       on_error=told.append)
-    got = []
-    for frame in reader.frames(stop):
-        got.append(frame)
-        if len(got) == 3:
-            stop.set()
+    told: list[str] = []
+    got, rejects, waits = _flaky_reader(3, on_error=told.append)
     assert told == ['CAN bus fake:flaky failed: cable pulled', 'cannot open CAN bus fake:flaky: no such device',
                     'CAN bus fake:flaky failed: cable pulled']
     assert waits == [0.5, 1.0, 2.0, 0.5]
-    assert rejects.snapshot().counts == {'bus_error': 4, 'bus_reopen': 2}
+    assert rejects.snapshot().counts == {'bus_error': 4, 'bus_reopen': 2} and len(got) == 3
+
 
 class QueueBus:
     """A bus whose frames arrive in bursts: the first burst is there at once, each later one

@@ -329,23 +329,28 @@ def test_without_a_parameters_file_the_packaged_one_is_used(tmp_path):
     assert list(tmp_path.glob('*.mcap'))
 
 
-def test_a_bus_that_cannot_be_opened_is_said_in_the_log_once(tmp_path):
-    """The node keeps running (the bus may come later: it retries with backoff), and the log
-    says why it hears nothing, once, not at every retry."""
-    cmd = _node_cmd(tmp_path, '-p', 'can.interface:=nosuch', '-p', 'can.reopen_backoff_initial_s:=0.1',
-                    '-p', 'can.reopen_backoff_max_s:=0.2')
+def _node_stderr(cmd: list[str], seconds: float, mcap_in: Path | None = None) -> str:
+    """Run the node ``seconds`` (counted from its first MCAP in ``mcap_in`` when given), stop it
+    with SIGINT (exit 0 asserted) and give what it wrote to stderr."""
     proc = subprocess.Popen(cmd, env=_env(), stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.time() + 20
-        while not list(tmp_path.glob('*.mcap')) and time.time() < deadline:
+        while mcap_in is not None and not list(mcap_in.glob('*.mcap')) and time.time() < deadline:
             time.sleep(0.1)
-        time.sleep(2.0)                 # ten retries and more
+        time.sleep(seconds)
         proc.send_signal(signal.SIGINT)
         assert proc.wait(15) == 0
-        err = proc.stderr.read()
+        return proc.stderr.read()
     finally:
         if proc.poll() is None:
             proc.kill()
+
+
+def test_a_bus_that_cannot_be_opened_is_said_in_the_log_once(tmp_path):
+    """The node keeps running (the bus may come later: it retries with backoff), and the log
+    says why it hears nothing, once, not at every retry."""
+    err = _node_stderr(_node_cmd(tmp_path, '-p', 'can.interface:=nosuch', '-p', 'can.reopen_backoff_initial_s:=0.1',
+                                 '-p', 'can.reopen_backoff_max_s:=0.2'), 2.0, tmp_path)   # ten retries and more
     told = [ln for ln in err.splitlines() if 'cannot open CAN bus nosuch:' in ln]
     assert len(told) == 1 and '[WARN]' in told[0] and 'trying again every 0.2 s at most' in told[0], err
 
@@ -354,17 +359,9 @@ def test_a_recording_that_cannot_be_written_is_said_in_the_log_once(tmp_path):
     """Recording into a directory that cannot be made: the node runs on (diagnostics, topics),
     and the log says the recording fails, once, not at every retry."""
     (tmp_path / 'plain').write_text('x')
-    cmd = _node_cmd(tmp_path, '-p', f'recording.directory:={tmp_path / "plain" / "sub"}',
-                    '-p', f'estimator.state_file:={tmp_path / "estimator.npz"}')
-    proc = subprocess.Popen(cmd, env=_env(), stderr=subprocess.PIPE, text=True)
-    try:
-        time.sleep(8.0)                 # past the recorder's 5 s retry
-        proc.send_signal(signal.SIGINT)
-        assert proc.wait(15) == 0
-        err = proc.stderr.read()
-    finally:
-        if proc.poll() is None:
-            proc.kill()
+    err = _node_stderr(_node_cmd(tmp_path, '-p', f'recording.directory:={tmp_path / "plain" / "sub"}',
+                                 '-p', f'estimator.state_file:={tmp_path / "estimator.npz"}'),
+                       8.0)             # past the recorder's 5 s retry
     told = [ln for ln in err.splitlines() if 'cannot record:' in ln]
     assert len(told) == 1 and '[ERROR]' in told[0] and 'Not a directory' in told[0], err
 
