@@ -186,6 +186,15 @@ class MonitorNode(Node):
         name = self.params['estimator.state_file']
         return Path(self.params['recording.directory'], name) if name else None
 
+    def _log(self) -> Any:
+        """The node's logger while ROS runs; once a signal has shut the context down (the node
+        is closing), a child logger that does not publish to /rosout, so a last line is not
+        followed by rcl's complaint that it could not be published."""
+        if self.context.ok():
+            return self.get_logger()
+        import rclpy.logging
+        return rclpy.logging.get_logger(f'{self.get_name()}.closing')
+
     def _save_estimator(self) -> None:
         path = self._state_path()
         if self.estimator is None or path is None:
@@ -196,12 +205,12 @@ class MonitorNode(Node):
         except OSError as exc:
             text = f'cannot save the estimator state to {path}: {exc.strerror or exc}'
             if text != self._save_error:       # once, not at every save while it lasts
-                self.get_logger().error(text)
+                self._log().error(text)
             self._save_error = text
             return
         if self._save_error is not None:
             self._save_error = None
-            self.get_logger().info(f'estimator state saved to {path} again')
+            self._log().info(f'estimator state saved to {path} again')
 
     # --- set-up ------------------------------------------------------------------------------
     def _make_publishers(self) -> None:
@@ -324,7 +333,7 @@ class MonitorNode(Node):
             with self._lock:
                 outs = self.pipeline.finish()
         except SteerMonitorError as exc:
-            self.get_logger().error(f'last outputs not processed: {exc}')
+            self._log().error(f'last outputs not processed: {exc}')
             return
         self._closing = True
         self._publish_outputs(outs)

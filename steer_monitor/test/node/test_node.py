@@ -366,6 +366,17 @@ def test_a_recording_that_cannot_be_written_is_said_in_the_log_once(tmp_path):
     assert len(told) == 1 and '[ERROR]' in told[0] and 'Not a directory' in told[0], err
 
 
+
+def test_a_line_logged_while_closing_after_a_signal_is_not_followed_by_rcl_complaints(tmp_path):
+    """SIGINT shuts ROS down before the node closes; what the node logs then (here: the
+    estimator state it cannot save) is printed, without rcl's 'Failed to publish log message
+    to rosout'."""
+    (tmp_path / 'plain').write_text('x')
+    err = _node_stderr(_node_cmd(tmp_path, '-p', f'estimator.state_file:={tmp_path / "plain" / "sub" / "e.npz"}'),
+                       1.0, tmp_path)
+    assert 'cannot save the estimator state' in err and 'Not a directory' in err, err
+    assert 'rosout' not in err, err
+
 def test_an_estimator_state_that_cannot_be_saved_is_said_once_until_it_can(tmp_path, capfd):
     (tmp_path / 'plain').write_text('x')
     h = Harness(tmp_path, f'save-{uuid.uuid4().hex[:6]}',
