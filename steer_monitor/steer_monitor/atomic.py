@@ -17,7 +17,8 @@ from typing import IO, Any
 
 from steer_monitor.errors import OutputError
 
-__all__ = ['atomic_path', 'atomic_write', 'check_target', 'ensure_dir', 'os_reason', 'temporary_name', 'write_bytes', 'write_text']
+__all__ = ['atomic_path', 'atomic_write', 'check_target', 'ensure_dir', 'os_reason', 'temporary_name', 'write_bytes',
+           'write_text']
 
 
 def os_reason(exc: OSError) -> str:
@@ -69,10 +70,8 @@ def temporary_name(name: str) -> str:
     file system takes must not fail for its temporary's)."""
     p = Path(name)
     tail = f'.{os.getpid()}.tmp{p.suffix}'
-    stem = p.stem
     room = NAME_MAX - 1 - len(tail.encode())
-    while len(stem.encode()) > room:
-        stem = stem[:-1]
+    stem = p.stem.encode()[:room].decode(errors='ignore')    # a character cut in two is left out
     return f'.{stem}{tail}'
 
 

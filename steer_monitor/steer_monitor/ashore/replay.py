@@ -191,24 +191,22 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
         their records packed at once and written between the diagnostics."""
         if not queue:
             return
-        states = [o.state for o in queue if isinstance(o, StateOut)]
-        p = pack_states(states, rudder, share, gear) if states else None
+        p = pack_states([o.state for o in queue if isinstance(o, StateOut)], rudder, share, gear)
         done = seen = 0            # records written, states passed
 
-        def records_until(end: int) -> None:
+        def records_until_seen() -> None:
             nonlocal done
-            if p is not None and end > done:
+            end = int(p.state_ends[seen - 1]) if seen else 0
+            if end > done:
                 writer.write_records(p.data, p.channels[done:end], p.log_times[done:end], p.offsets[done:end + 1])
                 done = end
         for o in queue:
             if isinstance(o, StateOut):
                 seen += 1
-                continue
-            if seen:
-                records_until(int(p.state_ends[seen - 1]))     # type: ignore[union-attr]
-            write(diag_messages(o))
-        if seen:
-            records_until(int(p.state_ends[seen - 1]))         # type: ignore[union-attr]
+            else:
+                records_until_seen()
+                write(diag_messages(o))
+        records_until_seen()
         queue.clear()
 
     def emit(outs: list[Output]) -> None:

@@ -196,7 +196,7 @@ class BusReader:
                  backoff_initial: float = 0.5, backoff_max: float = 10.0,
                  poll: float = 0.2, sleep: Callable[[float], Any] | None = None, batch: float = 0.0,
                  on_open: Callable[[ListenOnlyBus], None] | None = None,
-                 on_error: Callable[[str], None] | None = None) -> None:
+                 on_error: Callable[[str | None], None] | None = None) -> None:
         if not (0.0 <= batch < poll):
             msg = f'read batch {batch:g} s must be at least 0 and shorter than the poll of {poll:g} s'
             raise ValueError(msg)
@@ -208,7 +208,7 @@ class BusReader:
         self.batch = batch
         self._sleep = sleep
         self._on_open = on_open          # hears each bus opened (e.g. to report its listen-only mode)
-        self._on_error = on_error        # hears a failure unlike the one before it (e.g. to log it)
+        self._on_error = on_error        # hears a failure unlike the one before it, None when the bus is back
         self._reported = ''              # the failure last told to on_error since the bus was last open
         self.bus: ListenOnlyBus | None = None
         self.last_error = ''
@@ -252,7 +252,9 @@ class BusReader:
                     if failed:
                         self.rejects.add('bus_reopen', f'{self.bus.interface}:{self.bus.channel}')
                         failed = False
-                    self._reported = ''
+                        self._reported = ''
+                        if self._on_error is not None:
+                            self._on_error(None)
                     backoff = self.backoff_initial
                 try:
                     frame = self.bus.recv(0.0 if draining else self.poll)

@@ -23,12 +23,11 @@ __all__ = ['ROW_KEYS', 'loadshare_rows', 'register', 'run']
 ROW_KEYS = ('alpha_deg', 'torque_knm', 'f_lateral_n', 'f_ram_n', 'f_guide_n', 'k_gl',
             'deflection_mm', 'case')
 KNOT = 1852.0 / 3600.0
+MIN_STEP_DEG = 0.001    # 35,000 rows over the R-18's range; finer says nothing more and runs out of memory
 
 
 def _deg_or_none(x: float | None) -> float | None:
     return None if x is None else math.degrees(x)
-
-MIN_STEP_DEG = 0.001    # 35,000 rows over the R-18's range: finer says nothing more (and a 1e-9 step ran out of memory)
 
 
 def loadshare_rows(gear: GearParams, gaps: Gaps, speed_kn: float | None = None,

@@ -98,7 +98,6 @@ class MonitorNode(Node):
         self.frames_received = 0
         self._last_diag = time.monotonic()
         self._bus_mode: tuple[bool | None, str] = (None, 'bus not opened yet')
-        self._bus_down = False
         self._save_error: str | None = None    # the estimator state's last save failure, until one succeeds
         self._stop = threading.Event()
         self._closed = False
@@ -129,19 +128,17 @@ class MonitorNode(Node):
                                     f'(tried again every {retry:g} s)')
 
     def _bus_opened(self, bus: ListenOnlyBus) -> None:
-        """Keep what the bus handle says of its controller, for the CAN bus status; say in the
-        log that a bus which had failed is back."""
+        """Keep what the bus handle says of its controller, for the CAN bus status."""
         self._bus_mode = (getattr(bus, 'silent', None), getattr(bus, 'silent_how', 'not reported'))
-        if self._bus_down:
-            self._bus_down = False
-            self.get_logger().info(f'CAN bus {bus.interface}:{bus.channel} open again')
 
-    def _bus_failed(self, text: str) -> None:
-        """A bus failure unlike the last one: in the log (the CAN bus status has it too), once,
-        not at every retry."""
-        self._bus_down = True
-        self.get_logger().warning(f'{text}; trying again every {self.params["can.reopen_backoff_max_s"]:g} s '
-                                  f'at most')
+    def _bus_failed(self, text: str | None) -> None:
+        """A bus failure unlike the last one (the CAN bus status has it too), once, not at every
+        retry; None: the bus is open again."""
+        p = self.params
+        if text is None:
+            self.get_logger().info(f"CAN bus {p['can.interface']}:{p['can.channel']} open again")
+        else:
+            self.get_logger().warning(f"{text}; trying again every {p['can.reopen_backoff_max_s']:g} s at most")
 
     def _bus_status(self) -> Status:
         """The node's own status of its bus: whether the controller is silent (listen-only),

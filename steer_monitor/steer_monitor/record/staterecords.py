@@ -119,32 +119,33 @@ def _fill(layout: _Layout, channel: int, t: NDArray[np.int64], floats: NDArray[n
     return rec
 
 
-def _shares(states: Sequence[LiveState], has: NDArray[np.bool_], alpha: NDArray[np.float64],
-            torque: NDArray[np.float64], gear: GearParams | None
+def _shares(states: Sequence[LiveState], given: NDArray[np.bool_], todo: NDArray[np.bool_],
+            alpha: NDArray[np.float64], torque: NDArray[np.float64], gear: GearParams | None
             ) -> tuple[NDArray[np.float64], NDArray[np.int8], NDArray[np.uint8]]:
-    """The load sharing of the states that have one: (floats (m, 8) in the layout's order,
-    load cases, stages). A state whose share was left to the caller
-    (:meth:`~steer_monitor.monitor.live.LiveMonitor.slot_state`) is solved here, all such at
-    once, by :func:`~steer_monitor.model.loadshare.load_sharing_scalars` (the live monitor's
-    numbers, to the bit)."""
+    """The load sharing of the states that carry one (``given``) or are to have theirs solved
+    (``todo``), in state order: (floats (m, 8) in the layout's order, load cases, stages). The
+    states left to the caller (:meth:`~steer_monitor.monitor.live.LiveMonitor.slot_state`) are
+    solved all at once by :func:`~steer_monitor.model.loadshare.load_sharing_scalars` (the
+    live monitor's numbers, to the bit)."""
+    has = given | todo
     m = int(np.count_nonzero(has))
     floats = np.empty((m, len(_SHARE_FLOATS)))
     case = np.empty(m, np.int8)
     stages = np.empty(m, np.uint8)
-    known = [s.share for s in states if s.share is not None]
-    given = np.fromiter((s.share is not None for s in states), bool, len(states))[has]
-    if known:
-        floats[given] = np.array([_share_floats(x) for x in known], float)
-        case[given] = np.array([x.case for x in known], np.int64).astype(np.int8)
-        stages[given] = np.array([x.stages for x in known], np.uint8)
-    if not given.all():
+    mine, solved = given[has], todo[has]
+    if mine.any():
+        known = [s.share for s in states if s.share is not None]
+        floats[mine] = np.array([_share_floats(x) for x in known], float)
+        case[mine] = np.array([x.case for x in known], np.int64).astype(np.int8)
+        stages[mine] = np.array([x.stages for x in known], np.uint8)
+    if solved.any():
         assert gear is not None
-        todo = np.flatnonzero(has & np.fromiter((s.share is None for s in states), bool, len(states)))
-        two_z = np.fromiter((states[i].gaps.two_z for i in todo.tolist()), float, todo.size)
-        z_gb = np.fromiter((states[i].gaps.z_gb for i in todo.tolist()), float, todo.size)
-        ls = load_sharing_scalars(gear, alpha[todo], torque[todo], two_z, z_gb)
-        floats[~given] = np.stack([getattr(ls, k) for k in _SHARE_FLOATS], axis=1)
-        case[~given], stages[~given] = ls.case, ls.stages
+        idx = np.flatnonzero(todo)
+        two_z = np.fromiter((states[i].gaps.two_z for i in idx.tolist()), float, idx.size)
+        z_gb = np.fromiter((states[i].gaps.z_gb for i in idx.tolist()), float, idx.size)
+        ls = load_sharing_scalars(gear, alpha[idx], torque[idx], two_z, z_gb)
+        floats[solved] = np.stack([getattr(ls, k) for k in _SHARE_FLOATS], axis=1)
+        case[solved], stages[solved] = ls.case, ls.stages
     return floats, case, stages
 
 
@@ -161,9 +162,12 @@ def pack_states(states: Sequence[LiveState], rudder_channel: int, share_channel:
     rate = np.fromiter((s.rate for s in states), float, n)
     torque = np.fromiter((s.torque_measured or 0.0 for s in states), float, n)
     rudder = _fill(joint, rudder_channel, t, np.stack([alpha, rate, np.copysign(torque, alpha)], axis=1))
-    solve = gear is not None
-    has = np.fromiter((s.share is not None or (solve and s.torque_measured is not None) for s in states), bool, n)
-    floats, case, stages = _shares(states, has, alpha, torque, gear)
+    given = np.fromiter((s.share is not None for s in states), bool, n)
+    todo = np.zeros(n, bool)              # left to be solved here: only with the gear to solve them
+    if gear is not None:
+        todo = ~given & np.fromiter((s.torque_measured is not None for s in states), bool, n)
+    has = given | todo
+    floats, case, stages = _shares(states, given, todo, alpha, torque, gear)
     m = floats.shape[0]
     sh = _fill(share, share_channel, t[has], floats)
     if m:

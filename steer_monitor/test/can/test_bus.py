@@ -147,12 +147,12 @@ def test_reader_reopens_with_backoff():
 
 def test_reader_tells_each_failure_once_until_the_bus_is_back():
     """``on_error`` hears a failure unlike the one before it: a bus that stays down with the same
-    error is told once, not at every retry; once the bus is open again, a new failure is told
-    even if it reads as an earlier one."""
-    told: list[str] = []
+    error is told once, not at every retry, and None when the bus is open again; then a new
+    failure is told even if it reads as an earlier one."""
+    told: list[str | None] = []
     got, rejects, waits = _flaky_reader(3, on_error=told.append)
     assert told == ['CAN bus fake:flaky failed: cable pulled', 'cannot open CAN bus fake:flaky: no such device',
-                    'CAN bus fake:flaky failed: cable pulled']
+                    None, 'CAN bus fake:flaky failed: cable pulled', None]
     assert waits == [0.5, 1.0, 2.0, 0.5]
     assert rejects.snapshot().counts == {'bus_error': 4, 'bus_reopen': 2} and len(got) == 3
 
