@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -283,6 +284,35 @@ class ShareScalar:
     stages: int
 
 
+def _closed_forms(gear: GearParams, m_abs: Any, tan_a: Any, cos_a: Any) -> tuple[Any, ...]:
+    """The closed forms before the event loop, of one sample (floats) or many (1-d arrays),
+    from |M| [N m] and tan, cos of |alpha|: the same operations in the same order either way,
+    which is what keeps :func:`load_sharing_scalar` and :func:`load_sharing_scalars` equal to
+    the bit. -> (a, b [m], Fa, Fl [N], lambda1, lambda2 [m/N], theta_A [rad/N], lambda_gb
+    [m/N]), the ram's compliances without the Euler amplification."""
+    span, h = gear.bushing_span, gear.stock_to_ram
+    travel = h * tan_a
+    b = span / 2.0 + travel
+    a = span - b
+    ag = gear.guide_beam_span / 2.0 - travel
+    bg = gear.guide_beam_span - ag
+    axial = m_abs * (cos_a * cos_a) / (gear.rams * h)
+    fl = axial * tan_a
+    ei = gear.youngs_modulus * gear.ram_inertia
+    lam1 = a * a * b * b / (3.0 * ei * span)
+    lam2 = a * a * a * b * b * (3.0 * span + b) / (12.0 * ei * span**3)
+    slope = b * (span * span - b * b) / (6.0 * ei * span)
+    lam_g = (ag * ag * ag) * (bg * bg * bg) / (3.0 * gear.youngs_modulus * gear.guide_beam_inertia
+                                               * gear.guide_beam_span**3)
+    return a, b, axial, fl, lam1, lam2, slope, lam_g
+
+
+def _clamp_factors(span: float, a: Any, b: Any) -> tuple[Any, Any]:
+    """Per unit of clamped-ram force: the far bushing's reaction and the clamp moment [m] (as
+    :func:`_closed_forms`, for floats or arrays alike)."""
+    return a * a * (3.0 * span - a) / (2.0 * span**3), a * b * (span + b) / (2.0 * span**2)
+
+
 def load_sharing_scalar(gear: GearParams, alpha: float, torque: float, two_z: float,
                         z_gb: float) -> ShareScalar:
     """One sample of :func:`load_sharing` in plain float arithmetic, for live use.
@@ -294,30 +324,16 @@ def load_sharing_scalar(gear: GearParams, alpha: float, torque: float, two_z: fl
         msg = 'clearance two_z and z_gb must be finite and >= 0 m'
         raise ModelError(msg)
     a_abs, m_abs = abs(alpha), abs(torque)
-    span, h = gear.bushing_span, gear.stock_to_ram
+    span = gear.bushing_span
     tan_a = math.tan(a_abs)
-    travel = h * tan_a
-    b = span / 2.0 + travel
-    a = span - b
-    ag = gear.guide_beam_span / 2.0 - travel
-    bg = gear.guide_beam_span - ag
-    cos_a = math.cos(a_abs)
-    axial = m_abs * (cos_a * cos_a) / (gear.rams * h)
-    fl = axial * tan_a
-    ei = gear.youngs_modulus * gear.ram_inertia
-    lam1 = a * a * b * b / (3.0 * ei * span)
-    lam2 = a * a * a * b * b * (3.0 * span + b) / (12.0 * ei * span**3)
-    slope = b * (span * span - b * b) / (6.0 * ei * span)
+    a, b, axial, fl, lam1, lam2, slope, lam_g = _closed_forms(gear, m_abs, tan_a, math.cos(a_abs))
     if gear.euler_amplification:
-        f_eu = math.pi**2 * ei / (b * b)
+        f_eu = math.pi**2 * (gear.youngs_modulus * gear.ram_inertia) / (b * b)
         if axial >= f_eu:
             msg = f'axial ram force reaches {axial / f_eu:.2f} of the Euler force: the ram buckles'
             raise ModelError(msg)
         amp = 1.0 / (1.0 - axial / f_eu)
         lam1, lam2, slope = lam1 * amp, lam2 * amp, slope * amp
-    lg_span = gear.guide_beam_span
-    lam_g = (ag * ag * ag) * (bg * bg * bg) / (3.0 * gear.youngs_modulus * gear.guide_beam_inertia
-                                               * lg_span**3)
     f_theta = (two_z / gear.bushing_length) / slope if slope > 0 else math.inf
     f_z = z_gb / lam1 if lam1 > 0 else math.inf
 
@@ -346,8 +362,7 @@ def load_sharing_scalar(gear: GearParams, alpha: float, torque: float, two_z: fl
         clamped = clamped or to_clamp <= step
         guide = guide or to_guide <= step
 
-    re_c = a * a * (3.0 * span - a) / (2.0 * span**3)
-    ma_c = a * b * (span + b) / (2.0 * span**2)
+    re_c, ma_c = _clamp_factors(span, a, b)
     theta_first = f_theta <= f_z
     if fl <= min(f_theta, f_z):
         case = 1 if theta_first else 2
@@ -393,23 +408,12 @@ def load_sharing_scalars(gear: GearParams, alpha: ArrayLike, torque: ArrayLike, 
         msg = 'clearance two_z and z_gb must be finite and >= 0 m'
         raise ModelError(msg)
     a_abs, m_abs = np.abs(alpha), np.abs(torque)
-    span, h = gear.bushing_span, gear.stock_to_ram
+    span = gear.bushing_span
     tan_a = _each(math.tan, a_abs)
-    travel = h * tan_a
-    b = span / 2.0 + travel
-    a = span - b
-    ag = gear.guide_beam_span / 2.0 - travel
-    bg = gear.guide_beam_span - ag
-    cos_a = _each(math.cos, a_abs)
-    axial = m_abs * (cos_a * cos_a) / (gear.rams * h)
-    fl = axial * tan_a
-    ei = gear.youngs_modulus * gear.ram_inertia
-    lam1 = a * a * b * b / (3.0 * ei * span)
-    lam2 = a * a * a * b * b * (3.0 * span + b) / (12.0 * ei * span**3)
-    slope = b * (span * span - b * b) / (6.0 * ei * span)
     with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
+        a, b, axial, fl, lam1, lam2, slope, lam_g = _closed_forms(gear, m_abs, tan_a, _each(math.cos, a_abs))
         if gear.euler_amplification:
-            f_eu = math.pi**2 * ei / (b * b)
+            f_eu = math.pi**2 * (gear.youngs_modulus * gear.ram_inertia) / (b * b)
             buckles = np.flatnonzero(axial >= f_eu)
             if buckles.size:
                 i = int(buckles[0])
@@ -417,9 +421,6 @@ def load_sharing_scalars(gear: GearParams, alpha: ArrayLike, torque: ArrayLike, 
                 raise ModelError(msg)
             amp = 1.0 / (1.0 - axial / f_eu)
             lam1, lam2, slope = lam1 * amp, lam2 * amp, slope * amp
-        lg_span = gear.guide_beam_span
-        lam_g = (ag * ag * ag) * (bg * bg * bg) / (3.0 * gear.youngs_modulus * gear.guide_beam_inertia
-                                                   * lg_span**3)
         f_theta = np.where(slope > 0, (two_z / gear.bushing_length) / slope, math.inf)
         f_z = np.where(lam1 > 0, z_gb / lam1, math.inf)
 
@@ -448,8 +449,7 @@ def load_sharing_scalars(gear: GearParams, alpha: ArrayLike, torque: ArrayLike, 
             clamped = clamped | (to_clamp <= step)
             guide = guide | (to_guide <= step)
 
-        re_c = a * a * (3.0 * span - a) / (2.0 * span**3)
-        ma_c = a * b * (span + b) / (2.0 * span**2)
+        re_c, ma_c = _clamp_factors(span, a, b)
         theta_first = f_theta <= f_z
         lower = np.where(f_z < f_theta, f_z, f_theta)                             # min(f_theta, f_z)
         upper = np.where(f_z > f_theta, f_z, f_theta)                             # max(f_theta, f_z)
