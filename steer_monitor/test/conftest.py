@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -44,3 +45,37 @@ def db(can_db):
 @pytest.fixture(scope='session')
 def smap(can_db):
     return can_db[1]
+
+
+@pytest.fixture
+def small_tmpfs(tmp_path):
+    """A 512 KiB tmpfs, to fill a disk for real (root and a kernel that allows the mount;
+    skipped otherwise)."""
+    where = tmp_path / 'small'
+    where.mkdir()
+    if os.geteuid() != 0:
+        pytest.skip('mounting a small tmpfs needs root; the disk-full test runs in CI as root')
+    done = subprocess.run(['mount', '-t', 'tmpfs', '-o', 'size=512k', 'tmpfs', str(where)],
+                          capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        pytest.skip(f'cannot mount a small tmpfs here: {done.stderr.strip() or done.returncode}')
+    try:
+        yield where
+    finally:
+        subprocess.run(['umount', '-l', str(where)], check=False)
+
+
+def fill(where: Path) -> None:
+    """Take every free block of the file system holding ``where`` (a file ``filler.bin`` in
+    it): the next write there fails with 'No space left on device'."""
+    import contextlib
+    with open(where / 'filler.bin', 'wb', buffering=0) as fh, contextlib.suppress(OSError):
+        while True:
+            fh.write(bytes(4096))
+
+
+@pytest.fixture
+def full_tmpfs(small_tmpfs):
+    """:func:`small_tmpfs` filled (:func:`fill`); a new, empty file can still be made."""
+    fill(small_tmpfs)
+    return small_tmpfs

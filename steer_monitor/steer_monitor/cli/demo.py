@@ -120,8 +120,10 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: 
         listener.destroy_node()
         context.try_shutdown()
     files = [str(p) for p in node.recorder.files] if node.recorder else []
+    lost = node.recorder.status().lost() if node.recorder else None
     out.write(f'\nnode received {received} frames, transmitted none; '
-              f'recorded {", ".join(files) or "nothing"}\n')
+              f'recorded {", ".join(files) or "nothing"}'
+              + (f' ({lost}: {node.recorder.status().message})' if lost else '') + '\n')
     buf = io.StringIO()
     study.run(out_dir, config_path, buf)
     out.write(f'load-sharing study (paper 004): {out_dir / "fig7_load_sharing.png"}, '

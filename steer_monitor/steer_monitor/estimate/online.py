@@ -26,7 +26,6 @@ from __future__ import annotations
 import bisect
 import json
 import math
-import os
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,6 +33,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from steer_monitor.atomic import atomic_write
 from steer_monitor.can.decoder import Sample, Series
 from steer_monitor.can.signals import PRESSURE_INPUTS
 from steer_monitor.estimate import fit as F
@@ -308,9 +308,10 @@ class OnlineEstimator:
 
     # --- persistence ---------------------------------------------------------------------
     def save(self, path: str | Path) -> Path:
-        """Write the learned state atomically (``path`` gets a ``.npz``)."""
+        """Write the learned state atomically (an ``.npz``, through a temporary name removed
+        if the write fails). Raises :class:`~steer_monitor.errors.OutputError` naming the path
+        and the system's reason (no directory, disk full, ...)."""
         path = Path(path)
-        tmp = path.with_name(path.name + '.tmp.npz')
         meta = {'version': STATE_VERSION, 'gear': _gear_signature(self.gear),
                 'grid_2z_min': float(self.grid_2z[0]), 'motion_s': self.motion_s, 'vif': self._vif,
                 'best': list(self._best) if self._best else None,
@@ -319,11 +320,8 @@ class OnlineEstimator:
         arrays = self.moments.to_arrays()
         if self._coef is not None:
             arrays['coef'] = self._coef
-        with open(tmp, 'wb') as fh:
+        with atomic_write(path, 'wb') as fh:
             np.savez(fh, meta=np.array(json.dumps(meta)), **arrays)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
         return path
 
     def load(self, path: str | Path) -> None:

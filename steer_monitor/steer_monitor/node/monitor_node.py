@@ -29,12 +29,13 @@ from typing import Any
 from rclpy.node import Node
 from rclpy.serialization import serialize_message
 
+from steer_monitor.atomic import ensure_dir
 from steer_monitor.can.bus import BusReader, ListenOnlyBus
 from steer_monitor.can.decoder import Decoder
 from steer_monitor.can.frames import Frame
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import can_setup
-from steer_monitor.errors import ParameterError, SteerMonitorError
+from steer_monitor.errors import OutputError, ParameterError, SteerMonitorError
 from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.estimate.online import OnlineEstimator
 from steer_monitor.monitor.diagnostics import ERROR, OK, WARN, DiagnosticsBuilder, DiagnosticsConfig, Status
@@ -197,10 +198,10 @@ class MonitorNode(Node):
         if self.estimator is None or path is None:
             return
         try:
-            path.parent.mkdir(parents=True, exist_ok=True)
+            ensure_dir(path.parent)
             self.estimator.save(path)
-        except OSError as exc:
-            text = f'cannot save the estimator state to {path}: {exc.strerror or exc}'
+        except OutputError as exc:
+            text = f'cannot save the estimator state: {exc}'
             if text != self._save_error:       # once, not at every save while it lasts
                 self._log().error(text)
             self._save_error = text
@@ -319,6 +320,10 @@ class MonitorNode(Node):
         self.reader.close()
         if self.recorder is not None:
             self.recorder.close()
+            st = self.recorder.status()
+            lost = st.lost()
+            if lost is not None:
+                self._log().warning(f'recording: {lost}; {st.message}')
         self.destroy_node()
 
     def _finish_outputs(self) -> None:

@@ -11,7 +11,8 @@
   write, and every ``retry_s`` seconds looks whether the directory takes data again (free
   space for two chunks, write permission) before it opens a file, so a full disk is not
   filled with empty files. The file that failed is cut back to its last complete chunk
-  (``recover`` makes it readable); nothing flushed before the failure is lost;
+  (``recover`` makes it readable), or removed if no chunk of it reached the disk; nothing
+  flushed before the failure is lost;
 * ``messages`` counts what reached the disk, so it never falls; ``failed`` what was lost.
 
 Callers hand over already-serialized CDR (``write``) or frames (``write_frame``, or
@@ -21,6 +22,7 @@ imports rclpy.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import queue
 import threading
@@ -40,8 +42,9 @@ __all__ = ['Recorder', 'RecorderStatus']
 @dataclass(frozen=True)
 class RecorderStatus:
     """What the recorder reports: ``ok`` False from a failed write until a write reaches the
-    disk again; ``messages`` written to disk (never falls), ``failed`` lost to write errors,
-    ``dropped`` lost to a full queue."""
+    disk again; ``files`` the recordings made (a file the disk was too full to take any of
+    is removed and not counted); ``messages`` written to disk (never falls), ``failed`` lost
+    to write errors, ``dropped`` lost to a full queue."""
 
     ok: bool
     message: str
@@ -50,6 +53,12 @@ class RecorderStatus:
     messages: int
     dropped: int
     failed: int
+
+    def lost(self) -> str | None:
+        """What was not recorded, in a phrase (None when nothing was lost)."""
+        parts = ([f'{self.failed} could not be written'] if self.failed else []) + \
+                ([f'{self.dropped} were dropped (the queue was full)'] if self.dropped else [])
+        return f'{" and ".join(parts)} of {self.messages + self.failed + self.dropped} messages' if parts else None
 
 
 class _Topic:
@@ -132,10 +141,11 @@ class Recorder:
     def status(self) -> RecorderStatus:
         with self._lock:
             current = str(self.files[-1]) if self._writer is not None and self.files else None
-            if self._error is not None:
+            if self._closed:
+                message = (f'closed after {len(self.files)} file(s)'
+                           + (f'; the last writes failed: {self._error}' if self._error is not None else ''))
+            elif self._error is not None:
                 message = f'cannot record: {self._error}; retrying every {self.retry_s:g} s'
-            elif self._closed:
-                message = f'closed after {len(self.files)} file(s)'
             elif current is None:
                 message = 'waiting for the first message'
             else:
@@ -212,11 +222,24 @@ class Recorder:
                 stream.close()
             except OSError:
                 pass
-            try:        # ... so the file is cut back to its last whole chunk after: recover reads it cleanly
-                os.truncate(self.files[-1], self._good_offset)
-            except OSError:
-                pass
+            self._cut_back()
         self._next_retry = self._clock() + self.retry_s
+
+    def _cut_back(self) -> None:
+        """After a failed write, cut the current file back to its last whole chunk, so
+        :func:`~steer_monitor.record.recover` reads it cleanly; a file none of whose bytes
+        were known to be written (the disk was full from its start) is removed instead, since
+        it holds nothing a reader could use, and leaves :attr:`files`."""
+        path = self.files[-1]
+        try:
+            if self._good_offset > 0:
+                os.truncate(path, self._good_offset)
+                return
+            path.unlink()
+        except OSError:
+            return
+        with self._lock:
+            self.files.pop()
 
     def _can_write(self) -> bool:
         """Whether the directory takes data again: writable, with room for two chunks."""
@@ -266,7 +289,10 @@ class Recorder:
             for name, data in self.metadata.items():
                 writer.add_metadata(name, data)
         except BaseException:
-            stream.close()
+            with contextlib.suppress(OSError):
+                stream.close()
+            with contextlib.suppress(OSError):
+                path.unlink()           # nothing in it a reader could use
             raise
         with self._lock:
             self._stream, self._writer = stream, writer

@@ -6,10 +6,12 @@ from __future__ import annotations
 import pytest
 
 from steer_monitor.can.decoder import Decoder, Sample
+from steer_monitor.errors import OutputError
 from steer_monitor.estimate.batch import estimate_clearances, make_rows
 from steer_monitor.estimate.observe import EstimateError, build_observations
 from steer_monitor.estimate.online import KEEP_NS, OnlineEstimator
 from steer_monitor.model.gear import GearParams
+from test.conftest import fill
 
 
 def _feed(est, sim, db, smap, every=100):
@@ -63,6 +65,21 @@ def test_state_survives_a_restart(r18, db, smap, hard_over, tmp_path):
     assert again.moments.samples == est.moments.samples
     assert again.estimate is not None and again.estimate.z_gb.value == pytest.approx(est.estimate.z_gb.value, abs=5e-6)
     assert not list(tmp_path.glob('*.tmp*'))   # written atomically
+
+
+def test_a_state_the_disk_cannot_take_is_refused_whole(r18, db, smap, hard_over, small_tmpfs):
+    """A full disk: OutputError naming the path and the reason; the state saved before stays
+    as it was, and no temporary file is left beside it."""
+    _, sim = hard_over
+    est = OnlineEstimator(r18)
+    path = est.save(small_tmpfs / 'state.npz')
+    before = path.read_bytes()
+    _feed(est, sim, db, smap)          # learned more: a larger state than the one on disk
+    fill(small_tmpfs)
+    with pytest.raises(OutputError, match=r'cannot write .*state\.npz: No space left on device'):
+        est.save(path)
+    assert path.read_bytes() == before
+    assert sorted(p.name for p in small_tmpfs.iterdir()) == ['filler.bin', 'state.npz']
 
 
 def test_state_of_another_gear_is_refused_and_nothing_is_lost(r18, db, smap, hard_over, tmp_path):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -364,6 +365,11 @@ def test_a_recording_that_cannot_be_written_is_said_in_the_log_once(tmp_path):
                        8.0)             # past the recorder's 5 s retry
     told = [ln for ln in err.splitlines() if 'cannot record:' in ln]
     assert len(told) == 1 and '[ERROR]' in told[0] and 'Not a directory' in told[0], err
+    # and on closing, what was lost in all
+    lost = [ln for ln in err.splitlines() if 'recording:' in ln]
+    assert len(lost) == 1 and '[WARN]' in lost[0], err
+    assert re.search(r'recording: (\d+) could not be written of \1 messages; closed after 0 file\(s\); '
+                     r'the last writes failed: Not a directory', lost[0]), err
 
 
 
