@@ -22,7 +22,11 @@ __all__ = ['atomic_path', 'atomic_write', 'check_target', 'ensure_dir', 'os_reas
 
 
 def os_reason(exc: OSError) -> str:
-    """The system's words for an OS error, without the file name (the caller names it)."""
+    """The system's words for an OS error, without the file name (the caller names it): the
+    C library's text for its errno (libraries such as pyarrow put their own sentence around
+    it in ``strerror``), else ``strerror``, else the error's type."""
+    if isinstance(exc.errno, int) and exc.errno > 0:
+        return os.strerror(exc.errno)
     return exc.strerror or type(exc).__name__
 
 

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from steer_monitor.atomic import (NAME_MAX, atomic_path, atomic_write, ensure_dir, temporary_name, write_bytes,
-                                 write_text)
+from steer_monitor.atomic import (NAME_MAX, atomic_path, atomic_write, ensure_dir, os_reason, temporary_name,
+                                 write_bytes, write_text)
 from steer_monitor.errors import OutputError
 
 
@@ -87,3 +87,25 @@ def test_a_name_too_long_for_the_file_system_is_named(tmp_path):
     with pytest.raises(OutputError, match=f'cannot write {target}: File name too long'):
         write_text(target, 'x')
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_full_disk_is_named_and_the_old_file_kept(small_tmpfs):
+    from test.conftest import fill
+    target = small_tmpfs / 'out.json'
+    write_text(target, 'old')
+    fill(small_tmpfs)
+    with pytest.raises(OutputError, match=r'^cannot write .*out\.json: No space left on device$'):
+        write_text(target, 'new' * 100_000)
+    assert target.read_text() == 'old'
+    assert sorted(p.name for p in small_tmpfs.iterdir()) == ['filler.bin', 'out.json']
+
+
+@pytest.mark.parametrize('exc,reason', [
+    (OSError(28, 'No space left on device'), 'No space left on device'),
+    # pyarrow's wording around the errno
+    (OSError(28, 'Error writing bytes to file. Detail: [errno 28] No space left on device'), 'No space left on device'),
+    (OSError('no errno here'), 'OSError'),
+    (OSError(None, 'its own words'), 'its own words'),
+])
+def test_the_reason_is_the_system_s_words(exc, reason):
+    assert os_reason(exc) == reason
