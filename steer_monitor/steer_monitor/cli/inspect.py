@@ -99,7 +99,7 @@ def _range(name: str, lo: float | None, hi: float | None) -> str:
 def run(path: str | Path, config: str | Path | None = None, as_json: bool = False,
         out: TextIO | None = None, err: TextIO | None = None, date: datetime.date | None = None) -> int:
     """Print what ``path`` holds; 1 (with one line on ``err``) when it broke off or had
-    corrupt parts, whose readable frames are counted."""
+    corrupt parts, whose readable frames are counted, or held no frame at all."""
     out = out or sys.stdout
     err = err or sys.stderr
     check_logs([path])
@@ -120,7 +120,18 @@ def run(path: str | Path, config: str | Path | None = None, as_json: bool = Fals
                                                    for k, n in s['rejects'].items()], out)
         else:
             out.write('\nno rejects\n')
-    return report_read_errors('inspect', [s['read_error']] if s['read_error'] else [], err)
+    return report_read_errors('inspect', _problems(s), err)
+
+
+def _problems(s: dict[str, Any]) -> list[str]:
+    """What makes the log a bad input: what broke off or was corrupt, or no frame at all (an
+    empty file, or nothing in it read as a frame: the rejects say what it held instead)."""
+    if s['read_error']:
+        return [s['read_error']]
+    if s['frames'] == 0:
+        held = ', '.join(f'{n} {reason}' for reason, n in s['rejects'].items())
+        return [f"no frame in {s['log']}" + (f' (rejected: {held})' if held else '')]
+    return []
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -8,7 +8,9 @@ ASC logs, bad output paths, bad YAML (non-UTF-8, deep nesting, an alias bomb, a 
 
 from __future__ import annotations
 
+import json
 import random
+import re
 from pathlib import Path
 
 import pytest
@@ -115,8 +117,8 @@ def _flip(data: bytes, n: int, lo: int, hi: int, seed: int) -> bytes:
 
 CANDUMP_CASES = {
     # name: (bytes from the good log, inspect's exit status)
-    'empty': (lambda b: b'', 0),
-    'junk': (lambda b: random.Random(5).randbytes(4000), 0),
+    'empty': (lambda b: b'', 1),
+    'junk': (lambda b: random.Random(5).randbytes(4000), 1),
     'reversed': (lambda b: b'\n'.join(reversed(b.splitlines())) + b'\n', 0),
     'crlf_tabs': (lambda b: b.replace(b' ', b' \t ').replace(b'\n', b'\r\n'), 0),
     'huge_line': (lambda b: b[:3000] + b'x' * 5_000_000 + b'\n' + b[3000:], 0),
@@ -134,8 +136,16 @@ def test_bad_candump_logs(base, tmp_path, capsys, case):
     path.write_bytes(make(base['log'].read_bytes()))
     (tmp_path / 'o1').mkdir()
     rc, lines, out = _run(capsys, _argv('inspect', path, tmp_path / 'o1'))
-    assert rc == inspect_rc and not lines, lines
+    assert rc == inspect_rc, lines
     assert len(out) < 100_000          # a 5 MB line is not a 5 MB example
+    if case == 'empty':                # what it holds is printed, and the one line says why it is refused
+        assert lines == [f'steer-monitor inspect: error: no frame in {path}'], lines
+    elif case == 'junk':
+        assert re.fullmatch(rf'steer-monitor inspect: error: no frame in {re.escape(str(path))} '
+                            r'\(rejected: \d+ malformed_record\)', lines[0]) and len(lines) == 1, lines
+    else:
+        assert not lines, lines
+    assert (json.loads(out)['frames'] == 0) == bool(inspect_rc)
     lines = _check(capsys, 'replay', path, tmp_path / 'o2', None, None)
     if case in ('empty', 'junk'):
         assert lines == [f'steer-monitor replay: error: no frame in {path}']
@@ -145,7 +155,6 @@ def test_bad_candump_logs(base, tmp_path, capsys, case):
 def test_one_far_future_frame_costs_that_frame_only(base, tmp_path, capsys):
     """The issue's case: a glitched rudder frame 75 years ahead poisoned its identifier
     (every later frame time_backwards) and made the grids span decades."""
-    import json
     lines = base['long'].read_bytes().splitlines(keepends=True)
     rudder = next(line for line in lines[2000:] if b' 09F10D10#' in line)
     glitch = b'(4102444800.000000) can0 ' + rudder.split(b' can0 ', 1)[1]
@@ -166,7 +175,6 @@ def test_corrupt_chunk_is_skipped_counted_and_reported(base, tmp_path, capsys):
     """Flipped bytes inside an uncompressed chunk: without the CRC the frames would pass on
     altered. Every reader refuses that chunk, keeps the chunks before and after it, and says
     so; recover drops it and says why."""
-    import json
     good = base['chunks'].read_bytes()
     spans = _chunk_spans(base['chunks'])
     assert len(spans) > 10
@@ -226,7 +234,6 @@ def test_cut_one_byte_short_is_analysed_and_says_so(base, tmp_path, capsys):
 def test_cut_blf_and_asc_are_analysed_and_say_so(base, tmp_path, capsys, suffix):
     """A BLF or ASC log cut short: every command uses the frames before the cut and says the
     log breaks off (exit 1). The block readers once dropped a cut BLF's frames altogether."""
-    import json
 
     from steer_monitor.can.fastlogs import read_log_fast
     from steer_monitor.can.logs import LogWriter
@@ -362,7 +369,6 @@ def test_clock_step_of_years_is_bounded_by_the_data(base, tmp_path, capsys):
     not rejected; analyze's grid, the online estimator and replay's schedule follow the data,
     not the decade between (before: 47-57 GiB asked for, replay hung); the estimate is the
     one without the step, to the rows the cut takes."""
-    import json
     lines = base['long'].read_bytes().splitlines(keepends=True)
     half = len(lines) // 2
     ten_years = 10 * 365 * 86400
