@@ -66,7 +66,7 @@ def declare_parameters(node: Any) -> dict[str, Any]:
         except InvalidParameterTypeException as exc:
             given = overrides.get(spec.name)
             shown = given.value if given is not None else '?'
-            msg = f'parameter {spec.name}: expected {spec.kind.replace("_", " ")}, got {shown!r} ({exc})'
+            msg = f'parameter {spec.name}: expected {spec.kind.replace("_", " ")}, got {shown!r} ({_why(spec.kind, shown, exc)})'
             raise ParameterError(msg) from exc
         except InvalidParameterValueException as exc:
             msg = f'parameter {spec.name}: {exc}'
@@ -77,6 +77,19 @@ def declare_parameters(node: Any) -> dict[str, Any]:
                 value = [float(v) for v in value]
             values[spec.name] = value
     return validate_params(values)
+
+
+def _why(kind: str, given: Any, exc: Exception) -> str:
+    """Why a value was refused: for whole numbers given to a double (ROS types ``0`` as an
+    integer and does not convert it), how to write them; else rclpy's words."""
+    whole = (isinstance(given, int) and not isinstance(given, bool)) or \
+        (isinstance(given, (list, tuple)) and bool(given) and all(isinstance(v, int) and not isinstance(v, bool)
+                                                                  for v in given))
+    if kind == 'double' and whole:
+        return f'ROS reads a whole number as an integer: write {given}.0'
+    if kind == 'double_array' and whole:
+        return f'ROS reads whole numbers as integers: write [{", ".join(f"{v}.0" for v in given)}]'
+    return str(exc)
 
 
 def overrides_from_file(path: str, extra: Mapping[str, Any] | None = None) -> list[Any]:

@@ -286,11 +286,27 @@ def test_signal_finishes_the_recording(tmp_path, sig):
     ('can.dbc_file:=missing.dbc', 'missing.dbc'),
     ('signals.rudder_angle.field:=Nope', 'signals.rudder_angle.field'),
     ('gear.bogus_m:=1.0', 'gear.bogus_m'),
+    ('recording.max_file_mb:=64', 'recording.max_file_mb: expected double, got 64 (ROS reads a whole number as an '
+                                  'integer: write 64.0)'),
 ])
 def test_bad_parameter_stops_the_node_naming_it(tmp_path, override, name):
     proc = subprocess.run(_node_cmd(tmp_path, '-p', override), env=_env(), capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2
     assert 'steer_monitor: cannot start:' in proc.stderr and name in proc.stderr
+
+
+@pytest.mark.parametrize('kind,given,why', [
+    ('double', 3, 'ROS reads a whole number as an integer: write 3.0'),
+    ('double', -5, 'ROS reads a whole number as an integer: write -5.0'),
+    ('double_array', [0, 10, 35], 'ROS reads whole numbers as integers: write [0.0, 10.0, 35.0]'),
+    ('double', 'abc', 'rclpy says'),
+    ('double', True, 'rclpy says'),
+    ('double_array', [1.5, 2], 'rclpy says'),
+    ('integer', 2.5, 'rclpy says'),
+])
+def test_why_a_value_of_the_wrong_type_was_refused(kind, given, why):
+    from steer_monitor.node.params_ros import _why
+    assert _why(kind, given, ValueError('rclpy says')) == why
 
 
 def test_without_the_message_package_the_node_says_so(tmp_path):
