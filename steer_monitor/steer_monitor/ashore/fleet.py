@@ -22,6 +22,8 @@ from typing import Any
 
 from steer_monitor.ashore.logresult import LogResult, analyse_log, file_digest
 from steer_monitor.ashore.store import load_results, save_results
+from steer_monitor.atomic import os_reason
+from steer_monitor.can.logs import log_path_problem
 from steer_monitor.errors import InputError
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.trend import YEAR_S, Trend, TrendPoint, fit_trend
@@ -76,7 +78,9 @@ def find_vessels(dirs: Sequence[str | Path], config: str | Path | None = None) -
             raise InputError(msg)
         names[name] = path
         own = path / VESSEL_CONFIG
-        logs = tuple(sorted(p for p in path.rglob('*') if p.is_file() and p.suffix.lower() in LOG_SUFFIXES
+        # a link that leads nowhere is a log that cannot be read, said as such, not left out
+        logs = tuple(sorted(p for p in path.rglob('*') if (p.is_file() or p.is_symlink() and not p.is_dir())
+                            and p.suffix.lower() in LOG_SUFFIXES
                             and not any(part.startswith('.') for part in p.relative_to(path).parts)))
         out.append(Vessel(name, path, own if own.is_file() else (Path(config) if config else None), logs))
     return out
@@ -143,10 +147,14 @@ def run_fleet(dirs: Sequence[str | Path], out: str | Path, *, workers: int | Non
         cfg_sha = parameters_digest(params)
         run.results[v.name] = []
         for log in v.logs:
-            try:
-                sha = file_digest(log)
-            except OSError as exc:
-                run.failed.append(f'{v.name}: {log}: {exc.strerror or exc}')
+            problem = log_path_problem(log)          # e.g. a link to nowhere, or to a device
+            if problem is None:
+                try:
+                    sha = file_digest(log)
+                except OSError as exc:
+                    problem = f'{log}: {os_reason(exc)}'
+            if problem is not None:
+                run.failed.append(f'{v.name}: {problem}')
                 continue
             r = kept.get((sha, cfg_sha))
             page_kept = not reports or (out / report_path(v.name, sha, cfg_sha)).is_file()

@@ -22,7 +22,9 @@ is a read format here: writers produce ``.log``, ``.blf`` and ``.mcap``, byte-re
 from __future__ import annotations
 
 import datetime
+import os
 import re
+import stat
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, BinaryIO
@@ -381,15 +383,16 @@ def _iter_python_can(path: Path, suffix: str, rejects: RejectCounter | None = No
 def log_path_problem(path: Path) -> str | None:
     """What is wrong with ``path`` as a log to read (None: a file)."""
     try:
-        if path.is_file():
-            return None
-        if path.is_dir():
-            return f'log {path} is a directory, not a file'
-        if path.exists():
-            return f'log {path} is not a regular file'
-    except OSError as exc:          # e.g. a name too long for the file system
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return f'log {path} does not exist' + (' (a broken symbolic link)' if path.is_symlink() else '')
+    except OSError as exc:          # e.g. a name too long, a loop of symbolic links
         return f'cannot open log {path}: {exc.strerror or exc}'
-    return f'log {path} does not exist'
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return f'log {path} is a directory, not a file'
+    return f'log {path} is not a regular file'
 
 
 def skipped_parts(where: list[str], what: str) -> str:

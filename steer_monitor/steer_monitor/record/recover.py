@@ -84,7 +84,7 @@ def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult
     dst = Path(output) if output is not None else src.with_name(src.stem + '.recovered.mcap')
     try:
         same = dst.resolve() == src.resolve()
-    except OSError:
+    except (OSError, RuntimeError):     # RuntimeError: a loop of symbolic links (Python 3.11)
         same = False
     if same:
         msg = f'recover would overwrite its input {src}; give another output'

@@ -129,12 +129,19 @@ def test_cli_with_a_broken_log_and_a_vessel_of_its_own_parameters(tmp_path, flee
     vessel = tmp_path / 'mv_example'
     shutil.copytree(fleet_dirs / 'wearing', vessel)
     (vessel / 'recordings' / 'broken.log').write_bytes(b'\x00\x01 not a log\n')
+    (vessel / 'recordings' / 'moved.log').symlink_to(tmp_path / 'gone.log')    # a log that was moved away
+    (vessel / 'recordings' / 'endless.log').symlink_to('/dev/zero')           # read, it would never end
     shutil.copy(R18_YAML, vessel / 'steer_monitor.yaml')
     out = tmp_path / 'out'
     rc = main(['fleet', str(vessel), '--out', str(out), '--workers', '2', '--json'])
     cap = capsys.readouterr()
     assert rc == 1
     assert 'steer-monitor fleet: error: mv_example:' in cap.err and 'broken.log' in cap.err
+    lines = cap.err.splitlines()
+    assert (f'steer-monitor fleet: error: mv_example: log {vessel / "recordings" / "moved.log"} does not exist '
+            '(a broken symbolic link)') in lines, lines
+    assert (f'steer-monitor fleet: error: mv_example: log {vessel / "recordings" / "endless.log"} is not a regular '
+            'file') in lines, lines
     data = json.loads(cap.out)
     v = data['vessels'][0]
     assert v['name'] == 'mv_example' and v['config'].endswith('steer_monitor.yaml') and len(v['logs']) == 13

@@ -290,18 +290,36 @@ def test_unwritable_and_directory_outputs(base, tmp_path, capsys, command):
 
 
 @pytest.mark.parametrize('command', LOG_COMMANDS)
-@pytest.mark.parametrize('kind', ['directory', 'missing', 'name_too_long'])
+@pytest.mark.parametrize('kind', ['directory', 'missing', 'name_too_long', 'broken_link', 'link_loop', 'device'])
 def test_a_log_that_is_not_a_file_is_named_before_any_work(tmp_path, capsys, command, kind):
     log = tmp_path / ('s' * 300 + '.log' if kind == 'name_too_long' else 'adir.log')
     if kind == 'directory':
         log.mkdir()
+    elif kind == 'broken_link':
+        log.symlink_to(tmp_path / 'gone.log')
+    elif kind == 'link_loop':
+        log.symlink_to(tmp_path / 'other.log')
+        (tmp_path / 'other.log').symlink_to(log)
+    elif kind == 'device':
+        log.symlink_to('/dev/zero')          # endless: read, it would never end
     out = tmp_path / 'out'
     out.mkdir()
     rc, lines, stdout = _run(capsys, _argv(command, log, out))
     want = {'directory': f'log {log} is a directory, not a file', 'missing': f'log {log} does not exist',
-            'name_too_long': f'cannot open log {log}: File name too long'}[kind]
+            'name_too_long': f'cannot open log {log}: File name too long',
+            'broken_link': f'log {log} does not exist (a broken symbolic link)',
+            'link_loop': f'cannot open log {log}: Too many levels of symbolic links',
+            'device': f'log {log} is not a regular file'}[kind]
     assert rc == 1 and lines == [f'steer-monitor {command}: error: {want}'], lines
     assert stdout == '' and list(out.iterdir()) == []
+
+
+def test_recover_of_a_loop_of_links_is_one_line(tmp_path, capsys):
+    (tmp_path / 'a.mcap').symlink_to(tmp_path / 'b.mcap')
+    (tmp_path / 'b.mcap').symlink_to(tmp_path / 'a.mcap')
+    rc, lines, _ = _run(capsys, _argv('recover', tmp_path / 'a.mcap', tmp_path))
+    assert rc == 1 and lines == [f'steer-monitor recover: error: cannot open {tmp_path / "a.mcap"}: '
+                                 'Too many levels of symbolic links'], lines
 
 
 @pytest.mark.skipif(not Path('/proc/self').is_dir(), reason='needs Linux /proc (a directory no file can be made in)')
