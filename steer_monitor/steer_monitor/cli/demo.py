@@ -120,10 +120,11 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: 
         listener.destroy_node()
         context.try_shutdown()
     files = [str(p) for p in node.recorder.files] if node.recorder else []
-    lost = node.recorder.status().lost() if node.recorder else None
+    rec = node.recorder.status() if node.recorder else None
+    lost = rec.lost() if rec is not None else None
     out.write(f'\nnode received {received} frames, transmitted none; '
               f'recorded {", ".join(files) or "nothing"}'
-              + (f' ({lost}: {node.recorder.status().message})' if lost else '') + '\n')
+              + (f' ({lost}: {rec.message})' if rec is not None and lost else '') + '\n')
     buf = io.StringIO()
     study.run(out_dir, config_path, buf)
     out.write(f'load-sharing study (paper 004): {out_dir / "fig7_load_sharing.png"}, '

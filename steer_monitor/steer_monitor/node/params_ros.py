@@ -66,7 +66,8 @@ def declare_parameters(node: Any) -> dict[str, Any]:
         except InvalidParameterTypeException as exc:
             given = overrides.get(spec.name)
             shown = given.value if given is not None else '?'
-            msg = f'parameter {spec.name}: expected {spec.kind.replace("_", " ")}, got {shown!r} ({_why(spec.kind, shown, exc)})'
+            msg = (f'parameter {spec.name}: expected {spec.kind.replace("_", " ")}, got {shown!r} '
+                   f'({_why(spec.kind, shown, exc)})')
             raise ParameterError(msg) from exc
         except InvalidParameterValueException as exc:
             msg = f'parameter {spec.name}: {exc}'

@@ -31,7 +31,8 @@ def test_results_read_back_as_written(tmp_path):
 def test_no_results_yet_and_a_damaged_file(tmp_path):
     assert load_results(tmp_path) == {}
     (tmp_path / RESULTS_FILE).write_bytes(b'PAR1 not really')
-    with pytest.raises(InputError, match=r'cannot read kept results .*results\.parquet: .*\(remove it to start again\)'):
+    with pytest.raises(InputError, match=r'cannot read kept results .*results\.parquet: .*\(remove it to start '
+                                         r'again\)'):
         load_results(tmp_path)
 
 
