@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import math
 import sys
 import time
 from pathlib import Path
@@ -58,8 +59,8 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
 
     out = out or sys.stdout
     err = err or sys.stderr
-    if analysis_hours < 0:
-        msg = f'--analysis-hours must be >= 0, got {analysis_hours}'
+    if not (math.isfinite(analysis_hours) and analysis_hours >= 0):
+        msg = f'--analysis-hours must be a finite number >= 0, got {analysis_hours}'
         raise ParameterError(msg)
     paths = [Path(p) for p in logs]
     check_logs(paths)

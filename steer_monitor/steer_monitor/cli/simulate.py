@@ -75,6 +75,9 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
     if not (math.isfinite(max_duration_s) and max_duration_s > 0):
         msg = f'--max-duration must be more than 0 s, got {max_duration_s!r}'
         raise ParameterError(msg)
+    if seed < 0:
+        msg = f'--seed must be a whole number >= 0, got {seed}'
+        raise ParameterError(msg)
     if not (math.isfinite(speed_factor) and speed_factor >= 0):
         msg = f'--speed-factor must be >= 0 (0: as fast as possible), got {speed_factor!r}'
         raise ParameterError(msg)
@@ -127,7 +130,8 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
     if as_json:
         dump_json(truth, out)
     else:
-        out.write(f"simulated {truth['program']} for {truth['duration_s']:.1f} s: {truth['frames']} frames "
+        cut = f' (cut at --max-duration {max_duration_s:g} s)' if result.plant.cut else ''
+        out.write(f"simulated {truth['program']} for {truth['duration_s']:.1f} s{cut}: {truth['frames']} frames "
                   f"-> {truth['output']}" + (f" (truth: {truth['truth_file']})" if 'truth_file' in truth else '')
                   + '\n')
     return 0
@@ -154,7 +158,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--effect', action='append', default=[], metavar='NAME[:k=v,...]',
                    help=f'add an undeclared effect: {", ".join(sim.EFFECTS)}')
     p.add_argument('--no-noise', action='store_true', help='no sensor noise (quantisation stays)')
-    p.add_argument('--max-duration', type=float, default=7200.0, help='cut the programme after this many seconds')
+    p.add_argument('--max-duration', type=float, default=7200.0, help='cut the programme after this many seconds (default: 7200)')
     p.add_argument('--json', action='store_true', help='print the truth as JSON')
     p.add_argument('--i-know-this-is-a-real-bus', dest='real_bus', action='store_true',
                    help='allow --bus on a hardware interface (the frames are sent onto that bus)')

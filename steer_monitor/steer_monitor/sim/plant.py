@@ -126,6 +126,7 @@ class SimResult:
     friction: NDArray[np.float64]
     pressures: dict[str, NDArray[np.float64]]
     start_ns: int
+    cut: bool = False       # the programme was cut at max_duration_s, not run to its end
 
     @property
     def duration(self) -> float:
@@ -152,13 +153,11 @@ def simulate(gear: GearParams, cfg: SimConfig, ram_speed_per_pump: float, pumps_
     vs = gear.torque.service_speed
     speed_fn = cfg.speed_profile
     v_ship = float(_speed_at(speed_fn, np.array([0.0]))[0])
-    speed_hist = np.zeros(n_max)
-
-    order = np.zeros(n_max)
-    alpha = np.zeros(n_max)
-    rate = np.zeros(n_max)
-    heading = np.zeros(n_max)
-    pumps = np.zeros(n_max, np.int8)
+    # the histories grow with the programme (doubling), not to max_duration_s at once: a
+    # generous cap on a short programme must not take the memory of the cap
+    cap = min(n_max, 1 << 16)
+    speed_hist, order, alpha, rate, heading = (np.zeros(cap) for _ in range(5))
+    pumps = np.zeros(cap, np.int8)
     a = psi = r = 0.0
     # with a moving mass, the ram's speed follows the valve's through a first-order lag
     inertia = cfg.effect('ram_inertia')
@@ -171,6 +170,11 @@ def simulate(gear: GearParams, cfg: SimConfig, ram_speed_per_pump: float, pumps_
         if program.done and i > 0:
             n = i
             break
+        if i == cap:
+            cap = min(n_max, 2 * cap)
+            speed_hist, order, alpha, rate, heading, pumps = (
+                np.concatenate([h_, np.zeros(cap - h_.size, h_.dtype)])
+                for h_ in (speed_hist, order, alpha, rate, heading, pumps))
         o, p = program(t, a, psi, r)
         err = o - a
         w_max = p * ram_speed_per_pump * math.cos(a) ** 2 / h
@@ -239,4 +243,4 @@ def simulate(gear: GearParams, cfg: SimConfig, ram_speed_per_pump: float, pumps_
                      speed=speed, oil_temp=oil, torque=torque, axial=ls.axial, lateral=ls.lateral,
                      ram_force=ls.ram_force, guide_force=ls.guide_force, k_gl=ls.k_gl,
                      friction=np.where(moving, friction, 0.0), pressures=pressures,
-                     start_ns=cfg.start_ns)
+                     start_ns=cfg.start_ns, cut=n == n_max and not program.done)

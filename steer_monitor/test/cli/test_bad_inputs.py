@@ -314,6 +314,17 @@ def test_a_log_that_is_not_a_file_is_named_before_any_work(tmp_path, capsys, com
     assert stdout == '' and list(out.iterdir()) == []
 
 
+def test_a_generous_max_duration_costs_nothing_and_a_cut_is_said(tmp_path, capsys):
+    """The plant's histories grow with the programme: a cap of 10^12 s on a 71 s programme
+    used to allocate for the cap (out of memory). A programme cut by the cap says so."""
+    rc, lines, out = _run(capsys, ['simulate', '--program', 'hard_over_2', '--max-duration', '1e12',
+                                   '--out', str(tmp_path / 'a.log')])
+    assert rc == 0 and not lines and 'simulated hard_over_2 for 71.' in out and 'cut' not in out, (lines, out)
+    rc, lines, out = _run(capsys, ['simulate', '--program', 'hard_over_2', '--max-duration', '30',
+                                   '--out', str(tmp_path / 'b.log')])
+    assert rc == 0 and 'simulated hard_over_2 for 30.0 s (cut at --max-duration 30 s):' in out, (lines, out)
+
+
 def test_recover_of_a_loop_of_links_is_one_line(tmp_path, capsys):
     (tmp_path / 'a.mcap').symlink_to(tmp_path / 'b.mcap')
     (tmp_path / 'b.mcap').symlink_to(tmp_path / 'a.mcap')
@@ -419,6 +430,7 @@ def test_clock_step_of_years_is_bounded_by_the_data(base, tmp_path, capsys):
     (['fit', '240 Q9/f9'], 'only hole-basis fits'),
     (['loadshare', '--step-deg', '1e-9'], '--step-deg must lie in [0.001, 5], got 1e-09'),
     (['simulate', '--max-duration', '0', '--out', '{tmp}/s.log'], '--max-duration must be more than 0 s, got 0.0'),
+    (['simulate', '--seed', '-1', '--out', '{tmp}/s.log'], '--seed must be a whole number >= 0, got -1'),
     (['backlash', '{tmp}/missing.yaml'], 'cannot read chain file {tmp}/missing.yaml'),
 ])
 def test_the_other_subcommands_fail_in_one_line_before_their_work(base, tmp_path, capsys, argv, phrase):

@@ -87,7 +87,9 @@ def test_online_estimates_of_a_replay_are_read(logs):
 
 @pytest.mark.parametrize(('args', 'message'), [
     (['missing.log'], 'does not exist'),
-    (['{log}', '--analysis-hours', '-1'], 'analysis-hours must be >= 0'),
+    (['{log}', '--analysis-hours', '-1'], 'analysis-hours must be a finite number >= 0, got -1.0'),
+    (['{log}', '--analysis-hours', 'nan'], 'analysis-hours must be a finite number >= 0, got nan'),
+    (['{log}', '--analysis-hours', 'inf'], 'analysis-hours must be a finite number >= 0, got inf'),
 ])
 def test_bad_arguments_are_named(tmp_path, logs, args, message, capsys):
     args = [a.format(log=logs['log']) for a in args]
