@@ -56,10 +56,14 @@ def _fingerprint(samples: list[Sample]) -> tuple[int, int | None]:
     return len(samples), samples[-1].t_ns if samples else None
 
 
-def _serve(est: OnlineEstimator, source: JobSource, conn: Connection) -> None:
+def _serve(est: OnlineEstimator, source: JobSource, conn: Connection, parents_end: Connection) -> None:
     """The child: every job of ``source`` in order, each result sent as it is made, then the
-    estimator's final state."""
+    estimator's final state. ``parents_end``, the reading end the fork copied, is closed
+    first: held here too, it would keep the pipe open after the parent died (killed, say), and
+    the child would wait on a full pipe for ever instead of ending on a broken one."""
+    parents_end.close()
     signal.signal(signal.SIGINT, signal.SIG_IGN)      # Ctrl-C is the parent's to handle
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)     # the parent's handler is not ours
 
     def job(samples: list[Sample]) -> None:
         errors: list[str] = []
@@ -94,8 +98,8 @@ class ProcessEstimatorJobs:
         self.est = est
         self.on_error = on_error
         self._conn, child = ctx.Pipe(duplex=False)
-        self._proc: Any = ctx.Process(target=_serve, args=(est, source, child), name='steer_monitor-estimator',
-                                      daemon=True)
+        self._proc: Any = ctx.Process(target=_serve, args=(est, source, child, self._conn),
+                                      name='steer_monitor-estimator', daemon=True)
         self._proc.start()
         child.close()
         self._sent: list[tuple[int, int | None]] = []      # each job's fingerprint, by handle

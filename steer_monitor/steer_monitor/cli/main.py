@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 
 from steer_monitor import __version__
@@ -12,7 +14,7 @@ from steer_monitor.cli import (accuracy, analyze, backlash, demo, discover, fit,
 from steer_monitor.errors import SteerMonitorError
 from steer_monitor.threads import single_blas_thread
 
-__all__ = ['build_parser', 'main']
+__all__ = ['Terminated', 'build_parser', 'main']
 
 SUBCOMMANDS = (fit, backlash, loadshare, simulate, discover, inspect, analyze, accuracy, run, replay, report, fleet, recover, study, demo)
 
@@ -32,13 +34,38 @@ def _one_line(text: str) -> str:
     return ' '.join(str(text).split()) or '(no message)'
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the command is, so that it ends as on Ctrl-C: outputs not yet
+    complete removed (their temporary names), worker processes ended, one line said."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated
+
+
+#: commands that handle SIGTERM themselves (rclpy's handlers stop the node, which finishes
+#: its recording)
+OWN_SIGTERM = frozenset({'run', 'demo'})
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one subcommand. Every failure is one line on stderr and exit status 1 (argparse's
-    usage errors: 2); never a traceback."""
+    usage errors: 2); never a traceback. SIGTERM ends a command as Ctrl-C does (status 143)."""
     parser = build_parser()
     args = parser.parse_args(argv)
     single_blas_thread()
     where = f'steer-monitor {args.command}'
+    previous = None
+    if args.command not in OWN_SIGTERM and threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        return _dispatch(args, where)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _dispatch(args: argparse.Namespace, where: str) -> int:
     try:
         return int(args.handler(args))
     except SteerMonitorError as exc:
@@ -48,6 +75,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         import os
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except Terminated:
+        print(f'{where}: terminated (SIGTERM)', file=sys.stderr)
+        return 128 + signal.SIGTERM
     except KeyboardInterrupt:
         print(f'{where}: interrupted', file=sys.stderr)
         return 130

@@ -96,3 +96,47 @@ def test_leaving_early_ends_the_child_at_once():
         msg = 'the replay failed'
         raise RuntimeError(msg)
     assert not jobs._proc.is_alive()
+
+
+def _gone(pid: int) -> bool:
+    """The process has ended (a zombie counts: it runs no more, whoever reaps it)."""
+    try:
+        with open(f'/proc/{pid}/stat') as fh:
+            return fh.read().rsplit(')', 1)[1].split()[0] == 'Z'
+    except FileNotFoundError:
+        return True
+
+
+KILLED_PARENT = r'''
+import os, signal, sys
+sys.path.insert(0, {pkg!r})
+from test.ashore.test_replay_worker import _Counting, _job, _source
+from steer_monitor.ashore.replay_worker import ProcessEstimatorJobs
+jobs = ProcessEstimatorJobs(_Counting(), _source(1_000_000))   # far more results than a pipe holds
+print(jobs._proc.pid, flush=True)
+os.kill(os.getpid(), signal.SIGKILL)                            # no clean-up of any kind
+'''
+
+
+@pytest.mark.skipif(not os.path.isdir('/proc/self'), reason='reads process states from Linux /proc')
+def test_the_child_ends_when_its_parent_is_killed(tmp_path):
+    """The fork copied the parent's reading end of the pipe into the child; kept open there,
+    a parent killed (SIGKILL, or SIGTERM before the CLI handled it) left the child waiting on a
+    full pipe for ever, 160 MB resident. Closed, the pipe breaks and the child ends."""
+    import subprocess
+    import sys
+    import time
+
+    from test.conftest import PKG
+    said, err = tmp_path / 'out.txt', tmp_path / 'err.txt'   # files, not pipes: a child left alive holds them
+    with open(said, 'w') as out, open(err, 'w') as errors:
+        proc = subprocess.run([sys.executable, '-c', KILLED_PARENT.format(pkg=str(PKG))], stdout=out,
+                              stderr=errors, timeout=60, cwd=PKG)
+    assert proc.returncode == -9, err.read_text()
+    child = int(said.read_text().split()[0])
+    deadline = time.time() + 10
+    while not _gone(child) and time.time() < deadline:
+        time.sleep(0.05)
+    if not _gone(child):
+        os.kill(child, 9)
+        pytest.fail('the estimator process outlived its killed parent')
