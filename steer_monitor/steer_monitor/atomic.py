@@ -11,14 +11,14 @@ from __future__ import annotations
 
 import contextlib
 import os
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import IO, Any
 
 from steer_monitor.errors import OutputError
 
 __all__ = ['atomic_path', 'atomic_write', 'check_target', 'ensure_dir', 'os_reason', 'temporary_name', 'write_bytes',
-           'write_text']
+           'write_files', 'write_text']
 
 
 def os_reason(exc: OSError) -> str:
@@ -127,3 +127,36 @@ def write_bytes(path: str | Path, data: bytes) -> None:
     """Write a binary file atomically."""
     with atomic_write(path, 'wb') as fh:
         fh.write(data)
+
+
+def write_files(files: Mapping[str | Path, bytes]) -> None:
+    """Write several files all or none: each to its temporary name, flushed and synced, before
+    any is renamed (a full disk or a missing permission fails there, every temporary is
+    removed and the files already there are untouched); then all renamed, in the reverse of
+    the mapping's order, so that the first named (a page, say, before the plots it goes with)
+    appears last."""
+    done: list[tuple[Path, Path]] = []         # (temporary, target), written whole
+    target = Path()
+    try:
+        for path, data in files.items():
+            target = Path(path)
+            check_target(target)
+            tmp = target.with_name(temporary_name(target.name))
+            with open(tmp, 'wb') as fh:
+                done.append((tmp, target))
+                fh.write(data)
+                fh.flush()
+                os.fsync(fh.fileno())
+        for tmp, target in reversed(done):
+            os.replace(tmp, target)
+    except OSError as exc:
+        for tmp, _ in done:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+        msg = f'cannot write {target}: {os_reason(exc)}'
+        raise OutputError(msg) from exc
+    except BaseException:
+        for tmp, _ in done:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+        raise

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from steer_monitor.atomic import (NAME_MAX, atomic_path, atomic_write, ensure_dir, os_reason, temporary_name,
-                                 write_bytes, write_text)
+                                 write_bytes, write_files, write_text)
 from steer_monitor.errors import OutputError
 
 
@@ -109,3 +109,29 @@ def test_a_full_disk_is_named_and_the_old_file_kept(small_tmpfs):
 ])
 def test_the_reason_is_the_system_s_words(exc, reason):
     assert os_reason(exc) == reason
+
+
+def test_files_written_together_appear_together_first_named_last(tmp_path, monkeypatch):
+    import os
+    renamed: list[str] = []
+    real = os.replace
+    monkeypatch.setattr(os, 'replace', lambda a, b: (renamed.append(Path(b).name), real(a, b))[1])
+    write_files({tmp_path / 'index.html': b'page', tmp_path / 'a.png': b'A', tmp_path / 'b.png': b'B'})
+    assert renamed == ['b.png', 'a.png', 'index.html']
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['a.png', 'b.png', 'index.html']
+    assert (tmp_path / 'index.html').read_bytes() == b'page'
+
+
+def test_files_written_together_none_if_the_disk_fills(small_tmpfs):
+    """The second file does not fit: neither is written, the earlier ones stay as they were."""
+    from test.conftest import fill
+    write_files({small_tmpfs / 'index.html': b'old page', small_tmpfs / 'a.png': b'old A'})
+    fill(small_tmpfs)
+    import os
+    os.truncate(small_tmpfs / 'filler.bin', os.path.getsize(small_tmpfs / 'filler.bin') - 8192)  # room for one
+    with pytest.raises(OutputError, match=r'^cannot write .*a\.png: No space left on device$'):
+        write_files({small_tmpfs / 'index.html': b'new page', small_tmpfs / 'a.png': b'x' * 100_000})
+    assert (small_tmpfs / 'index.html').read_bytes() == b'old page'
+    assert (small_tmpfs / 'a.png').read_bytes() == b'old A'
+    assert sorted(p.name for p in small_tmpfs.iterdir()) == ['a.png', 'filler.bin', 'index.html']
+

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from steer_monitor.atomic import ensure_dir, write_bytes, write_text
+from steer_monitor.atomic import ensure_dir, write_files
 from steer_monitor.estimate.analyze import Analysis
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.hardover import pumps_running
@@ -294,10 +294,7 @@ def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
         'residual': residual_figure(inp.analysis) if inp.analysis is not None else _message_fig(inp.analysis_note),
         'hardover': _hardover(r, tx, inp),
     }
-    images: dict[str, bytes] = {}
-    for key, fig in figs.items():
-        images[key] = _png(fig)
-        write_bytes(out_dir / f'{key}.png', images[key])
+    images = {key: _png(fig) for key, fig in figs.items()}
     esc = html.escape
     verdict = _verdict_block(inp)
     span_h = (int(r.t_ns[-1]) - t0) / 3.6e12 if len(r.t_ns) else 0.0
@@ -375,5 +372,7 @@ paper 000 (backlash from the fits).</p>
 </body></html>
 """
     path = out_dir / 'index.html'
-    write_text(path, page)     # last: a page is never there without its plots
+    # all or none (a full disk does not leave new plots beside an earlier page); the page
+    # renamed last, so it is never there without its plots
+    write_files({path: page.encode('utf-8'), **{out_dir / f'{key}.png': png for key, png in images.items()}})
     return path

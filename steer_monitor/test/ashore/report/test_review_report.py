@@ -146,3 +146,30 @@ def test_clearances_of_jointstate_recordings_are_read(tmp_path):
     assert track is not None and track.t_ns.tolist() == [1_700_000_000_000_000_000]
     assert math.isclose(track.two_z[0], 0.6e-3) and math.isclose(track.z_gb_hi[0], 0.27e-3)
     assert math.isnan(track.two_z_hi[0])
+
+
+def test_a_page_that_cannot_be_written_whole_leaves_the_earlier_one(tmp_path, logs, capsys, monkeypatch):
+    """The disk fills while the page's files are written (here: the fourth file's flush to disk
+    fails with ENOSPC): one line, and the directory holds the earlier page and plots as they
+    were, not new plots beside an old page, nor any temporary."""
+    import errno
+    import os
+
+    import steer_monitor.atomic as atomic
+    out = tmp_path / 'rep'
+    assert cli.main(['report', str(logs['log']), '--out', str(out), '--analysis-hours', '0']) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert sorted(before) == sorted(['index.html'] + [f'{k}.png' for k in PLOTS])
+    calls = []
+
+    def fsync(fd: int) -> None:
+        calls.append(fd)
+        if len(calls) == 4:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    monkeypatch.setattr(atomic.os, 'fsync', fsync)
+    capsys.readouterr()
+    assert cli.main(['report', str(logs['replay']), '--out', str(out), '--analysis-hours', '0']) == 1
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and re.fullmatch(r'steer-monitor report: error: cannot write .*\.png: No space left on '
+                                          r'device', err[0]), err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
