@@ -210,10 +210,29 @@ class Moments:
 
     @classmethod
     def from_arrays(cls, d: dict[str, NDArray]) -> Moments:
-        return cls(tuple(str(x) for x in d['z_names']), np.asarray(d['keys'], np.int64),
-                   np.asarray(d['count'], float), np.asarray(d['sum_abs_alpha'], float),
-                   np.asarray(d['sum_speed_sq'], float), np.asarray(d['mean'], float),
-                   np.asarray(d['scatter'], float))
+        """The moments of :meth:`to_arrays`. ValueError naming what does not fit when the
+        arrays are not such moments (shapes, key order, counts, values), rather than moments
+        that fail later, in a fit."""
+        z_names = tuple(str(x) for x in np.asarray(d['z_names']).reshape(-1))
+        keys = np.asarray(d['keys'], np.int64)
+        count, sum_abs_alpha, sum_speed_sq = (np.asarray(d[k], float) for k in ('count', 'sum_abs_alpha',
+                                                                                  'sum_speed_sq'))
+        mean, scatter = np.asarray(d['mean'], float), np.asarray(d['scatter'], float)
+        b, q = keys.size, len(z_names) + 2
+        shapes = {'keys': (keys.shape, (b,)), 'count': (count.shape, (b,)),
+                  'sum_abs_alpha': (sum_abs_alpha.shape, (b,)), 'sum_speed_sq': (sum_speed_sq.shape, (b,)),
+                  'mean': (mean.shape, (b, q)), 'scatter': (scatter.shape, (b, q, q))}
+        for name, (got, want) in shapes.items():
+            if got != want:
+                msg = f'moments: {name} has shape {got}, expected {want}'
+                raise ValueError(msg)
+        if b > 1 and not bool(np.all(np.diff(keys) > 0)):
+            msg = 'moments: bin keys not in increasing order'
+            raise ValueError(msg)
+        if not (np.all(count >= 0) and np.all(np.isfinite(sum_abs_alpha))):
+            msg = 'moments: counts below 0 or not a number, or angle sums not finite'
+            raise ValueError(msg)
+        return cls(z_names, keys, count, sum_abs_alpha, sum_speed_sq, mean, scatter)
 
 
 def rows_from_observations(obs: Observations, z: dict[str, NDArray[np.float64]] | None = None,

@@ -332,27 +332,58 @@ class OnlineEstimator:
             with np.load(path, allow_pickle=False) as d:
                 meta = json.loads(str(d['meta']))
                 arrays = {k: d[k] for k in d.files if k != 'meta'}
-        except (OSError, ValueError, KeyError) as exc:
-            msg = f'estimator state {path}: cannot read it ({exc})'
+        except Exception as exc:   # noqa: BLE001 - numpy's and zipfile's own errors (BadZipFile, a header
+            # numpy cannot parse, ...) on a damaged file: all mean the same to the caller
+            msg = f'estimator state {path}: cannot read it ({type(exc).__name__}: {exc})'
             raise EstimateError(msg) from exc
-        if meta.get('version') != STATE_VERSION:
-            msg = f'estimator state {path}: format version {meta.get("version")}, this build reads {STATE_VERSION}'
+        if not isinstance(meta, dict) or meta.get('version') != STATE_VERSION:
+            version = meta.get('version') if isinstance(meta, dict) else None
+            msg = f'estimator state {path}: format version {version}, this build reads {STATE_VERSION}'
             raise EstimateError(msg)
-        if not np.allclose(meta.get('gear', []), _gear_signature(self.gear)):
+        try:
+            same_gear = bool(np.allclose(meta.get('gear', []), _gear_signature(self.gear)))
+            state = self._state_of(meta, arrays) if same_gear else None
+        except (ValueError, TypeError, KeyError) as exc:
+            msg = f'estimator state {path}: damaged ({exc}); not used'
+            raise EstimateError(msg) from exc
+        if state is None:
             msg = f'estimator state {path}: learned on another gear geometry; not used'
             raise EstimateError(msg)
-        self.moments = Moments.from_arrays(arrays)
-        self.motion_s = float(meta.get('motion_s', 0.0))
-        self._vif = float(meta.get('vif', 1.0))
-        self._best = tuple(meta['best']) if meta.get('best') else None  # type: ignore[assignment]
-        self._coef = arrays.get('coef')
-        self._motion_since_full = float(meta.get('motion_since_full', 0.0))
+        self.moments, self.motion_s, self._vif, self._best, self._coef, self._motion_since_full = state
         if meta.get('estimate') is not None and self._best is not None:
             # the estimate as it was (a fresh full profile could land elsewhere on a flat
             # profile than the local steps had; the next full profile comes on schedule)
             self.estimate = _estimate_from_json(meta['estimate'])
         elif self.moments.samples >= MIN_MOTION_SAMPLES:
             self._full()
+
+    def _state_of(self, meta: dict, arrays: dict[str, NDArray]) -> tuple:
+        """The learned state a saved file holds, checked to fit this estimator (ValueError,
+        TypeError or KeyError naming what does not): a file that was damaged yet still
+        parses must be refused here, not fail at the next refit."""
+        moments = Moments.from_arrays(arrays)
+        if moments.z_names != (SPEED_Z,):
+            msg = f'moments of columns {list(moments.z_names)}, expected {[SPEED_Z]}'
+            raise ValueError(msg)
+        best = tuple(int(i) for i in meta['best']) if meta.get('best') else None
+        if best is not None and not (len(best) == 2 and 0 <= best[0] < self.grid_2z.size
+                                     and 0 <= best[1] < self.grid_zgb.size):
+            msg = f'best grid point {best} outside the grid ({self.grid_2z.size} x {self.grid_zgb.size})'
+            raise ValueError(msg)
+        coef = arrays.get('coef')
+        if coef is not None:
+            coef = np.asarray(coef, float)
+            if coef.ndim != 1 or coef.size < self.basis.size + 3 or not np.all(np.isfinite(coef)):
+                msg = f'fitted coefficients of shape {coef.shape}, expected ({self.basis.size + 3},) or more, finite'
+                raise ValueError(msg)
+        numbers = [float(meta.get(k, d)) for k, d in (('motion_s', 0.0), ('vif', 1.0), ('motion_since_full', 0.0))]
+        if not all(math.isfinite(x) and x >= 0 for x in numbers):
+            msg = f'motion and inflation {numbers} must be finite and not negative'
+            raise ValueError(msg)
+        motion_s, vif, since_full = numbers
+        if meta.get('estimate') is not None:
+            _estimate_from_json(meta['estimate'])          # parses, or raises
+        return moments, motion_s, vif, best, coef, since_full
 
 
 def _iv_json(iv: Interval) -> list[float | None]:

@@ -3,6 +3,8 @@ restart from disk, and the errors of a bad state file."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from steer_monitor.can.decoder import Decoder, Sample
@@ -96,6 +98,71 @@ def test_state_of_another_gear_is_refused_and_nothing_is_lost(r18, db, smap, har
     with pytest.raises(EstimateError, match='cannot read it'):
         est.load(tmp_path / 'broken.npz')
     assert est.moments.samples > 0
+
+
+@pytest.fixture(scope='module')
+def saved_state(r18, db, smap, hard_over, tmp_path_factory):
+    _, sim = hard_over
+    est = OnlineEstimator(r18)
+    _feed(est, sim, db, smap)
+    return est.save(tmp_path_factory.mktemp('state') / 'state.npz')
+
+
+def test_a_state_file_damaged_on_disk_is_refused(r18, saved_state, tmp_path):
+    """Bytes flipped anywhere in the file (zipfile's BadZipFile, numpy's header errors...
+    came out of load raw, and stopped the node at start): EstimateError every time."""
+    import random
+    data = saved_state.read_bytes()
+    for seed in range(60):
+        b = bytearray(data)
+        rng = random.Random(seed)
+        for _ in range(3):
+            b[rng.randrange(len(b))] ^= 0xFF
+        (tmp_path / 'flipped.npz').write_bytes(bytes(b))
+        est = OnlineEstimator(r18)
+        with pytest.raises(EstimateError, match=r'estimator state .*flipped\.npz: (cannot read it|damaged)'):
+            est.load(tmp_path / 'flipped.npz')
+        assert len(est.moments) == 0 and est.estimate is None
+
+
+def _rewritten(saved: Path, out: Path, **changes) -> Path:
+    import json
+    import numpy as np
+    with np.load(saved) as d:
+        arrays = {k: d[k] for k in d.files}
+    meta = json.loads(str(arrays['meta']))
+    for k, v in changes.items():
+        if k.startswith('meta_'):
+            meta[k[5:]] = v
+        else:
+            arrays[k] = v
+    arrays['meta'] = np.array(json.dumps(meta))
+    np.savez(out, **arrays)
+    return out
+
+
+@pytest.mark.parametrize('changes,message', [
+    ({'keys': [[1, 2], [3, 4]]}, r'keys has shape \(2, 2\)'),
+    ({'count': [1.0, 2.0]}, r'count has shape \(2,\), expected'),
+    ({'scatter': [0.0]}, r'scatter has shape \(1,\)'),
+    ({'z_names': ['torque']}, r"moments of columns \['torque'\]"),
+    ({'coef': [1.0, 2.0]}, r'fitted coefficients of shape \(2,\)'),
+    ({'meta_best': [99999, 0]}, r'best grid point \(99999, 0\) outside the grid'),
+    ({'meta_vif': -1.0}, r'must be finite and not negative'),
+    ({'meta_motion_s': 'a lot'}, r'could not convert string to float'),
+    ({'meta_estimate': {'two_z': 1}}, r'damaged'),
+])
+def test_a_state_file_that_parses_but_does_not_fit_is_refused(r18, saved_state, tmp_path, changes, message):
+    """Loaded before, these failed later, in a refit on the node's estimator thread."""
+    import numpy as np
+    changes = {k: (np.asarray(v) if not k.startswith('meta_') else v) for k, v in changes.items()}
+    path = _rewritten(saved_state, tmp_path / 'odd.npz', **changes)
+    est = OnlineEstimator(r18)
+    with pytest.raises(EstimateError, match=message):
+        est.load(path)
+    assert len(est.moments) == 0 and est.estimate is None
+    est.load(saved_state)                      # the file as saved loads
+    assert len(est.moments) > 0 and est.estimate is not None
 
 
 def test_out_of_order_and_unused_samples_are_ignored(r18: GearParams):
