@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 
+from steer_monitor.can.busclock import TIMESTAMP_MODES
 from steer_monitor.errors import ParameterError
 from steer_monitor.model.fits import parse_fit
 from steer_monitor.model.friction import FrictionParams
@@ -130,6 +131,10 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               'cylinder pressures below this are physically impossible [bar]', -10.0, 0.0),
     ParamSpec('can.max_pressure_bar', 'double', 400.0,
               'cylinder pressures above this are physically impossible [bar]', 0.0, 2000.0, True),
+    ParamSpec('can.timestamps', 'string', 'auto',
+              "frame times: 'auto' (the interface's while they agree with the host clock, else the "
+              "interface's intervals put on the host clock: adapters that count from power-up), 'bus' "
+              "(the interface's as they are) or 'host' (the host clock when read)"),
     ParamSpec('can.max_time_jump_s', 'double', 5.0,
               'a frame this far in time from the frames before and after it is a time jump, '
               'rejected unless about 0.5 s of frames confirm the new time (a clock step) [s]', 0.01, 86400.0, True),
@@ -280,6 +285,9 @@ def validate_params(values: Mapping[str, Any]) -> dict[str, Any]:
         else:
             out[spec.name] = spec.default
     # Cross-checks that give a clearer message than the records would.
+    if out['can.timestamps'] not in TIMESTAMP_MODES:
+        msg = f"parameter can.timestamps: expected one of {', '.join(TIMESTAMP_MODES)}, got {out['can.timestamps']!r}"
+        raise ParameterError(msg)
     if len(out['torque.angle_deg']) != len(out['torque.torque_knm']):
         msg = (f'parameter torque.torque_knm: has {len(out["torque.torque_knm"])} values but '
                f'torque.angle_deg has {len(out["torque.angle_deg"])}')

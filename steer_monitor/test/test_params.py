@@ -31,7 +31,7 @@ def test_every_spec_has_a_unit_or_is_unitless_by_nature():
     unitless = ('.name', '.rams', '.euler_amplification', '.pumps', '.new_fit', '.interface',
                 '.channel', '.bitrate', '.dbc_file', '.pgn', '.field', '.instance', '.source',
                 '.hardware_id', '.mu_bushing', '.mu_guide', '.enabled', '.directory', '.prefix',
-                '.state_file', '.address', '.device_name')
+                '.state_file', '.address', '.device_name', '.timestamps')
     for spec in PARAMETERS:
         assert spec.name.endswith(unitless + units), spec.name
 

@@ -2,15 +2,20 @@
 reopens a failed bus with backoff.
 
 The monitor only listens. :class:`ListenOnlyBus` has no working ``send``: it raises
-:class:`ListenOnlyError` and counts the attempt, so a test can prove no frame left.
+:class:`ListenOnlyError` and counts the attempt, so a test can prove no frame left. It puts
+the frames' times on the host's clock where the interface's are not UTC
+(:mod:`~steer_monitor.can.busclock`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import threading
+import time
 from collections.abc import Callable, Iterator
 from typing import Any
 
+from steer_monitor.can.busclock import BusClock
 from steer_monitor.can.frames import Frame
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
@@ -107,11 +112,15 @@ class ListenOnlyBus:
     None (cannot be told, or no controller: virtual, vcan); ``silent_how`` says how in words.
     """
 
-    def __init__(self, interface: str, channel: str, bitrate: int | None = None, **kwargs: Any) -> None:
+    def __init__(self, interface: str, channel: str, bitrate: int | None = None, timestamps: str = 'auto',
+                 **kwargs: Any) -> None:
         import can
         self.interface = interface
         self.channel = channel
         self.send_attempts = 0
+        #: the frames' times onto the host's clock where the interface's are not UTC
+        #: (:mod:`~steer_monitor.can.busclock`; ``timestamps``: auto, bus or host)
+        self.clock = BusClock(timestamps)
         options: dict[str, Any] = dict(kwargs)
         if bitrate is not None and interface not in ('virtual', 'socketcan'):
             options['bitrate'] = bitrate  # socketcan takes the bit rate from the link
@@ -161,7 +170,11 @@ class ListenOnlyBus:
         except (can.CanError, OSError, ValueError) as exc:
             msg = f'CAN bus {self.interface}:{self.channel} failed: {exc}'
             raise BusError(msg) from exc
-        return None if msg_ is None else frame_from_message(msg_, self.channel)
+        if msg_ is None:
+            return None
+        frame = frame_from_message(msg_, self.channel)
+        t_ns = self.clock(frame.t_ns, time.time_ns())
+        return frame if t_ns == frame.t_ns else dataclasses.replace(frame, t_ns=t_ns)
 
     def close(self) -> None:
         if not self._closed:

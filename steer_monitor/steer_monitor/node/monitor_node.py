@@ -31,6 +31,7 @@ from rclpy.serialization import serialize_message
 
 from steer_monitor.atomic import ensure_dir
 from steer_monitor.can.bus import BusReader, ListenOnlyBus
+from steer_monitor.can.busclock import BusClock
 from steer_monitor.can.decoder import Decoder
 from steer_monitor.can.frames import Frame
 from steer_monitor.can.rejects import RejectCounter
@@ -99,6 +100,8 @@ class MonitorNode(Node):
         self.frames_received = 0
         self._last_diag = time.monotonic()
         self._bus_mode: tuple[bool | None, str] = (None, 'bus not opened yet')
+        self._bus_clock: BusClock | None = None
+        self._clock_told: tuple[bool | None, int] = (None, 0)
         self._save_error: str | None = None    # the estimator state's last save failure, until one succeeds
         self._stop = threading.Event()
         self._closed = False
@@ -107,7 +110,7 @@ class MonitorNode(Node):
         jobs = self._start_estimator() if p['estimator.enabled'] else None
         self.pipeline = Pipeline(Decoder(db, smap, self.rejects), self.rejects, self.monitor, self.diag, jobs)
         interface, channel = p['can.interface'], p['can.channel']
-        opener = bus_opener or (lambda: ListenOnlyBus(interface, channel, p['can.bitrate']))
+        opener = bus_opener or (lambda: ListenOnlyBus(interface, channel, p['can.bitrate'], p['can.timestamps']))
         self.reader = BusReader(opener, self.rejects, p['can.reopen_backoff_initial_s'],
                                 p['can.reopen_backoff_max_s'], poll=POLL_S, batch=p['can.read_batch_ms'] * 1e-3,
                                 on_open=self._bus_opened, on_error=self._bus_failed)
@@ -129,8 +132,32 @@ class MonitorNode(Node):
                                     f'(tried again every {retry:g} s)')
 
     def _bus_opened(self, bus: ListenOnlyBus) -> None:
-        """Keep what the bus handle says of its controller, for the CAN bus status."""
+        """Keep what the bus handle says of its controller and its clock, for the CAN bus status."""
         self._bus_mode = (getattr(bus, 'silent', None), getattr(bus, 'silent_how', 'not reported'))
+        self._bus_clock = getattr(bus, 'clock', None)
+        self._clock_told = (None, 0)
+
+    def _clock_text(self) -> str:
+        """What the frames' times are, in words; said in the log when it changes (the first
+        frame shows whether the interface keeps UTC; an adapter's clock may step later)."""
+        clock = self._bus_clock
+        if clock is None or clock.relative is None:
+            return 'no frame yet' if clock is not None else 'not reported'
+        if clock.mode != 'auto':
+            text = {'bus': "the interface's (can.timestamps: bus)", 'host': 'the host clock when read '
+                    '(can.timestamps: host)'}[clock.mode]
+        elif clock.relative:
+            text = (f"the interface's clock is not UTC ({clock.offset_ns / 1e9:+.3f} s from the host's): its "
+                    "intervals are kept, put on the host clock")
+        else:
+            text = "the interface's (UTC, as the host clock)"
+        if clock.steps:
+            text += f'; it stepped {clock.steps} time(s)'
+        told = (clock.relative, clock.steps)
+        if told != self._clock_told and (clock.relative or clock.steps):
+            self._clock_told = told
+            self.get_logger().warning(f'CAN frame times: {text}')
+        return text
 
     def _bus_failed(self, text: str | None) -> None:
         """A bus failure unlike the last one (the CAN bus status has it too), once, not at every
@@ -148,7 +175,8 @@ class MonitorNode(Node):
         p = self.params
         values = (('interface', f"{p['can.interface']}:{p['can.channel']}"),
                   ('controller_silent', {True: 'yes', False: 'no', None: 'unknown'}[silent]),
-                  ('controller_mode', how), ('last_bus_error', self.reader.last_error or 'none'))
+                  ('controller_mode', how), ('frame_times', self._clock_text()),
+                  ('last_bus_error', self.reader.last_error or 'none'))
         level = WARN if silent is False else OK
         message = how if silent is not None else f'listen-only cannot be confirmed: {how}'
         return Status('steer_monitor: CAN bus', level, message, p['node.hardware_id'], values)

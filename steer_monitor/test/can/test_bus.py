@@ -265,3 +265,40 @@ def test_transmit_refusal(interface, channel, refused):
     from steer_monitor.can.bus import transmit_refusal
     got = transmit_refusal(interface, channel)
     assert (got is None) if refused is None else got.startswith(refused)
+
+
+class _AdapterSincePowerUp:
+    """A python-can bus whose timestamps count from the adapter's power-up (gs_usb), 10 ms
+    apart from 1,000 s."""
+
+    def __init__(self) -> None:
+        self.t = 1000.0
+
+    def recv(self, timeout=None):
+        self.t += 0.01
+        return can.Message(timestamp=self.t, arbitration_id=0x09F10D10, data=bytes(8), is_extended_id=True)
+
+    def shutdown(self) -> None:
+        pass
+
+
+@pytest.mark.parametrize('mode', ['auto', 'bus', 'host'])
+def test_frame_times_of_an_adapter_that_does_not_keep_utc(channel, mode):
+    import time
+    bus = ListenOnlyBus('virtual', channel, timestamps=mode)
+    bus._bus.shutdown()
+    bus._bus = _AdapterSincePowerUp()
+    try:
+        before = time.time_ns()
+        frames = [bus.recv(0.1) for _ in range(5)]
+        after = time.time_ns()
+    finally:
+        bus.close()
+    t = [f.t_ns for f in frames]
+    if mode == 'bus':                       # as the interface says: 1970
+        assert t[0] == 1000_010_000_000
+    else:                                   # on the host's clock (the first frame's reading)
+        assert before <= t[0] <= after
+    if mode != 'host':                      # the interface's intervals (to the 100 ppm slew in auto)
+        assert all(abs(b - a - 10_000_000) <= 1_000 for a, b in zip(t, t[1:])), t
+    assert bus.clock.relative is (True if mode == 'auto' else None)

@@ -99,6 +99,7 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
         bus = _values(d['steer_monitor: CAN bus'])   # a virtual bus: no controller to make silent
         assert _level(d['steer_monitor: CAN bus']) == OK and bus['controller_silent'] == 'unknown'
         assert bus['interface'] == f'virtual:{channel}' and bus['last_bus_error'] == 'none'
+        assert bus['frame_times'] == "the interface's (UTC, as the host clock)"   # python-can's virtual bus
         cl = _values(d['steer_monitor: clearances'])
         gb = d['steer_monitor: guide beam']
         # the onset the model gives for the clearances in use (10 deg at the true ones; about
@@ -286,6 +287,7 @@ def test_signal_finishes_the_recording(tmp_path, sig):
     ('can.dbc_file:=missing.dbc', 'missing.dbc'),
     ('signals.rudder_angle.field:=Nope', 'signals.rudder_angle.field'),
     ('gear.bogus_m:=1.0', 'gear.bogus_m'),
+    ('can.timestamps:=gps', "parameter can.timestamps: expected one of auto, bus, host, got 'gps'"),
     ('recording.max_file_mb:=64', 'recording.max_file_mb: expected double, got 64 (ROS reads a whole number as an '
                                   'integer: write 64.0)'),
 ])
@@ -441,3 +443,53 @@ def test_a_defect_that_recurs_every_frame_is_logged_at_most_every_ten_seconds(tm
         h.close()
     lines = [ln for ln in capfd.readouterr().err.splitlines() if 'frame not processed: a defect' in ln]
     assert len(lines) == 1, lines
+
+
+def test_an_adapter_whose_clock_is_not_utc_is_put_on_the_host_clock(tmp_path, capfd, monkeypatch, r18_params,
+                                                                     db, smap):
+    """An adapter that stamps frames from its power-up (gs_usb/candleLight): the node's states
+    and diagnostics are dated by the host's clock, not 1970; the CAN bus status and one
+    warning say so."""
+    import steer_monitor.node.monitor_node as M
+    from steer_monitor.can.bus import message_from_frame
+    frames = list(sim.run(r18_params, sim.SimConfig(program='hold:3'), db, smap, seed=5).frames.frames())
+    t0 = frames[0].t_ns
+
+    class SincePowerUp:
+        def __init__(self) -> None:
+            self.i, self.start = 0, time.monotonic()
+
+        def recv(self, timeout=None):
+            if self.i >= len(frames):
+                time.sleep(timeout or 0.01)
+                return None
+            f = frames[self.i]
+            due = self.start + (f.t_ns - t0) / 1e9
+            time.sleep(max(0.0, due - time.monotonic()))
+            self.i += 1
+            msg = message_from_frame(f)
+            msg.timestamp = 1000.0 + (f.t_ns - t0) / 1e9      # seconds since the adapter powered up
+            return msg
+
+        def shutdown(self) -> None:
+            pass
+
+    class Adapter(M.ListenOnlyBus):
+        def __init__(self, *a, **k) -> None:
+            super().__init__(*a, **k)
+            self._bus.shutdown()
+            self._bus = SincePowerUp()
+
+    monkeypatch.setattr(M, 'ListenOnlyBus', Adapter)
+    h = Harness(tmp_path, f'clock-{uuid.uuid4().hex[:6]}')
+    try:
+        start = time.time_ns()
+        d = h.wait_for(lambda d: 'not UTC' in _values(d['steer_monitor: CAN bus'])['frame_times'], 20.0)
+        stamp = h.diags[-1].header.stamp
+        bus = _values(d['steer_monitor: CAN bus'])
+    finally:
+        h.close()
+    assert abs(stamp.sec * 1e9 + stamp.nanosec - start) < 30e9, stamp      # today, not 1970
+    assert bus['frame_times'].startswith("the interface's clock is not UTC (+"), bus
+    told = [ln for ln in capfd.readouterr().err.splitlines() if 'CAN frame times:' in ln]
+    assert len(told) == 1 and '[WARN]' in told[0], told
