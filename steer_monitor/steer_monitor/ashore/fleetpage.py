@@ -13,10 +13,9 @@ from typing import Any
 import numpy as np
 
 from steer_monitor.ashore.fleet import FleetRun, fleet_json, vessel_trends
-from steer_monitor.atomic import write_text
 from steer_monitor.estimate.trend import Z95
 
-__all__ = ['write_fleet_page']
+__all__ = ['fleet_page']
 
 
 def _plot(rs: list[Any], params: dict[str, Any]) -> str:
@@ -64,8 +63,8 @@ def _plot(rs: list[Any], params: dict[str, Any]) -> str:
     return base64.b64encode(buf.getvalue()).decode('ascii')
 
 
-def write_fleet_page(run: FleetRun, path: str | Path) -> Path:
-    """Write the page (self-contained: plots inlined); returns its path."""
+def fleet_page(run: FleetRun) -> str:
+    """The page's HTML (self-contained: plots inlined)."""
     esc = html.escape
     data = fleet_json(run)
     parts = []
@@ -99,9 +98,7 @@ analysed in this run, {data['reused']} kept from earlier runs, {len(data['failed
 {''.join(parts)}
 </body></html>
 """
-    path = Path(path)
-    write_text(path, page)
-    return path
+    return page
 
 
 def _log_cell(lg: dict[str, Any]) -> str:

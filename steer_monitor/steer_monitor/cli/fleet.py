@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
-from steer_monitor.atomic import ensure_dir, write_text
+from steer_monitor.atomic import ensure_dir, write_files
 from steer_monitor.cli.output import dump_json, report_read_errors
 
 __all__ = ['register', 'run']
@@ -27,7 +27,7 @@ def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = N
     from tqdm import tqdm
 
     from steer_monitor.ashore.fleet import fleet_json, run_fleet
-    from steer_monitor.ashore.fleetpage import write_fleet_page
+    from steer_monitor.ashore.fleetpage import fleet_page
 
     out = out or sys.stdout
     err = err or sys.stderr
@@ -42,8 +42,10 @@ def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = N
         fleet = run_fleet(dirs, out_dir, workers=workers, scheduler=scheduler, config=config, progress=progress,
                           reports=reports)
     data = fleet_json(fleet)
-    write_text(out_dir / 'fleet.json', json.dumps(data, indent=2, allow_nan=False) + '\n')
-    page = write_fleet_page(fleet, out_dir / 'index.html')
+    page = out_dir / 'index.html'
+    # the two together or neither (a full disk does not leave a new fleet.json beside an old page)
+    write_files({page: fleet_page(fleet).encode('utf-8'),
+                 out_dir / 'fleet.json': (json.dumps(data, indent=2, allow_nan=False) + '\n').encode('utf-8')})
     if as_json:
         dump_json(data, out)
     else:
