@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import os
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import IO, Any
 
@@ -44,11 +44,16 @@ def ensure_dir(path: str | Path) -> Path:
     return p
 
 
-def check_target(path: str | Path) -> None:
+def check_target(path: str | Path, inputs: Iterable[str | Path | None] = ()) -> None:
     """:class:`OutputError` now if ``path`` cannot be written later (a directory, no parent
-    directory, a parent without write permission): commands that work for minutes before
-    they write check their outputs first."""
+    directory, a parent without write permission), or if it is one of the command's
+    ``inputs`` (a log, a parameters file: written, the output would replace what it was made
+    from): commands that work for minutes before they write check their outputs first."""
     target = Path(path)
+    for source in inputs:
+        if source is not None and _same_file(target, Path(source)):
+            msg = f'cannot write {target}: it is the input {source}; give another output'
+            raise OutputError(msg)
     try:
         is_dir, parent_is_dir = target.is_dir(), target.parent.is_dir()
     except OSError as exc:          # e.g. a name too long for the file system
@@ -63,6 +68,15 @@ def check_target(path: str | Path) -> None:
     if not os.access(target.parent, os.W_OK):
         msg = f'cannot write {target}: {target.parent} is not writable'
         raise OutputError(msg)
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether two paths name one file (through links, ``..`` and the like); False when
+    either does not exist."""
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return False
 
 
 NAME_MAX = 255      # bytes in one file name on the file systems a log goes to (ext4, xfs, btrfs, tmpfs)

@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from steer_monitor.atomic import atomic_path, os_reason
+from steer_monitor.atomic import atomic_path, check_target, os_reason
 from steer_monitor.can.decoder import DecodedRun, Decoder, Sample
 from steer_monitor.can.fastlogs import in_time_order, iter_log_blocks
 from steer_monitor.can.frames import Frame, FrameArrays
@@ -92,6 +92,7 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
         problem = log_path_problem(p)
         if problem is not None:
             raise ReplayError(problem)
+    check_target(output, [*paths, config])
     config_path, params, db, smap = load_setup(config)
     gear = gear_from_params(params)
     rejects = RejectCounter()

@@ -270,7 +270,7 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
     can_setup(params, config_path)   # a bad config fails here, not in every worker
     for target in (out_md, json_out):     # before an hour of work, not after
         if target is not None and str(target) != '-':
-            check_target(target)
+            check_target(target, [config_path])
     from tqdm import tqdm
     jobs = jobs or min(len(todo), os.cpu_count() or 1)
     bar = tqdm(total=len(todo), unit='log', disable=not sys.stderr.isatty(), file=sys.stderr, desc='accuracy')

@@ -172,7 +172,7 @@ def run(path: str | Path, config: str | Path | None = None, json_out: str | Path
     check_logs([path])
     for target in (json_out, report):     # before minutes of work, not after
         if target is not None and str(target) != '-':
-            check_target(target)
+            check_target(target, [path, config])
     t0 = time.perf_counter()
     date_notes('analyze', [path], date, err)
     a, result = analyze_log(path, config, progress=sys.stderr.isatty(), date=date)

@@ -142,7 +142,7 @@ def run(paths: Sequence[str | Path], config: str | Path | None = None, date: dat
     out = out or sys.stdout
     err = err or sys.stderr
     if write is not None:
-        check_target(write)
+        check_target(write, [*paths, config, pgn_database])
     date_notes('discover', paths, date, err)
     setup = load_setup(config)
     d = discover(paths, setup, date, pgn_database)

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-from steer_monitor.atomic import atomic_path, os_reason, write_text
+from steer_monitor.atomic import atomic_path, check_target, os_reason, write_text
 from steer_monitor.can.logs import LogError, LogWriter
 from steer_monitor.can.setup import load_setup
 from steer_monitor.cli.output import dump_json
@@ -81,6 +81,9 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
     if not (math.isfinite(speed_factor) and speed_factor >= 0):
         msg = f'--speed-factor must be >= 0 (0: as fast as possible), got {speed_factor!r}'
         raise ParameterError(msg)
+    if out_path is not None:          # before the simulation, not after
+        for target in (Path(out_path), truth_path(Path(out_path))):
+            check_target(target, [config])
     _, params, db, smap = load_setup(config)
     configured = gaps_from_params(params)
     gaps = Gaps.from_mm(configured.two_z * 1e3 if gap_2z_mm is None else gap_2z_mm,

@@ -325,6 +325,37 @@ def test_a_generous_max_duration_costs_nothing_and_a_cut_is_said(tmp_path, capsy
     assert rc == 0 and 'simulated hard_over_2 for 30.0 s (cut at --max-duration 30 s):' in out, (lines, out)
 
 
+@pytest.mark.parametrize('argv', [
+    ['replay', '{log}', '--out', '{log}'],
+    ['replay', '{log}', '--out', '{link}'],                     # the same file through a link
+    ['analyze', '{log}', '--json', '{log}'],
+    ['analyze', '{log}', '--report', '{tmp}/../{tmpname}/short.log'],
+    ['discover', '{log}', '--write-config', '{log}'],
+    ['discover', '{log}', '--config', '{cfg}', '--write-config', '{cfg}'],
+    ['accuracy', '--config', '{cfg}', '--out', '{cfg}'],
+    ['simulate', '--config', '{cfg}', '--out', '{cfglog}'],
+])
+def test_an_output_that_is_an_input_is_refused_and_the_input_kept(base, tmp_path, capsys, argv):
+    """`replay X --out X` replaced the log with its replay, `discover X --write-config X` with
+    a YAML file: the measurements lost. Refused before any work, naming both."""
+    import shutil
+    log = tmp_path / 'short.log'
+    shutil.copy(base['log'], log)
+    (tmp_path / 'link.log').symlink_to(log)
+    cfg = tmp_path / 'c.yaml'
+    shutil.copy(PKG / 'config' / 'r18.yaml', cfg)
+    shutil.copy(PKG / 'config' / 'nmea2000_steering.dbc', tmp_path)
+    (tmp_path / 'c.log').symlink_to(cfg)                       # a parameters file a log's name leads to
+    fill = {'log': str(log), 'link': str(tmp_path / 'link.log'), 'tmp': str(tmp_path), 'tmpname': tmp_path.name,
+            'cfg': str(cfg), 'cfglog': str(tmp_path / 'c.log')}
+    before = {p: p.read_bytes() for p in (log, cfg)}
+    rc, lines, _ = _run(capsys, [a.format(**fill) for a in argv])
+    assert rc == 1 and len(lines) == 1, lines
+    assert re.fullmatch(rf'steer-monitor {argv[0]}: error: cannot write .*: it is the input '
+                        rf'({re.escape(str(log))}|{re.escape(str(cfg))}); give another output', lines[0]), lines
+    assert {p: p.read_bytes() for p in before} == before
+
+
 def test_recover_of_a_loop_of_links_is_one_line(tmp_path, capsys):
     (tmp_path / 'a.mcap').symlink_to(tmp_path / 'b.mcap')
     (tmp_path / 'b.mcap').symlink_to(tmp_path / 'a.mcap')
