@@ -55,14 +55,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     single_blas_thread()
     where = f'steer-monitor {args.command}'
-    previous = None
-    if args.command not in OWN_SIGTERM and threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGTERM, _terminate)
+    ours = args.command not in OWN_SIGTERM and threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if ours else None
     try:
         return _dispatch(args, where)
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        if ours:       # None: a handler not set from Python, which cannot be put back: the default
+            signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
 
 
 def _dispatch(args: argparse.Namespace, where: str) -> int:
