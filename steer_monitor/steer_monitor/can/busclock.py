@@ -43,7 +43,8 @@ TIMESTAMP_MODES = ('auto', 'bus', 'host')
 @dataclass
 class BusClock:
     """One bus opening's mapping (see the module docstring). ``relative``: None before the
-    first frame, then whether the interface's times are taken as a clock of their own."""
+    first frame, then whether the interface's times are taken as a clock of their own and
+    put on the host's (always False in the ``bus`` and ``host`` modes)."""
 
     mode: str = 'auto'
     ahead_ns: int = 1_000_000_000
@@ -62,10 +63,9 @@ class BusClock:
     def __call__(self, bus_ns: int, host_ns: int) -> int:
         """The data time [ns] of a frame the interface stamped ``bus_ns``, read at host time
         ``host_ns`` (both integer nanoseconds)."""
-        if self.mode == 'bus':
-            return bus_ns
-        if self.mode == 'host':
-            return host_ns
+        if self.mode != 'auto':
+            self.relative = False
+            return bus_ns if self.mode == 'bus' else host_ns
         lag = host_ns - (bus_ns + self.offset_ns)          # > 0: the mapped time is behind the host's
         if self.relative is None:
             self.relative = not -self.ahead_ns <= lag <= self.behind_ns

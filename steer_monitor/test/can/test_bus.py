@@ -301,4 +301,4 @@ def test_frame_times_of_an_adapter_that_does_not_keep_utc(channel, mode):
         assert before <= t[0] <= after
     if mode != 'host':                      # the interface's intervals (to the 100 ppm slew in auto)
         assert all(abs(b - a - 10_000_000) <= 1_000 for a, b in zip(t, t[1:])), t
-    assert bus.clock.relative is (True if mode == 'auto' else None)
+    assert bus.clock.relative is (mode == 'auto')

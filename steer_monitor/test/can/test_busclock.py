@@ -36,7 +36,7 @@ def test_a_utc_interface_is_left_as_it_is(mode):
     clock = BusClock(mode)
     got = _map(clock, bus, host)
     assert np.array_equal(got, host if mode == 'host' else bus)
-    assert clock.steps == 0 and clock.relative is (None if mode != 'auto' else False)
+    assert clock.steps == 0 and clock.relative is False
 
 
 @pytest.mark.parametrize('bus0', [1_000 * S,                                 # gs_usb: since the adapter's power-up
