@@ -281,9 +281,14 @@ class Recorder:
     def _open(self, log_time_ns: int, now: float) -> None:
         self.directory.mkdir(parents=True, exist_ok=True)
         stamp = datetime.fromtimestamp(log_time_ns / 1e9, tz=timezone.utc).strftime('%Y%m%dT%H%M%SZ')
-        self._index += 1
-        path = self.directory / f'{self.prefix}_{stamp}_{self._index:03d}.mcap'
-        stream = open(path, 'wb')
+        while True:     # never over a recording already there (a restart in the same second, a second node)
+            self._index += 1
+            path = self.directory / f'{self.prefix}_{stamp}_{self._index:03d}.mcap'
+            try:
+                stream = open(path, 'xb')
+                break
+            except FileExistsError:
+                continue
         try:
             writer = McapWriter(stream, chunk_size=self.chunk_size)
             for name, data in self.metadata.items():

@@ -108,8 +108,20 @@ def _wait(cond, timeout=5.0):
         time.sleep(0.005)
 
 
-def test_disk_full_is_reported_and_recording_resumes(tmp_path):
-    (tmp_path / 'steer_monitor_20260101T000000Z_001.mcap').symlink_to('/dev/full')
+def test_disk_full_is_reported_and_recording_resumes(tmp_path, monkeypatch):
+    import builtins
+
+    import steer_monitor.record.recorder as R
+    opened: list[str] = []
+
+    def first_file_on_dev_full(path, mode='r', *a, **k):      # the first file's writes fail with ENOSPC
+        opened.append(str(path))
+        if len(opened) == 1:
+            with open(path, mode):                            # made, as on a full disk
+                pass
+            return builtins.open('/dev/full', 'wb')
+        return builtins.open(path, mode, *a, **k)
+    monkeypatch.setattr(R, 'open', first_file_on_dev_full, raising=False)
     clock = [0.0]
     told: list[str | None] = []
     rec = Recorder(tmp_path, retry_s=5.0, clock=lambda: clock[0], on_error=told.append)
@@ -127,7 +139,7 @@ def test_disk_full_is_reported_and_recording_resumes(tmp_path):
         assert not st.ok and 'No space left on device' in st.message
         # nothing of the first file reached the device: it is removed, not left empty
         assert rec.status().files == 0 and not rec.files
-        assert not (tmp_path / 'steer_monitor_20260101T000000Z_001.mcap').exists()
+        assert not Path(opened[0]).exists()
         clock[0] = 7.0   # past retry_s: a new file, but ERROR until a write reaches the disk
         for i in range(201, 260):
             rec.write_frame(_frame(i))
@@ -224,6 +236,19 @@ def test_a_disk_full_from_the_start_leaves_no_empty_file(full_tmpfs):
     assert 'No space left on device' in st.message
     assert st.files == 0 and st.messages == 0 and st.failed == 501
     assert sorted(p.name for p in full_tmpfs.iterdir()) == ['filler.bin']
+
+
+def test_a_recording_already_there_is_never_overwritten(tmp_path):
+    """A node restarted within the same second of data, or a second node with the same prefix
+    in the directory: the next free number, never the file already there."""
+    first = tmp_path / 'steer_monitor_20260101T000000Z_001.mcap'
+    first.write_bytes(b'an earlier recording')
+    with Recorder(tmp_path) as rec:
+        for i in range(10):
+            rec.write_frame(_frame(i))
+    assert first.read_bytes() == b'an earlier recording'
+    assert [p.name for p in rec.files] == ['steer_monitor_20260101T000000Z_002.mcap']
+    assert len(_read_all(rec.files[0])[FRAME_TOPIC]) == 10
 
 
 def test_read_only_location_is_reported_not_raised():
