@@ -149,7 +149,7 @@ def write_files(files: Mapping[str | Path, bytes]) -> None:
     removed and the files already there are untouched); then all renamed, in the reverse of
     the mapping's order, so that the first named (a page, say, before the plots it goes with)
     appears last."""
-    done: list[tuple[Path, Path]] = []         # (temporary, target), written whole
+    done: list[tuple[Path, Path]] = []         # (temporary, target) of each temporary made
     target = Path()
     try:
         for path, data in files.items():

@@ -21,6 +21,9 @@ ARCMIN = math.radians(1.0 / 60.0)
 
 def backlash_summary(chain_path: str | Path, angle_deg: float = 0.0,
                      limit_arcmin: float | None = None, basis: str = 'worst') -> dict[str, Any]:
+    if limit_arcmin is not None and not (math.isfinite(limit_arcmin) and limit_arcmin > 0):
+        msg = f'--limit-arcmin must be a positive number of arc minutes, got {limit_arcmin:g}'
+        raise ParameterError(msg)
     chain = load_chain(chain_path)
     if not abs(angle_deg) <= math.degrees(chain.max_rudder):
         msg = f'--angle-deg {angle_deg:g} is outside the chain\'s range +-{math.degrees(chain.max_rudder):g} deg'

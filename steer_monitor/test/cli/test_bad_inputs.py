@@ -463,6 +463,10 @@ def test_clock_step_of_years_is_bounded_by_the_data(base, tmp_path, capsys):
     (['simulate', '--max-duration', '0', '--out', '{tmp}/s.log'], '--max-duration must be more than 0 s, got 0.0'),
     (['simulate', '--seed', '-1', '--out', '{tmp}/s.log'], '--seed must be a whole number >= 0, got -1'),
     (['backlash', '{tmp}/missing.yaml'], 'cannot read chain file {tmp}/missing.yaml'),
+    (['backlash', str(PKG / 'config' / 'r18_chain.yaml'), '--limit-arcmin', '-1'],
+     '--limit-arcmin must be a positive number of arc minutes, got -1'),
+    (['backlash', str(PKG / 'config' / 'r18_chain.yaml'), '--limit-arcmin', 'nan'],
+     '--limit-arcmin must be a positive number of arc minutes, got nan'),
 ])
 def test_the_other_subcommands_fail_in_one_line_before_their_work(base, tmp_path, capsys, argv, phrase):
     """Outputs are checked before minutes of work (analyze, accuracy), not after; the node's
