@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from steer_monitor.atomic import atomic_path, ensure_dir
+from steer_monitor.errors import OutputError
 from steer_monitor.model.loadshare import LoadSharing
 from steer_monitor.model.study import GapSensitivity, Landmarks
 
@@ -58,12 +59,20 @@ def plot_load_sharing(alpha: NDArray[np.float64], res: LoadSharing, path: str | 
 
 
 def _save(plt: Any, fig: Any, path: str | Path) -> Path:
-    """Write ``fig`` to ``path`` (its directory made, the file whole or not at all); close it."""
+    """Write ``fig`` to ``path`` (its directory made, the file whole or not at all) in the
+    format its suffix names; close it. :class:`OutputError` for a suffix matplotlib does not
+    write (or none)."""
     path = Path(path)
-    ensure_dir(path.parent)
     try:
+        kinds = fig.canvas.get_supported_filetypes()
+        fmt = path.suffix[1:].lower()
+        if fmt not in kinds:
+            msg = (f'cannot write {path}: ' + (f"matplotlib does not write '.{fmt}' files" if fmt else 'no file type')
+                   + f"; give the plot one of {', '.join('.' + k for k in sorted(kinds))}")
+            raise OutputError(msg)
+        ensure_dir(path.parent)
         with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=110)
+            fig.savefig(tmp, dpi=110, format=fmt)
     finally:
         plt.close(fig)
     return path

@@ -460,6 +460,9 @@ def test_clock_step_of_years_is_bounded_by_the_data(base, tmp_path, capsys):
     (['run', '--params-file', '{tmp}/missing.yaml'], 'cannot read parameters file {tmp}/missing.yaml'),
     (['fit', '240 Q9/f9'], 'only hole-basis fits'),
     (['loadshare', '--step-deg', '1e-9'], '--step-deg must lie in [0.001, 5], got 1e-09'),
+    (['loadshare', '--plot', '{tmp}/fig.txt'], "cannot write {tmp}/fig.txt: matplotlib does not write '.txt' files; "
+                                               'give the plot one of .avif'),
+    (['loadshare', '--plot', '{tmp}/fig'], 'cannot write {tmp}/fig: no file type; give the plot one of'),
     (['simulate', '--max-duration', '0', '--out', '{tmp}/s.log'], '--max-duration must be more than 0 s, got 0.0'),
     (['simulate', '--seed', '-1', '--out', '{tmp}/s.log'], '--seed must be a whole number >= 0, got -1'),
     (['backlash', '{tmp}/missing.yaml'], 'cannot read chain file {tmp}/missing.yaml'),
