@@ -125,11 +125,11 @@ class MonitorNode(Node):
         """The recorder stopped reaching the disk (or reaches it again): in the log once, the
         recording status has it meanwhile."""
         if text is None:
-            self.get_logger().info(f'recording to {self.params["recording.directory"]} again')
+            self._log().info(f'recording to {self.params["recording.directory"]} again')
         else:
             retry = self.recorder.retry_s if self.recorder is not None else math.nan
-            self.get_logger().error(f'cannot record: {text}; messages are lost until a write reaches the disk '
-                                    f'(tried again every {retry:g} s)')
+            self._log().error(f'cannot record: {text}; messages are lost until a write reaches the disk '
+                              f'(tried again every {retry:g} s)')
 
     def _bus_opened(self, bus: ListenOnlyBus) -> None:
         """Keep what the bus handle says of its controller and its clock, for the CAN bus status."""
@@ -156,7 +156,7 @@ class MonitorNode(Node):
         told = (clock.relative, clock.steps)
         if told != self._clock_told and (clock.relative or clock.steps):
             self._clock_told = told
-            self.get_logger().warning(f'CAN frame times: {text}')
+            self._log().warning(f'CAN frame times: {text}')
         return text
 
     def _bus_failed(self, text: str | None) -> None:
@@ -164,9 +164,9 @@ class MonitorNode(Node):
         retry; None: the bus is open again."""
         p = self.params
         if text is None:
-            self.get_logger().info(f"CAN bus {p['can.interface']}:{p['can.channel']} open again")
+            self._log().info(f"CAN bus {p['can.interface']}:{p['can.channel']} open again")
         else:
-            self.get_logger().warning(f"{text}; trying again every {p['can.reopen_backoff_max_s']:g} s at most")
+            self._log().warning(f"{text}; trying again every {p['can.reopen_backoff_max_s']:g} s at most")
 
     def _bus_status(self) -> Status:
         """The node's own status of its bus: whether the controller is silent (listen-only),
@@ -197,7 +197,7 @@ class MonitorNode(Node):
                 except EstimateError as exc:
                     self.get_logger().warning(f'{exc}; starting the estimate afresh')
         self._last_save = time.monotonic()
-        return ThreadedEstimatorJobs(est, on_error=lambda exc: self.get_logger().error(
+        return ThreadedEstimatorJobs(est, on_error=lambda exc: self._log().error(
             f'estimator update failed: {exc}', throttle_duration_sec=GUARD_LOG_S), after=self._maybe_save)
 
     def _maybe_save(self) -> None:
@@ -215,7 +215,9 @@ class MonitorNode(Node):
     def _log(self) -> Any:
         """The node's logger while ROS runs; once a signal has shut the context down (the node
         is closing), a child logger that does not publish to /rosout, so a last line is not
-        followed by rcl's complaint that it could not be published."""
+        followed by rcl's complaint that it could not be published. For every line that may
+        come while closing: the recorder's, the bus reader's and the estimator's callbacks, the
+        statuses of the last outputs, the state saved."""
         if self.context.ok():
             return self.get_logger()
         import rclpy.logging
