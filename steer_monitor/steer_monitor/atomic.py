@@ -163,14 +163,11 @@ def write_files(files: Mapping[str | Path, bytes]) -> None:
                 os.fsync(fh.fileno())
         for tmp, target in reversed(done):
             os.replace(tmp, target)
-    except OSError as exc:
+    except BaseException as exc:
         for tmp, _ in done:
             with contextlib.suppress(OSError):
                 tmp.unlink()
-        msg = f'cannot write {target}: {os_reason(exc)}'
-        raise OutputError(msg) from exc
-    except BaseException:
-        for tmp, _ in done:
-            with contextlib.suppress(OSError):
-                tmp.unlink()
+        if isinstance(exc, OSError):
+            msg = f'cannot write {target}: {os_reason(exc)}'
+            raise OutputError(msg) from exc
         raise

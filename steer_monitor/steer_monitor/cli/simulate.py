@@ -161,7 +161,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--effect', action='append', default=[], metavar='NAME[:k=v,...]',
                    help=f'add an undeclared effect: {", ".join(sim.EFFECTS)}')
     p.add_argument('--no-noise', action='store_true', help='no sensor noise (quantisation stays)')
-    p.add_argument('--max-duration', type=float, default=7200.0, help='cut the programme after this many seconds (default: 7200)')
+    p.add_argument('--max-duration', type=float, default=7200.0, help='cut the programme after this many seconds (default: %(default)g)')
     p.add_argument('--json', action='store_true', help='print the truth as JSON')
     p.add_argument('--i-know-this-is-a-real-bus', dest='real_bus', action='store_true',
                    help='allow --bus on a hardware interface (the frames are sent onto that bus)')
