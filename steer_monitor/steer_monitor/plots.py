@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 from typing import Any
 
@@ -13,7 +14,7 @@ from steer_monitor.errors import OutputError
 from steer_monitor.model.loadshare import LoadSharing
 from steer_monitor.model.study import GapSensitivity, Landmarks
 
-__all__ = ['plot_gap_sensitivity', 'plot_load_sharing']
+__all__ = ['gap_sensitivity_png', 'load_sharing_png', 'plot_gap_sensitivity', 'plot_load_sharing']
 
 
 def _pyplot():
@@ -25,8 +26,21 @@ def _pyplot():
 
 def plot_load_sharing(alpha: NDArray[np.float64], res: LoadSharing, path: str | Path,
                       title: str, marks: Landmarks | None = None) -> Path:
-    """The paper's Fig. 7: (a) F_r and F_gb against rudder angle, (b) K_gl against angle."""
+    """The paper's Fig. 7 written to ``path`` in the format its suffix names."""
     plt = _pyplot()
+    return _save(plt, _load_sharing_figure(plt, alpha, res, title, marks), path)
+
+
+def load_sharing_png(alpha: NDArray[np.float64], res: LoadSharing, title: str,
+                     marks: Landmarks | None = None) -> bytes:
+    """The paper's Fig. 7 as PNG bytes (for outputs written together, :func:`~steer_monitor.atomic.write_files`)."""
+    plt = _pyplot()
+    return _png(plt, _load_sharing_figure(plt, alpha, res, title, marks))
+
+
+def _load_sharing_figure(plt: Any, alpha: NDArray[np.float64], res: LoadSharing, title: str,
+                         marks: Landmarks | None) -> Any:
+    """The paper's Fig. 7: (a) F_r and F_gb against rudder angle, (b) K_gl against angle."""
     deg = np.degrees(alpha)
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
     ax1.plot(deg, res.lateral / 1e3, color='0.6', ls='--', label='$F_l$ lateral')
@@ -55,7 +69,17 @@ def plot_load_sharing(alpha: NDArray[np.float64], res: LoadSharing, path: str | 
     ax2.set_title('(b) guide-beam load coefficient')
     ax2.grid(True, alpha=0.3)
     fig.suptitle(title)
-    return _save(plt, fig, path)
+    return fig
+
+
+def _png(plt: Any, fig: Any) -> bytes:
+    """``fig`` as PNG bytes, at the resolution :func:`_save` writes; closed."""
+    try:
+        buf = io.BytesIO()
+        fig.savefig(buf, dpi=110, format='png')
+        return buf.getvalue()
+    finally:
+        plt.close(fig)
 
 
 def _save(plt: Any, fig: Any, path: str | Path) -> Path:
@@ -79,8 +103,19 @@ def _save(plt: Any, fig: Any, path: str | Path) -> Path:
 
 
 def plot_gap_sensitivity(study: GapSensitivity, path: str | Path, title: str) -> Path:
-    """Peak K_gl against 2Z, one line per Z_gb."""
+    """Peak K_gl against 2Z written to ``path`` in the format its suffix names."""
     plt = _pyplot()
+    return _save(plt, _gap_sensitivity_figure(plt, study, title), path)
+
+
+def gap_sensitivity_png(study: GapSensitivity, title: str) -> bytes:
+    """Peak K_gl against 2Z as PNG bytes."""
+    plt = _pyplot()
+    return _png(plt, _gap_sensitivity_figure(plt, study, title))
+
+
+def _gap_sensitivity_figure(plt: Any, study: GapSensitivity, title: str) -> Any:
+    """Peak K_gl against 2Z, one line per Z_gb."""
     fig, ax = plt.subplots(figsize=(7, 4.2), constrained_layout=True)
     for j, z in enumerate(study.z_gb):
         ax.plot(study.two_z * 1e3, study.k_gl_max[:, j], marker='o', ms=3,
@@ -91,4 +126,4 @@ def plot_gap_sensitivity(study: GapSensitivity, path: str | Path, title: str) ->
     ax.grid(True, alpha=0.3)
     ax.legend()
     ax.set_title(title)
-    return _save(plt, fig, path)
+    return fig

@@ -2,12 +2,14 @@
 
 The new fit of ram and bushing, load sharing at the wear limits with the paper's landmarks
 beside ours, the paper's claim about 2Z checked against the model, and the example backlash
-chain; printed, plotted and saved as JSON in the output directory.
+chain; printed, plotted and saved as JSON in the output directory (the JSON and the two plots
+written together: all three or none).
 """
 
 from __future__ import annotations
 
 import argparse
+import io
 import math
 import sys
 from pathlib import Path
@@ -15,7 +17,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from steer_monitor.atomic import atomic_write, ensure_dir
+from steer_monitor.atomic import ensure_dir, write_files
 from steer_monitor.cli import backlash as backlash_cli
 from steer_monitor.cli.fit import fit_summary
 from steer_monitor.cli.loadshare import loadshare_rows
@@ -23,7 +25,7 @@ from steer_monitor.cli.output import dump_json, table
 from steer_monitor.model.gear import Gaps
 from steer_monitor.model.study import gap_sensitivity
 from steer_monitor.params import gear_from_params, load_params_file
-from steer_monitor.plots import plot_gap_sensitivity, plot_load_sharing
+from steer_monitor.plots import gap_sensitivity_png, load_sharing_png
 from steer_monitor.resources import default_config
 
 __all__ = ['STUDY_2Z_MM', 'STUDY_ZGB_MM', 'register', 'run']
@@ -65,9 +67,9 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None,
         ['K_gl over 21..35 deg', '0.50..0.59', '{:.2f}..{:.2f}'.format(
             *(lambda k: (k.min(), k.max()))(res.k_gl[np.degrees(alpha) >= 21.0 - 1e-9]))],
     ], out)
-    fig7 = plot_load_sharing(alpha, res, out_dir / 'fig7_load_sharing.png',
-                             f"{params['gear.name']} at the wear limits: 2Z = {limits.two_z * 1e3:.2f} mm, "
-                             f"Z_gb = {limits.z_gb * 1e3:.2f} mm", marks)
+    fig7 = out_dir / 'fig7_load_sharing.png'
+    fig7_png = load_sharing_png(alpha, res, f"{params['gear.name']} at the wear limits: 2Z = {limits.two_z * 1e3:.2f} mm, "
+                                f"Z_gb = {limits.z_gb * 1e3:.2f} mm", marks)
 
     study_alpha = np.radians(np.arange(0.0, math.degrees(gear.max_rudder) + 1e-9, 0.1))
     study = gap_sensitivity(gear, np.array(STUDY_2Z_MM) * 1e-3, np.array(STUDY_ZGB_MM) * 1e-3,
@@ -87,8 +89,8 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None,
               f'2Z >= 0.2 mm and falls to {study.k_gl_max[STUDY_2Z_MM.index(0.1), j25]:.3f} at 2Z = 0.1 mm,\n'
               '  because a ram clamped in bushing A is about 3x stiffer and keeps more of the load. '
               'What raises K_gl is a smaller Z_gb.\n')
-    gap_png = plot_gap_sensitivity(study, out_dir / 'gap_study.png',
-                                   f"{params['gear.name']}: peak K_gl against the clearances")
+    gap_png = out_dir / 'gap_study.png'
+    gap_png_bytes = gap_sensitivity_png(study, f"{params['gear.name']}: peak K_gl against the clearances")
 
     chain_path = default_config('r18_chain.yaml')
     out.write(f'\nBacklash of the example chain ({chain_path.name}):\n')
@@ -96,8 +98,10 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None,
     summary['backlash'] = backlash_cli.backlash_summary(chain_path, 0.0, 8.0)
 
     summary['files'] = {'fig7': str(fig7), 'gap_study': str(gap_png)}
-    with atomic_write(out_dir / 'summary.json', 'w', encoding='utf-8') as fh:
-        dump_json(summary, fh)
+    text = io.StringIO()
+    dump_json(summary, text)
+    # all three or none: a failure (a full disk) leaves an earlier run's set as it was
+    write_files({out_dir / 'summary.json': text.getvalue().encode('utf-8'), fig7: fig7_png, gap_png: gap_png_bytes})
     out.write(f'\nWrote {fig7}, {gap_png} and {out_dir / "summary.json"}\n')
     return 0
 

@@ -9,7 +9,7 @@ import pytest
 
 from steer_monitor.cli import backlash, fit, loadshare, study
 from steer_monitor.cli.main import main
-from test.conftest import PKG
+from test.conftest import PKG, fill
 
 CHAIN = PKG / 'config' / 'r18_chain.yaml'
 
@@ -100,6 +100,23 @@ def test_study_writes_plots_and_summary(tmp_path):
     assert all(a <= b + 1e-12 for a, b in zip(kmax, kmax[1:]))
     for name in ('fig7_load_sharing.png', 'gap_study.png'):
         assert (tmp_path / name).read_bytes()[:4] == b'\x89PNG'
+
+
+def test_study_writes_its_three_files_or_none_on_a_disk_that_fills_midway(tmp_path, small_tmpfs, capsys):
+    # room for the largest plot alone, not for it and the rest: the first files written one
+    # by one would have been left without the summary that lists them
+    assert study.run(tmp_path, None, io.StringIO()) == 0
+    sizes = {p.name: p.stat().st_size for p in tmp_path.iterdir()}
+    fill(small_tmpfs)
+    filler = small_tmpfs / 'filler.bin'
+    with open(filler, 'r+b') as fh:
+        fh.truncate(max(0, filler.stat().st_size - (sizes['fig7_load_sharing.png'] + 16384)))
+    out = small_tmpfs / 'study'
+    out.mkdir()
+    assert main(['study', '--out', str(out)]) == 1
+    err = capsys.readouterr().err
+    assert 'No space left on device' in err and err.count('\n') == 1 and 'Traceback' not in err
+    assert sorted(p.name for p in out.iterdir()) == []
 
 
 def test_console_script_help(capsys):
