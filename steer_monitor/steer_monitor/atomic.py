@@ -5,20 +5,31 @@ A reader (or a later run) never sees a half-written JSON, page, plot or MCAP: th
 ``os.replace`` (atomic on POSIX within one file system). On any error the temporary file is
 removed and an :class:`~steer_monitor.errors.OutputError` names the target and what the
 system said (no such directory, permission denied, disk full, ...).
+
+A writer killed outright (SIGKILL, the OOM killer, a power cut) cannot remove its temporary;
+the next write of the same target removes the temporaries of that target whose process no
+longer runs on this machine and that nobody has written to for ``STALE_AFTER_S`` (a writer on
+another machine sharing the directory keeps writing its own), so a day-long replay killed
+twice does not leave gigabytes hidden beside its output.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import re
+import time
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import IO, Any
 
 from steer_monitor.errors import OutputError
 
-__all__ = ['atomic_path', 'atomic_write', 'check_target', 'ensure_dir', 'os_reason', 'temporary_name', 'write_bytes',
-           'write_files', 'write_text']
+__all__ = ['STALE_AFTER_S', 'atomic_path', 'atomic_write', 'check_target', 'ensure_dir', 'os_reason',
+           'remove_stale_temporaries', 'temporary_name', 'write_bytes', 'write_files', 'write_text']
+
+#: a temporary not written to for this long, of a process that no longer runs, is debris [s]
+STALE_AFTER_S = 600.0
 
 
 def os_reason(exc: OSError) -> str:
@@ -82,15 +93,56 @@ def _same_file(a: Path, b: Path) -> bool:
 NAME_MAX = 255      # bytes in one file name on the file systems a log goes to (ext4, xfs, btrfs, tmpfs)
 
 
-def temporary_name(name: str) -> str:
-    """``.<stem>.<pid>.tmp<suffix>`` for a target named ``name``, its stem shortened so that
-    the temporary name is no longer than the target's could be (a target whose own name the
-    file system takes must not fail for its temporary's)."""
+def temporary_name(name: str, pid: int | None = None) -> str:
+    """``.<stem>.<pid>.tmp<suffix>`` for a target named ``name`` written by process ``pid``
+    (default: this one), its stem shortened so that the temporary name is no longer than the
+    target's could be (a target whose own name the file system takes must not fail for its
+    temporary's)."""
     p = Path(name)
-    tail = f'.{os.getpid()}.tmp{p.suffix}'
+    tail = f'.{os.getpid() if pid is None else pid}.tmp{p.suffix}'
     room = NAME_MAX - 1 - len(tail.encode())
     stem = p.stem.encode()[:room].decode(errors='ignore')    # a character cut in two is left out
     return f'.{stem}{tail}'
+
+
+def _running(pid: int) -> bool:
+    """Whether a process ``pid`` runs on this machine (one of another user counts)."""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except PermissionError:
+        return True
+    except (ProcessLookupError, OverflowError):
+        return False
+    return True
+
+
+def remove_stale_temporaries(path: str | Path, stale_after_s: float = STALE_AFTER_S) -> int:
+    """Remove the temporaries of target ``path`` that writers killed mid-write left (see the
+    module docstring); returns how many. Never raises: what cannot be listed or removed stays."""
+    target = Path(path)
+    pattern = re.compile(r'\.(\d+)\.tmp' + re.escape(target.suffix) + r'$')
+    now = time.time()
+    removed = 0
+    try:
+        names = [e.name for e in os.scandir(target.parent) if e.name.startswith('.')]
+    except OSError:
+        return 0
+    for name in names:
+        m = pattern.search(name)
+        if m is None:
+            continue
+        pid = int(m.group(1))
+        if pid == os.getpid() or name != temporary_name(target.name, pid) or _running(pid):
+            continue
+        tmp = target.parent / name
+        with contextlib.suppress(OSError):
+            st = tmp.lstat()
+            if now - st.st_mtime >= stale_after_s and not tmp.is_dir():
+                tmp.unlink()
+                removed += 1
+    return removed
 
 
 @contextlib.contextmanager
@@ -99,6 +151,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     renamed to ``path`` when the block ends without an exception, removed otherwise."""
     target = Path(path)
     check_target(target)
+    remove_stale_temporaries(target)
     # the suffix kept last, for writers that choose the format by it (.log, .mcap)
     tmp = target.with_name(temporary_name(target.name))
     try:
@@ -155,6 +208,7 @@ def write_files(files: Mapping[str | Path, bytes]) -> None:
         for path, data in files.items():
             target = Path(path)
             check_target(target)
+            remove_stale_temporaries(target)
             tmp = target.with_name(temporary_name(target.name))
             with open(tmp, 'wb') as fh:
                 done.append((tmp, target))

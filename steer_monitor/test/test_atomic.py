@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
 
-from steer_monitor.atomic import (NAME_MAX, atomic_path, atomic_write, ensure_dir, os_reason, temporary_name,
-                                 write_bytes, write_files, write_text)
+from steer_monitor import atomic
+from steer_monitor.atomic import (NAME_MAX, STALE_AFTER_S, atomic_path, atomic_write, ensure_dir, os_reason,
+                                  remove_stale_temporaries, temporary_name, write_bytes, write_files, write_text)
 from steer_monitor.errors import OutputError
 
 
@@ -135,3 +140,46 @@ def test_files_written_together_none_if_the_disk_fills(small_tmpfs):
     assert (small_tmpfs / 'a.png').read_bytes() == b'old A'
     assert sorted(p.name for p in small_tmpfs.iterdir()) == ['a.png', 'filler.bin', 'index.html']
 
+
+
+def _dead_pid() -> int:
+    done = subprocess.run([sys.executable, '-c', 'import os; print(os.getpid())'], capture_output=True, text=True,
+                          check=True)
+    pid = int(done.stdout)
+    assert not atomic._running(pid)
+    return pid
+
+
+@pytest.mark.parametrize('write', [
+    lambda target: write_text(target, 'new'),
+    lambda target: write_files({target: b'new'}),
+], ids=['atomic_path', 'write_files'])
+def test_a_killed_writers_temporary_is_removed_by_the_next_write_of_its_target(tmp_path, write):
+    target = tmp_path / 'replay.mcap'
+    dead, old = _dead_pid(), time.time() - 2 * STALE_AFTER_S
+    debris = tmp_path / temporary_name(target.name, dead)
+    kept = {
+        'running': tmp_path / temporary_name(target.name, os.getppid()),       # a writer still at work
+        'fresh': tmp_path / temporary_name(target.name, dead + 1_000_000),     # written to just now
+        'other target': tmp_path / temporary_name('other.mcap', dead),
+        'other suffix': tmp_path / temporary_name('replay.log', dead),
+        'not ours': tmp_path / f'.replay.{dead}.tmp.mcap.bak',
+    }
+    for p in [debris, *kept.values()]:
+        p.write_bytes(b'half')
+        if p != kept['fresh']:
+            os.utime(p, (old, old))
+    write(target)
+    assert target.read_text() == 'new'
+    assert not debris.exists()
+    assert {k for k, p in kept.items() if p.exists()} == set(kept)
+
+
+def test_removing_stale_temporaries_never_raises(tmp_path):
+    assert remove_stale_temporaries(tmp_path / 'no' / 'such' / 'dir.mcap') == 0
+    long_name = 'x' * 250 + '.mcap'         # the temporary's stem is cut; still recognised
+    dead = _dead_pid()
+    debris = tmp_path / temporary_name(long_name, dead)
+    debris.write_bytes(b'half')
+    os.utime(debris, (0, 0))
+    assert remove_stale_temporaries(tmp_path / long_name) == 1 and not debris.exists()
