@@ -27,6 +27,7 @@ import tempfile
 import threading
 import time
 import uuid
+from pathlib import Path
 
 import numpy as np
 
@@ -153,6 +154,7 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
         lat = np.array(node.latencies_ns) / 1e6
         node.close()
         context.try_shutdown()
+        recorded = sum(p.stat().st_size for p in Path(tmp).glob('*.mcap'))
     node_cpu = (cpu - sim_cpu) / (wall + 1.0)
     dropped = sent - received
     how = (f'the simulated gear sped up {factor:.1f}x' if mode == 'speedup' else
@@ -166,6 +168,9 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
           f'max {lat.max():.1f} ms (target p99 < 20 ms)')
     print(f'  resident memory      : {rss_start:.0f} MB at start, {rss_end:.0f} MB at end '
           f'(process, simulator included; target < 200 MB, no growth)')
+    if record:
+        print(f'  recording            : {recorded / 1e6:.1f} MB in {wall:.0f} s of bus, '
+              f'{recorded / 1e9 * 3600 / wall:.2f} GB an hour, {recorded / 1e9 * 86400 / wall:.1f} GB a day')
     if len(rss_trace) >= 4:
         marks = [rss_trace[int(f * (len(rss_trace) - 1))] for f in (0.0, 0.25, 0.5, 0.75, 1.0)]
         print('  memory over the run  : ' + ', '.join(f'{m:.0f} MB at {t:.0f} s' for t, m in marks))
@@ -174,7 +179,7 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
     by_thread = sorted(((v - threads0.get(k, 0.0), k) for k, v in threads1.items()), reverse=True)
     print('  CPU by thread        : ' + ', '.join(f'{k} {100 * v / (wall + 1.0):.1f} %' for v, k in by_thread if v > 0.005 * wall))
     return {'sent': sent, 'dropped': dropped, 'cpu_share': node_cpu, 'p99_ms': float(np.percentile(lat, 99)),
-            'rss_start_mb': rss_start, 'rss_end_mb': rss_end}
+            'rss_start_mb': rss_start, 'rss_end_mb': rss_end, 'recorded_bytes': recorded if record else 0}
 
 
 if __name__ == '__main__':

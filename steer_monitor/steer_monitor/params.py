@@ -169,6 +169,12 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               0.0, 1e6, True),
     ParamSpec('recording.max_file_minutes', 'double', 60.0, 'start a new MCAP file after this long [min]',
               0.0, 1e6, True),
+    ParamSpec('recording.max_total_gb', 'double', 0.0,
+              "remove the oldest recordings while this prefix's recordings in the directory take more "
+              'than this [GB] (0: no limit)', 0.0, 1e6),
+    ParamSpec('recording.keep_free_gb', 'double', 2.0,
+              'remove the oldest recordings while the disk has less than this free [GB] (0: never for space)',
+              0.0, 1e6),
 ) + tuple(
     spec
     for name, (pgn, fld, instance, source, rate) in {
@@ -287,6 +293,12 @@ def validate_params(values: Mapping[str, Any]) -> dict[str, Any]:
     # Cross-checks that give a clearer message than the records would.
     if out['can.timestamps'] not in TIMESTAMP_MODES:
         msg = f"parameter can.timestamps: expected one of {', '.join(TIMESTAMP_MODES)}, got {out['can.timestamps']!r}"
+        raise ParameterError(msg)
+    total_mb = out['recording.max_total_gb'] * 1000.0
+    if 0.0 < total_mb < 2.0 * out['recording.max_file_mb'] * (1 << 20) / 1e6:
+        msg = (f"parameter recording.max_total_gb: {out['recording.max_total_gb']:g} GB does not hold two files "
+               f"of recording.max_file_mb ({out['recording.max_file_mb']:g} MB): the one being written and the "
+               'last finished; give at least twice that, or 0 for no limit')
         raise ParameterError(msg)
     if len(out['torque.angle_deg']) != len(out['torque.torque_knm']):
         msg = (f'parameter torque.torque_knm: has {len(out["torque.torque_knm"])} values but '

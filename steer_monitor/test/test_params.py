@@ -27,7 +27,7 @@ def test_r18_file_loads_with_design_values(r18_params, r18):
 
 
 def test_every_spec_has_a_unit_or_is_unitless_by_nature():
-    units = ('_m', '_mm', '_pa', '_mm4', '_deg', '_knm', '_kn', '_mm_s', '_hz', '_s', '_bar', '_n', '_mb', '_minutes', '_share', '_h', '_ms')
+    units = ('_m', '_mm', '_pa', '_mm4', '_deg', '_knm', '_kn', '_mm_s', '_hz', '_s', '_bar', '_n', '_mb', '_gb', '_minutes', '_share', '_h', '_ms')
     unitless = ('.name', '.rams', '.euler_amplification', '.pumps', '.new_fit', '.interface',
                 '.channel', '.bitrate', '.dbc_file', '.pgn', '.field', '.instance', '.source',
                 '.hardware_id', '.mu_bushing', '.mu_guide', '.enabled', '.directory', '.prefix',
@@ -73,6 +73,9 @@ def _drop(section, key):
     (_set('gear', 'max_rudder_deg', 55.0), 'max_rudder 55.0 deg moves the crosshead'),
     (_set('gear', 'bushing_length_m', 2.0), r'bushing_length must be shorter than bushing_span \(the bushings at A and E '
                                             r'would overlap\), got 2.0 with span 1.6'),
+    (_set('recording', 'max_total_gb', 1.0), r'parameter recording.max_total_gb: 1 GB does not hold two files of '
+                                            r'recording.max_file_mb \(512 MB\)'),
+    (_set('recording', 'keep_free_gb', -1.0), 'parameter recording.keep_free_gb: must be >= 0, got -1.0'),
 ])
 def test_bad_values_are_named(tmp_path, mutate, msg):
     with pytest.raises(ParameterError, match=msg):

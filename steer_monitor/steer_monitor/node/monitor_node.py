@@ -92,7 +92,10 @@ class MonitorNode(Node):
             self.recorder = Recorder(p['recording.directory'], p['recording.prefix'],
                                      int(p['recording.max_file_mb'] * (1 << 20)),
                                      p['recording.max_file_minutes'] * 60.0,
-                                     metadata=run_metadata(p, config_path), on_error=self._recording_failed)
+                                     metadata=run_metadata(p, config_path), on_error=self._recording_failed,
+                                     max_total_bytes=int(p['recording.max_total_gb'] * 1e9),
+                                     keep_free_bytes=int(p['recording.keep_free_gb'] * 1e9),
+                                     on_removed=self._recording_removed)
         self._make_publishers()
         self._lock = threading.Lock()          # guards the pipeline and the live model
         self._unpublished: list[int] = []      # bus timestamps of state-changing frames not yet published
@@ -130,6 +133,10 @@ class MonitorNode(Node):
             retry = self.recorder.retry_s if self.recorder is not None else math.nan
             self._log().error(f'cannot record: {text}; messages are lost until a write reaches the disk '
                               f'(tried again every {retry:g} s)')
+
+    def _recording_removed(self, path: Path, size: int, why: str) -> None:
+        """The recorder removed an old recording to keep the directory's budget: in the log."""
+        self._log().info(f'removed the oldest recording {path} ({size / 1e6:.3g} MB): {why}')
 
     def _bus_opened(self, bus: ListenOnlyBus) -> None:
         """Keep what the bus handle says of its controller and its clock, for the CAN bus status."""
@@ -322,7 +329,7 @@ class MonitorNode(Node):
         st = self.recorder.status()
         values = (('recording_file', st.current_file or 'n/a'), ('recording_files', str(st.files)),
                   ('recording_messages', str(st.messages)), ('recording_failed', str(st.failed)),
-                  ('recording_dropped', str(st.dropped)))
+                  ('recording_dropped', str(st.dropped)), ('recording_removed', str(st.removed)))
         return Status('steer_monitor: recording', OK if st.ok else ERROR, st.message,
                       self.params['node.hardware_id'], values)
 

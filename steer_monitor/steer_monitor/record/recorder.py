@@ -13,7 +13,13 @@
   filled with empty files. The file that failed is cut back to its last complete chunk
   (``recover`` makes it readable), or removed if no chunk of it reached the disk; nothing
   flushed before the failure is lost;
-* ``messages`` counts what reached the disk, so it never falls; ``failed`` what was lost.
+* ``messages`` counts what reached the disk, so it never falls; ``failed`` what was lost;
+* a budget for the directory: the oldest finished recordings of this prefix in it (made by
+  this recorder or an earlier one; nothing else there) are removed while the recordings take
+  more than ``max_total_bytes`` or the file system has less than ``keep_free_bytes`` free,
+  checked at every flush, so a node that records a busy bus for months (0.28 GB an hour
+  measured at a full NMEA 2000 bus) keeps the newest and never fills the disk with its own.
+  The file being written is never removed; ``removed`` counts what was.
 
 Callers hand over already-serialized CDR (``write``) or frames (``write_frame``, or
 ``write_frames`` for a batch: one queue entry, records packed at once); nothing here
@@ -25,6 +31,7 @@ from __future__ import annotations
 import contextlib
 import os
 import queue
+import re
 import threading
 import time
 from collections.abc import Callable
@@ -44,7 +51,8 @@ class RecorderStatus:
     """What the recorder reports: ``ok`` False from a failed write until a write reaches the
     disk again; ``files`` the recordings made (a file the disk was too full to take any of
     is removed and not counted); ``messages`` written to disk (never falls), ``failed`` lost
-    to write errors, ``dropped`` lost to a full queue."""
+    to write errors, ``dropped`` lost to a full queue; ``removed`` the oldest recordings
+    removed to keep the directory's budget (``files`` still counts those this recorder made)."""
 
     ok: bool
     message: str
@@ -53,6 +61,7 @@ class RecorderStatus:
     messages: int
     dropped: int
     failed: int
+    removed: int = 0
 
     def lost(self) -> str | None:
         """What was not recorded, in a phrase (None when nothing was lost)."""
@@ -76,8 +85,18 @@ class Recorder:
                  queue_size: int = 200_000, chunk_size: int = 1 << 20,
                  clock: Callable[[], float] = time.monotonic,
                  metadata: dict[str, dict[str, str]] | None = None,
-                 on_error: Callable[[str | None], None] | None = None) -> None:
+                 on_error: Callable[[str | None], None] | None = None,
+                 max_total_bytes: int = 0, keep_free_bytes: int = 0,
+                 on_removed: Callable[[Path, int, str], None] | None = None) -> None:
         self.directory = Path(directory)
+        #: the budget (0: none): recordings in all, and free space to leave on the file system [bytes]
+        self.max_total_bytes = max_total_bytes
+        self.keep_free_bytes = keep_free_bytes
+        #: hears, on the writer thread, each recording removed for the budget: path, size, why
+        self._on_removed = on_removed
+        self._finished: list[tuple[Path, int]] | None = None   # oldest first; None: not looked yet
+        self._finished_bytes = 0
+        self.removed = 0
         #: hears, on the writer thread, each change between recording and not: the error's text
         #: when writes start to fail, None when one reaches the disk again (not every retry)
         self._on_error = on_error
@@ -151,7 +170,7 @@ class Recorder:
             else:
                 message = f'recording to {current}'
             return RecorderStatus(self._error is None, message, current, len(self.files), self.messages,
-                                  self.dropped, self.failed)
+                                  self.dropped, self.failed, self.removed)
 
     def close(self) -> None:
         """Write out what is queued, finish the current file, stop the thread."""
@@ -234,6 +253,8 @@ class Recorder:
         try:
             if self._good_offset > 0:
                 os.truncate(path, self._good_offset)
+                if self._finished is not None:
+                    self._add_finished(path)
                 return
             path.unlink()
         except OSError:
@@ -241,10 +262,83 @@ class Recorder:
         with self._lock:
             self.files.pop()
 
+    # --- the directory's budget ----------------------------------------------------------
+    def _own(self) -> re.Pattern[str]:
+        return re.compile(re.escape(self.prefix) + r'_\d{8}T\d{6}Z_\d{3,}\.mcap')
+
+    def _scan_finished(self) -> None:
+        """The recordings of this prefix already in the directory, oldest first (by the time
+        they were last written, then by name)."""
+        own = self._own()
+        found: list[tuple[float, str, int]] = []
+        try:
+            with os.scandir(self.directory) as entries:
+                for e in entries:
+                    if own.fullmatch(e.name) and e.is_file(follow_symlinks=False):
+                        with contextlib.suppress(OSError):
+                            st = e.stat(follow_symlinks=False)
+                            found.append((st.st_mtime, e.name, st.st_size))
+        except OSError:
+            found = []
+        found.sort()
+        self._finished = [(self.directory / name, size) for _, name, size in found]
+        self._finished_bytes = sum(size for _, size in self._finished)
+
+    def _add_finished(self, path: Path) -> None:
+        assert self._finished is not None
+        with contextlib.suppress(OSError):
+            size = path.stat().st_size
+            self._finished.append((path, size))
+            self._finished_bytes += size
+
+    def _keep_budget(self) -> None:
+        """Remove the oldest finished recordings while over the budget. The free space is read
+        once and what each removal frees is added to it (a file another process still holds
+        open frees nothing yet; reading the free space again would remove the next one too)."""
+        if not (self.max_total_bytes or self.keep_free_bytes) or not self._finished:
+            return
+        current = self._stream.tell() if self._stream is not None else 0
+        free = None
+        if self.keep_free_bytes:
+            try:
+                st = os.statvfs(self.directory)
+                free = st.f_bavail * st.f_frsize
+            except OSError:
+                free = None
+        while self._finished:
+            over_total = self.max_total_bytes and self._finished_bytes + current > self.max_total_bytes
+            short = free is not None and free < self.keep_free_bytes
+            if not (over_total or short):
+                return
+            path, size = self._finished[0]
+            try:
+                path.unlink()
+            except FileNotFoundError:
+                freed = 0                    # removed by someone else meanwhile
+            except OSError:
+                return                       # cannot be removed (permission): the budget waits
+            else:
+                freed = size
+            self._finished.pop(0)
+            self._finished_bytes -= size
+            if free is not None:
+                free += freed
+            if freed:
+                with self._lock:
+                    self.removed += 1
+                if self._on_removed is not None:
+                    why = (f'the recordings took more than {self.max_total_bytes / 1e9:g} GB' if over_total
+                           else f'less than {self.keep_free_bytes / 1e9:g} GB was free on the disk')
+                    self._on_removed(path, size, why)
+
     def _can_write(self) -> bool:
-        """Whether the directory takes data again: writable, with room for two chunks."""
+        """Whether the directory takes data again: writable, with room for two chunks (after
+        removing old recordings, if the budget asks for it)."""
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
+            if self._finished is None and (self.max_total_bytes or self.keep_free_bytes):
+                self._scan_finished()
+            self._keep_budget()
             st = os.statvfs(self.directory)
         except OSError as exc:
             self._set_error(f'{exc.strerror or exc}: {self.directory}')
@@ -280,6 +374,9 @@ class Recorder:
 
     def _open(self, log_time_ns: int, now: float) -> None:
         self.directory.mkdir(parents=True, exist_ok=True)
+        if self._finished is None and (self.max_total_bytes or self.keep_free_bytes):
+            self._scan_finished()
+        self._keep_budget()
         stamp = datetime.fromtimestamp(log_time_ns / 1e9, tz=timezone.utc).strftime('%Y%m%dT%H%M%SZ')
         while True:     # never over a recording already there (a restart in the same second, a second node)
             self._index += 1
@@ -329,6 +426,7 @@ class Recorder:
             self._pending = 0
         self._set_error(None)
         self._good_offset = self._stream.tell()
+        self._keep_budget()
 
     def _finish(self) -> None:
         if self._writer is None:
@@ -348,3 +446,5 @@ class Recorder:
             raise
         else:
             stream.close()
+            if self._finished is not None and self.files:
+                self._add_finished(self.files[-1])

@@ -390,6 +390,22 @@ def test_a_recording_that_cannot_be_written_is_said_in_the_log_once(tmp_path):
                      r'the last writes failed: Not a directory', lost[0]), err
 
 
+def test_the_oldest_recordings_are_removed_beyond_the_budget_and_said_in_the_log(tmp_path):
+    """recording.max_total_gb reaches the recorder: of three earlier recordings of 600 kB, the
+    two oldest go when the node starts recording with a budget of 1 MB; each is in the log."""
+    old = []
+    for k in range(3):
+        p = tmp_path / f'steer_monitor_2025120{k + 1}T000000Z_001.mcap'
+        p.write_bytes(os.urandom(600_000))
+        os.utime(p, (1e9 + k, 1e9 + k))
+        old.append(p)
+    err = _node_stderr(_node_cmd(tmp_path, '-p', 'recording.max_file_mb:=0.25', '-p', 'recording.max_total_gb:=0.001',
+                                 '-p', f'estimator.state_file:={tmp_path / "estimator.npz"}'), 3.0)
+    assert [p.exists() for p in old] == [False, False, True]
+    told = [ln for ln in err.splitlines() if 'removed the oldest recording' in ln]
+    assert len(told) == 2 and all('[INFO]' in ln for ln in told), err
+    assert f'removed the oldest recording {old[0]} (0.6 MB): the recordings took more than 0.001 GB' in told[0]
+
 
 def test_a_line_logged_while_closing_after_a_signal_is_not_followed_by_rcl_complaints(tmp_path):
     """SIGINT shuts ROS down before the node closes; what the node logs then (here: the

@@ -15,6 +15,7 @@ import pytest
 from steer_monitor.can import Frame, make_id
 from steer_monitor.can.mcapio import FRAME_TOPIC
 from steer_monitor.record import Recorder, RecoverError, msgdef, recover
+from test.conftest import fill
 
 T0 = 1_767_225_600_000_000_000
 DIAG = 'diagnostic_msgs/msg/DiagnosticArray'
@@ -339,3 +340,96 @@ def test_every_file_says_what_it_was_made_with(tmp_path, r18_params):
     out = recover(rec.files[0], tmp_path / 'recovered.mcap')
     with open(out.output, 'rb') as fh:
         assert {m.name for m in make_reader(fh).iter_metadata()} == {RUN_RECORD, PARAMETERS_RECORD}
+
+
+def _old_recordings(where: Path, sizes: list[int], prefix: str = 'steer_monitor') -> list[Path]:
+    """Recordings an earlier run left, oldest first (their times a day apart, a day ago)."""
+    paths = []
+    for k, size in enumerate(sizes):
+        p = where / f'{prefix}_2025120{k + 1}T000000Z_001.mcap'
+        p.write_bytes(os.urandom(size))
+        t = time.time() - 86400.0 * (len(sizes) - k + 1)
+        os.utime(p, (t, t))
+        paths.append(p)
+    return paths
+
+
+def _others(where: Path) -> list[Path]:
+    """What the budget must never touch: the estimator's state, a recovered file, another
+    prefix's recording, a directory named like a recording, a file named almost like one."""
+    (where / 'steer_monitor_20250101T000000Z_009.mcap').mkdir()
+    paths = [where / 'steer_monitor_estimator.npz', where / 'steer_monitor_20250101T000000Z_001.recovered.mcap',
+             where / 'other_20250101T000000Z_001.mcap', where / 'steer_monitor_20250101T000000Z_001.mcap.bak']
+    for p in paths:
+        p.write_bytes(os.urandom(50_000))
+        os.utime(p, (0, 0))
+    return paths
+
+
+def test_the_oldest_recordings_go_when_the_recordings_pass_their_total(tmp_path):
+    old = _old_recordings(tmp_path, [40_000, 40_000, 40_000, 40_000])
+    others = _others(tmp_path)
+    told: list[tuple[Path, int, str]] = []
+    with Recorder(tmp_path, max_total_bytes=150_000, chunk_size=4096, flush_interval_s=0.0,
+                  on_removed=lambda *a: told.append(a)) as rec:
+        for i in range(2000):
+            rec.write_frame(_frame(i))
+            if i % 100 == 0:
+                time.sleep(0.002)          # a flush now and then, as the seconds of a node
+    # opening the new file: 160 kB of old ones over 150 kB, the oldest goes; then the new file
+    # (about 64 kB in the end) takes the 120 kB left over it again, and the next oldest goes
+    assert [p.exists() for p in old] == [False, False, True, True]
+    assert all(p.exists() for p in others)
+    assert rec.status().removed == 2 == len(told)
+    assert [(p, n) for p, n, _ in told] == [(old[0], 40_000), (old[1], 40_000)]
+    assert all(why == 'the recordings took more than 0.00015 GB' for _, _, why in told)
+    assert 30_000 < rec.files[0].stat().st_size < 70_000
+    assert len(_read_all(rec.files[0])[FRAME_TOPIC]) == 2000
+
+
+def test_a_recorder_rotating_over_its_budget_keeps_its_newest_files(tmp_path):
+    with Recorder(tmp_path, max_bytes=20_000, max_total_bytes=60_000, chunk_size=4096, flush_interval_s=0.0) as rec:
+        for i in range(6000):
+            rec.write_frame(_frame(i))
+    left = sorted(tmp_path.glob('*.mcap'))
+    assert rec.status().removed > 0 and len(rec.files) == rec.status().removed + len(left)
+    assert left == rec.files[-len(left):]                       # the newest stayed
+    assert sum(p.stat().st_size for p in left[:-1]) <= 60_000   # the finished ones within the total
+    frames = [m for p in left for _, m in _read_all(p)[FRAME_TOPIC]]
+    assert frames[-1].data[0] == 5999 % 256                      # the last frame is there
+
+
+def test_the_oldest_recordings_go_to_keep_the_disk_free_and_a_full_disk_records_again(small_tmpfs):
+    """A real file system filled by earlier recordings: the recorder removes the oldest until
+    the free space asked for is there, and records without an error."""
+    import shutil
+    old = _old_recordings(small_tmpfs, [90_000] * 5)
+    fill(small_tmpfs)
+    (small_tmpfs / 'filler.bin').unlink()
+    others = _others_small(small_tmpfs)
+    assert shutil.disk_usage(small_tmpfs).free < 110_000    # two must go for 200 kB, not three
+    told: list[tuple[Path, int, str]] = []
+    with Recorder(small_tmpfs, keep_free_bytes=200_000, chunk_size=4096, flush_interval_s=0.0,
+                  on_removed=lambda *a: told.append(a)) as rec:
+        for i in range(100):
+            rec.write_frame(_frame(i))
+    st = rec.status()
+    assert st.ok and st.failed == 0 and st.messages == 100, st
+    assert [p.exists() for p in old] == [False, False, True, True, True]
+    assert all(p.exists() for p in others)
+    assert [why for _, _, why in told] == ['less than 0.0002 GB was free on the disk'] * 2
+
+
+def _others_small(where: Path) -> list[Path]:
+    p = where / 'steer_monitor_estimator.npz'
+    p.write_bytes(b'state')
+    os.utime(p, (0, 0))
+    return [p]
+
+
+def test_without_a_budget_nothing_is_removed(small_tmpfs):
+    old = _old_recordings(small_tmpfs, [90_000] * 5)
+    with Recorder(small_tmpfs, chunk_size=4096, flush_interval_s=0.0) as rec:
+        for i in range(100):
+            rec.write_frame(_frame(i))
+    assert all(p.exists() for p in old) and rec.status().removed == 0
