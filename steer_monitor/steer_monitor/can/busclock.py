@@ -20,12 +20,17 @@ integer nanoseconds:
   kernel's), so the host's is the reference. A frame is read after it arrived: its time may
   lag the host's by the reading's backlog (``behind_ns``, 60 s: far more than the kernel's
   queue holds), never lead it by more than the clocks' disagreement (``ahead_ns``, 1 s).
-  Beyond either, the interface's clock is not UTC (at the first frame) or has restarted or
-  stepped (an adapter reset, a counter wrap): the offset moves at once, by the step (counted
-  in :attr:`BusClock.steps`; the pipeline's time-jump rule then confirms the new time).
-  Between steps, a relative clock's offset follows the host's at most ``slew`` (100 ppm) of
-  the time elapsed, about an adapter crystal's drift, so intervals change by no more than
-  that; a clock taken as UTC is left as it is.
+  Beyond either, at the first frame, the interface's clock is not UTC. Later, beyond either
+  for ``confirm_ns`` (1 s) of the interface's time, its clock has restarted or stepped (an
+  adapter reset, a counter wrap): the offset then moves by the step (counted in
+  :attr:`BusClock.steps`; the pipeline's time-jump rule confirms the new time; the frames of
+  that second keep the old offset). A disagreement that ends sooner is the *host's* clock
+  stepping (NTP, or an operator, setting it) while frames stamped before the step were still
+  queued: socketcan's stamps are the host kernel's, so the frames after it agree again, and
+  moving the offset for the few queued ones would have put every later frame off UTC by the
+  step. Between steps, a relative clock's offset follows the host's at most ``slew`` (100
+  ppm) of the time elapsed, about an adapter crystal's drift, so intervals change by no more
+  than that; a clock taken as UTC is left as it is.
 
 Pure: no python-can here; the caller passes both clocks.
 """
@@ -50,10 +55,13 @@ class BusClock:
     ahead_ns: int = 1_000_000_000
     behind_ns: int = 60_000_000_000
     slew: float = 1e-4
+    confirm_ns: int = 1_000_000_000
     offset_ns: int = 0
     relative: bool | None = None
     steps: int = 0
     _last_bus_ns: int | None = None
+    #: (interface time, lag) of the first frame of a disagreement not yet confirmed
+    _suspect: tuple[int, int] | None = None
 
     def __post_init__(self) -> None:
         if self.mode not in TIMESTAMP_MODES:
@@ -71,11 +79,18 @@ class BusClock:
             self.relative = not -self.ahead_ns <= lag <= self.behind_ns
             self.offset_ns = lag if self.relative else 0
         elif not -self.ahead_ns <= lag <= self.behind_ns:
-            self.offset_ns += lag                         # the interface's clock stepped (or the host's)
-            self.steps += 1
-            self.relative = True
-        elif self.relative and self._last_bus_ns is not None:
-            room = int(self.slew * max(bus_ns - self._last_bus_ns, 0))
-            self.offset_ns += max(-room, min(room, lag))
+            suspect = self._suspect
+            if suspect is None or abs(lag - suspect[1]) > self.ahead_ns:
+                self._suspect = (bus_ns, lag)             # a disagreement starts (or another one)
+            elif bus_ns - suspect[0] >= self.confirm_ns:
+                self.offset_ns += lag                     # it lasted: the interface's clock stepped
+                self.steps += 1
+                self.relative = True
+                self._suspect = None
+        else:
+            self._suspect = None                          # a passing one: the host's clock stepped
+            if self.relative and self._last_bus_ns is not None:
+                room = int(self.slew * max(bus_ns - self._last_bus_ns, 0))
+                self.offset_ns += max(-room, min(room, lag))
         self._last_bus_ns = bus_ns
         return bus_ns + self.offset_ns

@@ -13,7 +13,9 @@ Only the times of frames that passed the structural checks (identifier, length) 
 in arrival order over all identifiers. A confirmed step *back* in time is accepted here and
 its frames are then refused per identifier as ``time_backwards`` until the clock passes the
 last accepted time again: the decoder never reorders, and overlapping times would mix two
-periods of data.
+periods of data. Such steps are counted (:attr:`JumpFilter.steps_back`, with the last one's
+size): the live node then starts its monitor again from the new time, as a restart would,
+rather than refuse the data for as long as the clock was ahead.
 
 :class:`JumpFilter` decides frame by frame (live: a chain's frames wait for its confirmation,
 at most ``CONFIRM_FRAMES`` frames) or a block at a time (logs), with the same verdicts either
@@ -40,13 +42,24 @@ class JumpFilter:
     """Per-stream state of the jump rule (see the module docstring).
 
     ``ref_ns``: the time of the last released frame (None before the first confirmation);
-    ``pending``: the times of the chain being held, in arrival order.
+    ``pending``: the times of the chain being held, in arrival order; ``steps_back``: the
+    chains confirmed earlier than the time before them, ``step_back_ns`` by how much the
+    last one went back.
     """
 
     max_jump_ns: int = DEFAULT_MAX_JUMP_NS
     confirm: int = CONFIRM_FRAMES
     ref_ns: int | None = None
     pending: list[int] = field(default_factory=list)
+    steps_back: int = 0
+    step_back_ns: int = 0
+
+    def _new_time(self, first: int, last: int) -> None:
+        """A chain from ``first`` to ``last`` is confirmed as the stream's time."""
+        if self.ref_ns is not None and first < self.ref_ns:
+            self.steps_back += 1
+            self.step_back_ns = self.ref_ns - first
+        self.ref_ns = last
 
     def _near(self, a: int, b: int) -> bool:
         return abs(a - b) <= self.max_jump_ns
@@ -75,7 +88,7 @@ class JumpFilter:
     def _confirm_if_long(self, rejected: int) -> tuple[int, int]:
         if len(self.pending) >= self.confirm:
             n = len(self.pending)
-            self.ref_ns = self.pending[-1]
+            self._new_time(self.pending[0], self.pending[-1])
             self.pending = []
             return rejected, n
         return rejected, 0
@@ -118,7 +131,7 @@ class JumpFilter:
                 self.ref_ns = int(t[b - 1])
             elif b - a >= self.confirm:            # a new chain, long enough at once
                 out[a:b] = RELEASED
-                self.ref_ns = int(t[b - 1])
+                self._new_time(first, int(t[b - 1]))
             else:                                  # a new chain, held
                 chain = a
                 self.pending = t[a:b].tolist()

@@ -306,6 +306,14 @@ class OnlineEstimator:
         self._residuals()
         return self._vif
 
+    def restart_stream(self) -> None:
+        """Forget the samples not yet folded and the stream's time, keeping all that was
+        learned (moments, fit, estimate): for a data time that went back (a host clock set
+        back), the state a restart from :meth:`save` would start from."""
+        for buf in self._buf.values():
+            buf.clear()
+        self._done_ns = self._latest_ns = None
+
     # --- persistence ---------------------------------------------------------------------
     def save(self, path: str | Path) -> Path:
         """Write the learned state atomically (an ``.npz``, through a temporary name removed

@@ -111,7 +111,9 @@ class MonitorNode(Node):
         self._closing = False
         self.estimator: OnlineEstimator | None = None
         jobs = self._start_estimator() if p['estimator.enabled'] else None
+        self._db = db
         self.pipeline = Pipeline(Decoder(db, smap, self.rejects), self.rejects, self.monitor, self.diag, jobs)
+        self.restarts = 0                      # times the monitor started again after the data time went back
         interface, channel = p['can.interface'], p['can.channel']
         opener = bus_opener or (lambda: ListenOnlyBus(interface, channel, p['can.bitrate'], p['can.timestamps']))
         self.reader = BusReader(opener, self.rejects, p['can.reopen_backoff_initial_s'],
@@ -204,6 +206,9 @@ class MonitorNode(Node):
                 except EstimateError as exc:
                     self.get_logger().warning(f'{exc}; starting the estimate afresh')
         self._last_save = time.monotonic()
+        return self._estimator_jobs(est)
+
+    def _estimator_jobs(self, est: OnlineEstimator) -> ThreadedEstimatorJobs:
         return ThreadedEstimatorJobs(est, on_error=lambda exc: self._log().error(
             f'estimator update failed: {exc}', throttle_duration_sec=GUARD_LOG_S), after=self._maybe_save)
 
@@ -285,9 +290,41 @@ class MonitorNode(Node):
             self._publish(key, fields, t_ns)
         self._last_diag = time.monotonic()
 
+    # --- the data time going back ------------------------------------------------------------
+    def _restart_monitor(self) -> list[Output]:
+        """Under the lock, on the reader thread: the frames' time has gone back (the host clock
+        set back by NTP, an operator or a GPS receiver; see :mod:`~steer_monitor.can.timejump`).
+        The decoder would refuse every frame until the clock passed the last time it accepted,
+        for as long as the clock was ahead (years, after a GPS week rollover). Instead the
+        monitor starts again from the new time as a restart would: the old pipeline's last
+        outputs, then a new decoder, live model and schedule; the estimator keeps all it
+        learned and its estimate (its jobs not yet run are dropped, as on stopping). Returns the
+        old pipeline's last outputs; the caller publishes them, then splits the recording, so
+        the new time goes to a new file."""
+        old = self.pipeline
+        step_ns = old.decoder.jumps.step_back_ns
+        outs = old.finish()
+        old.close()
+        p = self.params
+        self.monitor = LiveMonitor(self.gear, gaps_from_params(p), 'configured', friction_from_params(p))
+        jobs = None
+        est = self.estimator
+        if est is not None:
+            est.restart_stream()
+            if est.estimate is not None:
+                apply_estimate(self.monitor, EstimateSnapshot(est.estimate, est.motion_s))
+            jobs = self._estimator_jobs(est)
+        self.pipeline = Pipeline(Decoder(self._db, self.smap, self.rejects), self.rejects, self.monitor, self.diag,
+                                 jobs)
+        self.restarts += 1
+        self._log().warning(f'the CAN frames\' time went back {step_ns / 1e9:.1f} s (the host clock set back?): '
+                            'the monitor starts again from the new time, keeping what the estimator learned'
+                            + ('; the recording goes on in a new file' if self.recorder is not None else ''))
+        return outs
+
     # --- reader thread -----------------------------------------------------------------------
     def _read(self) -> None:
-        reader, recorder, pipeline, lock = self.reader, self.recorder, self.pipeline, self._lock
+        reader, recorder, lock = self.reader, self.recorder, self._lock
         stop = self._stop
         # frames go to the recorder in batches (one queue entry, packed at once): at most
         # RECORD_BATCH frames or RECORD_BATCH_NS old, and whatever is held when the bus idles
@@ -308,13 +345,22 @@ class MonitorNode(Node):
                         batch = []
                     try:
                         with lock:
+                            pipeline = self.pipeline
                             outs = pipeline.feed(frame) if frame is not None else pipeline.idle(time.time_ns())
+                            restarted = bool(pipeline.decoder.jumps.steps_back)
+                            if restarted:
+                                outs += self._restart_monitor()
                     except SteerMonitorError as exc:  # the decoder counts rejects; this guards a defect
                         self.get_logger().error(f'frame not processed: {exc}', throttle_duration_sec=GUARD_LOG_S)
-                        outs = []
+                        outs, restarted = [], False
                     if outs:
                         self._publish_outputs(outs)
-                    if frame is not None and pipeline.last_changed_state:
+                    if restarted and recorder is not None:
+                        if batch:
+                            recorder.write_frames(batch)
+                            batch = []
+                        recorder.split()
+                    if frame is not None and self.pipeline.last_changed_state:
                         # a frame the next state reflects: its latency runs from its bus
                         # timestamp (the interface's receive time, wall clock), so the time it
                         # waited in the receive queue counts

@@ -46,6 +46,9 @@ from steer_monitor.can.mcapio import DEFAULT_QOS, FRAME_DATATYPE, FRAME_MSGDEF, 
 __all__ = ['Recorder', 'RecorderStatus']
 
 
+_SPLIT: Any = object()    # as a queue entry's topic: finish the current file
+
+
 @dataclass(frozen=True)
 class RecorderStatus:
     """What the recorder reports: ``ok`` False from a failed write until a write reaches the
@@ -148,6 +151,11 @@ class Recorder:
         """Queue a batch of raw CAN frames (one queue entry; written in one go)."""
         if frames:
             self._put((FRAME_TOPIC, frames, frames[0].t_ns))
+
+    def split(self) -> None:
+        """Finish the current file after what is queued; the next message opens a new one
+        (the node's data time went back: each file keeps its messages in time order)."""
+        self._put((_SPLIT, None, 0))
 
     def _put(self, item: tuple[str, Any, int]) -> None:
         if self._closed:
@@ -352,6 +360,10 @@ class Recorder:
         return True
 
     def _write_item(self, topic: str, payload: Any, log_time_ns: int, now: float) -> None:
+        if topic is _SPLIT:
+            if self._writer is not None:
+                self._guard(self._finish)
+            return
         count = len(payload) if isinstance(payload, list) else 1   # a batch of frames or one message
         if self._writer is None:
             if self._error is not None and (now < self._next_retry or not self._can_write()):

@@ -138,3 +138,23 @@ def test_jump_rule_cases(db, smap):
 def _rudder(db, t):
     return rudder(db, t, 100)
 
+
+
+def test_a_confirmed_step_back_is_counted_with_its_size_in_both_paths(db, smap):
+    """What the live node restarts on: a chain confirmed earlier than the stream's time (a
+    host clock set back an hour). Counted once, with the step, frame by frame and block by
+    block; forward steps, glitches and a stream's first frames are not steps back."""
+    from steer_monitor.can.timejump import JumpFilter
+    ms = 10_000_000
+    steady = [T0 + k * ms for k in range(100)]
+    back = [T0 + 99 * ms - 3600 * 10**9 + k * ms for k in range(100)]
+    forward = [T0 + 3600 * 10**9 + k * ms for k in range(100)]
+    glitch = steady[:50] + [T0 - 10**12] * 3 + steady[50:]
+    for times, n in ((steady + back, 1), (steady + forward, 0), (glitch, 0), (back, 0), (steady + back + forward + back, 2)):
+        one = JumpFilter()
+        for t in times:
+            one.push(t)
+        block = JumpFilter()
+        block.run_block(np.array(times, np.int64))
+        assert one.steps_back == block.steps_back == n, (n, one.steps_back, block.steps_back)
+    assert one.step_back_ns == block.step_back_ns > 3600 * 10**9 - 100 * ms

@@ -509,3 +509,76 @@ def test_an_adapter_whose_clock_is_not_utc_is_put_on_the_host_clock(tmp_path, ca
     assert bus['frame_times'].startswith("the interface's clock is not UTC (+"), bus
     told = [ln for ln in capfd.readouterr().err.splitlines() if 'CAN frame times:' in ln]
     assert len(told) == 1 and '[WARN]' in told[0], told
+
+
+def test_a_host_clock_set_back_restarts_the_monitor_in_place(tmp_path, capfd, monkeypatch, r18_params, db, smap):
+    """The frames' time goes back an hour half-way (NTP setting back a clock that ran ahead):
+    the node goes on publishing states from the new time (before, it refused every frame as
+    time_backwards until the clock caught up: an hour of nothing), says so once, keeps what
+    the estimator learned, and records on in a second file, each file in time order."""
+    import steer_monitor.node.monitor_node as M
+    from mcap.reader import make_reader
+
+    from steer_monitor.can.bus import message_from_frame
+    frames = list(sim.run(r18_params, sim.SimConfig(program='hold:8'), db, smap, seed=6).frames.frames())
+    t0, half, speed = frames[0].t_ns, len(frames) // 2, 4.0
+    back = 3600 * 10**9
+
+    class SteppedBack:
+        def __init__(self) -> None:
+            self.i, self.start = 0, time.monotonic()
+
+        def recv(self, timeout=None):
+            if self.i >= len(frames):
+                time.sleep(timeout or 0.01)
+                return None
+            f = frames[self.i]
+            time.sleep(max(0.0, self.start + (f.t_ns - t0) / 1e9 / speed - time.monotonic()))
+            msg = message_from_frame(f)
+            if self.i >= half:
+                msg.timestamp -= back / 1e9
+            self.i += 1
+            return msg
+
+        def shutdown(self) -> None:
+            pass
+
+    class Adapter(M.ListenOnlyBus):
+        def __init__(self, *a, **k) -> None:
+            super().__init__(*a, **k)
+            self._bus.shutdown()
+            self._bus = SteppedBack()
+
+    monkeypatch.setattr(M, 'ListenOnlyBus', Adapter)
+    h = Harness(tmp_path, f'back-{uuid.uuid4().hex[:6]}', {'can.timestamps': 'bus'})
+    try:
+        deadline = time.time() + 30
+        while h.node.frames_received < len(frames) and time.time() < deadline:
+            time.sleep(0.1)
+        time.sleep(1.0)
+        restarts = getattr(h.node, 'restarts', None)
+    finally:
+        h.close()
+    stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in h.loads]
+    before = [t for t in stamps if t >= t0]
+    after = [t for t in stamps if t < t0]
+    assert before and after, (len(before), len(after))
+    assert restarts == 1
+    # the states go on after the step, at the rate they came before it
+    assert len(after) > 0.6 * len(before), (len(before), len(after))
+    assert max(after) > frames[-1].t_ns - back - 2 * 10**9
+    told = [ln for ln in capfd.readouterr().err.splitlines() if 'time went back' in ln]
+    assert len(told) == 1 and '[WARN]' in told[0] and '3600.' in told[0], told
+    files = sorted(tmp_path.glob('*.mcap'), key=lambda p: p.stat().st_mtime)
+    assert len(files) == 2, files
+    got = []
+    for path in files:
+        with open(path, 'rb') as fh:
+            got.append([(ch.topic, m.log_time) for _, ch, m in make_reader(fh).iter_messages(log_time_order=False)])
+    # each file holds one time: the second only the new one; the first the old one and at most
+    # the frames that confirmed the step (recorded before it was known)
+    # (the bus quiet at the end, the node takes the seconds to the wall clock's: the idle ones)
+    old_time = [x for x in got[1] if t0 <= x[1] <= frames[-1].t_ns + 2 * 10**9]
+    assert not old_time and got[1][0][1] < t0, old_time[:3]
+    late = [(topic, t) for topic, t in got[0] if t < t0]
+    assert all(topic == '/steering_can/rx' for topic, _ in late) and len(late) <= 60, late[:5]

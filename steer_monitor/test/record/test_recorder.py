@@ -433,3 +433,17 @@ def test_without_a_budget_nothing_is_removed(small_tmpfs):
         for i in range(100):
             rec.write_frame(_frame(i))
     assert all(p.exists() for p in old) and rec.status().removed == 0
+
+
+def test_split_finishes_the_file_and_the_next_message_opens_another(tmp_path):
+    with Recorder(tmp_path) as rec:
+        rec.split()                                  # nothing open yet: nothing to finish
+        for i in range(10):
+            rec.write_frame(_frame(i))
+        rec.split()
+        rec.split()                                  # twice: still one new file, at the next message
+        for i in range(10, 15):
+            rec.write_frame(_frame(i))
+    assert len(rec.files) == 2
+    assert [len(_read_all(p)[FRAME_TOPIC]) for p in rec.files] == [10, 5]
+    assert rec.status().messages == 15
