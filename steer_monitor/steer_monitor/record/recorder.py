@@ -13,6 +13,11 @@
   filled with empty files. The file that failed is cut back to its last complete chunk
   (``recover`` makes it readable), or removed if no chunk of it reached the disk; nothing
   flushed before the failure is lost;
+* a directory on a disk of its own (a USB disk, a second drive) that is unmounted is not made
+  again on the disk beneath (filling the system's disk through an empty mount point): the
+  recorder keeps the mount the directory was on when it first wrote there, reports an error
+  while the directory is elsewhere (checked at every flush and before a file is opened) and
+  records again once the disk is mounted there again;
 * ``messages`` counts what reached the disk, so it never falls; ``failed`` what was lost;
 * a budget for the directory: the oldest finished recordings of this prefix in it (made by
   this recorder or an earlier one; nothing else there) are removed while the recordings take
@@ -29,9 +34,11 @@ imports rclpy.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import queue
 import re
+import stat
 import threading
 import time
 from collections.abc import Callable
@@ -100,6 +107,7 @@ class Recorder:
         self._finished: list[tuple[Path, int]] | None = None   # oldest first; None: not looked yet
         self._finished_bytes = 0
         self.removed = 0
+        self._mount: Path | None = None     # where the directory's file system is mounted, once written to
         #: hears, on the writer thread, each change between recording and not: the error's text
         #: when writes start to fail, None when one reaches the disk again (not every retry)
         self._on_error = on_error
@@ -339,17 +347,49 @@ class Recorder:
                            else f'less than {self.keep_free_bytes / 1e9:g} GB was free on the disk')
                     self._on_removed(path, size, why)
 
+    # --- the directory's disk ------------------------------------------------------------
+    def _ensure_directory(self) -> None:
+        """Make the directory if need be, on the file system it was first written on; an
+        ``OSError`` (ENODEV) naming both mounts if that file system is no longer there."""
+        if self._mount is None:
+            self.directory.mkdir(parents=True, exist_ok=True)
+            self._mount = _mount_point(self.directory)
+            return
+        now = _mount_point(self.directory)
+        if now != self._mount:
+            raise OSError(errno.ENODEV, f'{self.directory} is no longer on the disk mounted at {self._mount} '
+                                        f'(it would be on {now}; unmounted?)')
+        self.directory.mkdir(parents=True, exist_ok=True)
+
+    def _check_stream_directory(self) -> None:
+        """The file being written is still the one at its name: a disk unmounted lazily (or a
+        file removed by hand) keeps taking writes into a file nobody can reach again. Compared
+        by inode, which overlay file systems keep (their directories' device may differ)."""
+        fst = os.fstat(self._stream.fileno())
+        if not stat.S_ISREG(fst.st_mode):
+            return
+        path = self.files[-1]
+        try:
+            st = os.stat(path)
+        except FileNotFoundError:
+            same = False
+        else:
+            same = (st.st_dev, st.st_ino) == (fst.st_dev, fst.st_ino)
+        if not same:
+            raise OSError(errno.ENODEV, f'{path} is no longer in {self.directory} (its disk unmounted, '
+                                        'or the file removed?)')
+
     def _can_write(self) -> bool:
         """Whether the directory takes data again: writable, with room for two chunks (after
         removing old recordings, if the budget asks for it)."""
         try:
-            self.directory.mkdir(parents=True, exist_ok=True)
+            self._ensure_directory()
             if self._finished is None and (self.max_total_bytes or self.keep_free_bytes):
                 self._scan_finished()
             self._keep_budget()
             st = os.statvfs(self.directory)
         except OSError as exc:
-            self._set_error(f'{exc.strerror or exc}: {self.directory}')
+            self._set_error(exc.strerror if exc.errno == errno.ENODEV else f'{exc.strerror or exc}: {self.directory}')
             return False
         if not os.access(self.directory, os.W_OK):
             self._set_error(f'not writable: {self.directory}')
@@ -385,7 +425,7 @@ class Recorder:
             self.failed += count
 
     def _open(self, log_time_ns: int, now: float) -> None:
-        self.directory.mkdir(parents=True, exist_ok=True)
+        self._ensure_directory()
         if self._finished is None and (self.max_total_bytes or self.keep_free_bytes):
             self._scan_finished()
         self._keep_budget()
@@ -431,6 +471,7 @@ class Recorder:
         self._writer.write_cdr(topic, payload, log_time_ns)
 
     def _flush(self) -> None:
+        self._check_stream_directory()
         self._writer.flush()
         self._stream.flush()
         with self._lock:        # on disk (or in the page cache): counted, and the error is over
@@ -460,3 +501,15 @@ class Recorder:
             stream.close()
             if self._finished is not None and self.files:
                 self._add_finished(self.files[-1])
+
+
+def _mount_point(path: Path) -> Path:
+    """The mount point of the file system ``path`` is on, or would be made on (its nearest
+    existing ancestor's): the highest ancestor on the same device."""
+    p = Path(os.path.realpath(path))
+    while not p.exists() and p.parent != p:
+        p = p.parent
+    dev = os.stat(p).st_dev
+    while p.parent != p and os.stat(p.parent).st_dev == dev:
+        p = p.parent
+    return p

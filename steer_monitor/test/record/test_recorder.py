@@ -447,3 +447,54 @@ def test_split_finishes_the_file_and_the_next_message_opens_another(tmp_path):
     assert len(rec.files) == 2
     assert [len(_read_all(p)[FRAME_TOPIC]) for p in rec.files] == [10, 5]
     assert rec.status().messages == 15
+
+
+def _mount_tmpfs(where: Path) -> None:
+    done = subprocess.run(['mount', '-t', 'tmpfs', '-o', 'size=4m', 'tmpfs', str(where)], capture_output=True,
+                          text=True, check=False)
+    if done.returncode != 0:
+        pytest.skip(f'cannot mount a tmpfs here: {done.stderr.strip() or done.returncode}')
+
+
+def test_a_disk_unmounted_under_the_recorder_is_not_replaced_by_the_one_beneath(tmp_path):
+    """The recording directory is on a disk of its own, which is unmounted while the node
+    records (a USB disk pulled, a maintenance umount): the recorder must not make the directory
+    again in the empty mount point, on the system's disk; it says where it is, and records
+    again when the disk is mounted there again."""
+    if os.geteuid() != 0:
+        pytest.skip('mounting a tmpfs needs root; this test runs in CI as root')
+    mnt = tmp_path / 'usb'
+    mnt.mkdir()
+    _mount_tmpfs(mnt)
+    clock = [0.0]
+    rec = Recorder(mnt / 'rec', retry_s=5.0, flush_interval_s=1.0, clock=lambda: clock[0])
+    try:
+        for i in range(100):
+            rec.write_frame(_frame(i))
+        _wait(lambda: rec.files and rec._queue.empty())
+        time.sleep(0.2)      # the last batch taken is written before the clock moves
+        clock[0] = 1.5
+        rec.write_frame(_frame(100))
+        _wait(lambda: rec.status().messages == 101)
+        subprocess.run(['umount', '-l', str(mnt)], check=True)
+        assert not (mnt / 'rec').exists()
+        for step in range(4):                          # flushes and retries while it is away
+            clock[0] += 6.0
+            rec.write_frame(_frame(200 + step))
+            _wait(lambda: not rec.status().ok)
+            time.sleep(0.05)
+        st = rec.status()
+        assert 'is no longer on the disk mounted at' in st.message and str(mnt) in st.message, st
+        assert not (mnt / 'rec').exists(), 'made again on the disk beneath the mount point'
+        _mount_tmpfs(mnt)                               # back
+        clock[0] += 6.0
+        for i in range(300, 310):
+            rec.write_frame(_frame(i))
+        _wait(lambda: rec.status().files == 2)
+        clock[0] += 1.5
+        rec.write_frame(_frame(310))
+        _wait(lambda: rec.status().ok)
+    finally:
+        rec.close()
+        subprocess.run(['umount', '-l', str(mnt)], check=False)
+    assert rec.files[1].parent == mnt / 'rec'
