@@ -24,7 +24,8 @@
   more than ``max_total_bytes`` or the file system has less than ``keep_free_bytes`` free,
   checked at every flush, so a node that records a busy bus for months (0.28 GB an hour
   measured at a full NMEA 2000 bus) keeps the newest and never fills the disk with its own.
-  The file being written is never removed; ``removed`` counts what was.
+  The file being written is never removed, nor one written to in the last minute (another
+  recorder's with the same prefix); ``removed`` counts what was.
 
 Callers hand over already-serialized CDR (``write``) or frames (``write_frame``, or
 ``write_frames`` for a batch: one queue entry, records packed at once); nothing here
@@ -54,6 +55,9 @@ __all__ = ['Recorder', 'RecorderStatus']
 
 
 _SPLIT: Any = object()    # as a queue entry's topic: finish the current file
+#: a recording written to within this long is not removed for the budget (a second node with
+#: the same prefix in the directory may be writing it) [s]
+BUSY_S = 60.0
 
 
 @dataclass(frozen=True)
@@ -321,13 +325,17 @@ class Recorder:
                 free = st.f_bavail * st.f_frsize
             except OSError:
                 free = None
-        while self._finished:
+        k = 0
+        while k < len(self._finished):
             over_total = self.max_total_bytes and self._finished_bytes + current > self.max_total_bytes
             short = free is not None and free < self.keep_free_bytes
             if not (over_total or short):
                 return
-            path, size = self._finished[0]
+            path, size = self._finished[k]
             try:
+                if path not in self.files and time.time() - path.stat().st_mtime < BUSY_S:
+                    k += 1                   # written to just now: another recorder's open file
+                    continue
                 path.unlink()
             except FileNotFoundError:
                 freed = 0                    # removed by someone else meanwhile
@@ -335,7 +343,7 @@ class Recorder:
                 return                       # cannot be removed (permission): the budget waits
             else:
                 freed = size
-            self._finished.pop(0)
+            self._finished.pop(k)
             self._finished_bytes -= size
             if free is not None:
                 free += freed

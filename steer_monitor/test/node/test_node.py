@@ -400,6 +400,7 @@ def test_the_oldest_recordings_are_removed_beyond_the_budget_and_said_in_the_log
         os.utime(p, (1e9 + k, 1e9 + k))
         old.append(p)
     err = _node_stderr(_node_cmd(tmp_path, '-p', 'recording.max_file_mb:=0.25', '-p', 'recording.max_total_gb:=0.001',
+                                 '-p', 'recording.keep_free_gb:=0.0',     # whatever this disk has free
                                  '-p', f'estimator.state_file:={tmp_path / "estimator.npz"}'), 3.0)
     assert [p.exists() for p in old] == [False, False, True]
     told = [ln for ln in err.splitlines() if 'removed the oldest recording' in ln]
@@ -550,7 +551,7 @@ def test_a_host_clock_set_back_restarts_the_monitor_in_place(tmp_path, capfd, mo
             self._bus = SteppedBack()
 
     monkeypatch.setattr(M, 'ListenOnlyBus', Adapter)
-    h = Harness(tmp_path, f'back-{uuid.uuid4().hex[:6]}', {'can.timestamps': 'bus'})
+    h = Harness(tmp_path, f'back-{uuid.uuid4().hex[:6]}', {'can.timestamps': 'bus', 'recording.keep_free_gb': 0.0})
     try:
         deadline = time.time() + 30
         while h.node.frames_received < len(frames) and time.time() < deadline:

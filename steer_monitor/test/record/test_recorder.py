@@ -498,3 +498,16 @@ def test_a_disk_unmounted_under_the_recorder_is_not_replaced_by_the_one_beneath(
         rec.close()
         subprocess.run(['umount', '-l', str(mnt)], check=False)
     assert rec.files[1].parent == mnt / 'rec'
+
+
+def test_a_recording_written_to_within_the_minute_is_not_removed_for_the_budget(tmp_path):
+    """A second recorder with the same prefix in the directory: its open file (written to
+    every second) is not taken for an old recording; the older ones go first, it stays."""
+    old = _old_recordings(tmp_path, [40_000, 40_000])
+    busy = tmp_path / 'steer_monitor_20251130T000000Z_001.mcap'    # named older, written to now
+    busy.write_bytes(os.urandom(40_000))
+    with Recorder(tmp_path, max_total_bytes=30_000, chunk_size=4096, flush_interval_s=0.0) as rec:
+        for i in range(100):
+            rec.write_frame(_frame(i))
+    assert [p.exists() for p in old] == [False, False] and busy.exists()
+    assert rec.status().removed == 2
