@@ -23,6 +23,7 @@ them on every kind of line), which remains the reference and the fallback:
 
 from __future__ import annotations
 
+import contextlib
 import datetime
 import os
 import re
@@ -42,7 +43,7 @@ from steer_monitor.can.logs import (CAN_ERR_FLAG, LogError, _candump_line, candu
 from steer_monitor.can.mcapio import FRAME_DATATYPE
 from steer_monitor.can.rejects import RejectCounter
 
-__all__ = ['BLOCK_BYTES', 'BLOCK_FRAMES', 'iter_candump_blocks', 'iter_log_blocks', 'first_frame_ns', 'in_time_order', 'iter_mcap_blocks', 'log_end_ns',
+__all__ = ['BLOCK_BYTES', 'BLOCK_FRAMES', 'MAX_CHUNK_BYTES', 'CorruptChunk', 'decompress_chunk', 'iter_candump_blocks', 'iter_log_blocks', 'first_frame_ns', 'in_time_order', 'iter_mcap_blocks', 'log_end_ns',
            'read_log_fast', 'write_candump_arrays']
 
 BLOCK_BYTES = 16 << 20
@@ -536,6 +537,43 @@ _CHUNK = 0x06
 _DATA_END = 0x0F
 
 
+#: the most of a summary section read for its schemas and channels [bytes]
+MAX_SUMMARY_BYTES = 64 << 20
+
+
+def _seed_from_summary(fh: IO[bytes], state: _McapState) -> None:
+    """The schemas and channels of a finished file's summary section (writers repeat them
+    there), before its data is read: a corrupt chunk that held a channel's definition (the
+    first chunk holds them all) does not then lose every later message of that channel. Only
+    a summary whose footer, bounds and CRC check out is used; otherwise nothing happens (the
+    definitions in the data still count). Leaves ``fh`` at the start."""
+    try:
+        if not fh.seekable():
+            return
+        size = fh.seek(0, os.SEEK_END)
+        if size < 8 + 29 + 8 + 8:
+            return
+        fh.seek(size - 8 - 29)
+        tail = fh.read(29 + 8)
+        if tail[-8:] != _MAGIC or tail[0] != _FOOTER or struct.unpack_from('<Q', tail, 1)[0] != 20:
+            return
+        start, offset_start, crc = struct.unpack_from('<QQI', tail, 9)
+        footer = size - 8 - 29
+        end = offset_start or footer
+        if not 8 < start < end <= footer or footer - start > MAX_SUMMARY_BYTES:
+            return
+        fh.seek(start)
+        checked = fh.read(size - 8 - 4 - start)      # the summary through the footer's fields before the CRC
+        if crc and zlib.crc32(checked) != crc:
+            return
+        _walk_records(checked[:end - start], state)
+    except (OSError, ValueError, struct.error):
+        return
+    finally:
+        with contextlib.suppress(OSError, ValueError):
+            fh.seek(0)
+
+
 def _top_records(fh: IO[bytes], path: Path) -> Iterator[tuple[int, int, bytes]]:
     """(offset, opcode, body) of the data section's records, read sequentially. mcap's
     StreamReader builds an object per message-index entry as well (most of its time on a
@@ -571,11 +609,51 @@ class CorruptChunk(ValueError):
     """A chunk whose records cannot be trusted (CRC mismatch, broken compression)."""
 
 
-def _chunk_records(body: bytes, path: Path, dctx: Any) -> bytes:
-    """The records of a chunk, decompressed and checked against the chunk's CRC (when the
-    writer set one); :class:`CorruptChunk` otherwise."""
+#: the most a chunk may declare uncompressed [bytes]. Writers use about 1 MiB (mcap's 1 MiB,
+#: rosbag2's and Foxglove's 768 KiB, the recorder here 1 MiB); a chunk declaring more is taken
+#: as damaged or hostile: a 100 kB chunk of zstd can declare 3 GiB of zeros (tried: 3.2 GB of
+#: memory and a minute for a 1 MB file), one without a content size in its frame 16 TiB
+MAX_CHUNK_BYTES = 256 << 20
+
+
+def decompress_chunk(compression: str, data: bytes, size: int, crc: int, dctx: Any = None) -> bytes:
+    """A chunk's records: ``data`` decompressed (``''``, ``zstd`` or ``lz4``) to the ``size``
+    the chunk declares, never more, and checked against its ``crc`` (when the writer set one);
+    :class:`CorruptChunk` saying why not. ``dctx``: a zstandard decompressor to reuse."""
     import zstandard
 
+    if size > MAX_CHUNK_BYTES:
+        msg = (f'declares {size} bytes uncompressed, more than the {MAX_CHUNK_BYTES >> 20} MiB a chunk may '
+               'hold here')
+        raise CorruptChunk(msg)
+    if compression not in ('', 'zstd', 'lz4'):
+        msg = f'unknown compression {compression!r}'
+        raise CorruptChunk(msg)
+    try:
+        if compression == '':
+            out = bytes(data)
+        elif compression == 'zstd':
+            out = (dctx or zstandard.ZstdDecompressor()).decompress(data, max_output_size=size)
+        else:
+            import lz4.frame
+            out = lz4.frame.LZ4FrameDecompressor().decompress(data, max_length=size + 1)
+    except (zstandard.ZstdError, RuntimeError, ValueError, MemoryError) as exc:
+        msg = f'{compression} data broken ({type(exc).__name__}: {exc})' if isinstance(exc, MemoryError) \
+            else f'{compression} data broken ({exc})'
+        raise CorruptChunk(msg) from exc
+    if len(out) != size:
+        msg = f'{len(out)}{"+" if len(out) > size else ""} bytes decompressed, the chunk says {size}'
+        raise CorruptChunk(msg)
+    if crc and zlib.crc32(out) != crc:
+        msg = 'CRC mismatch'
+        raise CorruptChunk(msg)
+    return out
+
+
+def _chunk_records(body: bytes, path: Path, dctx: Any) -> bytes:
+    """The records of a chunk record's ``body``, decompressed and checked
+    (:func:`decompress_chunk`); :class:`CorruptChunk` otherwise, :class:`LogError` for a
+    compression this reader does not know (the whole file has it)."""
     try:
         size, crc = struct.unpack_from('<QI', body, 16)
         compression, off = _string(body, 28)
@@ -587,27 +665,10 @@ def _chunk_records(body: bytes, path: Path, dctx: Any) -> bytes:
     if len(data) < n:
         msg = 'chunk records cut short'
         raise CorruptChunk(msg)
-    try:
-        if compression == '':
-            out = data
-        elif compression == 'zstd':
-            out = dctx.decompress(data, max_output_size=size)
-        elif compression == 'lz4':
-            import lz4.frame
-            out = lz4.frame.decompress(data)
-        else:
-            msg = f'{path}: MCAP chunk compressed with {compression!r}, which this reader does not know'
-            raise LogError(msg)
-    except (zstandard.ZstdError, RuntimeError, ValueError) as exc:
-        msg = f'{compression} data broken ({exc})'
-        raise CorruptChunk(msg) from exc
-    if len(out) != size:
-        msg = f'{len(out)} bytes decompressed, the chunk says {size}'
-        raise CorruptChunk(msg)
-    if crc and zlib.crc32(out) != crc:
-        msg = 'CRC mismatch'
-        raise CorruptChunk(msg)
-    return out
+    if compression not in ('', 'zstd', 'lz4'):
+        msg = f'{path}: MCAP chunk compressed with {compression!r}, which this reader does not know'
+        raise LogError(msg)
+    return decompress_chunk(compression, data, size, crc, dctx)
 
 
 def iter_mcap_blocks(path: str | Path, rejects: RejectCounter | None = None) -> Iterator[FrameArrays]:
@@ -626,6 +687,7 @@ def iter_mcap_blocks(path: str | Path, rejects: RejectCounter | None = None) -> 
     held = 0
     corrupt: list[str] = []
     with fh:
+        _seed_from_summary(fh, state)
         try:
             for at, op, body in _top_records(fh, path):
                 if op == _CHUNK:

@@ -11,12 +11,12 @@ name and renamed when finished.
 from __future__ import annotations
 
 import io
-import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from steer_monitor.atomic import atomic_path, os_reason
+from steer_monitor.can.fastlogs import decompress_chunk
 from steer_monitor.errors import SteerMonitorError
 
 __all__ = ['RecoverError', 'RecoverResult', 'recover']
@@ -44,33 +44,9 @@ class RecoverResult:
 
 
 def _chunk_records(chunk: Any) -> bytes:
-    """The records of an mcap ``Chunk``, decompressed and checked; ValueError saying why not."""
-    if chunk.compression == 'zstd':
-        import zstandard
-        try:
-            data = zstandard.ZstdDecompressor().decompress(chunk.data, max_output_size=chunk.uncompressed_size)
-        except zstandard.ZstdError as exc:
-            msg = f'zstd data broken ({exc})'
-            raise ValueError(msg) from exc
-    elif chunk.compression == 'lz4':
-        import lz4.frame
-        try:
-            data = lz4.frame.decompress(chunk.data)
-        except RuntimeError as exc:
-            msg = f'lz4 data broken ({exc})'
-            raise ValueError(msg) from exc
-    elif chunk.compression == '':
-        data = chunk.data
-    else:
-        msg = f'unknown compression {chunk.compression!r}'
-        raise ValueError(msg)
-    if len(data) != chunk.uncompressed_size:
-        msg = f'{len(data)} bytes decompressed, the chunk says {chunk.uncompressed_size}'
-        raise ValueError(msg)
-    if chunk.uncompressed_crc and zlib.crc32(data) != chunk.uncompressed_crc:
-        msg = 'CRC mismatch'
-        raise ValueError(msg)
-    return data
+    """The records of an mcap ``Chunk``, decompressed (never past the size it declares, nor
+    past the most a chunk may hold) and checked; ValueError saying why not."""
+    return decompress_chunk(chunk.compression, chunk.data, chunk.uncompressed_size, chunk.uncompressed_crc)
 
 
 def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult:

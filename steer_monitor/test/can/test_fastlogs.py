@@ -330,3 +330,62 @@ def test_lines_longer_than_a_block(tmp_path):
     ref, got, r1, r2 = _both(path, block_bytes=97)
     _same(ref, got)
     assert len(got) == 40 and r1.counts == r2.counts
+
+
+@pytest.mark.parametrize('compression', ['', 'zstd', 'lz4'])
+def test_a_chunk_is_decompressed_and_checked(compression):
+    import zlib
+
+    import lz4.frame
+    import zstandard
+
+    from steer_monitor.can.fastlogs import CorruptChunk, decompress_chunk
+    raw = bytes(range(256)) * 64
+    data = {'': raw, 'zstd': zstandard.ZstdCompressor().compress(raw), 'lz4': lz4.frame.compress(raw)}[compression]
+    assert decompress_chunk(compression, data, len(raw), zlib.crc32(raw)) == raw
+    assert decompress_chunk(compression, data, len(raw), 0) == raw                 # no CRC written
+    with pytest.raises(CorruptChunk, match='CRC mismatch'):
+        decompress_chunk(compression, data, len(raw), zlib.crc32(raw) ^ 1)
+    with pytest.raises(CorruptChunk, match=f'the chunk says {len(raw) + 1}'):
+        decompress_chunk(compression, data, len(raw) + 1, 0)
+
+
+@pytest.mark.parametrize('compression', ['zstd', 'lz4'])
+def test_a_chunk_that_inflates_past_its_declared_size_is_not_inflated(compression):
+    """A bomb: 64 MiB of zeros in a few kB, the chunk declaring 1000 bytes (zstd without a
+    content size in its frame, where the declared size is all a reader has). Refused, and no
+    more than the declared size (plus one byte) is ever made: lz4's decompress had inflated
+    all of it first."""
+    import tracemalloc
+
+    import lz4.frame
+    import zstandard
+
+    from steer_monitor.can.fastlogs import CorruptChunk, decompress_chunk
+    zeros = bytes(64 << 20)
+    data = (zstandard.ZstdCompressor(write_content_size=False).compress(zeros) if compression == 'zstd'
+            else lz4.frame.compress(zeros))
+    del zeros
+    tracemalloc.start()
+    try:
+        with pytest.raises(CorruptChunk):
+            decompress_chunk(compression, data, 1000, 0)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 1 << 20, peak
+
+
+def test_a_chunk_declaring_more_than_a_chunk_may_hold_is_refused_at_once():
+    """Declared sizes are what a zstd frame without a content size is inflated into: 16 TiB
+    made the whole file fail as 'out of memory'; 3 GiB of honest zeros in 100 kB took 3.2 GB
+    and a minute. Beyond MAX_CHUNK_BYTES the chunk is corrupt before anything is inflated."""
+    import zstandard
+
+    from steer_monitor.can.fastlogs import MAX_CHUNK_BYTES, CorruptChunk, decompress_chunk
+    data = zstandard.ZstdCompressor(write_content_size=False).compress(b'x' * 1000)
+    for size in (MAX_CHUNK_BYTES + 1, 1 << 44):
+        with pytest.raises(CorruptChunk, match=f'declares {size} bytes uncompressed, more than the 256 MiB'):
+            decompress_chunk('zstd', data, size, 0)
+    with pytest.raises(CorruptChunk, match="unknown compression 'brotli'"):
+        decompress_chunk('brotli', data, 1000, 0)

@@ -208,6 +208,41 @@ def test_flipped_compressed_chunk(base, tmp_path, capsys, where):
     _check(capsys, 'recover', path, tmp_path / 'rc', 1, None)
 
 
+def test_a_corrupt_first_chunk_does_not_lose_the_channels_it_defined(base, tmp_path, capsys):
+    """The first chunk holds the schemas and channels: corrupt, it made every later frame
+    of the file unreadable ('no CAN frames'). A finished file repeats them in its summary,
+    which is read first: only that chunk's frames are lost."""
+    src = base['chunks']
+    lo, hi = _chunk_spans(src)[0]
+    path = tmp_path / 'first.mcap'
+    path.write_bytes(_flip(src.read_bytes(), 16, lo + 50, hi - 50, 5))
+    rc, lines, out = _run(capsys, ['inspect', str(path), '--json'])
+    assert rc == 1 and len(lines) == 1 and '1 corrupt chunk(s) skipped' in lines[0], lines
+    got, ref = json.loads(out), json.loads(_run(capsys, ['inspect', str(src), '--json'])[2])
+    assert 0 < ref['frames'] - got['frames'] < ref['frames'] // 2, (got['frames'], ref['frames'])
+    lines = _check(capsys, 'replay', path, tmp_path / 'o', 1, 'corrupt chunk')
+
+
+@pytest.mark.parametrize('size', [300 << 20, 1 << 44])
+def test_a_chunk_declaring_an_absurd_size_is_refused_before_it_is_inflated(base, tmp_path, capsys, size):
+    """A chunk's declared uncompressed size is what a zstd frame without a content size is
+    inflated into: 16 TiB failed the whole file as 'out of memory', and a 100 kB chunk of
+    zeros honestly declaring 3 GiB took 3.2 GB and a minute. Beyond 256 MiB a chunk is taken
+    as corrupt, at once; the rest of the file is read."""
+    import resource
+    import struct
+    data = bytearray(base['chunks'].read_bytes())
+    at = _chunk_spans(base['chunks'])[1][0] - 40       # the second chunk's header
+    struct.pack_into('<Q', data, at + 16, size)        # its uncompressed size
+    path = tmp_path / 'absurd.mcap'
+    path.write_bytes(bytes(data))
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    for command in ('inspect', 'replay', 'recover'):
+        lines = _check(capsys, command, path, tmp_path / command, 1, 'corrupt chunk')
+        assert f'declares {size} bytes uncompressed, more than the 256 MiB a chunk may hold here' in lines[0], lines
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 200_000    # kB: nothing inflated
+
+
 @pytest.mark.parametrize('fraction', [0.0, 0.001, 0.1, 0.37, 0.5, 0.81, 0.999])
 def test_truncated_recordings(base, tmp_path, capsys, fraction):
     data = base['rec'].read_bytes()
