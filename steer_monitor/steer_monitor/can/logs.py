@@ -45,6 +45,8 @@ FORMATS = {'candump': 'candump -L', 'asc': 'Vector ASC', 'blf': 'Vector BLF', 'm
            'canboat': 'CANboat plain (actisense-serial)', 'ydwg': 'Yacht Devices YDWG raw'}
 _BY_SUFFIX = {'.log': 'candump', '.asc': 'asc', '.blf': 'blf', '.mcap': 'mcap'}
 _SNIFF_BYTES = 4096
+#: the most a BLF log container may declare uncompressed [bytes]; writers use 128 KiB
+MAX_CONTAINER_BYTES = 64 << 20
 WRITE_SUFFIXES = ('.log', '.blf', '.mcap')
 
 CAN_ERR_FLAG = 0x20000000
@@ -311,13 +313,22 @@ def _blf_reader(path: Path, damaged: list[str], rejects: RejectCounter | None = 
                 fh.read(obj_size % 4)
                 if obj_type != blf.LOG_CONTAINER:
                     continue
-                method, _ = blf.LOG_CONTAINER_STRUCT.unpack_from(body)
+                method, size = blf.LOG_CONTAINER_STRUCT.unpack_from(body)
                 packed = body[blf.LOG_CONTAINER_STRUCT.size:]
                 try:
                     if method == blf.NO_COMPRESSION:
                         data = packed
                     elif method == blf.ZLIB_DEFLATE:
-                        data = zlib.decompressobj().decompress(packed)
+                        # never past what the container declares, nor past what one may hold: a
+                        # few kB of deflate can inflate to hundreds of MB
+                        if size > MAX_CONTAINER_BYTES:
+                            msg = (f'declares {size} bytes uncompressed, more than the '
+                                   f'{MAX_CONTAINER_BYTES >> 20} MiB a container may hold here')
+                            raise ValueError(msg)
+                        data = zlib.decompressobj().decompress(packed, size + 1)
+                        if len(data) > size:
+                            msg = f'inflates past the {size} bytes it declares'
+                            raise ValueError(msg)
                     else:
                         msg = f'unknown compression method {method}'
                         raise ValueError(msg)

@@ -303,3 +303,36 @@ def test_damaged_blf_container_is_skipped_and_the_rest_read(tmp_path, longer, da
     with pytest.raises(Exception):                   # python-can's own reader stops there
         list(can.BLFReader(str(bad)))
 
+
+
+@pytest.mark.parametrize('declared', [1000, 1 << 31])
+def test_a_blf_container_that_would_inflate_past_its_size_is_skipped_uninflated(tmp_path, longer, declared):
+    """A container of a few kB of deflate holding 64 MiB of zeros, declaring 1000 bytes (or
+    2 GiB): skipped as damaged, the rest read, and never inflated (zlib inflated all of it)."""
+    import struct
+    import tracemalloc
+    import zlib
+    path = _write(tmp_path / 'x.blf', longer)
+    data = bytes(path.read_bytes())
+    at, size, kind = _blf_objects(data)[1]
+    packed = zlib.compress(bytes(64 << 20), 9)
+    body = struct.pack('<H6xI4x', 2, declared) + packed
+    header = bytearray(data[at:at + 16])
+    struct.pack_into('<I', header, 8, 16 + len(body))
+    bomb = bytes(header) + body + bytes((16 + len(body)) % 4)
+    bad = tmp_path / 'bomb.blf'
+    bad.write_bytes(data[:at] + bomb + data[at:])           # an extra container before the second
+    rejects = RejectCounter()
+    tracemalloc.start()
+    try:
+        with pytest.raises(LogError, match=r'1 damaged container\(s\) skipped'):
+            got = []
+            for f in iter_log(bad, rejects):
+                got.append(f)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    # every real container read (less the one frame the skip cut, which spans two containers)
+    assert len(longer) - 1 <= len(got) <= len(longer)
+    assert peak < 16 << 20, peak
+    assert rejects.snapshot().counts == {'corrupt_chunk': 1}
