@@ -106,6 +106,7 @@ class MonitorNode(Node):
         self._bus_clock: BusClock | None = None
         self._clock_told: tuple[bool | None, int] = (None, 0)
         self._save_error: str | None = None    # the estimator state's last save failure, until one succeeds
+        self._state_dir_made = False           # the state file's directory was made (or found) once
         self._stop = threading.Event()
         self._closed = False
         self._closing = False
@@ -240,7 +241,11 @@ class MonitorNode(Node):
         if self.estimator is None or path is None:
             return
         try:
-            ensure_dir(path.parent)
+            if not self._state_dir_made:
+                # once: made again later, a directory on a disk since unmounted would be made on
+                # the disk beneath its mount point (the recorder refuses that too)
+                ensure_dir(path.parent)
+                self._state_dir_made = True
             self.estimator.save(path)
         except OutputError as exc:
             text = f'cannot save the estimator state: {exc}'

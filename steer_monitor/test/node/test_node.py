@@ -583,3 +583,31 @@ def test_a_host_clock_set_back_restarts_the_monitor_in_place(tmp_path, capfd, mo
     assert not old_time and got[1][0][1] < t0, old_time[:3]
     late = [(topic, t) for topic, t in got[0] if t < t0]
     assert all(topic == '/steering_can/rx' for topic, _ in late) and len(late) <= 60, late[:5]
+
+
+def test_the_estimator_state_is_not_saved_onto_the_disk_beneath_an_unmounted_one(tmp_path):
+    """The state file lives in the recording directory; on a disk unmounted while the node
+    runs, a save made the directory again on the system's disk under the empty mount point.
+    Now the save fails (said once) and nothing is made there."""
+    if os.geteuid() != 0:
+        pytest.skip('mounting a tmpfs needs root; this test runs in CI as root')
+    mnt = tmp_path / 'usb'
+    mnt.mkdir()
+    done = subprocess.run(['mount', '-t', 'tmpfs', '-o', 'size=4m', 'tmpfs', str(mnt)], capture_output=True,
+                          text=True, check=False)
+    if done.returncode != 0:
+        pytest.skip(f'cannot mount a tmpfs here: {done.stderr.strip()}')
+    h = None
+    try:
+        h = Harness(mnt / 'rec', f'umount-{uuid.uuid4().hex[:6]}',
+                    {'estimator.state_file': 'steer_monitor_estimator.npz', 'recording.enabled': False})
+        h.node._save_estimator()
+        assert (mnt / 'rec' / 'steer_monitor_estimator.npz').exists()
+        subprocess.run(['umount', '-l', str(mnt)], check=True)
+        h.node._save_estimator()
+        assert not (mnt / 'rec').exists()
+        assert f'no directory {mnt / "rec"}' in (h.node._save_error or '')
+    finally:
+        if h is not None:
+            h.close()
+        subprocess.run(['umount', '-l', str(mnt)], check=False)
