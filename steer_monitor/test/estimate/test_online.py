@@ -69,6 +69,26 @@ def test_state_survives_a_restart(r18, db, smap, hard_over, tmp_path):
     assert not list(tmp_path.glob('*.tmp*'))   # written atomically
 
 
+def test_a_stream_restarted_at_an_earlier_time_keeps_what_was_learned_and_learns_on(r18, db, smap, hard_over):
+    """The node's restart in place after its clock was set back: the learned moments and the
+    estimate stay; the stream's samples and time are forgotten, so the same manoeuvres an
+    hour earlier are learned again (before, every sample earlier than the last was ignored)."""
+    import types
+
+    from steer_monitor.can import FrameArrays
+    _, sim = hard_over
+    est = OnlineEstimator(r18, min_clearance_2z=0.05e-3)
+    _feed(est, sim, db, smap)
+    samples, motion, estimate = est.moments.samples, est.motion_s, est.estimate
+    est.restart_stream()
+    assert est.moments.samples == samples and est.motion_s == motion and est.estimate is estimate
+    assert all(not buf for buf in est._buf.values())
+    earlier = FrameArrays(sim.frames.t_ns - 3600 * 10**9, sim.frames.can_id, sim.frames.dlc, sim.frames.data,
+                          sim.frames.flags)
+    _feed(est, types.SimpleNamespace(frames=earlier), db, smap)
+    assert est.moments.samples == 2 * samples and est.motion_s == pytest.approx(2 * motion)
+
+
 def test_a_state_the_disk_cannot_take_is_refused_whole(r18, db, smap, hard_over, small_tmpfs):
     """A full disk: OutputError naming the path and the reason; the state saved before stays
     as it was, and no temporary file is left beside it."""

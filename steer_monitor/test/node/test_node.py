@@ -462,17 +462,14 @@ def test_a_defect_that_recurs_every_frame_is_logged_at_most_every_ten_seconds(tm
     assert len(lines) == 1, lines
 
 
-def test_an_adapter_whose_clock_is_not_utc_is_put_on_the_host_clock(tmp_path, capfd, monkeypatch, r18_params,
-                                                                     db, smap):
-    """An adapter that stamps frames from its power-up (gs_usb/candleLight): the node's states
-    and diagnostics are dated by the host's clock, not 1970; the CAN bus status and one
-    warning say so."""
+def _paced_adapter(monkeypatch, frames: list, stamp, speed: float = 1.0) -> None:
+    """The node's bus replaced by one that gives ``frames`` paced in real time (``speed`` times
+    as fast), each stamped ``stamp(i, frame)`` [s], as an adapter would."""
     import steer_monitor.node.monitor_node as M
     from steer_monitor.can.bus import message_from_frame
-    frames = list(sim.run(r18_params, sim.SimConfig(program='hold:3'), db, smap, seed=5).frames.frames())
     t0 = frames[0].t_ns
 
-    class SincePowerUp:
+    class Paced:
         def __init__(self) -> None:
             self.i, self.start = 0, time.monotonic()
 
@@ -481,11 +478,10 @@ def test_an_adapter_whose_clock_is_not_utc_is_put_on_the_host_clock(tmp_path, ca
                 time.sleep(timeout or 0.01)
                 return None
             f = frames[self.i]
-            due = self.start + (f.t_ns - t0) / 1e9
-            time.sleep(max(0.0, due - time.monotonic()))
-            self.i += 1
+            time.sleep(max(0.0, self.start + (f.t_ns - t0) / 1e9 / speed - time.monotonic()))
             msg = message_from_frame(f)
-            msg.timestamp = 1000.0 + (f.t_ns - t0) / 1e9      # seconds since the adapter powered up
+            msg.timestamp = stamp(self.i, f)
+            self.i += 1
             return msg
 
         def shutdown(self) -> None:
@@ -495,9 +491,19 @@ def test_an_adapter_whose_clock_is_not_utc_is_put_on_the_host_clock(tmp_path, ca
         def __init__(self, *a, **k) -> None:
             super().__init__(*a, **k)
             self._bus.shutdown()
-            self._bus = SincePowerUp()
+            self._bus = Paced()
 
     monkeypatch.setattr(M, 'ListenOnlyBus', Adapter)
+
+
+def test_an_adapter_whose_clock_is_not_utc_is_put_on_the_host_clock(tmp_path, capfd, monkeypatch, r18_params,
+                                                                     db, smap):
+    """An adapter that stamps frames from its power-up (gs_usb/candleLight): the node's states
+    and diagnostics are dated by the host's clock, not 1970; the CAN bus status and one
+    warning say so."""
+    frames = list(sim.run(r18_params, sim.SimConfig(program='hold:3'), db, smap, seed=5).frames.frames())
+    t0 = frames[0].t_ns
+    _paced_adapter(monkeypatch, frames, lambda i, f: 1000.0 + (f.t_ns - t0) / 1e9)   # seconds since power-up
     h = Harness(tmp_path, f'clock-{uuid.uuid4().hex[:6]}')
     try:
         start = time.time_ns()
@@ -515,42 +521,14 @@ def test_an_adapter_whose_clock_is_not_utc_is_put_on_the_host_clock(tmp_path, ca
 def test_a_host_clock_set_back_restarts_the_monitor_in_place(tmp_path, capfd, monkeypatch, r18_params, db, smap):
     """The frames' time goes back an hour half-way (NTP setting back a clock that ran ahead):
     the node goes on publishing states from the new time (before, it refused every frame as
-    time_backwards until the clock caught up: an hour of nothing), says so once, keeps what
-    the estimator learned, and records on in a second file, each file in time order."""
-    import steer_monitor.node.monitor_node as M
+    time_backwards until the clock caught up: an hour of nothing), says so once, and records
+    on in a second file, each file holding one time (the estimator's part:
+    test_online's restart_stream test)."""
     from mcap.reader import make_reader
-
-    from steer_monitor.can.bus import message_from_frame
     frames = list(sim.run(r18_params, sim.SimConfig(program='hold:8'), db, smap, seed=6).frames.frames())
-    t0, half, speed = frames[0].t_ns, len(frames) // 2, 4.0
+    t0, half = frames[0].t_ns, len(frames) // 2
     back = 3600 * 10**9
-
-    class SteppedBack:
-        def __init__(self) -> None:
-            self.i, self.start = 0, time.monotonic()
-
-        def recv(self, timeout=None):
-            if self.i >= len(frames):
-                time.sleep(timeout or 0.01)
-                return None
-            f = frames[self.i]
-            time.sleep(max(0.0, self.start + (f.t_ns - t0) / 1e9 / speed - time.monotonic()))
-            msg = message_from_frame(f)
-            if self.i >= half:
-                msg.timestamp -= back / 1e9
-            self.i += 1
-            return msg
-
-        def shutdown(self) -> None:
-            pass
-
-    class Adapter(M.ListenOnlyBus):
-        def __init__(self, *a, **k) -> None:
-            super().__init__(*a, **k)
-            self._bus.shutdown()
-            self._bus = SteppedBack()
-
-    monkeypatch.setattr(M, 'ListenOnlyBus', Adapter)
+    _paced_adapter(monkeypatch, frames, lambda i, f: (f.t_ns - (back if i >= half else 0)) / 1e9, speed=4.0)
     h = Harness(tmp_path, f'back-{uuid.uuid4().hex[:6]}', {'can.timestamps': 'bus', 'recording.keep_free_gb': 0.0})
     try:
         deadline = time.time() + 30
