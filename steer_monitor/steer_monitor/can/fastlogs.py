@@ -425,27 +425,35 @@ class _McapState:
         self.frame_channels: set[int] = set()
         self.refused: dict[int, str] = {}      # a can_msgs/msg/Frame channel that cannot be read -> why
         self.refused_messages: dict[int, int] = {}
+        self._by_schema: dict[int, set[int]] = {}   # schema id -> the channels that name it
 
     def schema(self, sid: int, name: str, encoding: str = '', data: bytes = b'') -> None:
         self.schemas[sid] = (name, encoding, data)
-        self._update()
+        for cid in self._by_schema.get(sid, ()):
+            self._judge(cid)
 
     def channel(self, cid: int, sid: int, topic: str = '', message_encoding: str = 'cdr') -> None:
+        old = self.channels.get(cid)
+        if old is not None:
+            self._by_schema.get(old[0], set()).discard(cid)
         self.channels[cid] = (sid, topic, message_encoding)
-        self._update()
+        self._by_schema.setdefault(sid, set()).add(cid)
+        self._judge(cid)
 
-    def _update(self) -> None:
-        self.frame_channels = set()
-        self.refused = {}
-        for cid, (sid, _, msg_enc) in self.channels.items():
-            name, enc, data = self.schemas.get(sid, ('', '', b''))
-            if name != FRAME_DATATYPE:
-                continue
-            why = _frame_channel_problem(enc, data, msg_enc)
-            if why is None:
-                self.frame_channels.add(cid)
-            else:
-                self.refused[cid] = why
+    def _judge(self, cid: int) -> None:
+        """Whether channel ``cid`` carries frames this reader takes (one channel at a time: a
+        file of 100,000 channel records took minutes when every record judged them all)."""
+        self.frame_channels.discard(cid)
+        self.refused.pop(cid, None)
+        sid, _, msg_enc = self.channels[cid]
+        name, enc, data = self.schemas.get(sid, ('', '', b''))
+        if name != FRAME_DATATYPE:
+            return
+        why = _frame_channel_problem(enc, data, msg_enc)
+        if why is None:
+            self.frame_channels.add(cid)
+        else:
+            self.refused[cid] = why
 
     def problems(self) -> list[str]:
         """What kept frames from being read: refused frame channels that held messages, or,
