@@ -186,6 +186,7 @@ class MonitorNode(Node):
         values = (('interface', f"{p['can.interface']}:{p['can.channel']}"),
                   ('controller_silent', {True: 'yes', False: 'no', None: 'unknown'}[silent]),
                   ('controller_mode', how), ('frame_times', self._clock_text()),
+                  ('frame_time_went_back', str(self.restarts)),
                   ('last_bus_error', self.reader.last_error or 'none'))
         level = WARN if silent is False else OK
         message = how if silent is not None else f'listen-only cannot be confirmed: {how}'

@@ -534,13 +534,14 @@ def test_a_host_clock_set_back_restarts_the_monitor_in_place(tmp_path, capfd, mo
             time.sleep(0.1)
         time.sleep(1.0)
         restarts = getattr(h.node, 'restarts', None)
+        bus = _values(h.latest()['steer_monitor: CAN bus'])
     finally:
         h.close()
     stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in h.loads]
     before = [t for t in stamps if t >= t0]
     after = [t for t in stamps if t < t0]
     assert before and after, (len(before), len(after))
-    assert restarts == 1
+    assert restarts == 1 and bus['frame_time_went_back'] == '1'
     # the states go on after the step, at the rate they came before it
     assert len(after) > 0.6 * len(before), (len(before), len(after))
     assert max(after) > frames[-1].t_ns - back - 2 * 10**9
