@@ -23,12 +23,12 @@ integer nanoseconds:
   Beyond either, at the first frame, the interface's clock is not UTC. Later, beyond either
   for ``confirm_ns`` (1 s) of the interface's time, its clock has restarted or stepped (an
   adapter reset, a counter wrap): the offset then moves by the step (counted in
-  :attr:`BusClock.steps`; the pipeline's time-jump rule confirms the new time; the frames of
-  that second keep the old offset). A disagreement that ends sooner is the *host's* clock
+  :attr:`BusClock.steps`; the frames of that second are given the host's reading time). A
+  disagreement that ends sooner is the *host's* clock
   stepping (NTP, or an operator, setting it) while frames stamped before the step were still
   queued: socketcan's stamps are the host kernel's, so the frames after it agree again, and
   moving the offset for the few queued ones would have put every later frame off UTC by the
-  step. Between steps, a relative clock's offset follows the host's at most ``slew`` (100
+  step (the queued ones are given the host's reading time too, on its new time). Between steps, a relative clock's offset follows the host's at most ``slew`` (100
   ppm) of the time elapsed, about an adapter crystal's drift, so intervals change by no more
   than that; a clock taken as UTC is left as it is.
 
@@ -87,6 +87,12 @@ class BusClock:
                 self.steps += 1
                 self.relative = True
                 self._suspect = None
+            if self._suspect is not None:
+                # meanwhile the reading's time: right for either cause (the host's clock is the
+                # reference), where the old offset would put an adapter's restarted clock hours
+                # back for that second, which the pipeline would take for the clock set back
+                self._last_bus_ns = bus_ns
+                return host_ns
         else:
             self._suspect = None                          # a passing one: the host's clock stepped
             if self.relative and self._last_bus_ns is not None:
