@@ -43,7 +43,8 @@ from steer_monitor.can.logs import (CAN_ERR_FLAG, LogError, _candump_line, candu
 from steer_monitor.can.mcapio import FRAME_DATATYPE
 from steer_monitor.can.rejects import RejectCounter
 
-__all__ = ['BLOCK_BYTES', 'BLOCK_FRAMES', 'MAX_CHUNK_BYTES', 'CorruptChunk', 'decompress_chunk', 'iter_candump_blocks', 'iter_log_blocks', 'first_frame_ns', 'in_time_order', 'iter_mcap_blocks', 'log_end_ns',
+__all__ = ['BLOCK_BYTES', 'BLOCK_FRAMES', 'MAX_CHUNK_BYTES', 'CorruptChunk', 'decompress_chunk', 'mcap_chunks_within_limits',
+           'iter_candump_blocks', 'iter_log_blocks', 'first_frame_ns', 'in_time_order', 'iter_mcap_blocks', 'log_end_ns',
            'read_log_fast', 'write_candump_arrays']
 
 BLOCK_BYTES = 16 << 20
@@ -580,6 +581,35 @@ def _seed_from_summary(fh: IO[bytes], state: _McapState) -> None:
     finally:
         with contextlib.suppress(OSError, ValueError):
             fh.seek(0)
+
+
+def mcap_chunks_within_limits(path: str | Path) -> bool:
+    """Whether no chunk of the MCAP ``path`` declares more than :data:`MAX_CHUNK_BYTES`
+    uncompressed: checked before handing a file to a reader that inflates a chunk to what it
+    declares (mcap's own). Reads the records' headers only; False for a file that is not an
+    MCAP or cannot be read."""
+    try:
+        with open(path, 'rb') as fh:
+            if fh.read(8) != _MAGIC:
+                return False
+            while True:
+                head = fh.read(9)
+                if len(head) < 9:
+                    return True
+                op, ln = struct.unpack('<BQ', head)
+                if op in (_FOOTER, _DATA_END):
+                    return True
+                if op == _CHUNK:
+                    body = fh.read(24)
+                    if len(body) < 24:
+                        return True
+                    if struct.unpack_from('<Q', body, 16)[0] > MAX_CHUNK_BYTES:
+                        return False
+                    fh.seek(ln - 24, 1)
+                else:
+                    fh.seek(ln, 1)
+    except (OSError, struct.error, ValueError, OverflowError):
+        return False
 
 
 def _top_records(fh: IO[bytes], path: Path) -> Iterator[tuple[int, int, bytes]]:

@@ -30,9 +30,13 @@ def online_track(paths: Sequence[Path]) -> Any:
 
     from steer_monitor.ashore.report.review import OnlineTrack
 
+    from steer_monitor.can.fastlogs import mcap_chunks_within_limits
+
     rows: list[tuple[int, list[float]]] = []
     for path in paths:
-        if Path(path).suffix.lower() != '.mcap':
+        # mcap's reader inflates a chunk to the size it declares: not a file with one beyond
+        # what a chunk may hold (the frames' reader has said it is corrupt)
+        if Path(path).suffix.lower() != '.mcap' or not mcap_chunks_within_limits(path):
             continue
         try:
             with open(path, 'rb') as fh:

@@ -85,6 +85,37 @@ def test_online_estimates_of_a_replay_are_read(logs):
     assert online_track([logs['log']]) is None
 
 
+def test_a_recording_with_a_chunk_declaring_too_much_is_not_handed_to_mcaps_reader(tmp_path, logs):
+    """mcap's reader inflates a chunk to the size it declares (a hostile 100 kB chunk can
+    declare gigabytes): a file with a chunk beyond what one may hold gives no online track
+    (its frames' reader has said it is corrupt), nothing is inflated."""
+    import struct
+    import tracemalloc
+
+    from steer_monitor.ashore.report.logreport import online_track
+    from steer_monitor.can.fastlogs import MAX_CHUNK_BYTES, mcap_chunks_within_limits
+    data = bytearray(logs['replay'].read_bytes())
+    pos = 8
+    while data[pos] != 0x06:                                  # the first chunk record
+        pos += 9 + struct.unpack_from('<Q', data, pos + 1)[0]
+    struct.pack_into('<Q', data, pos + 9 + 16, 3 << 30)      # declares 3 GiB
+    path = tmp_path / 'declares.mcap'
+    path.write_bytes(bytes(data))
+    assert mcap_chunks_within_limits(logs['replay']) and not mcap_chunks_within_limits(path)
+    assert 3 << 30 > MAX_CHUNK_BYTES
+    tracemalloc.start()
+    try:
+        assert online_track([path]) is None
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 64 << 20, peak
+    assert not mcap_chunks_within_limits(logs['log'])        # not an MCAP
+    cut = tmp_path / 'cut.mcap'
+    cut.write_bytes(bytes(logs['replay'].read_bytes()[:pos + 20]))
+    assert mcap_chunks_within_limits(cut)                     # cut inside a chunk header: the readers say so
+
+
 @pytest.mark.parametrize(('args', 'message'), [
     (['missing.log'], 'does not exist'),
     (['{log}', '--analysis-hours', '-1'], 'analysis-hours must be a finite number >= 0, got -1.0'),
