@@ -43,6 +43,39 @@ class RecoverResult:
     dropped: list[str] = field(default_factory=list)
 
 
+def _summary_definitions(fin: Any) -> list[Any]:
+    """The schemas, then the channels, of the MCAP ``fin``'s summary section, when it has one
+    that reads whole and is within bounds (none otherwise); leaves ``fin`` at the start."""
+    from mcap.reader import SeekingReader
+
+    from steer_monitor.can.fastlogs import MAX_SUMMARY_BYTES
+    out: list[Any] = []
+    try:
+        size = fin.seek(0, io.SEEK_END)
+        if _summary_size(fin, size) <= MAX_SUMMARY_BYTES:      # a footer pointing far back is not read
+            fin.seek(0)
+            summary = SeekingReader(fin, validate_crcs=True).get_summary()
+            if summary is not None:
+                out = [*summary.schemas.values(), *summary.channels.values()]
+    except Exception:   # noqa: BLE001 - a damaged summary (mcap's own errors): the data's definitions only
+        out = []
+    finally:
+        fin.seek(0)
+    return out
+
+
+def _summary_size(fin: Any, size: int) -> int:
+    """Bytes from the summary's start to the end of ``fin`` (its footer read); the file's
+    size when the footer cannot be read."""
+    import struct
+    fin.seek(size - 8 - 29)
+    tail = fin.read(29)
+    if len(tail) < 29 or tail[0] != 0x02:
+        return size
+    (start,) = struct.unpack_from('<Q', tail, 9)
+    return size - start if 0 < start < size else size
+
+
 def _chunk_records(chunk: Any) -> bytes:
     """The records of an mcap ``Chunk``, decompressed (never past the size it declares, nor
     past the most a chunk may hold) and checked; ValueError saying why not."""
@@ -105,6 +138,11 @@ def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult
         with fout:
             writer = Writer(fout, compression=CompressionType.ZSTD, enable_crcs=True)
             writer.start(profile='ros2', library='steer_monitor recover')
+            # a finished file repeats its schemas and channels in its summary: taken first, so
+            # a dropped chunk that defined them (the first one defines them all) does not take
+            # every later message of theirs with it
+            for record in _summary_definitions(fin):
+                copy(record)
             try:
                 for record in StreamReader(fin, record_size_limit=1 << 30, emit_chunks=True).records:
                     if isinstance(record, Chunk):

@@ -221,6 +221,10 @@ def test_a_corrupt_first_chunk_does_not_lose_the_channels_it_defined(base, tmp_p
     got, ref = json.loads(out), json.loads(_run(capsys, ['inspect', str(src), '--json'])[2])
     assert 0 < ref['frames'] - got['frames'] < ref['frames'] // 2, (got['frames'], ref['frames'])
     lines = _check(capsys, 'replay', path, tmp_path / 'o', 1, 'corrupt chunk')
+    # recover too: it took the definitions from the data only, and its copy held no frame
+    _check(capsys, 'recover', path, tmp_path / 'rc', 1, 'corrupt chunk(s) dropped')
+    rc, _, out = _run(capsys, ['inspect', str(tmp_path / 'rc' / 'rc.mcap'), '--json'])
+    assert rc == 0 and json.loads(out)['frames'] == got['frames']
 
 
 @pytest.mark.parametrize('size', [300 << 20, 1 << 44])
