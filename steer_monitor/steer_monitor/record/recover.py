@@ -11,6 +11,7 @@ name and renamed when finished.
 from __future__ import annotations
 
 import io
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -45,16 +46,15 @@ class RecoverResult:
 
 def _summary_definitions(fin: Any) -> list[Any]:
     """The schemas, then the channels, of the MCAP ``fin``'s summary section, when it has one
-    that reads whole and is within bounds (none otherwise); leaves ``fin`` at the start."""
+    whose bounds and CRC check out and that reads whole (none otherwise); leaves ``fin`` at the
+    start. mcap's reader does not check the summary's CRC: done here first."""
     from mcap.reader import SeekingReader
 
-    from steer_monitor.can.fastlogs import MAX_SUMMARY_BYTES
     out: list[Any] = []
     try:
-        size = fin.seek(0, io.SEEK_END)
-        if _summary_size(fin, size) <= MAX_SUMMARY_BYTES:      # a footer pointing far back is not read
+        if _summary_sound(fin):
             fin.seek(0)
-            summary = SeekingReader(fin, validate_crcs=True).get_summary()
+            summary = SeekingReader(fin).get_summary()
             if summary is not None:
                 out = [*summary.schemas.values(), *summary.channels.values()]
     except Exception:   # noqa: BLE001 - a damaged summary (mcap's own errors): the data's definitions only
@@ -64,16 +64,24 @@ def _summary_definitions(fin: Any) -> list[Any]:
     return out
 
 
-def _summary_size(fin: Any, size: int) -> int:
-    """Bytes from the summary's start to the end of ``fin`` (its footer read); the file's
-    size when the footer cannot be read."""
+def _summary_sound(fin: Any) -> bool:
+    """Whether ``fin`` ends in a footer pointing at a summary of at most
+    :data:`~steer_monitor.can.fastlogs.MAX_SUMMARY_BYTES` whose CRC (when written) matches."""
     import struct
+
+    from steer_monitor.can.fastlogs import MAX_SUMMARY_BYTES
+    size = fin.seek(0, io.SEEK_END)
+    if size < 8 + 29 + 8 + 8:
+        return False
     fin.seek(size - 8 - 29)
     tail = fin.read(29)
     if len(tail) < 29 or tail[0] != 0x02:
-        return size
-    (start,) = struct.unpack_from('<Q', tail, 9)
-    return size - start if 0 < start < size else size
+        return False
+    start, _, crc = struct.unpack_from('<QQI', tail, 9)
+    if not 8 < start < size - 8 - 29 or size - start > MAX_SUMMARY_BYTES:
+        return False
+    fin.seek(start)
+    return not crc or zlib.crc32(fin.read(size - 8 - 4 - start)) == crc
 
 
 def _chunk_records(chunk: Any) -> bytes:

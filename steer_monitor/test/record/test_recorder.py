@@ -511,3 +511,25 @@ def test_a_recording_written_to_within_the_minute_is_not_removed_for_the_budget(
             rec.write_frame(_frame(i))
     assert [p.exists() for p in old] == [False, False] and busy.exists()
     assert rec.status().removed == 2
+
+
+def test_recover_takes_a_summary_only_when_its_crc_holds(tmp_path):
+    """The summary's schemas and channels are taken before the data's only if the footer's
+    CRC of it matches (mcap's reader does not check it): a flipped byte there, nothing taken."""
+    import struct
+    import zlib as _zlib
+
+    from steer_monitor.record.recover import _summary_definitions
+    with Recorder(tmp_path, chunk_size=4096, flush_interval_s=0.0) as rec:
+        for i in range(300):
+            rec.write_frame(_frame(i))
+    data = bytearray(rec.files[0].read_bytes())
+    with open(rec.files[0], 'rb') as fh:
+        assert [type(r).__name__ for r in _summary_definitions(fh)] == ['Schema', 'Channel']
+    start, _, crc = struct.unpack_from('<QQI', data, len(data) - 8 - 29 + 9)
+    assert crc and _zlib.crc32(bytes(data[start:len(data) - 12])) == crc
+    data[start + 20] ^= 0xFF                         # inside the summary's first record
+    bad = tmp_path / 'bad_summary.mcap'
+    bad.write_bytes(bytes(data))
+    with open(bad, 'rb') as fh:
+        assert _summary_definitions(fh) == [] and fh.tell() == 0
