@@ -44,7 +44,7 @@ from steer_monitor.can.mcapio import FRAME_DATATYPE
 from steer_monitor.can.rejects import RejectCounter
 
 __all__ = ['BLOCK_BYTES', 'BLOCK_FRAMES', 'MAX_CHUNK_BYTES', 'CorruptChunk', 'decompress_chunk', 'mcap_chunks_within_limits',
-           'iter_candump_blocks', 'iter_log_blocks', 'first_frame_ns', 'in_time_order', 'iter_mcap_blocks', 'log_end_ns',
+           'summary_section', 'iter_candump_blocks', 'iter_log_blocks', 'first_frame_ns', 'in_time_order', 'iter_mcap_blocks', 'log_end_ns',
            'read_log_fast', 'write_candump_arrays']
 
 BLOCK_BYTES = 16 << 20
@@ -550,37 +550,46 @@ _DATA_END = 0x0F
 MAX_SUMMARY_BYTES = 64 << 20
 
 
-def _seed_from_summary(fh: IO[bytes], state: _McapState) -> None:
-    """The schemas and channels of a finished file's summary section (writers repeat them
-    there), before its data is read: a corrupt chunk that held a channel's definition (the
-    first chunk holds them all) does not then lose every later message of that channel. Only
-    a summary whose footer, bounds and CRC check out is used; otherwise nothing happens (the
-    definitions in the data still count). Leaves ``fh`` at the start."""
+def summary_section(fh: IO[bytes]) -> bytes | None:
+    """The records of a finished MCAP's summary section (writers repeat their schemas and
+    channels there), when the footer, the section's bounds (at most
+    :data:`MAX_SUMMARY_BYTES`) and its CRC (when written) check out; None otherwise, or for a
+    stream that cannot seek. Leaves ``fh`` at the start."""
     try:
         if not fh.seekable():
-            return
+            return None
         size = fh.seek(0, os.SEEK_END)
         if size < 8 + 29 + 8 + 8:
-            return
+            return None
         fh.seek(size - 8 - 29)
         tail = fh.read(29 + 8)
         if tail[-8:] != _MAGIC or tail[0] != _FOOTER or struct.unpack_from('<Q', tail, 1)[0] != 20:
-            return
+            return None
         start, offset_start, crc = struct.unpack_from('<QQI', tail, 9)
         footer = size - 8 - 29
         end = offset_start or footer
         if not 8 < start < end <= footer or footer - start > MAX_SUMMARY_BYTES:
-            return
+            return None
         fh.seek(start)
         checked = fh.read(size - 8 - 4 - start)      # the summary through the footer's fields before the CRC
         if crc and zlib.crc32(checked) != crc:
-            return
-        _walk_records(checked[:end - start], state)
+            return None
+        return checked[:end - start]
     except (OSError, ValueError, struct.error):
-        return
+        return None
     finally:
         with contextlib.suppress(OSError, ValueError):
             fh.seek(0)
+
+
+def _seed_from_summary(fh: IO[bytes], state: _McapState) -> None:
+    """The schemas and channels of a finished file's summary section, before its data is
+    read: a corrupt chunk that held a channel's definition (the first chunk holds them all)
+    does not then lose every later message of that channel. Only a summary that checks out is
+    used (:func:`summary_section`); otherwise the definitions in the data count alone."""
+    section = summary_section(fh)
+    if section is not None:
+        _walk_records(section, state)
 
 
 def mcap_chunks_within_limits(path: str | Path) -> bool:

@@ -11,13 +11,12 @@ name and renamed when finished.
 from __future__ import annotations
 
 import io
-import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from steer_monitor.atomic import atomic_path, os_reason
-from steer_monitor.can.fastlogs import decompress_chunk
+from steer_monitor.can.fastlogs import decompress_chunk, summary_section
 from steer_monitor.errors import SteerMonitorError
 
 __all__ = ['RecoverError', 'RecoverResult', 'recover']
@@ -45,43 +44,25 @@ class RecoverResult:
 
 
 def _summary_definitions(fin: Any) -> list[Any]:
-    """The schemas, then the channels, of the MCAP ``fin``'s summary section, when it has one
-    whose bounds and CRC check out and that reads whole (none otherwise); leaves ``fin`` at the
-    start. mcap's reader does not check the summary's CRC: done here first."""
-    from mcap.reader import SeekingReader
+    """The schemas, then the channels, of the MCAP ``fin``'s summary section when it checks
+    out (:func:`~steer_monitor.can.fastlogs.summary_section`: footer, bounds, CRC, which
+    mcap's reader does not check) and reads whole; none otherwise. Leaves ``fin`` at the start."""
+    from mcap.exceptions import EndOfFile
+    from mcap.records import Channel, Schema
+    from mcap.stream_reader import StreamReader
 
-    out: list[Any] = []
+    section = summary_section(fin)
+    if section is None:
+        return []
+    records: list[Any] = []
     try:
-        if _summary_sound(fin):
-            fin.seek(0)
-            summary = SeekingReader(fin).get_summary()
-            if summary is not None:
-                out = [*summary.schemas.values(), *summary.channels.values()]
-    except Exception:   # noqa: BLE001 - a damaged summary (mcap's own errors): the data's definitions only
-        out = []
-    finally:
-        fin.seek(0)
-    return out
-
-
-def _summary_sound(fin: Any) -> bool:
-    """Whether ``fin`` ends in a footer pointing at a summary of at most
-    :data:`~steer_monitor.can.fastlogs.MAX_SUMMARY_BYTES` whose CRC (when written) matches."""
-    import struct
-
-    from steer_monitor.can.fastlogs import MAX_SUMMARY_BYTES
-    size = fin.seek(0, io.SEEK_END)
-    if size < 8 + 29 + 8 + 8:
-        return False
-    fin.seek(size - 8 - 29)
-    tail = fin.read(29)
-    if len(tail) < 29 or tail[0] != 0x02:
-        return False
-    start, _, crc = struct.unpack_from('<QQI', tail, 9)
-    if not 8 < start < size - 8 - 29 or size - start > MAX_SUMMARY_BYTES:
-        return False
-    fin.seek(start)
-    return not crc or zlib.crc32(fin.read(size - 8 - 4 - start)) == crc
+        for record in StreamReader(io.BytesIO(section), skip_magic=True).records:
+            records.append(record)
+    except EndOfFile:        # the end of the section's records
+        pass
+    except Exception:   # noqa: BLE001 - mcap's own errors on records that do not parse: none taken
+        return []
+    return ([r for r in records if isinstance(r, Schema)] + [r for r in records if isinstance(r, Channel)])
 
 
 def _chunk_records(chunk: Any) -> bytes:
