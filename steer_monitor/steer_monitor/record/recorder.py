@@ -314,8 +314,13 @@ class Recorder:
     def _keep_budget(self) -> None:
         """Remove the oldest finished recordings while over the budget. The free space is read
         once and what each removal frees is added to it (a file another process still holds
-        open frees nothing yet; reading the free space again would remove the next one too)."""
-        if not (self.max_total_bytes or self.keep_free_bytes) or not self._finished:
+        open frees nothing yet; reading the free space again would remove the next one too).
+        The directory's recordings are looked up the first time."""
+        if not (self.max_total_bytes or self.keep_free_bytes):
+            return
+        if self._finished is None:
+            self._scan_finished()
+        if not self._finished:
             return
         current = self._stream.tell() if self._stream is not None else 0
         free = None
@@ -392,8 +397,6 @@ class Recorder:
         removing old recordings, if the budget asks for it)."""
         try:
             self._ensure_directory()
-            if self._finished is None and (self.max_total_bytes or self.keep_free_bytes):
-                self._scan_finished()
             self._keep_budget()
             st = os.statvfs(self.directory)
         except OSError as exc:
@@ -434,8 +437,6 @@ class Recorder:
 
     def _open(self, log_time_ns: int, now: float) -> None:
         self._ensure_directory()
-        if self._finished is None and (self.max_total_bytes or self.keep_free_bytes):
-            self._scan_finished()
         self._keep_budget()
         stamp = datetime.fromtimestamp(log_time_ns / 1e9, tz=timezone.utc).strftime('%Y%m%dT%H%M%SZ')
         while True:     # never over a recording already there (a restart in the same second, a second node)

@@ -29,7 +29,6 @@ def online_track(paths: Sequence[Path]) -> Any:
     from mcap_ros2.decoder import DecoderFactory
 
     from steer_monitor.ashore.report.review import OnlineTrack
-
     from steer_monitor.can.fastlogs import mcap_chunks_within_limits
 
     rows: list[tuple[int, list[float]]] = []
