@@ -81,8 +81,9 @@ class MonitorNode(Node):
         self.gear = gear_from_params(p)
         db, smap = can_setup(p, config_path)
         self.smap = smap
+        self._db = db
         self.rejects = RejectCounter()
-        self.monitor = LiveMonitor(self.gear, gaps_from_params(p), 'configured', friction_from_params(p))
+        self.monitor = self._new_monitor()
         self.diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(p), smap, self.gear)
         self.diag.guide_onset_deg(self.monitor.gaps)  # warm the cache before the first frame
         # the message types before anything opens: a package not built stops the node here
@@ -112,8 +113,7 @@ class MonitorNode(Node):
         self._closing = False
         self.estimator: OnlineEstimator | None = None
         jobs = self._start_estimator() if p['estimator.enabled'] else None
-        self._db = db
-        self.pipeline = Pipeline(Decoder(db, smap, self.rejects), self.rejects, self.monitor, self.diag, jobs)
+        self.pipeline = self._new_pipeline(jobs)
         self.restarts = 0                      # times the monitor started again after the data time went back
         interface, channel = p['can.interface'], p['can.channel']
         opener = bus_opener or (lambda: ListenOnlyBus(interface, channel, p['can.bitrate'], p['can.timestamps']))
@@ -203,12 +203,25 @@ class MonitorNode(Node):
                     est.load(path)
                     self.get_logger().info(f'estimator state loaded from {path}: '
                                            f'{est.motion_s:.0f} s of rudder motion learned')
-                    if est.estimate is not None:
-                        apply_estimate(self.monitor, EstimateSnapshot(est.estimate, est.motion_s))
+                    self._apply_learned(est)
                 except EstimateError as exc:
                     self.get_logger().warning(f'{exc}; starting the estimate afresh')
         self._last_save = time.monotonic()
         return self._estimator_jobs(est)
+
+    def _new_monitor(self) -> LiveMonitor:
+        """A live model on the configured clearances and friction (until an estimate comes)."""
+        p = self.params
+        return LiveMonitor(self.gear, gaps_from_params(p), 'configured', friction_from_params(p))
+
+    def _new_pipeline(self, jobs: ThreadedEstimatorJobs | None) -> Pipeline:
+        """The pipeline over a new decoder, on the live model and diagnostics in use."""
+        return Pipeline(Decoder(self._db, self.smap, self.rejects), self.rejects, self.monitor, self.diag, jobs)
+
+    def _apply_learned(self, est: OnlineEstimator) -> None:
+        """The estimator's estimate, if it has one, to the live model."""
+        if est.estimate is not None:
+            apply_estimate(self.monitor, EstimateSnapshot(est.estimate, est.motion_s))
 
     def _estimator_jobs(self, est: OnlineEstimator) -> ThreadedEstimatorJobs:
         return ThreadedEstimatorJobs(est, on_error=lambda exc: self._log().error(
@@ -311,17 +324,14 @@ class MonitorNode(Node):
         step_ns = old.decoder.jumps.step_back_ns
         outs = old.finish()
         old.close()
-        p = self.params
-        self.monitor = LiveMonitor(self.gear, gaps_from_params(p), 'configured', friction_from_params(p))
+        self.monitor = self._new_monitor()
         jobs = None
         est = self.estimator
         if est is not None:
             est.restart_stream()
-            if est.estimate is not None:
-                apply_estimate(self.monitor, EstimateSnapshot(est.estimate, est.motion_s))
+            self._apply_learned(est)
             jobs = self._estimator_jobs(est)
-        self.pipeline = Pipeline(Decoder(self._db, self.smap, self.rejects), self.rejects, self.monitor, self.diag,
-                                 jobs)
+        self.pipeline = self._new_pipeline(jobs)
         self.restarts += 1
         self._log().warning(f'the CAN frames\' time went back {step_ns / 1e9:.1f} s (the host clock set back?): '
                             'the monitor starts again from the new time, keeping what the estimator learned'
