@@ -661,6 +661,8 @@ class CorruptChunk(ValueError):
 #: as damaged or hostile: a 100 kB chunk of zstd can declare 3 GiB of zeros (tried: 3.2 GB of
 #: memory and a minute for a 1 MB file), one without a content size in its frame 16 TiB
 MAX_CHUNK_BYTES = 256 << 20
+#: the chunk compressions MCAP defines ('' for none)
+COMPRESSIONS = ('', 'zstd', 'lz4')
 
 
 def decompress_chunk(compression: str, data: bytes, size: int, crc: int, dctx: Any = None) -> bytes:
@@ -673,7 +675,7 @@ def decompress_chunk(compression: str, data: bytes, size: int, crc: int, dctx: A
         msg = (f'declares {size} bytes uncompressed, more than the {MAX_CHUNK_BYTES >> 20} MiB a chunk may '
                'hold here')
         raise CorruptChunk(msg)
-    if compression not in ('', 'zstd', 'lz4'):
+    if compression not in COMPRESSIONS:
         msg = f'unknown compression {compression!r}'
         raise CorruptChunk(msg)
     try:
@@ -712,7 +714,7 @@ def _chunk_records(body: bytes, path: Path, dctx: Any) -> bytes:
     if len(data) < n:
         msg = 'chunk records cut short'
         raise CorruptChunk(msg)
-    if compression not in ('', 'zstd', 'lz4'):
+    if compression not in COMPRESSIONS:
         msg = f'{path}: MCAP chunk compressed with {compression!r}, which this reader does not know'
         raise LogError(msg)
     return decompress_chunk(compression, data, size, crc, dctx)
