@@ -150,6 +150,9 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               'SOLAS limit, 35 deg one side to 30 deg the other [s]', 0.0, 600.0, True),
     ParamSpec('diagnostics.residual_warn_bar', 'double', 3.0,
               'WARN when the declared-model residual exceeds this RMS [bar]', 0.0, 1000.0, True),
+    ParamSpec('diagnostics.ram_share_warn_pct', 'double', 15.0,
+              "WARN when a ram's share of the driving force departs from an even half by more than this "
+              '[percentage points]', 1.0, 40.0),
     ParamSpec('model.seal_friction_n', 'double', 9000.0,
               'seal friction F_s used until estimated [N]', 0.0, 1e7),
     ParamSpec('model.mu_bushing', 'double', 0.13, 'ram bushing friction coefficient until estimated', 0.0, 2.0),

@@ -142,7 +142,8 @@ def test_aggregator_analyzer_expects_every_status():
     a = doc['analyzers']['ros__parameters']['steering_gear']
     assert a['type'] == 'diagnostic_aggregator/GenericAnalyzer' and a['startswith'] == ['steer_monitor:']
     from steer_monitor.monitor.diagnostics import PREFIX
-    names = {'CAN input', 'CAN bus', 'clearances', 'guide beam', 'steering performance', 'model health', 'recording'}
+    names = {'CAN input', 'CAN bus', 'clearances', 'guide beam', 'steering performance', 'model health', 'rams',
+             'recording'}
     assert set(a['expected']) == {PREFIX + n for n in names}
 
 

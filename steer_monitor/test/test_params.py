@@ -27,7 +27,7 @@ def test_r18_file_loads_with_design_values(r18_params, r18):
 
 
 def test_every_spec_has_a_unit_or_is_unitless_by_nature():
-    units = ('_m', '_mm', '_pa', '_mm4', '_deg', '_knm', '_kn', '_mm_s', '_hz', '_s', '_bar', '_n', '_mb', '_gb', '_minutes', '_share', '_h', '_ms')
+    units = ('_m', '_mm', '_pa', '_mm4', '_deg', '_knm', '_kn', '_mm_s', '_hz', '_s', '_bar', '_n', '_mb', '_gb', '_minutes', '_share', '_h', '_ms', '_pct')
     unitless = ('.name', '.rams', '.euler_amplification', '.pumps', '.new_fit', '.interface',
                 '.channel', '.bitrate', '.dbc_file', '.pgn', '.field', '.instance', '.source',
                 '.hardware_id', '.mu_bushing', '.mu_guide', '.enabled', '.directory', '.prefix',

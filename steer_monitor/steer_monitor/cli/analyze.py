@@ -24,6 +24,12 @@ a value from below)::
                                            its sensor-noise part
     declared                               the declared model's estimates (before the effect)
     screening                              every candidate against the declared model
+    outlier_instants                       instants set aside before screening
+    rams                                   how the rams shared the driving force: {"share_pct":
+                                           [ram 1, ram 2] over the steady motion kept,
+                                           "instants", "uneven": stretches left out, each
+                                           {"start_ns", "end_ns", "ram" (the weaker, 1 or 2),
+                                           "share_pct" (its share), "instants", "idle"}}
     torque_curve_knm                       [[deg, kN m, half-width of the 95 % band], ...]
     data                                   log, frames, span, steady-motion rows, max angle
 """
@@ -132,6 +138,11 @@ def analysis_json(a: Analysis) -> dict[str, Any]:
                        'delta_bic': round(s.delta_bic, 1), 'rmse_bar': round(s.rms / bar, 4),
                        'passes': s.passes, 'refused': s.refused} for s in a.screening],
         'outlier_instants': a.outliers,
+        'rams': {'share_pct': None if a.rams is None else [round(100 * x, 2) for x in a.rams.share],
+                 'instants': 0 if a.rams is None else a.rams.instants,
+                 'uneven': [{'start_ns': sp.start_ns, 'end_ns': sp.end_ns, 'ram': sp.ram + 1,
+                             'share_pct': round(100 * sp.share, 2), 'instants': sp.instants, 'idle': sp.idle}
+                            for sp in a.uneven]},
         'torque_curve_knm': [[round(math.degrees(x), 2), round(t / 1e3, 2), round(b / 1e3, 2)]
                              for x, t, b in zip(angles, torque, band)],
         'max_angle_seen_deg': round(math.degrees(f.max_angle_seen), 2),
@@ -148,7 +159,8 @@ def analyze_log(path: str | Path, config: str | Path | None = None, progress: bo
     logs = decode_logs([path], db, smap, rejects, date=date)
     say = (lambda msg: print(f'  {msg} ...', file=sys.stderr)) if progress else None
     try:
-        a = analyze(gear, logs.signals, min_clearance_2z=min_clearance_2z_from_params(params), progress=say)
+        a = analyze(gear, logs.signals, min_clearance_2z=min_clearance_2z_from_params(params),
+                    ram_share_warn=params['diagnostics.ram_share_warn_pct'] / 100.0, progress=say)
     except EstimateError as exc:
         if logs.errors:      # say why the data are short as well
             raise EstimateError(f'{exc} ({logs.errors[0]})') from exc

@@ -37,7 +37,8 @@ def _analysis(paths: list[Path], config_path: Path, params: dict[str, Any], sinc
         return None, 'no data for the model check'
     try:
         return analyze(gear_from_params(params), logs.signals,
-                       min_clearance_2z=min_clearance_2z_from_params(params)), ''
+                       min_clearance_2z=min_clearance_2z_from_params(params),
+                       ram_share_warn=params['diagnostics.ram_share_warn_pct'] / 100.0), ''
     except EstimateError as exc:
         return None, f'model check not made: {exc}'
 

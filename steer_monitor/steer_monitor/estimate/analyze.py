@@ -27,10 +27,16 @@ part: the verdict is then "declared" (nothing adopted) or "effect". Otherwise it
 range, ram and direction that carry the rest, and the clearances are refitted with that
 term as a nuisance (so they do not lean on the misfit), saying they rest on an incomplete
 model.
+
+Before all that, stretches where the two rams did not share the force evenly
+(:func:`~steer_monitor.estimate.rams.uneven_spans`: a bypass or isolating valve open, a
+transducer not reading) are left out, and the message says when and which ram: the declared
+model has each ram carry half.
 """
 
 from __future__ import annotations
 
+import datetime
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -47,6 +53,7 @@ from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.locate import Located, locate
 from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import EstimateError, Observations, build_observations
+from steer_monitor.estimate.rams import UNEVEN_CAUSE, RamShare, UnevenSpan, ram_share, uneven_spans
 from steer_monitor.model.gear import GearParams
 
 __all__ = ['DELAY_KEEP_S', 'DELAY_STEP_S', 'DELAY_VERTEX_S', 'EXPLAINED_RATIO', 'MAX_TRIED', 'MIN_BIC_DROP', 'MIN_CV_DEVIANCE',
@@ -131,6 +138,8 @@ class Analysis:
         located: where the unexplained residual lives (None unless 'unexplained' and found).
         model: the estimate with the adopted effects, before any located nuisance (its
             residual is the one ``located`` describes).
+        uneven: stretches where the rams did not share the force evenly, left out of it all.
+        rams: how the rams shared the force over the instants of steady motion kept.
     """
 
     declared: ClearanceEstimate
@@ -147,6 +156,8 @@ class Analysis:
     steps: tuple[Step, ...] = ()
     located: Located | None = None
     model: ClearanceEstimate | None = field(default=None, repr=False)
+    uneven: tuple[UnevenSpan, ...] = ()
+    rams: RamShare | None = None
 
 
 def grid_2z_from(min_clearance: float) -> NDArray[np.float64]:
@@ -407,12 +418,20 @@ def declared_fit(gear: GearParams, signals: Mapping[str, Series], *, min_clearan
 
 
 def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z: float = 0.0,
-            progress: Callable[[str], None] | None = None) -> Analysis:
+            ram_share_warn: float = 0.15, progress: Callable[[str], None] | None = None) -> Analysis:
     """Fit, screen, adopt effect after effect, locate what is left, refit (see the module
-    docstring). Pure."""
+    docstring). ``ram_share_warn``: a stretch where a ram's share of the force departs from an
+    even half by more than this is left out. Pure."""
     say = progress or (lambda _msg: None)
     grid_2z = grid_2z_from(min_clearance_2z)
     obs = build_observations(signals, gear.ram_area)
+    uneven = tuple(uneven_spans(obs.t_ns[obs.moving], obs.force[obs.moving], ram_share_warn, gear.ram_area))
+    if uneven:
+        say(f'{len(uneven)} stretch(es) where the rams did not share the force evenly: left out')
+        signals = _without_pressures(signals, uneven)
+        obs = build_observations(signals, gear.ram_area)
+    rams = ram_share(obs.force[obs.moving])
+    note = _uneven_note(uneven)
     base, n_out = _declared(gear, obs, grid_2z, say)
     declared = base.est
     steps: list[Step] = []
@@ -455,7 +474,7 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
         if not steps and unkept:
             msg += f' ({"; ".join(unkept)})'
         return Analysis(declared, base.est, names[0] if names else None, steps[0].params if steps else {}, verdict,
-                        msg, screening, None, obs, final_obs, n_out, tuple(steps), None, base.est)
+                        msg + note, screening, None, obs, final_obs, n_out, tuple(steps), None, base.est, uneven, rams)
     closest = next((s for s in rounds[-1]), None)
     say('locating the unexplained residual')
     located = locate(base.obs, base.est.residual, base.est.inflation)
@@ -479,8 +498,34 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
     msg += f'; {located.message(gear.ram_area)}' if located is not None else '; no observed variable carries it'
     msg += ('; the clearances are fitted with that term as a nuisance and rest on an incomplete model' if nuisance
             else '; the clearances rest on an incomplete model')
-    return Analysis(declared, final, names[0] if names else None, steps[0].params if steps else {}, 'unexplained', msg,
-                    screening, closest, obs, final_obs, n_out, tuple(steps), located, base.est)
+    return Analysis(declared, final, names[0] if names else None, steps[0].params if steps else {}, 'unexplained',
+                    msg + note, screening, closest, obs, final_obs, n_out, tuple(steps), located, base.est, uneven, rams)
+
+
+def _without_pressures(signals: Mapping[str, Series], spans: Sequence[UnevenSpan]) -> dict[str, Series]:
+    """``signals`` with the pressures' samples within ``spans`` taken out (a gap there)."""
+    out = dict(signals)
+    for name in PRESSURE_INPUTS:
+        ser = signals.get(name)
+        if ser is None:
+            continue
+        keep = np.ones(ser.t_ns.size, bool)
+        for sp in spans:
+            keep &= (ser.t_ns < sp.start_ns) | (ser.t_ns > sp.end_ns)
+        out[name] = Series(ser.t_ns[keep], ser.value[keep])
+    return out
+
+
+def _uneven_note(spans: Sequence[UnevenSpan]) -> str:
+    """What the message says of the stretches left out ('' when none)."""
+    if not spans:
+        return ''
+    def clock(t_ns: int) -> str:
+        return datetime.datetime.fromtimestamp(t_ns / 1e9, datetime.timezone.utc).strftime('%Y-%m-%d %H:%M:%S')
+    parts = [f'ram {sp.ram + 1} carried {100 * sp.share:.0f} % of the driving force from {clock(sp.start_ns)} to '
+             f'{clock(sp.end_ns)} UTC ({sp.instants} instants of steady motion'
+             f'{", next to no work" if sp.idle else ""}: {UNEVEN_CAUSE.format(ram=sp.ram + 1)})' for sp in spans]
+    return '; the rams did not share the force evenly, and those stretches are left out of the fit: ' + '; '.join(parts)
 
 
 def _systematic(before: _Base, after: _Base) -> bool:

@@ -16,6 +16,10 @@ converge to the batch estimate.
   ``FULL_EVERY_S`` of motion: early estimates rest on little data and the profile can have
   several minima, which a local step alone could stay in.
 * No motion, no update: nothing is folded while the rudder rests, so nothing winds up.
+* Nothing is folded either while the rams do not share the force evenly
+  (:mod:`~steer_monitor.estimate.rams`, judged over the last ``WINDOW_INSTANTS`` instants of
+  steady motion, the second's own included): the declared model has each ram carry half,
+  and with a ram's chambers joined the friction the fit would read is another gear's.
 * Forgetting (optional): the moments decay with a half-life counted in seconds of motion.
 * :meth:`save` / :meth:`load`: the moments and the last estimate in one ``.npz``, written
   atomically; a restart picks up what was learned.
@@ -42,6 +46,7 @@ from steer_monitor.estimate.batch import (MIN_MOTION_SAMPLES, ClearanceEstimate,
 from steer_monitor.estimate.intervals import Interval, inflation
 from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations, speed_ratio
 from steer_monitor.estimate.observe import (GRID_NS, HALF_WINDOW_NS, MOVING_RATE, EstimateError, build_observations)
+from steer_monitor.estimate.rams import IDLE, UNEVEN, WINDOW_INSTANTS, judge, ram_share
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.torque import TorqueTable
 
@@ -97,8 +102,13 @@ def _gear_signature(gear: GearParams) -> list[float]:
 class OnlineEstimator:
     """See the module docstring. Not thread-safe: the node serializes calls."""
 
-    def __init__(self, gear: GearParams, *, min_clearance_2z: float = 0.0, half_life_s: float = 0.0) -> None:
+    def __init__(self, gear: GearParams, *, min_clearance_2z: float = 0.0, half_life_s: float = 0.0,
+                 ram_share_warn: float = 0.15) -> None:
         self.gear = gear
+        self.ram_share_warn = ram_share_warn
+        self._ram_forces: deque[NDArray[np.float64]] = deque()   # the rams' forces of recent seconds, (k, 2) each
+        #: seconds of steady motion not folded because the rams did not share the force evenly
+        self.uneven_s = 0.0
         self.basis = F.TorqueBasis(gear.max_rudder)
         self.grid_2z = F.GRID_2Z[F.GRID_2Z >= min_clearance_2z - 1e-12]
         self.grid_zgb = F.GRID_ZGB
@@ -205,6 +215,9 @@ class OnlineEstimator:
         keys, aa, v2, u, idx, ram = rows_from_observations(sub)
         if keys.size == 0:
             return
+        if not self._rams_even(sub.force):
+            self.uneven_s += float(np.count_nonzero(keep)) * GRID_NS / 1e9
+            return
         self._recent.extend(zip(sub.t_ns[idx].tolist(), ram.tolist(), keys.tolist(), aa.tolist(),
                                 v2.tolist(), u[:, -1].tolist()))
         motion = float(np.count_nonzero(keep)) * GRID_NS / 1e9
@@ -214,6 +227,20 @@ class OnlineEstimator:
         self.motion_s += motion
         self._motion_since_full += motion
         self._new_motion += motion
+
+    def _rams_even(self, force: NDArray[np.float64]) -> bool:
+        """Take a second's ram forces (k, 2) [N] into the window of the last
+        ``WINDOW_INSTANTS`` instants with both, and say whether the rams share evenly there
+        (or it cannot be judged)."""
+        both = force[np.isfinite(force).all(axis=1)]
+        if both.shape[0]:
+            self._ram_forces.append(both)
+            while sum(a.shape[0] for a in self._ram_forces) - self._ram_forces[0].shape[0] >= WINDOW_INSTANTS:
+                self._ram_forces.popleft()
+        if not self._ram_forces:
+            return True
+        window = np.concatenate(list(self._ram_forces))[-WINDOW_INSTANTS:]
+        return judge(ram_share(window), self.ram_share_warn, self.gear.ram_area) not in (UNEVEN, IDLE)
 
     def _residuals(self) -> None:
         """Residuals of the recent rows at the current fit -> the inflation factor. Run with
@@ -312,6 +339,7 @@ class OnlineEstimator:
         back), the state a restart from :meth:`save` would start from."""
         for buf in self._buf.values():
             buf.clear()
+        self._ram_forces.clear()
         self._done_ns = self._latest_ns = None
 
     # --- persistence ---------------------------------------------------------------------

@@ -16,6 +16,7 @@ import numpy as np
 
 from steer_monitor.can.rejects import RejectSnapshot
 from steer_monitor.can.signals import REQUIRED, SignalMap
+from steer_monitor.estimate.rams import IDLE, MIN_SHARE_INSTANTS, MIN_SHARE_SPREAD_PA, UNEVEN, UNEVEN_CAUSE, UNJUDGED, judge
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.hardover import hard_over_time, pumps_running
 from steer_monitor.model.loadshare import load_sharing_at
@@ -58,6 +59,8 @@ class DiagnosticsConfig:
     guide_idle_warn_deg: float = 10.0
     solas_hard_over_s: float = 28.0
     residual_warn_bar: float = 3.0
+    #: WARN when a ram's share of the driving force departs from an even half by more than this
+    ram_share_warn: float = 0.15
     #: the gear's main pumps (SOLAS's hard-over time is judged with all of them running)
     pumps: int = 2
     #: ram speed one pump gives [m/s]
@@ -71,6 +74,7 @@ class DiagnosticsConfig:
                    guide_idle_warn_deg=p['diagnostics.guide_idle_warn_deg'],
                    solas_hard_over_s=p['diagnostics.solas_hard_over_s'],
                    residual_warn_bar=p['diagnostics.residual_warn_bar'],
+                   ram_share_warn=p['diagnostics.ram_share_warn_pct'] / 100.0,
                    pumps=p['hydraulics.pumps'], ram_speed_per_pump=p['hydraulics.ram_speed_per_pump_mm_s'] * 1e-3)
 
 
@@ -105,7 +109,7 @@ class DiagnosticsBuilder:
     def build(self, mon: LiveMonitor, rejects: RejectSnapshot, now_ns: int,
               recording: Status | None = None) -> list[Status]:
         out = [self.can_input(mon, rejects, now_ns), self.clearances(mon), self.guide_beam(mon),
-               self.performance(mon), self.model_health(mon)]
+               self.performance(mon), self.model_health(mon), self.rams(mon)]
         if recording is not None:
             out.append(recording)
         return out
@@ -280,3 +284,41 @@ class DiagnosticsBuilder:
         return self._status('model health', level,
                             f'declared model residual {rms:.2f} bar RMS over the last {mon.residual_count} samples of motion',
                             values)
+
+    def rams(self, mon: LiveMonitor) -> Status:
+        """How the two rams share the driving force (:mod:`~steer_monitor.estimate.rams`, judged
+        by its :func:`~steer_monitor.estimate.rams.judge`): ERROR when one does next to no
+        work, WARN when the share departs from an even half by more than ``ram_share_warn``."""
+        sh = mon.ram_share()
+        bar = self.gear.ram_area * 1e5
+        warn = self.cfg.ram_share_warn
+        values = [('ram_1_share_pct', 'n/a' if sh is None else f'{100 * sh.share[0]:.1f}'),
+                  ('ram_2_share_pct', 'n/a' if sh is None else f'{100 * sh.share[1]:.1f}'),
+                  ('ram_share_se_pct', 'n/a' if sh is None else f'{100 * sh.se:.2f}'),
+                  ('ram_share_instants', '0' if sh is None else str(sh.instants)),
+                  ('ram_force_spread_bar', 'n/a' if sh is None else f'{sh.spread / bar:.2f}'),
+                  ('ram_force_offset_bar', 'n/a' if sh is None else f'{sh.offset / bar:.2f}'),
+                  ('ram_share_warn_pct', f'{100 * warn:g}')]
+        verdict = judge(sh, warn, self.gear.ram_area)
+        if sh is None or verdict == UNJUDGED:
+            if sh is None:
+                have = 'no instants of steady motion with both rams\' pressures yet'
+            elif sh.instants >= MIN_SHARE_INSTANTS and sh.spread >= MIN_SHARE_SPREAD_PA * self.gear.ram_area:
+                have = f'ram 1 {100 * sh.share[0]:.0f} %, ram 2 {100 * sh.share[1]:.0f} %, too uncertain'
+            else:
+                have = f'{sh.instants} instants of steady motion, the rams\' mean force varying by {sh.spread / bar:.2f} bar'
+            return self._status('rams', OK, f'not judged yet: {have} (judged from {MIN_SHARE_INSTANTS} instants '
+                                f'and {MIN_SHARE_SPREAD_PA / 1e5:g} bar)', values)
+        weak = sh.weaker
+        low, high = sh.share[weak], sh.share[1 - weak]
+        shares = f'ram 1 {100 * sh.share[0]:.0f} %, ram 2 {100 * sh.share[1]:.0f} %'
+        if verdict == IDLE:
+            return self._status('rams', ERROR, f'ram {weak + 1} does next to no work ({100 * low:.0f} % of the driving '
+                                f'force, ram {2 - weak} {100 * high:.0f} %): {UNEVEN_CAUSE.format(ram=weak + 1)}; on one '
+                                'ram the gear has half its torque', values)
+        if verdict == UNEVEN:
+            return self._status('rams', WARN, f'uneven: {shares} of the driving force (warn beyond '
+                                f'{100 * (0.5 - warn):.0f}-{100 * (0.5 + warn):.0f} %): '
+                                f'{UNEVEN_CAUSE.format(ram=weak + 1)}', values)
+        return self._status('rams', OK, f'the rams share the driving force: {shares} over the last '
+                            f'{sh.instants} instants of motion', values)

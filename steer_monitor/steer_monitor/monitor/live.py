@@ -16,7 +16,10 @@ pressure sample it evaluates:
   held 0.3 s and counted only when the angle's slope on both sides of it is above the motion
   threshold with the same sign, so starts and stops do not pollute it;
 * the steering performance: hard-over time from leaving 35 deg to reaching 30 deg the other
-  side, and the response to order steps (direction, delay, settled accuracy).
+  side, and the response to order steps (direction, delay, settled accuracy);
+* how the two rams share the driving force over the last minute or so of steady motion
+  (:func:`~steer_monitor.estimate.rams.ram_share`, from the pressures alone: whatever model
+  is in use).
 
 Times are integer ns; values SI.
 """
@@ -32,6 +35,7 @@ import numpy as np
 
 from steer_monitor.can.decoder import Sample
 from steer_monitor.can.signals import INPUTS
+from steer_monitor.estimate.rams import RamShare, ram_share
 from steer_monitor.model.friction import FrictionParams, friction_force
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
@@ -47,6 +51,7 @@ SLOPE_WINDOW_NS = 500_000_000
 HALF_WINDOW_NS = 300_000_000   # each side of a pressure sample, for the residual
 MOVING_RATE = 0.2 * DEG        # rad/s: below this the rudder is at rest
 RESIDUAL_SAMPLES = 1200        # about a minute of motion at 20 Hz
+SHARE_INSTANTS = 2400          # instants of steady motion the rams' shares are judged over
 HARD_OVER_DEG = HARD_OVER_FROM_DEG   # "at 35 deg", allowing for sensor noise and the valve dead band
 OTHER_SIDE_DEG = HARD_OVER_TO_DEG    # "at 30 deg" likewise: the valve stops within its dead band
 ORDER_STEP = 1.0 * DEG
@@ -121,6 +126,15 @@ class LiveMonitor:
         self._motion: deque[tuple[float, float | None, float, float, float]] = deque(maxlen=RESIDUAL_SAMPLES // 2)
         self._resid: deque[tuple[float, float] | None] = deque(maxlen=RESIDUAL_SAMPLES // 2)
         self._resid_summary: tuple[list[float], int, float | None] | None = None   # of _resid, until it changes
+        # the rams' forces at the same instants, kept whatever the model in use (the share
+        # does not depend on it): a ring of the last SHARE_INSTANTS rows (numpy reads it as it
+        # is, where a deque of tuples took 0.4 ms a second to convert), the next row written
+        # at _forces_next; their share worked out once per change
+        self._forces = np.zeros((SHARE_INSTANTS, 2))
+        self._forces_next = 0
+        self._forces_kept = 0
+        self._share: RamShare | None = None
+        self._share_stale = False
         self._hard_over: tuple[float, int] | None = None  # (side, time last at hard over)
         self.hard_over_s: float | None = None
         self.response: Response | None = None
@@ -369,6 +383,12 @@ class LiveMonitor:
             self._motion.append(instant)
             self._resid.append(self._residual_pair(instant))
             self._resid_summary = None
+            row = self._forces_next
+            self._forces[row, 0] = force_1
+            self._forces[row, 1] = force_2
+            self._forces_next = (row + 1) % SHARE_INSTANTS
+            self._forces_kept = min(self._forces_kept + 1, SHARE_INSTANTS)
+            self._share_stale = True
 
     def _track_hard_over(self, t_ns: int, alpha: float) -> None:
         deg = alpha / DEG
@@ -418,6 +438,14 @@ class LiveMonitor:
         torque = fa * gear.rams * gear.stock_to_ram / (cos_a * cos_a)
         share = None if self.defer_share else load_sharing_scalar(gear, a, torque, self.gaps.two_z, self.gaps.z_gb)
         return LiveState(t_ns, a, self.rate, abs(self.rate) > MOVING_RATE, torque, share, self.gaps)
+
+    def ram_share(self) -> RamShare | None:
+        """How the rams shared the driving force over the last :data:`SHARE_INSTANTS` instants
+        of steady motion (None before there are any that say)."""
+        if self._share_stale:     # the ring's rows in the order they lie: the same rows, the same bits
+            self._share = ram_share(self._forces[:self._forces_kept])
+            self._share_stale = False
+        return self._share
 
     def residual_rms_bar(self) -> float | None:
         """RMS of the declared model's pressure residual over the last minute of motion [bar]."""

@@ -99,9 +99,10 @@ class EstimatorJobs(Protocol):
 
 def estimator_from_params(gear: GearParams, p: Mapping[str, Any]) -> OnlineEstimator:
     """A fresh online estimator as the parameters configure it (grid from the new fit's 2Z,
-    forgetting half-life)."""
+    forgetting half-life, the rams' uneven share it does not learn from)."""
     return OnlineEstimator(gear, min_clearance_2z=min_clearance_2z_from_params(p),
-                           half_life_s=p['estimator.half_life_h'] * 3600.0)
+                           half_life_s=p['estimator.half_life_h'] * 3600.0,
+                           ram_share_warn=p['diagnostics.ram_share_warn_pct'] / 100.0)
 
 
 def run_job(est: OnlineEstimator, samples: list[Sample],

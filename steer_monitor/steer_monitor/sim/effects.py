@@ -28,6 +28,14 @@ band_friction         *outside the analysis library*: a scored stretch of both r
                       bushings adds friction while the rudder is between two angles on
                       either side, F_fr += f_n for lo_deg <= |alpha| <= hi_deg
                       (f_n = 12e3 N, lo_deg = 12, hi_deg = 18)
+ram_bypass            *a fault, not a model effect*: one ram's chambers joined (a bypass
+                      or isolating valve open) from start_s to end_s [s of the programme]:
+                      that ram carries the fraction carries of its force and the other
+                      ram the rest, 2 - carries (ram = 1, carries = 0.0, start_s = 0,
+                      end_s = 1e9). The rams' total force is kept as the declared plant
+                      has it: the friction of a ram dragged along, and the driving ram's
+                      larger lateral load, are not redistributed. The monitor's ``rams``
+                      status is what names it (:mod:`~steer_monitor.estimate.rams`)
 ===================== ================================================================
 
 Sizes may be negative: a plant that departs from the declared law the other way (friction
@@ -46,7 +54,7 @@ from dataclasses import dataclass, field
 
 from steer_monitor.errors import ParameterError
 
-__all__ = ['EFFECTS', 'OUTSIDE_LIBRARY', 'Effect', 'parse_effect']
+__all__ = ['EFFECTS', 'FAULTS', 'OUTSIDE_LIBRARY', 'Effect', 'parse_effect']
 
 EFFECTS: dict[str, dict[str, float | str]] = {
     'viscous': {'c_ns_per_m': 1.0e6},
@@ -57,10 +65,14 @@ EFFECTS: dict[str, dict[str, float | str]] = {
     'stribeck': {'f_st_n': 15e3, 'v_s_mm_s': 3.0},
     'ram_inertia': {'mass_kg': 60e3, 'rate_lag_s': 0.1},
     'band_friction': {'f_n': 12e3, 'lo_deg': 12.0, 'hi_deg': 18.0},
+    'ram_bypass': {'ram': 1.0, 'carries': 0.0, 'start_s': 0.0, 'end_s': 1e9},
 }
 
 # The ones the analysis library has no candidate for (a test of the "unexplained" verdict).
 OUTSIDE_LIBRARY = ('band_friction',)
+# Faults of the gear rather than effects on its friction or sensors: not the residual loop's
+# to name (another status does).
+FAULTS = ('ram_bypass',)
 
 _PRESSURES = ('pressure_r1_stbd', 'pressure_r1_port', 'pressure_r2_stbd', 'pressure_r2_port')
 
@@ -113,5 +125,10 @@ def parse_effect(text: str) -> Effect:
         raise ParameterError(msg)
     if name == 'band_friction' and not 0 <= float(params['lo_deg']) < float(params['hi_deg']) <= 90:
         msg = f'effect band_friction: need 0 <= lo_deg < hi_deg <= 90, got {params["lo_deg"]} and {params["hi_deg"]}'
+        raise ParameterError(msg)
+    if name == 'ram_bypass' and (params['ram'] not in (1.0, 2.0) or not 0 <= float(params['carries']) <= 2
+                                 or not float(params['start_s']) < float(params['end_s'])):
+        msg = (f'effect ram_bypass: need ram 1 or 2, 0 <= carries <= 2 and start_s < end_s, got ram {params["ram"]:g}, '
+               f'carries {params["carries"]:g}, start_s {params["start_s"]:g} and end_s {params["end_s"]:g}')
         raise ParameterError(msg)
     return Effect(name, params)

@@ -235,10 +235,18 @@ def simulate(gear: GearParams, cfg: SimConfig, ram_speed_per_pump: float, pumps_
         # the ram's speed along its axis, H / cos^2(alpha) dalpha/dt, differentiated
         force = force + float(inertia['mass_kg']) * np.gradient(h / np.cos(alpha) ** 2 * rate, dt)
     dp = force / gear.ram_area
-    p_stbd = cfg.return_pressure + np.maximum(dp, 0.0)
-    p_port = cfg.return_pressure + np.maximum(-dp, 0.0)
-    pressures = {'pressure_r1_stbd': p_stbd, 'pressure_r1_port': p_port,
-                 'pressure_r2_stbd': p_stbd.copy(), 'pressure_r2_port': p_port.copy()}
+    dps = [dp, dp]                  # per ram
+    e = cfg.effect('ram_bypass')
+    if e is not None:
+        span = (t >= float(e['start_s'])) & (t < float(e['end_s']))
+        weak = int(float(e['ram'])) - 1
+        carries = float(e['carries'])
+        dps[weak] = np.where(span, carries * dp, dp)
+        dps[1 - weak] = np.where(span, (2.0 - carries) * dp, dp)
+    pressures = {}
+    for ram, d in enumerate(dps, start=1):
+        pressures[f'pressure_r{ram}_stbd'] = cfg.return_pressure + np.maximum(d, 0.0)
+        pressures[f'pressure_r{ram}_port'] = cfg.return_pressure + np.maximum(-d, 0.0)
     return SimResult(t=t, order=order, alpha=alpha, rate=rate, heading=heading, pumps=pumps,
                      speed=speed, oil_temp=oil, torque=torque, axial=ls.axial, lateral=ls.lateral,
                      ram_force=ls.ram_force, guide_force=ls.guide_force, k_gl=ls.k_gl,

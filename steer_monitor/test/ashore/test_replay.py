@@ -62,7 +62,7 @@ def test_two_replays_are_identical_and_read_by_rosbags_and_mcap(tmp_path, logs):
         assert m.name == ['rudder'] and math.isfinite(m.position[0])
     names = {st.name for _, m in msgs['/diagnostics'] for st in m.status}
     assert names == {'steer_monitor: CAN input', 'steer_monitor: clearances', 'steer_monitor: guide beam',
-                     'steer_monitor: steering performance', 'steer_monitor: model health'}
+                     'steer_monitor: steering performance', 'steer_monitor: model health', 'steer_monitor: rams'}
     # the hard-over was seen and timed
     last = {st.name: {kv.key: kv.value for kv in st.values} for st in msgs['/diagnostics'][-1][1].status}
     assert 10 < float(last['steer_monitor: steering performance']['hard_over_s']) < 28

@@ -25,6 +25,7 @@ def test_clean_voyage_adds_nothing_and_finds_zgb(r18, simulate_signals):
     a = analyze(r18, signals, min_clearance_2z=MIN_2Z)
     assert a.verdict == 'declared' and a.effect is None and a.final is a.declared
     assert 'explains the data to the sensor noise' in a.message
+    assert a.uneven == () and a.rams.share[0] == pytest.approx(0.5, abs=0.01)
     e = a.final
     assert abs(e.z_gb.value - 0.25e-3) <= 0.03e-3 and e.z_gb.contains(0.25e-3)
     # the ram never clamps at 0.6 mm: 2Z is only bounded from below, and the bound is correct
@@ -99,6 +100,31 @@ def test_effect_outside_the_library_is_reported_unexplained(r18, simulate_signal
     assert loc.variable == 'alpha_deg' and loc.either_side and loc.shape.odd and loc.shape.ram is None
     assert abs(loc.lo - 12.0) < 0.5 and abs(loc.hi - 18.0) < 0.5
     assert a.final.z_gb.contains(0.25e-3) and a.final.two_z.contains(0.6e-3)
+
+
+@pytest.mark.parametrize('ram, carries', [(2, 0.0), (1, 0.4)])
+def test_a_stretch_where_one_ram_carried_too_little_is_named_and_left_out(r18, simulate_signals, ram, carries):
+    """Another programme, seed and clearances than the other tests here (realistic, 0.4 / 0.2
+    mm): ram 2's chambers joined, or ram 1's valve partly open, over 400 s of the log. The
+    analysis names the ram and the time, leaves the stretch out (to the 30 s of motion of
+    the windows it is judged in), and the clearances still cover the truth."""
+    effect = f'ram_bypass:ram={ram},carries={carries},start_s=300,end_s=700'
+    signals, s = simulate_signals('realistic:1500', 0.4, 0.2, (effect,), seed=41)
+    a = analyze(r18, signals, min_clearance_2z=MIN_2Z)
+    assert len(a.uneven) == 1
+    sp = a.uneven[0]
+    t0 = s.plant.start_ns
+    assert sp.ram == ram - 1 and sp.idle == (carries == 0.0)
+    assert 240 <= (sp.start_ns - t0) / 1e9 <= 310 and 690 <= (sp.end_ns - t0) / 1e9 <= 760
+    assert sp.share == pytest.approx(carries / 2, abs=0.06)
+    assert f'ram {ram} carried' in a.message and 'left out of the fit' in a.message
+    # nothing of the stretch is fitted: no steady motion with a pressure inside it
+    inside = (a.observations.t_ns >= sp.start_ns) & (a.observations.t_ns <= sp.end_ns)
+    assert not (a.observations.moving & inside).any()
+    assert a.rams.share[0] == pytest.approx(0.5, abs=0.01)
+    e = a.final
+    assert e.z_gb.contains(0.2e-3) and e.seal_friction.contains(9e3)
+    assert e.two_z.contains(0.4e-3) or (e.two_z.hi is None and e.two_z.lo <= 0.4e-3)
 
 
 def test_k_gl_max_per_pair_and_per_curve(r18):

@@ -50,6 +50,27 @@ def test_online_converges_to_the_batch_estimate(r18, db, smap, hard_over):
             assert buf[-1][0] - buf[1][0] <= KEEP_NS + 2_000_000_000 + 1
 
 
+@pytest.mark.parametrize('effect', [None, 'ram_bypass:ram=1,start_s=200,end_s=500'])
+def test_nothing_is_learned_while_a_ram_does_not_carry_its_share(r18, db, smap, simulate_signals, effect):
+    """A programme and seed of their own (zig-zags then an autopilot, seed 23): ram 1's chambers
+    joined from 200 to 500 s. The estimator folds the motion before and after, not the
+    fault's: to the half minute of motion its window takes to see the fault come, and go."""
+    program = 'zigzag_10,zigzag_20,autopilot:300,zigzag_15,zigzag_10'
+    signals, s = simulate_signals(program, 0.5, 0.2, (effect,) if effect else (), seed=23)
+    est = OnlineEstimator(r18, min_clearance_2z=0.05e-3)
+    _feed(est, s, db, smap, every=400)
+    obs = build_observations(signals, r18.ram_area)
+    t = (obs.t_ns[obs.moving] - s.plant.start_ns) / 1e9
+    in_fault = float(((t >= 200) & (t < 500)).sum()) * 0.05       # seconds of steady motion in it
+    if effect is None:
+        assert est.uneven_s == 0.0
+        return
+    assert in_fault - 30 <= est.uneven_s <= in_fault + 30
+    clean = OnlineEstimator(r18, min_clearance_2z=0.05e-3)
+    _feed(clean, simulate_signals(program, 0.5, 0.2, (), seed=23)[1], db, smap, every=400)
+    assert est.motion_s == pytest.approx(clean.motion_s - est.uneven_s, abs=1.0)
+
+
 def test_no_update_while_the_rudder_rests(r18, db, smap, simulate_signals):
     _, sim = simulate_signals('hold:60', 0.6, 0.25)
     est = OnlineEstimator(r18)

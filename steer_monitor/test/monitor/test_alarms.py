@@ -55,7 +55,7 @@ def test_no_alarm_on_a_clean_plant_in_any_programme(r18_params, can_db):
     assert alarms == []
     names = {st.name for _, st in statuses}
     assert names == {'steer_monitor: CAN input', 'steer_monitor: clearances', 'steer_monitor: guide beam',
-                     'steer_monitor: steering performance', 'steer_monitor: model health'}
+                     'steer_monitor: steering performance', 'steer_monitor: model health', 'steer_monitor: rams'}
 
 
 def test_a_worn_gear_is_found(r18_params, can_db):
@@ -68,6 +68,27 @@ def test_a_worn_gear_is_found(r18_params, can_db):
 def test_an_undeclared_friction_is_found(r18_params, can_db):
     statuses = _replay(r18_params, can_db, 'hard_over_2,zigzag_20,zigzag_10', (0.45, 0.12), 5, effects=['viscous'])
     assert any(st.level == WARN for _, st in statuses if st.name.endswith('model health'))
+
+
+@pytest.mark.parametrize('program, effect, level, text, within_s', [
+    # at sea: ram 2's chambers joined a quarter of an hour into the watch
+    ('realistic:1200', 'ram_bypass:ram=2,start_s=300', ERROR, 'ram 2 does next to no work', 120),
+    # a valve left half open: ram 1 carries a quarter, ram 2 three quarters
+    ('realistic:1200', 'ram_bypass:ram=1,carries=0.5,start_s=300', WARN, 'uneven: ram 1 25 %, ram 2 75 %', 120),
+    # at berth, the steering gear test before departure: no ship speed, friction alone to go by
+    ('speed:0,hold:10,hard_over_2,hard_over_1', 'ram_bypass:ram=1', ERROR, 'ram 1 does next to no work', 60),
+])
+def test_a_ram_that_does_not_carry_its_share_is_found(r18_params, can_db, program, effect, level, text, within_s):
+    """A fault of the hydraulics, not of the model: the rams status names the ram within a few
+    minutes of motion, and says nothing before the fault."""
+    start = float(effect.partition('start_s=')[2] or 0.0)
+    statuses = _replay(r18_params, can_db, program, (0.45, 0.12), 17, effects=[effect])
+    rams = [(t, st) for t, st in statuses if st.name.endswith('rams')]
+    assert all(st.level == OK for t, st in rams if t < start)
+    found = next(t for t, st in rams if st.level == level and text in st.message)
+    assert start < found < start + within_s
+    assert rams[-1][1].level == level and text in rams[-1][1].message, rams[-1][1].message
+    assert rams[-1][1].value('ram_share_warn_pct') == '15'
 
 
 # --- the rules, one by one ------------------------------------------------------------------

@@ -83,7 +83,7 @@ def test_statuses_named_and_levelled(r18_params, can_db):
     statuses = _builder(r18_params, can_db).build(mon, dec.rejects.snapshot(), t_last)
     by = {s.name: s for s in statuses}
     assert list(by) == ['steer_monitor: CAN input', 'steer_monitor: clearances', 'steer_monitor: guide beam',
-                        'steer_monitor: steering performance', 'steer_monitor: model health']
+                        'steer_monitor: steering performance', 'steer_monitor: model health', 'steer_monitor: rams']
     assert all(s.hardware_id == 'R-18 steering gear' for s in statuses)
     assert by['steer_monitor: CAN input'].level == OK
     assert float(by['steer_monitor: CAN input'].value('pressure_r1_stbd_rate_hz')) == pytest.approx(20, abs=0.5)

@@ -92,7 +92,8 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
         time.sleep(1.2)
         d = h.latest()
         names = ['steer_monitor: CAN input', 'steer_monitor: clearances', 'steer_monitor: guide beam',
-                 'steer_monitor: steering performance', 'steer_monitor: model health', 'steer_monitor: CAN bus',
+                 'steer_monitor: steering performance', 'steer_monitor: model health', 'steer_monitor: rams',
+                 'steer_monitor: CAN bus',
                  'steer_monitor: recording']
         assert list(d) == names
         assert _level(d['steer_monitor: CAN input']) == OK

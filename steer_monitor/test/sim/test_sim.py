@@ -159,8 +159,31 @@ def test_ram_inertia_moves_the_rudder_with_a_finite_acceleration(r18_params, r18
     assert np.abs(np.diff(clean.rate)).max() > 0.5 * np.abs(clean.rate).max()   # the valve's steps
 
 
+@pytest.mark.parametrize('ram, carries', [(1, 0.0), (2, 0.0), (1, 0.6), (2, 1.5)])
+def test_ram_bypass_moves_force_from_one_ram_to_the_other_in_its_span_only(r18_params, can_db, ram, carries):
+    base = _run(r18_params, can_db, 'zigzag_10', seed=4, noise=False)
+    e = sim.parse_effect(f'ram_bypass:ram={ram},carries={carries},start_s=20,end_s=60')
+    with_e = _run(r18_params, can_db, 'zigzag_10', seed=4, noise=False, effects=(e,))
+    p, q = base.plant, with_e.plant
+    assert np.array_equal(p.alpha, q.alpha)
+
+    def dp(plant, r):
+        return plant.pressures[f'pressure_r{r}_stbd'] - plant.pressures[f'pressure_r{r}_port']
+    span = (p.t >= 20) & (p.t < 60)
+    assert np.abs(dp(p, 1)[span]).max() > 20e5
+    assert np.allclose(dp(q, ram)[span], carries * dp(p, ram)[span])
+    assert np.allclose(dp(q, 3 - ram)[span], (2 - carries) * dp(p, 3 - ram)[span])
+    assert np.allclose(dp(q, 1) + dp(q, 2), dp(p, 1) + dp(p, 2))          # the total is the plant's
+    for name in p.pressures:                                                   # outside the span: as before
+        assert np.array_equal(q.pressures[name][~span], p.pressures[name][~span])
+        assert q.pressures[name].min() == pytest.approx(2e5)                   # a chamber at the return line
+
+
 @pytest.mark.parametrize('text,msg', [
     ('nonsense', "unknown effect 'nonsense'"),
+    ('ram_bypass:ram=3', 'effect ram_bypass: need ram 1 or 2, 0 <= carries <= 2 and start_s < end_s, got ram 3'),
+    ('ram_bypass:carries=-0.1', 'effect ram_bypass: need .* got ram 1, carries -0.1'),
+    ('ram_bypass:start_s=50,end_s=10', 'effect ram_bypass: need .* start_s 50 and end_s 10'),
     ('viscous:c=1', "effect viscous: unknown parameter 'c'"),
     ('viscous:c_ns_per_m=abc', 'effect viscous: parameter c_ns_per_m must be a number'),
     ('pressure_offset:input=pressure_r9', 'effect pressure_offset: input must be one of'),

@@ -1,0 +1,215 @@
+"""How the two rams share the driving force, from their pressures alone. Pure.
+
+The declared model (design doc section 4) has each ram carry the same axial force: the
+gear's chambers are cross-connected, so both rams see the same pressure difference. A ram
+whose chambers are joined (a bypass or isolating valve open, a pipe broken) carries less and
+the other ram more; the tiller torque they make together is unchanged, which is why the
+clearance fit, working on the rams' mean force per angle bin, hardly moves, and why the
+model's residual alone does not say what is wrong.
+
+With the rams' forces f1, f2 at instants of steady motion, m = (f1 + f2) / 2 is what each
+carries on an even share and d = f1 - f2 their difference. A ram carrying the share s1 of
+the force (ram 2: 1 - s1) makes d = (4 s1 - 2) m, so the slope b of d on m gives
+s1 = 1/2 + b/4. The slope is fitted with an intercept (centred moments), so a transducer
+that reads a constant high or low (an offset between the rams, not a share) does not move
+it; and the noise of m and of d are uncorrelated for transducers of equal noise, so it does
+not bias it either (m's noise only widens the interval).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ['EVEN', 'IDLE', 'IDLE_RAM_SHARE', 'MIN_SHARE_INSTANTS', 'MIN_SHARE_SPREAD_PA', 'UNEVEN', 'UNEVEN_CAUSE',
+           'UNJUDGED',
+           'WINDOW_INSTANTS', 'RamShare', 'UnevenSpan', 'judge', 'ram_share', 'uneven_spans']
+
+#: a share is judged from this many instants of steady motion (seconds of it)...
+MIN_SHARE_INSTANTS = 300
+#: ... with the rams' mean force varying by at least this much over them [Pa of ram pressure]
+#: (what carries which share shows only as the load changes: at berth the friction alone,
+#: 2-5 bar, still does)
+MIN_SHARE_SPREAD_PA = 1e5
+#: a ram carrying less than this share of the driving force does next to no work
+IDLE_RAM_SHARE = 0.1
+#: the share's interval, in standard errors each side (the instants are correlated)
+MARGIN_SE = 4.0
+UNJUDGED, EVEN, UNEVEN, IDLE = 'unjudged', 'even', 'uneven', 'idle'
+#: instants of steady motion a log's stretches and the online estimator judge over (30 s of
+#: it on the 50 ms grid)
+WINDOW_INSTANTS = 600
+#: instants a stretch's end moves by at a time (3 s of steady motion on the 50 ms grid)
+EDGE_STEP = 60
+#: ... when its instants follow the stretch's share better than an even one (or worse) by
+#: this many standard deviations of that difference on noise alone, sqrt(2 k) instants'
+#: noise for k instants (about it for shares away from a half)
+EDGE_SIGMAS = 5.0
+#: what uneven sharing may mean, for messages (``ram``: the weaker, 1 or 2)
+UNEVEN_CAUSE = 'a bypass or isolating valve open on ram {ram}, or a pressure transducer of either ram not reading its chamber'
+
+
+@dataclass(frozen=True)
+class RamShare:
+    """The rams' shares of the driving force over some instants.
+
+    Attributes:
+        share: the share of ram 1 and of ram 2 (they add to 1; 0.5 each when even).
+        se: the standard error of either share, from the fit's residual as if the instants
+            were independent (consecutive instants that share pressure samples are not: read
+            it as a lower bound).
+        spread: the standard deviation of the mean ram force m over the instants [N]: what
+            the share is seen against (a load that does not vary says nothing about it).
+        offset: the intercept of d, f1 - f2 where m = 0 [N]: a transducer of ram 1 reading c
+            high puts c (2 - 2 s1) here and none into the share.
+        instants: how many instants.
+    """
+
+    share: tuple[float, float]
+    se: float
+    spread: float
+    offset: float
+    instants: int
+
+    @property
+    def weaker(self) -> int:
+        """The ram (0 or 1) that carries less."""
+        return 0 if self.share[0] <= self.share[1] else 1
+
+
+def ram_share(force: NDArray[np.float64]) -> RamShare | None:
+    """The shares of ``force`` (n, 2), each ram's A_r (p_stbd - p_port) [N] at instants of
+    steady motion; rows with a non-finite force are left out. None with fewer than three
+    rows or a mean force that does not vary."""
+    f = np.asarray(force, dtype=float).reshape(-1, 2)
+    f = f[np.isfinite(f).all(axis=1)]
+    n = f.shape[0]
+    if n < 3:
+        return None
+    m = 0.5 * (f[:, 0] + f[:, 1])
+    d = f[:, 0] - f[:, 1]
+    mc = m - m.mean()
+    dc = d - d.mean()
+    smm = float(np.dot(mc, mc))
+    if not smm > 0:
+        return None
+    b = float(np.dot(mc, dc)) / smm
+    e = dc - b * mc
+    se_b = math.sqrt(float(np.dot(e, e)) / (n - 2) / smm)
+    s1 = 0.5 + 0.25 * b
+    return RamShare((s1, 1.0 - s1), 0.25 * se_b, math.sqrt(smm / n), float(d.mean() - b * m.mean()), n)
+
+
+def judge(sh: RamShare | None, warn: float, ram_area: float) -> str:
+    """What a share says, judged on its interval (``MARGIN_SE`` standard errors each side):
+    ``IDLE`` when the weaker ram carries less than ``IDLE_RAM_SHARE`` even at the top of it,
+    ``UNEVEN`` when the share departs from an even half by more than ``warn`` even at its
+    near end, ``EVEN`` otherwise; ``UNJUDGED`` with too few instants, too little variation of
+    the load (``ram_area`` [m^2] turns the spread into pressure), or an interval wider than
+    ``warn``."""
+    if sh is None or sh.instants < MIN_SHARE_INSTANTS or sh.spread < MIN_SHARE_SPREAD_PA * ram_area:
+        return UNJUDGED
+    margin = MARGIN_SE * sh.se
+    if margin > 0.5 * warn:
+        return UNJUDGED
+    low = sh.share[sh.weaker]
+    if low + margin < IDLE_RAM_SHARE:
+        return IDLE
+    if 0.5 - low - margin > warn:
+        return UNEVEN
+    return EVEN
+
+
+@dataclass(frozen=True)
+class UnevenSpan:
+    """A stretch of a log where the rams did not share the force evenly.
+
+    Attributes:
+        start_ns, end_ns: its first and last instant of steady motion [ns].
+        ram: the weaker ram, 0 or 1.
+        share: the weaker ram's share over the stretch.
+        instants: instants of steady motion in it.
+        idle: the weaker ram did next to no work (``IDLE``).
+    """
+
+    start_ns: int
+    end_ns: int
+    ram: int
+    share: float
+    instants: int
+    idle: bool
+
+
+def uneven_spans(t_ns: NDArray[np.int64], force: NDArray[np.float64], warn: float, ram_area: float,
+                 window: int = WINDOW_INSTANTS) -> list[UnevenSpan]:
+    """Stretches of uneven sharing in a log: the instants of steady motion ``t_ns`` (n,) [ns]
+    with the rams' forces ``force`` (n, 2) [N] (rows with a non-finite force are left out)
+    are cut into consecutive windows of ``window`` instants (the last one takes the rest),
+    each judged by :func:`judge`; neighbouring windows judged uneven or idle make one
+    stretch. Its ends are then moved, ``EDGE_STEP`` instants at a time, in while the instants
+    at an end follow an even share better than the stretch's, and out into the windows beside
+    it while those follow the stretch's better (a fault rarely starts or ends where a window
+    does); its share is fitted over the instants it then holds."""
+    f = np.asarray(force, dtype=float).reshape(-1, 2)
+    ok = np.isfinite(f).all(axis=1)
+    t, f = np.asarray(t_ns, dtype=np.int64)[ok], f[ok]
+    n = t.size
+    cuts = list(range(0, n - window + 1, window)) if n >= window else [0]
+    bounds = [(a, b) for a, b in zip(cuts, cuts[1:] + [n])]
+    bad = [judge(ram_share(f[a:b]), warn, ram_area) in (UNEVEN, IDLE) for a, b in bounds]
+    spans: list[UnevenSpan] = []
+    k = 0
+    while k < len(bounds):
+        if not bad[k]:
+            k += 1
+            continue
+        j = k
+        while j + 1 < len(bounds) and bad[j + 1]:
+            j += 1
+        a, b = bounds[k][0], bounds[j][1]
+        a, b = _edges(f, a, b, bounds[k - 1][0] if k > 0 else 0, bounds[j + 1][1] if j + 1 < len(bounds) else n)
+        sh = ram_share(f[a:b])
+        if sh is not None:
+            spans.append(UnevenSpan(int(t[a]), int(t[b - 1]), sh.weaker, sh.share[sh.weaker], b - a,
+                                    judge(sh, warn, ram_area) == IDLE))
+        k = j + 1
+    return spans
+
+
+def _distance2(part: NDArray[np.float64], share: float) -> float:
+    """Sum of the squared distances of the rams' forces ``part`` (k, 2), each about its mean,
+    from the line of a ram 1 share ``share`` (f1 : f2 = share : 1 - share), taken square to it:
+    the misfit of that share when each ram's force has the same noise (a fit on the mean
+    force would count m's noise against the uneven share)."""
+    c = part - part.mean(axis=0)
+    r = c[:, 0] * (1.0 - share) - c[:, 1] * share
+    return float(np.dot(r, r)) / (share * share + (1.0 - share) ** 2)
+
+
+def _edges(f: NDArray[np.float64], a: int, b: int, lo: int, hi: int) -> tuple[int, int]:
+    """The stretch f[a:b] moved in and out at its ends (see :func:`uneven_spans`), within
+    f[lo:hi]."""
+    sh = ram_share(f[a:b])
+    if sh is None:
+        return a, b
+    s1 = sh.share[0]
+    noise = _distance2(f[a:b], s1) / max(b - a - 2, 1)     # per instant
+
+    def gain(part: NDArray[np.float64]) -> float:
+        """How much better the stretch's share fits the part than an even one, in standard
+        deviations of that on noise alone (a part whose load hardly varies says neither)."""
+        return (_distance2(part, 0.5) - _distance2(part, s1)) / (noise * math.sqrt(2.0 * part.shape[0]))
+
+    # first in, where the instants at an end follow an even share better, then out
+    while b - a > 2 * EDGE_STEP and gain(f[a:a + EDGE_STEP]) < -EDGE_SIGMAS:
+        a += EDGE_STEP
+    while b - a > 2 * EDGE_STEP and gain(f[b - EDGE_STEP:b]) < -EDGE_SIGMAS:
+        b -= EDGE_STEP
+    while a - lo >= 2 and gain(f[max(a - EDGE_STEP, lo):a]) > EDGE_SIGMAS:
+        a = max(a - EDGE_STEP, lo)
+    while hi - b >= 2 and gain(f[b:min(b + EDGE_STEP, hi)]) > EDGE_SIGMAS:
+        b = min(b + EDGE_STEP, hi)
+    return a, b

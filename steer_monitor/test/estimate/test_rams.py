@@ -1,0 +1,115 @@
+"""The rams' shares of the driving force: the closed form against a least-squares fit of
+each ram's force on the mean force, offsets and noise, the judgement, and stretches of a log."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from steer_monitor.estimate.rams import (EVEN, IDLE, MIN_SHARE_INSTANTS, UNEVEN, UNJUDGED, RamShare, judge,
+                                         ram_share, uneven_spans)
+
+AREA = 0.045239          # A_r of the R-18 [m^2]
+BAR = AREA * 1e5         # one bar of ram pressure as force [N]
+
+
+def _forces(share1: float, n: int = 2000, offset_bar: float = 0.0, noise_bar: float = 0.35, seed: int = 1):
+    """Ram forces (n, 2) [N] for a load sweeping +-40 bar, ram 1 carrying ``share1``; each
+    chamber's transducer with its own noise, ram 1's stbd one reading ``offset_bar`` high."""
+    rng = np.random.default_rng(seed)
+    load = 40 * BAR * np.sin(np.linspace(0, 12, n))          # what each ram carries on an even share
+    p = rng.normal(0.0, noise_bar * 1e5, (n, 4))
+    f1 = 2 * share1 * load + AREA * (p[:, 0] - p[:, 1] + offset_bar * 1e5)
+    f2 = 2 * (1 - share1) * load + AREA * (p[:, 2] - p[:, 3])
+    return np.stack([f1, f2], axis=1)
+
+
+@pytest.mark.parametrize('share1', [0.0, 0.1, 0.35, 0.5, 0.62, 1.0])
+@pytest.mark.parametrize('offset_bar', [0.0, 3.5, -20.0])
+def test_the_closed_form_is_the_least_squares_fit(share1, offset_bar):
+    """Independently: f1 - f2 fitted on [1, (f1 + f2) / 2] by numpy's lstsq (SVD); the share is
+    1/2 + slope/4, its standard error from the same fit."""
+    f = _forces(share1, offset_bar=offset_bar)
+    sh = ram_share(f)
+    m, d = f.mean(axis=1), f[:, 0] - f[:, 1]
+    x = np.stack([np.ones_like(m), m], axis=1)
+    coef, rss, *_ = np.linalg.lstsq(x, d, rcond=None)
+    cov = rss[0] / (m.size - 2) * np.linalg.inv(x.T @ x)
+    assert sh.share[0] == pytest.approx(0.5 + coef[1] / 4, abs=1e-12)
+    assert sum(sh.share) == pytest.approx(1.0, abs=1e-15)
+    assert sh.offset == pytest.approx(coef[0], rel=1e-9, abs=1e-6 * BAR)
+    assert sh.se == pytest.approx(np.sqrt(cov[1, 1]) / 4, rel=1e-8)
+    assert sh.instants == m.size and sh.spread == pytest.approx(m.std(), rel=1e-12)
+    # and it finds the share, whatever the offset: a constant is not a share
+    assert sh.share[0] == pytest.approx(share1, abs=4 * sh.se + 1e-9)
+    # the intercept: f1 - f2 where their mean is 0, which the offset moves too
+    assert sh.offset / BAR == pytest.approx(offset_bar * (2 - 2 * share1), abs=0.1)
+
+
+def test_the_noise_does_not_bias_the_share():
+    """Over 200 noisy logs of an even share with small loads (3 bar against 0.35 bar of noise per
+    transducer) the mean share is 1/2 within its standard error, and the stated standard error
+    is the scatter's."""
+    shares = []
+    for seed in range(200):
+        f = _forces(0.5, n=400, seed=seed) * (3 / 40)    # the load scaled; the noise too, so add it again
+        rng = np.random.default_rng(1000 + seed)
+        f += AREA * 0.35e5 * (rng.normal(size=(400, 2)) * np.sqrt(2))
+        shares.append(ram_share(f))
+    s = np.array([x.share[0] for x in shares])
+    se = np.mean([x.se for x in shares])
+    assert abs(s.mean() - 0.5) < 3 * s.std() / np.sqrt(s.size)
+    assert s.std() == pytest.approx(se, rel=0.15)
+
+
+@pytest.mark.parametrize('force, why', [
+    (np.zeros((2, 2)), 'two rows'),
+    (np.full((50, 2), 1e5), 'a load that does not vary'),
+    (np.full((50, 2), np.nan), 'no finite row'),
+])
+def test_no_share_without_rows_that_say(force, why):
+    assert ram_share(force) is None, why
+
+
+def test_rows_with_a_missing_force_are_left_out():
+    f = _forces(0.3, n=500)
+    g = f.copy()
+    g[::7, 1] = np.nan
+    assert ram_share(g).share[0] == pytest.approx(ram_share(f[np.isfinite(g).all(axis=1)]).share[0], abs=1e-15)
+    assert ram_share(g).instants == np.isfinite(g).all(axis=1).sum()
+
+
+@pytest.mark.parametrize('share1, n, spread_bar, se, verdict', [
+    (0.50, 2000, 10.0, 0.002, EVEN),
+    (0.40, 2000, 10.0, 0.002, EVEN),       # 10 points off: within the 15
+    (0.30, 2000, 10.0, 0.002, UNEVEN),
+    (0.72, 2000, 10.0, 0.002, UNEVEN),     # ram 2 the weaker
+    (0.05, 2000, 10.0, 0.002, IDLE),
+    (0.12, 2000, 10.0, 0.002, UNEVEN),     # under a tenth only within its interval: not idle
+    (0.95, 2000, 10.0, 0.002, IDLE),
+    (0.05, MIN_SHARE_INSTANTS - 1, 10.0, 0.002, UNJUDGED),
+    (0.05, 2000, 0.9, 0.002, UNJUDGED),    # the load hardly varied
+    (0.05, 2000, 10.0, 0.02, UNJUDGED),    # +-8 points: wider than half the warning
+    (0.33, 2000, 10.0, 0.006, EVEN),       # 17 points off, but 2.4 of them uncertain: not past 15
+    (0.33, 2000, 10.0, 0.004, UNEVEN),     # 1.6 of them: past 15
+])
+def test_judgement_on_the_interval(share1, n, spread_bar, se, verdict):
+    sh = RamShare((share1, 1 - share1), se, spread_bar * BAR, 0.0, n)
+    assert judge(sh, 0.15, AREA) == verdict
+    assert judge(None, 0.15, AREA) == UNJUDGED
+
+
+def test_a_stretch_of_a_log_where_one_ram_was_bypassed():
+    n = 6000
+    t = np.arange(n, dtype=np.int64) * 50_000_000 + 1_700_000_000_000_000_000
+    f = _forces(0.5, n=n)
+    bad = slice(2400, 3600)                      # 60 s of motion, ram 2 carrying nothing
+    f[bad] = _forces(1.0, n=n)[bad]
+    spans = uneven_spans(t, f, 0.15, AREA)
+    assert len(spans) == 1
+    sp = spans[0]
+    assert (sp.ram, sp.idle) == (1, True)
+    assert (sp.start_ns, sp.end_ns) == (t[2400], t[3599])
+    assert sp.share == pytest.approx(0.0, abs=0.01) and sp.instants == 1200
+    assert uneven_spans(t, _forces(0.5, n=n), 0.15, AREA) == []
+    assert uneven_spans(t[:100], f[:100], 0.15, AREA) == []         # too short to judge
