@@ -76,7 +76,8 @@ def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *,
     _, params, db, smap = load_setup(config)
     gear = gear_from_params(params)
     jobs = min(jobs or os.cpu_count() or 1, 2)
-    review = Review(gear, gaps_from_params(params), min_clearance_2z=min_clearance_2z_from_params(params))
+    review = Review(gear, gaps_from_params(params), min_clearance_2z=min_clearance_2z_from_params(params),
+                    ram_share_warn=params['diagnostics.ram_share_warn_pct'] / 100.0)
     ends = [log_end_ns(p) for p in paths]
     end = None if not ends or None in ends else max(e for e in ends if e is not None)
     frames = 0

@@ -11,7 +11,11 @@ blocks gives the grid of the whole), and then, vectorized over the block:
 * the steady-motion rows folded into the binned moments of the clearance estimator, one set
   per time window;
 * hard-over times (leaving 35 deg, reaching 30 deg the other side), with the live monitor's
-  thresholds and its logic, run over the few samples beyond 29.5 deg only.
+  thresholds and its logic, run over the few samples beyond 29.5 deg only;
+* stretches where the rams did not share the force evenly
+  (:func:`~steer_monitor.estimate.rams.uneven_spans` over whole windows of steady motion, a
+  block's last rows held for the next), left out of the moments and named in the notes, as
+  ``analyze`` leaves them out of its fit.
 
 The clearances are estimated from the moments up to the end of each window (an estimate with
 its interval over time: up to ``MAX_WINDOWS`` windows of whole 10 minutes, and the whole log
@@ -43,6 +47,7 @@ from steer_monitor.estimate.batch import (MIN_MOTION_SAMPLES, ClearanceEstimate,
                                           search_box)
 from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations, build_observations
+from steer_monitor.estimate.rams import WINDOW_INSTANTS, UnevenSpan, describe, uneven_spans, within
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.loadshare import LoadSharing, load_sharing
 from steer_monitor.monitor.live import HARD_OVER_DEG, OTHER_SIDE_DEG
@@ -116,8 +121,12 @@ class Review:
     to ``MAX_WINDOWS`` steps of whole 10 minutes, decided by :meth:`plan` or at the end)."""
 
     def __init__(self, gear: GearParams, gaps: Gaps, *, min_clearance_2z: float = 0.0,
-                 window_ns: int | None = None, reuse_boxes: bool = True) -> None:
+                 window_ns: int | None = None, reuse_boxes: bool = True, ram_share_warn: float = 0.15) -> None:
         self.gear = gear
+        self.ram_share_warn = ram_share_warn
+        #: stretches where the rams did not share the force evenly, left out of the estimates
+        self.uneven: list[UnevenSpan] = []
+        self._held: Observations | None = None     # steady-motion rows not yet judged (see _take)
         self.reuse_boxes = reuse_boxes
         self.gaps = gaps
         self.grid_2z = F.GRID_2Z[F.GRID_2Z >= min_clearance_2z - 1e-12]
@@ -166,7 +175,7 @@ class Review:
                 self._process(self._done, end)
                 self._done = end
                 self._buf = {n: _tail(s, end - KEEP_NS) for n, s in self._buf.items()}
-                self._due_windows(end)
+                self._due_windows(self._folded_until(end))
 
     def plan(self, expected_end_ns: int) -> None:
         """Say where the data are expected to end (e.g. from the file size), so the window
@@ -176,7 +185,11 @@ class Review:
             span = max(expected_end_ns - self._first, 1)
             self._step = max(-(-span // (MAX_WINDOWS * SLICE_NS)), 1)
             if self._done is not None:
-                self._due_windows(self._done)
+                self._due_windows(self._folded_until(self._done))
+
+    def _folded_until(self, end_ns: int) -> int:
+        """Up to where every row is folded: ``end_ns``, or the first row held (see :meth:`_take`)."""
+        return end_ns if self._held is None else min(end_ns, int(self._held.t_ns[0]))
 
     def _due_windows(self, complete_ns: int) -> None:
         """Estimate every window whose end the complete data have passed."""
@@ -244,8 +257,31 @@ class Review:
             keep &= np.isfinite(obs.speed)
         if not keep.any():
             return
-        sub = obs.select(keep)
-        self.motion_s += float(np.count_nonzero(keep)) * GRID_NS / 1e9
+        self._take(obs.select(keep))
+
+    def _take(self, sub: Observations | None, final: bool = False) -> None:
+        """Fold steady-motion rows, those of stretches where the rams did not share the force
+        evenly left out. The rams are judged over whole windows of ``WINDOW_INSTANTS`` rows:
+        the rows after the last whole one are held until the next block (or the end)."""
+        parts = [p for p in (self._held, sub) if p is not None and len(p)]
+        self._held = None
+        if not parts:
+            return
+        sub = parts[0] if len(parts) == 1 else _concat_obs(parts)
+        ready = len(sub) if final else len(sub) // WINDOW_INSTANTS * WINDOW_INSTANTS
+        if ready < len(sub):
+            later = np.arange(len(sub)) >= ready
+            self._held, sub = sub.select(later), sub.select(~later)
+            if not len(sub):
+                return
+        spans = uneven_spans(sub.t_ns, sub.force, self.ram_share_warn, self.gear.ram_area)
+        if spans:
+            self.uneven += spans
+            self._notes += [f'{describe(sp)}: left out of the clearance estimates' for sp in spans]
+            sub = sub.select(~within(sub.t_ns, spans))
+            if not len(sub):
+                return
+        self.motion_s += float(len(sub)) * GRID_NS / 1e9
         slice_of = sub.t_ns // SLICE_NS
         for k in np.unique(slice_of).tolist():
             part = sub.select(slice_of == k)
@@ -264,6 +300,7 @@ class Review:
         if self._latest is not None and self._done is not None and self._latest + 1 > self._done:
             self._process(self._done, self._latest + 1)
             self._done = self._latest + 1
+        self._take(None, final=True)
         sec = [np.concatenate(c) for c in zip(*self._sec)] if self._sec else [
             np.zeros(0, np.int64), np.zeros(0), np.zeros(0, np.int8), np.zeros((0, 4)), np.zeros((0, 2))]
         t, alpha, direction, pressure, force = sec

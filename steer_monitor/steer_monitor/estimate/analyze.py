@@ -36,7 +36,6 @@ model has each ram carry half.
 
 from __future__ import annotations
 
-import datetime
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -53,7 +52,7 @@ from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.locate import Located, locate
 from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import EstimateError, Observations, build_observations
-from steer_monitor.estimate.rams import UNEVEN_CAUSE, RamShare, UnevenSpan, ram_share, uneven_spans
+from steer_monitor.estimate.rams import RamShare, UnevenSpan, describe, ram_share, uneven_spans, within
 from steer_monitor.model.gear import GearParams
 
 __all__ = ['DELAY_KEEP_S', 'DELAY_STEP_S', 'DELAY_VERTEX_S', 'EXPLAINED_RATIO', 'MAX_TRIED', 'MIN_BIC_DROP', 'MIN_CV_DEVIANCE',
@@ -507,12 +506,9 @@ def _without_pressures(signals: Mapping[str, Series], spans: Sequence[UnevenSpan
     out = dict(signals)
     for name in PRESSURE_INPUTS:
         ser = signals.get(name)
-        if ser is None:
-            continue
-        keep = np.ones(ser.t_ns.size, bool)
-        for sp in spans:
-            keep &= (ser.t_ns < sp.start_ns) | (ser.t_ns > sp.end_ns)
-        out[name] = Series(ser.t_ns[keep], ser.value[keep])
+        if ser is not None:
+            keep = ~within(ser.t_ns, spans)
+            out[name] = Series(ser.t_ns[keep], ser.value[keep])
     return out
 
 
@@ -520,12 +516,8 @@ def _uneven_note(spans: Sequence[UnevenSpan]) -> str:
     """What the message says of the stretches left out ('' when none)."""
     if not spans:
         return ''
-    def clock(t_ns: int) -> str:
-        return datetime.datetime.fromtimestamp(t_ns / 1e9, datetime.timezone.utc).strftime('%Y-%m-%d %H:%M:%S')
-    parts = [f'ram {sp.ram + 1} carried {100 * sp.share:.0f} % of the driving force from {clock(sp.start_ns)} to '
-             f'{clock(sp.end_ns)} UTC ({sp.instants} instants of steady motion'
-             f'{", next to no work" if sp.idle else ""}: {UNEVEN_CAUSE.format(ram=sp.ram + 1)})' for sp in spans]
-    return '; the rams did not share the force evenly, and those stretches are left out of the fit: ' + '; '.join(parts)
+    return ('; the rams did not share the force evenly, and those stretches are left out of the fit: '
+            + '; '.join(describe(sp) for sp in spans))
 
 
 def _systematic(before: _Base, after: _Base) -> bool:

@@ -19,6 +19,8 @@ not bias it either (m's noise only widens the interval).
 from __future__ import annotations
 
 import math
+import datetime
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,7 +28,7 @@ from numpy.typing import NDArray
 
 __all__ = ['EVEN', 'IDLE', 'IDLE_RAM_SHARE', 'MIN_SHARE_INSTANTS', 'MIN_SHARE_SPREAD_PA', 'UNEVEN', 'UNEVEN_CAUSE',
            'UNJUDGED',
-           'WINDOW_INSTANTS', 'RamShare', 'UnevenSpan', 'judge', 'ram_share', 'uneven_spans']
+           'WINDOW_INSTANTS', 'RamShare', 'UnevenSpan', 'describe', 'judge', 'ram_share', 'uneven_spans', 'within']
 
 #: a share is judged from this many instants of steady motion (seconds of it)...
 MIN_SHARE_INSTANTS = 300
@@ -44,10 +46,6 @@ UNJUDGED, EVEN, UNEVEN, IDLE = 'unjudged', 'even', 'uneven', 'idle'
 WINDOW_INSTANTS = 600
 #: instants a stretch's end moves by at a time (3 s of steady motion on the 50 ms grid)
 EDGE_STEP = 60
-#: ... when its instants follow the stretch's share better than an even one (or worse) by
-#: this many standard deviations of that difference on noise alone, sqrt(2 k) instants'
-#: noise for k instants (about it for shares away from a half)
-EDGE_SIGMAS = 5.0
 #: what uneven sharing may mean, for messages (``ram``: the weaker, 1 or 2)
 UNEVEN_CAUSE = 'a bypass or isolating valve open on ram {ram}, or a pressure transducer of either ram not reading its chamber'
 
@@ -150,9 +148,9 @@ def uneven_spans(t_ns: NDArray[np.int64], force: NDArray[np.float64], warn: floa
     are cut into consecutive windows of ``window`` instants (the last one takes the rest),
     each judged by :func:`judge`; neighbouring windows judged uneven or idle make one
     stretch. Its ends are then moved, ``EDGE_STEP`` instants at a time, in while the instants
-    at an end follow an even share better than the stretch's, and out into the windows beside
-    it while those follow the stretch's better (a fault rarely starts or ends where a window
-    does); its share is fitted over the instants it then holds."""
+    at an end share evenly, and out into the windows beside it while those share unevenly the
+    stretch's way (a fault rarely starts or ends where a window does); its share is fitted
+    over the instants it then holds."""
     f = np.asarray(force, dtype=float).reshape(-1, 2)
     ok = np.isfinite(f).all(axis=1)
     t, f = np.asarray(t_ns, dtype=np.int64)[ok], f[ok]
@@ -170,7 +168,7 @@ def uneven_spans(t_ns: NDArray[np.int64], force: NDArray[np.float64], warn: floa
         while j + 1 < len(bounds) and bad[j + 1]:
             j += 1
         a, b = bounds[k][0], bounds[j][1]
-        a, b = _edges(f, a, b, bounds[k - 1][0] if k > 0 else 0, bounds[j + 1][1] if j + 1 < len(bounds) else n)
+        a, b = _edges(f, a, b, bounds[k - 1][0] if k > 0 else 0, bounds[j + 1][1] if j + 1 < len(bounds) else n, warn)
         sh = ram_share(f[a:b])
         if sh is not None:
             spans.append(UnevenSpan(int(t[a]), int(t[b - 1]), sh.weaker, sh.share[sh.weaker], b - a,
@@ -179,37 +177,51 @@ def uneven_spans(t_ns: NDArray[np.int64], force: NDArray[np.float64], warn: floa
     return spans
 
 
-def _distance2(part: NDArray[np.float64], share: float) -> float:
-    """Sum of the squared distances of the rams' forces ``part`` (k, 2), each about its mean,
-    from the line of a ram 1 share ``share`` (f1 : f2 = share : 1 - share), taken square to it:
-    the misfit of that share when each ram's force has the same noise (a fit on the mean
-    force would count m's noise against the uneven share)."""
-    c = part - part.mean(axis=0)
-    r = c[:, 0] * (1.0 - share) - c[:, 1] * share
-    return float(np.dot(r, r)) / (share * share + (1.0 - share) ** 2)
-
-
-def _edges(f: NDArray[np.float64], a: int, b: int, lo: int, hi: int) -> tuple[int, int]:
+def _edges(f: NDArray[np.float64], a: int, b: int, lo: int, hi: int, warn: float) -> tuple[int, int]:
     """The stretch f[a:b] moved in and out at its ends (see :func:`uneven_spans`), within
-    f[lo:hi]."""
-    sh = ram_share(f[a:b])
-    if sh is None:
+    f[lo:hi]: in while the ``EDGE_STEP`` instants at an end share evenly, out while those
+    beside it share unevenly the stretch's way, each judged on its own share's interval as
+    :func:`judge` does (a part whose load hardly varies has a wide one, and says neither)."""
+    whole = ram_share(f[a:b])
+    if whole is None:
         return a, b
-    s1 = sh.share[0]
-    noise = _distance2(f[a:b], s1) / max(b - a - 2, 1)     # per instant
+    side = 1.0 if whole.share[0] > 0.5 else -1.0
 
-    def gain(part: NDArray[np.float64]) -> float:
-        """How much better the stretch's share fits the part than an even one, in standard
-        deviations of that on noise alone (a part whose load hardly varies says neither)."""
-        return (_distance2(part, 0.5) - _distance2(part, s1)) / (noise * math.sqrt(2.0 * part.shape[0]))
+    def says(part: NDArray[np.float64]) -> str | None:
+        sh = ram_share(part)
+        if sh is None:
+            return None
+        off, margin = sh.share[0] - 0.5, MARGIN_SE * sh.se
+        if side * off - margin > warn:
+            return UNEVEN
+        if abs(off) + margin < warn:
+            return EVEN
+        return None
 
-    # first in, where the instants at an end follow an even share better, then out
-    while b - a > 2 * EDGE_STEP and gain(f[a:a + EDGE_STEP]) < -EDGE_SIGMAS:
+    while b - a > 2 * EDGE_STEP and says(f[a:a + EDGE_STEP]) == EVEN:
         a += EDGE_STEP
-    while b - a > 2 * EDGE_STEP and gain(f[b - EDGE_STEP:b]) < -EDGE_SIGMAS:
+    while b - a > 2 * EDGE_STEP and says(f[b - EDGE_STEP:b]) == EVEN:
         b -= EDGE_STEP
-    while a - lo >= 2 and gain(f[max(a - EDGE_STEP, lo):a]) > EDGE_SIGMAS:
+    while a - lo >= 3 and says(f[max(a - EDGE_STEP, lo):a]) == UNEVEN:
         a = max(a - EDGE_STEP, lo)
-    while hi - b >= 2 and gain(f[b:min(b + EDGE_STEP, hi)]) > EDGE_SIGMAS:
+    while hi - b >= 3 and says(f[b:min(b + EDGE_STEP, hi)]) == UNEVEN:
         b = min(b + EDGE_STEP, hi)
     return a, b
+
+
+def within(t_ns: NDArray[np.int64], spans: Sequence[UnevenSpan]) -> NDArray[np.bool_]:
+    """Which of the times ``t_ns`` (n,) [ns] lie in one of ``spans`` (ends included)."""
+    t = np.asarray(t_ns, dtype=np.int64)
+    out = np.zeros(t.shape, bool)
+    for sp in spans:
+        out |= (t >= sp.start_ns) & (t <= sp.end_ns)
+    return out
+
+
+def describe(sp: UnevenSpan) -> str:
+    """One stretch in words, its times in UTC."""
+    def clock(t_ns: int) -> str:
+        return datetime.datetime.fromtimestamp(t_ns / 1e9, datetime.timezone.utc).strftime('%Y-%m-%d %H:%M:%S')
+    return (f'ram {sp.ram + 1} carried {100 * sp.share:.0f} % of the driving force from {clock(sp.start_ns)} to '
+            f'{clock(sp.end_ns)} UTC ({sp.instants} instants of steady motion'
+            f'{", next to no work" if sp.idle else ""}: {UNEVEN_CAUSE.format(ram=sp.ram + 1)})')

@@ -53,6 +53,28 @@ def test_hard_overs_as_the_live_monitor_times_them(r18_params, can_db, voyage):
     assert len(res.hard_overs) >= 2 and all(0 < h.seconds < 60 for h in res.hard_overs)
 
 
+def test_a_stretch_where_a_ram_did_not_carry_its_share_is_left_out(r18_params, can_db, voyage):
+    """The voyage (seed 21) with ram 2's chambers joined from 400 to 900 s: the review names
+    it in its notes and folds none of it, as analyze and the online estimator do."""
+    db, smap = can_db
+    faulty = sim.run(r18_params, sim.SimConfig(program='voyage', max_duration_s=1500.0,
+                                               effects=(sim.parse_effect('ram_bypass:ram=2,start_s=400,end_s=900'),)),
+                     db, smap, seed=21).frames
+    res, rv = _review(r18_params, can_db, faulty, 3, with_review=True)
+    clean = _review(r18_params, can_db, voyage, 3)
+    t0 = int(voyage.t_ns[0])
+    assert [sp.ram for sp in rv.uneven] == [1] * len(rv.uneven) and rv.uneven
+    assert all(sp.idle for sp in rv.uneven)
+    # the voyage's last steady motion before 900 s is at 852 s, its next at 949 s
+    assert 380 <= (rv.uneven[0].start_ns - t0) / 1e9 <= 430 and 845 <= (rv.uneven[-1].end_ns - t0) / 1e9 <= 949
+    left_out = sum(sp.instants for sp in rv.uneven) * 0.05
+    assert res.motion_s == pytest.approx(clean.motion_s - left_out, abs=1.0)
+    assert any(n.startswith('ram 2 carried') and 'left out of the clearance estimates' in n for n in res.notes)
+    e = res.estimates[-1].estimate
+    assert e.z_gb.contains(0.25e-3)
+    assert clean.notes == []
+
+
 def test_estimates_over_time_hold_the_truth(r18_params, can_db, voyage):
     res = _review(r18_params, can_db, voyage, 7, plan=True)
     assert res.gaps_source == 'estimated' and res.notes == []

@@ -113,3 +113,7 @@ def test_a_stretch_of_a_log_where_one_ram_was_bypassed():
     assert sp.share == pytest.approx(0.0, abs=0.01) and sp.instants == 1200
     assert uneven_spans(t, _forces(0.5, n=n), 0.15, AREA) == []
     assert uneven_spans(t[:100], f[:100], 0.15, AREA) == []         # too short to judge
+    exact = _forces(0.5, n=n, noise_bar=0.0)
+    exact[bad] = _forces(1.0, n=n, noise_bar=0.0)[bad]
+    spans = uneven_spans(t, exact, 0.15, AREA)                      # no noise: the windows' own ends
+    assert [(sp.start_ns, sp.end_ns, sp.ram, sp.share) for sp in spans] == [(t[2400], t[3599], 1, 0.0)]
