@@ -61,6 +61,7 @@ class FleetRun:
     reused: int = 0
     failed: list[str] = field(default_factory=list)
     out: Path | None = None          # the output directory (report pages are looked for there)
+    earlier_version: int = 0         # kept results an earlier version wrote, not kept (made again)
 
 
 def find_vessels(dirs: Sequence[str | Path], config: str | Path | None = None) -> list[Vessel]:
@@ -138,8 +139,8 @@ def run_fleet(dirs: Sequence[str | Path], out: str | Path, *, workers: int | Non
 
     vessels = find_vessels(dirs, config)
     out = Path(out)
-    kept = load_results(out)
-    run = FleetRun(vessels, {}, {}, out=out)
+    kept, earlier = load_results(out)
+    run = FleetRun(vessels, {}, {}, out=out, earlier_version=earlier)
     todo: list[tuple[Vessel, Path, str, str]] = []
     for v in vessels:
         path, params = load_config(v.config)
@@ -292,6 +293,9 @@ def fleet_json(run: FleetRun) -> dict[str, Any]:
                          'hard_overs_s': [round(h['seconds'], 2) for h in json.loads(r.hard_overs_json)],
                          'report': _report(run, v.name, r),
                          'read_errors': json.loads(r.read_errors_json),
+                         'uneven_rams': [{'start_utc': _iso(u['start_ns']), 'end_utc': _iso(u['end_ns']),
+                                          'ram': u['ram'], 'share_pct': round(100 * u['share'], 1), 'idle': u['idle']}
+                                         for u in json.loads(r.uneven_json)],
                          'error': r.error or None})
         trends = vessel_trends(rs, p)
         vessels.append({'name': v.name, 'config': None if v.config is None else str(v.config),
@@ -300,7 +304,8 @@ def fleet_json(run: FleetRun) -> dict[str, Any]:
                                                    [r.log for r in rs])
                                   for key, (tr, _) in trends.items()}})
     vessels.sort(key=_soonest)
-    return {'vessels': vessels, 'analysed': run.analysed, 'reused': run.reused, 'failed': run.failed}
+    return {'vessels': vessels, 'analysed': run.analysed, 'reused': run.reused,
+            'earlier_version_results': run.earlier_version, 'failed': run.failed}
 
 
 def _report(run: FleetRun, vessel: str, r: LogResult) -> str | None:

@@ -68,12 +68,14 @@ def fleet_page(run: FleetRun) -> str:
     esc = html.escape
     data = fleet_json(run)
     parts = []
+    warn = ' class="WARN"'
     for v in data['vessels']:
         rs = run.results[v['name']]
         rows = ''.join(
             f"<tr><td>{_log_cell(lg)}</td><td>{esc(lg['start_utc'] or '-')}</td>"
             f"<td>{_iv(lg['clearance_2z_mm'])}</td><td>{_iv(lg['clearance_zgb_mm'])}</td>"
-            f"<td class=\"{esc((lg['verdict'] or 'NONE').split()[0])}\">{esc(lg['verdict'] or lg['error'] or '-')}</td></tr>"
+            f"<td class=\"{esc((lg['verdict'] or 'NONE').split()[0])}\">{esc(lg['verdict'] or lg['error'] or '-')}</td>"
+            f"<td{warn if lg['uneven_rams'] else ''}>{esc(_rams(lg['uneven_rams']))}</td></tr>"
             for lg in v['logs'])
         trend = '; '.join(
             f"{'2Z' if '2z' in key else 'Z_gb'}: " + (
@@ -85,7 +87,7 @@ def fleet_page(run: FleetRun) -> str:
             for key, t in v['trend'].items())
         parts.append(f"<section><h2>{esc(v['name'])}</h2><p>{esc(trend)}</p>"
                      f"<img alt=\"{esc(v['name'])}\" src=\"data:image/png;base64,{_plot(rs, run.params[v['name']])}\">"
-                     f"<table><tr><th>log</th><th>start (UTC)</th><th>2Z [mm]</th><th>Z_gb [mm]</th><th>verdict</th></tr>"
+                     f"<table><tr><th>log</th><th>start (UTC)</th><th>2Z [mm]</th><th>Z_gb [mm]</th><th>verdict</th><th>rams</th></tr>"
                      f"{rows}</table></section>")
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>steer_monitor fleet</title>
@@ -116,3 +118,11 @@ def _iv(d: dict[str, Any] | None) -> str:
     if hi is None:
         return f'&ge; {lo:.3f}' if lo is not None else '-'
     return f"{d['value']:.3f} [{lo:.3f} .. {hi:.3f}]"
+
+
+def _rams(spans: list[dict[str, Any]]) -> str:
+    """The stretches where the rams did not share the force evenly, shortly ('even' when none)."""
+    if not spans:
+        return 'even'
+    return '; '.join(f"ram {u['ram']} {u['share_pct']:.0f} % {(u['start_utc'] or '')[:16].replace('T', ' ')}"
+                     f"-{(u['end_utc'] or '')[11:16]}" for u in spans) + ' (left out)'

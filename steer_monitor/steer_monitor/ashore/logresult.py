@@ -27,7 +27,8 @@ def file_digest(path: str | Path) -> str:
 @dataclass(frozen=True)
 class LogResult:
     """A log's estimate in SI (NaN where none; ``*_hi`` NaN also for a lower bound only),
-    its span [ns], hard-over times [s] as JSON, and ``error`` ('' when it was read)."""
+    its span [ns], hard-over times [s] and the stretches of uneven rams as JSON, and
+    ``error`` ('' when it was read)."""
 
     vessel: str
     log: str
@@ -48,6 +49,9 @@ class LogResult:
     hard_overs_json: str
     read_errors_json: str
     error: str
+    #: stretches where the rams did not share the force evenly, left out of the estimate: JSON
+    #: list of {"start_ns", "end_ns", "ram" (the weaker, 1 or 2), "share", "idle"}
+    uneven_json: str = '[]'
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -103,7 +107,9 @@ def analyse_log(vessel: str, log: str, config: str | None, log_sha256: str, conf
     return LogResult(vessel, log, log_sha256, config_sha256, start, end, int(run.frames),
                      *_iv(None if e is None else e.two_z), *_iv(None if e is None else e.z_gb),
                      *_iv(None if e is None else e.k_gl_max), json.dumps(hard), json.dumps(errors),
-                     '' if e is not None or run.frames else (run.errors[0] if run.errors else 'no frames'))
+                     '' if e is not None or run.frames else (run.errors[0] if run.errors else 'no frames'),
+                     json.dumps([{'start_ns': sp.start_ns, 'end_ns': sp.end_ns, 'ram': sp.ram + 1, 'share': sp.share,
+                                  'idle': sp.idle} for sp in r.uneven]))
 
 
 def _write_report(log: str, config: str | None, run: Any, report_dir: str) -> None:

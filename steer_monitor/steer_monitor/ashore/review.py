@@ -100,6 +100,8 @@ class ReviewResult:
     samples: int
     notes: list[str] = field(default_factory=list)
     estimating_s: float = 0.0        # wall time of the estimates made at the end (after the reading)
+    #: stretches where the rams did not share the force evenly, left out of the estimates
+    uneven: list[UnevenSpan] = field(default_factory=list)
 
 
 def _cat(a: Series | None, b: Series | None) -> Series | None:
@@ -322,7 +324,7 @@ class Review:
             share = LoadSharing(*(np.where(ok, v, np.nan) if v.dtype.kind == 'f' else v
                                   for v in (getattr(share, f) for f in share.__dataclass_fields__)))
         return ReviewResult(t, alpha, direction, pressure, force, torque, share, gaps, source, list(self.hard_overs),
-                            estimates, self.motion_s, self.samples, notes, estimating_s)
+                            estimates, self.motion_s, self.samples, notes, estimating_s, list(self.uneven))
 
     def _final_estimates(self, notes: list[str]) -> list[WindowEstimate]:
         if not self._slices:

@@ -18,18 +18,23 @@ from steer_monitor.ashore.logresult import LogResult
 from steer_monitor.atomic import atomic_path
 from steer_monitor.errors import InputError
 
-__all__ = ['RESULTS_FILE', 'load_results', 'save_results']
+__all__ = ['LATER_COLUMNS', 'RESULTS_FILE', 'load_results', 'save_results']
 
 RESULTS_FILE = 'results.parquet'
+#: columns added since the file was first written: a file without them was written by an
+#: earlier version, whose results are not kept but made again (that version's estimates
+#: took in stretches where the rams did not share the force evenly)
+LATER_COLUMNS = ('uneven_json',)
 
 
-def load_results(directory: str | Path) -> dict[tuple[str, str], LogResult]:
-    """Kept results by (log SHA-256, parameters SHA-256); empty when there are none yet."""
+def load_results(directory: str | Path) -> tuple[dict[tuple[str, str], LogResult], int]:
+    """Kept results by (log SHA-256, parameters SHA-256), empty when there are none yet; and
+    how many results an earlier version wrote, which are not kept (:data:`LATER_COLUMNS`)."""
     import pyarrow.parquet as pq
 
     path = Path(directory) / RESULTS_FILE
     if not path.is_file():
-        return {}
+        return {}, 0
     try:
         table = pq.read_table(path)
     except Exception as exc:     # pyarrow's own errors: a damaged file
@@ -37,11 +42,13 @@ def load_results(directory: str | Path) -> dict[tuple[str, str], LogResult]:
         raise InputError(msg) from exc
     names = [f.name for f in fields(LogResult)]
     missing = [n for n in names if n not in table.column_names]
+    if missing and set(missing) <= set(LATER_COLUMNS):
+        return {}, table.num_rows
     if missing:
         msg = f'kept results {path} lack columns {", ".join(missing)} (written by another version? remove it)'
         raise InputError(msg)
     rows = table.select(names).to_pylist()
-    return {(r['log_sha256'], r['config_sha256']): LogResult(**r) for r in rows}
+    return {(r['log_sha256'], r['config_sha256']): LogResult(**r) for r in rows}, 0
 
 
 def save_results(directory: str | Path, results: Iterable[LogResult]) -> Path:

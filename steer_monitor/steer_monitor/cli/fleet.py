@@ -55,6 +55,9 @@ def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = N
             out.write(f"{v['name']}: {len(v['logs'])} logs; " +
                       (f'first limit reached {soon}' if soon else 'no limit date (no wear detected or too few logs)')
                       + '\n')
+        if data['earlier_version_results']:
+            out.write(f"{data['earlier_version_results']} kept results were written by an earlier version of "
+                      'steer_monitor (before stretches of uneven rams were left out): their logs analysed again\n')
         out.write(f"{data['analysed']} analysed, {data['reused']} kept from earlier runs -> {page}\n")
     return report_read_errors('fleet', data['failed'], err)
 

@@ -118,6 +118,51 @@ def test_a_year_of_a_fleet_with_a_worker_killed(tmp_path, fleet_dirs, client):
     assert not debris.exists() and other.is_dir()
 
 
+def test_a_ram_that_did_not_carry_its_share_and_results_of_an_earlier_version(tmp_path, r18_params, can_db, client,
+                                                                              capsys):
+    """A vessel whose second log has ram 2's chambers joined for 400 s: the fleet's JSON and
+    page name it. Results kept by an earlier version (no column for it) are made again."""
+    import pyarrow.parquet as pq
+
+    from steer_monitor.ashore.fleet import fleet_json, run_fleet
+    from steer_monitor.ashore.fleetpage import fleet_page
+    from steer_monitor.ashore.store import LATER_COLUMNS, RESULTS_FILE
+
+    db, smap = can_db
+    d = tmp_path / 'tanker' / 'recordings'
+    d.mkdir(parents=True)
+    for k, effects in enumerate(((), (sim.parse_effect('ram_bypass:ram=2,start_s=200,end_s=600'),))):
+        s = sim.run(r18_params, sim.SimConfig(program='realistic:900', effects=effects, start_ns=T0_NS + k * MONTH_NS),
+                    db, smap, 31 + k)
+        with open(d / f'tanker_{k}.log', 'wb') as fh:
+            write_candump_arrays(fh, s.frames)
+    out = tmp_path / 'out'
+    out.mkdir()
+    run = run_fleet([tmp_path / 'tanker'], out, client=client, reports=False)
+    logs = fleet_json(run)['vessels'][0]['logs']
+    assert logs[0]['uneven_rams'] == []
+    [u] = logs[1]['uneven_rams']
+    assert (u['ram'], u['idle']) == (2, True) and u['share_pct'] < 5
+    assert u['start_utc'].startswith('2026-01-31T1') and u['end_utc'] > u['start_utc']
+    page = fleet_page(run)
+    assert '<td>even</td>' in page and f"ram 2 {u['share_pct']:.0f} % " in page and '(left out)' in page
+
+    table = pq.read_table(out / RESULTS_FILE)
+    pq.write_table(table.drop_columns(list(LATER_COLUMNS)), out / RESULTS_FILE)
+    again = run_fleet([tmp_path / 'tanker'], out, client=client, reports=False)
+    assert (again.analysed, again.reused, again.earlier_version) == (2, 0, 2)
+    assert fleet_json(again)['earlier_version_results'] == 2
+    assert fleet_json(again)['vessels'][0]['logs'] == logs
+
+    from steer_monitor.cli.main import main
+    pq.write_table(table.drop_columns(list(LATER_COLUMNS)), out / RESULTS_FILE)
+    assert main(['fleet', str(tmp_path / 'tanker'), '--out', str(out), '--workers', '1', '--no-reports']) == 0
+    said = capsys.readouterr().out.splitlines()
+    assert said[-2:] == ['2 kept results were written by an earlier version of steer_monitor (before stretches of '
+                         'uneven rams were left out): their logs analysed again',
+                         f"2 analysed, 0 kept from earlier runs -> {out / 'index.html'}"]
+
+
 def test_cli_with_a_broken_log_and_a_vessel_of_its_own_parameters(tmp_path, fleet_dirs, capsys):
     """The command end to end (its own 2-worker LocalCluster): a log that is not a log is
     one line on stderr and exit 1; everything else is in fleet.json and the page."""
