@@ -26,9 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ['EVEN', 'IDLE', 'IDLE_RAM_SHARE', 'MIN_SHARE_INSTANTS', 'MIN_SHARE_SPREAD_PA', 'UNEVEN', 'UNEVEN_CAUSE',
+__all__ = ['EVEN', 'IDLE', 'IDLE_RAM_SHARE', 'JOINED_SHARE', 'MIN_SHARE_INSTANTS', 'STUCK_SHARE', 'MIN_SHARE_SPREAD_PA', 'UNEVEN', 'UNEVEN_CAUSE',
            'UNJUDGED',
-           'WINDOW_INSTANTS', 'RamShare', 'UnevenSpan', 'describe', 'judge', 'ram_share', 'uneven_spans', 'within']
+           'WINDOW_INSTANTS', 'RamShare', 'UnevenSpan', 'describe', 'judge', 'ram_share', 'uneven_spans', 'weak_ram_cause',
+           'within']
 
 #: a share is judged from this many instants of steady motion (seconds of it)...
 MIN_SHARE_INSTANTS = 300
@@ -48,6 +49,13 @@ WINDOW_INSTANTS = 600
 EDGE_STEP = 60
 #: what uneven sharing may mean, for messages (``ram``: the weaker, 1 or 2)
 UNEVEN_CAUSE = 'a bypass or isolating valve open on ram {ram}, or a pressure transducer of either ram not reading its chamber'
+#: the weaker ram's chambers are joined when their difference varies by less than this share
+#: of the other ram's (its mean included): the load makes the other's tens of bar at sea,
+#: the noise of two transducers half a bar
+JOINED_SHARE = 0.05
+#: a chamber's transducer does not read when its pressure varies by less than this share of
+#: the other ram's difference while its own ram's other chamber varies ten times as much
+STUCK_SHARE = 0.05
 
 
 @dataclass(frozen=True)
@@ -225,3 +233,31 @@ def describe(sp: UnevenSpan) -> str:
     return (f'ram {sp.ram + 1} carried {100 * sp.share:.0f} % of the driving force from {clock(sp.start_ns)} to '
             f'{clock(sp.end_ns)} UTC ({sp.instants} instants of steady motion'
             f'{", next to no work" if sp.idle else ""}: {UNEVEN_CAUSE.format(ram=sp.ram + 1)})')
+
+
+def weak_ram_cause(pressure: NDArray[np.float64], ram: int, names: Sequence[str]) -> str:
+    """What the weaker ram's own chambers say of why it carries too little, from the four
+    pressures ``pressure`` (k, 4) [Pa] at the instants its share was judged over, in the
+    order of ``names`` (ram 1 starboard-, port-driving, ram 2 the same): its two chambers
+    read the same pressure (joined: a bypass or isolating valve open), or one of them does
+    not follow the load while the other does (that transducer, or its wiring, not reading);
+    else :data:`UNEVEN_CAUSE`."""
+    p = np.asarray(pressure, dtype=float)
+    generic = UNEVEN_CAUSE.format(ram=ram + 1)
+    if p.shape[0] < 3:
+        return generic
+    a, b = p[:, 2 * ram], p[:, 2 * ram + 1]
+    other = p[:, 2 - 2 * ram] - p[:, 3 - 2 * ram]
+    scale = float(np.std(other))
+    if not scale > 0:
+        return generic
+    d = a - b
+    if abs(float(d.mean())) + float(d.std()) < JOINED_SHARE * scale:
+        return (f'its two chambers read the same pressure ({float(a.mean()) / 1e5:.1f} and {float(b.mean()) / 1e5:.1f} '
+                f'bar): joined, a bypass or isolating valve open on ram {ram + 1}')
+    for this, that, name in ((a, b, names[2 * ram]), (b, a, names[2 * ram + 1])):
+        quiet = float(np.std(this))
+        if quiet < STUCK_SHARE * scale and float(np.std(that)) >= 10.0 * quiet:
+            return (f'{name} stays at {float(this.mean()) / 1e5:.1f} bar while the load moves the other chamber: '
+                    'that transducer, or its wiring, not reading')
+    return generic

@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 
 from steer_monitor.can.rejects import RejectSnapshot
-from steer_monitor.can.signals import REQUIRED, SignalMap
-from steer_monitor.estimate.rams import IDLE, MIN_SHARE_INSTANTS, MIN_SHARE_SPREAD_PA, UNEVEN, UNEVEN_CAUSE, UNJUDGED, judge
+from steer_monitor.can.signals import PRESSURE_INPUTS, REQUIRED, SignalMap
+from steer_monitor.estimate.rams import IDLE, MIN_SHARE_INSTANTS, MIN_SHARE_SPREAD_PA, UNEVEN, UNJUDGED, judge, weak_ram_cause
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.hardover import hard_over_time, pumps_running
 from steer_monitor.model.loadshare import load_sharing_at
@@ -312,13 +312,14 @@ class DiagnosticsBuilder:
         weak = sh.weaker
         low, high = sh.share[weak], sh.share[1 - weak]
         shares = f'ram 1 {100 * sh.share[0]:.0f} %, ram 2 {100 * sh.share[1]:.0f} %'
+        if verdict in (IDLE, UNEVEN):
+            cause = weak_ram_cause(mon.share_pressures(), weak, PRESSURE_INPUTS)
         if verdict == IDLE:
             return self._status('rams', ERROR, f'ram {weak + 1} does next to no work ({100 * low:.0f} % of the driving '
-                                f'force, ram {2 - weak} {100 * high:.0f} %): {UNEVEN_CAUSE.format(ram=weak + 1)}; on one '
-                                'ram the gear has half its torque', values)
+                                f'force, ram {2 - weak} {100 * high:.0f} %): {cause}; on one ram the gear has half its '
+                                'torque', values)
         if verdict == UNEVEN:
             return self._status('rams', WARN, f'uneven: {shares} of the driving force (warn beyond '
-                                f'{100 * (0.5 - warn):.0f}-{100 * (0.5 + warn):.0f} %): '
-                                f'{UNEVEN_CAUSE.format(ram=weak + 1)}', values)
+                                f'{100 * (0.5 - warn):.0f}-{100 * (0.5 + warn):.0f} %): {cause}', values)
         return self._status('rams', OK, f'the rams share the driving force: {shares} over the last '
                             f'{sh.instants} instants of motion', values)

@@ -113,7 +113,8 @@ class LiveMonitor:
         self.torque: TorqueTable | None = None
         self.signals: dict[str, _Signal] = {name: _Signal() for name in INPUTS}
         self._history: deque[tuple[int, float]] = deque()   # the last 0.9 s of angles
-        self._pending: deque[tuple[int, float, float]] = deque()  # (t, ram 1 force, ram 2 force)
+        # (t, ram 1 force, ram 2 force, the four pressures)
+        self._pending: deque[tuple[int, float, float, tuple[float, ...]]] = deque()
         self._pressures = [math.nan] * 4
         self._dirty = False
         self._state: LiveState | None = None
@@ -126,13 +127,13 @@ class LiveMonitor:
         self._motion: deque[tuple[float, float | None, float, float, float]] = deque(maxlen=RESIDUAL_SAMPLES // 2)
         self._resid: deque[tuple[float, float] | None] = deque(maxlen=RESIDUAL_SAMPLES // 2)
         self._resid_summary: tuple[list[float], int, float | None] | None = None   # of _resid, until it changes
-        # the rams' forces at the same instants, kept whatever the model in use (the share
-        # does not depend on it): a ring of the last SHARE_INSTANTS rows (numpy reads it as it
-        # is, where a deque of tuples took 0.4 ms a second to convert), the next row written
-        # at _forces_next; their share worked out once per change
-        self._forces = np.zeros((SHARE_INSTANTS, 2))
-        self._forces_next = 0
-        self._forces_kept = 0
+        # the four pressures at the same instants, kept whatever the model in use (the rams'
+        # share does not depend on it): a ring of the last SHARE_INSTANTS rows (numpy reads it
+        # as it is, where a deque of tuples took 0.4 ms a second to convert), the next row
+        # written at _ring_next; the share worked out once per change
+        self._ring = np.zeros((SHARE_INSTANTS, 4))
+        self._ring_next = 0
+        self._ring_kept = 0
         self._share: RamShare | None = None
         self._share_stale = False
         self._hard_over: tuple[float, int] | None = None  # (side, time last at hard over)
@@ -256,7 +257,7 @@ class LiveMonitor:
             p = self._pressures
             area = self.gear.ram_area
             if not math.isnan(p[0] + p[1] + p[2] + p[3]):
-                self._pending.append((sample.t_ns, area * (p[0] - p[1]), area * (p[2] - p[3])))
+                self._pending.append((sample.t_ns, area * (p[0] - p[1]), area * (p[2] - p[3]), tuple(p)))
             self._dirty = True
 
     @property
@@ -368,7 +369,7 @@ class LiveMonitor:
         speed = self.signals['ship_speed'].last_value
         speed = None if math.isnan(speed) else speed
         while self._pending and self._pending[0][0] <= t_end:
-            t, force_1, force_2 = self._pending.popleft()
+            t, force_1, force_2, chambers = self._pending.popleft()
             i = bisect.bisect_right(times, t) - 1
             if i < 0 or i + 1 >= len(hist):
                 continue
@@ -383,11 +384,10 @@ class LiveMonitor:
             self._motion.append(instant)
             self._resid.append(self._residual_pair(instant))
             self._resid_summary = None
-            row = self._forces_next
-            self._forces[row, 0] = force_1
-            self._forces[row, 1] = force_2
-            self._forces_next = (row + 1) % SHARE_INSTANTS
-            self._forces_kept = min(self._forces_kept + 1, SHARE_INSTANTS)
+            row = self._ring_next
+            self._ring[row] = chambers
+            self._ring_next = (row + 1) % SHARE_INSTANTS
+            self._ring_kept = min(self._ring_kept + 1, SHARE_INSTANTS)
             self._share_stale = True
 
     def _track_hard_over(self, t_ns: int, alpha: float) -> None:
@@ -443,9 +443,15 @@ class LiveMonitor:
         """How the rams shared the driving force over the last :data:`SHARE_INSTANTS` instants
         of steady motion (None before there are any that say)."""
         if self._share_stale:     # the ring's rows in the order they lie: the same rows, the same bits
-            self._share = ram_share(self._forces[:self._forces_kept])
+            p = self.share_pressures()
+            area = self.gear.ram_area    # the forces as update() makes them, element by element
+            self._share = ram_share(np.stack([area * (p[:, 0] - p[:, 1]), area * (p[:, 2] - p[:, 3])], axis=1))
             self._share_stale = False
         return self._share
+
+    def share_pressures(self) -> np.ndarray:
+        """The four pressures [Pa] (k, 4) at the instants :meth:`ram_share` is over (a view)."""
+        return self._ring[:self._ring_kept]
 
     def residual_rms_bar(self) -> float | None:
         """RMS of the declared model's pressure residual over the last minute of motion [bar]."""

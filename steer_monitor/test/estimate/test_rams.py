@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from steer_monitor.estimate.rams import (EVEN, IDLE, MIN_SHARE_INSTANTS, UNEVEN, UNJUDGED, RamShare, judge,
-                                         ram_share, uneven_spans)
+                                         ram_share, uneven_spans, weak_ram_cause)
 
 AREA = 0.045239          # A_r of the R-18 [m^2]
 BAR = AREA * 1e5         # one bar of ram pressure as force [N]
@@ -117,3 +117,49 @@ def test_a_stretch_of_a_log_where_one_ram_was_bypassed():
     exact[bad] = _forces(1.0, n=n, noise_bar=0.0)[bad]
     spans = uneven_spans(t, exact, 0.15, AREA)                      # no noise: the windows' own ends
     assert [(sp.start_ns, sp.end_ns, sp.ram, sp.share) for sp in spans] == [(t[2400], t[3599], 1, 0.0)]
+
+
+NAMES = ('pressure_r1_stbd', 'pressure_r1_port', 'pressure_r2_stbd', 'pressure_r2_port')
+
+
+def _chambers(weak: int, kind: str, n: int = 1200, seed: int = 3):
+    """The four pressures [Pa] (n, 4) of a gear under a load sweeping +-40 bar per ram, the
+    ram ``weak`` (0 or 1) at fault: 'joined' (its chambers at the return line), 'stuck'
+    (its starboard chamber's transducer reading 0.2 bar), 'half' (carrying half its force)."""
+    rng = np.random.default_rng(seed)
+    load = 40e5 * np.sin(np.linspace(0, 9, n))       # each ram's pressure difference on an even share
+    dp = [load.copy(), load.copy()]
+    if kind == 'joined':
+        dp[weak], dp[1 - weak] = 0 * load, 2 * load
+    elif kind == 'half':
+        dp[weak], dp[1 - weak] = 0.5 * load, 1.5 * load
+    p = np.empty((n, 4))
+    for r in (0, 1):
+        p[:, 2 * r] = 2e5 + np.maximum(dp[r], 0)
+        p[:, 2 * r + 1] = 2e5 + np.maximum(-dp[r], 0)
+    if kind == 'stuck':
+        p[:, 2 * weak] = 0.2e5
+    return p + rng.normal(0, 0.35e5, p.shape)
+
+
+@pytest.mark.parametrize('weak', [0, 1])
+@pytest.mark.parametrize('kind, text', [
+    ('joined', 'its two chambers read the same pressure ({ret} and {ret} bar): joined, a bypass or isolating '
+               'valve open on ram {ram}'),
+    ('stuck', 'pressure_r{ram}_stbd stays at 0.2 bar while the load moves the other chamber: that transducer, or '
+              'its wiring, not reading'),
+    ('half', 'a bypass or isolating valve open on ram {ram}, or a pressure transducer of either ram not reading '
+             'its chamber'),
+])
+def test_what_the_weak_ram_s_chambers_say(weak, kind, text):
+    p = _chambers(weak, kind)
+    f = np.stack([AREA * (p[:, 0] - p[:, 1]), AREA * (p[:, 2] - p[:, 3])], axis=1)
+    sh = ram_share(f)
+    assert sh.weaker == weak
+    assert weak_ram_cause(p, weak, NAMES) == text.format(ram=weak + 1, ret='2.0')
+
+
+def test_no_cause_without_a_load_to_judge_by():
+    p = np.full((100, 4), 2e5)
+    assert weak_ram_cause(p, 0, NAMES).startswith('a bypass or isolating valve open on ram 1, or')
+    assert weak_ram_cause(p[:2], 1, NAMES).startswith('a bypass or isolating valve open on ram 2, or')

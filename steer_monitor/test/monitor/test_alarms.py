@@ -73,6 +73,8 @@ def test_an_undeclared_friction_is_found(r18_params, can_db):
 @pytest.mark.parametrize('program, effect, level, text, within_s', [
     # at sea: ram 2's chambers joined a quarter of an hour into the watch
     ('realistic:1200', 'ram_bypass:ram=2,start_s=300', ERROR, 'ram 2 does next to no work', 120),
+    ('realistic:1200', 'ram_bypass:ram=2,start_s=300', ERROR, 'its two chambers read the same pressure (2.0 and 2.0 '
+                                                             'bar): joined, a bypass or isolating valve open on ram 2', 120),
     # a valve left half open: ram 1 carries a quarter, ram 2 three quarters
     ('realistic:1200', 'ram_bypass:ram=1,carries=0.5,start_s=300', WARN, 'uneven: ram 1 25 %, ram 2 75 %', 120),
     # at berth, the steering gear test before departure: no ship speed, friction alone to go by
