@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 
 __all__ = ['EVEN', 'IDLE', 'IDLE_RAM_SHARE', 'JOINED_SHARE', 'MIN_SHARE_INSTANTS', 'STUCK_SHARE', 'MIN_SHARE_SPREAD_PA', 'UNEVEN', 'UNEVEN_CAUSE',
            'UNJUDGED',
-           'WINDOW_INSTANTS', 'RamShare', 'UnevenSpan', 'describe', 'judge', 'ram_share', 'uneven_spans', 'weak_ram_cause',
+           'WINDOW_INSTANTS', 'RamShare', 'UnevenSpan', 'describe', 'enough', 'judge', 'ram_share', 'uneven_spans', 'weak_ram_cause',
            'within']
 
 #: a share is judged from this many instants of steady motion (seconds of it)...
@@ -109,6 +109,12 @@ def ram_share(force: NDArray[np.float64]) -> RamShare | None:
     return RamShare((s1, 1.0 - s1), 0.25 * se_b, math.sqrt(smm / n), float(d.mean() - b * m.mean()), n)
 
 
+def enough(sh: RamShare, ram_area: float) -> bool:
+    """The share is over ``MIN_SHARE_INSTANTS`` instants at least, with the rams' mean force
+    varying by ``MIN_SHARE_SPREAD_PA`` of ram pressure (``ram_area`` [m^2]) at least."""
+    return sh.instants >= MIN_SHARE_INSTANTS and sh.spread >= MIN_SHARE_SPREAD_PA * ram_area
+
+
 def judge(sh: RamShare | None, warn: float, ram_area: float) -> str:
     """What a share says, judged on its interval (``MARGIN_SE`` standard errors each side):
     ``IDLE`` when the weaker ram carries less than ``IDLE_RAM_SHARE`` even at the top of it,
@@ -116,7 +122,7 @@ def judge(sh: RamShare | None, warn: float, ram_area: float) -> str:
     near end, ``EVEN`` otherwise; ``UNJUDGED`` with too few instants, too little variation of
     the load (``ram_area`` [m^2] turns the spread into pressure), or an interval wider than
     ``warn``."""
-    if sh is None or sh.instants < MIN_SHARE_INSTANTS or sh.spread < MIN_SHARE_SPREAD_PA * ram_area:
+    if sh is None or not enough(sh, ram_area):
         return UNJUDGED
     margin = MARGIN_SE * sh.se
     if margin > 0.5 * warn:

@@ -16,7 +16,8 @@ import numpy as np
 
 from steer_monitor.can.rejects import RejectSnapshot
 from steer_monitor.can.signals import PRESSURE_INPUTS, REQUIRED, SignalMap
-from steer_monitor.estimate.rams import IDLE, MIN_SHARE_INSTANTS, MIN_SHARE_SPREAD_PA, UNEVEN, UNJUDGED, judge, weak_ram_cause
+from steer_monitor.estimate.rams import (EVEN, IDLE, MIN_SHARE_INSTANTS, MIN_SHARE_SPREAD_PA, UNJUDGED, enough, judge,
+                                         weak_ram_cause)
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.hardover import hard_over_time, pumps_running
 from steer_monitor.model.loadshare import load_sharing_at
@@ -300,26 +301,24 @@ class DiagnosticsBuilder:
                   ('ram_force_offset_bar', 'n/a' if sh is None else f'{sh.offset / bar:.2f}'),
                   ('ram_share_warn_pct', f'{100 * warn:g}')]
         verdict = judge(sh, warn, self.gear.ram_area)
-        if sh is None or verdict == UNJUDGED:
-            if sh is None:
-                have = 'no instants of steady motion with both rams\' pressures yet'
-            elif sh.instants >= MIN_SHARE_INSTANTS and sh.spread >= MIN_SHARE_SPREAD_PA * self.gear.ram_area:
-                have = f'ram 1 {100 * sh.share[0]:.0f} %, ram 2 {100 * sh.share[1]:.0f} %, too uncertain'
-            else:
-                have = f'{sh.instants} instants of steady motion, the rams\' mean force varying by {sh.spread / bar:.2f} bar'
+        if sh is None:
+            return self._status('rams', OK, 'not judged yet: no instants of steady motion with both rams\' pressures '
+                                f'yet (judged from {MIN_SHARE_INSTANTS} instants and {MIN_SHARE_SPREAD_PA / 1e5:g} bar)',
+                                values)
+        shares = f'ram 1 {100 * sh.share[0]:.0f} %, ram 2 {100 * sh.share[1]:.0f} %'
+        if verdict == UNJUDGED:
+            have = (f'{shares}, too uncertain' if enough(sh, self.gear.ram_area) else
+                    f'{sh.instants} instants of steady motion, the rams\' mean force varying by {sh.spread / bar:.2f} bar')
             return self._status('rams', OK, f'not judged yet: {have} (judged from {MIN_SHARE_INSTANTS} instants '
                                 f'and {MIN_SHARE_SPREAD_PA / 1e5:g} bar)', values)
+        if verdict == EVEN:
+            return self._status('rams', OK, f'the rams share the driving force: {shares} over the last '
+                                f'{sh.instants} instants of motion', values)
         weak = sh.weaker
-        low, high = sh.share[weak], sh.share[1 - weak]
-        shares = f'ram 1 {100 * sh.share[0]:.0f} %, ram 2 {100 * sh.share[1]:.0f} %'
-        if verdict in (IDLE, UNEVEN):
-            cause = weak_ram_cause(mon.share_pressures(), weak, PRESSURE_INPUTS)
+        cause = weak_ram_cause(mon.share_pressures(), weak, PRESSURE_INPUTS)
         if verdict == IDLE:
-            return self._status('rams', ERROR, f'ram {weak + 1} does next to no work ({100 * low:.0f} % of the driving '
-                                f'force, ram {2 - weak} {100 * high:.0f} %): {cause}; on one ram the gear has half its '
-                                'torque', values)
-        if verdict == UNEVEN:
-            return self._status('rams', WARN, f'uneven: {shares} of the driving force (warn beyond '
-                                f'{100 * (0.5 - warn):.0f}-{100 * (0.5 + warn):.0f} %): {cause}', values)
-        return self._status('rams', OK, f'the rams share the driving force: {shares} over the last '
-                            f'{sh.instants} instants of motion', values)
+            return self._status('rams', ERROR, f'ram {weak + 1} does next to no work ({100 * sh.share[weak]:.0f} % of the '
+                                f'driving force, ram {2 - weak} {100 * sh.share[1 - weak]:.0f} %): {cause}; on one ram '
+                                'the gear has half its torque', values)
+        return self._status('rams', WARN, f'uneven: {shares} of the driving force (warn beyond '
+                            f'{100 * (0.5 - warn):.0f}-{100 * (0.5 + warn):.0f} %): {cause}', values)

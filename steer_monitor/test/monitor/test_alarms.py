@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from steer_monitor import sim
@@ -123,6 +124,47 @@ def test_clearance_levels_on_the_interval(builder, mon, zgb, interval, level, te
                  {'2z': (0.25 * MM, 0.35 * MM), 'zgb': (lo * MM, None if hi is None else hi * MM)})
     st = builder.clearances(mon)
     assert (LEVEL_NAMES[st.level], text in st.message) == (LEVEL_NAMES[level], True), st.message
+
+
+def _ring(mon, pressures):
+    """Put the four pressures (k, 4) [Pa] into the live monitor's window of the rams' share,
+    as its steady-motion instants would have."""
+    k = len(pressures)
+    mon._ring[:k] = pressures
+    mon._ring_kept, mon._ring_next, mon._share_stale = k, k % len(mon._ring), True
+
+
+def _gear_pressures(n, ram1_carries=1.0, amplitude_bar=40.0, seed=5):
+    """Four chamber pressures [Pa] (n, 4) under a load sweeping +-amplitude per ram, ram 1
+    carrying ``ram1_carries`` of its force (ram 2 the rest of the two), noise 0.35 bar."""
+    rng = np.random.default_rng(seed)
+    load = amplitude_bar * 1e5 * np.sin(np.linspace(0, 9, n))
+    p = np.empty((n, 4))
+    for r, dp in enumerate((ram1_carries * load, (2 - ram1_carries) * load)):
+        p[:, 2 * r], p[:, 2 * r + 1] = 2e5 + np.maximum(dp, 0), 2e5 + np.maximum(-dp, 0)
+    return p + rng.normal(0, 0.35e5, p.shape)
+
+
+@pytest.mark.parametrize('n, carries, amplitude, level, text', [
+    (0, 1.0, 40.0, OK, "not judged yet: no instants of steady motion with both rams' pressures yet (judged from 300 "
+                       'instants and 1 bar)'),
+    (299, 0.0, 40.0, OK, "not judged yet: 299 instants of steady motion, the rams' mean force varying by"),
+    (2000, 0.0, 0.5, OK, "not judged yet: 2000 instants of steady motion, the rams' mean force varying by 0."),
+    (2000, 1.0, 40.0, OK, 'the rams share the driving force: ram 1 50 %, ram 2 50 % over the last 2000 instants'),
+    (2000, 0.76, 40.0, OK, 'the rams share the driving force: ram 1 38 %, ram 2 62 %'),       # within 15 points
+    (2000, 0.5, 40.0, WARN, 'uneven: ram 1 25 %, ram 2 75 % of the driving force (warn beyond 35-65 %): a bypass or '
+                            'isolating valve open on ram 1, or a pressure transducer of either ram not reading'),
+    (2000, 1.6, 40.0, WARN, 'uneven: ram 1 80 %, ram 2 20 %'),
+    (2000, 0.0, 40.0, ERROR, 'ram 1 does next to no work (0 % of the driving force, ram 2 100 %): its two chambers '
+                             'read the same pressure (2.0 and 2.0 bar): joined, a bypass or isolating valve open on '
+                             'ram 1; on one ram the gear has half its torque'),
+])
+def test_rams_levels(builder, mon, n, carries, amplitude, level, text):
+    if n:
+        _ring(mon, _gear_pressures(n, carries, amplitude))
+    st = builder.rams(mon)
+    assert (LEVEL_NAMES[st.level], st.message.startswith(text)) == (LEVEL_NAMES[level], True), st.message
+    assert st.value('ram_share_instants') == str(n)
 
 
 def test_configured_clearances_are_shown_not_judged(builder, mon):
