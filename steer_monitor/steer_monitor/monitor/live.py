@@ -17,9 +17,9 @@ pressure sample it evaluates:
   threshold with the same sign, so starts and stops do not pollute it;
 * the steering performance: hard-over time from leaving 35 deg to reaching 30 deg the other
   side, and the response to order steps (direction, delay, settled accuracy);
-* how the two rams share the driving force over the last minute or so of steady motion
-  (:func:`~steer_monitor.estimate.rams.ram_share`, from the pressures alone: whatever model
-  is in use).
+* how the two rams share the driving force over the last ``SHARE_INSTANTS`` pressure samples
+  of steady motion, about half a minute of it (:func:`~steer_monitor.estimate.rams.ram_share`,
+  from the pressures alone: whatever model is in use).
 
 Times are integer ns; values SI.
 """
@@ -113,8 +113,7 @@ class LiveMonitor:
         self.torque: TorqueTable | None = None
         self.signals: dict[str, _Signal] = {name: _Signal() for name in INPUTS}
         self._history: deque[tuple[int, float]] = deque()   # the last 0.9 s of angles
-        # (t, ram 1 force, ram 2 force, the four pressures)
-        self._pending: deque[tuple[int, float, float, tuple[float, ...]]] = deque()
+        self._pending: deque[tuple[int, tuple[float, ...]]] = deque()   # (t, the four pressures)
         self._pressures = [math.nan] * 4
         self._dirty = False
         self._state: LiveState | None = None
@@ -255,9 +254,8 @@ class LiveMonitor:
         elif name in _PRESSURE_INDEX:
             self._pressures[_PRESSURE_INDEX[name]] = sample.value
             p = self._pressures
-            area = self.gear.ram_area
             if not math.isnan(p[0] + p[1] + p[2] + p[3]):
-                self._pending.append((sample.t_ns, area * (p[0] - p[1]), area * (p[2] - p[3]), tuple(p)))
+                self._pending.append((sample.t_ns, tuple(p)))
             self._dirty = True
 
     @property
@@ -365,11 +363,12 @@ class LiveMonitor:
         (near midships the torque curve is steep: an angle 0.1 s old is worth several bar)."""
         hist = list(self._history)
         times = [t for t, _ in hist]
+        area = self.gear.ram_area
         judged: dict[int, float] = {}
         speed = self.signals['ship_speed'].last_value
         speed = None if math.isnan(speed) else speed
         while self._pending and self._pending[0][0] <= t_end:
-            t, force_1, force_2, chambers = self._pending.popleft()
+            t, chambers = self._pending.popleft()
             i = bisect.bisect_right(times, t) - 1
             if i < 0 or i + 1 >= len(hist):
                 continue
@@ -380,6 +379,7 @@ class LiveMonitor:
                 continue
             (t_a, a_a), (t_b, a_b) = hist[i], hist[i + 1]
             alpha = a_a + (a_b - a_a) * (t - t_a) / (t_b - t_a)
+            force_1, force_2 = area * (chambers[0] - chambers[1]), area * (chambers[2] - chambers[3])
             instant = (alpha, speed, direction, force_1, force_2)
             self._motion.append(instant)
             self._resid.append(self._residual_pair(instant))
@@ -444,7 +444,7 @@ class LiveMonitor:
         of steady motion (None before there are any that say)."""
         if self._share_stale:     # the ring's rows in the order they lie: the same rows, the same bits
             p = self.share_pressures()
-            area = self.gear.ram_area    # the forces as update() makes them, element by element
+            area = self.gear.ram_area    # the forces as _residuals_until() makes them, element by element
             self._share = ram_share(np.stack([area * (p[:, 0] - p[:, 1]), area * (p[:, 2] - p[:, 3])], axis=1))
             self._share_stale = False
         return self._share
