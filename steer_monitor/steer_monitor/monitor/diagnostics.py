@@ -255,8 +255,14 @@ class DiagnosticsBuilder:
         values += [('order_deg', _f(None if r is None else math.degrees(r.order), '.2f')),
                    ('response_direction_ok', 'n/a' if r is None or r.direction_ok is None else str(r.direction_ok).lower()),
                    ('response_delay_s', _f(None if r is None else r.delay_s, '.2f')),
-                   ('response_accuracy_deg', _f(None if r is None or r.accuracy is None else math.degrees(r.accuracy), '.2f'))]
-        if r is not None and r.direction_ok is False:
+                   ('response_accuracy_deg', _f(None if r is None or r.accuracy is None else math.degrees(r.accuracy), '.2f')),
+                   ('response_stalled_s', _f(None if r is None else r.stalled_s, '.1f'))]
+        if r is not None and r.stalled_s is not None and r.stalled_at is not None:
+            level = ERROR
+            parts.append(f'rudder has not moved for {r.stalled_s:.0f} s since the order went to '
+                         f'{math.degrees(r.order):.1f} deg (rudder at {math.degrees(r.stalled_at):.1f} deg): the rudder '
+                         'angle sensor frozen, the rudder jammed, or no pump running')
+        elif r is not None and r.direction_ok is False:
             level = ERROR
             parts.append('rudder moved AGAINST the order')
         elif r is not None and r.delay_s is not None:

@@ -42,7 +42,8 @@ from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
 from steer_monitor.model.loadshare import ShareScalar, load_sharing, load_sharing_scalar
 from steer_monitor.model.torque import TorqueTable
 
-__all__ = ['ARRIVALS_KEPT_NS', 'RATE_WINDOW_NS', 'LiveMonitor', 'LiveState', 'Response']
+__all__ = ['ARRIVALS_KEPT_NS', 'NO_RESPONSE_ERR', 'NO_RESPONSE_NS', 'RATE_WINDOW_NS', 'LiveMonitor', 'LiveState',
+           'Response']
 
 DEG = math.pi / 180.0
 RATE_WINDOW_NS = 5_000_000_000      # the shortest window a rate is judged over
@@ -59,18 +60,28 @@ ORDER_STEP = 1.0 * DEG
 #: is a slope over SLOPE_WINDOW_NS, so a turn shows half a window late, and the pump's valve
 #: takes a moment to reverse the flow (the simulated gear stops in one 10 ms step)
 REVERSAL_NS = SLOPE_WINDOW_NS + 500_000_000
+#: a rudder that has not moved this long after an order step, the order still this far from
+#: it, did not respond (the simulated gear starts in 0.1 s, a real one within a second or two;
+#: one pump or cold oil make it slower to move, not slower to start)
+NO_RESPONSE_NS = 5_000_000_000
+NO_RESPONSE_ERR = 1.0 * DEG
 _PRESSURE_INDEX = {'pressure_r1_stbd': 0, 'pressure_r1_port': 1, 'pressure_r2_stbd': 2, 'pressure_r2_port': 3}
 
 
 @dataclass
 class Response:
-    """Order-to-response of the last order step: direction right, delay [s], settled error [rad]."""
+    """Order-to-response of the last order step: direction right, delay [s], settled error
+    [rad]; ``stalled_s`` [s] and ``stalled_at`` [rad]: how long the rudder has stood since the
+    step while the order was more than ``NO_RESPONSE_ERR`` away, and where (None while it has
+    not stood ``NO_RESPONSE_NS``, and again once it moves)."""
 
     order: float
     t_step_ns: int
     direction_ok: bool | None = None
     delay_s: float | None = None
     accuracy: float | None = None
+    stalled_s: float | None = None
+    stalled_at: float | None = None
 
 
 @dataclass(frozen=True)
@@ -412,6 +423,12 @@ class LiveMonitor:
         if r is None:
             return
         moving = abs(self.rate) > MOVING_RATE
+        if r.direction_ok is None and not moving:
+            stood = t_ns - r.t_step_ns
+            if stood >= NO_RESPONSE_NS and abs(r.order - alpha) > NO_RESPONSE_ERR:
+                r.stalled_s, r.stalled_at = stood / 1e9, alpha
+        elif moving:
+            r.stalled_s = r.stalled_at = None
         if r.direction_ok is None and moving:
             wanted = math.copysign(1.0, r.order - alpha) if abs(r.order - alpha) > 0.2 * DEG else 0.0
             ok = wanted == 0.0 or math.copysign(1.0, self.rate) == wanted

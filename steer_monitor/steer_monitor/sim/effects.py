@@ -36,6 +36,11 @@ ram_bypass            *a fault, not a model effect*: one ram's chambers joined (
                       has it: the friction of a ram dragged along, and the driving ram's
                       larger lateral load, are not redistributed. The monitor's ``rams``
                       status is what names it (:mod:`~steer_monitor.estimate.rams`)
+angle_stuck           *a fault, not a model effect*: the rudder angle sensor sends the
+                      value it read at start_s (s of the programme) from then on, to
+                      the last bit (a frozen sensor or gateway; the rudder itself moves
+                      as ordered). The steering performance status names it, once an
+                      order step finds the rudder standing (start_s = 0)
 ===================== ================================================================
 
 Sizes may be negative: a plant that departs from the declared law the other way (friction
@@ -66,13 +71,14 @@ EFFECTS: dict[str, dict[str, float | str]] = {
     'ram_inertia': {'mass_kg': 60e3, 'rate_lag_s': 0.1},
     'band_friction': {'f_n': 12e3, 'lo_deg': 12.0, 'hi_deg': 18.0},
     'ram_bypass': {'ram': 1.0, 'carries': 0.0, 'start_s': 0.0, 'end_s': 1e9},
+    'angle_stuck': {'start_s': 0.0},
 }
 
 # The ones the analysis library has no candidate for (a test of the "unexplained" verdict).
 OUTSIDE_LIBRARY = ('band_friction',)
 # Faults of the gear rather than effects on its friction or sensors: not the residual loop's
 # to name (another status does).
-FAULTS = ('ram_bypass',)
+FAULTS = ('ram_bypass', 'angle_stuck')
 
 _PRESSURES = ('pressure_r1_stbd', 'pressure_r1_port', 'pressure_r2_stbd', 'pressure_r2_port')
 

@@ -88,6 +88,12 @@ def sensor_streams(res: SimResult, cfg: SimConfig, rng: np.random.Generator) -> 
     for name, value in exact.items():
         s = sigma.get(name, 0.0) if cfg.noise else 0.0
         noisy[name] = value + rng.normal(0.0, s, value.size) if s > 0 else value.copy()
+    stuck = cfg.effect('angle_stuck')
+    if stuck is not None:          # the sensor's last reading before start_s, sent on unchanged
+        angle = noisy['rudder_angle']
+        i = int(np.searchsorted(ts['rudder'], float(stuck['start_s'])))
+        if angle.size:
+            angle[i:] = angle[max(i - 1, 0)]
     return SensorStreams(t_ns, exact, noisy)
 
 

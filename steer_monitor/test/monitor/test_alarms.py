@@ -94,6 +94,43 @@ def test_a_ram_that_does_not_carry_its_share_is_found(r18_params, can_db, progra
     assert rams[-1][1].value('ram_share_warn_pct') == '15'
 
 
+def test_a_frozen_rudder_angle_is_found_at_the_next_order(r18_params, can_db):
+    """The angle sensor sends its last reading from 300 s on while the helm goes on: an ERROR
+    once an order step finds the rudder standing 5 s, none before."""
+    statuses = _replay(r18_params, can_db, 'realistic:900', (0.45, 0.12), 19, effects=['angle_stuck:start_s=300'])
+    perf = [(t, st) for t, st in statuses if st.name.endswith('steering performance')]
+    assert all(st.level == OK for t, st in perf if t < 300)
+    found = [(t, st) for t, st in perf if st.level == ERROR]
+    assert found and 305 <= found[0][0] <= 400
+    assert 'rudder has not moved for' in found[0][1].message and 'the rudder angle sensor frozen, the rudder jammed, ' \
+        'or no pump running' in found[0][1].message
+
+
+def test_a_rudder_that_stands_after_an_order_step_and_then_moves(mon, builder):
+    """The rules: 5 s standing with the order over a degree away is an ERROR; moving clears it."""
+    t = 1_000_000_000_000
+
+    def angle(dt_s, deg):
+        mon.update(Sample(t + int(dt_s * 1e9), 'rudder_angle', math.radians(deg)))
+
+    mon.update(Sample(t - 200_000_000, 'rudder_order', 0.0))
+    for k in range(3):
+        angle(-0.3 + 0.1 * k, 0.0)
+    mon.update(Sample(t, 'rudder_order', math.radians(10.0)))
+    for k in range(49):                                   # 4.9 s standing: not yet
+        angle(0.1 * k, 0.0)
+    assert mon.response.stalled_s is None and builder.performance(mon).level == OK
+    for k in range(49, 60):
+        angle(0.1 * k, 0.0)
+    st = builder.performance(mon)
+    assert st.level == ERROR and st.value('response_stalled_s') == '5.9'
+    assert 'rudder has not moved for 6 s since the order went to 10.0 deg (rudder at 0.0 deg)' in st.message
+    for k in range(60, 70):                               # it moves (2 deg/s)
+        angle(0.1 * k, 0.2 * (k - 59))
+    assert mon.response.stalled_s is None and builder.performance(mon).level == OK
+    assert 'responds to orders in 6.' in builder.performance(mon).message
+
+
 # --- the rules, one by one ------------------------------------------------------------------
 @pytest.fixture
 def builder(r18_params, can_db):

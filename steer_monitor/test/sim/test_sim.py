@@ -179,6 +179,17 @@ def test_ram_bypass_moves_force_from_one_ram_to_the_other_in_its_span_only(r18_p
         assert q.pressures[name].min() == pytest.approx(2e5)                   # a chamber at the return line
 
 
+def test_angle_stuck_sends_the_last_reading_on(r18_params, can_db):
+    base = _run(r18_params, can_db, 'zigzag_10', seed=4)
+    with_e = _run(r18_params, can_db, 'zigzag_10', seed=4, effects=(sim.parse_effect('angle_stuck:start_s=30'),))
+    t = (with_e.sensors.t_ns['rudder'] - with_e.plant.start_ns) / 1e9
+    sent, was = with_e.sensors.noisy['rudder_angle'], base.sensors.noisy['rudder_angle']
+    before = t < 30
+    assert np.array_equal(sent[before], was[before])
+    assert np.all(sent[~before] == was[before][-1]) and np.ptp(was[~before]) > 0.1
+    assert np.array_equal(with_e.plant.alpha, base.plant.alpha)         # the rudder itself moves on
+
+
 @pytest.mark.parametrize('text,msg', [
     ('nonsense', "unknown effect 'nonsense'"),
     ('ram_bypass:ram=3', 'effect ram_bypass: need ram 1 or 2, 0 <= carries <= 2 and start_s < end_s, got ram 3'),
