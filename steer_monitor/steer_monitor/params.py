@@ -40,6 +40,7 @@ __all__ = [
     'friction_from_params',
     'gaps_from_params',
     'min_clearance_2z_from_params',
+    'ram_share_warn_from_params',
     'gear_from_params',
     'load_params_file',
     'validate_params',
@@ -387,6 +388,12 @@ def gaps_from_params(p: Mapping[str, Any]) -> Gaps:
 def friction_from_params(p: Mapping[str, Any]) -> FrictionParams:
     """The configured friction (F_s [N], mu_b, mu_g) the live model uses until estimated."""
     return FrictionParams(p['model.seal_friction_n'], p['model.mu_bushing'], p['model.mu_guide'])
+
+
+def ram_share_warn_from_params(p: Mapping[str, Any]) -> float:
+    """How far a ram's share of the driving force may depart from an even half before it is
+    uneven, as a fraction (``diagnostics.ram_share_warn_pct`` is in percentage points)."""
+    return p['diagnostics.ram_share_warn_pct'] / 100.0
 
 
 def min_clearance_2z_from_params(p: Mapping[str, Any]) -> float:

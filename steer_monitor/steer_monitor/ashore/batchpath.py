@@ -22,7 +22,8 @@ from steer_monitor.can.frames import FrameArrays
 from steer_monitor.can.logs import LogError
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import load_setup
-from steer_monitor.params import gaps_from_params, gear_from_params, min_clearance_2z_from_params
+from steer_monitor.params import (gaps_from_params, gear_from_params, min_clearance_2z_from_params,
+                                  ram_share_warn_from_params)
 from steer_monitor.ashore.review import Review, ReviewResult
 
 __all__ = ['BatchRun', 'review_logs']
@@ -77,7 +78,7 @@ def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *,
     gear = gear_from_params(params)
     jobs = min(jobs or os.cpu_count() or 1, 2)
     review = Review(gear, gaps_from_params(params), min_clearance_2z=min_clearance_2z_from_params(params),
-                    ram_share_warn=params['diagnostics.ram_share_warn_pct'] / 100.0)
+                    ram_share_warn=ram_share_warn_from_params(params))
     ends = [log_end_ns(p) for p in paths]
     end = None if not ends or None in ends else max(e for e in ends if e is not None)
     frames = 0

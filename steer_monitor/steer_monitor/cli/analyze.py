@@ -52,7 +52,7 @@ from steer_monitor.cli.output import add_date_option, check_logs, date_notes, du
 from steer_monitor.estimate.analyze import Analysis, analyze
 from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.estimate.batch import ClearanceEstimate
-from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
+from steer_monitor.params import gear_from_params, min_clearance_2z_from_params, ram_share_warn_from_params
 
 __all__ = ['analysis_json', 'analyze_log', 'register', 'run']
 
@@ -160,7 +160,7 @@ def analyze_log(path: str | Path, config: str | Path | None = None, progress: bo
     say = (lambda msg: print(f'  {msg} ...', file=sys.stderr)) if progress else None
     try:
         a = analyze(gear, logs.signals, min_clearance_2z=min_clearance_2z_from_params(params),
-                    ram_share_warn=params['diagnostics.ram_share_warn_pct'] / 100.0, progress=say)
+                    ram_share_warn=ram_share_warn_from_params(params), progress=say)
     except EstimateError as exc:
         if logs.errors:      # say why the data are short as well
             raise EstimateError(f'{exc} ({logs.errors[0]})') from exc

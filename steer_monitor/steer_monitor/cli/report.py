@@ -29,7 +29,7 @@ def _analysis(paths: list[Path], config_path: Path, params: dict[str, Any], sinc
     from steer_monitor.can.setup import can_setup
     from steer_monitor.estimate.analyze import analyze
     from steer_monitor.estimate.observe import EstimateError
-    from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
+    from steer_monitor.params import gear_from_params, min_clearance_2z_from_params, ram_share_warn_from_params
 
     db, smap = can_setup(params, config_path)
     logs = decode_logs(paths, db, smap, RejectCounter(), since_ns=since_ns, date=date)   # breaks: in the review already
@@ -38,7 +38,7 @@ def _analysis(paths: list[Path], config_path: Path, params: dict[str, Any], sinc
     try:
         return analyze(gear_from_params(params), logs.signals,
                        min_clearance_2z=min_clearance_2z_from_params(params),
-                       ram_share_warn=params['diagnostics.ram_share_warn_pct'] / 100.0), ''
+                       ram_share_warn=ram_share_warn_from_params(params)), ''
     except EstimateError as exc:
         return None, f'model check not made: {exc}'
 

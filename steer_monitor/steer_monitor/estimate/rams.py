@@ -18,18 +18,17 @@ not bias it either (m's noise only widens the interval).
 
 from __future__ import annotations
 
-import math
 import datetime
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ['EVEN', 'IDLE', 'IDLE_RAM_SHARE', 'JOINED_SHARE', 'MIN_SHARE_INSTANTS', 'STUCK_SHARE', 'MIN_SHARE_SPREAD_PA', 'UNEVEN', 'UNEVEN_CAUSE',
-           'UNJUDGED',
-           'WINDOW_INSTANTS', 'RamShare', 'UnevenSpan', 'describe', 'enough', 'judge', 'ram_share', 'uneven_spans', 'weak_ram_cause',
-           'within']
+__all__ = ['EVEN', 'IDLE', 'IDLE_RAM_SHARE', 'JOINED_SHARE', 'MIN_SHARE_INSTANTS', 'MIN_SHARE_SPREAD_PA', 'STUCK_SHARE',
+           'UNEVEN', 'UNEVEN_CAUSE', 'UNJUDGED', 'WINDOW_INSTANTS', 'RamShare', 'UnevenSpan', 'describe', 'enough',
+           'judge', 'ram_share', 'uneven_spans', 'weak_ram_cause', 'within']
 
 #: a share is judged from this many instants of steady motion (seconds of it)...
 MIN_SHARE_INSTANTS = 300
@@ -48,7 +47,8 @@ WINDOW_INSTANTS = 600
 #: instants a stretch's end moves by at a time (3 s of steady motion on the 50 ms grid)
 EDGE_STEP = 60
 #: what uneven sharing may mean, for messages (``ram``: the weaker, 1 or 2)
-UNEVEN_CAUSE = 'a bypass or isolating valve open on ram {ram}, or a pressure transducer of either ram not reading its chamber'
+UNEVEN_CAUSE = ('a bypass or isolating valve open on ram {ram}, or a pressure transducer of either ram not reading '
+                'its chamber')
 #: the weaker ram's chambers are joined when their difference varies by less than this share
 #: of the other ram's (its mean included): the load makes the other's tens of bar at sea,
 #: the noise of two transducers half a bar

@@ -24,6 +24,7 @@ from steer_monitor.model.loadshare import load_sharing_at
 from steer_monitor.model.study import landmarks
 from steer_monitor.monitor.verdict import ERROR, OK, WARN, clearance_verdict
 from steer_monitor.monitor.live import ARRIVALS_KEPT_NS, RATE_WINDOW_NS, LiveMonitor
+from steer_monitor.params import ram_share_warn_from_params
 
 __all__ = ['ERROR', 'OK', 'STALE', 'WARN', 'DiagnosticsBuilder', 'DiagnosticsConfig', 'Status']
 
@@ -75,7 +76,7 @@ class DiagnosticsConfig:
                    guide_idle_warn_deg=p['diagnostics.guide_idle_warn_deg'],
                    solas_hard_over_s=p['diagnostics.solas_hard_over_s'],
                    residual_warn_bar=p['diagnostics.residual_warn_bar'],
-                   ram_share_warn=p['diagnostics.ram_share_warn_pct'] / 100.0,
+                   ram_share_warn=ram_share_warn_from_params(p),
                    pumps=p['hydraulics.pumps'], ram_speed_per_pump=p['hydraulics.ram_speed_per_pump_mm_s'] * 1e-3)
 
 

@@ -45,7 +45,7 @@ from steer_monitor.model.friction import FrictionParams
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, Status
 from steer_monitor.monitor.live import LiveMonitor, LiveState
-from steer_monitor.params import min_clearance_2z_from_params
+from steer_monitor.params import min_clearance_2z_from_params, ram_share_warn_from_params
 
 __all__ = ['APPLY_DELAY_NS', 'MAX_GAP_SECONDS', 'SECOND_NS', 'SLOT_NS', 'DiagOut', 'EstimateSnapshot', 'EstimatorJobs',
            'JobSchedule', 'Pipeline', 'StateOut',
@@ -102,7 +102,7 @@ def estimator_from_params(gear: GearParams, p: Mapping[str, Any]) -> OnlineEstim
     forgetting half-life, the rams' uneven share it does not learn from)."""
     return OnlineEstimator(gear, min_clearance_2z=min_clearance_2z_from_params(p),
                            half_life_s=p['estimator.half_life_h'] * 3600.0,
-                           ram_share_warn=p['diagnostics.ram_share_warn_pct'] / 100.0)
+                           ram_share_warn=ram_share_warn_from_params(p))
 
 
 def run_job(est: OnlineEstimator, samples: list[Sample],
