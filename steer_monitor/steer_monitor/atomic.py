@@ -11,6 +11,13 @@ the next write of the same target removes the temporaries of that target whose p
 longer runs on this machine and that nobody has written to for ``STALE_AFTER_S`` (a writer on
 another machine sharing the directory keeps writing its own), so a day-long replay killed
 twice does not leave gigabytes hidden beside its output.
+
+A target that is a link is written through it: the file it points to is replaced (beside
+itself) and the link stays. A target that exists and is no file at all (a terminal,
+``/dev/stdout``, a named pipe, ``/dev/null``) is a stream: it cannot be replaced whole, and
+renaming over it would swap the device or pipe for a file (as root, ``/dev/full`` became a
+regular file). It is written straight through, and what the system says (``/dev/full``: no
+space left) is the error.
 """
 
 from __future__ import annotations
@@ -18,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import stat
 import time
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
@@ -25,7 +33,7 @@ from typing import IO, Any
 
 from steer_monitor.errors import OutputError
 
-__all__ = ['STALE_AFTER_S', 'atomic_path', 'atomic_write', 'check_target', 'ensure_dir', 'os_reason',
+__all__ = ['STALE_AFTER_S', 'atomic_path', 'atomic_write', 'check_target', 'ensure_dir', 'is_stream', 'os_reason',
            'remove_stale_temporaries', 'temporary_name', 'write_bytes', 'write_files', 'write_text']
 
 #: a temporary not written to for this long, of a process that no longer runs, is debris [s]
@@ -55,6 +63,26 @@ def ensure_dir(path: str | Path) -> Path:
     return p
 
 
+def is_stream(path: str | Path) -> bool:
+    """Whether ``path`` (through links) exists and is neither a regular file nor a directory:
+    a terminal, a pipe, a socket or a device, written straight through rather than replaced."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return False
+    return not (stat.S_ISREG(mode) or stat.S_ISDIR(mode))
+
+
+def _resolved(path: str | Path) -> Path:
+    """The path a write of ``path`` replaces: a link's target (so the link stays), else
+    ``path`` itself."""
+    p = Path(path)
+    try:
+        return Path(os.path.realpath(p)) if p.is_symlink() else p
+    except OSError:         # e.g. a name too long: the write names it
+        return p
+
+
 def check_target(path: str | Path, inputs: Iterable[str | Path | None] = ()) -> None:
     """:class:`OutputError` now if ``path`` cannot be written later (a directory, no parent
     directory, a parent without write permission), or if it is one of the command's
@@ -65,6 +93,12 @@ def check_target(path: str | Path, inputs: Iterable[str | Path | None] = ()) -> 
         if source is not None and _same_file(target, Path(source)):
             msg = f'cannot write {target}: it is the input {source}; give another output'
             raise OutputError(msg)
+    if is_stream(target):
+        if not os.access(target, os.W_OK):
+            msg = f'cannot write {target}: permission denied'
+            raise OutputError(msg)
+        return
+    target = _resolved(target)
     try:
         is_dir, parent_is_dir = target.is_dir(), target.parent.is_dir()
     except OSError as exc:          # e.g. a name too long for the file system
@@ -151,6 +185,14 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     renamed to ``path`` when the block ends without an exception, removed otherwise."""
     target = Path(path)
     check_target(target)
+    if is_stream(target):
+        try:
+            yield target
+        except OSError as exc:      # a full device, a closed pipe
+            msg = f'cannot write {target}: {os_reason(exc)}'
+            raise OutputError(msg) from exc
+        return
+    target = _resolved(target)
     remove_stale_temporaries(target)
     # the suffix kept last, for writers that choose the format by it (.log, .mcap)
     tmp = target.with_name(temporary_name(target.name))
@@ -171,17 +213,22 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
 @contextlib.contextmanager
 def atomic_write(path: str | Path, mode: str = 'w', **kwargs: Any) -> Iterator[IO[Any]]:
     """``open(path, mode)`` written through :func:`atomic_path` (flushed and fsynced before
-    the rename, so a crash leaves the old file or the new one)."""
+    the rename, so a crash leaves the old file or the new one; a stream is flushed only)."""
     with atomic_path(path) as tmp:
         try:
             fh = open(tmp, mode, **kwargs)
         except OSError as exc:
             msg = f'cannot write {path}: {os_reason(exc)}'
             raise OutputError(msg) from exc
-        with fh:
-            yield fh
-            fh.flush()
-            os.fsync(fh.fileno())
+        try:
+            with fh:
+                yield fh
+                fh.flush()
+                if not is_stream(tmp):
+                    os.fsync(fh.fileno())
+        except OSError as exc:          # a stream's own error (a full device, a closed pipe)
+            msg = f'cannot write {path}: {os_reason(exc)}'
+            raise OutputError(msg) from exc
 
 
 def write_text(path: str | Path, text: str) -> None:
@@ -203,11 +250,16 @@ def write_files(files: Mapping[str | Path, bytes]) -> None:
     the mapping's order, so that the first named (a page, say, before the plots it goes with)
     appears last."""
     done: list[tuple[Path, Path]] = []         # (temporary, target) of each temporary made
+    streams: list[tuple[Path, bytes]] = []      # written straight through once the rest is made
     target = Path()
     try:
         for path, data in files.items():
             target = Path(path)
             check_target(target)
+            if is_stream(target):
+                streams.append((target, data))
+                continue
+            target = _resolved(target)
             remove_stale_temporaries(target)
             tmp = target.with_name(temporary_name(target.name))
             with open(tmp, 'wb') as fh:
@@ -215,6 +267,9 @@ def write_files(files: Mapping[str | Path, bytes]) -> None:
                 fh.write(data)
                 fh.flush()
                 os.fsync(fh.fileno())
+        for target, data in streams:
+            with open(target, 'wb') as fh:
+                fh.write(data)
         for tmp, target in reversed(done):
             os.replace(tmp, target)
     except BaseException as exc:

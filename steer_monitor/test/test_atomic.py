@@ -7,6 +7,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -183,3 +184,86 @@ def test_removing_stale_temporaries_never_raises(tmp_path):
     debris.write_bytes(b'half')
     os.utime(debris, (0, 0))
     assert remove_stale_temporaries(tmp_path / long_name) == 1 and not debris.exists()
+
+
+@pytest.fixture
+def full_device(tmp_path):
+    """A device like /dev/full (every write: no space left) in ``tmp_path``: replacing it by
+    mistake harms nothing (root and a file system that allows devices; skipped otherwise)."""
+    import stat
+    if os.geteuid() != 0:
+        pytest.skip('making a device node needs root; the test runs in CI as root')
+    node = tmp_path / 'full'
+    os.mknod(node, 0o666 | stat.S_IFCHR, os.makedev(1, 7))
+    try:
+        with open(node, 'wb') as fh:
+            fh.write(b'x')
+    except OSError as exc:
+        if exc.errno != 28:
+            pytest.skip(f'devices cannot be used on {tmp_path}: {os_reason(exc)}')
+    return node
+
+
+def _is_char_device(path: Path) -> bool:
+    import stat
+    return stat.S_ISCHR(os.lstat(path).st_mode)
+
+
+@pytest.mark.parametrize('write', [
+    lambda p: write_text(p, '{}'),
+    lambda p: write_files({p: b'{}'}),
+    'atomic_path',
+])
+def test_a_device_is_written_through_not_replaced(full_device, write):
+    """As root, renaming over /dev/full made it a regular file and the write 'succeeded'."""
+    with pytest.raises(OutputError, match=r'^cannot write .*full: No space left on device$'):
+        if write == 'atomic_path':
+            with atomic_path(full_device) as p:
+                p.write_bytes(b'{}')
+        else:
+            write(full_device)
+    assert _is_char_device(full_device)
+    assert sorted(p.name for p in full_device.parent.iterdir()) == ['full']
+
+
+def _fifo_reader(fifo: Path) -> tuple[Any, list[bytes]]:
+    import threading
+    got: list[bytes] = []
+    thread = threading.Thread(target=lambda: got.append(fifo.read_bytes()), daemon=True)
+    thread.start()
+    return thread, got
+
+
+@pytest.mark.parametrize('how', ['text', 'files', 'path'])
+def test_a_named_pipe_is_written_through(tmp_path, how):
+    fifo = tmp_path / 'out.json'
+    os.mkfifo(fifo)
+    assert atomic.is_stream(fifo) and not atomic.is_stream(tmp_path) and not atomic.is_stream(tmp_path / 'no')
+    thread, got = _fifo_reader(fifo)
+    if how == 'text':
+        write_text(fifo, '{"a": 1}')
+    elif how == 'files':
+        write_files({tmp_path / 'page.html': b'page', fifo: b'{"a": 1}'})
+        assert (tmp_path / 'page.html').read_bytes() == b'page'
+    else:
+        with atomic_path(fifo) as p:
+            assert p == fifo
+            p.write_bytes(b'{"a": 1}')
+    thread.join(10)
+    assert got == [b'{"a": 1}']
+    assert fifo.is_fifo()
+
+
+def test_a_link_is_written_through_and_stays_a_link(tmp_path):
+    (tmp_path / 'runs').mkdir()
+    real = tmp_path / 'runs' / 'a.json'
+    real.write_text('old')
+    link = tmp_path / 'latest.json'
+    link.symlink_to(Path('runs') / 'a.json')
+    write_text(link, 'new')
+    assert link.is_symlink() and real.read_text() == 'new'
+    dangling = tmp_path / 'next.json'
+    dangling.symlink_to(Path('runs') / 'b.json')
+    write_files({dangling: b'made'})
+    assert dangling.is_symlink() and (tmp_path / 'runs' / 'b.json').read_bytes() == b'made'
+    assert sorted(p.name for p in (tmp_path / 'runs').iterdir()) == ['a.json', 'b.json']

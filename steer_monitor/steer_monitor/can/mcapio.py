@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, Frame, FrameArrays
 
-__all__ = ['DEFAULT_QOS', 'FRAME_DATATYPE', 'FRAME_MSGDEF', 'FRAME_TOPIC', 'McapWriter', 'frame_cdr',
+__all__ = ['DEFAULT_QOS', 'FRAME_DATATYPE', 'FRAME_MSGDEF', 'FRAME_TOPIC', 'Counted', 'McapWriter', 'frame_cdr',
            'frame_message', 'frame_records', 'iter_mcap_frames', 'ros_time']
 
 FRAME_TOPIC = '/steering_can/rx'
@@ -156,6 +156,29 @@ class _PackedIndex(MessageIndex):
         stream.finish_record()
 
 
+class Counted:
+    """A stream that cannot seek (a pipe, a terminal) with the ``tell`` a writer of MCAP
+    needs for its summary's offsets: the bytes written so far."""
+
+    def __init__(self, raw: IO[bytes]) -> None:
+        self._raw = raw
+        self._count = 0
+
+    def write(self, data: bytes) -> int:
+        self._raw.write(data)
+        self._count += len(data)
+        return len(data)
+
+    def tell(self) -> int:
+        return self._count
+
+    def flush(self) -> None:
+        self._raw.flush()
+
+    def close(self) -> None:
+        self._raw.close()
+
+
 class McapWriter:
     """A ROS 2 MCAP writer (zstd chunks, CRCs) with per-channel QoS metadata.
 
@@ -169,6 +192,8 @@ class McapWriter:
 
         self._own = not hasattr(output, 'write')
         self._stream: IO[bytes] = open(output, 'wb') if self._own else output  # type: ignore[assignment]
+        if self._own and not self._stream.seekable():      # a pipe: mcap asks where it is
+            self._stream = Counted(self._stream)           # type: ignore[assignment]
         self._writer = _Writer(self._stream, chunk_size=chunk_size, compression=CompressionType.ZSTD,
                                enable_crcs=True)
         self._writer.start(profile='ros2', library=library)

@@ -48,7 +48,7 @@ from steer_monitor.atomic import atomic_write, check_target
 from steer_monitor.can.decodelog import decode_logs
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import load_setup
-from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors
+from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors, text_stream
 from steer_monitor.estimate.analyze import Analysis, analyze
 from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.estimate.batch import ClearanceEstimate
@@ -181,6 +181,7 @@ def run(path: str | Path, config: str | Path | None = None, json_out: str | Path
     ``err``)."""
     out = out or sys.stdout
     err = err or sys.stderr
+    out = text_stream([None if str(json_out) == '-' else json_out, report], out, err)
     check_logs([path])
     for target in (json_out, report):     # before minutes of work, not after
         if target is not None and str(target) != '-':

@@ -14,20 +14,21 @@ import argparse
 import datetime
 import json
 import sys
+import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
 import yaml
 
-from steer_monitor.atomic import atomic_path, check_target
+from steer_monitor.atomic import atomic_path, check_target, is_stream
 from steer_monitor.can.discover import RULES, Discovery, propose
 from steer_monitor.can.fastlogs import iter_log_blocks
 from steer_monitor.can.logs import LogError
 from steer_monitor.can.rejects import REASONS, RejectCounter
 from steer_monitor.can.setup import Setup, dbc_path, load_setup
 from steer_monitor.can.signals import INPUTS, REQUIRED
-from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors, table
+from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors, table, text_stream
 from steer_monitor.errors import InputError, ParameterError
 from steer_monitor.params import NODE_NAME, load_params_file
 from steer_monitor.resources import config_dir
@@ -120,12 +121,22 @@ def write_config(out: str | Path, setup: Setup, proposed: dict[str, dict[str, An
                           default_flow_style=False, width=120)
     text = '\n'.join(h.replace('\n', ' ') for h in header) + '\n' + body
     with atomic_path(out) as tmp:
-        tmp.write_text(text, encoding='utf-8')
-        try:
-            load_params_file(tmp)
-        except ParameterError as exc:   # a defect of ours if it happens: nothing is written
-            msg = f'the proposed parameters do not validate: {exc}'
-            raise ParameterError(msg) from exc
+        if is_stream(tmp):          # /dev/stdout: checked in a file of its own, then written
+            with tempfile.TemporaryDirectory() as d:
+                _check_written(Path(d) / 'proposed.yaml', text)
+            tmp.write_text(text, encoding='utf-8')
+        else:
+            _check_written(tmp, text)
+
+
+def _check_written(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` and load it back as a parameters file."""
+    path.write_text(text, encoding='utf-8')
+    try:
+        load_params_file(path)
+    except ParameterError as exc:   # a defect of ours if it happens: nothing is written
+        msg = f'the proposed parameters do not validate: {exc}'
+        raise ParameterError(msg) from exc
 
 
 def _fmt_range(f: dict[str, Any]) -> str:
@@ -141,6 +152,7 @@ def run(paths: Sequence[str | Path], config: str | Path | None = None, date: dat
     per log on ``err``) when a log broke off or had corrupt parts."""
     out = out or sys.stdout
     err = err or sys.stderr
+    out = text_stream([write], out, err)
     if write is not None:
         check_target(write, [*paths, config, pgn_database])
     date_notes('discover', paths, date, err)

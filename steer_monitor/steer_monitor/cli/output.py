@@ -4,13 +4,15 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import io
 import json
 import math
+import os
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-__all__ = ['add_date_option', 'check_logs', 'date_notes', 'dump_json', 'report_read_errors', 'table']
+__all__ = ['add_date_option', 'check_logs', 'date_notes', 'dump_json', 'report_read_errors', 'table', 'text_stream']
 
 
 def _clean(obj: Any) -> Any:
@@ -41,6 +43,26 @@ def table(headers: Sequence[str], rows: Sequence[Sequence[Any]], out: TextIO) ->
         out.write('  '.join(line).rstrip() + '\n')
         if k == 0:
             out.write('  '.join('-' * w for w in widths) + '\n')
+
+
+def text_stream(targets: Sequence[str | Path | None], out: TextIO, err: TextIO) -> TextIO:
+    """Where a command's words for people go: ``out``, unless one of its output files is
+    ``out`` itself (``--out /dev/stdout`` into a pipe), whose bytes they would corrupt:
+    then ``err``."""
+    try:
+        here = os.fstat(out.fileno())
+    except (OSError, ValueError, AttributeError, io.UnsupportedOperation):
+        return out
+    for target in targets:
+        if target is None:
+            continue
+        try:
+            there = os.stat(target)
+        except (OSError, ValueError):
+            continue
+        if (there.st_dev, there.st_ino) == (here.st_dev, here.st_ino):
+            return err
+    return out
 
 
 def check_logs(paths: Sequence[str | Path]) -> None:

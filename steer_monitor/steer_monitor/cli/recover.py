@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import TextIO
 
-from steer_monitor.cli.output import dump_json, report_read_errors
+from steer_monitor.cli.output import dump_json, report_read_errors, text_stream
 from steer_monitor.record.recover import recover
 
 __all__ = ['register', 'run']
@@ -20,6 +20,7 @@ def run(path: str | Path, output: str | Path | None = None, as_json: bool = Fals
     is for); 1 when corrupt chunks were dropped, with one line on ``err`` saying which."""
     out = out or sys.stdout
     err = err or sys.stderr
+    out = text_stream([output], out, err)
     r = recover(path, output)
     if as_json:
         dump_json(dataclasses.asdict(r), out)

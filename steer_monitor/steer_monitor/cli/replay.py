@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 from typing import TextIO
 
-from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors
+from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors, text_stream
 
 __all__ = ['register', 'run']
 
@@ -30,6 +30,7 @@ def run(logs: list[str], out_path: str | Path, config: str | Path | None = None,
 
     out = out or sys.stdout
     err = err or sys.stderr
+    out = text_stream([out_path], out, err)
     date_notes('replay', logs, date, err)
     t0 = time.perf_counter()
     show = progress or sys.stderr.isatty()

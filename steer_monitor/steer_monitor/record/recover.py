@@ -17,6 +17,7 @@ from typing import Any
 
 from steer_monitor.atomic import atomic_path, os_reason
 from steer_monitor.can.fastlogs import decompress_chunk, summary_section
+from steer_monitor.can.mcapio import Counted
 from steer_monitor.errors import SteerMonitorError
 
 __all__ = ['RecoverError', 'RecoverResult', 'recover']
@@ -125,7 +126,7 @@ def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult
             msg = f'cannot write {dst}: {os_reason(exc)}'
             raise RecoverError(msg) from exc
         with fout:
-            writer = Writer(fout, compression=CompressionType.ZSTD, enable_crcs=True)
+            writer = Writer(fout if fout.seekable() else Counted(fout), compression=CompressionType.ZSTD, enable_crcs=True)
             writer.start(profile='ros2', library='steer_monitor recover')
             # a finished file repeats its schemas and channels in its summary: taken first, so
             # a dropped chunk that defined them (the first one defines them all) does not take

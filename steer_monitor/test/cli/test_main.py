@@ -64,3 +64,48 @@ def test_the_sigterm_handler_is_the_caller_s_again_afterwards(capsys):
     before = signal.getsignal(signal.SIGTERM)
     assert main(['fit', '240 H9/f9']) == 0
     assert signal.getsignal(signal.SIGTERM) is before
+
+
+@pytest.mark.parametrize('command', ['replay', 'discover', 'analyze', 'recover'])
+def test_an_output_to_stdout_in_a_pipe_is_the_file_and_the_words_go_to_stderr(tmp_path, command):
+    """``--out /dev/stdout | ...``: as root, the link /dev/stdout was replaced by the file; an MCAP asked where it was (a pipe cannot say: 'Illegal
+    seek'), discover read its written file back (from the pipe: it hung), and the summary for
+    people went into the same stream as the file's bytes. Now the pipe carries the file alone,
+    the same bytes as a file of that name."""
+    log = tmp_path / 'zz.log'
+    assert main(['simulate', '--program', 'zigzag_10', '--out', str(log), '--max-duration', '60']) == 0
+    made = tmp_path / 'made.mcap'
+    if command == 'recover':
+        assert main(['replay', str(log), '--out', str(made), '--no-frames']) == 0
+    argv = {'replay': ['replay', str(log), '--no-frames', '--out'],
+            'discover': ['discover', str(log), '--write-config'],
+            'analyze': ['analyze', str(log), '--json'],
+            'recover': ['recover', str(made), '--out']}[command]
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+    stdout = tmp_path / 'stdout'        # what /dev/stdout is, where a version that replaces it harms nothing
+    stdout.symlink_to('/proc/self/fd/1')
+    piped = subprocess.run([sys.executable, '-m', 'steer_monitor.cli.main', *argv, str(stdout)], env=env,
+                           cwd=PKG, capture_output=True, timeout=120, check=False)
+    assert piped.returncode == 0, piped.stderr
+    in_file = tmp_path / {'replay': 'r.mcap', 'discover': 'v.yaml', 'analyze': 'a.json', 'recover': 'c.mcap'}[command]
+    done = subprocess.run([sys.executable, '-m', 'steer_monitor.cli.main', *argv, str(in_file)], env=env,
+                          cwd=PKG, capture_output=True, timeout=120, check=False)
+    assert done.returncode == 0, done.stderr
+    if command == 'analyze':      # its timing differs from run to run
+        import json
+        a, b = json.loads(piped.stdout), json.loads(in_file.read_text())
+        a.pop('analysis_s'), b.pop('analysis_s')
+        assert a == b
+    elif command != 'replay':
+        assert piped.stdout == in_file.read_bytes()
+    else:       # a replay's metadata holds its output's name
+        from mcap.reader import make_reader
+        import io
+
+        def messages(data: bytes) -> list:
+            return [(c.topic, m.log_time, m.data) for _, c, m in make_reader(io.BytesIO(data)).iter_messages()]
+        assert messages(piped.stdout) == messages(in_file.read_bytes()) != []
+    words = piped.stderr.decode()
+    if command != 'analyze':
+        assert str(stdout) in words, words
+    assert stdout.is_symlink()
