@@ -23,6 +23,7 @@ from typing import Any
 from steer_monitor.ashore.logresult import LogResult, analyse_log, file_digest
 from steer_monitor.ashore.store import load_results, save_results
 from steer_monitor.atomic import os_reason
+from steer_monitor.can.compressed import plain_suffix
 from steer_monitor.can.logs import log_path_problem
 from steer_monitor.errors import InputError
 from steer_monitor.estimate.intervals import Interval
@@ -34,6 +35,7 @@ from steer_monitor.record.provenance import parameters_digest
 __all__ = ['LOG_SUFFIXES', 'REPORTS_DIR', 'VESSEL_CONFIG', 'WORKER_ENVIRON', 'FleetRun', 'Vessel', 'find_vessels',
            'fleet_json', 'make_client', 'report_path', 'run_fleet', 'worker_environ']
 
+#: a vessel's logs, by suffix (each also compressed: ``.log.gz``, ...)
 LOG_SUFFIXES = ('.log', '.asc', '.blf', '.mcap', '.raw')
 VESSEL_CONFIG = 'steer_monitor.yaml'
 REPORTS_DIR = 'reports'
@@ -81,7 +83,7 @@ def find_vessels(dirs: Sequence[str | Path], config: str | Path | None = None) -
         own = path / VESSEL_CONFIG
         # a link that leads nowhere is a log that cannot be read, said as such, not left out
         logs = tuple(sorted(p for p in path.rglob('*') if (p.is_file() or p.is_symlink() and not p.is_dir())
-                            and p.suffix.lower() in LOG_SUFFIXES
+                            and plain_suffix(p) in LOG_SUFFIXES
                             and not any(part.startswith('.') for part in p.relative_to(path).parts)))
         out.append(Vessel(name, path, own if own.is_file() else (Path(config) if config else None), logs))
     return out

@@ -38,8 +38,8 @@ from numpy.typing import NDArray
 
 from steer_monitor.can import digits
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, FrameArrays
-from steer_monitor.can.logs import (CAN_ERR_FLAG, LogError, _candump_line, candump_line, iter_log_as, log_format,
-                                   open_log, skipped_parts)
+from steer_monitor.can.logs import (CAN_ERR_FLAG, LogError, _candump_line, candump_line, is_compressed, iter_log_as,
+                                   log_format, open_log, skipped_parts)
 from steer_monitor.can.mcapio import FRAME_DATATYPE
 from steer_monitor.can.rejects import RejectCounter
 
@@ -320,7 +320,7 @@ def iter_candump_blocks(path: str | Path, rejects: RejectCounter | None = None,
                 ba = bytearray(2 * _PAD + 2 * (len(carry) + block_bytes))
             ba[_PAD:_PAD + len(carry)] = carry
             start = _PAD + len(carry)
-            got = fh.readinto(memoryview(ba)[start:start + block_bytes])
+            got = fh.readinto1(memoryview(ba)[start:start + block_bytes])
             if not got and not carry:
                 return
             end = start + got
@@ -806,6 +806,8 @@ def log_end_ns(path: str | Path) -> int | None:
     path = Path(path)
     try:
         fmt = log_format(path)
+        if is_compressed(path):     # its end is known only once the whole is decompressed
+            return None
         if fmt == 'candump':
             with open(path, 'rb') as fh:
                 fh.seek(max(fh.seek(0, 2) - 4096, 0))

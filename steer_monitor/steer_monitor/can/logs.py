@@ -22,6 +22,7 @@ is a read format here: writers produce ``.log``, ``.blf`` and ``.mcap``, byte-re
 from __future__ import annotations
 
 import datetime
+import io
 import os
 import re
 import stat
@@ -30,14 +31,15 @@ from pathlib import Path
 from typing import Any, BinaryIO
 
 from steer_monitor.can.bus import frame_from_message, message_from_frame
+from steer_monitor.can.compressed import COMPRESSED_SUFFIXES, compression, open_decompressed, plain_suffix
 from steer_monitor.can.frames import Frame, FrameArrays
 from steer_monitor.can.gateway import CANBOAT_LINE, YDWG_LINE, canboat_frames, ydwg_date, ydwg_frames
 from steer_monitor.can.mcapio import McapWriter, iter_mcap_frames
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
 
-__all__ = ['FORMATS', 'READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'candump_line', 'iter_log',
-           'iter_log_as', 'log_format', 'log_path_problem', 'open_log', 'read_log_arrays', 'skipped_parts']
+__all__ = ['FORMATS', 'READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'candump_line', 'is_compressed',
+           'iter_log', 'iter_log_as', 'log_format', 'log_path_problem', 'open_log', 'read_log_arrays', 'skipped_parts']
 
 READ_SUFFIXES = ('.log', '.asc', '.blf', '.mcap')
 #: formats read, by the name :func:`log_format` gives them
@@ -79,10 +81,13 @@ def log_format(path: str | Path) -> str:
         except OSError as exc:
             msg = f'cannot read log {path}: {exc.strerror or exc}'
             raise LogError(msg) from exc
-    if head.startswith(b'\x89MCAP'):
-        return 'mcap'
-    if head.startswith(b'LOGG'):
-        return 'blf'
+    for magic, name in ((b'\x89MCAP', 'mcap'), (b'LOGG', 'blf')):
+        if head.startswith(magic):
+            if is_compressed(path):
+                msg = (f'{path}: a compressed {FORMATS[name]} file: decompress it first (the format '
+                       'compresses its own contents, and is read here by seeking in it)')
+                raise LogError(msg)
+            return name
     lines = head.split(b'\n')
     if len(head) == _SNIFF_BYTES:
         lines = lines[:-1]          # the last may be cut
@@ -98,24 +103,46 @@ def log_format(path: str | Path) -> str:
             return 'ydwg'
         if line.lower().startswith(('date ', 'base ', 'begin triggerblock')):
             return 'asc'
-    fmt = _BY_SUFFIX.get(path.suffix.lower())
+    suffix = plain_suffix(path)
+    fmt = _BY_SUFFIX.get(suffix)
     if fmt is None and not head:
         msg = f'{path}: empty file: no CAN frames'
         raise LogError(msg)
     if fmt is None:
-        msg = (f'{path}: unsupported log format {path.suffix.lower() or "(no suffix)"!r}: its content is none of '
-               f'{", ".join(FORMATS.values())} (suffixes: {", ".join(READ_SUFFIXES)})')
+        msg = (f'{path}: unsupported log format {suffix or "(no suffix)"!r}: its content is none of '
+               f'{", ".join(FORMATS.values())} (suffixes: {", ".join(READ_SUFFIXES)}, '
+               f'each also compressed: {", ".join(COMPRESSED_SUFFIXES)})')
         raise LogError(msg)
     return fmt
 
 
 def open_log(path: Path) -> BinaryIO:
-    """``path`` opened for reading bytes; :class:`LogError` naming it when it cannot be."""
+    """``path`` opened for reading bytes, decompressed if it is compressed (gzip, xz, bzip2,
+    zstd: :mod:`~steer_monitor.can.compressed`); :class:`LogError` naming it when it cannot
+    be."""
     try:
-        return open(path, 'rb')
+        fh = open(path, 'rb')
+        kind = compression(fh.peek(8)[:8])
     except OSError as exc:
         msg = f'cannot open log {path}: {exc.strerror or exc}'
         raise LogError(msg) from exc
+    if kind is None:
+        return fh
+    try:
+        return open_decompressed(fh, kind, path, LogError)
+    except Exception as exc:            # a header the decompressor refuses at once
+        fh.close()
+        msg = f'{path}: {kind} data corrupt ({type(exc).__name__}: {exc})'
+        raise LogError(msg) from exc
+
+
+def is_compressed(path: str | Path) -> bool:
+    """Whether ``path`` holds compressed data (False when it cannot be read)."""
+    try:
+        with open(path, 'rb') as fh:
+            return compression(fh.read(8)) is not None
+    except OSError:
+        return False
 
 
 def _candump_line(line: str, lineno: int, rejects: RejectCounter | None, path: Path) -> Frame | None:
@@ -230,7 +257,7 @@ def _asc_reader(path: Path, rejects: RejectCounter | None) -> tuple[Any, _Lines]
     import can
 
     try:
-        lines = _Lines(open(path, encoding='latin-1', newline=None), path, rejects)
+        lines = _Lines(io.TextIOWrapper(open_log(path), encoding='latin-1', newline=None), path, rejects)
     except OSError as exc:
         msg = f'cannot read {path}: {exc.strerror or exc}'
         raise LogError(msg) from exc

@@ -162,6 +162,8 @@ def analyze_log(path: str | Path, config: str | Path | None = None, progress: bo
         a = analyze(gear, logs.signals, min_clearance_2z=min_clearance_2z_from_params(params),
                     ram_share_warn=ram_share_warn_from_params(params), progress=say)
     except EstimateError as exc:
+        if logs.errors and logs.frames == 0:    # nothing read: the reason is the log, first
+            raise EstimateError(f'{logs.errors[0]}: nothing to analyse') from exc
         if logs.errors:      # say why the data are short as well
             raise EstimateError(f'{exc} ({logs.errors[0]})') from exc
         raise

@@ -166,7 +166,8 @@ def test_truncated_file_keeps_what_came_before(tmp_path, simulated, suffix):
 def test_unsupported_and_missing(tmp_path):
     (tmp_path / 'x.txt').write_text('hello, world\n')
     with pytest.raises(LogError, match=r"x.txt: unsupported log format '.txt': its content is none of candump -L, "
-                                       r"Vector ASC, .*, Yacht Devices YDWG raw \(suffixes: .log, .asc, .blf, .mcap\)"):
+                                       r"Vector ASC, .*, Yacht Devices YDWG raw \(suffixes: .log, .asc, .blf, .mcap, each also "
+                                       r"compressed: .gz, .xz, .bz2, .zst\)"):
         list(iter_log(tmp_path / 'x.txt'))
     with pytest.raises(LogError, match='cannot open log'):
         list(iter_log(tmp_path / 'missing.log'))

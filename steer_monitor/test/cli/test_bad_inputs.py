@@ -299,6 +299,48 @@ def test_cut_blf_and_asc_are_analysed_and_say_so(base, tmp_path, capsys, suffix)
     assert out['clearance_zgb_mm']['value'] > 0
 
 
+@pytest.mark.parametrize('kind', ['gz', 'xz', 'zst'])
+def test_a_compressed_log_cut_short_is_analysed_and_says_so(base, tmp_path, capsys, kind):
+    """A rotated, compressed log whose copy was interrupted: every command uses the frames
+    before the cut and names the log and the cut in one line (exit 1)."""
+    import gzip
+    import lzma
+
+    import zstandard
+    pack = {'gz': gzip.compress, 'xz': lzma.compress, 'zst': zstandard.ZstdCompressor().compress}[kind]
+    whole = pack(base['long'].read_bytes())
+    path = tmp_path / f'can0.log.1.{kind}'
+    path.write_bytes(whole[: len(whole) * 3 // 4])
+    said = {}
+    for command in LOG_COMMANDS:
+        lines = _check(capsys, command, path, tmp_path / command, 1, 'data cut short after')
+        said[command] = lines[0].removeprefix(f'steer-monitor {command}: error: ')
+        assert said[command].startswith(f'{path}: '), lines
+    assert len(set(said.values())) == 1
+    out = json.loads((tmp_path / 'analyze' / 'a.json').read_text())
+    import zlib
+
+    from steer_monitor.can.compressed import PIECE_BYTES
+    decoder = {'gz': lambda: zlib.decompressobj(31), 'xz': lzma.LZMADecompressor,
+               'zst': lambda: zstandard.ZstdDecompressor().decompressobj()}[kind]()
+    lines_in_reach = decoder.decompress(path.read_bytes()).count(b'\n')   # what the format gives up to the cut
+    assert lines_in_reach - PIECE_BYTES // 40 <= out['data']['frames'] <= lines_in_reach
+    assert out['clearance_zgb_mm']['value'] > 0
+
+
+@pytest.mark.parametrize('damage', ['junk_after_magic', 'flipped'])
+def test_a_damaged_compressed_log_is_one_line(base, tmp_path, capsys, damage):
+    import gzip
+    whole = gzip.compress(base['long'].read_bytes())
+    data = b'\x1f\x8b' + random.Random(2).randbytes(4000) if damage == 'junk_after_magic' else \
+        _flip(whole, 8, len(whole) // 2, len(whole), 4)
+    path = tmp_path / 'x.log.gz'
+    path.write_bytes(data)
+    for command in LOG_COMMANDS:
+        lines = _check(capsys, command, path, tmp_path / command, 1, None)
+        assert f'{path}: gzip data' in lines[0], lines
+
+
 @pytest.mark.parametrize('command', LOG_COMMANDS + ('recover',))
 def test_unwritable_and_directory_outputs(base, tmp_path, capsys, command):
     src = base['rec'] if command == 'recover' else base['log']
