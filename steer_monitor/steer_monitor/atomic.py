@@ -23,6 +23,7 @@ space left) is the error.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import re
 import stat
@@ -95,7 +96,7 @@ def check_target(path: str | Path, inputs: Iterable[str | Path | None] = ()) -> 
             raise OutputError(msg)
     if is_stream(target):
         if not os.access(target, os.W_OK):
-            msg = f'cannot write {target}: permission denied'
+            msg = f'cannot write {target}: {os.strerror(errno.EACCES)}'
             raise OutputError(msg)
         return
     target = _resolved(target)

@@ -122,9 +122,14 @@ def open_log(path: Path) -> BinaryIO:
     be."""
     try:
         fh = open(path, 'rb')
-        kind = compression(fh.peek(8)[:8])
     except OSError as exc:
         msg = f'cannot open log {path}: {exc.strerror or exc}'
+        raise LogError(msg) from exc
+    try:
+        kind = compression(fh.peek(8)[:8])
+    except OSError as exc:
+        fh.close()
+        msg = f'cannot read log {path}: {exc.strerror or exc}'
         raise LogError(msg) from exc
     if kind is None:
         return fh
