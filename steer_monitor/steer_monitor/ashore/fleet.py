@@ -32,8 +32,8 @@ from steer_monitor.monitor.verdict import LABELS, clearance_verdict
 from steer_monitor.params import load_config
 from steer_monitor.record.provenance import parameters_digest
 
-__all__ = ['LOG_SUFFIXES', 'REPORTS_DIR', 'VESSEL_CONFIG', 'WORKER_ENVIRON', 'FleetRun', 'Vessel', 'find_vessels',
-           'fleet_json', 'make_client', 'report_path', 'run_fleet', 'worker_environ']
+__all__ = ['LOG_SUFFIXES', 'REPORTS_DIR', 'SAME_TIME_SHARE', 'VESSEL_CONFIG', 'WORKER_ENVIRON', 'FleetRun', 'Vessel',
+           'find_vessels', 'fleet_json', 'make_client', 'report_path', 'run_fleet', 'same_time_as', 'worker_environ']
 
 #: a vessel's logs, by suffix (each also compressed: ``.log.gz``, ...)
 LOG_SUFFIXES = ('.log', '.asc', '.blf', '.mcap', '.raw')
@@ -237,27 +237,60 @@ def _est(r: LogResult, attr: str, k: float = 1e3) -> dict[str, Any] | None:
     return None if iv is None else iv.scaled(k)
 
 
-def _points(rs: list[LogResult], attr: str) -> list[TrendPoint]:
-    pts = []
-    for r in rs:
+#: a log whose span lies this much (fraction of its own) within a fuller log's is the same data
+SAME_TIME_SHARE = 0.5
+
+
+def same_time_as(rs: Sequence[LogResult]) -> dict[int, int]:
+    """Logs that hold the same stretch of time as another (the same log copied twice, a
+    recording beside a candump of the same hours, a log and its compressed copy): index ->
+    index of the log kept in its place. Of logs whose spans overlap by at least
+    :data:`SAME_TIME_SHARE` of the shorter one's, the one with the most frames is kept (then
+    the first); counted twice, one stretch of data would narrow a wear trend's interval as
+    if it were two."""
+    usable = [i for i, r in enumerate(rs) if not r.error and r.end_ns > r.start_ns > 0]
+    kept: list[int] = []
+    out: dict[int, int] = {}
+    for i in sorted(usable, key=lambda i: (-rs[i].frames, i)):
+        r = rs[i]
+        for k in kept:
+            common = min(r.end_ns, rs[k].end_ns) - max(r.start_ns, rs[k].start_ns)
+            if common >= SAME_TIME_SHARE * (r.end_ns - r.start_ns):
+                out[i] = k
+                break
+        else:
+            kept.append(i)
+    return out
+
+
+def _points(rs: list[LogResult], attr: str) -> tuple[list[TrendPoint], list[int]]:
+    """The trend's points of estimate ``attr`` and the index in ``rs`` of each (a log of
+    the same time as another left out)."""
+    pts, index = [], []
+    twice = same_time_as(rs)
+    for i, r in enumerate(rs):
         iv = _interval(r, attr)
-        if r.error or iv is None or not r.end_ns:
+        if r.error or iv is None or not r.end_ns or i in twice:
             continue
         pts.append(TrendPoint((r.start_ns + r.end_ns) / 2e9, iv.value, iv.lo, iv.hi))
-    return pts
+        index.append(i)
+    return pts, index
 
 
-def vessel_trends(rs: list[LogResult], params: dict[str, Any]) -> dict[str, tuple[Trend | None, list[TrendPoint]]]:
-    """Per clearance (JSON key): its trend (None: too few estimates) and the points."""
+def vessel_trends(rs: list[LogResult], params: dict[str, Any]
+                  ) -> dict[str, tuple[Trend | None, list[TrendPoint], list[int]]]:
+    """Per clearance (JSON key): its trend (None: too few estimates), the points and the
+    index in ``rs`` of each point's log."""
     out = {}
     for key, attr, limit in (('clearance_2z_mm', 'two_z', params['clearances.limit_2z_mm'] * 1e-3),
                              ('clearance_zgb_mm', 'z_gb', params['clearances.limit_zgb_mm'] * 1e-3)):
-        pts = _points(rs, attr)
-        out[key] = (fit_trend(pts, limit), pts)
+        pts, index = _points(rs, attr)
+        out[key] = (fit_trend(pts, limit), pts, index)
     return out
 
 
 def _trend_json(tr: Trend | None, limit: float, logs: list[str]) -> dict[str, Any] | None:
+    """A trend as JSON; ``logs``: the log of each of its points."""
     if tr is None:
         return None
     r = tr.rate
@@ -298,13 +331,16 @@ def fleet_json(run: FleetRun) -> dict[str, Any]:
                          'uneven_rams': [{'start_utc': _iso(u['start_ns']), 'end_utc': _iso(u['end_ns']),
                                           'ram': u['ram'], 'share_pct': round(100 * u['share'], 1), 'idle': u['idle']}
                                          for u in json.loads(r.uneven_json)],
+                         'same_time_as': None,
                          'error': r.error or None})
         trends = vessel_trends(rs, p)
+        for i, k in same_time_as(rs).items():
+            logs[i]['same_time_as'] = rs[k].log
         vessels.append({'name': v.name, 'config': None if v.config is None else str(v.config),
                         'logs': logs,
                         'trend': {key: _trend_json(tr, p[f'clearances.limit_{key.split("_")[1]}_mm'] * 1e-3,
-                                                   [r.log for r in rs])
-                                  for key, (tr, _) in trends.items()}})
+                                                   [rs[i].log for i in index])
+                                  for key, (tr, _, index) in trends.items()}})
     vessels.sort(key=_soonest)
     return {'vessels': vessels, 'analysed': run.analysed, 'reused': run.reused,
             'earlier_version_results': run.earlier_version, 'failed': run.failed}

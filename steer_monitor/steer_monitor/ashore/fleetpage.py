@@ -26,7 +26,7 @@ def _plot(rs: list[Any], params: dict[str, Any]) -> str:
 
     trends = vessel_trends(rs, params)
     fig, axes = plt.subplots(1, 2, figsize=(12, 3.2))
-    for ax, (key, (tr, pts)) in zip(axes, trends.items()):
+    for ax, (key, (tr, pts, _)) in zip(axes, trends.items()):
         name = '2Z' if '2z' in key else 'Z_gb'
         limit = params[f'clearances.limit_{key.split("_")[1]}_mm']
         to_dt = np.vectorize(lambda s: np.datetime64(int(s), 's'))

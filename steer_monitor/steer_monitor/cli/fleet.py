@@ -52,9 +52,12 @@ def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = N
         for v in data['vessels']:
             dates = {k: t['limit_date_utc'] for k, t in v['trend'].items() if t is not None}
             soon = min((d for d in dates.values() if d), default=None)
+            twice = [log for log in v['logs'] if log['same_time_as']]
             out.write(f"{v['name']}: {len(v['logs'])} logs; " +
                       (f'first limit reached {soon}' if soon else 'no limit date (no wear detected or too few logs)')
                       + '\n')
+            for log in twice:
+                out.write(f"  {log['log']} holds the time of {log['same_time_as']}: counted once in the trend\n")
         if data['earlier_version_results']:
             out.write(f"{data['earlier_version_results']} kept results were written by an earlier version of "
                       'steer_monitor (before stretches of uneven rams were left out): their logs analysed again\n')

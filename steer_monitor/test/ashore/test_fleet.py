@@ -8,11 +8,13 @@ import datetime
 import json
 import os
 import signal
+from pathlib import Path
 
 import pytest
 
 from steer_monitor import sim
 from steer_monitor.can.fastlogs import write_candump_arrays
+from steer_monitor.ashore.logresult import LogResult
 from steer_monitor.model import Gaps
 
 pytestmark = pytest.mark.slow
@@ -209,3 +211,59 @@ def test_bad_arguments_are_one_line(tmp_path, capsys, args, message):
     assert main(['fleet', *args, '--out', str(tmp_path / 'out')]) == 1
     err = capsys.readouterr().err
     assert message in err and err.count('\n') == 1
+
+
+# --- the trend's logs, pure (no Dask) -----------------------------------------------------------
+DAY_NS = 86_400 * 10**9
+
+
+def _result(log: str, day: float, hours: float, z_gb_mm: float, frames: int = 1000,
+            half_width_mm: float = 0.01) -> LogResult:
+    start = int(1_767_225_600 * 10**9 + day * DAY_NS)
+    z, w = z_gb_mm * 1e-3, half_width_mm * 1e-3
+    return LogResult('mv', log, log, 'cfg', start, start + int(hours * 3.6e12), frames, 0.4e-3, 0.39e-3, 0.41e-3,
+                     z, z - w, z + w, 0.6, 0.59, 0.61, '[]', '[]', '', '[]')
+
+
+def _fleet(rs: list[LogResult], r18_params) -> dict:
+    from steer_monitor.ashore.fleet import FleetRun, Vessel, fleet_json
+    return fleet_json(FleetRun([Vessel('mv', Path('mv'), None, ())], {'mv': rs}, {'mv': dict(r18_params)}))['vessels'][0]
+
+
+def test_a_log_of_the_same_time_is_counted_once_in_the_trend(r18_params):
+    """A day's log copied twice (or kept compressed beside the plain one, or recorded by the
+    node beside a candump): before, each copy was one more point of the trend, whose rate's
+    interval narrowed as if the gear had been measured twice."""
+    rs = [_result(f'd{d:03d}.log', d, 24, 0.20 + 0.0004 * d + 0.004 * (-1) ** d) for d in range(0, 360, 30)]
+    alone = _fleet(rs, r18_params)['trend']['clearance_zgb_mm']
+    copies = [_result(f'copy/{r.log}', (r.start_ns - rs[0].start_ns) / DAY_NS, 24, r.z_gb * 1e3, frames=999)
+              for r in rs]
+    v = _fleet(sorted(rs + copies, key=lambda r: r.start_ns), r18_params)
+    assert v['trend']['clearance_zgb_mm'] == alone
+    assert {log['log']: log['same_time_as'] for log in v['logs'] if log['same_time_as']} == \
+        {c.log: r.log for c, r in zip(copies, rs)}
+
+
+@pytest.mark.parametrize('second, twice', [
+    ((0.0, 24), True),          # the same day
+    ((0.25, 12), True),         # a recording of half of it
+    ((0.9, 24), False),         # the next log, overlapping by a rotation's 2.4 h
+    ((1.0, 24), False),         # the next day
+])
+def test_same_time_as_takes_the_fuller_log(second, twice):
+    from steer_monitor.ashore.fleet import same_time_as
+    rs = [_result('a.log', 0, 24, 0.2), _result('b.log', *second, 0.2, frames=500)]
+    assert same_time_as(rs) == ({1: 0} if twice else {})
+    assert same_time_as(rs[::-1]) == ({0: 1} if twice else {})
+    failed = LogResult.failed('mv', 'c.log', 'c', 'cfg', 'no frame')
+    assert same_time_as([failed, *rs]) == ({2: 1} if twice else {})
+
+
+def test_an_outlier_is_named_by_its_own_log(r18_params):
+    """The trend's outliers are indices into its points; they were looked up among all the
+    vessel's logs, so a log that failed before it shifted the name onto its neighbour."""
+    rs = [_result(f'd{d:03d}.log', d, 24, 0.20 + 0.0004 * d) for d in range(0, 300, 30)]
+    rs[6] = _result('bad_day.log', 180, 24, 0.40)
+    failed = LogResult.failed('mv', 'broken.log', 'x', 'cfg', 'no frame in broken.log')
+    v = _fleet([failed, *rs], r18_params)
+    assert v['trend']['clearance_zgb_mm']['outliers'] == ['bad_day.log']
