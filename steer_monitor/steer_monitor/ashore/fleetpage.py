@@ -104,11 +104,14 @@ analysed in this run, {data['reused']} kept from earlier runs, {len(data['failed
 
 
 def _log_cell(lg: dict[str, Any]) -> str:
-    """The log's name, a link to its report page when there is one."""
+    """The log's name, a link to its report page when there is one, and the log whose time
+    it holds (left out of the trend) when there is one."""
     name = html.escape(Path(lg['log']).name)
-    if not lg.get('report'):
-        return name
-    return f'<a href="{html.escape(Path(lg["report"]).as_posix(), quote=True)}">{name}</a>'
+    if lg.get('report'):
+        name = f'<a href="{html.escape(Path(lg["report"]).as_posix(), quote=True)}">{name}</a>'
+    if lg.get('same_time_as'):
+        name += f' (the time of {html.escape(Path(lg["same_time_as"]).name)}: not in the trend)'
+    return name
 
 
 def _iv(d: dict[str, Any] | None) -> str:

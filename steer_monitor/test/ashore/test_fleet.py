@@ -267,3 +267,12 @@ def test_an_outlier_is_named_by_its_own_log(r18_params):
     failed = LogResult.failed('mv', 'broken.log', 'x', 'cfg', 'no frame in broken.log')
     v = _fleet([failed, *rs], r18_params)
     assert v['trend']['clearance_zgb_mm']['outliers'] == ['bad_day.log']
+
+
+def test_the_page_says_which_log_was_left_out_of_the_trend(r18_params):
+    from steer_monitor.ashore.fleet import FleetRun, Vessel
+    from steer_monitor.ashore.fleetpage import fleet_page
+    rs = [_result(f'd{d:03d}.log', d, 24, 0.20 + 0.0004 * d) for d in range(0, 120, 30)]
+    rs.append(_result('d000.log.gz', 0, 24, 0.2, frames=10))
+    page = fleet_page(FleetRun([Vessel('mv', Path('mv'), None, ())], {'mv': rs}, {'mv': dict(r18_params)}))
+    assert 'd000.log.gz (the time of d000.log: not in the trend)' in page
