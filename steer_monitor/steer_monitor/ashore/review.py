@@ -41,13 +41,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from steer_monitor.can.decoder import Series, SignalSet
+from steer_monitor.can.signals import PRESSURE_INPUTS
 from steer_monitor.estimate import fit as F
 from steer_monitor.estimate.batch import (MIN_MOTION_SAMPLES, ClearanceEstimate, box_holds, coarse_profile,
                                           estimate_from_moments, estimate_in_box, make_rows, residuals_and_inflation,
                                           search_box)
 from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations, build_observations
-from steer_monitor.estimate.rams import WINDOW_INSTANTS, UnevenSpan, describe, uneven_spans, within
+from steer_monitor.estimate.rams import (OPPOSED, WINDOW_INSTANTS, UnevenSpan, describe, judge, opposed_cause, ram_share,
+                                         uneven_spans, within, working_against)
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.loadshare import LoadSharing, load_sharing
 from steer_monitor.monitor.live import HARD_OVER_DEG, OTHER_SIDE_DEG
@@ -128,6 +130,7 @@ class Review:
         self.ram_share_warn = ram_share_warn
         #: stretches where the rams did not share the force evenly, left out of the estimates
         self.uneven: list[UnevenSpan] = []
+        self._opposed = False       # the rams pushed against each other: a ram's pressures swapped
         self._held: Observations | None = None     # steady-motion rows not yet judged (see _take)
         self.reuse_boxes = reuse_boxes
         self.gaps = gaps
@@ -276,6 +279,13 @@ class Review:
             self._held, sub = sub.select(later), sub.select(~later)
             if not len(sub):
                 return
+        sh = ram_share(sub.force)
+        if sh is not None and judge(sh, self.ram_share_warn, self.gear.ram_area) == OPPOSED:
+            if not self._opposed:   # the map reverses a ram: nothing here estimates the gear
+                self._opposed = True
+                self._notes.append(opposed_cause(sh, working_against(sub.force, sub.rate), PRESSURE_INPUTS) +
+                                   ': those rows are left out of the clearance estimates')
+            return
         spans = uneven_spans(sub.t_ns, sub.force, self.ram_share_warn, self.gear.ram_area)
         if spans:
             self.uneven += spans
@@ -328,7 +338,8 @@ class Review:
 
     def _final_estimates(self, notes: list[str]) -> list[WindowEstimate]:
         if not self._slices:
-            notes.append('no steady rudder motion in the log: the clearances cannot be estimated')
+            if not self._opposed:
+                notes.append('no steady rudder motion in the log: the clearances cannot be estimated')
             return []
         if self._step is None and self._first is not None and self._done is not None:
             self.plan(self._done)              # not planned: the windows of the span, now

@@ -52,7 +52,8 @@ from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.locate import Located, locate
 from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import EstimateError, Observations, build_observations
-from steer_monitor.estimate.rams import RamShare, UnevenSpan, describe, ram_share, uneven_spans, within
+from steer_monitor.estimate.rams import (OPPOSED, RamShare, UnevenSpan, describe, judge, opposed_cause, ram_share,
+                                         uneven_spans, within, working_against)
 from steer_monitor.model.gear import GearParams
 
 __all__ = ['DELAY_KEEP_S', 'DELAY_STEP_S', 'DELAY_VERTEX_S', 'EXPLAINED_RATIO', 'MAX_TRIED', 'MIN_BIC_DROP', 'MIN_CV_DEVIANCE',
@@ -424,6 +425,10 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
     say = progress or (lambda _msg: None)
     grid_2z = grid_2z_from(min_clearance_2z)
     obs = build_observations(signals, gear.ram_area)
+    whole = ram_share(obs.force[obs.moving])
+    if whole is not None and judge(whole, ram_share_warn, gear.ram_area) == OPPOSED:   # a ram reversed: nothing holds
+        ram = working_against(obs.force[obs.moving], obs.rate[obs.moving])
+        raise EstimateError(opposed_cause(whole, ram, PRESSURE_INPUTS) + '; nothing estimated')
     uneven = tuple(uneven_spans(obs.t_ns[obs.moving], obs.force[obs.moving], ram_share_warn, gear.ram_area))
     if uneven:
         say(f'{len(uneven)} stretch(es) where the rams did not share the force evenly: left out')

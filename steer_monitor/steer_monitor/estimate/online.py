@@ -46,7 +46,7 @@ from steer_monitor.estimate.batch import (MIN_MOTION_SAMPLES, ClearanceEstimate,
 from steer_monitor.estimate.intervals import Interval, inflation
 from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations, speed_ratio
 from steer_monitor.estimate.observe import (GRID_NS, HALF_WINDOW_NS, MOVING_RATE, EstimateError, build_observations)
-from steer_monitor.estimate.rams import IDLE, UNEVEN, WINDOW_INSTANTS, judge, ram_share
+from steer_monitor.estimate.rams import IDLE, OPPOSED, UNEVEN, WINDOW_INSTANTS, judge, ram_share
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.torque import TorqueTable
 
@@ -240,7 +240,7 @@ class OnlineEstimator:
         if not self._ram_forces:
             return True
         window = np.concatenate(list(self._ram_forces))[-WINDOW_INSTANTS:]
-        return judge(ram_share(window), self.ram_share_warn, self.gear.ram_area) not in (UNEVEN, IDLE)
+        return judge(ram_share(window), self.ram_share_warn, self.gear.ram_area) not in (UNEVEN, IDLE, OPPOSED)
 
     def _residuals(self) -> None:
         """Residuals of the recent rows at the current fit -> the inflation factor. Run with

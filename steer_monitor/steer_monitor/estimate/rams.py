@@ -26,9 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ['EVEN', 'IDLE', 'IDLE_RAM_SHARE', 'JOINED_SHARE', 'MIN_SHARE_INSTANTS', 'MIN_SHARE_SPREAD_PA', 'STUCK_SHARE',
-           'UNEVEN', 'UNEVEN_CAUSE', 'UNJUDGED', 'WINDOW_INSTANTS', 'RamShare', 'UnevenSpan', 'describe', 'enough',
-           'judge', 'ram_share', 'uneven_spans', 'weak_ram_cause', 'within']
+__all__ = ['EVEN', 'IDLE', 'IDLE_RAM_SHARE', 'JOINED_SHARE', 'MIN_SHARE_INSTANTS', 'MIN_SHARE_SPREAD_PA', 'OPPOSED',
+           'OPPOSED_CORRELATION', 'STUCK_SHARE', 'UNEVEN', 'UNEVEN_CAUSE', 'UNJUDGED', 'WINDOW_INSTANTS', 'RamShare',
+           'UnevenSpan', 'describe', 'enough', 'judge', 'opposed_cause', 'ram_share', 'uneven_spans', 'weak_ram_cause',
+           'within', 'working_against']
 
 #: a share is judged from this many instants of steady motion (seconds of it)...
 MIN_SHARE_INSTANTS = 300
@@ -40,7 +41,11 @@ MIN_SHARE_SPREAD_PA = 1e5
 IDLE_RAM_SHARE = 0.1
 #: the share's interval, in standard errors each side (the instants are correlated)
 MARGIN_SE = 4.0
-UNJUDGED, EVEN, UNEVEN, IDLE = 'unjudged', 'even', 'uneven', 'idle'
+UNJUDGED, EVEN, UNEVEN, IDLE, OPPOSED = 'unjudged', 'even', 'uneven', 'idle', 'opposed'
+#: the two rams' forces correlating at or below this push against each other: on one tiller
+#: they cannot for long, so one ram's starboard and port pressures are swapped in the map (a
+#: ram idle or uneven correlates near 0 or above; two rams of one gear near +1)
+OPPOSED_CORRELATION = -0.5
 #: instants of steady motion a log's stretches and the online estimator judge over (30 s of
 #: it on the 50 ms grid)
 WINDOW_INSTANTS = 600
@@ -72,6 +77,9 @@ class RamShare:
         offset: the intercept of d, f1 - f2 where m = 0 [N]: a transducer of ram 1 reading c
             high puts c (2 - 2 s1) here and none into the share.
         instants: how many instants.
+        correlation: of the two rams' forces over the instants (NaN when either does not
+            vary): near +1 on a sound gear, at or below :data:`OPPOSED_CORRELATION` when one
+            ram's pressures are read the wrong way round.
     """
 
     share: tuple[float, float]
@@ -79,6 +87,7 @@ class RamShare:
     spread: float
     offset: float
     instants: int
+    correlation: float = math.nan
 
     @property
     def weaker(self) -> int:
@@ -106,7 +115,10 @@ def ram_share(force: NDArray[np.float64]) -> RamShare | None:
     e = dc - b * mc
     se_b = math.sqrt(float(np.dot(e, e)) / (n - 2) / smm)
     s1 = 0.5 + 0.25 * b
-    return RamShare((s1, 1.0 - s1), 0.25 * se_b, math.sqrt(smm / n), float(d.mean() - b * m.mean()), n)
+    f1c, f2c = f[:, 0] - f[:, 0].mean(), f[:, 1] - f[:, 1].mean()
+    s11, s22 = float(np.dot(f1c, f1c)), float(np.dot(f2c, f2c))
+    corr = float(np.dot(f1c, f2c)) / math.sqrt(s11 * s22) if s11 > 0 and s22 > 0 else math.nan
+    return RamShare((s1, 1.0 - s1), 0.25 * se_b, math.sqrt(smm / n), float(d.mean() - b * m.mean()), n, corr)
 
 
 def enough(sh: RamShare, ram_area: float) -> bool:
@@ -116,12 +128,17 @@ def enough(sh: RamShare, ram_area: float) -> bool:
 
 
 def judge(sh: RamShare | None, warn: float, ram_area: float) -> str:
-    """What a share says, judged on its interval (``MARGIN_SE`` standard errors each side):
+    """What a share says: ``OPPOSED`` when the rams' forces correlate at or below
+    :data:`OPPOSED_CORRELATION` over ``MIN_SHARE_INSTANTS`` instants at least (one ram's
+    pressures swapped in the map: no share means anything then); else judged on its interval
+    (``MARGIN_SE`` standard errors each side):
     ``IDLE`` when the weaker ram carries less than ``IDLE_RAM_SHARE`` even at the top of it,
     ``UNEVEN`` when the share departs from an even half by more than ``warn`` even at its
     near end, ``EVEN`` otherwise; ``UNJUDGED`` with too few instants, too little variation of
     the load (``ram_area`` [m^2] turns the spread into pressure), or an interval wider than
     ``warn``."""
+    if sh is not None and sh.instants >= MIN_SHARE_INSTANTS and sh.correlation <= OPPOSED_CORRELATION:
+        return OPPOSED
     if sh is None or not enough(sh, ram_area):
         return UNJUDGED
     margin = MARGIN_SE * sh.se
@@ -239,6 +256,35 @@ def describe(sp: UnevenSpan) -> str:
     return (f'ram {sp.ram + 1} carried {100 * sp.share:.0f} % of the driving force from {clock(sp.start_ns)} to '
             f'{clock(sp.end_ns)} UTC ({sp.instants} instants of steady motion'
             f'{", next to no work" if sp.idle else ""}: {UNEVEN_CAUSE.format(ram=sp.ram + 1)})')
+
+
+def working_against(force: NDArray[np.float64], rate: NDArray[np.float64]) -> int | None:
+    """The ram (0 or 1) whose force works against the rudder's motion over a log while the
+    other's drives it, or None when that does not single one out: the sign of each ram's
+    work, the sum of its force ``force`` (n, 2) [N] times the rudder rate ``rate`` (n,)
+    [rad/s] over instants of steady motion. Over motion to and fro the hydrodynamic torque's
+    work nearly cancels and the friction's does not, so a ram read the right way round does
+    positive work."""
+    f = np.asarray(force, dtype=float).reshape(-1, 2)
+    r = np.asarray(rate, dtype=float).reshape(-1)
+    ok = np.isfinite(f).all(axis=1) & np.isfinite(r)
+    w = (f[ok] * r[ok, None]).sum(axis=0)
+    if w[0] < 0 < w[1]:
+        return 0
+    if w[1] < 0 < w[0]:
+        return 1
+    return None
+
+
+def opposed_cause(sh: RamShare, ram: int | None, names: Sequence[str]) -> str:
+    """Why two rams push against each other, in words: the starboard and port inputs of
+    ``ram`` (0 or 1; None: either) among the four pressure input ``names``, swapped."""
+    rams = [ram] if ram is not None else [0, 1]
+    which = ' or '.join(f'{names[2 * k]} and {names[2 * k + 1]}' for k in rams)
+    whose = f'ram {ram + 1}' if ram is not None else 'one ram'
+    return (f'the rams push against each other (their forces correlate at {sh.correlation:+.2f} over '
+            f'{sh.instants} instants of motion): the starboard and port pressures of {whose} are read the wrong way '
+            f'round: {which} swapped in the signals map (or the transducers swapped on the gear)')
 
 
 def weak_ram_cause(pressure: NDArray[np.float64], ram: int, names: Sequence[str]) -> str:

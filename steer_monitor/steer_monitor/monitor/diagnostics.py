@@ -16,8 +16,8 @@ import numpy as np
 
 from steer_monitor.can.rejects import RejectSnapshot
 from steer_monitor.can.signals import PRESSURE_INPUTS, REQUIRED, SignalMap
-from steer_monitor.estimate.rams import (EVEN, IDLE, MIN_SHARE_INSTANTS, MIN_SHARE_SPREAD_PA, UNJUDGED, enough, judge,
-                                         weak_ram_cause)
+from steer_monitor.estimate.rams import (EVEN, IDLE, MIN_SHARE_INSTANTS, MIN_SHARE_SPREAD_PA, OPPOSED, UNJUDGED, enough,
+                                         judge, opposed_cause, weak_ram_cause)
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.hardover import hard_over_time, pumps_running
 from steer_monitor.model.loadshare import load_sharing_at
@@ -296,7 +296,8 @@ class DiagnosticsBuilder:
     def rams(self, mon: LiveMonitor) -> Status:
         """How the two rams share the driving force (:mod:`~steer_monitor.estimate.rams`, judged
         by its :func:`~steer_monitor.estimate.rams.judge`): ERROR when one does next to no
-        work, WARN when the share departs from an even half by more than ``ram_share_warn``."""
+        work or the two push against each other (a ram's pressures swapped in the map), WARN
+        when the share departs from an even half by more than ``ram_share_warn``."""
         sh = mon.ram_share()
         bar = self.gear.ram_area * 1e5
         warn = self.cfg.ram_share_warn
@@ -312,6 +313,9 @@ class DiagnosticsBuilder:
             return self._status('rams', OK, 'not judged yet: no instants of steady motion with both rams\' pressures '
                                 f'yet (judged from {MIN_SHARE_INSTANTS} instants and {MIN_SHARE_SPREAD_PA / 1e5:g} bar)',
                                 values)
+        if verdict == OPPOSED:      # no share means anything until the map is right
+            return self._status('rams', ERROR, opposed_cause(sh, None, PRESSURE_INPUTS) + '; no estimate is made from '
+                                'them', values)
         shares = f'ram 1 {100 * sh.share[0]:.0f} %, ram 2 {100 * sh.share[1]:.0f} %'
         if verdict == UNJUDGED:
             have = (f'{shares}, too uncertain' if enough(sh, self.gear.ram_area) else

@@ -173,3 +173,21 @@ def test_a_box_that_cuts_the_answer_off_does_not_hold(r18_params, can_db, voyage
     away = estimate_in_box(gear, mom, rv.grid_2z, F.GRID_ZGB[j + 20:j + 40], vif)
     assert away.z_gb.value == pytest.approx(F.GRID_ZGB[j + 20], abs=1e-12)
     assert not box_holds(away, rv.grid_2z, F.GRID_ZGB)
+
+
+def test_a_ram_read_the_wrong_way_round_is_named_and_nothing_estimated(r18_params, can_db, voyage):
+    """Ram 2's starboard and port inputs swapped (a new vessel's map): before, the report's
+    estimates were made from it as from any log, 0.0 mm for Z_gb with no note."""
+    db, smap = can_db
+    dec = Decoder(db, smap, RejectCounter())
+    rv = Review(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25),
+                min_clearance_2z=min_clearance_2z_from_params(r18_params))
+    for part in np.array_split(np.arange(len(voyage)), 3):
+        signals = dec.decode_arrays(voyage.take(part))
+        signals['pressure_r2_stbd'], signals['pressure_r2_port'] = signals['pressure_r2_port'], signals['pressure_r2_stbd']
+        rv.add(signals)
+    res = rv.finish()
+    assert res.estimates == []
+    assert len(res.notes) == 1 and res.notes[0].startswith('the rams push against each other'), res.notes
+    assert 'pressures of ram 2 are read the wrong way round: pressure_r2_stbd and pressure_r2_port swapped' \
+        in res.notes[0] and res.notes[0].endswith('those rows are left out of the clearance estimates')

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from steer_monitor.estimate.rams import (EVEN, IDLE, MIN_SHARE_INSTANTS, UNEVEN, UNJUDGED, RamShare, judge,
-                                         ram_share, uneven_spans, weak_ram_cause)
+from steer_monitor.estimate.rams import (EVEN, IDLE, MIN_SHARE_INSTANTS, OPPOSED, UNEVEN, UNJUDGED, RamShare, judge,
+                                         opposed_cause, ram_share, uneven_spans, weak_ram_cause, working_against)
 
 AREA = 0.045239          # A_r of the R-18 [m^2]
 BAR = AREA * 1e5         # one bar of ram pressure as force [N]
@@ -163,3 +163,47 @@ def test_no_cause_without_a_load_to_judge_by():
     p = np.full((100, 4), 2e5)
     assert weak_ram_cause(p, 0, NAMES).startswith('a bypass or isolating valve open on ram 1, or')
     assert weak_ram_cause(p[:2], 1, NAMES).startswith('a bypass or isolating valve open on ram 2, or')
+
+
+@pytest.mark.parametrize('share1', [0.0, 0.35, 0.5, 1.0])
+@pytest.mark.parametrize('offset_bar', [0.0, 3.5])
+def test_the_correlation_is_numpy_s(share1, offset_bar):
+    f = _forces(share1, offset_bar=offset_bar)
+    assert ram_share(f).correlation == pytest.approx(np.corrcoef(f[:, 0], f[:, 1])[0, 1], abs=1e-12)
+
+
+@pytest.mark.parametrize('share1', [0.5, 0.3, 0.7])
+def test_a_ram_read_the_wrong_way_round_is_opposed_not_a_share(share1):
+    """One ram's starboard and port pressures swapped: its force is the negative of what it
+    does; before, the shares read -79 % / 179 % of nothing in particular (the mean force
+    hardly varies) and no judgement was made. Two sound rams, one idle, or uneven, never."""
+    f = _forces(share1)
+    for ram in (0, 1):
+        g = f.copy()
+        g[:, ram] *= -1
+        sh = ram_share(g)
+        assert sh.correlation < -0.95 and judge(sh, 0.15, AREA) == OPPOSED
+        assert judge(ram_share(g[:MIN_SHARE_INSTANTS - 1]), 0.15, AREA) == UNJUDGED
+    for s in (0.0, 0.1, 0.35, 0.5, 1.0):
+        assert judge(ram_share(_forces(s)), 0.15, AREA) != OPPOSED
+
+
+def test_the_ram_working_against_the_motion_is_named():
+    """Friction makes each sound ram do positive work over motion to and fro: the reversed
+    one's is negative."""
+    n = 4000
+    t = np.linspace(0, 40 * np.pi, n)
+    rate = np.cos(t)                                   # to and fro
+    load = 30 * BAR * np.sin(t) + 8 * BAR * np.sign(rate)  # a spring (the rudder's torque) and friction
+    f = np.stack([load, load], axis=1) + np.random.default_rng(3).normal(0, 0.5 * BAR, (n, 2))
+    assert working_against(f, rate) is None
+    for ram in (0, 1):
+        g = f.copy()
+        g[:, ram] *= -1
+        assert working_against(g, rate) == ram
+    assert working_against(-f, rate) is None           # both: not one ram's map
+    words = opposed_cause(ram_share(f * [1, -1]), 0, ('r1s', 'r1p', 'r2s', 'r2p'))
+    assert words.startswith('the rams push against each other (their forces correlate at -1.00 over 4000 instants')
+    assert 'of ram 1 are read the wrong way round: r1s and r1p swapped in the signals map' in words
+    assert 'of one ram are read the wrong way round: r1s and r1p or r2s and r2p swapped' in \
+        opposed_cause(ram_share(f * [1, -1]), None, ('r1s', 'r1p', 'r2s', 'r2p'))

@@ -369,3 +369,13 @@ def _fed(params, can_db, interval, friction=None):
         for sample in dec.decode(f):
             mon.update(sample)
     return s, mon, dec
+
+
+def test_a_ram_read_the_wrong_way_round_is_an_error_naming_the_map(builder, mon):
+    p = _gear_pressures(2000)
+    _ring(mon, p[:, [1, 0, 2, 3]])          # ram 1's starboard and port inputs swapped
+    st = builder.rams(mon)
+    assert st.level == ERROR and st.message.startswith(
+        'the rams push against each other (their forces correlate at -1.00 over 2000 instants of motion): the '
+        'starboard and port pressures of one ram are read the wrong way round: pressure_r1_stbd and pressure_r1_port '
+        'or pressure_r2_stbd and pressure_r2_port swapped in the signals map'), st.message
