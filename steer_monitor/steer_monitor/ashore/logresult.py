@@ -107,9 +107,21 @@ def analyse_log(vessel: str, log: str, config: str | None, log_sha256: str, conf
     return LogResult(vessel, log, log_sha256, config_sha256, start, end, int(run.frames),
                      *_iv(None if e is None else e.two_z), *_iv(None if e is None else e.z_gb),
                      *_iv(None if e is None else e.k_gl_max), json.dumps(hard), json.dumps(errors),
-                     '' if e is not None or run.frames else (run.errors[0] if run.errors else 'no frames'),
+                     _why_none(e, r.opposed, run),
                      json.dumps([{'start_ns': sp.start_ns, 'end_ns': sp.end_ns, 'ram': sp.ram + 1, 'share': sp.share,
                                   'idle': sp.idle} for sp in r.uneven]))
+
+
+def _why_none(estimate: Any, opposed: str, run: Any) -> str:
+    """A result's ``error``: '' when there is an estimate, or when the log was read and
+    simply held too little motion; else why there is none."""
+    if estimate is not None:
+        return ''
+    if opposed:                 # a ram read the wrong way round: the vessel's map, not the log
+        return opposed + '; nothing estimated'
+    if run.frames:
+        return ''
+    return run.errors[0] if run.errors else 'no frames'
 
 
 def _write_report(log: str, config: str | None, run: Any, report_dir: str) -> None:

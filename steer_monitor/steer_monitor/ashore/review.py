@@ -104,6 +104,8 @@ class ReviewResult:
     estimating_s: float = 0.0        # wall time of the estimates made at the end (after the reading)
     #: stretches where the rams did not share the force evenly, left out of the estimates
     uneven: list[UnevenSpan] = field(default_factory=list)
+    #: why rows were left out for a ram read the wrong way round ('' when none were)
+    opposed: str = ''
 
 
 def _cat(a: Series | None, b: Series | None) -> Series | None:
@@ -130,7 +132,7 @@ class Review:
         self.ram_share_warn = ram_share_warn
         #: stretches where the rams did not share the force evenly, left out of the estimates
         self.uneven: list[UnevenSpan] = []
-        self._opposed = False       # the rams pushed against each other: a ram's pressures swapped
+        self._opposed = ''          # the rams pushed against each other (a ram's pressures swapped): why
         self._held: Observations | None = None     # steady-motion rows not yet judged (see _take)
         self.reuse_boxes = reuse_boxes
         self.gaps = gaps
@@ -279,12 +281,13 @@ class Review:
             self._held, sub = sub.select(later), sub.select(~later)
             if not len(sub):
                 return
+        if self._opposed:           # a map does not turn round within a log: the rest too
+            return
         sh = ram_share(sub.force)
         if sh is not None and judge(sh, self.ram_share_warn, self.gear.ram_area) == OPPOSED:
             if not self._opposed:   # the map reverses a ram: nothing here estimates the gear
-                self._opposed = True
-                self._notes.append(opposed_cause(sh, working_against(sub.force, sub.rate), PRESSURE_INPUTS) +
-                                   ': those rows are left out of the clearance estimates')
+                self._opposed = opposed_cause(sh, working_against(sub.force, sub.rate), PRESSURE_INPUTS)
+                self._notes.append(self._opposed + ': those rows are left out of the clearance estimates')
             return
         spans = uneven_spans(sub.t_ns, sub.force, self.ram_share_warn, self.gear.ram_area)
         if spans:
@@ -334,7 +337,8 @@ class Review:
             share = LoadSharing(*(np.where(ok, v, np.nan) if v.dtype.kind == 'f' else v
                                   for v in (getattr(share, f) for f in share.__dataclass_fields__)))
         return ReviewResult(t, alpha, direction, pressure, force, torque, share, gaps, source, list(self.hard_overs),
-                            estimates, self.motion_s, self.samples, notes, estimating_s, list(self.uneven))
+                            estimates, self.motion_s, self.samples, notes, estimating_s, list(self.uneven),
+                            self._opposed)
 
     def _final_estimates(self, notes: list[str]) -> list[WindowEstimate]:
         if not self._slices:

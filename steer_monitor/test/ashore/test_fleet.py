@@ -276,3 +276,26 @@ def test_the_page_says_which_log_was_left_out_of_the_trend(r18_params):
     rs.append(_result('d000.log.gz', 0, 24, 0.2, frames=10))
     page = fleet_page(FleetRun([Vessel('mv', Path('mv'), None, ())], {'mv': rs}, {'mv': dict(r18_params)}))
     assert 'd000.log.gz (the time of d000.log: not in the trend)' in page
+
+
+def test_a_vessel_whose_map_reverses_a_ram_has_its_logs_failed_with_the_reason(tmp_path, r18_params, can_db):
+    """Its logs gave no estimate and no word of why (the review's note was not kept)."""
+    from steer_monitor.ashore.logresult import analyse_log
+    from test.conftest import PKG
+    db, smap = can_db
+    s = sim.run(r18_params, sim.SimConfig(program='autopilot:600'), db, smap, seed=8)
+    log = tmp_path / 'a.log'
+    with open(log, 'wb') as fh:
+        write_candump_arrays(fh, s.frames)
+    text = (PKG / 'config' / 'r18.yaml').read_text()
+    swapped = text.replace('pressure_r2_stbd: {pgn: 130314, field: Pressure, instance: 2',
+                           'pressure_r2_stbd: {pgn: 130314, field: Pressure, instance: 9').replace(
+        'pressure_r2_port: {pgn: 130314, field: Pressure, instance: 3',
+        'pressure_r2_port: {pgn: 130314, field: Pressure, instance: 2').replace('instance: 9', 'instance: 3')
+    assert swapped != text
+    cfg = tmp_path / 'vessel.yaml'
+    cfg.write_text(swapped)
+    r = analyse_log('mv', str(log), str(cfg), 'x', 'y')
+    assert r.error.startswith('the rams push against each other') and 'of ram 2 are read the wrong way round' in r.error
+    assert r.error.endswith('; nothing estimated') and r.frames == len(s.frames)
+    assert analyse_log('mv', str(log), None, 'x', 'y').error == ''
