@@ -69,6 +69,8 @@ class ReplaySummary:
     last_ns: int | None = None
     estimate: OnlineEstimate | None = None
     motion_s: float = 0.0
+    #: what the user should know that is no error (a log within the time of the ones before it)
+    notes: list[str] = field(default_factory=list)
 
 
 def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | None = None, *,
@@ -248,6 +250,7 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
     pending_n = 0                    # fast: frames fed since the outputs and frames were last written
     for path in paths:
         n_log = 0
+        backwards = rejects['time_backwards']
         try:
             for block in iter_log_blocks(path, rejects, date):
                 if reference:
@@ -285,6 +288,10 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
         if progress is not None and reference:
             progress(n_log % FRAME_BATCH, summary.last_ns)
         summary.frames += n_log
+        refused = rejects['time_backwards'] - backwards
+        if n_log and refused > n_log // 2:
+            summary.notes.append(f'{path}: {refused} of its {n_log} frames lie within the time of the logs before '
+                                 'it (the logs overlap, or one is a copy): refused as time_backwards')
     flush()
     if batch:
         writer.write_frames(batch)
@@ -362,7 +369,7 @@ def summary_json(s: ReplaySummary) -> dict[str, Any]:
         return v.scaled(scale, 6)
     span = 0.0 if s.first_ns is None or s.last_ns is None else (s.last_ns - s.first_ns) / 1e9
     return {'output': s.output, 'logs': s.logs, 'frames': s.frames, 'span_s': round(span, 3), 'states': s.states,
-            'diagnostics': s.diagnostics, 'rejects': s.rejects, 'errors': s.errors,
+            'diagnostics': s.diagnostics, 'rejects': s.rejects, 'errors': s.errors, 'notes': s.notes,
             'final_estimate': None if e is None else {
                 'clearance_2z_mm': iv(e.two_z, 1e3), 'clearance_zgb_mm': iv(e.z_gb, 1e3),
                 'k_gl_max': iv(e.k_gl_max, 1.0), 'motion_s': round(s.motion_s, 1)}}

@@ -37,6 +37,8 @@ def run(logs: list[str], out_path: str | Path, config: str | Path | None = None,
     with DataTimeProgress(log_spans(logs, date) if show else None, 'replay', sys.stderr, force=progress) as bar:
         summary = replay(logs, out_path, config, frames=frames, progress=bar, date=date)
     result = summary_json(summary)
+    for note in summary.notes:
+        err.write(f'steer-monitor replay: note: {note}\n')
     elapsed = time.perf_counter() - t0
     result['elapsed_s'] = round(elapsed, 2)
     result['frames_per_s'] = round(summary.frames / elapsed) if elapsed > 0 else None

@@ -259,3 +259,19 @@ def test_the_workers_errors_stand_where_the_reference_puts_them(tmp_path, logs, 
     assert len(damaged) == 1 and 0 < damaged[0] < len(ref.errors) - 1, ref.errors   # errors either side
     assert fast.errors == ref.errors
     assert (tmp_path / 'fast.mcap').read_bytes() == (tmp_path / 'ref.mcap').read_bytes()
+
+
+def test_a_log_within_the_time_of_the_ones_before_it_is_said(tmp_path, logs, capsys):
+    """A copy or an overlapping log given with the others: its frames were refused as
+    time_backwards, said only among the reject counts."""
+    s = replay([logs['a.log'], logs['b.mcap']], tmp_path / 'ab.mcap', frames=False)
+    assert s.notes == []
+    rc = cli.main(['replay', str(logs['all.log']), str(logs['a.log']), '--out', str(tmp_path / 'x.mcap'),
+                   '--no-frames', '--json'])
+    captured = capsys.readouterr()
+    assert rc == 0
+    (note,) = json.loads(captured.out)['notes']
+    assert note.startswith(f"{logs['a.log']}: ") and note.endswith(
+        'frames lie within the time of the logs before it (the logs overlap, or one is a copy): refused as '
+        'time_backwards')
+    assert captured.err == f'steer-monitor replay: note: {note}\n'
