@@ -54,6 +54,7 @@ from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import EstimateError, Observations, build_observations
 from steer_monitor.estimate.rams import (OPPOSED, RamShare, UnevenSpan, describe, judge, opposed_cause, ram_share,
                                          uneven_spans, within, working_against)
+from steer_monitor.estimate.refine import refine_profile
 from steer_monitor.model.gear import GearParams
 
 __all__ = ['DELAY_KEEP_S', 'DELAY_STEP_S', 'DELAY_VERTEX_S', 'EXPLAINED_RATIO', 'MAX_TRIED', 'MIN_BIC_DROP', 'MIN_CV_DEVIANCE',
@@ -232,12 +233,22 @@ def _score(gear: GearParams, basis: F.TorqueBasis, mom: Moments, parts: tuple[Mo
     best: tuple[float, float, float, int, NDArray[np.float64]] = (math.inf, 0.0, 0.0, 0, np.zeros(0))
     centres = dict.fromkeys((int(np.argmin(np.abs(grid_2z - tz0))), int(np.argmin(np.abs(F.GRID_ZGB - zg0))))
                             for tz0, zg0 in ((float(pr.two_z[pr.best[0]]), float(pr.z_gb[pr.best[1]])), declared_at))
+    window: F.Profile | None = None
     for i0, j0 in centres:      # in order; one fine search when both centres are the same point
         fine = F.profile(gear, basis, mom, load, extra, grid_2z[max(i0 - 3, 0):i0 + 4],
                          F.GRID_ZGB[max(j0 - 3, 0):j0 + 4])
         i, j = fine.best
         if fine.rss[i, j] < best[0]:
             best = (float(fine.rss[i, j]), float(fine.two_z[i]), float(fine.z_gb[j]), fine.p, fine.coef)
+            window = fine
+    if window is not None:
+        # between grid points where the grid cannot resolve the optimum, as the estimate
+        # does: a model scored at a grid point its clearances miss would carry that misfit
+        ref = refine_profile(gear, basis, mom, load, extra, window)
+        if float(ref.rss.min()) < best[0]:
+            tz, zg = ref.best
+            at = F.fit_points(gear, basis, mom, load, np.array([tz]), np.array([zg]), extra)
+            best = (float(at.rss[0]), tz, zg, best[3], at.coef[0].copy())
     rss, tz, zg, p, coef = best
     cv = _cv_mse(gear, basis, parts, coef_torque, tz, zg, extra)
     return rss, mom.samples, cv, tz, zg, p, coef

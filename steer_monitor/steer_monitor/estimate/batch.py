@@ -22,6 +22,7 @@ from steer_monitor.estimate import fit as F
 from steer_monitor.estimate.intervals import CHI2_1_95, CHI2_2_95, Interval, inflation, plateau_interval
 from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations
+from steer_monitor.estimate.refine import Marginal, Refined, refine_profile
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import load_sharing
 
@@ -85,8 +86,14 @@ class ClearanceEstimate:
         noise_rms, smooth_rms: the residual split into sensor noise and its smooth
             (systematic) part [N].
         residual: (n, 2) per observation and ram [N], NaN where not fitted.
-        profile: the clearance profile; deviance: its likelihood-ratio statistic over the grid,
-            (RSS - RSS_min) / (sigma^2 x inflation), shape of ``profile.rss``.
+        profile: the clearance profile on the grid; deviance: its likelihood-ratio statistic
+            there, (RSS - RSS_min) / (sigma^2 x inflation), shape of ``profile.rss``, with
+            RSS_min the least of the refined profile.
+        marginals: each clearance's profile (2Z, Z_gb): least RSS over the other clearance,
+            on the grid and, where the grid could not resolve it, between its points
+            (:mod:`~steer_monitor.estimate.refine`); the intervals come from these.
+        steps: (2Z, Z_gb) [m]: the spacing each was profiled at near its estimate.
+        rss_floor: the least RSS of the profile [N^2] (deviance 0).
     """
 
     two_z: Interval
@@ -108,6 +115,18 @@ class ClearanceEstimate:
     max_angle_seen: float = 0.0
     ram_area: float = 1.0
     deviance: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 0)), repr=False)
+    marginals: tuple[Marginal, Marginal] | None = field(default=None, repr=False)
+    steps: tuple[float, float] = (0.0, 0.0)
+    rss_floor: float = math.nan      # the least RSS of the profile [N^2]: deviance 0
+
+    def marginal_deviance(self, axis: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(values [m], deviance) of clearance ``axis`` (0: 2Z, 1: Z_gb): the profile its
+        interval was read from."""
+        if self.marginals is None:
+            return (self.profile.two_z if axis == 0 else self.profile.z_gb), self.deviance.min(axis=1 - axis)
+        unit = self.fit.rss / max(self.fit.n - self.fit.coef.size, 1.0) * self.inflation
+        m = self.marginals[axis]
+        return m.axis, (m.rss - self.rss_floor) / unit
 
 
 def lag_moments(resid: NDArray[np.float64], t_ns: NDArray[np.int64], lag: int = SMOOTH_LAG_STEPS) -> tuple[float, float]:
@@ -168,7 +187,7 @@ def residuals_and_inflation(gear: GearParams, basis: F.TorqueBasis, rows: Rows, 
 
 def _profile_fit(gear: GearParams, basis: F.TorqueBasis, mom: Moments, extra: Sequence[F.Column],
                  grid_2z: NDArray, grid_zgb: NDArray, load: NDArray[np.float64] | None
-                 ) -> tuple[F.Profile, F.FitAt, float, float, NDArray[np.float64]]:
+                 ) -> tuple[F.Profile, Refined, F.FitAt, float, float, NDArray[np.float64]]:
     if mom.samples < MIN_MOTION_SAMPLES:
         msg = (f'too little steady rudder motion to estimate the clearances: {int(mom.samples)} '
                f'ram samples, need {MIN_MOTION_SAMPLES} (about 5 s of moving rudder)')
@@ -180,28 +199,29 @@ def _profile_fit(gear: GearParams, basis: F.TorqueBasis, mom: Moments, extra: Se
         first = F.fit_at(gear, basis, mom, pr.two_z[i], pr.z_gb[j], load, extra)
         load = F.axial_load(gear, basis, mom, first.coef)
     pr = F.profile(gear, basis, mom, load, extra, grid_2z, grid_zgb)
-    i, j = pr.best
-    tz, zg = float(pr.two_z[i]), float(pr.z_gb[j])
-    return pr, F.fit_at(gear, basis, mom, tz, zg, load, extra), tz, zg, load
+    ref = refine_profile(gear, basis, mom, load, extra, pr)
+    tz, zg = ref.best
+    return pr, ref, F.fit_at(gear, basis, mom, tz, zg, load, extra), tz, zg, load
 
 
-def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, best: F.FitAt, tz: float,
-           zg: float, load: NDArray[np.float64], extra: Sequence[F.Column], vif: float, max_seen: float,
+def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, ref: Refined, best: F.FitAt,
+           tz: float, zg: float, load: NDArray[np.float64], extra: Sequence[F.Column], vif: float, max_seen: float,
            resid: NDArray[np.float64], noise: float, smooth: float) -> ClearanceEstimate:
     dof = max(best.n - best.coef.size, 1.0)
     sigma2 = best.rss / dof
-    # relative to the profile's own minimum: the grid evaluates the friction features per
+    # relative to the profile's own minimum: the profile evaluates the friction features per
     # angle cell and ``best`` per bin, which differ by ~1e-4 of the RSS (a deviance of ~1)
-    delta = (pr.rss - float(pr.rss.min())) / (sigma2 * vif)
-    two_z = plateau_interval(pr.two_z, delta.min(axis=1))
-    z_gb = plateau_interval(pr.z_gb, delta.min(axis=0))
-    region_all = np.argwhere(delta <= CHI2_2_95)
+    floor = float(ref.rss.min())
+    unit = sigma2 * vif
+    delta = (pr.rss - floor) / unit
+    two_z = plateau_interval(ref.two_z.axis, (ref.two_z.rss - floor) / unit)
+    z_gb = plateau_interval(ref.z_gb.axis, (ref.z_gb.rss - floor) / unit)
+    region_all = np.unique(ref.pairs[(ref.rss - floor) / unit <= CHI2_2_95], axis=0)
     region = region_all
     if region.shape[0] > 60:
         region = region[np.linspace(0, region.shape[0] - 1, 60).round().astype(int)]
-    fits = F.fit_points(gear, basis, mom, load, pr.two_z[region[:, 0]], pr.z_gb[region[:, 1]], extra,
-                        per_cell=False, covariance=True)
-    region_fits = [(float(pr.two_z[a]), float(pr.z_gb[b]), fits.at(k, best.n)) for k, (a, b) in enumerate(region)]
+    fits = F.fit_points(gear, basis, mom, load, region[:, 0], region[:, 1], extra, per_cell=False, covariance=True)
+    region_fits = [(float(a), float(b), fits.at(k, best.n)) for k, (a, b) in enumerate(region.tolist())]
     region_fits.append((tz, zg, best))
     coefs = {}
     for name in best.names[basis.size:]:
@@ -222,7 +242,7 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, 
     # carries each fit's own torque curve) with the best torque curve and with the curve at
     # either edge of its band (K_gl grows with the load)
     for t in (tq - band, tq, tq + band):
-        kgl += k_gl_max(gear, angles, t, pr.two_z[region_all[:, 0]], pr.z_gb[region_all[:, 1]]).tolist()
+        kgl += k_gl_max(gear, angles, t, region_all[:, 0], region_all[:, 1]).tolist()
     k_best = float(k_gl_max(gear, angles, tq, tz, zg)[0])
     return ClearanceEstimate(
         two_z=two_z, z_gb=z_gb,
@@ -230,7 +250,8 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, 
         extra={c.name: coefs[c.name] for c in extra if not F.is_nuisance(c)},
         torque_curve=(angles, tq, band), k_gl_max=Interval(k_best, min(kgl + [k_best]), max(kgl + [k_best])),
         rms=math.sqrt(best.rss / best.n), rows=int(best.n), inflation=vif, noise_rms=noise, smooth_rms=smooth,
-        residual=resid, profile=pr, fit=best, max_angle_seen=max_seen, ram_area=gear.ram_area, deviance=delta)
+        residual=resid, profile=pr, fit=best, max_angle_seen=max_seen, ram_area=gear.ram_area, deviance=delta,
+        marginals=(ref.two_z, ref.z_gb), steps=ref.steps, rss_floor=floor)
 
 
 def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: Sequence[F.Column] = (),
@@ -243,12 +264,12 @@ def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: 
     basis = F.TorqueBasis(gear.max_rudder)
     mom = rows.moments
     extra = tuple(extra) + F.speed_scale_columns(mom)
-    pr, best, tz, zg, load = _profile_fit(gear, basis, mom, extra, grid_2z, grid_zgb, load)
+    pr, ref, best, tz, zg, load = _profile_fit(gear, basis, mom, extra, grid_2z, grid_zgb, load)
     resid, vif = residuals_and_inflation(gear, basis, rows, obs.t_ns, best.coef, tz, zg, load, extra)
     vif *= max(model_inflation, 1.0)
     noise, smooth = residual_parts(resid, obs.t_ns)
     max_seen = float(np.nanmax(np.abs(obs.alpha[rows.obs_index])))
-    return _bound(gear, basis, mom, pr, best, tz, zg, load, extra, vif, max_seen, resid, noise, smooth)
+    return _bound(gear, basis, mom, pr, ref, best, tz, zg, load, extra, vif, max_seen, resid, noise, smooth)
 
 
 def estimate_from_moments(gear: GearParams, mom: Moments, vif: float, grid_2z: NDArray = F.GRID_2Z,
@@ -267,10 +288,11 @@ def estimate_in_box(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: 
     residuals (``residual`` empty, noise/smooth NaN). Whether the box served is
     :func:`box_holds`'s to say."""
     basis = F.TorqueBasis(gear.max_rudder)
-    pr, best, tz, zg, load = _profile_fit(gear, basis, mom, (), grid_2z, grid_zgb, None)
+    pr, ref, best, tz, zg, load = _profile_fit(gear, basis, mom, (), grid_2z, grid_zgb, None)
     vif = vif_at(tz, zg, best.coef, load)
     max_seen = float(np.max(mom.abs_alpha)) if len(mom) else 0.0
-    return _bound(gear, basis, mom, pr, best, tz, zg, load, (), vif, max_seen, np.zeros((0, 2)), math.nan, math.nan)
+    return _bound(gear, basis, mom, pr, ref, best, tz, zg, load, (), vif, max_seen, np.zeros((0, 2)), math.nan,
+                  math.nan)
 
 
 def box_holds(est: ClearanceEstimate, grid_2z: NDArray, grid_zgb: NDArray) -> bool:

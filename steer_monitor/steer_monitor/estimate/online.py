@@ -9,8 +9,10 @@ and folds the steady-motion rows into the binned moments of
 length of the voyage. On the same data the moments equal the batch ones, so the estimates
 converge to the batch estimate.
 
-* After each second of data with motion in it: a local step of the clearance search (the 3 x 3 grid
-  points around the current best, profiled) and a refit of the linear parameters there.
+* After each second of data with motion in it: a local step of the clearance search (the 3 x 3
+  points around the current best, a step apart: the grid's step, or the finer one the last full
+  profile used where the grid could not resolve the clearance, :mod:`~steer_monitor.estimate.refine`),
+  and a refit of the linear parameters there.
 * The full profile with its intervals and the residuals' inflation factor at the first
   estimate and whenever the motion learned has doubled since the last one, then every
   ``FULL_EVERY_S`` of motion: early estimates rest on little data and the profile can have
@@ -61,7 +63,8 @@ LOCAL = 1                       # local search: +-1 grid step on each axis (a hi
 REPROFILE_EVERY_S = 30.0        # at most one extra full profile per this much motion when a local
                                 # step leaves the interval (between them the step is not taken)
 RESID_KEEP = 8000               # recent rows (ram x instant) kept for the inflation factor
-STATE_VERSION = 2
+STATE_VERSION = 3               # 3: the best point as clearances and local steps (2: grid indices)
+READS = (2, 3)                  # versions load() takes: a node upgraded keeps what it learned
 _INPUTS = ('rudder_angle',) + PRESSURE_INPUTS + ('ship_speed',)
 
 
@@ -120,7 +123,9 @@ class OnlineEstimator:
         self._speed_seen = False
         self._motion_since_full = 0.0
         self._new_motion = 0.0
-        self._best: tuple[int, int] | None = None
+        self._point: tuple[float, float] | None = None    # the current best (2Z, Z_gb) [m] ...
+        self._steps: tuple[float, float] = (float(self.grid_2z[1] - self.grid_2z[0]),
+                                            float(self.grid_zgb[1] - self.grid_zgb[0]))   # ... and the local step
         self._coef: np.ndarray | None = None
         self._delta_profile: tuple[np.ndarray, np.ndarray] | None = None
         self._recent: deque[tuple] = deque(maxlen=RESID_KEEP)   # recent rows, for the inflation
@@ -245,7 +250,7 @@ class OnlineEstimator:
     def _residuals(self) -> None:
         """Residuals of the recent rows at the current fit -> the inflation factor. Run with
         the full profile only: per second the rows are just kept (bounded)."""
-        if self._coef is None or self._best is None or len(self._recent) < 100:
+        if self._coef is None or self._point is None or len(self._recent) < 100:
             return
         arr = np.array(self._recent)                  # (r, 6): t, ram, |alpha| key parts ...
         t, ram, keys = arr[:, 0].astype(np.int64), arr[:, 1].astype(np.intp), arr[:, 2].astype(np.int64)
@@ -253,7 +258,7 @@ class OnlineEstimator:
         u = np.stack([np.ones_like(y), speed_ratio(keys, v2), y], axis=1)
         one = Moments.from_rows(keys, aa, v2, u, (SPEED_Z,))
         rows = Rows(one, np.searchsorted(one.keys, keys), u, np.arange(y.size), ram)
-        tz, zg = self.grid_2z[self._best[0]], self.grid_zgb[self._best[1]]
+        tz, zg = self._point
         load = F.axial_load(self.gear, self.basis, one, self._coef)
         res = y - predict_rows(self.gear, self.basis, rows, self._coef, tz, zg, load)
         times, inv = np.unique(t, return_inverse=True)
@@ -266,17 +271,18 @@ class OnlineEstimator:
         """A local step, or the full profile when due (or asked)."""
         mom = self.moments
         due = min(FULL_EVERY_S, max(self.motion_s - self._motion_since_full, 1.0))
-        full = full if full is not None else (self._best is None or self._motion_since_full >= due)
+        full = full if full is not None else (self._point is None or self._motion_since_full >= due)
         self._new_motion = 0.0
         if full:
             return self._full()
-        i0, j0 = self._best  # type: ignore[misc]
-        gi = np.arange(max(i0 - LOCAL, 0), min(i0 + LOCAL + 1, self.grid_2z.size))
-        gj = np.arange(max(j0 - LOCAL, 0), min(j0 + LOCAL + 1, self.grid_zgb.size))
+        assert self._point is not None
+        near = np.arange(-LOCAL, LOCAL + 1, dtype=float)
+        axes = [np.unique(np.round(np.clip(c + h * near, g[0], g[-1]), 12))
+                for c, h, g in zip(self._point, self._steps, (self.grid_2z, self.grid_zgb))]
         load = F.axial_load(self.gear, self.basis, mom, self._coef)
-        pr = F.profile(self.gear, self.basis, mom, load, (), self.grid_2z[gi], self.grid_zgb[gj])
+        pr = F.profile(self.gear, self.basis, mom, load, (), axes[0], axes[1])
         bi, bj = pr.best
-        tz, zg = float(self.grid_2z[gi[bi]]), float(self.grid_zgb[gj[bj]])
+        tz, zg = float(pr.two_z[bi]), float(pr.z_gb[bj])
         prev = self.estimate
         if prev is not None and not (prev.two_z.contains(tz) and prev.z_gb.contains(zg)):
             # the local step left the last full profile's interval: the profile has moved
@@ -286,7 +292,7 @@ class OnlineEstimator:
             if self._motion_since_full >= REPROFILE_EVERY_S:
                 return self._full()
             return False
-        self._best = (int(gi[bi]), int(gj[bj]))
+        self._point = (tz, zg)
         self._coef = pr.coef
         self.estimate = OnlineEstimate(_moved(prev.two_z, tz) if prev else Interval(tz, None, None),
                                        _moved(prev.z_gb, zg) if prev else Interval(zg, None, None),
@@ -315,8 +321,8 @@ class OnlineEstimator:
             est = estimate_from_moments(self.gear, self.moments, self._inflation(), g2, gz)
         except EstimateError:
             return False
-        i, j = est.profile.best
-        self._best = (int(np.searchsorted(self.grid_2z, g2[i])), int(np.searchsorted(self.grid_zgb, gz[j])))
+        self._point = (float(est.two_z.value), float(est.z_gb.value))
+        self._steps = est.steps
         self._coef = est.fit.coef
         self._motion_since_full = 0.0
         self.estimate = OnlineEstimate(est.two_z, est.z_gb, est.k_gl_max, self.moments.samples,
@@ -350,7 +356,7 @@ class OnlineEstimator:
         path = Path(path)
         meta = {'version': STATE_VERSION, 'gear': _gear_signature(self.gear),
                 'grid_2z_min': float(self.grid_2z[0]), 'motion_s': self.motion_s, 'vif': self._vif,
-                'best': list(self._best) if self._best else None,
+                'point': list(self._point) if self._point else None, 'steps': list(self._steps),
                 'motion_since_full': self._motion_since_full,
                 'estimate': _estimate_to_json(self.estimate) if self.estimate is not None else None}
         arrays = self.moments.to_arrays()
@@ -372,7 +378,7 @@ class OnlineEstimator:
             # numpy cannot parse, ...) on a damaged file: all mean the same to the caller
             msg = f'estimator state {path}: cannot read it ({type(exc).__name__}: {exc})'
             raise EstimateError(msg) from exc
-        if not isinstance(meta, dict) or meta.get('version') != STATE_VERSION:
+        if not isinstance(meta, dict) or meta.get('version') not in READS:
             version = meta.get('version') if isinstance(meta, dict) else None
             msg = f'estimator state {path}: format version {version}, this build reads {STATE_VERSION}'
             raise EstimateError(msg)
@@ -385,8 +391,8 @@ class OnlineEstimator:
         if state is None:
             msg = f'estimator state {path}: learned on another gear geometry; not used'
             raise EstimateError(msg)
-        self.moments, self.motion_s, self._vif, self._best, self._coef, self._motion_since_full = state
-        if meta.get('estimate') is not None and self._best is not None:
+        self.moments, self.motion_s, self._vif, self._point, self._steps, self._coef, self._motion_since_full = state
+        if meta.get('estimate') is not None and self._point is not None:
             # the estimate as it was (a fresh full profile could land elsewhere on a flat
             # profile than the local steps had; the next full profile comes on schedule)
             self.estimate = _estimate_from_json(meta['estimate'])
@@ -401,11 +407,32 @@ class OnlineEstimator:
         if moments.z_names != (SPEED_Z,):
             msg = f'moments of columns {list(moments.z_names)}, expected {[SPEED_Z]}'
             raise ValueError(msg)
-        best = tuple(int(i) for i in meta['best']) if meta.get('best') else None
-        if best is not None and not (len(best) == 2 and 0 <= best[0] < self.grid_2z.size
-                                     and 0 <= best[1] < self.grid_zgb.size):
-            msg = f'best grid point {best} outside the grid ({self.grid_2z.size} x {self.grid_zgb.size})'
-            raise ValueError(msg)
+        grid_steps = (float(self.grid_2z[1] - self.grid_2z[0]), float(self.grid_zgb[1] - self.grid_zgb[0]))
+        point: tuple[float, float] | None = None
+        steps = grid_steps
+        if meta.get('version') == 2:        # the best as grid indices, the grid's steps
+            best = tuple(int(i) for i in meta['best']) if meta.get('best') else None
+            if best is not None and not (len(best) == 2 and 0 <= best[0] < self.grid_2z.size
+                                         and 0 <= best[1] < self.grid_zgb.size):
+                msg = f'best grid point {best} outside the grid ({self.grid_2z.size} x {self.grid_zgb.size})'
+                raise ValueError(msg)
+            if best is not None:
+                point = (float(self.grid_2z[best[0]]), float(self.grid_zgb[best[1]]))
+        else:
+            if meta.get('point'):
+                tz, zg = (float(x) for x in meta['point'])
+                if not (self.grid_2z[0] - 1e-12 <= tz <= self.grid_2z[-1] + 1e-12
+                        and self.grid_zgb[0] - 1e-12 <= zg <= self.grid_zgb[-1] + 1e-12):
+                    msg = (f'best point 2Z {tz * 1e3:g} mm, Z_gb {zg * 1e3:g} mm outside the grid '
+                           f'({self.grid_2z[0] * 1e3:g}..{self.grid_2z[-1] * 1e3:g} mm, '
+                           f'0..{self.grid_zgb[-1] * 1e3:g} mm)')
+                    raise ValueError(msg)
+                point = (tz, zg)
+            h2, hz = (float(x) for x in meta['steps'])
+            if not all(math.isfinite(h) and 0 < h <= g + 1e-15 for h, g in zip((h2, hz), grid_steps)):
+                msg = f'local steps {[h2, hz]} m must be positive and at most the grid steps {list(grid_steps)}'
+                raise ValueError(msg)
+            steps = (h2, hz)
         coef = arrays.get('coef')
         if coef is not None:
             coef = np.asarray(coef, float)
@@ -419,7 +446,7 @@ class OnlineEstimator:
         motion_s, vif, since_full = numbers
         if meta.get('estimate') is not None:
             _estimate_from_json(meta['estimate'])          # parses, or raises
-        return moments, motion_s, vif, best, coef, since_full
+        return moments, motion_s, vif, point, steps, coef, since_full
 
 
 def _iv_json(iv: Interval) -> list[float | None]:

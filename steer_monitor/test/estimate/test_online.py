@@ -188,7 +188,11 @@ def _rewritten(saved: Path, out: Path, **changes) -> Path:
     ({'scatter': [0.0]}, r'scatter has shape \(1,\)'),
     ({'z_names': ['torque']}, r"moments of columns \['torque'\]"),
     ({'coef': [1.0, 2.0]}, r'fitted coefficients of shape \(2,\)'),
-    ({'meta_best': [99999, 0]}, r'best grid point \(99999, 0\) outside the grid'),
+    ({'meta_point': [0.1, 0.0]}, r'best point 2Z 100 mm, Z_gb 0 mm outside the grid'),
+    ({'meta_steps': [0.0, 1e-6]}, r'local steps \[0.0, 1e-06\] m must be positive'),
+    ({'meta_steps': [1e-3, 1e-6]}, r'at most the grid steps'),
+    ({'meta_version': 2, 'meta_best': [99999, 0]}, r'best grid point \(99999, 0\) outside the grid'),
+    ({'meta_version': 1}, r'format version 1, this build reads 3'),
     ({'meta_vif': -1.0}, r'must be finite and not negative'),
     ({'meta_motion_s': 'a lot'}, r'could not convert string to float'),
     ({'meta_estimate': {'two_z': 1}}, r'damaged'),
@@ -204,6 +208,24 @@ def test_a_state_file_that_parses_but_does_not_fit_is_refused(r18, saved_state, 
     assert len(est.moments) == 0 and est.estimate is None
     est.load(saved_state)                      # the file as saved loads
     assert len(est.moments) > 0 and est.estimate is not None
+
+
+def test_a_state_of_the_last_format_is_taken(r18, saved_state, tmp_path):
+    """A node upgraded from a build that kept the best point as grid indices (format 2)
+    keeps what it learned: the point is the grid's, the local steps the grid's steps."""
+    import numpy as np
+    from steer_monitor.estimate import fit as F
+    new = OnlineEstimator(r18)
+    new.load(saved_state)
+    i, j = int(np.argmin(np.abs(F.GRID_2Z - new._point[0]))), int(np.argmin(np.abs(F.GRID_ZGB - new._point[1])))
+    path = _rewritten(saved_state, tmp_path / 'v2.npz', meta_version=2, meta_best=[i, j], meta_point=None,
+                      meta_steps=None)
+    old = OnlineEstimator(r18)
+    old.load(path)
+    assert old._point == (float(F.GRID_2Z[i]), float(F.GRID_ZGB[j]))
+    assert old._steps == pytest.approx((0.02e-3, 0.005e-3))
+    assert old.estimate == new.estimate and old.moments.samples == new.moments.samples
+    assert old.refit(full=False) in (True, False)           # a local step from there runs
 
 
 def test_out_of_order_and_unused_samples_are_ignored(r18: GearParams):

@@ -35,10 +35,9 @@ def _plots(a: Analysis) -> dict[str, str]:
 
     f = a.final
     out: dict[str, str] = {}
-    pr, delta = f.profile, f.deviance
     fig, ax = plt.subplots(1, 2, figsize=(10, 3.4))
-    for k, (axis, prof, iv, label) in enumerate(((pr.two_z, delta.min(1), f.two_z, '2Z [mm]'),
-                                                 (pr.z_gb, delta.min(0), f.z_gb, 'Z_gb [mm]'))):
+    for k, (iv, label) in enumerate(((f.two_z, '2Z [mm]'), (f.z_gb, 'Z_gb [mm]'))):
+        axis, prof = f.marginal_deviance(k)
         ax[k].plot(axis * 1e3, np.minimum(prof, 50), 'k-')
         ax[k].axhline(CHI2_1_95, color='tab:red', ls='--', label='95 % threshold')
         ax[k].set_xlabel(label)

@@ -1,0 +1,355 @@
+"""The clearance profile between grid points, where the grid cannot resolve it. Pure.
+
+The clearances are profiled on a grid (:data:`~steer_monitor.estimate.fit.GRID_2Z`, 0.02 mm
+steps; :data:`~steer_monitor.estimate.fit.GRID_ZGB`, 0.005 mm). Where the data pin a clearance
+to less than a few steps (a ram that clamps pins 2Z to a few micrometres on a long voyage)
+the grid's best point is the grid's, not the data's: a true 2Z of 0.1916 mm was estimated
+at 0.2000 mm with the interval [0.1974, 0.2001], and the misfit of the wrong 2Z moved Z_gb
+by three of its steps (0.325 mm for a true 0.311, interval 0.0003 mm wide), K_gl and the
+friction with it. Every clearance of the accuracy study lay on the grid, so its coverage
+could not show this; real clearances lie anywhere.
+
+Here each clearance whose 95 % set on the grid spans fewer than ``SHARP_STEPS`` grid steps
+is profiled again on a finer axis: at each of its values the other clearance is searched
+for the least RSS (the two are correlated: the profile is a tilted ridge, so a box of fine
+points around the grid's best would miss its minimum), first on the other axis's grid
+steps, moving on while the least lies at the edge of the points tried, then on a quarter
+and a sixteenth of them. The finer axis runs over the grid's 95 % set and a step either
+side, widened while the set still reaches its ends, and made finer again, around its own
+95 % set, while that holds fewer than ``MIN_POINTS`` points. The result is each clearance's
+marginal profile (least RSS over the other clearance) on the merged axis, and every pair
+evaluated, from which the estimate takes its best point, intervals and joint region.
+
+RSS here is the profile's (friction features per angle cell, :func:`~steer_monitor.estimate.fit.fit_points`),
+so refined and grid points compare on the same footing.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from steer_monitor.estimate import fit as F
+from steer_monitor.estimate.intervals import CHI2_1_95
+from steer_monitor.estimate.moments import Moments
+from steer_monitor.model.gear import GearParams
+
+__all__ = ['MIN_POINTS', 'SHARP_STEPS', 'Marginal', 'Refined', 'marginal_of', 'refine_profile']
+
+SHARP_STEPS = 4          # a 95 % set narrower than this many grid steps is profiled between them
+POINTS = 11              # values of the finer axis per pass
+MIN_POINTS = 4           # a finer pass whose 95 % set holds fewer values is made finer again
+LEVELS = 3               # finer passes at most
+WIDEN = 4                # times a finer axis may be widened on a side its 95 % set still reaches
+SEARCH = 2               # the other clearance is tried at +-SEARCH of its step around its guess
+MOVES = 8                # ... moving on at most this many times while the least is at an edge
+ZOOMS = 3                # ... then +-2 quarters of that step around the best, three times (to 1/64),
+                         # and last at the vertex of the parabola through the best and its neighbours
+DECIMALS = 12            # m: values rounded to a picometre, so a grid value is found as itself
+
+
+@dataclass(frozen=True)
+class Marginal:
+    """A clearance's profile: at each value of ``axis`` [m] (sorted, shape (K,)) the least
+    RSS over the other clearance, ``rss`` (K,) [N^2], found at ``other`` (K,) [m]."""
+
+    axis: NDArray[np.float64]
+    rss: NDArray[np.float64]
+    other: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Refined:
+    """The profile with its sharp parts refined.
+
+    Attributes:
+        two_z, z_gb: the marginal profile of each clearance (the grid's values and the
+            finer ones merged).
+        pairs: (P, 2) every clearance pair evaluated [m] (the grid's and the finer ones);
+            rss: (P,) their RSS [N^2].
+        steps: (2Z, Z_gb) [m]: the spacing of the finest axis each clearance was profiled
+            on (the grid's step where it was not refined).
+        refined: (2Z, Z_gb) whether each was profiled between grid points.
+    """
+
+    two_z: Marginal
+    z_gb: Marginal
+    pairs: NDArray[np.float64]
+    rss: NDArray[np.float64]
+    steps: tuple[float, float]
+    refined: tuple[bool, bool]
+
+    @property
+    def best(self) -> tuple[float, float]:
+        """The pair of least RSS [m]."""
+        k = int(np.argmin(self.rss))
+        return float(self.pairs[k, 0]), float(self.pairs[k, 1])
+
+
+def marginal_of(pr: F.Profile, axis: int) -> Marginal:
+    """The grid profile's marginal along ``axis`` (0: 2Z, 1: Z_gb)."""
+    values, others = (pr.two_z, pr.z_gb) if axis == 0 else (pr.z_gb, pr.two_z)
+    rss = pr.rss if axis == 0 else pr.rss.T
+    k = np.argmin(rss, axis=1)
+    return Marginal(np.asarray(values, float), rss[np.arange(rss.shape[0]), k], np.asarray(others, float)[k])
+
+
+class _Evaluator:
+    """RSS at clearance pairs, every pair kept."""
+
+    def __init__(self, gear: GearParams, basis: F.TorqueBasis, mom: Moments, load: NDArray[np.float64],
+                 extra: Sequence[F.Column]) -> None:
+        self.fitter = F.PointFitter(gear, basis, mom, load, extra)
+        self.pairs: list[NDArray[np.float64]] = []
+        self.rss: list[NDArray[np.float64]] = []
+        self.least = np.inf     # the least RSS evaluated so far [N^2] ...
+        self.best = (np.nan, np.nan)   # ... and where (2Z, Z_gb) [m]
+
+    def __call__(self, two_z: NDArray[np.float64], z_gb: NDArray[np.float64]) -> NDArray[np.float64]:
+        shape = two_z.shape
+        tz, zg = two_z.ravel(), z_gb.ravel()
+        rss = self.fitter.fit(tz, zg).rss
+        self.pairs.append(np.stack([tz, zg], axis=1))
+        self.rss.append(rss)
+        if rss.size and float(rss.min()) < self.least:
+            k = int(np.argmin(rss))
+            self.least, self.best = float(rss[k]), (float(tz[k]), float(zg[k]))
+        return rss.reshape(shape)
+
+
+def _conditional(evaluate: _Evaluator, axis: int, xs: NDArray[np.float64], guess: NDArray[np.float64],
+                 step: float, lo: float, hi: float, on_grid: bool = False
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """For each ``xs`` (values of clearance ``axis``) the least RSS over the other clearance
+    and where: tried at +-``SEARCH`` of its ``step`` around ``guess``, moving on while the least
+    is at an edge that is not the grid's (``lo``, ``hi``), then at finer steps -> (rss, other).
+    ``on_grid``: the other clearance is tried at its grid values only (see :func:`refine_profile`)."""
+    centre = np.clip(guess, lo, hi)
+    if on_grid and step > 0:
+        centre = np.round(lo + np.round((centre - lo) / step) * step, DECIMALS)
+    best_rss = np.full(xs.size, np.inf)
+    best_at = centre.copy()
+
+    def attempt(rows: NDArray[np.intp], h: float, offsets: NDArray[np.float64]) -> NDArray[np.bool_]:
+        ys = np.round(np.clip(centre[rows, None] + h * offsets[None, :], lo, hi), DECIMALS)
+        x = np.broadcast_to(xs[rows, None], ys.shape)
+        rss = evaluate(x, ys) if axis == 0 else evaluate(ys, x)
+        k = np.argmin(rss, axis=1)
+        got = rss[np.arange(rows.size), k]
+        better = got < best_rss[rows]
+        best_rss[rows[better]] = got[better]
+        best_at[rows[better]] = ys[better, k[better]]
+        centre[rows] = best_at[rows]
+        return ((k == 0) & (ys[:, 0] > lo)) | ((k == offsets.size - 1) & (ys[:, -1] < hi))
+
+    rows = np.arange(xs.size)
+    wide = np.arange(-SEARCH, SEARCH + 1, dtype=float)
+    for _ in range(MOVES + 1):
+        edge = attempt(rows, step, wide)
+        rows = rows[edge]
+        if rows.size == 0:
+            break
+    if on_grid:
+        return best_rss, best_at
+    near = np.array([-2.0, -1.0, 1.0, 2.0])    # the least lies within half a step of the best
+    h = step
+    everyone = np.arange(xs.size)
+    for _ in range(ZOOMS):
+        h /= 4
+        attempt(everyone, h, near)
+    # the vertex of the parabola through the best and the points a quarter-step either side
+    ys = np.round(np.clip(best_at[:, None] + h * np.array([-1.0, 1.0])[None, :], lo, hi), DECIMALS)
+    x = np.broadcast_to(xs[:, None], ys.shape)
+    side = evaluate(x, ys) if axis == 0 else evaluate(ys, x)
+    curve = side[:, 0] + side[:, 1] - 2.0 * best_rss
+    with np.errstate(divide='ignore', invalid='ignore'):
+        shift = np.where(curve > 0, 0.5 * h * (side[:, 0] - side[:, 1]) / curve, 0.0)
+    vertex = np.round(np.clip(best_at + np.clip(shift, -h, h), lo, hi), DECIMALS)
+    at_vertex = evaluate(xs, vertex) if axis == 0 else evaluate(vertex, xs)
+    for k, (r, y) in enumerate(zip((side[:, 0], side[:, 1], at_vertex), (ys[:, 0], ys[:, 1], vertex))):
+        better = r < best_rss
+        best_rss[better], best_at[better] = r[better], y[better]
+    return best_rss, best_at
+
+
+def _accepted(rss: NDArray[np.float64], floor: float, scale: float) -> NDArray[np.intp]:
+    return np.nonzero((rss - floor) / scale <= CHI2_1_95)[0]
+
+
+def _merged(x: NDArray[np.float64], rss: NDArray[np.float64], other: NDArray[np.float64]) -> Marginal:
+    """One value per clearance, the least RSS where a value was profiled more than once."""
+    x = np.round(np.asarray(x, float), DECIMALS)
+    rss, other = np.asarray(rss, float), np.asarray(other, float)
+    order = np.lexsort((rss, x))
+    x, rss, other = x[order], rss[order], other[order]
+    first = np.ones(x.size, dtype=bool)
+    first[1:] = x[1:] != x[:-1]
+    return Marginal(x[first], rss[first], other[first])
+
+
+class _Axis:
+    """The conditional minima found so far along one clearance."""
+
+    def __init__(self, evaluate: _Evaluator, axis: int, other_grid: NDArray[np.float64], coarse: Marginal,
+                 other_open: bool = False) -> None:
+        self.evaluate, self.axis, self.other_open = evaluate, axis, other_open
+        self.o_step = float(other_grid[1] - other_grid[0]) if other_grid.size > 1 else 0.0
+        self.o_lo, self.o_hi = float(other_grid[0]), float(other_grid[-1])
+        self.coarse = coarse
+        self.fine: dict[float, tuple[float, float]] = {}
+        self.spans: list[tuple[float, float]] = []   # ranges profiled between grid points
+
+    def run(self, xs: NDArray[np.float64]) -> None:
+        xs = np.array([x for x in np.round(np.asarray(xs, float), DECIMALS).tolist() if x not in self.fine])
+        if xs.size == 0:
+            return
+        m = self.marginal()
+        guess = np.interp(xs, m.axis, m.other)
+        rss, other = _conditional(self.evaluate, self.axis, xs, guess, self.o_step, self.o_lo, self.o_hi,
+                                  self.other_open)
+        for x, r, o in zip(xs.tolist(), rss.tolist(), other.tolist()):
+            self.fine[x] = (r, o)
+
+    def within(self, lo: float, hi: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        xs = np.array(sorted(x for x in self.fine if lo - 1e-15 <= x <= hi + 1e-15))
+        return xs, np.array([self.fine[x][0] for x in xs.tolist()])
+
+    def marginal(self) -> Marginal:
+        """The conditional minima found, and the grid's marginal outside the ranges profiled
+        between grid points (inside them it reads high: its other clearance was the grid's)."""
+        fx = np.array(list(self.fine), float)
+        fr = np.array([v[0] for v in self.fine.values()], float)
+        fo = np.array([v[1] for v in self.fine.values()], float)
+        c = self.coarse
+        keep = np.ones(c.axis.size, dtype=bool)
+        for lo, hi in self.spans:
+            keep &= ~((c.axis > lo + 1e-15) & (c.axis < hi - 1e-15))
+        return _merged(np.concatenate([fx, c.axis[keep]]), np.concatenate([fr, c.rss[keep]]),
+                       np.concatenate([fo, c.other[keep]]))
+
+
+def _refine_axis(ax: _Axis, grid: NDArray[np.float64], scale: float) -> float:
+    """Clearance ``ax.axis`` profiled between its grid points, over its 95 % set; returns the
+    finest spacing used [m]."""
+    evaluate = ax.evaluate
+    spacing = float(grid[1] - grid[0])
+    # the grid's view of the 95 % set, and the least pair found so far (the other
+    # clearance's refinement may have moved it off that set: the profile is a tilted ridge)
+    inside = _accepted(ax.coarse.rss, float(ax.coarse.rss.min()), scale)
+    best = evaluate.best[ax.axis]
+    ax.fine.setdefault(float(np.round(best, DECIMALS)), (evaluate.least, evaluate.best[1 - ax.axis]))
+    lo = min(float(grid[max(int(inside.min()) - 1, 0)]), max(best - spacing, float(grid[0])))
+    hi = max(float(grid[min(int(inside.max()) + 1, grid.size - 1)]), min(best + spacing, float(grid[-1])))
+    for level in range(LEVELS):
+        if hi <= lo:
+            break
+        spacing = (hi - lo) / (POINTS - 1)
+        ax.run(np.linspace(lo, hi, POINTS))
+        ax.spans.append((lo, hi))
+        for _ in range(WIDEN):
+            xs, rss = ax.within(lo, hi)
+            inside = _accepted(rss, evaluate.least, scale)
+            grow_lo = bool(inside.size) and xs[inside.min()] <= lo and lo > grid[0]
+            grow_hi = bool(inside.size) and xs[inside.max()] >= hi and hi < grid[-1]
+            if not (grow_lo or grow_hi):
+                break
+            width, new = hi - lo, []
+            if grow_lo:
+                lo_new = max(lo - width / 2, float(grid[0]))
+                new.append(np.arange(lo - spacing, lo_new - spacing / 2, -spacing))
+                lo = lo_new
+            if grow_hi:
+                hi_new = min(hi + width / 2, float(grid[-1]))
+                new.append(np.arange(hi + spacing, hi_new + spacing / 2, spacing))
+                hi = hi_new
+            ax.run(np.concatenate(new))
+            ax.spans.append((lo, hi))
+        xs, rss = ax.within(lo, hi)
+        inside = _accepted(rss, evaluate.least, scale)
+        if level == LEVELS - 1 or inside.size >= MIN_POINTS:
+            break
+        if inside.size == 0:
+            inside = np.array([int(np.argmin(rss))])
+        lo = float(xs[max(int(inside.min()) - 1, 0)])
+        hi = float(xs[min(int(inside.max()) + 1, xs.size - 1)])
+    return spacing
+
+
+def _open_axis(ax: _Axis, scale: float) -> None:
+    """A clearance whose 95 % set runs to the grid's end (the data bound it from one side):
+    its grid values profiled again with the other clearance searched between grid points,
+    from a step below the set to where the plateau starts (beyond it every value is the
+    same model: the plateau's rest takes the last value found)."""
+    coarse = ax.coarse
+    inside = _accepted(coarse.rss, float(coarse.rss.min()), scale)
+    first = max(int(inside.min()) - 1, 0)
+    last = coarse.rss.size - 1
+    flat = np.abs(coarse.rss - coarse.rss[-1]) <= 1e-12 * max(abs(float(coarse.rss[-1])), 1.0)
+    start = last
+    while start > first and flat[start - 1]:
+        start -= 1
+    stop = min(start + 1, last)
+    ax.run(coarse.axis[first:stop + 1])
+    if stop < last:
+        r, o = ax.fine[float(np.round(coarse.axis[stop], DECIMALS))]
+        for x in np.round(coarse.axis[stop + 1:], DECIMALS).tolist():
+            ax.fine[x] = (r, o)
+
+
+def refine_profile(gear: GearParams, basis: F.TorqueBasis, mom: Moments, load: NDArray[np.float64],
+                   extra: Sequence[F.Column], pr: F.Profile) -> Refined:
+    """The profile ``pr`` (on a part of the clearance grid) with each clearance the grid
+    cannot resolve profiled between its points (see the module docstring); ``load`` and
+    ``extra`` as the profile was made with. Sharpness is judged without the residuals'
+    inflation (which only widens), so a clearance is refined whenever it may need it."""
+    marginals = [marginal_of(pr, 0), marginal_of(pr, 1)]
+    floor = float(pr.rss.min())
+    scale = floor / max(pr.n - pr.p, 1.0)
+    grids = (np.asarray(pr.two_z, float), np.asarray(pr.z_gb, float))
+    steps = [float(g[1] - g[0]) if g.size > 1 else 0.0 for g in grids]
+    sharp = []
+    for m, g in zip(marginals, grids):
+        inside = _accepted(m.rss, floor, scale)
+        sharp.append(g.size > 2 and inside.size > 0 and int(inside.max() - inside.min()) < SHARP_STEPS
+                     and scale > 0)
+    evaluate = _Evaluator(gear, basis, mom, load, extra)
+    i, j = pr.best
+    evaluate.least, evaluate.best = floor, (float(pr.two_z[i]), float(pr.z_gb[j]))
+    refined = [False, False]
+    if any(sharp):
+        # the other clearance's marginal, taken over the grid alone, would read high against
+        # a minimum found between grid points: both are profiled again
+        # A clearance the data bound from one side only (its 95 % set runs to the grid's end:
+        # no contact at the loads seen) is searched on its grid values alone: between them a
+        # search would place a contact at the highest loads wherever the noise likes it best
+        # (a change point's place is a free parameter), lowering the least RSS, and with it
+        # narrowing the other clearance's interval, for no real evidence.
+        opened = []
+        for axis in (0, 1):
+            inside = _accepted(marginals[axis].rss, floor, scale)
+            opened.append(bool(inside.size) and int(inside.max()) == grids[axis].size - 1)
+        axes = [_Axis(evaluate, axis, grids[1 - axis], marginals[axis], opened[1 - axis]) for axis in (0, 1)]
+        for axis in (0, 1):
+            inside = _accepted(marginals[axis].rss, floor, scale)
+            if grids[axis].size <= 2 or not inside.size:
+                continue
+            if opened[axis]:
+                _open_axis(axes[axis], scale)
+            else:
+                steps[axis] = _refine_axis(axes[axis], grids[axis], scale)
+                refined[axis] = True
+        marginals = [a.marginal() for a in axes]
+    grid_pairs = np.stack([np.repeat(grids[0], grids[1].size), np.tile(grids[1], grids[0].size)], axis=1)
+    pairs = np.concatenate([grid_pairs, *evaluate.pairs]) if evaluate.pairs else grid_pairs
+    rss = np.concatenate([pr.rss.ravel(), *evaluate.rss]) if evaluate.rss else pr.rss.ravel()
+    # the least pair evaluated, wherever its search found it, stands in both marginals, so
+    # each reaches the profile's minimum (any pair bounds the least RSS at its values)
+    k = int(np.argmin(rss))
+    for axis in (0, 1):
+        m = marginals[axis]
+        marginals[axis] = _merged(np.append(m.axis, pairs[k, axis]), np.append(m.rss, rss[k]),
+                                  np.append(m.other, pairs[k, 1 - axis]))
+    return Refined(marginals[0], marginals[1], pairs, rss, (steps[0], steps[1]), (refined[0], refined[1]))
