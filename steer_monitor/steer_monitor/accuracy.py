@@ -48,7 +48,8 @@ from steer_monitor.model.loadshare import STAGE_CLAMPED, load_sharing
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
 
 __all__ = ['FRACTIONS', 'GRID_2Z_MM', 'GRID_ZGB_MM', 'LONG_PROGRAMMES', 'MAGNITUDE', 'PAIRS', 'PROGRAMMES', 'SIZE', 'Case',
-           'CaseResult', 'cases', 'coverage_interval', 'long_voyage_cases', 'model_misfit', 'programme_text', 'run_case',
+           'CaseResult', 'cases', 'coverage_interval', 'long_voyage_cases', 'model_misfit', 'off_grid_cases',
+           'programme_text', 'run_case',
            'scaled_effect', 'sensitivity_cases', 'summarize', 'summarize_sensitivity', 'true_forces']
 
 GRID_2Z_MM = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6)
@@ -161,6 +162,25 @@ def cases(programmes: Iterable[str], grid_2z_mm: Sequence[float] = GRID_2Z_MM,
                 for zg in grid_zgb_mm:
                     out.append(Case(p, float(tz), float(zg), seed))
                     seed += 1
+    return out
+
+
+def off_grid_cases(programmes: Iterable[str], n: int, first_seed: int = 9001,
+                   range_2z_mm: tuple[float, float] = (0.1, 0.6),
+                   range_zgb_mm: tuple[float, float] = (0.05, 0.35)) -> list[Case]:
+    """``n`` logs per programme whose true clearances are drawn uniformly over the study's
+    ranges (to 0.1 um), so they fall between the estimator's grid points as real clearances
+    do: the grid study's all lie on them (0.02 mm steps of 2Z, 0.005 mm of Z_gb). The draws
+    come from ``first_seed``, 2Z then Z_gb for each log in turn, the log's seed counting on
+    from it; each programme draws the same clearances."""
+    out: list[Case] = []
+    for p in programmes:
+        programme_text(p)
+        rng = np.random.default_rng(first_seed)
+        for k in range(n):
+            tz = round(float(rng.uniform(*range_2z_mm)), 4)
+            zg = round(float(rng.uniform(*range_zgb_mm)), 4)
+            out.append(Case(p, tz, zg, first_seed + k))
     return out
 
 

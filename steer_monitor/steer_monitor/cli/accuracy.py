@@ -243,8 +243,11 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
         grid_2z_mm: Sequence[float] = A.GRID_2Z_MM, grid_zgb_mm: Sequence[float] = A.GRID_ZGB_MM,
         seeds: int = 1, jobs: int | None = None, out_md: str | Path | None = 'docs/accuracy.md',
         json_out: str | Path | None = None, command: str = 'steer-monitor accuracy',
-        out: TextIO | None = None, sensitivity_seeds: int = 0, long_seeds: int = 0) -> int:
+        out: TextIO | None = None, sensitivity_seeds: int = 0, long_seeds: int = 0, off_grid: int = 0) -> int:
     out = out or sys.stdout
+    if off_grid < 0:
+        msg = f'--off-grid must be 0 or more, got {off_grid}'
+        raise ParameterError(msg)
     if seeds < 1:
         msg = f'--seeds must be at least 1, got {seeds}'
         raise ParameterError(msg)
@@ -258,7 +261,8 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
         msg = f'--jobs must be at least 1, got {jobs}'
         raise ParameterError(msg)
     try:
-        todo = A.cases(programmes, grid_2z_mm, grid_zgb_mm, seeds)
+        todo = (A.off_grid_cases(programmes, off_grid) if off_grid
+                else A.cases(programmes, grid_2z_mm, grid_zgb_mm, seeds))
         n_clean = len(todo)
         sens_todo = A.sensitivity_cases(sensitivity_seeds) if sensitivity_seeds else []
         long_effects, long_clean = A.long_voyage_cases(long_seeds) if long_seeds else ([], [])
@@ -323,13 +327,17 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser('accuracy', help='accuracy study of the clearance estimator over simulated logs',
                        description='Simulate a grid of true clearances under several helm programmes, analyze '
-                                   'each log, and tabulate error and 95 %% interval coverage.')
+                                   'each log, and tabulate error and 95 % interval coverage.')
     p.add_argument('--config', help='ROS 2 parameters file (default: the packaged config/r18.yaml)')
     p.add_argument('--programmes', default=','.join(A.PROGRAMMES),
                    help=f'comma-separated, from {", ".join(A.PROGRAMMES)} (default: all)')
     p.add_argument('--grid-2z-mm', help='true 2Z values, mm (default: ' + ','.join(map(str, A.GRID_2Z_MM)) + ')')
     p.add_argument('--grid-zgb-mm', help='true Z_gb values, mm (default: ' + ','.join(map(str, A.GRID_ZGB_MM)) + ')')
     p.add_argument('--seeds', type=int, default=1, help='logs per grid point and programme (default: 1)')
+    p.add_argument('--off-grid', type=int, default=0, metavar='N',
+                   help='instead of the grid of true clearances, N logs per programme whose clearances are drawn '
+                        'uniformly over 2Z 0.1-0.6 mm and Z_gb 0.05-0.35 mm (seeds 9001 on), between the '
+                        "estimator's grid points as real clearances are (default: 0, the grid)")
     p.add_argument('--jobs', type=int, help='worker processes (default: one per core)')
     p.add_argument('--sensitivity-seeds', type=int, default=0,
                    help='logs per effect and magnitude in the residual loop\'s sensitivity study (default: 0, '
@@ -346,5 +354,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                    _parse_grid(a.grid_2z_mm, A.GRID_2Z_MM, '--grid-2z-mm'),
                    _parse_grid(a.grid_zgb_mm, A.GRID_ZGB_MM, '--grid-zgb-mm'),
                    a.seeds, a.jobs, a.out, a.json_out, command='steer-monitor accuracy ' + ' '.join(sys.argv[2:]),
-                   sensitivity_seeds=a.sensitivity_seeds, long_seeds=a.long_seeds)
+                   sensitivity_seeds=a.sensitivity_seeds, off_grid=a.off_grid, long_seeds=a.long_seeds)
     p.set_defaults(handler=handler)
