@@ -208,6 +208,10 @@ def run(path: str | Path, config: str | Path | None = None, json_out: str | Path
 
 def _fmt(d: dict[str, Any], unit: str) -> str:
     lo, hi = d['ci95']
+    if hi is None and lo is not None:
+        # the data bound it from below only: the profile's best point on its plateau is
+        # no estimate, and printed first it read as one (2Z 0.3 mm for a true 0.7 mm)
+        return f">= {lo} {unit}  (lower bound only)"
     return (f"{d['value']} {unit}  [{'-' if lo is None else lo} .. "
             f"{'unbounded' if hi is None else hi}]")
 
@@ -226,7 +230,7 @@ def _summary(r: dict[str, Any], out: TextIO) -> None:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser('analyze', help='estimate the clearances from a log and test the residual',
                        description='Fit the declared model to a CAN log (.log, .asc, .blf, .mcap), profile '
-                                   'the clearances with 95 %% intervals, test the residual against the '
+                                   'the clearances with 95 % intervals, test the residual against the '
                                    'library of candidate effects and refit with the one the data support.')
     p.add_argument('log', help='the log file')
     p.add_argument('--config', help='ROS 2 parameters file (default: packaged R-18)')
