@@ -322,7 +322,8 @@ class OnlineEstimator:
         except EstimateError:
             return False
         self._point = (float(est.two_z.value), float(est.z_gb.value))
-        self._steps = est.steps
+        grid_steps = (float(self.grid_2z[1] - self.grid_2z[0]), float(self.grid_zgb[1] - self.grid_zgb[0]))
+        self._steps = tuple(h if h > 0 else g for h, g in zip(est.steps, grid_steps))   # type: ignore[assignment]
         self._coef = est.fit.coef
         self._motion_since_full = 0.0
         self.estimate = OnlineEstimate(est.two_z, est.z_gb, est.k_gl_max, self.moments.samples,
@@ -380,7 +381,7 @@ class OnlineEstimator:
             raise EstimateError(msg) from exc
         if not isinstance(meta, dict) or meta.get('version') not in READS:
             version = meta.get('version') if isinstance(meta, dict) else None
-            msg = f'estimator state {path}: format version {version}, this build reads {STATE_VERSION}'
+            msg = f'estimator state {path}: format version {version}, this build reads {" or ".join(map(str, READS))}'
             raise EstimateError(msg)
         try:
             same_gear = bool(np.allclose(meta.get('gear', []), _gear_signature(self.gear)))

@@ -192,7 +192,7 @@ def _rewritten(saved: Path, out: Path, **changes) -> Path:
     ({'meta_steps': [0.0, 1e-6]}, r'local steps \[0.0, 1e-06\] m must be positive'),
     ({'meta_steps': [1e-3, 1e-6]}, r'at most the grid steps'),
     ({'meta_version': 2, 'meta_best': [99999, 0]}, r'best grid point \(99999, 0\) outside the grid'),
-    ({'meta_version': 1}, r'format version 1, this build reads 3'),
+    ({'meta_version': 1}, r'format version 1, this build reads 2 or 3'),
     ({'meta_vif': -1.0}, r'must be finite and not negative'),
     ({'meta_motion_s': 'a lot'}, r'could not convert string to float'),
     ({'meta_estimate': {'two_z': 1}}, r'damaged'),

@@ -59,9 +59,9 @@ def test_refined_minimum_is_the_optimisers(r18, clamped):
 
     i, j = pr.best
     start = np.array([pr.two_z[i], pr.z_gb[j]]) * 1e6
+    simplex = [start, start + [5, 0], start + [0, 2]]
     nm = minimize(rss, start, method='Nelder-Mead',
-                  options={'xatol': 1e-3, 'fatol': 1e-4 * scale, 'initial_simplex': [start, start + [5, 0], start + [0, 2]],
-                           'maxiter': 2000})
+                  options={'xatol': 1e-3, 'fatol': 1e-4 * scale, 'initial_simplex': simplex, 'maxiter': 2000})
     assert float(ref.rss.min()) <= nm.fun + 0.05 * scale
     assert float(pr.rss.min()) > float(ref.rss.min()) + 10 * scale       # the grid's best was well off
     tz, zg = ref.best
@@ -90,7 +90,8 @@ def test_marginal_is_the_conditional_minimum(r18, clamped, axis):
             pair = (np.array([x]), np.array([y])) if axis == 0 else (np.array([y]), np.array([x]))
             return float(fitter.fit(*pair).rss[0])
 
-        lo, hi = float(m.other[k]) - 2 * (other_grid[1] - other_grid[0]), float(m.other[k]) + 2 * (other_grid[1] - other_grid[0])
+        reach = 2 * float(other_grid[1] - other_grid[0])
+        lo, hi = float(m.other[k]) - reach, float(m.other[k]) + reach
         best = minimize_scalar(at, bounds=(lo, hi), method='bounded', options={'xatol': 1e-10})
         assert (m.rss[k] - best.fun) / scale <= 0.1, (x, m.rss[k], best.fun)
 
