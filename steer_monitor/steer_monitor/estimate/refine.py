@@ -13,12 +13,17 @@ Here each clearance whose 95 % set on the grid spans fewer than ``SHARP_STEPS`` 
 is profiled again on a finer axis: at each of its values the other clearance is searched
 for the least RSS (the two are correlated: the profile is a tilted ridge, so a box of fine
 points around the grid's best would miss its minimum), first on the other axis's grid
-steps, moving on while the least lies at the edge of the points tried, then on a quarter
-and a sixteenth of them. The finer axis runs over the grid's 95 % set and a step either
-side, widened while the set still reaches its ends, and made finer again, around its own
-95 % set, while that holds fewer than ``MIN_POINTS`` points. The result is each clearance's
-marginal profile (least RSS over the other clearance) on the merged axis, and every pair
-evaluated, from which the estimate takes its best point, intervals and joint region.
+steps, moving on while the least lies at the edge of the points tried, then on a quarter, a
+sixteenth and a sixty-fourth of them, last at the vertex of a parabola through the best and
+its neighbours. The finer axis runs over the grid's 95 % set and a step either side,
+widened while the set still reaches its ends, and made finer again, around its own 95 %
+set, while that holds fewer than ``MIN_POINTS`` points. A clearance the data bound from one
+side only (its set runs to the grid's end) is searched on its grid values alone, as the
+profiled axis and as the other one: between them a search would place a contact at the
+highest loads wherever the noise liked it best and narrow the other clearance's interval
+for nothing. The result is each clearance's marginal profile (least RSS over the other
+clearance) on the merged axis, and every pair evaluated, from which the estimate takes its
+best point, intervals and joint region.
 
 RSS here is the profile's (friction features per angle cell, :func:`~steer_monitor.estimate.fit.fit_points`),
 so refined and grid points compare on the same footing.
