@@ -42,7 +42,9 @@ def _plots(a: Analysis) -> dict[str, str]:
         ax[k].axhline(CHI2_1_95, color='tab:red', ls='--', label='95 % threshold')
         ax[k].set_xlabel(label)
         ax[k].set_ylabel('profile deviance (capped at 50)')
-        ax[k].set_title(f'{label}: {iv.value * 1e3:.3f} mm')
+        one_sided = iv.hi is None and iv.lo is not None      # the plateau's best point is no estimate
+        ax[k].set_title(f'{label}: >= {iv.lo * 1e3:.3f} mm (lower bound only)' if one_sided
+                        else f'{label}: {iv.value * 1e3:.3f} mm')
         ax[k].legend(loc='upper right')
     out['profiles'] = png_base64(fig)
     angles, torque, band = f.torque_curve
