@@ -124,8 +124,8 @@ class OnlineEstimator:
         self._motion_since_full = 0.0
         self._new_motion = 0.0
         self._point: tuple[float, float] | None = None    # the current best (2Z, Z_gb) [m] ...
-        self._steps: tuple[float, float] = (float(self.grid_2z[1] - self.grid_2z[0]),
-                                            float(self.grid_zgb[1] - self.grid_zgb[0]))   # ... and the local step
+        self._grid_steps = (float(self.grid_2z[1] - self.grid_2z[0]), float(self.grid_zgb[1] - self.grid_zgb[0]))
+        self._steps: tuple[float, float] = self._grid_steps                # ... and the local step
         self._coef: np.ndarray | None = None
         self._delta_profile: tuple[np.ndarray, np.ndarray] | None = None
         self._recent: deque[tuple] = deque(maxlen=RESID_KEEP)   # recent rows, for the inflation
@@ -322,8 +322,7 @@ class OnlineEstimator:
         except EstimateError:
             return False
         self._point = (float(est.two_z.value), float(est.z_gb.value))
-        grid_steps = (float(self.grid_2z[1] - self.grid_2z[0]), float(self.grid_zgb[1] - self.grid_zgb[0]))
-        self._steps = tuple(h if h > 0 else g for h, g in zip(est.steps, grid_steps))   # type: ignore[assignment]
+        self._steps = tuple(h if h > 0 else g for h, g in zip(est.steps, self._grid_steps))   # type: ignore[assignment]
         self._coef = est.fit.coef
         self._motion_since_full = 0.0
         self.estimate = OnlineEstimate(est.two_z, est.z_gb, est.k_gl_max, self.moments.samples,
@@ -408,7 +407,7 @@ class OnlineEstimator:
         if moments.z_names != (SPEED_Z,):
             msg = f'moments of columns {list(moments.z_names)}, expected {[SPEED_Z]}'
             raise ValueError(msg)
-        grid_steps = (float(self.grid_2z[1] - self.grid_2z[0]), float(self.grid_zgb[1] - self.grid_zgb[0]))
+        grid_steps = self._grid_steps
         point: tuple[float, float] | None = None
         steps = grid_steps
         if meta.get('version') == 2:        # the best as grid indices, the grid's steps

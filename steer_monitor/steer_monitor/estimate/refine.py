@@ -107,7 +107,8 @@ class _Evaluator:
 
     def __init__(self, gear: GearParams, basis: F.TorqueBasis, mom: Moments, load: NDArray[np.float64],
                  extra: Sequence[F.Column]) -> None:
-        self.fitter = F.PointFitter(gear, basis, mom, load, extra)
+        self.problem = (gear, basis, mom, load, tuple(extra))
+        self.fitter: F.PointFitter | None = None     # built at the first pair: most profiles need none
         self.pairs: list[NDArray[np.float64]] = []
         self.rss: list[NDArray[np.float64]] = []
         self.least = np.inf     # the least RSS evaluated so far [N^2] ...
@@ -116,6 +117,8 @@ class _Evaluator:
     def __call__(self, two_z: NDArray[np.float64], z_gb: NDArray[np.float64]) -> NDArray[np.float64]:
         shape = two_z.shape
         tz, zg = two_z.ravel(), z_gb.ravel()
+        if self.fitter is None:
+            self.fitter = F.PointFitter(*self.problem)
         rss = self.fitter.fit(tz, zg).rss
         self.pairs.append(np.stack([tz, zg], axis=1))
         self.rss.append(rss)
@@ -315,31 +318,25 @@ def refine_profile(gear: GearParams, basis: F.TorqueBasis, mom: Moments, load: N
     scale = floor / max(pr.n - pr.p, 1.0)
     grids = (np.asarray(pr.two_z, float), np.asarray(pr.z_gb, float))
     steps = [float(g[1] - g[0]) if g.size > 1 else 0.0 for g in grids]
-    sharp = []
-    for m, g in zip(marginals, grids):
-        inside = _accepted(m.rss, floor, scale)
-        sharp.append(g.size > 2 and inside.size > 0 and int(inside.max() - inside.min()) < SHARP_STEPS
-                     and scale > 0)
+    inside = [_accepted(m.rss, floor, scale) for m in marginals]     # each clearance's 95 % set on the grid
+    sharp = [g.size > 2 and k.size > 0 and int(k.max() - k.min()) < SHARP_STEPS and scale > 0
+             for g, k in zip(grids, inside)]
     evaluate = _Evaluator(gear, basis, mom, load, extra)
     i, j = pr.best
     evaluate.least, evaluate.best = floor, (float(pr.two_z[i]), float(pr.z_gb[j]))
     refined = [False, False]
     if any(sharp):
-        # the other clearance's marginal, taken over the grid alone, would read high against
-        # a minimum found between grid points: both are profiled again
-        # A clearance the data bound from one side only (its 95 % set runs to the grid's end:
-        # no contact at the loads seen) is searched on its grid values alone: between them a
-        # search would place a contact at the highest loads wherever the noise likes it best
-        # (a change point's place is a free parameter), lowering the least RSS, and with it
-        # narrowing the other clearance's interval, for no real evidence.
-        opened = []
-        for axis in (0, 1):
-            inside = _accepted(marginals[axis].rss, floor, scale)
-            opened.append(bool(inside.size) and int(inside.max()) == grids[axis].size - 1)
+        # Both are profiled again: the other clearance's marginal, taken over the grid alone,
+        # would read high against a minimum found between grid points. A clearance the data
+        # bound from one side only (its 95 % set runs to the grid's end: no contact at the
+        # loads seen) is searched on its grid values alone: between them a search would place
+        # a contact at the highest loads wherever the noise likes it best (a change point's
+        # place is a free parameter), lowering the least RSS, and with it narrowing the other
+        # clearance's interval, for no real evidence.
+        opened = [bool(k.size) and int(k.max()) == g.size - 1 for g, k in zip(grids, inside)]
         axes = [_Axis(evaluate, axis, grids[1 - axis], marginals[axis], opened[1 - axis]) for axis in (0, 1)]
         for axis in (0, 1):
-            inside = _accepted(marginals[axis].rss, floor, scale)
-            if grids[axis].size <= 2 or not inside.size:
+            if grids[axis].size <= 2 or not inside[axis].size:
                 continue
             if opened[axis]:
                 _open_axis(axes[axis], scale)
