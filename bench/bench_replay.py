@@ -140,7 +140,6 @@ def _child(*args: str, capture: bool = False) -> str:
     """Run this benchmark with ``args`` in a fresh process; its stdout (when ``capture``)."""
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
     root = Path(__file__).resolve().parent.parent
-    env['PYTHONPATH'] = os.pathsep.join([str(root / 'steer_monitor'), str(root)]) + os.pathsep + env.get('PYTHONPATH', '')
     return subprocess.run([sys.executable, '-m', 'bench.bench_replay', *args], env=env, cwd=root,
                           capture_output=capture, text=True, check=True).stdout or ''
 

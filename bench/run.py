@@ -16,7 +16,6 @@ BENCHMARKS = ('bench.bench_loadshare', 'bench.bench_decode', 'bench.bench_estima
 
 def main() -> int:
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
-    env['PYTHONPATH'] = os.pathsep.join([str(ROOT / 'steer_monitor'), str(ROOT)]) + os.pathsep + env.get('PYTHONPATH', '')
     failed = 0
     for module in BENCHMARKS:
         result = subprocess.run([sys.executable, '-m', module], cwd=ROOT, env=env)

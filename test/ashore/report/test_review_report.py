@@ -135,14 +135,14 @@ def test_clearances_of_older_recordings_are_read(tmp_path):
 
     from steer_monitor.can.mcapio import McapWriter
     from steer_monitor.ashore.report.logreport import online_track
-    from steer_monitor.monitor.messages import CLEARANCE_LABELS_V1
+    from steer_monitor.monitor.messages import CLEARANCE_NAMES
     from steer_monitor.record import msgdef
     dt = 'std_msgs/msg/Float64MultiArray'
     path = tmp_path / 'old.mcap'
     with McapWriter(path) as w:
         w.add_schema(dt, msgdef(dt))
         w.add_channel('/steer_monitor/clearances', dt)
-        for k, labels in enumerate((CLEARANCE_LABELS_V1, ('something', 'else'))):
+        for k, labels in enumerate((CLEARANCE_NAMES, ('something', 'else'))):
             data = [0.6e-3, 0.2e-3, math.nan, 0.25e-3, 0.24e-3, 0.27e-3][:len(labels)]
             w.write('/steer_monitor/clearances', {'layout': {'dim': [{'label': ','.join(labels), 'size': len(labels),
                                                                       'stride': len(labels)}], 'data_offset': 0},

@@ -11,7 +11,7 @@ time only when the bus has been silent for more than 1.5 s (that is where STALE 
 recorder writes MCAP on its own thread. SIGINT and SIGTERM shut down cleanly: the outputs of
 the last frames, the estimator state, and the MCAP file finished.
 
-Topics (standard message types and steer_monitor_msgs) are listed in
+Topics (standard message types only) are listed in
 :mod:`steer_monitor.monitor.messages`.
 """
 
@@ -27,7 +27,6 @@ from pathlib import Path
 from typing import Any
 
 from rclpy.node import Node
-from rclpy.serialization import serialize_message
 
 from steer_monitor.atomic import ensure_dir
 from steer_monitor.can.bus import BusReader, ListenOnlyBus
@@ -47,6 +46,7 @@ from steer_monitor.monitor.pipeline import (DiagOut, EstimateSnapshot, Output, P
 from steer_monitor.node.params_ros import declare_parameters
 from steer_monitor.node.rosmsg import message_class, to_ros
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
+from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.record.msgdefs import msgdef
 from steer_monitor.record.provenance import run_metadata
 from steer_monitor.record.recorder import Recorder
@@ -288,8 +288,8 @@ class MonitorNode(Node):
         except Exception:    # rclpy's errors once its context is shut down; only while closing
             if not self._closing:
                 raise
-        if self.recorder is not None:
-            self.recorder.write(pub.topic_name, serialize_message(msg), t_ns)
+        if self.recorder is not None:    # the bytes replay writes (Fast-CDR pads empty sequences otherwise)
+            self.recorder.write(pub.topic_name, FAST_ENCODERS[datatype](fields), t_ns)
 
     def _publish_outputs(self, outs: list[Output]) -> None:
         for o in outs:

@@ -20,9 +20,8 @@ def message_class(datatype: str) -> type:
     try:
         module = importlib.import_module(f'{pkg}.msg')
     except ImportError as exc:
-        hint = (' (build it: colcon build --packages-up-to steer_monitor, then source install/setup.bash; '
-                'in the venv: make venv)') if pkg == 'steer_monitor_msgs' else ''
-        raise SteerMonitorError(f'message type {datatype}: cannot import {pkg}: {exc}{hint}') from None
+        raise SteerMonitorError(f'message type {datatype}: cannot import {pkg}: {exc} (is ROS 2 sourced? '
+                                'source /opt/ros/<distro>/setup.bash)') from None
     try:
         return getattr(module, name)
     except AttributeError:

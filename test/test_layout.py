@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from test.conftest import PKG, ROOT
+from test.conftest import ROOT
 
 pytestmark = pytest.mark.layout
 
@@ -27,18 +27,10 @@ IGNORE = shutil.ignore_patterns('.venv', '.git', 'build', 'install', 'log', 'out
 
 
 def _source_copy(tmp_path: Path) -> Path:
-    """A copy of the steer_monitor package (what pip installs) -> its directory."""
+    """A copy of the repository (the ROS package at its root, what pip installs and what a
+    workspace's ``src/`` holds as a clone) -> its directory."""
     src = tmp_path / 'src' / 'steer_monitor'
-    shutil.copytree(PKG, src, ignore=IGNORE)
-    return src
-
-
-def _repository_copy(tmp_path: Path) -> Path:
-    """A copy of the repository's two ROS packages as a clone in a workspace's src/ holds them
-    -> the src directory."""
-    src = tmp_path / 'src'
-    for name in ('steer_monitor', 'steer_monitor_msgs'):
-        shutil.copytree(ROOT / name, src / 'steer_monitor' / name, ignore=IGNORE)
+    shutil.copytree(ROOT, src, ignore=IGNORE)
     return src
 
 
@@ -97,21 +89,20 @@ def test_pip_install_layout(tmp_path):
 
 @pytest.mark.skipif(shutil.which('colcon', path=str(BIN)) is None, reason='colcon-core is not installed')
 def test_colcon_build_layout(tmp_path):
-    """``colcon build`` in a workspace whose src/ holds the repository finds both packages,
-    builds the messages with the ROS 2 pip wheels (CMake and a C compiler from the system),
-    and the node's package runs from the install; the typed messages go through rclpy."""
-    src = _repository_copy(tmp_path)
+    """``colcon build`` in a workspace whose src/ holds the clone finds the one package at its
+    root (ament_python: no compiler, no CMake), and it runs from the install: its commands,
+    its launch file, and its messages through rclpy."""
+    src = _source_copy(tmp_path).parent
     ws = tmp_path / 'ws'
     ws.mkdir()
     venv = str(Path(sys.prefix))
     done = subprocess.run([str(BIN / 'colcon'), 'build', '--base-paths', str(src), '--event-handlers',
-                           'console_direct-', '--cmake-args', f'-DPython3_EXECUTABLE={sys.executable}',
-                           '-DBUILD_TESTING=OFF'], cwd=ws, env=_env(
-        PATH=f'{BIN}{os.pathsep}{os.environ.get("PATH", "")}', CMAKE_PREFIX_PATH=venv, AMENT_PREFIX_PATH=venv),
+                           'console_direct-'], cwd=ws, env=_env(
+        PATH=f'{BIN}{os.pathsep}{os.environ.get("PATH", "")}', AMENT_PREFIX_PATH=venv),
         capture_output=True, text=True)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
-    assert 'Finished <<< steer_monitor_msgs' in done.stdout and 'Finished <<< steer_monitor ' in done.stdout
-    _check_messages(ws / 'install' / 'steer_monitor_msgs')
+    assert 'Finished <<< steer_monitor ' in done.stdout and 'cmake' not in done.stdout.lower()
+    assert sorted(p.name for p in (ws / 'install').iterdir() if p.is_dir()) == ['steer_monitor']
     install = ws / 'install' / 'steer_monitor'
     share = install / 'share' / 'steer_monitor'
     assert (share / 'package.xml').is_file()
@@ -126,52 +117,52 @@ def test_colcon_build_layout(tmp_path):
     assert monitor.is_file() and os.access(monitor, os.X_OK)
     assert "'console_scripts', 'monitor'" in monitor.read_text() or 'monitor_node' in monitor.read_text()
     site = install / 'lib' / f'python{sys.version_info.major}.{sys.version_info.minor}' / 'site-packages'
-    env = _env(PYTHONPATH=str(site), AMENT_PREFIX_PATH=str(install))
+    env = _env(PYTHONPATH=str(site), AMENT_PREFIX_PATH=f'{install}{os.pathsep}{sys.prefix}')
     _check_installed(sys.executable, script, env, share)
+    _check_messages(site, env)
 
 
 ROUND_TRIP = """
-import math, time
+import math, sys, time
 import rclpy
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.serialization import deserialize_message, serialize_message
-from steer_monitor_msgs.msg import Clearances, LoadSharing
-from steer_monitor.node.rosmsg import to_ros
-m = to_ros('steer_monitor_msgs/msg/Clearances', {
-    'header': {'stamp': {'sec': 7, 'nanosec': 8}, 'frame_id': 'steering_gear'},
-    'gap_2z_m': {'value': 6e-4, 'lo': 5e-4, 'hi': math.nan, 'bounded': False},
-    'gap_zgb_m': {'value': 2.5e-4, 'lo': 2.4e-4, 'hi': 2.7e-4, 'bounded': True}})
-assert deserialize_message(serialize_message(m), Clearances).gap_zgb_m.hi == 2.7e-4
+from sensor_msgs.msg import JointState
+from steer_monitor.model.gear import Gaps
+from steer_monitor.monitor.messages import CLEARANCE_NAMES, TOPICS, diag_messages
+from steer_monitor.monitor.pipeline import DiagOut
+from steer_monitor.node.rosmsg import message_class, to_ros
+import steer_monitor
+assert all(message_class(t) for _, t in TOPICS.values())
+out = DiagOut(7_000_000_008, (), Gaps(6e-4, 2.5e-4), {'2z': (5e-4, None), 'zgb': (2.4e-4, 2.7e-4)}, 'estimated')
+fields = next(f for k, _, f in diag_messages(out) if k == 'clearances')
+m = to_ros('sensor_msgs/msg/JointState', fields)
+assert deserialize_message(serialize_message(m), JointState).position[5] == 2.7e-4
 ctx = rclpy.Context()
 rclpy.init(context=ctx)
 node = rclpy.create_node('layout_check', context=ctx)
-from rclpy.executors import SingleThreadedExecutor
 ex = SingleThreadedExecutor(context=ctx)
 ex.add_node(node)
 got = []
-node.create_subscription(Clearances, '/layout_check/clearances', got.append, 10)
-pub = node.create_publisher(Clearances, '/layout_check/clearances', 10)
+node.create_subscription(JointState, '/layout_check/clearances', got.append, 10)
+pub = node.create_publisher(JointState, '/layout_check/clearances', 10)
 deadline = time.time() + 20
 while not got and time.time() < deadline:
     pub.publish(m)
     ex.spin_once(timeout_sec=0.1)
-assert got and got[0].gap_2z_m.value == 6e-4 and math.isnan(got[0].gap_2z_m.hi), got
-import steer_monitor_msgs
-print('ok', LoadSharing.STAGE_GUIDE, steer_monitor_msgs.__file__)
+values = dict(zip(got[0].name, got[0].position))
+assert list(got[0].name) == list(CLEARANCE_NAMES) and values['gap_2z_m'] == 6e-4 and math.isnan(values['gap_2z_hi_m'])
+print('ok', steer_monitor.__file__)
 ex.shutdown()
 node.destroy_node()
 rclpy.shutdown(context=ctx)
 """
 
 
-def _check_messages(install: Path) -> None:
-    """The built message package from its install (what ``source install/setup.bash`` puts on
-    the paths): rclpy serializes, publishes (loopback) and receives a Clearances."""
-    site = install / 'lib' / f'python{sys.version_info.major}.{sys.version_info.minor}' / 'site-packages'
-    assert (install / 'share' / 'steer_monitor_msgs' / 'msg' / 'Clearances.msg').is_file()
-    env = _env(PYTHONPATH=f'{site}{os.pathsep}{PKG}', LD_LIBRARY_PATH=str(install / 'lib'),
-               AMENT_PREFIX_PATH=f'{install}{os.pathsep}{sys.prefix}')
-    env.pop('_ROS_WHEELS_BOOTSTRAP_COMPLETE', None)   # the venv's start-up adds its own libraries again
+def _check_messages(site: Path, env: dict[str, str]) -> None:
+    """The installed package's messages: rclpy makes, serializes, publishes (loopback) and
+    receives the clearances, standard interfaces from the ROS 2 install alone."""
     out = subprocess.run([sys.executable, '-c', ROUND_TRIP], env=env, capture_output=True, text=True, timeout=120,
-                         cwd=install)
-    assert out.returncode == 0 and out.stdout.split()[:2] == ['ok', '4'], out.stderr[-2000:]
-    assert Path(out.stdout.split()[2]).is_relative_to(install)   # the build's module, not the venv's
+                         cwd=site)
+    assert out.returncode == 0 and out.stdout.split()[:1] == ['ok'], out.stderr[-2000:]
+    assert Path(out.stdout.split()[1]).is_relative_to(site)   # the install's module, not the checkout's

@@ -14,8 +14,8 @@ os.environ.setdefault('MPLBACKEND', 'Agg')
 from steer_monitor.model import GearParams  # noqa: E402
 from steer_monitor.params import gear_from_params, load_params_file  # noqa: E402
 
-PKG = Path(__file__).resolve().parent.parent   # this ROS package: steer_monitor/ in the repository
-ROOT = PKG.parent                               # the repository (steer_monitor and steer_monitor_msgs)
+ROOT = Path(__file__).resolve().parent.parent  # the repository: one ament_python package at its root
+PKG = ROOT                                      # the ROS package (package.xml, setup.py) is the root
 SHARED = ROOT.parent / 'shared'                 # ../shared beside the repository
 R18_YAML = PKG / 'config' / 'r18.yaml'
 

@@ -16,7 +16,7 @@ from typing import Any
 
 from steer_monitor.atomic import os_reason
 from steer_monitor.errors import OutputError
-from steer_monitor.monitor.messages import CLEARANCE_LABELS_V1
+from steer_monitor.monitor.messages import CLEARANCE_NAMES
 
 __all__ = ['online_track', 'remove_report_debris', 'report_input', 'write_report_dir']
 
@@ -61,20 +61,21 @@ def online_track(paths: Sequence[Path]) -> Any:
 
 def _clearance_values(msg: Any) -> list[float] | None:
     """2Z, its low and high bound, Z_gb, its bounds [m] (NaN: none) from a ``~/clearances``
-    message: a ``steer_monitor_msgs/Clearances``, or an older recording's named values in a
-    JointState or labelled Float64MultiArray; None for anything else."""
+    message: named values in a ``sensor_msgs/JointState`` (this release's and the first
+    releases'), an earlier release's ``steer_monitor_msgs/Clearances`` (decoded from the schema
+    its recording carries) or labelled ``std_msgs/Float64MultiArray``; None for anything else."""
     two_z, z_gb = getattr(msg, 'gap_2z_m', None), getattr(msg, 'gap_zgb_m', None)
     if two_z is not None and z_gb is not None:
         return [float(v) for e in (two_z, z_gb) for v in (e.value, e.lo, e.hi)]
     names = getattr(msg, 'name', None)
     if names is not None:
         by_name = dict(zip(names, getattr(msg, 'position', [])))
-        if all(k in by_name for k in CLEARANCE_LABELS_V1):
-            return [float(by_name[k]) for k in CLEARANCE_LABELS_V1]
+        if all(k in by_name for k in CLEARANCE_NAMES):
+            return [float(by_name[k]) for k in CLEARANCE_NAMES]
         return None
     layout = getattr(msg, 'layout', None)
     dims = layout.dim if layout is not None else []
-    if dims and dims[0].label == ','.join(CLEARANCE_LABELS_V1) and len(msg.data) == 6:
+    if dims and dims[0].label == ','.join(CLEARANCE_NAMES) and len(msg.data) == 6:
         return [float(v) for v in msg.data]
     return None
 

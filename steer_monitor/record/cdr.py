@@ -1,7 +1,7 @@
 """Direct CDR encoders for the messages published a hundred times a second
-(``sensor_msgs/msg/JointState``: the rudder; ``steer_monitor_msgs/msg/LoadSharing``) and with
-each second's diagnostics (``diagnostic_msgs/msg/DiagnosticArray``,
-``steer_monitor_msgs/msg/Clearances``, ``std_msgs/msg/String``).
+(``sensor_msgs/msg/JointState``: the rudder and the load sharing) and with each second's
+diagnostics (``diagnostic_msgs/msg/DiagnosticArray``, ``sensor_msgs/msg/JointState``: the
+clearances, ``std_msgs/msg/String``).
 
 Why our own: mcap-ros2-support's generic encoder walks the schema per message and costs
 about 150 us each, which made it most of a replay's time; this costs a few us. It takes the
@@ -17,8 +17,7 @@ import struct
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ['FAST_ENCODERS', 'encode_clearances', 'encode_diagnostic_array', 'encode_joint_state', 'encode_load_sharing',
-           'encode_string']
+__all__ = ['FAST_ENCODERS', 'encode_diagnostic_array', 'encode_joint_state', 'encode_string']
 
 _HEADER = b'\x00\x01\x00\x00'
 
@@ -45,9 +44,6 @@ class _Writer:
     def f64(self, *values: float) -> None:
         self.align(8)
         self.buf += struct.pack(f'<{len(values)}d', *values)
-
-    def i8(self, v: int) -> None:
-        self.buf += struct.pack('<b', v)
 
     def u8(self, v: int) -> None:
         self.buf += struct.pack('<B', v)
@@ -88,31 +84,6 @@ def encode_joint_state(m: dict[str, Any]) -> bytes:
     return w.done()
 
 
-_LOAD_SHARING_F64 = ('lateral_n', 'ram_force_n', 'guide_force_n', 'k_gl', 'deflection_m', 'r_a_n', 'r_e_n', 'm_a_nm')
-
-
-def encode_load_sharing(m: dict[str, Any]) -> bytes:
-    """``steer_monitor_msgs/msg/LoadSharing`` (field order of its ``.msg``)."""
-    w = _Writer()
-    w.header(m['header'])
-    w.f64(*(m[k] for k in _LOAD_SHARING_F64))
-    w.i8(m['load_case'])
-    w.u8(m['stages'])
-    return w.done()
-
-
-def encode_clearances(m: dict[str, Any]) -> bytes:
-    """``steer_monitor_msgs/msg/Clearances``: the header, then 2Z and Z_gb as ``Estimate``s
-    (value, lo, hi: float64; bounded: bool)."""
-    w = _Writer()
-    w.header(m['header'])
-    for key in ('gap_2z_m', 'gap_zgb_m'):
-        e = m[key]
-        w.f64(e['value'], e['lo'], e['hi'])
-        w.u8(1 if e['bounded'] else 0)
-    return w.done()
-
-
 def encode_diagnostic_array(m: dict[str, Any]) -> bytes:
     """``diagnostic_msgs/msg/DiagnosticArray``: the header, then each status (byte level,
     name, message, hardware_id, then its key/value strings)."""
@@ -142,6 +113,4 @@ FAST_ENCODERS: dict[str, Callable[[dict[str, Any]], bytes]] = {
     'diagnostic_msgs/msg/DiagnosticArray': encode_diagnostic_array,
     'std_msgs/msg/String': encode_string,
     'sensor_msgs/msg/JointState': encode_joint_state,
-    'steer_monitor_msgs/msg/LoadSharing': encode_load_sharing,
-    'steer_monitor_msgs/msg/Clearances': encode_clearances,
 }

@@ -1,7 +1,7 @@
 """The live model's states as packed MCAP Message records, many at once.
 
 A replay writes a hundred states per second of data, each a ``sensor_msgs/JointState`` (the
-rudder) and, once the pressures are known, a ``steer_monitor_msgs/LoadSharing``. Built one by
+rudder) and, once the pressures are known, another of the load sharing's named values. Built one by
 one (:func:`~steer_monitor.monitor.messages.state_messages`, the CDR encoders of
 :mod:`~steer_monitor.record.cdr`, ``McapWriter.write_cdr``) they cost about 15 us each, a
 sixth of a replay. Both messages have a fixed size, so here the records of a batch of states
@@ -44,7 +44,7 @@ _SHARE = ShareScalar(lateral=11111.1234567891, axial=22222.1234567891, ram_force
                      guide_force=44444.1234567891, k_gl=0.555551234567891, deflection=6.66661234567891e-4,
                      r_a=77777.1234567891, r_e=88888.1234567891, m_a=99999.1234567891, f_theta=1.0, f_z=1.0,
                      case=-3, stages=5)
-_SHARE_FLOATS = ('lateral', 'ram_force', 'guide_force', 'k_gl', 'deflection', 'r_a', 'r_e', 'm_a')
+_SHARE_FLOATS = ('lateral', 'ram_force', 'guide_force', 'k_gl', 'deflection', 'r_a', 'r_e', 'm_a', 'case', 'stages')
 _share_floats = operator.attrgetter(*_SHARE_FLOATS)
 
 
@@ -56,7 +56,6 @@ class _Layout:
     template: bytes
     sec: int
     floats: tuple[int, ...]
-    after_floats: int       # the byte after the last float (load case, stages follow there)
 
 
 def _find(raw: bytes, packed: bytes) -> int:
@@ -69,18 +68,19 @@ def _find(raw: bytes, packed: bytes) -> int:
 
 @cache
 def _layouts() -> tuple[_Layout, _Layout]:
-    """The JointState and LoadSharing records of the sentinel state, and their fields' places."""
+    """The rudder's and the load sharing's JointState records of the sentinel state, and their
+    fields' places."""
     state = LiveState(_T_NS, _ALPHA, _RATE, True, _TORQUE, _SHARE, Gaps(0.0, 0.0))
     (_, _, rudder), (_, _, share) = state_messages(StateOut(state))
     out = []
     for datatype, fields, floats in (('sensor_msgs/msg/JointState', rudder, (_ALPHA, _RATE, _TORQUE)),
-                                     ('steer_monitor_msgs/msg/LoadSharing', share,
-                                      tuple(getattr(_SHARE, k) for k in _SHARE_FLOATS))):
+                                     ('sensor_msgs/msg/JointState', share,
+                                      tuple(float(getattr(_SHARE, k)) for k in _SHARE_FLOATS))):
         cdr = FAST_ENCODERS[datatype](fields)
         rec = _RECORD_HEADER.pack(_MESSAGE, _RECORD_HEADER.size - 9 + len(cdr), 0, 0, 0, 0) + cdr
         sec, nsec = divmod(_T_NS, 1_000_000_000)
         places = tuple(_find(rec, struct.pack('<d', v)) for v in floats)
-        out.append(_Layout(rec, _find(rec, struct.pack('<iI', sec, nsec)), places, places[-1] + 8))
+        out.append(_Layout(rec, _find(rec, struct.pack('<iI', sec, nsec)), places))
     return out[0], out[1]
 
 
@@ -121,23 +121,20 @@ def _fill(layout: _Layout, channel: int, t: NDArray[np.int64], floats: NDArray[n
 
 def _shares(states: Sequence[LiveState], given: NDArray[np.bool_], todo: NDArray[np.bool_],
             alpha: NDArray[np.float64], torque: NDArray[np.float64], gear: GearParams | None
-            ) -> tuple[NDArray[np.float64], NDArray[np.int8], NDArray[np.uint8]]:
+            ) -> NDArray[np.float64]:
     """The load sharing of the states that carry one (``given``) or are to have theirs solved
-    (``todo``), in state order: (floats (m, 8) in the layout's order, load cases, stages). The
+    (``todo``), in state order: floats (m, 10) in the layout's order (the load case and stages
+    as floats, as the message carries them). The
     states left to the caller (:meth:`~steer_monitor.monitor.live.LiveMonitor.slot_state`) are
     solved all at once by :func:`~steer_monitor.model.loadshare.load_sharing_scalars` (the
     live monitor's numbers, to the bit)."""
     has = given | todo
     m = int(np.count_nonzero(has))
     floats = np.empty((m, len(_SHARE_FLOATS)))
-    case = np.empty(m, np.int8)
-    stages = np.empty(m, np.uint8)
     mine, solved = given[has], todo[has]
     if mine.any():
         known = [s.share for s in states if s.share is not None]
         floats[mine] = np.array([_share_floats(x) for x in known], float)
-        case[mine] = np.array([x.case for x in known], np.int64).astype(np.int8)
-        stages[mine] = np.array([x.stages for x in known], np.uint8)
     if solved.any():
         assert gear is not None
         idx = np.flatnonzero(todo)
@@ -145,14 +142,13 @@ def _shares(states: Sequence[LiveState], given: NDArray[np.bool_], todo: NDArray
         z_gb = np.fromiter((states[i].gaps.z_gb for i in idx.tolist()), float, idx.size)
         ls = load_sharing_scalars(gear, alpha[idx], torque[idx], two_z, z_gb)
         floats[solved] = np.stack([getattr(ls, k) for k in _SHARE_FLOATS], axis=1)
-        case[solved], stages[solved] = ls.case, ls.stages
-    return floats, case, stages
+    return floats
 
 
 def pack_states(states: Sequence[LiveState], rudder_channel: int, share_channel: int,
                 gear: GearParams | None = None) -> PackedStates:
-    """The records of ``states`` in order: each state's rudder JointState, then its LoadSharing
-    when it has one; the same bytes as ``state_messages`` encoded one by one. With ``gear``, a
+    """The records of ``states`` in order: each state's rudder JointState, then its load
+    sharing's when it has one; the same bytes as ``state_messages`` encoded one by one. With ``gear``, a
     state whose load sharing was left to the caller (``share`` None, ``torque_measured`` set)
     has it solved here: the bytes of the state the live monitor would have made."""
     joint, share = _layouts()
@@ -167,12 +163,9 @@ def pack_states(states: Sequence[LiveState], rudder_channel: int, share_channel:
     if gear is not None:
         todo = ~given & np.fromiter((s.torque_measured is not None for s in states), bool, n)
     has = given | todo
-    floats, case, stages = _shares(states, given, todo, alpha, torque, gear)
+    floats = _shares(states, given, todo, alpha, torque, gear)
     m = floats.shape[0]
     sh = _fill(share, share_channel, t[has], floats)
-    if m:
-        sh[:, share.after_floats] = case.view(np.uint8)
-        sh[:, share.after_floats + 1] = stages
     a, b = rudder.shape[1], sh.shape[1]
     sizes = np.where(has, a + b, a)
     offsets = np.zeros(n + m + 1, np.int64)

@@ -31,7 +31,7 @@ class Harness:
         import rclpy
         from diagnostic_msgs.msg import DiagnosticArray
         from rclpy.executors import SingleThreadedExecutor
-        from steer_monitor_msgs.msg import LoadSharing
+        from sensor_msgs.msg import JointState
 
         from steer_monitor.node.monitor_node import MonitorNode
         from steer_monitor.node.params_ros import overrides_from_file
@@ -46,7 +46,7 @@ class Harness:
         self.diags: list = []
         self.loads: list = []
         self.listener.create_subscription(DiagnosticArray, '/diagnostics', self.diags.append, 10)
-        self.listener.create_subscription(LoadSharing, '/steer_monitor/load_sharing', self.loads.append, 10)
+        self.listener.create_subscription(JointState, '/steer_monitor/load_sharing', self.loads.append, 10)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self.executor.add_node(self.listener)
@@ -127,11 +127,12 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
         assert _level(health) == OK, v
         assert int(v['residual_samples']) < 600 or float(v['residual_rms_bar']) < 3.0, v
         assert _level(d['steer_monitor: recording']) == OK
-        # the typed message: the guide beam's share by name, consistent with the forces
-        assert h.loads and any(m.k_gl > 0 for m in h.loads)
-        for m in h.loads[-50:]:
-            assert 0 <= m.k_gl <= 1 and 1 <= m.load_case <= 6, m
-            assert m.guide_force_n == pytest.approx(m.k_gl * m.lateral_n, rel=1e-9, abs=1e-6), m
+        # the load sharing's named values: the guide beam's share by name, consistent with the forces
+        loads = [dict(zip(m.name, m.position)) for m in h.loads]
+        assert loads and any(v['k_gl'] > 0 for v in loads)
+        for v in loads[-50:]:
+            assert 0 <= v['k_gl'] <= 1 and 1 <= v['load_case'] <= 6, v
+            assert v['guide_force_n'] == pytest.approx(v['k_gl'] * v['lateral_n'], rel=1e-9, abs=1e-6), v
         # The online estimate has replaced the configured clearances (true: 0.6 / 0.25 mm). The
         # estimate of the last second of data reaches the live model 10 s of data time later
         # (APPLY_DELAY_NS; the node goes on counting seconds while the bus is silent).
@@ -310,18 +311,18 @@ def test_why_a_value_of_the_wrong_type_was_refused(kind, given, why):
     assert _why(kind, given, ValueError('rclpy says')) == why
 
 
-def test_without_the_message_package_the_node_says_so(tmp_path):
-    """steer_monitor_msgs not built (or not sourced): one line naming it and how to build it,
-    exit 2, no traceback, and no recording opened."""
+def test_without_ros_messages_the_node_says_so(tmp_path):
+    """A ROS 2 install without a message package the node publishes (not sourced, or broken):
+    one line naming it, exit 2, no traceback, and no recording opened."""
     cmd = _node_cmd(tmp_path)
-    blocked = ("import sys; sys.modules['steer_monitor_msgs'] = None; "   # import of it fails
+    blocked = ("import sys; sys.modules['sensor_msgs'] = None; "   # import of it fails
                "from steer_monitor.node.monitor_node import main; sys.exit(main(sys.argv))")
     proc = subprocess.run([sys.executable, '-c', blocked, *cmd[3:]], env=_env(), capture_output=True, text=True,
                           timeout=60)
     assert proc.returncode == 2, proc.stderr
     assert 'Traceback' not in proc.stderr
     [line] = [ln for ln in proc.stderr.splitlines() if 'steer_monitor: cannot start:' in ln]
-    assert 'cannot import steer_monitor_msgs' in line and 'colcon build --packages-up-to steer_monitor' in line
+    assert 'cannot import sensor_msgs' in line and 'source /opt/ros/' in line
     assert list(tmp_path.glob('*.mcap')) == []
 
 

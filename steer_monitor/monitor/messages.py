@@ -2,6 +2,7 @@
 
 The node turns these into rclpy messages and publishes them; ``steer-monitor replay``
 encodes the same dicts to CDR for its MCAP. One builder, so live and replay cannot drift.
+Standard interfaces only (no interface package to build):
 
 ================================ ====================================== ======================
 topic (under the node's name)    type                                   content
@@ -12,22 +13,22 @@ topic (under the node's name)    type                                   content
                                                                          [rad], velocity [rad/s],
                                                                          effort = tiller torque
                                                                          from the pressures [N m]
-~/load_sharing                   steer_monitor_msgs/LoadSharing          lateral_n, ram_force_n,
-                                                                         guide_force_n, k_gl,
-                                                                         deflection_m, r_a_n, r_e_n,
-                                                                         m_a_nm, load_case, stages
-~/clearances                     steer_monitor_msgs/Clearances           gap_2z_m, gap_zgb_m: each
-                                                                         value, lo, hi (NaN: not
-                                                                         known) and bounded
+~/load_sharing                   sensor_msgs/JointState                  named values
+                                                                         (``LOAD_SHARING_NAMES``)
+                                                                         in ``position``
+~/clearances                     sensor_msgs/JointState                  named values
+                                                                         (``CLEARANCE_NAMES``) in
+                                                                         ``position`` [m], NaN: not
+                                                                         known
 ~/clearance_source               std_msgs/String                         configured / estimated
 ================================ ====================================== ======================
 
-The message types are in ``steer_monitor_msgs`` (beside this package; ``make venv`` builds it
-with colcon). Only the node needs them built: a recording embeds their definitions, so
-rosbags, Foxglove and ``steer-monitor report`` read it without them, and ``replay`` encodes
-them itself (:mod:`steer_monitor.record.cdr`) from the ``.msg`` files. Recordings made before
-these types carry the clearances as named ``sensor_msgs/JointState`` values or a labelled
-``std_msgs/Float64MultiArray``; the report reads those too
+A ``JointState`` is the standard message with a header stamp and named float64 values:
+PlotJuggler plots each value by its name (``/steer_monitor/clearances/gap_zgb_m/position``),
+Foxglove by its place in the fixed order (``/steer_monitor/clearances.position[3]``).
+Recordings made by earlier releases carried the load sharing and clearances as
+``steer_monitor_msgs`` types (their schemas are in the MCAP) or a labelled
+``std_msgs/Float64MultiArray``; the report reads them all
 (:func:`steer_monitor.ashore.report.logreport.online_track`).
 """
 
@@ -41,18 +42,26 @@ from steer_monitor.monitor.diagnostics import Status
 from steer_monitor.monitor.live import LiveState
 from steer_monitor.monitor.pipeline import DiagOut, StateOut
 
-__all__ = ['CLEARANCE_LABELS_V1', 'TOPICS', 'diag_messages', 'state_messages', 'stamp', 'topic_name']
+__all__ = ['CLEARANCE_NAMES', 'LOAD_SHARING_NAMES', 'TOPICS', 'diag_messages', 'state_messages', 'stamp',
+           'topic_name']
 
-#: the value names of older recordings' clearances (a labelled Float64MultiArray, then named
-#: values in a JointState): 2Z and its bounds, Z_gb and its bounds [m]
-CLEARANCE_LABELS_V1 = ('gap_2z_m', 'gap_2z_lo_m', 'gap_2z_hi_m', 'gap_zgb_m', 'gap_zgb_lo_m', 'gap_zgb_hi_m')
+#: the named values of ``~/clearances`` (and of older recordings' labelled Float64MultiArray):
+#: 2Z and the ends of its 95 % interval, Z_gb and the ends of its [m]; NaN where not known
+#: (an upper end for a clearance the data bound from below only; both ends for a configured one)
+CLEARANCE_NAMES = ('gap_2z_m', 'gap_2z_lo_m', 'gap_2z_hi_m', 'gap_zgb_m', 'gap_zgb_lo_m', 'gap_zgb_hi_m')
+#: the named values of ``~/load_sharing``: lateral force on one ram's crosshead, the part the
+#: ram carries and the part the guide beam carries [N], K_gl, the ram's deflection at the
+#: load point [m], the bushing reactions [N] and the clamp moment [N m], the paper's load case
+#: (1..6) and the stages that carried load (bit flags: I = 1, II = 2, III = 4)
+LOAD_SHARING_NAMES = ('lateral_n', 'ram_force_n', 'guide_force_n', 'k_gl', 'deflection_m', 'r_a_n', 'r_e_n',
+                      'm_a_nm', 'load_case', 'stages')
 
 #: key -> (topic relative to the node, ROS datatype)
 TOPICS = {
     'diagnostics': ('/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray'),
     'rudder': ('~/rudder', 'sensor_msgs/msg/JointState'),
-    'load_sharing': ('~/load_sharing', 'steer_monitor_msgs/msg/LoadSharing'),
-    'clearances': ('~/clearances', 'steer_monitor_msgs/msg/Clearances'),
+    'load_sharing': ('~/load_sharing', 'sensor_msgs/msg/JointState'),
+    'clearances': ('~/clearances', 'sensor_msgs/msg/JointState'),
     'clearance_source': ('~/clearance_source', 'std_msgs/msg/String'),
 }
 
@@ -76,10 +85,15 @@ def _header(t_ns: int, frame_id: str = 'steering_gear') -> dict[str, Any]:
     return {'stamp': stamp(t_ns), 'frame_id': frame_id}
 
 
-def _estimate(value: float, bounds: tuple[float | None, float | None]) -> dict[str, Any]:
-    """A ``steer_monitor_msgs/Estimate``: NaN for an end not known."""
+def _named(t_ns: int, names: tuple[str, ...], values: list[float], frame_id: str = 'steering_gear') -> dict[str, Any]:
+    """A ``sensor_msgs/JointState`` of named values (``position``; no velocity or effort)."""
+    return {'header': _header(t_ns, frame_id), 'name': list(names), 'position': values, 'velocity': [], 'effort': []}
+
+
+def _with_bounds(value: float, bounds: tuple[float | None, float | None]) -> list[float]:
+    """A value and the ends of its interval, NaN for an end not known."""
     lo, hi = (math.nan if v is None else float(v) for v in bounds)
-    return {'value': float(value), 'lo': lo, 'hi': hi, 'bounded': math.isfinite(lo) and math.isfinite(hi)}
+    return [float(value), lo, hi]
 
 
 def state_messages(out: StateOut) -> list[tuple[str, int, dict[str, Any]]]:
@@ -92,10 +106,9 @@ def state_messages(out: StateOut) -> list[tuple[str, int, dict[str, Any]]]:
         'effort': [math.copysign(st.torque_measured or 0.0, st.alpha)]})]
     if st.share is not None:
         sh = st.share
-        msgs.append(('load_sharing', st.t_ns, {
-            'header': _header(st.t_ns), 'lateral_n': sh.lateral, 'ram_force_n': sh.ram_force,
-            'guide_force_n': sh.guide_force, 'k_gl': sh.k_gl, 'deflection_m': sh.deflection, 'r_a_n': sh.r_a,
-            'r_e_n': sh.r_e, 'm_a_nm': sh.m_a, 'load_case': int(sh.case), 'stages': int(sh.stages)}))
+        msgs.append(('load_sharing', st.t_ns, _named(st.t_ns, LOAD_SHARING_NAMES, [
+            sh.lateral, sh.ram_force, sh.guide_force, sh.k_gl, sh.deflection, sh.r_a, sh.r_e, sh.m_a,
+            float(sh.case), float(sh.stages)])))
     return msgs
 
 
@@ -108,7 +121,7 @@ def diag_messages(out: DiagOut, extra: tuple[Status, ...] = ()) -> list[tuple[st
     interval = out.interval or {}
     g = out.gaps
     return [('diagnostics', out.t_ns, {'header': _header(out.t_ns, ''), 'status': statuses}),
-            ('clearances', out.t_ns, {'header': _header(out.t_ns),
-                                      'gap_2z_m': _estimate(g.two_z, interval.get('2z', (None, None))),
-                                      'gap_zgb_m': _estimate(g.z_gb, interval.get('zgb', (None, None)))}),
+            ('clearances', out.t_ns, _named(out.t_ns, CLEARANCE_NAMES,
+                                            _with_bounds(g.two_z, interval.get('2z', (None, None)))
+                                            + _with_bounds(g.z_gb, interval.get('zgb', (None, None))))),
             ('clearance_source', out.t_ns, {'data': out.source})]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import ast
 import configparser
+import os
 import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -17,11 +18,10 @@ from test.conftest import PKG, ROOT, SHARED
 ROSDEP = SHARED / 'rosdep'
 #: ROS packages (resolved by rosdistro's distribution file, not by the rosdep key files)
 ROS_PACKAGES = {'rclpy', 'rcl_interfaces', 'ament_index_python', 'diagnostic_msgs', 'std_msgs', 'sensor_msgs',
-                'launch', 'launch_ros', 'diagnostic_aggregator', 'ament_cmake', 'rosidl_default_generators',
-                'rosidl_default_runtime'}
-#: the packages of this repository (colcon builds them together; rosdep skips them)
-WORKSPACE = {'steer_monitor', 'steer_monitor_msgs'}
-MANIFESTS = [PKG / 'package.xml', ROOT / 'steer_monitor_msgs' / 'package.xml']
+                'launch', 'launch_ros', 'diagnostic_aggregator'}
+#: the package of this repository (rosdep skips it)
+WORKSPACE = {'steer_monitor'}
+MANIFESTS = [PKG / 'package.xml']
 #: imported top-level module -> the rosdep key that installs it
 MODULE_KEYS = {'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'yaml': 'python3-yaml',
                'matplotlib': 'python3-matplotlib', 'can': 'python3-can', 'cantools': 'python3-cantools-pip',
@@ -88,15 +88,31 @@ def test_every_imported_package_is_declared():
 
 def test_every_published_message_package_is_declared():
     """The node imports its message types by name (rosmsg.message_class), which the import
-    scan above does not see: each type's package is an exec_depend, and ours is built here."""
+    scan above does not see: each type's package is an exec_depend, and each is a standard
+    interface package of ROS 2 (no interface package of our own to build)."""
     from steer_monitor.monitor.messages import TOPICS
     declared = set(_depends('exec_depend'))
     packages = {datatype.split('/')[0] for _, datatype in TOPICS.values()}
     assert packages - declared == set()
-    ours = ET.parse(MANIFESTS[1]).getroot()
-    assert ours.findtext('name') == 'steer_monitor_msgs' and 'steer_monitor_msgs' in packages
-    assert ours.findtext('member_of_group') == 'rosidl_interface_packages'
-    assert ours.findtext('version') == ET.parse(MANIFESTS[0]).getroot().findtext('version')
+    assert packages <= {'diagnostic_msgs', 'sensor_msgs', 'std_msgs'}
+
+
+def test_the_card_layout_at_the_root():
+    """One ament_python package at the repository's root, as the design card fixes it, and
+    nothing that needs a compiler."""
+    for name in ('package.xml', 'setup.py', 'setup.cfg', 'README.md', 'resource/steer_monitor', 'config/r18.yaml',
+                 'launch/monitor.launch.py', 'systemd/steer-monitor.service', 'steer_monitor/__init__.py',
+                 'test/conftest.py'):
+        assert (ROOT / name).exists(), name
+    root = ET.parse(ROOT / 'package.xml').getroot()
+    assert root.findtext('export/build_type') == 'ament_python'
+    assert not (ROOT / 'steer_monitor_msgs').exists()
+    skip = {'.git', '.venv', 'build', 'install', 'log', 'out', '.hypothesis', '.pytest_cache', '__pycache__'}
+    found = []
+    for top, dirs, files in os.walk(ROOT):
+        dirs[:] = [d for d in dirs if d not in skip]
+        found += [Path(top, f) for f in files if f == 'CMakeLists.txt' or f.endswith(('.msg', '.srv', '.action'))]
+    assert found == []
 
 
 def test_ashore_dependencies_stay_ashore():
