@@ -22,6 +22,7 @@ setup(
     install_requires=[
         'setuptools',
         'numpy>=1.24',
+        'numba>=0.59',
         'scipy>=1.10',
         'PyYAML>=6',
         'matplotlib>=3.7',

@@ -1,8 +1,10 @@
-"""Load sharing of 1,000,000 (angle, torque) samples: vectorized against a per-sample loop of
-the same solver, in the same run. Prints samples/s of each and the ratio. Then the live
-monitor's scalar solver (``load_sharing_scalar``, one call per state) against its array form
-(``load_sharing_scalars``, the same numbers to the bit: how a replay solves its states), on
-batches of the size a replay solves at once.
+"""Load sharing of 1,000,000 (angle, torque) samples: the solver on arrays (one compiled element
+function, :mod:`steer_monitor.model.loadshare`) against a per-sample loop of it and against the
+stepwise numpy solver it replaced (``test/model/loadshare_oracle.py``, now the tests' oracle),
+in the same run. Prints samples/s of each and the ratios. Then the live monitor's one-state
+call (``load_sharing_scalar``) against arrays of the size a replay solves at once (the same
+numbers to the bit), and a clearance profile's grid (``friction_normals``: every angle cell
+of a voyage at every clearance pair) against the stepwise solver on the same grid.
 
 The per-sample loop runs on a slice (its rate is what is measured; running it on all 10^6
 samples would only take longer, not tell more); both rates are measured, not assumed.
@@ -15,7 +17,9 @@ import time
 
 import numpy as np
 
-from steer_monitor.model import load_sharing, load_sharing_scalar, load_sharing_scalars
+from steer_monitor.model import load_sharing, load_sharing_scalar
+from steer_monitor.model.loadshare import friction_normals
+from steer_monitor.model.friction import normal_forces
 from steer_monitor.params import gear_from_params, load_params_file
 from steer_monitor.resources import default_config
 
@@ -53,6 +57,15 @@ def main() -> dict:
           f"(target < {TARGET_S:g} s: {'met' if best < TARGET_S else 'NOT met'})")
     print(f'  per-sample : {loop_s:8.3f} s for {LOOP_N:,} samples   {loop_rate:14,.0f} samples/s')
     print(f'  ratio      : vectorized / per-sample = {vec_rate / loop_rate:,.0f}x')
+    from test.model.loadshare_oracle import load_sharing_stepwise
+    best_old = math.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        old = load_sharing_stepwise(gear, alpha, torque, two_z, z_gb)
+        best_old = min(best_old, time.perf_counter() - t0)
+    assert np.allclose(old.k_gl, vec.k_gl, rtol=1e-12, atol=1e-15), 'the stepwise oracle disagrees'
+    print(f'  stepwise numpy solver (before, now the oracle): {N / best_old:14,.0f} samples/s; '
+          f'compiled {best_old / best:.1f}x faster')
 
     m = SCALARS_BATCH * 10
     t0 = time.perf_counter()
@@ -61,7 +74,7 @@ def main() -> dict:
     best_many = math.inf
     for _ in range(3):
         t0 = time.perf_counter()
-        many = [load_sharing_scalars(gear, alpha[i:i + SCALARS_BATCH], torque[i:i + SCALARS_BATCH], two_z, z_gb)
+        many = [load_sharing(gear, alpha[i:i + SCALARS_BATCH], torque[i:i + SCALARS_BATCH], two_z, z_gb)
                 for i in range(0, m, SCALARS_BATCH)]
         best_many = min(best_many, time.perf_counter() - t0)
     scalars_rate = m / best_many
@@ -69,10 +82,29 @@ def main() -> dict:
     assert k_many.tobytes() == np.array([x.k_gl for x in one]).tobytes(), 'scalar and its array form disagree'
     print(f'live monitor solver, {m:,} states')
     print(f'  load_sharing_scalar, one call per state : {scalar_rate:14,.0f} states/s')
-    print(f'  load_sharing_scalars, {SCALARS_BATCH:,} at a time  : {scalars_rate:14,.0f} states/s '
+    print(f'  load_sharing, {SCALARS_BATCH:,} at a time        : {scalars_rate:14,.0f} states/s '
           f'({scalars_rate / scalar_rate:.1f}x; the same bits)')
+    cells, pairs = 3140, 9196        # a 25-minute voyage's angle-and-speed cells, the clearance grid
+    ca = np.abs(alpha[:cells])
+    ct = np.abs(torque[:cells])
+    tz = np.repeat(np.arange(0.0, 1.5001e-3, 0.02e-3), 121)[:pairs]
+    zg = np.tile(np.arange(0.0, 0.6001e-3, 0.005e-3), 76)[:pairs]
+    friction_normals(gear, ca[:10], ct[:10], tz[:10], zg[:10])     # compiled before it is timed
+    t0 = time.perf_counter()
+    for g0 in range(0, pairs, 1000):
+        friction_normals(gear, ca, ct, tz[g0:g0 + 1000], zg[g0:g0 + 1000])
+    grid_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    for g0 in range(0, 300, 100):
+        ls = load_sharing_stepwise(gear, ca[:, None], ct[:, None], tz[None, g0:g0 + 100], zg[None, g0:g0 + 100])
+        normal_forces(ls.r_a, ls.r_e, ls.m_a, gear.bushing_length)
+    old_grid_rate = cells * 300 / (time.perf_counter() - t0)
+    print(f'a profile grid, {cells:,} cells x {pairs:,} clearance pairs')
+    print(f'  friction_normals : {grid_s:8.3f} s  {cells * pairs / grid_s:14,.0f} states/s; the stepwise solver '
+          f'{old_grid_rate:,.0f} states/s ({cells * pairs / grid_s / old_grid_rate:.0f}x)')
     return {'vectorized_s': best, 'vectorized_rate': vec_rate, 'loop_rate': loop_rate,
-            'ratio': vec_rate / loop_rate, 'scalar_rate': scalar_rate, 'scalars_rate': scalars_rate}
+            'ratio': vec_rate / loop_rate, 'scalar_rate': scalar_rate, 'scalars_rate': scalars_rate,
+            'stepwise_rate': N / best_old, 'grid_rate': cells * pairs / grid_s, 'stepwise_grid_rate': old_grid_rate}
 
 
 if __name__ == '__main__':

@@ -188,6 +188,10 @@ def residuals_and_inflation(gear: GearParams, basis: F.TorqueBasis, rows: Rows, 
 def _profile_fit(gear: GearParams, basis: F.TorqueBasis, mom: Moments, extra: Sequence[F.Column],
                  grid_2z: NDArray, grid_zgb: NDArray, load: NDArray[np.float64] | None
                  ) -> tuple[F.Profile, Refined, F.FitAt, float, float, NDArray[np.float64]]:
+    """The load (from a prefit and a coarse profile when not given), the profile over the
+    whole grid and its refinement, the fit at the refined optimum. The whole grid: a ram that
+    clamps pins 2Z in a valley narrower than a coarse profile's step, which a search box
+    drawn round a coarse profile's best point can miss (a true 2Z of 0.10 mm was read 0.18)."""
     if mom.samples < MIN_MOTION_SAMPLES:
         msg = (f'too little steady rudder motion to estimate the clearances: {int(mom.samples)} '
                f'ram samples, need {MIN_MOTION_SAMPLES} (about 5 s of moving rudder)')

@@ -31,12 +31,11 @@ from numpy.typing import NDArray
 from scipy.interpolate import BSpline
 
 from steer_monitor.estimate.moments import SPEED_Z, Moments
-from steer_monitor.model.friction import normal_forces
 from steer_monitor.model.gear import GearParams
-from steer_monitor.model.loadshare import load_sharing
+from steer_monitor.model.loadshare import friction_normals, load_sharing
 
 __all__ = ['GRID_2Z', 'GRID_ZGB', 'KNOT_STEP_DEG', 'Column', 'FitAt', 'Profile', 'TorqueBasis', 'axial_load', 'is_nuisance', 'speed_scale_columns', 'torque_z', 'design_at', 'design_columns', 'fit_at', 'normal_equations', 'residual_sum_of_squares', 'solve_normal_equations',
-           'friction_features', 'PointFits', 'PointFitter', 'fit_points', 'profile', 'torque_columns', 'torque_of_load', 'torque_prefit']
+           'closing_clearances', 'friction_features', 'PointFits', 'PointFitter', 'fit_points', 'profile', 'torque_columns', 'torque_of_load', 'torque_prefit']
 
 DEG = math.pi / 180.0
 GRID_2Z = np.round(np.arange(0.0, 1.5001e-3, 0.02e-3), 9)    # m: 0 .. 1.5 mm
@@ -207,11 +206,10 @@ def is_nuisance(col: Column) -> bool:
 
 def friction_features(gear: GearParams, abs_alpha: NDArray[np.float64], torque: NDArray[np.float64],
                       two_z: NDArray[np.float64], z_gb: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-    """(N_A + N_E, |F_gb|) [N] at angles (B,) and torques (B,) for clearances that broadcast
-    against (B, 1): shapes (B, G)."""
-    ls = load_sharing(gear, abs_alpha[:, None], torque[:, None], two_z, z_gb)
-    n_a, n_e = normal_forces(ls.r_a, ls.r_e, ls.m_a, gear.bushing_length)
-    return n_a + n_e, np.abs(ls.guide_force)
+    """(N_A + N_E, |F_gb|) [N] at angles (B,) and torques (B,) for the clearance pairs (G,)
+    (or shapes that broadcast to it, such as (1, G)): shapes (B, G)."""
+    return friction_normals(gear, abs_alpha, torque, *(np.asarray(x, float).reshape(-1)
+                                                       for x in np.broadcast_arrays(two_z, z_gb)))
 
 
 def _smoothing(k_torque: int, p: int, xtx: NDArray) -> NDArray[np.float64]:
@@ -409,7 +407,7 @@ class PointFits:
         return FitAt(self.coef[g], float(self.rss[g]), n, self.names, self.cov_unscaled[g])
 
 
-POINT_CHUNK = 1 << 17      # friction features evaluated per call: cells (or bins) x pairs
+POINT_CHUNK = 1 << 20      # pairs solved at once: bins x pairs per array (8 MB)
 
 
 def fit_points(gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray[np.float64],
@@ -425,126 +423,234 @@ def fit_points(gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray
     per bin, as :func:`fit_at` (which this then equals to rounding). ``covariance``: also
     the (X^T X + ridge)^-1 of every pair. ``dedupe``: pairs whose features are equal to the
     bit (beyond any contact) are solved once; a saving only, the residual sums of squares
-    being order-independent to (bins x epsilon) either way. Many calls on the same moments:
-    :class:`PointFitter`, which builds the clearance-independent part once."""
-    return PointFitter(gear, basis, mom, load, extra, per_cell=per_cell).fit(two_z, z_gb, covariance=covariance,
-                                                                             dedupe=dedupe)
+    being order-independent to (bins x epsilon) either way. The clearance-independent part
+    (:class:`PointFitter`) is built once per moments, load and columns and kept with the
+    moments (:meth:`PointFitter.of`): the profiles, refinements and interval fits of one model
+    share it."""
+    return PointFitter.of(gear, basis, mom, load, extra, per_cell=per_cell).fit(two_z, z_gb, covariance=covariance,
+                                                                                dedupe=dedupe)
+
+
+FITTERS_KEPT = 6          # PointFitters kept with one set of moments (a few MB each)
 
 
 class PointFitter:
     """:func:`fit_points` on one set of moments, load and extra columns, its
-    clearance-independent part (the design's fixed blocks, the cells) built once: the same
-    numbers as :func:`fit_points` call for call, without its ~30 ms of set-up on a long log."""
+    clearance-independent part built once: the same numbers as :func:`fit_points` call for
+    call, without its ~30 ms of set-up on a long log.
+
+    The columns split into those the clearances do not change (X1: the torque curve, the seal
+    friction, most extra columns) and the few they do (X2: the bushing's and the slipper's
+    friction, and extra columns made from them). The penalized fit of X1 alone (its
+    coefficients beta1, its residual r0 and the inverse of its normal matrix) is made once;
+    per pair only X2 is new, and the fit of both is its partitioned form (Frisch-Waugh-Lovell,
+    with the ridge and smoothing penalty of :func:`fit_at` on each block):
+
+        K = (A11 + P1)^-1 A12,   S = A22 + P2 - A21 K,   b2 = S^-1 (c2 - A21 beta1),
+        b1 = beta1 - K b2,       RSS = r0'r0 - 2 b2' R2'r0 + b2' R2'R2 b2,
+
+    with R2 = X2 - X1 K (R2'r0 = c2 - A21 beta1 - K' P1 beta1, R2'R2 = A22 - A21 K - K' P1 K).
+    So a pair costs the cross products of its two or three columns with the others and a
+    2 x 2 or 3 x 3 solve, not a solve of the whole model and a pass over every bin. r0'r0
+    comes from the bins' centred statistics (:func:`_rss_from_weights`); the terms subtracted
+    from it are the friction the clearances explain, a hundredth of it or more, so the RSS
+    keeps its relative accuracy to within that factor of rounding (``test_fit`` compares it
+    with :func:`fit_at`, which works it out bin by bin, to 1e-10)."""
 
     def __init__(self, gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray[np.float64],
                  extra: Sequence[Column] = (), *, per_cell: bool = True) -> None:
-        self.gear, self.basis, self.mom, self.load, self.extra = gear, basis, mom, load, tuple(extra)
+        self.gear, self.basis, self.mom, self.load, self.extra = gear, basis, mom, load.copy(), tuple(extra)
+        self.per_cell = per_cell
         torque = torque_of_load(gear, mom, load)
         zero = {'n_b': np.zeros(len(mom)), 'f_gb': np.zeros(len(mom)), 'load': load}
         self.base_cols, self.zs, self.names = design_columns(gear, basis, mom, zero, extra)
         p = len(self.names)
         self.dep = _dependent_columns(basis, extra)
-        self.xtx0, self.xty0 = _design(self.base_cols, self.zs, mom)
-        self.ridge = _smoothing(basis.size, p, self.xtx0)
+        xtx0, xty0 = _design(self.base_cols, self.zs, mom)
+        smooth = _smoothing(basis.size, p, xtx0)
         q = mom.m.shape[1]
-        zi = np.asarray(self.zs)
-        mz_all = mom.m[:, :, zi]                         # (B, q, p): moments of every z with column zs
         self.myz = mom.m[:, q - 1, :]                    # (B, q): y with each z
         if per_cell:
             self.cell_alpha, self.cell_torque, self.cell_of_bin = _cells(mom, torque)
         else:
             self.cell_alpha, self.cell_torque, self.cell_of_bin = mom.abs_alpha, torque, np.arange(len(mom))
-        self.fixed_cols = [c for c in range(p) if c not in self.dep]
+        fixed = np.array([c for c in range(p) if c not in self.dep], np.intp)
+        self.fixed_cols = fixed
         self.used = sorted({int(z) for z in self.zs})
         self.slot = {z: k for k, z in enumerate(self.used)}
-        self.fixed_z = [self.zs[c] for c in self.fixed_cols]
-        self.cross = {a: self.base_cols[:, self.fixed_cols] * mz_all[:, self.zs[a], self.fixed_cols]
+        self.fixed_z = [self.zs[c] for c in fixed]
+        self.cross = {a: self.base_cols[:, fixed] * mom.m[:, self.zs[a], np.asarray(self.fixed_z)]
                       for a in self.dep}                 # (B, n_fixed)
-        self.diag_fixed = np.diag(self.xtx0)
+        # The friction columns are d x (a cell's feature): their products with anything sum
+        # over a cell's bins first (the features are the cell's), so a pair costs cells, not bins.
+        ncell = int(self.cell_of_bin.max(initial=-1)) + 1
+        self.friction = [a for a in self.dep if a in (basis.size + 1, basis.size + 2)]
+        self.others = [a for a in self.dep if a not in self.friction]
+        d = mom.direction
+
+        def per_cell(x: NDArray[np.float64]) -> NDArray[np.float64]:
+            out = np.zeros((ncell,) + x.shape[1:])
+            np.add.at(out, self.cell_of_bin, x)
+            return out
+
+        self.cell_cross = {a: per_cell(d[:, None] * self.cross[a]) for a in self.friction}      # (C, n_fixed)
+        self.cell_y = {a: per_cell(d * self.myz[:, self.zs[a]]) for a in self.friction}         # (C,)
+        self.cell_m = {(a, b): per_cell(mom.m[:, self.zs[a], self.zs[b]]) for a in self.friction
+                       for b in self.friction}                                                 # (C,): d^2 = 1
+        a11 = xtx0[np.ix_(fixed, fixed)]
+        self.p1 = smooth[np.ix_(fixed, fixed)] + np.diag(RIDGE * np.diag(a11) + 1e-300)
+        self.inv11 = _inverses((a11 + self.p1)[None])[0]
+        self.beta1 = self.inv11 @ xty0[fixed]
+        self.p1_beta1 = self.p1 @ self.beta1             # X1' r0
+        _, w0 = _z_weights(self.base_cols[:, fixed], self.fixed_z, self.beta1, self.used)
+        self.rss0 = float(_rss_from_weights(mom, self.used, w0))
+
+    def _closing(self) -> tuple[float, float]:
+        """(2Z, Z_gb) [m] past which no cell's load closes the clearance (:func:`closing_clearances`)."""
+        if self.__dict__.get('_closes') is None:
+            self._closes = closing_clearances(self.gear, self.cell_alpha, self.cell_torque)
+        return self._closes
+
+    @classmethod
+    def of(cls, gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray[np.float64],
+           extra: Sequence[Column] = (), *, per_cell: bool = True) -> PointFitter:
+        """The fitter of this problem, built once and kept with the moments (which are replaced,
+        not changed, when data are added), the last ``FITTERS_KEPT`` of them: the same object
+        for the same gear, load (by value) and columns (by identity)."""
+        extra = tuple(extra)
+        kept: list[PointFitter] = mom.__dict__.setdefault('_point_fitters', [])
+        for f in kept:
+            if (f.gear is gear and f.basis == basis and f.per_cell == per_cell and len(f.extra) == len(extra)
+                    and all(a is b for a, b in zip(f.extra, extra)) and np.array_equal(f.load, load)):
+                return f
+        f = cls(gear, basis, mom, load, extra, per_cell=per_cell)
+        kept.append(f)
+        del kept[:-FITTERS_KEPT]
+        return f
 
     def fit(self, two_z: NDArray[np.float64], z_gb: NDArray[np.float64], *, covariance: bool = False,
             dedupe: bool = True) -> PointFits:
         """The fits at the pairs, as :func:`fit_points`."""
         gear, basis, mom, load, extra = self.gear, self.basis, self.mom, self.load, self.extra
-        zs, dep, fixed_cols, slot, used = self.zs, self.dep, self.fixed_cols, self.slot, self.used
-        xtx0, xty0, ridge, cross, myz = self.xtx0, self.xty0, self.ridge, self.cross, self.myz
+        zs, dep, fixed = self.zs, self.dep, self.fixed_cols
         two_z, z_gb = np.broadcast_arrays(np.asarray(two_z, float).ravel(), np.asarray(z_gb, float).ravel())
         d = mom.direction
-        p = len(self.names)
+        p, nd = len(self.names), len(dep)
         nb_all, fg_all, first, inverse = _point_features(gear, self.cell_alpha, self.cell_torque, two_z, z_gb,
-                                                         dedupe)
-        eye = np.eye(p, dtype=bool)
+                                                         dedupe, self._closing())
         u_all = first.size
         rss = np.empty(u_all)
         coef_all = np.empty((u_all, p))
         cov = np.empty((u_all, p, p)) if covariance else None
         step = max(POINT_CHUNK // max(len(mom), 1), 1)
+        cell_feature = {basis.size + 1: nb_all, basis.size + 2: fg_all}
         for g0 in range(0, u_all, step):
             sl = slice(g0, min(g0 + step, u_all))
-            nb, fg = nb_all[:, sl], fg_all[:, sl]
-            feats = {'n_b': nb[self.cell_of_bin], 'f_gb': fg[self.cell_of_bin], 'load': load[:, None]}
-            dep_vals = {a: _dep_value(a, basis, d[:, None], feats, mom, extra) for a in dep}  # (B, g)
-            g = nb.shape[1]
-            xtx = np.broadcast_to(xtx0, (g, p, p)).copy()
-            xty = np.broadcast_to(xty0, (g, p)).copy()
-            for a in dep:
-                za = zs[a]
-                va = dep_vals[a]
-                # column a against the fixed columns: sum_b x_a x_c m[z_a, z_c]
-                row = va.T @ cross[a]                                                     # (g, n_fixed)
-                xtx[:, a, fixed_cols] = row
-                xtx[:, fixed_cols, a] = row
-                for a2 in dep:
-                    xtx[:, a, a2] = np.einsum('bj,bj,b->j', va, dep_vals[a2], mom.m[:, za, zs[a2]])
-                xty[:, a] = va.T @ myz[:, za]
-            diag = np.where(eye, xtx, 0.0).sum(axis=2)
-            diag[:, fixed_cols] = self.diag_fixed[fixed_cols]
-            a_mat = xtx + ridge + (RIDGE * diag + 1e-300)[:, :, None] * eye
-            if covariance:
-                inv = _inverses(a_mat)
-                coef = np.einsum('jpq,jq->jp', inv, xty)
-                cov[sl] = inv     # type: ignore[index]
-            else:
-                coef = np.linalg.solve(a_mat, xty[:, :, None])[:, :, 0]
-            _, w = _z_weights(self.base_cols[:, fixed_cols], self.fixed_z, coef[:, fixed_cols], used)
-            for a in dep:
-                w[:, :, slot[zs[a]]] += dep_vals[a] * coef[:, a]
-            rss[sl] = _rss_from_weights(mom, used, w)
+            g = sl.stop - sl.start
+            fcell = {a: cell_feature[a][:, sl] for a in self.friction}                  # (C, g): d x this per bin
+            vals = {}
+            if self.others:
+                feats = {'n_b': nb_all[self.cell_of_bin, sl], 'f_gb': fg_all[self.cell_of_bin, sl],
+                         'load': load[:, None]}
+                vals = {a: _dep_value(a, basis, d[:, None], feats, mom, extra) for a in self.others}  # (B, g)
+                for a in self.friction:
+                    vals[a] = d[:, None] * fcell[a][self.cell_of_bin]
+            a12 = np.empty((g, fixed.size, nd))
+            a22 = np.empty((g, nd, nd))
+            c2 = np.empty((g, nd))
+            for i, a in enumerate(dep):
+                if a in self.friction:
+                    a12[:, :, i] = fcell[a].T @ self.cell_cross[a]
+                    c2[:, i] = fcell[a].T @ self.cell_y[a]
+                else:
+                    a12[:, :, i] = vals[a].T @ self.cross[a]
+                    c2[:, i] = vals[a].T @ self.myz[:, zs[a]]
+                for j in range(i, nd):
+                    b = dep[j]
+                    if a in self.friction and b in self.friction:
+                        a22[:, i, j] = (fcell[a] * fcell[b]).T @ self.cell_m[(a, b)]
+                    else:
+                        a22[:, i, j] = (vals[a] * vals[b]).T @ mom.m[:, zs[a], zs[b]]
+                    a22[:, j, i] = a22[:, i, j]
+            a21 = a12.transpose(0, 2, 1)                                                  # (g, nd, p1)
+            kt = a21 @ self.inv11                                                         # K' (g, nd, p1)
+            a21k = kt @ a12                                                               # A21 K = K' A12
+            s_mat = a22 - a21k
+            s_mat[:, np.arange(nd), np.arange(nd)] += RIDGE * np.diagonal(a22, axis1=1, axis2=2) + 1e-300
+            rhs = c2 - a21 @ self.beta1                                                   # X2' r0
+            s_inv = _inverses(s_mat)
+            b2 = (s_inv @ rhs[:, :, None])[:, :, 0]
+            b1 = self.beta1[None, :] - (b2[:, None, :] @ kt)[:, 0, :]
+            r2_r0 = rhs - kt @ self.p1_beta1
+            r2_r2 = a22 - a21k - (kt @ self.p1) @ kt.transpose(0, 2, 1)
+            rss[sl] = (self.rss0 - 2.0 * np.einsum('gd,gd->g', b2, r2_r0)
+                       + np.einsum('gd,gd->g', b2, (r2_r2 @ b2[:, :, None])[:, :, 0]))
+            coef = np.empty((g, p))
+            coef[:, fixed] = b1
+            coef[:, dep] = b2
             coef_all[sl] = coef
-        return PointFits(rss[inverse], coef_all[inverse], tuple(self.names), None if cov is None else cov[inverse])
+            if cov is not None:
+                ks = kt.transpose(0, 2, 1) @ s_inv                                        # K S^-1
+                full = np.empty((g, p, p))
+                full[np.ix_(np.arange(g), fixed, fixed)] = self.inv11[None] + ks @ kt
+                full[np.ix_(np.arange(g), fixed, dep)] = -ks
+                full[np.ix_(np.arange(g), dep, fixed)] = -ks.transpose(0, 2, 1)
+                full[np.ix_(np.arange(g), dep, dep)] = s_inv
+                cov[sl] = full
+        return PointFits(np.maximum(rss, 0.0)[inverse], coef_all[inverse], tuple(self.names),
+                         None if cov is None else cov[inverse])
+
+
+FEATURE_CHUNK = 1 << 21    # friction features evaluated per call: cells x pairs (16 MB a array)
+BEYOND = 1.0 + 1e-6       # a clearance this far past the largest any cell closes is past them all
+
+
+def closing_clearances(gear: GearParams, alpha: NDArray[np.float64], torque: NDArray[np.float64]
+                       ) -> tuple[float, float]:
+    """(2Z, Z_gb) [m] past which no cell (angles and torques (C,)) closes the clearance: ``BEYOND``
+    times the largest 2Z whose F_theta a cell's lateral force reaches, and likewise for F_Z."""
+    unit = load_sharing(gear, alpha, torque, 1.0, 1.0)           # F_theta, F_Z at a clearance of 1 m
+    with np.errstate(divide='ignore', invalid='ignore'):
+        closes_2z = unit.lateral / unit.f_theta
+        closes_zgb = unit.lateral / unit.f_z
+    return (float(np.nanmax(closes_2z, initial=0.0)) * BEYOND, float(np.nanmax(closes_zgb, initial=0.0)) * BEYOND)
 
 
 def _point_features(gear: GearParams, alpha: NDArray[np.float64], torque: NDArray[np.float64],
-                    two_z: NDArray[np.float64], z_gb: NDArray[np.float64], dedupe: bool = True
+                    two_z: NDArray[np.float64], z_gb: NDArray[np.float64], dedupe: bool = True,
+                    closing: tuple[float, float] | None = None
                     ) -> tuple[NDArray, NDArray, NDArray[np.intp], NDArray[np.intp]]:
-    """:func:`friction_features` at angles and torques (C,) for clearance pairs (G,), a chunk
-    of pairs per call, kept once per distinct column: (N_b (C, U), |F_gb| (C, U), the first
-    pair of each distinct column (U,), each pair's distinct column (G,)).
+    """:func:`friction_features` at angles and torques (C,) for clearance pairs (G,), kept
+    once per distinct column: (N_b (C, U), |F_gb| (C, U), the first pair of each distinct
+    column (U,), each pair's distinct column (G,)).
 
-    Pairs beyond any contact (a slipper that never touches, a ram that never clamps) have
-    the same features to the bit: they are one model, solved once when ``dedupe`` (a
-    saving: on a log whose ram never clamps most of the grid's 2Z axis is one plateau)."""
-    seen: dict[bytes, int] = {}
-    first: list[int] = []
-    inverse = np.empty(two_z.size, np.intp)
-    nb_parts: list[NDArray] = []
-    fg_parts: list[NDArray] = []
-    step = max(POINT_CHUNK // max(alpha.size, 1), 1)
-    for g0 in range(0, two_z.size, step):
-        sl = slice(g0, g0 + step)
-        nb, fg = friction_features(gear, alpha, torque, two_z[None, sl], z_gb[None, sl])
-        cols = np.concatenate([nb, fg]).T.copy()
-        new: list[int] = []
-        for g in range(cols.shape[0]):
-            k = seen.setdefault(cols[g].tobytes() if dedupe else g0 + g, len(first))
-            if k == len(first):
-                first.append(g0 + g)
-                new.append(g)
-            inverse[g0 + g] = k
-        nb_parts.append(nb[:, new])
-        fg_parts.append(fg[:, new])
-    return (np.concatenate(nb_parts, axis=1), np.concatenate(fg_parts, axis=1), np.asarray(first, np.intp),
-            inverse)
+    Pairs beyond any contact are one model, solved once when ``dedupe``: on a log whose ram
+    never clamps, most of the grid's 2Z axis is one plateau. A 2Z past the one that lets the
+    most loaded cell's ram clamp (F_theta >= Fl in every cell, with a margin of ``BEYOND``
+    over rounding) leaves every cell's loading as it is whatever its value (the clamp is
+    never reached, and after the guide touches the ram's force stays below F_theta), and so
+    does a Z_gb past the one the most loaded cell's ram deflects to: such pairs have the same
+    features to the bit (``test_fit`` checks it), and each such class is evaluated once.
+    ``closing``: :func:`closing_clearances` of the cells, when known."""
+    if dedupe and two_z.size > 1:
+        top_2z, top_zgb = closing or closing_clearances(gear, alpha, torque)
+        key = np.where(two_z >= top_2z, top_2z, two_z) + 1j * np.where(z_gb >= top_zgb, top_zgb, z_gb)
+        _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+        order = np.argsort(first)                                     # the classes in order of their first pair
+        rank = np.empty_like(order)
+        rank[order] = np.arange(order.size)
+        first, inverse = first[order], rank[inverse.reshape(-1)]
+    else:
+        first, inverse = np.arange(two_z.size), np.arange(two_z.size)
+    step = max(FEATURE_CHUNK // max(alpha.size, 1), 1)
+    parts = [friction_normals(gear, alpha, torque, two_z[first[g0:g0 + step]], z_gb[first[g0:g0 + step]])
+             for g0 in range(0, first.size, step)]
+    if not parts:
+        return np.zeros((alpha.size, 0)), np.zeros((alpha.size, 0)), first.astype(np.intp), inverse.astype(np.intp)
+    if len(parts) == 1:
+        return parts[0][0], parts[0][1], first.astype(np.intp), inverse.astype(np.intp)
+    return (np.concatenate([nb for nb, _ in parts], axis=1), np.concatenate([fg for _, fg in parts], axis=1),
+            first.astype(np.intp), inverse.astype(np.intp))
 
 
 def _inverses(a: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -118,7 +118,7 @@ class _Evaluator:
         shape = two_z.shape
         tz, zg = two_z.ravel(), z_gb.ravel()
         if self.fitter is None:
-            self.fitter = F.PointFitter(*self.problem)
+            self.fitter = F.PointFitter.of(*self.problem)
         rss = self.fitter.fit(tz, zg).rss
         self.pairs.append(np.stack([tz, zg], axis=1))
         self.rss.append(rss)

@@ -43,7 +43,6 @@ from steer_monitor.model.loadshare import (
     load_sharing,
     load_sharing_at,
     load_sharing_scalar,
-    load_sharing_scalars,
     paper_case,
 )
 from steer_monitor.model.study import GapSensitivity, Landmarks, gap_sensitivity, landmarks
@@ -84,7 +83,6 @@ __all__ = [
     'load_sharing',
     'load_sharing_at',
     'load_sharing_scalar',
-    'load_sharing_scalars',
     'normal_forces',
     'paper_case',
     'parse_fit',

@@ -1,17 +1,22 @@
-"""Load sharing between a ram and the guide beam (seed 004), event-driven and vectorized.
+"""Load sharing between a ram and the guide beam (seed 004): one solver for every case.
 
 The lateral force Fl of one ram is applied incrementally from 0. The ram starts as a beam
 pinned in both bushings (stage I). Two events change the structure:
 
-* clamp: the ram's slope at bushing A reaches theta_max = 2Z / l_s; from then on A acts as a
-  clamp (stage II: clamped at A, pinned at E) for further load;
-* guide: the deflection at the load point B reaches Z_gb; from then on the guide beam
-  (clamped at both ends) and the ram act as parallel springs (stage III).
+* clamp: the ram's slope at bushing A reaches theta_max = 2Z / l_s, i.e. its pinned force
+  reaches F_theta; from then on A acts as a clamp (stage II: clamped at A, pinned at E) for
+  further load;
+* guide: the deflection at the load point B reaches Z_gb (the pinned ram's force F_Z); from
+  then on the guide beam (clamped at both ends) and the ram act as parallel springs (stage III),
+  the ram taking lambda_gb / (lambda_r + lambda_gb) of each further increment.
 
-Each increment is split by the compliances of the current state, so the final forces are
-the sums over stages. The paper's six cases (the orderings of Fl, F_theta and F_Z, see
-:func:`paper_case`) all fall out of this one loop; ``stages`` records which stages occurred
-as bit flags (I = 1, II = 2, III = 4).
+Within a stage every quantity is linear in the load, so the loading is resolved event by event
+in closed form (:func:`_resolve`: at most two events, then the end), and the final forces are
+the sums over the stages. The paper's six cases (the orderings of Fl, F_theta and F_Z, see
+:func:`paper_case`) all fall out of this one function; ``stages`` records which stages carried
+load as bit flags (I = 1, II = 2, III = 4). ``test/model/loadshare_oracle.py`` loads the ram
+step by step as the design card words it, a test compares the two on every case, and the beams'
+closed forms are checked against a finite-element solution.
 
 One difference from the paper: for cases 5-6 it assumes the clamp forms before the guide
 engages. That is exact for case 5 (F_theta < F_Z). In case 6 (F_Z < F_theta < Fl) the guide
@@ -19,28 +24,27 @@ engages first, the ram then carries only its share of further load, and it clamp
 that share lifts its force to F_theta; otherwise the result is stages I + III. The solver
 follows the events, i.e. the physics, and the README says so.
 
+One implementation, compiled with numba: the arrays of a profile (every angle cell of a log at
+every clearance pair, tens of millions of states), the live monitor's single state and a
+replay's batches of them all run the same element function, so they agree to the bit.
+Compiled code also releases the GIL, so the node's estimator thread does not hold up its bus
+reader.
+
 Units: SI (rad, N, N m, m). Arrays broadcast over samples.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from steer_monitor.errors import ModelError
-from steer_monitor.model.beams import (
-    clamped_clamped_compliance,
-    clamped_pinned_compliance,
-    clamped_pinned_reactions,
-    pinned_pinned_compliance,
-    pinned_pinned_reactions,
-    pinned_pinned_slope_at_a,
-)
+from steer_monitor.model import beams
+from steer_monitor.model.friction import normal_forces
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.kinematics import RapsonState, rapson_state
 
@@ -54,10 +58,10 @@ __all__ = [
     'ShareScalar',
     'compliances',
     'critical_forces',
+    'friction_normals',
     'load_sharing',
     'load_sharing_at',
     'load_sharing_scalar',
-    'load_sharing_scalars',
     'paper_case',
 ]
 
@@ -75,6 +79,23 @@ CASE_NAMES = {
 }
 
 Array = NDArray[np.float64]
+
+#: the outputs of the element function, in its order (see :class:`LoadSharing`)
+_FIELDS = ('lateral', 'axial', 'ram_force', 'guide_force', 'k_gl', 'deflection', 'r_a', 'r_e', 'm_a', 'f_theta',
+           'f_z', 'case', 'stages')
+_NF = len(_FIELDS)
+
+_jit = numba.njit(cache=True, nogil=True, error_model='numpy')
+_inline = numba.njit(cache=True, nogil=True, error_model='numpy', inline='always')
+# the beams' closed forms, compiled from their one definition
+_pp_compliance = _inline(beams.pinned_pinned_compliance)
+_pp_slope = _inline(beams.pinned_pinned_slope_at_a)
+_pp_reactions = _inline(beams.pinned_pinned_reactions)
+_cp_compliance = _inline(beams.clamped_pinned_compliance)
+_cp_reactions = _inline(beams.clamped_pinned_reactions)
+_cc_compliance = _inline(beams.clamped_clamped_compliance)
+_euler_force = _inline(beams.euler_force)
+_normal_forces = _inline(normal_forces)
 
 
 @dataclass(frozen=True)
@@ -125,146 +146,6 @@ class LoadSharing:
     stages: NDArray[np.uint8]
 
 
-def compliances(gear: GearParams, state: RapsonState) -> Compliances:
-    """Beam compliances of ram and guide beam at the given kinematic state."""
-    ei_r = gear.youngs_modulus * gear.ram_inertia
-    ei_g = gear.youngs_modulus * gear.guide_beam_inertia
-    lam1 = pinned_pinned_compliance(state.near, state.far, ei_r)
-    lam2 = clamped_pinned_compliance(state.near, state.far, ei_r)
-    slope = pinned_pinned_slope_at_a(state.near, state.far, ei_r)
-    if gear.euler_amplification:
-        if np.any(state.axial >= state.euler):
-            worst = float(np.max(state.axial / state.euler))
-            msg = f'axial ram force reaches {worst:.2f} of the Euler force: the ram buckles'
-            raise ModelError(msg)
-        amp = state.amplification
-        lam1, lam2, slope = lam1 * amp, lam2 * amp, slope * amp
-    lam_g = clamped_clamped_compliance(state.guide_a, state.guide_b, ei_g)
-    return Compliances(lam1, lam2, slope, lam_g)
-
-
-def _gap_arrays(gear: GearParams, two_z: ArrayLike, z_gb: ArrayLike) -> tuple[Array, Array]:
-    tz = np.asarray(two_z, dtype=float)
-    zg = np.asarray(z_gb, dtype=float)
-    for name, value in (('two_z', tz), ('z_gb', zg)):
-        if not np.all(np.isfinite(value)) or np.any(value < 0):
-            msg = f'clearance {name} must be finite and >= 0 m'
-            raise ModelError(msg)
-    return tz / gear.bushing_length, zg
-
-
-def critical_forces(gear: GearParams, state: RapsonState, two_z: ArrayLike,
-                    z_gb: ArrayLike) -> tuple[Array, Array]:
-    """(F_theta, F_Z) [N]: pinned-ram forces that close the angular and the guide gap."""
-    theta_max, zg = _gap_arrays(gear, two_z, z_gb)
-    c = compliances(gear, state)
-    return theta_max / c.slope, zg / c.pinned
-
-
-def paper_case(lateral: ArrayLike, f_theta: ArrayLike, f_z: ArrayLike) -> NDArray[np.int8]:
-    """The paper's case number 1..6 from the ordering of Fl, F_theta and F_Z (ties go low)."""
-    fl, ft, fz = np.broadcast_arrays(np.asarray(lateral, float), np.asarray(f_theta, float),
-                                     np.asarray(f_z, float))
-    theta_first = ft <= fz
-    below_both = fl <= np.minimum(ft, fz)
-    above_both = fl > np.maximum(ft, fz)
-    case = np.where(theta_first, 3, 4)
-    case = np.where(below_both, np.where(theta_first, 1, 2), case)
-    case = np.where(above_both, np.where(theta_first, 5, 6), case)
-    return case.astype(np.int8)
-
-
-def load_sharing(gear: GearParams, alpha: ArrayLike, torque: ArrayLike,
-                 two_z: ArrayLike, z_gb: ArrayLike) -> LoadSharing:
-    """Share one ram's lateral load between ram and guide beam.
-
-    Args:
-        gear: geometry and material.
-        alpha: rudder angle [rad], any shape.
-        torque: tiller torque [N m], broadcast with alpha (magnitude is used).
-        two_z: diametral ram/bushing clearance 2Z [m], broadcast.
-        z_gb: slipper/guide-beam clearance Z_gb [m], broadcast.
-
-    Returns:
-        :class:`LoadSharing` with arrays of the broadcast shape.
-    """
-    theta_max, zg = _gap_arrays(gear, two_z, z_gb)
-    state = rapson_state(gear, alpha, torque)
-    comp = compliances(gear, state)
-    shape = np.broadcast_shapes(state.lateral.shape, theta_max.shape, zg.shape)
-    fl = np.broadcast_to(state.lateral, shape)
-    lam1 = np.broadcast_to(comp.pinned, shape)
-    lam2 = np.broadcast_to(comp.clamped, shape)
-    lam_g = np.broadcast_to(comp.guide, shape)
-    f_theta = np.broadcast_to(theta_max / comp.slope, shape)
-    zg = np.broadcast_to(zg, shape)
-
-    applied = np.zeros(shape)
-    f_pinned = np.zeros(shape)   # ram force carried while pinned (stage I, and I with III)
-    f_clamped = np.zeros(shape)  # ram force carried while clamped
-    f_guide = np.zeros(shape)
-    deflection = np.zeros(shape)
-    clamped = np.zeros(shape, dtype=bool)
-    guide = np.zeros(shape, dtype=bool)
-    stages = np.zeros(shape, dtype=np.uint8)
-    inf = np.inf
-
-    # At most two events (clamp, guide) then the end: three increments cover every case.
-    for _ in range(3):
-        lam_r = np.where(clamped, lam2, lam1)
-        ram_share = np.where(guide, lam_g / (lam_r + lam_g), 1.0)
-        to_end = fl - applied
-        with np.errstate(divide='ignore', invalid='ignore'):
-            to_clamp = np.where(clamped, inf, (f_theta - f_pinned) / ram_share)
-            to_guide = np.where(guide, inf, (zg - deflection) / lam_r)
-        to_clamp = np.maximum(to_clamp, 0.0)
-        to_guide = np.maximum(to_guide, 0.0)
-        step = np.minimum(to_end, np.minimum(to_clamp, to_guide))
-        loaded = step > 0
-        stages |= np.where(loaded, np.where(clamped, STAGE_CLAMPED, STAGE_PINNED), 0).astype(np.uint8)
-        stages |= np.where(loaded & guide, STAGE_GUIDE, 0).astype(np.uint8)
-        ram_step = ram_share * step
-        f_pinned += np.where(clamped, 0.0, ram_step)
-        f_clamped += np.where(clamped, ram_step, 0.0)
-        f_guide += step - ram_step
-        deflection += lam_r * ram_step
-        applied += step
-        clamped = clamped | (to_clamp <= step)
-        guide = guide | (to_guide <= step)
-
-    rp_a, rp_e = pinned_pinned_reactions(state.near, state.far)
-    rc_a, rc_e, mc_a = clamped_pinned_reactions(state.near, state.far)
-    ram_force = f_pinned + f_clamped
-    with np.errstate(divide='ignore', invalid='ignore'):
-        k_gl = np.where(fl > 0, f_guide / np.where(fl > 0, fl, 1.0), 0.0)
-    f_z = zg / lam1
-    return LoadSharing(
-        lateral=np.array(fl),
-        axial=np.array(np.broadcast_to(state.axial, shape)),
-        ram_force=ram_force,
-        guide_force=f_guide,
-        k_gl=k_gl,
-        deflection=deflection,
-        r_a=f_pinned * rp_a + f_clamped * rc_a,
-        r_e=f_pinned * rp_e + f_clamped * rc_e,
-        m_a=f_clamped * mc_a,
-        f_theta=np.array(f_theta),
-        f_z=f_z,
-        case=paper_case(fl, f_theta, f_z),
-        stages=stages,
-    )
-
-
-def load_sharing_at(gear: GearParams, alpha: ArrayLike, gaps: Gaps,
-                    speed: ArrayLike | None = None) -> LoadSharing:
-    """Load sharing with the tiller torque taken from the gear's torque curve.
-
-    ``alpha`` in rad; ``speed`` ship speed in m/s (service speed when None).
-    """
-    torque = gear.torque(alpha, speed)
-    return load_sharing(gear, alpha, torque, gaps.two_z, gaps.z_gb)
-
-
 @dataclass(frozen=True, slots=True)
 class ShareScalar:
     """:class:`LoadSharing` of one sample as plain floats (same fields, same units)."""
@@ -284,85 +165,135 @@ class ShareScalar:
     stages: int
 
 
-def _closed_forms(gear: GearParams, m_abs: Any, tan_a: Any, cos_a: Any) -> tuple[Any, ...]:
-    """The closed forms before the event loop, of one sample (floats) or many (1-d arrays),
-    from |M| [N m] and tan, cos of |alpha|: the same operations in the same order either way,
-    which is what keeps :func:`load_sharing_scalar` and :func:`load_sharing_scalars` equal to
-    the bit. -> (a, b [m], Fa, Fl [N], lambda1, lambda2 [m/N], theta_A [rad/N], lambda_gb
-    [m/N]), the ram's compliances without the Euler amplification."""
-    span, h = gear.bushing_span, gear.stock_to_ram
+def compliances(gear: GearParams, state: RapsonState) -> Compliances:
+    """Beam compliances of ram and guide beam at the given kinematic state."""
+    ei_r = gear.youngs_modulus * gear.ram_inertia
+    ei_g = gear.youngs_modulus * gear.guide_beam_inertia
+    lam1 = beams.pinned_pinned_compliance(state.near, state.far, ei_r)
+    lam2 = beams.clamped_pinned_compliance(state.near, state.far, ei_r)
+    slope = beams.pinned_pinned_slope_at_a(state.near, state.far, ei_r)
+    if gear.euler_amplification:
+        if np.any(state.axial >= state.euler):
+            worst = float(np.max(state.axial / state.euler))
+            msg = f'axial ram force reaches {worst:.2f} of the Euler force: the ram buckles'
+            raise ModelError(msg)
+        amp = state.amplification
+        lam1, lam2, slope = lam1 * amp, lam2 * amp, slope * amp
+    lam_g = beams.clamped_clamped_compliance(state.guide_a, state.guide_b, ei_g)
+    return Compliances(lam1, lam2, slope, lam_g)
+
+
+def _checked_gaps(two_z: ArrayLike, z_gb: ArrayLike) -> tuple[Array, Array]:
+    tz = np.asarray(two_z, dtype=float)
+    zg = np.asarray(z_gb, dtype=float)
+    for name, value in (('two_z', tz), ('z_gb', zg)):
+        if not np.all(np.isfinite(value)) or np.any(value < 0):
+            msg = f'clearance {name} must be finite and >= 0 m'
+            raise ModelError(msg)
+    return tz, zg
+
+
+def critical_forces(gear: GearParams, state: RapsonState, two_z: ArrayLike,
+                    z_gb: ArrayLike) -> tuple[Array, Array]:
+    """(F_theta, F_Z) [N]: pinned-ram forces that close the angular and the guide gap."""
+    tz, zg = _checked_gaps(two_z, z_gb)
+    c = compliances(gear, state)
+    return tz / gear.bushing_length / c.slope, zg / c.pinned
+
+
+def paper_case(lateral: ArrayLike, f_theta: ArrayLike, f_z: ArrayLike) -> NDArray[np.int8]:
+    """The paper's case number 1..6 from the ordering of Fl, F_theta and F_Z (ties go low)."""
+    fl, ft, fz = np.broadcast_arrays(np.asarray(lateral, float), np.asarray(f_theta, float),
+                                     np.asarray(f_z, float))
+    theta_first = ft <= fz
+    below_both = fl <= np.minimum(ft, fz)
+    above_both = fl > np.maximum(ft, fz)
+    case = np.where(theta_first, 3, 4)
+    case = np.where(below_both, np.where(theta_first, 1, 2), case)
+    case = np.where(above_both, np.where(theta_first, 5, 6), case)
+    return case.astype(np.int8)
+
+
+def _constants(gear: GearParams) -> NDArray[np.float64]:
+    """The gear as the kernels take it: H, L, L_gb, n, E, J_r, J_gb, l_s, Euler (1/0)."""
+    return np.array([gear.stock_to_ram, gear.bushing_span, gear.guide_beam_span, float(gear.rams),
+                     gear.youngs_modulus, gear.ram_inertia, gear.guide_beam_inertia, gear.bushing_length,
+                     1.0 if gear.euler_amplification else 0.0])
+
+
+@_inline
+def _state(alpha: float, torque: float, k: NDArray[np.float64]) -> tuple:
+    """The closed forms of one sample before any event: (Fa, Fl [N], lambda1, lambda2 [m/N],
+    theta_A [rad/N], lambda_gb [m/N], a, b [m], buckled). The ram's compliances carry the
+    Euler amplification when the gear asks for it; ``buckled`` when the axial force reaches the
+    Euler force."""
+    h, span, g_span, rams, e, j_r, j_g = k[0], k[1], k[2], k[3], k[4], k[5], k[6]
+    a_abs, m_abs = abs(alpha), abs(torque)
+    tan_a = math.tan(a_abs)
+    cos_a = math.cos(a_abs)
     travel = h * tan_a
     b = span / 2.0 + travel
     a = span - b
-    ag = gear.guide_beam_span / 2.0 - travel
-    bg = gear.guide_beam_span - ag
-    axial = m_abs * (cos_a * cos_a) / (gear.rams * h)
+    ag = g_span / 2.0 - travel
+    axial = m_abs * (cos_a * cos_a) / (rams * h)
     fl = axial * tan_a
-    ei = gear.youngs_modulus * gear.ram_inertia
-    lam1 = a * a * b * b / (3.0 * ei * span)
-    lam2 = a * a * a * b * b * (3.0 * span + b) / (12.0 * ei * span**3)
-    slope = b * (span * span - b * b) / (6.0 * ei * span)
-    lam_g = (ag * ag * ag) * (bg * bg * bg) / (3.0 * gear.youngs_modulus * gear.guide_beam_inertia
-                                               * gear.guide_beam_span**3)
-    return a, b, axial, fl, lam1, lam2, slope, lam_g
-
-
-def _clamp_factors(span: float, a: Any, b: Any) -> tuple[Any, Any]:
-    """Per unit of clamped-ram force: the far bushing's reaction and the clamp moment [m] (as
-    :func:`_closed_forms`, for floats or arrays alike)."""
-    return a * a * (3.0 * span - a) / (2.0 * span**3), a * b * (span + b) / (2.0 * span**2)
-
-
-def load_sharing_scalar(gear: GearParams, alpha: float, torque: float, two_z: float,
-                        z_gb: float) -> ShareScalar:
-    """One sample of :func:`load_sharing` in plain float arithmetic, for live use.
-
-    The same closed forms and the same event loop, without numpy's per-call overhead (about
-    twenty times faster on one sample); ``test_loadshare`` checks the two agree.
-    """
-    if not (math.isfinite(two_z) and two_z >= 0 and math.isfinite(z_gb) and z_gb >= 0):
-        msg = 'clearance two_z and z_gb must be finite and >= 0 m'
-        raise ModelError(msg)
-    a_abs, m_abs = abs(alpha), abs(torque)
-    span = gear.bushing_span
-    tan_a = math.tan(a_abs)
-    a, b, axial, fl, lam1, lam2, slope, lam_g = _closed_forms(gear, m_abs, tan_a, math.cos(a_abs))
-    if gear.euler_amplification:
-        f_eu = math.pi**2 * (gear.youngs_modulus * gear.ram_inertia) / (b * b)
-        if axial >= f_eu:
-            msg = f'axial ram force reaches {axial / f_eu:.2f} of the Euler force: the ram buckles'
-            raise ModelError(msg)
+    ei = e * j_r
+    lam1 = _pp_compliance(a, b, ei)
+    lam2 = _cp_compliance(a, b, ei)
+    slope = _pp_slope(a, b, ei)
+    lam_g = _cc_compliance(ag, g_span - ag, e * j_g)
+    buckled = False
+    if k[8] != 0.0:
+        f_eu = _euler_force(ei, b)
+        buckled = axial >= f_eu
         amp = 1.0 / (1.0 - axial / f_eu)
         lam1, lam2, slope = lam1 * amp, lam2 * amp, slope * amp
-    f_theta = (two_z / gear.bushing_length) / slope if slope > 0 else math.inf
-    f_z = z_gb / lam1 if lam1 > 0 else math.inf
+    return axial, fl, lam1, lam2, slope, lam_g, a, b, buckled
 
-    applied = f_pinned = f_clamped = f_guide = deflection = 0.0
-    clamped = guide = False
-    stages = 0
-    for _ in range(3):
-        lam_r = lam2 if clamped else lam1
-        share = lam_g / (lam_r + lam_g) if guide else 1.0
-        to_end = fl - applied
-        to_clamp = math.inf if clamped else max((f_theta - f_pinned) / share, 0.0)
-        to_guide = math.inf if guide else max((z_gb - deflection) / lam_r, 0.0) if lam_r > 0 else math.inf
-        step = min(to_end, to_clamp, to_guide)
-        if step > 0:
-            stages |= STAGE_CLAMPED if clamped else STAGE_PINNED
-            if guide:
-                stages |= STAGE_GUIDE
-        ram_step = share * step
-        if clamped:
-            f_clamped += ram_step
-        else:
-            f_pinned += ram_step
-        f_guide += step - ram_step
-        deflection += lam_r * ram_step
-        applied += step
-        clamped = clamped or to_clamp <= step
-        guide = guide or to_guide <= step
 
-    re_c, ma_c = _clamp_factors(span, a, b)
+@_inline
+def _resolve(fl: float, lam1: float, lam2: float, lam_g: float, f_theta: float, f_z: float) -> tuple:
+    """The load Fl applied from 0 with the clamp at the pinned ram force ``f_theta`` and the
+    guide at ``f_z``: (F of the ram while pinned, F of the ram while clamped, F of the guide
+    beam [N], stage flags). Each stage is linear; the events come in the order of the forces
+    (both at once when equal)."""
+    if not fl > 0.0:
+        if fl == 0.0:
+            return 0.0, 0.0, 0.0, 0
+        return math.nan, math.nan, math.nan, 0        # not a number in, not a number out
+    if fl <= f_theta and fl <= f_z:                  # no event: pinned throughout (cases 1, 2)
+        return fl, 0.0, 0.0, STAGE_PINNED
+    s2 = lam_g / (lam2 + lam_g)                     # the clamped ram's share once the guide carries
+    if f_theta <= f_z:                               # the ram clamps first
+        stages = STAGE_PINNED if f_theta > 0.0 else 0
+        rest = fl - f_theta
+        extra = (f_z - f_theta) * lam1 / lam2        # load in stage II until the deflection reaches Z_gb
+        if rest <= extra:
+            return f_theta, rest, 0.0, stages | STAGE_CLAMPED
+        if extra > 0.0:
+            stages |= STAGE_CLAMPED
+        rest -= extra
+        return f_theta, extra + s2 * rest, (1.0 - s2) * rest, stages | STAGE_CLAMPED | STAGE_GUIDE
+    stages = STAGE_PINNED if f_z > 0.0 else 0       # the guide touches first
+    s1 = lam_g / (lam1 + lam_g)                     # the pinned ram's share with the guide
+    rest = fl - f_z
+    need = (f_theta - f_z) / s1                     # load until the ram's force reaches F_theta
+    if rest <= need:
+        return f_z + s1 * rest, 0.0, (1.0 - s1) * rest, stages | STAGE_PINNED | STAGE_GUIDE
+    rest -= need
+    return (f_theta, s2 * rest, (1.0 - s1) * need + (1.0 - s2) * rest,
+            stages | STAGE_PINNED | STAGE_CLAMPED | STAGE_GUIDE)
+
+
+@_inline
+def _element(alpha: float, torque: float, two_z: float, z_gb: float, k: NDArray[np.float64]) -> tuple:
+    """One sample: the values of ``_FIELDS`` in order, then whether the ram buckled."""
+    axial, fl, lam1, lam2, slope, lam_g, a, b, buckled = _state(alpha, torque, k)
+    f_theta = (two_z / k[7]) / slope if slope > 0.0 else math.inf
+    f_z = z_gb / lam1 if lam1 > 0.0 else math.inf
+    f_pinned, f_clamped, f_guide, stages = _resolve(fl, lam1, lam2, lam_g, f_theta, f_z)
+    rp_a, rp_e = _pp_reactions(a, b)
+    rc_a, rc_e, mc_a = _cp_reactions(a, b)
     theta_first = f_theta <= f_z
     if fl <= min(f_theta, f_z):
         case = 1 if theta_first else 2
@@ -370,94 +301,127 @@ def load_sharing_scalar(gear: GearParams, alpha: float, torque: float, two_z: fl
         case = 5 if theta_first else 6
     else:
         case = 3 if theta_first else 4
-    return ShareScalar(
-        lateral=fl, axial=axial, ram_force=f_pinned + f_clamped, guide_force=f_guide,
-        k_gl=f_guide / fl if fl > 0 else 0.0, deflection=deflection,
-        r_a=f_pinned * b / span + f_clamped * (1.0 - re_c), r_e=f_pinned * a / span + f_clamped * re_c,
-        m_a=f_clamped * ma_c, f_theta=f_theta, f_z=f_z, case=case, stages=stages)
+    return (fl, axial, f_pinned + f_clamped, f_guide, f_guide / fl if fl > 0.0 else 0.0,
+            lam1 * f_pinned + lam2 * f_clamped, f_pinned * rp_a + f_clamped * rc_a,
+            f_pinned * rp_e + f_clamped * rc_e, f_clamped * mc_a, f_theta, f_z, case, stages, buckled)
 
 
-def _each(fn: Callable[[float], float], x: Array) -> Array:
-    """``fn`` of each element in Python float arithmetic (the C library's function, as
-    :func:`load_sharing_scalar` calls it)."""
-    return np.fromiter(map(fn, x.tolist()), float, x.size)
+@_jit
+def _solve(alpha: Array, torque: Array, two_z: Array, z_gb: Array, k: Array, out: Array) -> int:
+    """:func:`_element` of each sample (1-d arrays of one length) into ``out`` (13, n); the
+    index of the first sample whose ram buckles, or -1."""
+    for i in range(alpha.size):
+        r = _element(alpha[i], torque[i], two_z[i], z_gb[i], k)
+        if r[13]:
+            return i
+        out[0, i], out[1, i], out[2, i], out[3, i], out[4, i], out[5, i] = r[0], r[1], r[2], r[3], r[4], r[5]
+        out[6, i], out[7, i], out[8, i], out[9, i], out[10, i] = r[6], r[7], r[8], r[9], r[10]
+        out[11, i], out[12, i] = r[11], r[12]
+    return -1
 
 
-def load_sharing_scalars(gear: GearParams, alpha: ArrayLike, torque: ArrayLike, two_z: ArrayLike,
-                         z_gb: ArrayLike) -> LoadSharing:
-    """:func:`load_sharing_scalar` of many samples (1-d arrays of one length, SI), the same
-    numbers to the bit.
+@_jit
+def _solve_one(alpha: float, torque: float, two_z: float, z_gb: float, k: Array) -> tuple:
+    return _element(alpha, torque, two_z, z_gb, k)
 
-    :func:`load_sharing` agrees with the scalar solver to rounding only (its own closed forms,
-    numpy's transcendental functions); a replay that must write the node's bytes needs the
-    scalar's. Here every step is the scalar's, in its order: +, -, *, / and comparisons are
-    IEEE-754 operations that round the same in numpy as in Python, the branches are ``where``
-    of the same comparisons (Python's ``max(x, 0.0)`` and ``min`` included, NaN and signed
-    zeros alike), tan and cos are the scalar's own calls of the C library, element by
-    element, and the per-sample powers are products in both (a C ``pow`` would differ from
-    them, and between libraries). ``test_loadshare`` compares every field's bits. Raises the
-    scalar's :class:`ModelError` for the first sample it would raise on."""
-    alpha = np.asarray(alpha, float).ravel()
-    n = alpha.size
-    torque, two_z, z_gb = (np.broadcast_to(np.asarray(x, float).ravel(), (n,)) for x in (torque, two_z, z_gb))
-    if n == 0:
-        e = np.empty(0)
-        return LoadSharing(e, e, e, e, e, e, e, e, e, e, e, np.empty(0, np.int8), np.empty(0, np.uint8))
-    bad = ~(np.isfinite(two_z) & (two_z >= 0) & np.isfinite(z_gb) & (z_gb >= 0))
-    if bad.any():
+
+@_jit
+def _normals_grid(alpha: Array, torque: Array, two_z: Array, z_gb: Array, k: Array, n_b: Array, f_gb: Array) -> int:
+    """For each cell (``alpha``, ``torque``; (C,)) and clearance pair (``two_z``, ``z_gb``; (G,)):
+    N_A + N_E and |F_gb| into ``n_b`` and ``f_gb`` (C, G). The cell's closed forms once, the
+    events per pair; -1, or the first cell whose ram buckles."""
+    ls = k[7]
+    for c in range(alpha.size):
+        axial, fl, lam1, lam2, slope, lam_g, a, b, buckled = _state(alpha[c], torque[c], k)
+        if buckled:
+            return c
+        rp_a, rp_e = _pp_reactions(a, b)
+        rc_a, rc_e, mc_a = _cp_reactions(a, b)
+        for g in range(two_z.size):
+            f_theta = (two_z[g] / ls) / slope if slope > 0.0 else math.inf
+            f_z = z_gb[g] / lam1 if lam1 > 0.0 else math.inf
+            fp, fc, fg, _ = _resolve(fl, lam1, lam2, lam_g, f_theta, f_z)
+            n_a, n_e = _normal_forces(fp * rp_a + fc * rc_a, fp * rp_e + fc * rc_e, fc * mc_a, ls)
+            n_b[c, g] = n_a + n_e
+            f_gb[c, g] = abs(fg)
+    return -1
+
+
+def _buckled(gear: GearParams, alpha: float, torque: float) -> ModelError:
+    st = rapson_state(gear, alpha, torque)
+    return ModelError(f'axial ram force reaches {float(st.axial / st.euler):.2f} of the Euler force: '
+                      f'the ram buckles')
+
+
+def load_sharing(gear: GearParams, alpha: ArrayLike, torque: ArrayLike,
+                 two_z: ArrayLike, z_gb: ArrayLike) -> LoadSharing:
+    """Share one ram's lateral load between ram and guide beam.
+
+    Args:
+        gear: geometry and material.
+        alpha: rudder angle [rad], any shape.
+        torque: tiller torque [N m], broadcast with alpha (magnitude is used).
+        two_z: diametral ram/bushing clearance 2Z [m], broadcast.
+        z_gb: slipper/guide-beam clearance Z_gb [m], broadcast.
+
+    Returns:
+        :class:`LoadSharing` with arrays of the broadcast shape.
+    """
+    tz, zg = _checked_gaps(two_z, z_gb)
+    arrays = np.broadcast_arrays(np.asarray(alpha, float), np.asarray(torque, float), tz, zg)
+    shape = arrays[0].shape
+    flat = [np.ascontiguousarray(x, dtype=float).reshape(-1) for x in arrays]
+    out = np.empty((_NF, flat[0].size))
+    k = _constants(gear)
+    bad = _solve(*flat, k, out)
+    if bad >= 0:
+        raise _buckled(gear, float(flat[0][bad]), float(flat[1][bad]))
+    fields = {name: out[i].reshape(shape) for i, name in enumerate(_FIELDS)}
+    fields['case'] = fields['case'].astype(np.int8)
+    fields['stages'] = fields['stages'].astype(np.uint8)
+    return LoadSharing(**fields)
+
+
+def load_sharing_at(gear: GearParams, alpha: ArrayLike, gaps: Gaps,
+                    speed: ArrayLike | None = None) -> LoadSharing:
+    """Load sharing with the tiller torque taken from the gear's torque curve.
+
+    ``alpha`` in rad; ``speed`` ship speed in m/s (service speed when None).
+    """
+    torque = gear.torque(alpha, speed)
+    return load_sharing(gear, alpha, torque, gaps.two_z, gaps.z_gb)
+
+
+def load_sharing_scalar(gear: GearParams, alpha: float, torque: float, two_z: float,
+                        z_gb: float) -> ShareScalar:
+    """One sample of :func:`load_sharing` as plain floats, for live use: the same element
+    function, so the same numbers to the bit, without the arrays' set-up."""
+    if not (math.isfinite(two_z) and two_z >= 0 and math.isfinite(z_gb) and z_gb >= 0):
         msg = 'clearance two_z and z_gb must be finite and >= 0 m'
         raise ModelError(msg)
-    a_abs, m_abs = np.abs(alpha), np.abs(torque)
-    span = gear.bushing_span
-    tan_a = _each(math.tan, a_abs)
-    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
-        a, b, axial, fl, lam1, lam2, slope, lam_g = _closed_forms(gear, m_abs, tan_a, _each(math.cos, a_abs))
-        if gear.euler_amplification:
-            f_eu = math.pi**2 * (gear.youngs_modulus * gear.ram_inertia) / (b * b)
-            buckles = np.flatnonzero(axial >= f_eu)
-            if buckles.size:
-                i = int(buckles[0])
-                msg = f'axial ram force reaches {axial[i] / f_eu[i]:.2f} of the Euler force: the ram buckles'
-                raise ModelError(msg)
-            amp = 1.0 / (1.0 - axial / f_eu)
-            lam1, lam2, slope = lam1 * amp, lam2 * amp, slope * amp
-        f_theta = np.where(slope > 0, (two_z / gear.bushing_length) / slope, math.inf)
-        f_z = np.where(lam1 > 0, z_gb / lam1, math.inf)
+    k = gear.__dict__.get('_share_constants')
+    if k is None:
+        k = _constants(gear)
+        object.__setattr__(gear, '_share_constants', k)
+    r = _solve_one(float(alpha), float(torque), float(two_z), float(z_gb), k)
+    if r[13]:
+        raise _buckled(gear, alpha, torque)
+    return ShareScalar(r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[10], int(r[11]), int(r[12]))
 
-        applied, f_pinned, f_clamped, f_guide, deflection = (np.zeros(n) for _ in range(5))
-        clamped, guide = np.zeros(n, bool), np.zeros(n, bool)
-        stages = np.zeros(n, np.uint8)
-        for _ in range(3):
-            lam_r = np.where(clamped, lam2, lam1)
-            share = np.where(guide, lam_g / (lam_r + lam_g), 1.0)
-            to_end = fl - applied
-            x = (f_theta - f_pinned) / share
-            to_clamp = np.where(clamped, math.inf, np.where(0.0 > x, 0.0, x))     # max(x, 0.0)
-            x = (z_gb - deflection) / lam_r
-            to_guide = np.where(guide, math.inf, np.where(lam_r > 0, np.where(0.0 > x, 0.0, x), math.inf))
-            step = np.where(to_clamp < to_end, to_clamp, to_end)                  # min(to_end, to_clamp, to_guide)
-            step = np.where(to_guide < step, to_guide, step)
-            loaded = step > 0
-            stages |= np.where(loaded, np.where(clamped, STAGE_CLAMPED, STAGE_PINNED), 0).astype(np.uint8)
-            stages |= np.where(loaded & guide, STAGE_GUIDE, 0).astype(np.uint8)
-            ram_step = share * step
-            f_clamped = np.where(clamped, f_clamped + ram_step, f_clamped)
-            f_pinned = np.where(clamped, f_pinned, f_pinned + ram_step)
-            f_guide = f_guide + (step - ram_step)
-            deflection = deflection + lam_r * ram_step
-            applied = applied + step
-            clamped = clamped | (to_clamp <= step)
-            guide = guide | (to_guide <= step)
 
-        re_c, ma_c = _clamp_factors(span, a, b)
-        theta_first = f_theta <= f_z
-        lower = np.where(f_z < f_theta, f_z, f_theta)                             # min(f_theta, f_z)
-        upper = np.where(f_z > f_theta, f_z, f_theta)                             # max(f_theta, f_z)
-        case = np.where(fl <= lower, np.where(theta_first, 1, 2),
-                        np.where(fl > upper, np.where(theta_first, 5, 6), np.where(theta_first, 3, 4)))
-        k_gl = np.where(fl > 0, f_guide / fl, 0.0)
-    return LoadSharing(
-        lateral=fl, axial=axial, ram_force=f_pinned + f_clamped, guide_force=f_guide, k_gl=k_gl,
-        deflection=deflection, r_a=f_pinned * b / span + f_clamped * (1.0 - re_c),
-        r_e=f_pinned * a / span + f_clamped * re_c, m_a=f_clamped * ma_c, f_theta=f_theta, f_z=f_z,
-        case=case.astype(np.int8), stages=stages)
+def friction_normals(gear: GearParams, alpha: ArrayLike, torque: ArrayLike, two_z: ArrayLike,
+                     z_gb: ArrayLike) -> tuple[Array, Array]:
+    """The friction law's loads on a grid: for each angle and torque (C,) [rad, N m] and each
+    clearance pair (G,) [m], N_A + N_E and |F_gb| [N], shapes (C, G) (the declared friction
+    law, :mod:`~steer_monitor.model.friction`). The clearance profile's inner loop: each cell's
+    closed forms are worked out once for all the pairs."""
+    tz, zg = _checked_gaps(two_z, z_gb)
+    a = np.ascontiguousarray(alpha, dtype=float).reshape(-1)
+    t = np.ascontiguousarray(np.broadcast_to(np.asarray(torque, float), a.shape), dtype=float).reshape(-1)
+    tz, zg = (np.ascontiguousarray(x, dtype=float).reshape(-1) for x in np.broadcast_arrays(tz, zg))
+    n_b = np.empty((a.size, tz.size))
+    f_gb = np.empty((a.size, tz.size))
+    bad = _normals_grid(a, t, tz, zg, _constants(gear), n_b, f_gb)
+    if bad >= 0:
+        raise _buckled(gear, float(a[bad]), float(t[bad]))
+    return n_b, f_gb

@@ -285,7 +285,7 @@ class LiveMonitor:
     def slot_state(self) -> LiveState | None:
         """:attr:`state`, but with :attr:`defer_share` its load sharing is left to the caller
         (``share`` None, ``torque_measured`` set): a replay solves the states of many slots
-        at once (:func:`~steer_monitor.model.loadshare.load_sharing_scalars`, the same numbers
+        at once (:func:`~steer_monitor.model.loadshare.load_sharing`, the same numbers
         as :meth:`share_of`, to the bit)."""
         if self._dirty:
             self._dirty = False

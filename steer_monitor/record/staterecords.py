@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from steer_monitor.model.gear import Gaps, GearParams
-from steer_monitor.model.loadshare import ShareScalar, load_sharing_scalars
+from steer_monitor.model.loadshare import ShareScalar, load_sharing
 from steer_monitor.monitor.live import LiveState
 from steer_monitor.monitor.messages import state_messages
 from steer_monitor.monitor.pipeline import StateOut
@@ -126,7 +126,7 @@ def _shares(states: Sequence[LiveState], given: NDArray[np.bool_], todo: NDArray
     (``todo``), in state order: floats (m, 10) in the layout's order (the load case and stages
     as floats, as the message carries them). The
     states left to the caller (:meth:`~steer_monitor.monitor.live.LiveMonitor.slot_state`) are
-    solved all at once by :func:`~steer_monitor.model.loadshare.load_sharing_scalars` (the
+    solved all at once by :func:`~steer_monitor.model.loadshare.load_sharing` (the
     live monitor's numbers, to the bit)."""
     has = given | todo
     m = int(np.count_nonzero(has))
@@ -140,7 +140,7 @@ def _shares(states: Sequence[LiveState], given: NDArray[np.bool_], todo: NDArray
         idx = np.flatnonzero(todo)
         two_z = np.fromiter((states[i].gaps.two_z for i in idx.tolist()), float, idx.size)
         z_gb = np.fromiter((states[i].gaps.z_gb for i in idx.tolist()), float, idx.size)
-        ls = load_sharing_scalars(gear, alpha[idx], torque[idx], two_z, z_gb)
+        ls = load_sharing(gear, alpha[idx], torque[idx], two_z, z_gb)
         floats[solved] = np.stack([getattr(ls, k) for k in _SHARE_FLOATS], axis=1)
     return floats
 

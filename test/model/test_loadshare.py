@@ -1,5 +1,6 @@
-"""The event-driven load-sharing solver: against the FE contact solution, the paper's six
-cases, and the R-18 landmarks of paper 004."""
+"""The load-sharing solver: against the FE contact solution, the paper's six cases, the
+stepwise solver the design card words (``loadshare_oracle``), and the R-18 landmarks of
+paper 004."""
 
 from __future__ import annotations
 
@@ -106,6 +107,7 @@ def test_case6_clamp_happens_exactly_at_f_theta(r18):
 
 
 def test_vectorized_equals_per_sample(r18):
+    """One element function: an array and its samples one at a time give the same bits."""
     rng = np.random.default_rng(1)
     alpha = rng.uniform(-0.6, 0.6, 300)
     torque = r18.torque(alpha) * rng.uniform(0.2, 3.0, 300)
@@ -114,28 +116,10 @@ def test_vectorized_equals_per_sample(r18):
     vec = load_sharing(r18, alpha, torque, two_z, z_gb)
     for i in range(0, 300, 7):
         one = load_sharing(r18, alpha[i], torque[i], two_z[i], z_gb[i])
-        for field in ('ram_force', 'guide_force', 'k_gl', 'deflection', 'r_a', 'r_e', 'm_a'):
-            assert float(getattr(one, field)) == pytest.approx(float(getattr(vec, field)[i]), rel=1e-12, abs=1e-12)
+        for field in _SHARE_FIELDS:
+            assert getattr(one, field).tobytes() == getattr(vec, field)[i].tobytes(), field
         assert int(one.case) == int(vec.case[i])
         assert int(one.stages) == int(vec.stages[i])
-
-
-def test_scalar_path_equals_vectorized(r18):
-    from dataclasses import replace
-
-    from steer_monitor.model import load_sharing_scalar
-    rng = np.random.default_rng(3)
-    for gear in (r18, replace(r18, euler_amplification=True)):
-        alpha = rng.uniform(-0.6, 0.6, 400)
-        torque = gear.torque(alpha) * rng.uniform(0.0, 2.5, 400)
-        two_z = rng.choice([0.0, 0.05e-3, 0.2e-3, 0.6e-3], 400)
-        z_gb = rng.choice([0.0, 0.05e-3, 0.25e-3], 400)
-        vec = load_sharing(gear, alpha, torque, two_z, z_gb)
-        for i in range(400):
-            one = load_sharing_scalar(gear, float(alpha[i]), float(torque[i]), float(two_z[i]), float(z_gb[i]))
-            for field in ('lateral', 'axial', 'ram_force', 'guide_force', 'k_gl', 'deflection', 'r_a', 'r_e', 'm_a'):
-                assert getattr(one, field) == pytest.approx(float(getattr(vec, field)[i]), rel=1e-9, abs=1e-12), field
-            assert (one.case, one.stages) == (int(vec.case[i]), int(vec.stages[i]))
 
 
 _SHARE_FIELDS = ('lateral', 'axial', 'ram_force', 'guide_force', 'k_gl', 'deflection', 'r_a', 'r_e', 'm_a',
@@ -162,20 +146,20 @@ def _scalar_cases(gear, rng, n):
     return alpha, torque, two_z, z_gb
 
 
-@pytest.mark.parametrize('euler', [False, True])
-def test_scalars_are_the_scalar_to_the_bit(r18, euler):
-    """The array form of the scalar solver gives its numbers bit for bit, every field, in
-    every case and on the branches' edges (a replay writes the node's bytes with it)."""
-    from dataclasses import replace
+def _without_buckling(gear, alpha, torque, two_z, z_gb):
+    keep = [i for i in range(alpha.size) if _buckles(gear, alpha[i], torque[i]) is None]
+    return alpha[keep], torque[keep], two_z[keep], z_gb[keep]
 
-    from steer_monitor.model import load_sharing_scalar, load_sharing_scalars
+
+@pytest.mark.parametrize('euler', [False, True])
+def test_the_scalar_is_the_array_to_the_bit(r18, euler):
+    """The live monitor's one-state call gives the array's numbers bit for bit, every field,
+    in every case and on the branches' edges (a replay writes the node's bytes with arrays)."""
+    from dataclasses import replace
     gear = replace(r18, euler_amplification=euler)
     rng = np.random.default_rng(11)
-    alpha, torque, two_z, z_gb = _scalar_cases(gear, rng, 3000)
-    if euler:
-        keep = [i for i in range(alpha.size) if _buckles(gear, alpha[i], torque[i]) is None]
-        alpha, torque, two_z, z_gb = alpha[keep], torque[keep], two_z[keep], z_gb[keep]
-    vec = load_sharing_scalars(gear, alpha, torque, two_z, z_gb)
+    alpha, torque, two_z, z_gb = _without_buckling(gear, *_scalar_cases(gear, rng, 3000))
+    vec = load_sharing(gear, alpha, torque, two_z, z_gb)
     cases = set()
     for i in range(alpha.size):
         one = load_sharing_scalar(gear, float(alpha[i]), float(torque[i]), float(two_z[i]), float(z_gb[i]))
@@ -184,6 +168,52 @@ def test_scalars_are_the_scalar_to_the_bit(r18, euler):
         assert (one.case, one.stages) == (int(vec.case[i]), int(vec.stages[i])), i
         cases.add(one.case)
     assert cases == {1, 2, 3, 4, 5, 6}
+
+
+@pytest.mark.parametrize('euler', [False, True])
+def test_the_closed_form_is_the_stepwise_loading(r18, euler):
+    """Each event resolved in closed form = the ram loaded step by step as the design card
+    words it (the oracle, a numpy loop over the events), to rounding: every field, every case,
+    the stages that carried load, on the branches' edges and ties."""
+    from dataclasses import replace
+
+    from test.model.loadshare_oracle import load_sharing_stepwise
+    gear = replace(r18, euler_amplification=euler)
+    rng = np.random.default_rng(12)
+    alpha, torque, two_z, z_gb = _without_buckling(gear, *_scalar_cases(gear, rng, 4000))
+    two_z, z_gb = np.abs(two_z), np.abs(z_gb)
+    new = load_sharing(gear, alpha, torque, two_z, z_gb)
+    ref = load_sharing_stepwise(gear, alpha, torque, two_z, z_gb)
+    for field in _SHARE_FIELDS:
+        got, want = getattr(new, field), getattr(ref, field)
+        scale = np.maximum(np.abs(ref.lateral), 1.0) * (1e-3 if field == 'deflection' else 1.0)
+        if field in ('f_theta', 'f_z'):
+            scale = np.abs(want)
+        if field == 'k_gl':
+            scale = np.ones_like(want)
+        assert np.all((np.abs(got - want) <= 1e-12 * np.where(np.isfinite(scale), scale, 1.0)) | (got == want)), field
+    assert np.array_equal(new.stages, ref.stages)
+    assert np.array_equal(new.case, ref.case)
+    assert set(new.case.tolist()) == {1, 2, 3, 4, 5, 6}
+
+
+def test_friction_normals_on_a_grid_are_the_solvers(r18):
+    """The profile's grid kernel (each cell's closed forms once, every clearance pair) gives
+    the friction law's loads of :func:`load_sharing` at each cell and pair, bit for bit."""
+    from steer_monitor.model.friction import normal_forces
+    from steer_monitor.model.loadshare import friction_normals
+    rng = np.random.default_rng(5)
+    alpha = rng.uniform(0.0, 0.61, 40)
+    torque = r18.torque(alpha) * rng.uniform(0.5, 1.5, 40)
+    two_z = rng.choice([0.0, 0.1e-3, 0.3e-3, 0.6e-3, 1.5e-3], 25)
+    z_gb = rng.choice([0.0, 0.05e-3, 0.25e-3, 0.6e-3], 25)
+    n_b, f_gb = friction_normals(r18, alpha, torque, two_z, z_gb)
+    ls = load_sharing(r18, alpha[:, None], torque[:, None], two_z[None, :], z_gb[None, :])
+    n_a, n_e = normal_forces(ls.r_a, ls.r_e, ls.m_a, r18.bushing_length)
+    assert n_b.shape == f_gb.shape == (40, 25)
+    assert np.array_equal(n_b, n_a + n_e) and np.array_equal(f_gb, np.abs(ls.guide_force))
+    with pytest.raises(ModelError, match='clearance z_gb must be finite'):
+        friction_normals(r18, alpha, torque, two_z, -z_gb)
 
 
 def _buckles(gear, alpha, torque):
@@ -195,21 +225,19 @@ def _buckles(gear, alpha, torque):
     return None
 
 
-def test_scalars_raise_as_the_scalar_does(r18):
+def test_arrays_raise_as_the_scalar_does(r18):
     """The first sample the scalar solver refuses gives its message; bad clearances too."""
     from dataclasses import replace
-
-    from steer_monitor.model import load_sharing_scalars
     gear = replace(r18, euler_amplification=True)
     alpha = np.array([0.3, 0.5, 0.6])
     torque = np.array([1e6, 1e9, 1e10])
     first = _buckles(gear, alpha[1], torque[1])
     assert first is not None and first != _buckles(gear, alpha[2], torque[2])
     with pytest.raises(ModelError, match=re.escape(first)):
-        load_sharing_scalars(gear, alpha, torque, 0.6e-3, 0.25e-3)
-    with pytest.raises(ModelError, match='clearance two_z and z_gb must be finite and >= 0 m'):
-        load_sharing_scalars(r18, alpha, torque, np.array([0.6e-3, -1e-4, 0.6e-3]), 0.25e-3)
-    empty = load_sharing_scalars(r18, np.empty(0), np.empty(0), 0.6e-3, 0.25e-3)
+        load_sharing(gear, alpha, torque, 0.6e-3, 0.25e-3)
+    with pytest.raises(ModelError, match='clearance two_z must be finite and >= 0 m'):
+        load_sharing(r18, alpha, torque, np.array([0.6e-3, -1e-4, 0.6e-3]), 0.25e-3)
+    empty = load_sharing(r18, np.empty(0), np.empty(0), 0.6e-3, 0.25e-3)
     assert empty.k_gl.shape == (0,) and empty.case.dtype == np.int8
 
 

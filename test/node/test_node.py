@@ -10,6 +10,7 @@ import sys
 import threading
 import time
 import uuid
+from collections.abc import Callable
 from pathlib import Path
 
 import can
@@ -348,13 +349,17 @@ def test_without_a_parameters_file_the_packaged_one_is_used(tmp_path):
     assert list(tmp_path.glob('*.mcap'))
 
 
-def _node_stderr(cmd: list[str], seconds: float, mcap_in: Path | None = None) -> str:
-    """Run the node ``seconds`` (counted from its first MCAP in ``mcap_in`` when given), stop it
-    with SIGINT (exit 0 asserted) and give what it wrote to stderr."""
+def _node_stderr(cmd: list[str], seconds: float, mcap_in: Path | None = None,
+                 until: Callable[[], bool] | None = None) -> str:
+    """Run the node ``seconds`` (counted from its first MCAP in ``mcap_in`` when given, or from
+    when ``until`` holds: both waited for up to 20 s), stop it with SIGINT (exit 0 asserted) and
+    give what it wrote to stderr."""
     proc = subprocess.Popen(cmd, env=_env(), stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.time() + 20
         while mcap_in is not None and not list(mcap_in.glob('*.mcap')) and time.time() < deadline:
+            time.sleep(0.1)
+        while until is not None and not until() and time.time() < deadline:
             time.sleep(0.1)
         time.sleep(seconds)
         proc.send_signal(signal.SIGINT)
@@ -401,8 +406,9 @@ def test_the_oldest_recordings_are_removed_beyond_the_budget_and_said_in_the_log
         old.append(p)
     err = _node_stderr(_node_cmd(tmp_path, '-p', 'recording.max_file_mb:=0.25', '-p', 'recording.max_total_gb:=0.001',
                                  '-p', 'recording.keep_free_gb:=0.0',     # whatever this disk has free
-                                 '-p', f'estimator.state_file:={tmp_path / "estimator.npz"}'), 3.0)
-    assert [p.exists() for p in old] == [False, False, True]
+                                 '-p', f'estimator.state_file:={tmp_path / "estimator.npz"}'), 1.0,
+                       until=lambda: not old[1].exists())
+    assert [p.exists() for p in old] == [False, False, True], err
     told = [ln for ln in err.splitlines() if 'removed the oldest recording' in ln]
     assert len(told) == 2 and all('[INFO]' in ln for ln in told), err
     assert f'removed the oldest recording {old[0]} (0.6 MB): the recordings took more than 0.001 GB' in told[0]
