@@ -16,8 +16,8 @@ Measured, each case in a fresh process (so its peak resident memory is its own):
   run's rate: on this machine (two vCPUs shared with other guests) one run in several is
   up to half again slower than the others;
 * ``replay`` (:func:`steer_monitor.ashore.replay.replay`, the node's pipeline: the decoder, live
-  model, online estimator and diagnostics, topics written to MCAP, frames left out), its
-  per-frame reference (``reference=True``: every frame through the pipeline one at a time,
+  model, diagnostics and the node's analyses on its schedule, topics written to MCAP, frames
+  left out), its per-frame reference (``reference=True``: every frame through the pipeline one at a time,
   every message built and written alone; the same file), and a plain reader of the same file
   (python-can's ``CanutilsLogReader`` for candump; for MCAP, mcap-ros2's decoder through
   :func:`steer_monitor.can.mcapio.iter_mcap_frames`, python-can having no MCAP reader): on the
@@ -130,9 +130,8 @@ def _case(kind: str, path: str) -> dict:
         frames, extra = summary.frames, {}
     elapsed = time.perf_counter() - t0
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-    worker_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0    # replay's estimator worker
     return {'kind': kind, 'log': Path(path).name, 'frames': frames, 'seconds': round(elapsed, 2),
-            'frames_per_s': round(frames / elapsed), 'peak_rss_mb': round(peak_mb), 'worker_peak_mb': round(worker_mb),
+            'frames_per_s': round(frames / elapsed), 'peak_rss_mb': round(peak_mb),
             **extra}
 
 
@@ -178,9 +177,8 @@ def main() -> int:
               + ', '.join(f'{r["frames_per_s"]:,d}' for r in runs[::-1]) + ' frames/s')
         scope = '' if fast['frames'] == batch['frames'] else f'  (first {fast["frames"]:,d} frames)'
         for label, r in (('reader', reader), ('replay', fast), ('reference', ref)):
-            worker = f' (its worker {r["worker_peak_mb"]} MB)' if r['worker_peak_mb'] else ''
             print(f'  {label:9s} {r["frames_per_s"]:>10,d} frames/s  {r["seconds"]:7.2f} s  '
-                  f'peak {r["peak_rss_mb"]:5d} MB{worker}{scope}')
+                  f'peak {r["peak_rss_mb"]:5d} MB{scope}')
         print(f'  replay: {fast["frames_per_s"] / reader["frames_per_s"]:.3f} x the reader, '
               f'{fast["frames_per_s"] / ref["frames_per_s"]:.2f} x its reference; '
               f'batch {batch["frames_per_s"] / fast["frames_per_s"]:.0f} x replay')

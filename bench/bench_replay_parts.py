@@ -10,19 +10,18 @@ shown apart as the difference between the timed and an untimed run):
 * live model: ``LiveMonitor.update`` per sample and ``LiveMonitor.slot_state`` per 10 ms slot
   (rate, residual; the states' load sharing is left to the packing, below);
 * diagnostics: ``DiagnosticsBuilder.build``, once per second of data;
-* online estimator: the jobs (``SyncEstimatorJobs.submit``: folding each second, the local
-  step after each second of motion, the full profiles);
+* the analyst: the node's window of samples (``Analyst.add`` per sample, the compaction and
+  the schedule in ``Analyst.due`` each second);
+* analyses: the jobs (``SyncJobs.submit``: ``analyze`` of the window on the node's schedule),
+  run at once here; a replay runs them in worker processes beside the pipeline;
 * messages: the states' load sharing solved and the states packed into MCAP records, a
   batch of up to 4,096 frames' states at once, diagnostics into message fields and CDR, and
   writing them (with the frames) to the MCAP;
 * the rest: reading the log into blocks and the pipeline's schedule, by difference.
 
 The per-frame reference (``replay(..., reference=True)``: one call per frame, every message
-built and written one at a time, the estimator's jobs at once) and the replay with its
-estimator's jobs in a worker process (as ``steer-monitor replay`` runs on a machine with a
-second core) are timed in the same run, and their files checked to be the same bytes. The
-parts are timed on the replay with the jobs run at once (``worker=False``), so that the
-estimator's share shows. One BLAS thread, as the command line sets it.
+built and written one at a time) is timed in the same run, and the files checked to be the
+same bytes. One BLAS thread, as the command line sets it.
 
 Run: ``python -m bench.bench_replay_parts`` (part of ``make bench``).
 """
@@ -75,14 +74,16 @@ def _instrument(spent: dict[str, float]) -> None:
     from steer_monitor.can.mcapio import McapWriter
     from steer_monitor.monitor.diagnostics import DiagnosticsBuilder
     from steer_monitor.monitor.live import LiveMonitor
-    from steer_monitor.monitor.pipeline import SyncEstimatorJobs
+    from steer_monitor.monitor.analyst import Analyst, SyncJobs
 
     Decoder.decode = _timed(spent, 'decode', Decoder.decode)
     Decoder.decode_run = _timed(spent, 'decode', Decoder.decode_run)
     LiveMonitor.update = _timed(spent, 'live model', LiveMonitor.update)
     LiveMonitor.slot_state = _timed(spent, 'live model', LiveMonitor.slot_state)
     DiagnosticsBuilder.build = _timed(spent, 'diagnostics', DiagnosticsBuilder.build)
-    SyncEstimatorJobs.submit = _timed(spent, 'online estimator', SyncEstimatorJobs.submit)
+    SyncJobs.submit = _timed(spent, 'analyses', SyncJobs.submit)
+    Analyst.add = _timed(spent, 'analyst (window, schedule)', Analyst.add)
+    Analyst.due = _timed(spent, 'analyst (window, schedule)', Analyst.due)
     for name in ('write_cdr', 'write', 'write_frames', 'write_records'):
         setattr(McapWriter, name, _timed(spent, 'messages', getattr(McapWriter, name)))
     R.state_messages = _timed(spent, 'messages', R.state_messages)
@@ -107,40 +108,36 @@ def main() -> int:
         t_can = time.perf_counter() - t0
         assert k == n, (k, n)
         t0 = time.perf_counter()
-        s = replay([log], Path(tmp) / 'plain.mcap', worker=False)
+        s = replay([log], Path(tmp) / 'plain.mcap')
         t_plain = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        replay([log], Path(tmp) / 'worker.mcap', worker=True)
-        t_worker = time.perf_counter() - t0
         t0 = time.perf_counter()
         replay([log], Path(tmp) / 'reference.mcap', reference=True)
         t_ref = time.perf_counter() - t0
         ref_bytes = (Path(tmp) / 'reference.mcap').read_bytes()
-        same = all((Path(tmp) / f'{name}.mcap').read_bytes() == ref_bytes for name in ('plain', 'worker'))
+        same = (Path(tmp) / 'plain.mcap').read_bytes() == ref_bytes
         spent: dict[str, float] = defaultdict(float)
         _instrument(spent)
         t0 = time.perf_counter()
-        replay([log], Path(tmp) / 'timed.mcap', worker=False)
+        replay([log], Path(tmp) / 'timed.mcap')
         t_timed = time.perf_counter() - t0
     span_s = (s.last_ns - s.first_ns) / 1e9 if s.first_ns is not None and s.last_ns is not None else 0.0
     print(f'log: {n:,d} frames, {span_s:,.0f} s of data; {s.states:,d} states, {s.diagnostics:,d} diagnostics, '
-          f'{s.motion_s:,.0f} s of rudder motion learned')
+          f'{s.motion_s:,.0f} s of rudder motion, {s.analyses} analyses')
     print(f'python-can CanutilsLogReader: {n / t_can:12,.0f} frames/s ({t_can:.2f} s)')
-    print(f'replay, estimator worker:     {n / t_worker:12,.0f} frames/s ({t_worker:.2f} s; '
-          f'{n / t_worker / (n / t_can):.3f} x python-can)')
-    print(f'replay, jobs at once:         {n / t_plain:12,.0f} frames/s ({t_plain:.2f} s)')
-    print(f'per-frame reference:          {n / t_ref:12,.0f} frames/s ({t_ref:.2f} s; replay is {t_ref / t_worker:.2f} x '
-          f'faster, {t_ref / t_plain:.2f} x without the worker; {"the same bytes" if same else "FILES DIFFER"})')
+    print(f'replay:                       {n / t_plain:12,.0f} frames/s ({t_plain:.2f} s; '
+          f'{n / t_plain / (n / t_can):.3f} x python-can)')
+    print(f'per-frame reference:          {n / t_ref:12,.0f} frames/s ({t_ref:.2f} s; replay is {t_ref / t_plain:.2f} x '
+          f'faster; {"the same bytes" if same else "FILES DIFFER"})')
     print(f'replay, timed:                {n / t_timed:12,.0f} frames/s ({t_timed:.2f} s)')
     parts = dict(spent)
     parts['reading and schedule (rest)'] = t_timed - sum(spent.values())
     for part, sec in sorted(parts.items(), key=lambda kv: -kv[1]):
         print(f'  {part:28s} {sec:7.2f} s  {100 * sec / t_timed:5.1f} %  ({1e6 * sec / n:6.1f} us per frame)')
-    est = parts.get('online estimator', 0.0)
-    rest = t_timed - est
-    print(f'without the online estimator the rest would run at {n / rest:,.0f} frames/s; the estimator alone, '
-          f'at {1e3 * est / max(s.motion_s, 1.0):.1f} ms per second of motion, bounds a replay at '
-          f'{n / est:,.0f} frames/s on this log')
+    est = parts.get('analyses', 0.0)
+    front = t_timed - est - parts.get('messages', 0.0)
+    print(f'reading, decoding and the per-sample pipeline: {front:.2f} s, {n / front:,.0f} frames/s, '
+          f'{t_can / front:.2f} x python-can\'s reader (target >= 1); analyses {est:.2f} s of CPU '
+          f'({est / max(s.analyses, 1):.2f} s each)')
     return 0 if same else 1
 
 

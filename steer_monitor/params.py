@@ -16,6 +16,8 @@ A value ROS 2 would reject (an integer where a double is declared) is rejected h
 
 from __future__ import annotations
 
+import difflib
+
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -149,8 +151,6 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               'WARN when the guide beam carries nothing up to beyond this angle [deg]', 0.0, 60.0),
     ParamSpec('diagnostics.solas_hard_over_s', 'double', 28.0,
               'SOLAS limit, 35 deg one side to 30 deg the other [s]', 0.0, 600.0, True),
-    ParamSpec('diagnostics.residual_warn_bar', 'double', 3.0,
-              'WARN when the declared-model residual exceeds this RMS [bar]', 0.0, 1000.0, True),
     ParamSpec('diagnostics.ram_share_warn_pct', 'double', 15.0,
               "WARN when a ram's share of the driving force departs from an even half by more than this "
               '[percentage points]', 1.0, 40.0),
@@ -158,14 +158,21 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               'seal friction F_s used until estimated [N]', 0.0, 1e7),
     ParamSpec('model.mu_bushing', 'double', 0.13, 'ram bushing friction coefficient until estimated', 0.0, 2.0),
     ParamSpec('model.mu_guide', 'double', 0.05, 'guide slipper friction coefficient until estimated', 0.0, 2.0),
-    ParamSpec('estimator.enabled', 'bool', True, 'estimate the clearances online and feed them to the live model'),
+    ParamSpec('estimator.enabled', 'bool', True, 'analyse the data (steer-monitor analyze of the window) and feed '
+              'the clearances found to the live model'),
     ParamSpec('estimator.state_file', 'string', 'steer_monitor_estimator.npz',
-              'where the estimator keeps what it learned across restarts; a relative name is in '
+              'where the node keeps its data window and last analysis across restarts; a relative name is in '
               'recording.directory (empty: not kept)'),
-    ParamSpec('estimator.half_life_h', 'double', 0.0,
-              'forget old data with this half-life in hours of rudder motion (0: keep everything)',
-              0.0, 1e6),
-    ParamSpec('estimator.save_every_s', 'double', 60.0, 'write the estimator state this often [s]', 1.0, 1e6),
+    ParamSpec('estimator.window_motion_h', 'double', 1.0,
+              'the analyses look at the last this many hours of steady rudder motion (older data are '
+              'forgotten; memory about 1.5 MB an hour) [h]', 0.0, 100.0, True),
+    ParamSpec('estimator.loop_every_motion_s', 'double', 1800.0,
+              'the whole residual loop runs when 30 s of motion are in, each time the motion doubles, then every '
+              'this many seconds of motion [s]', 30.0, 1e6),
+    ParamSpec('estimator.every_motion_s', 'double', 300.0,
+              'between loops, the estimate under the model the loop chose every this many seconds of motion [s]',
+              10.0, 1e6),
+    ParamSpec('estimator.save_every_s', 'double', 60.0, 'write the analyses\' state this often [s]', 1.0, 1e6),
     ParamSpec('recording.enabled', 'bool', True, 'record raw frames and published topics to MCAP'),
     ParamSpec('recording.directory', 'string', 'steer_monitor_logs', 'where MCAP files go'),
     ParamSpec('recording.prefix', 'string', 'steer_monitor', 'MCAP file name prefix'),
@@ -275,6 +282,15 @@ def _check_bounds(spec: ParamSpec, value: float) -> None:
         raise ParameterError(msg)
 
 
+#: parameters of earlier releases: what to do instead
+RETIRED = {
+    'estimator.half_life_h': 'the analyses keep the last estimator.window_motion_h hours of steady motion instead '
+                             '(remove it, or set that)',
+    'diagnostics.residual_warn_bar': 'model health is judged as steer-monitor analyze judges, from the systematic part '
+                                     'of the misfit against the sensor noise (remove it)',
+}
+
+
 def validate_params(values: Mapping[str, Any]) -> dict[str, Any]:
     """Check flat dotted parameters against :data:`PARAMETERS`; fill defaults.
 
@@ -282,7 +298,12 @@ def validate_params(values: Mapping[str, Any]) -> dict[str, Any]:
     """
     unknown = sorted(set(values) - set(_BY_NAME))
     if unknown:
-        msg = f'unknown parameter {unknown[0]}' + (
+        name = unknown[0]
+        if name in RETIRED:
+            msg = f'parameter {name} is no longer read: {RETIRED[name]}'
+            raise ParameterError(msg)
+        close = difflib.get_close_matches(name, list(_BY_NAME), n=1, cutoff=0.75)
+        msg = f'unknown parameter {name}' + (f' (did you mean {close[0]}?)' if close else '') + (
             f' (and {len(unknown) - 1} more)' if len(unknown) > 1 else '')
         raise ParameterError(msg)
     out: dict[str, Any] = {}

@@ -1,9 +1,12 @@
-"""Replay: the live pipeline (decode, model, online estimator, diagnostics) run offline over
-logs, writing the topics the node publishes to one MCAP.
+"""Replay: the live pipeline (decode, model, analyses, diagnostics) run offline over logs,
+writing the topics the node publishes to one MCAP.
 
 The same :class:`~steer_monitor.monitor.pipeline.Pipeline` the node runs, fed from log files
-instead of a bus, with the estimator's jobs run at once instead of on a thread (the pipeline
-applies their results at the same data time either way). Deterministic: the same logs give
+instead of a bus, with its analyses run at once when due instead of on a worker thread (the
+pipeline applies their findings at the same data time either way). At once, not in worker
+processes: a replay reaches a finding's time a few milliseconds after its job starts, so it
+would wait for each in turn anyway (measured on the hour log: 9.4 s at once, 11.9 s with a
+pool of processes, 10.3 s with a thread, docs/benchmarks.md). Deterministic: the same logs give
 the same file, byte for byte. Differences from a node's recording, by design: no
 ``steer_monitor: recording`` status (a replay records nothing live), and no diagnostics on wall
 time while a bus is silent (a log has no silence to wait through, only gaps, which the data
@@ -24,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from steer_monitor.atomic import atomic_path, check_target, os_reason
-from steer_monitor.can.decoder import DecodedRun, Decoder, Sample
+from steer_monitor.can.decoder import DecodedRun, Decoder
 from steer_monitor.can.fastlogs import in_time_order, iter_log_blocks
 from steer_monitor.can.frames import Frame, FrameArrays
 from steer_monitor.can.logs import LogError, log_path_problem
@@ -32,12 +35,12 @@ from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, 
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import load_setup
 from steer_monitor.errors import SteerMonitorError
-from steer_monitor.estimate.online import OnlineEstimate, OnlineEstimator
+from steer_monitor.estimate.finding import Finding
+from steer_monitor.monitor.analyst import Analyst, SyncJobs
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig
 from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages, topic_name
-from steer_monitor.monitor.pipeline import JobSchedule, Output, Pipeline, StateOut, SyncEstimatorJobs, estimator_from_params
-from steer_monitor.ashore.replay_worker import JobSource, ProcessEstimatorJobs, can_fork_a_worker
+from steer_monitor.monitor.pipeline import Output, Pipeline, StateOut, analyst_from_params
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
 from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.record.msgdefs import msgdef
@@ -67,8 +70,10 @@ class ReplaySummary:
     errors: list[str] = field(default_factory=list)
     first_ns: int | None = None
     last_ns: int | None = None
-    estimate: OnlineEstimate | None = None
+    #: the last analysis applied (None: none was), the motion counted [s], analyses run
+    finding: Finding | None = None
     motion_s: float = 0.0
+    analyses: int = 0
     #: what the user should know that is no error (a log within the time of the ones before it)
     notes: list[str] = field(default_factory=list)
 
@@ -76,16 +81,13 @@ class ReplaySummary:
 def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | None = None, *,
            frames: bool = True, estimator: bool = True, node_name: str = 'steer_monitor',
            progress: Callable[[int, int | None], None] | None = None,
-           date: datetime.date | None = None, reference: bool = False,
-           worker: bool | None = None) -> ReplaySummary:
+           date: datetime.date | None = None, reference: bool = False) -> ReplaySummary:
     """Replay ``logs`` into ``output`` (an MCAP). ``frames``: record the raw frames too, as
     the node does. ``progress`` is called with the number of frames done since its last call
     and the data time reached [ns] (None before the stream's time is confirmed).
     ``reference``: the plain per-frame path (every message built and written one at a time, as
-    the node publishes them, the estimator's jobs run at once), kept to check the fast one
-    against: the same file, byte for byte. ``worker``: run the estimator's jobs in a process of
-    their own (:mod:`~steer_monitor.ashore.replay_worker`; the same file); by default when
-    there is a second core and this process can fork one safely, never for the reference."""
+    the node publishes them), kept to check the fast one against: the same file, byte for
+    byte."""
     if not logs:
         msg = 'no log given'
         raise ReplayError(msg)
@@ -102,42 +104,22 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
                           defer_share=not reference)
     diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(params), smap, gear)
     summary = ReplaySummary(str(output), [str(p) for p in paths])
-    est = None
-    jobs: SyncEstimatorJobs | ProcessEstimatorJobs | None = None
+    analyst: Analyst | None = None
+    jobs: SyncJobs | None = None
     if estimator and params['estimator.enabled']:
-        est = estimator_from_params(gear, params)
-
-        inserted = 0        # the worker's errors put in so far
-
-        def others() -> int:
-            return len(summary.errors) - inserted
-
-        def failed(exc: SteerMonitorError, mark: int | None = None) -> None:
-            """A job run at once reports when it ran. The worker's errors come when a job's
-            result is taken, later in the data: each goes where a job run at once would have
-            put it, after the log errors there were when the job was submitted (``mark``)
-            and the worker's errors before it."""
-            nonlocal inserted
-            text = f'estimator update failed: {exc}'
-            if mark is None:
-                summary.errors.append(text)
-            else:
-                summary.errors.insert(mark + inserted, text)
-                inserted += 1
-        use_worker = (can_fork_a_worker() if worker is None else worker) and not reference
-        jobs = (ProcessEstimatorJobs(est, _job_source(paths, db, smap, date), failed, mark=others) if use_worker
-                else SyncEstimatorJobs(est, failed))
+        analyst = analyst_from_params(gear, params)
+        jobs = SyncJobs(gear, analyst.settings)
+    pipeline = Pipeline(Decoder(db, smap, rejects), rejects, monitor, diag, analyst, jobs,
+                        on_failed=summary.errors.append)
     try:
-        return _replay(paths, output, config_path, params, Pipeline(Decoder(db, smap, rejects), rejects, monitor,
-                                                                    diag, jobs),
-                       summary, est, node_name, frames, progress, date, reference)
+        return _replay(paths, output, config_path, params, pipeline, summary, node_name, frames, progress, date,
+                       reference)
     finally:
-        if isinstance(jobs, ProcessEstimatorJobs):
-            jobs.abort()          # closed at the end of a replay that finished; ended now otherwise
+        pipeline.close()
 
 
 def _replay(paths: list[Path], output: str | Path, config_path: Path, params: Any, pipeline: Pipeline,
-            summary: ReplaySummary, est: OnlineEstimator | None, node_name: str, frames: bool,
+            summary: ReplaySummary, node_name: str, frames: bool,
             progress: Callable[[int, int | None], None] | None, date: datetime.date | None,
             reference: bool) -> ReplaySummary:
     """The replay once set up: the MCAP written atomically, the summary filled in."""
@@ -158,8 +140,10 @@ def _replay(paths: list[Path], output: str | Path, config_path: Path, params: An
             msg = summary.errors[0] if summary.errors else 'no frame in ' + ', '.join(str(p) for p in paths)
             raise ReplayError(msg)
     summary.rejects = dict(sorted(rejects.snapshot().counts.items()))
-    if est is not None:
-        summary.estimate, summary.motion_s = est.estimate, est.motion_s
+    if pipeline.analyst is not None:
+        a = pipeline.analyst
+        summary.finding, summary.motion_s, summary.analyses = a.finding, a.motion_base_s + pipeline.monitor.motion_s, \
+            a.jobs_made
     return summary
 
 
@@ -299,7 +283,6 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
         writer.write_frames(FrameArrays.concat(pending))
     emit(pipeline.finish())
     flush()
-    pipeline.close()
 
 
 def feed_part(pipeline: Pipeline, part: FrameArrays,
@@ -342,26 +325,9 @@ def runs_of(decoder: Decoder, part: FrameArrays) -> Iterator[DecodedRun | FrameA
         yield piece if run is None else run
 
 
-def _job_source(paths: list[Path], db: Any, smap: Any, date: datetime.date | None) -> JobSource:
-    """What a worker process runs: the logs read again through the pipeline's schedule alone,
-    each estimator job handed on as the pipeline would submit it (see
-    :mod:`~steer_monitor.ashore.replay_worker`)."""
-    def source(submit: Callable[[list[Sample]], None]) -> None:
-        schedule = JobSchedule(Decoder(db, smap, RejectCounter()), submit)
-        for path in paths:
-            try:
-                for block in iter_log_blocks(path, None, date):
-                    for pos in range(0, len(block), FRAME_BATCH):     # a block's runs at a time: bounded memory
-                        feed_part(schedule, block.take(np.arange(pos, min(pos + FRAME_BATCH, len(block)))))
-            except LogError:
-                pass                        # the pipeline reports it; the next log goes on
-        schedule.finish()
-    return source
-
-
 def summary_json(s: ReplaySummary) -> dict[str, Any]:
     """The summary in engineers' units (clearances in mm)."""
-    e = s.estimate
+    e = s.finding
 
     def iv(v: Any, scale: float) -> dict[str, Any] | None:
         if v is None:
@@ -370,6 +336,8 @@ def summary_json(s: ReplaySummary) -> dict[str, Any]:
     span = 0.0 if s.first_ns is None or s.last_ns is None else (s.last_ns - s.first_ns) / 1e9
     return {'output': s.output, 'logs': s.logs, 'frames': s.frames, 'span_s': round(span, 3), 'states': s.states,
             'diagnostics': s.diagnostics, 'rejects': s.rejects, 'errors': s.errors, 'notes': s.notes,
+            'analyses': s.analyses, 'motion_s': round(s.motion_s, 1),
             'final_estimate': None if e is None else {
                 'clearance_2z_mm': iv(e.two_z, 1e3), 'clearance_zgb_mm': iv(e.z_gb, 1e3),
-                'k_gl_max': iv(e.k_gl_max, 1.0), 'motion_s': round(s.motion_s, 1)}}
+                'k_gl_max': iv(e.k_gl_max, 1.0), 'verdict': e.verdict, 'kind': e.kind,
+                'effects': [x.name for x in e.model], 'data_before_ns': e.t_ns}}

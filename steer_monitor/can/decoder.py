@@ -31,31 +31,11 @@ from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, Fra
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.signals import SignalMap, SignalSpec
 from steer_monitor.can.timejump import HELD, REJECTED, RELEASED, JumpFilter
+from steer_monitor.model.inputs import Sample, Series, SignalSet
 
 __all__ = ['DecodedRun', 'Decoder', 'Sample', 'Series', 'SignalSet', 'collect']
 
 
-@dataclass(frozen=True, slots=True)
-class Sample:
-    """One decoded value: time [ns], input name, value [SI]."""
-
-    t_ns: int
-    signal: str
-    value: float
-
-
-@dataclass(frozen=True)
-class Series:
-    """One input over time: ``t_ns`` int64 (n,) [ns], ``value`` float64 (n,) [SI]."""
-
-    t_ns: NDArray[np.int64]
-    value: NDArray[np.float64]
-
-    def __len__(self) -> int:
-        return int(self.t_ns.shape[0])
-
-
-SignalSet = dict[str, Series]
 
 
 def collect(samples: Iterable[Sample], names: Iterable[str]) -> SignalSet:

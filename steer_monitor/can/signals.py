@@ -25,13 +25,10 @@ from steer_monitor.can.codec import CanDatabase
 from steer_monitor.can.devices import parse_name
 from steer_monitor.can.timejump import DEFAULT_MAX_JUMP_NS
 from steer_monitor.errors import ParameterError
+from steer_monitor.model.inputs import INPUTS, PRESSURE_INPUTS, REQUIRED
 
 __all__ = ['INPUTS', 'PRESSURE_INPUTS', 'SignalMap', 'SignalSpec']
 
-INPUTS = ('rudder_angle', 'rudder_order', 'pressure_r1_stbd', 'pressure_r1_port',
-          'pressure_r2_stbd', 'pressure_r2_port', 'ship_speed', 'oil_temperature')
-PRESSURE_INPUTS = INPUTS[2:6]
-REQUIRED = ('rudder_angle',) + PRESSURE_INPUTS
 
 
 @dataclass(frozen=True)

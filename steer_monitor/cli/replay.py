@@ -48,11 +48,10 @@ def run(logs: list[str], out_path: str | Path, config: str | Path | None = None,
         out.write(f"replayed {summary.frames} frames ({result['span_s']:.0f} s of data) from "
                   f"{len(summary.logs)} log(s) in {elapsed:.1f} s: {summary.states} states, "
                   f"{summary.diagnostics} diagnostics -> {summary.output}\n")
-        fe = result['final_estimate']
-        if fe is not None:
-            z, g = fe['clearance_2z_mm'], fe['clearance_zgb_mm']
-            out.write(f"final online estimate: 2Z {z['value']:.3f} mm, Z_gb {g['value']:.3f} mm "
-                      f"({fe['motion_s']:.0f} s of motion)\n")
+        if summary.finding is not None:
+            from steer_monitor.monitor.analyst import describe
+            out.write(f"the node's last analysis: {describe(summary.finding)}; {summary.analyses} analyses over "
+                      f"{summary.motion_s:.0f} s of motion\n")
         if summary.rejects:
             out.write('rejected: ' + ', '.join(f'{k} {v}' for k, v in summary.rejects.items()) + '\n')
     return report_read_errors('replay', summary.errors, err)
@@ -61,7 +60,7 @@ def run(logs: list[str], out_path: str | Path, config: str | Path | None = None,
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser('replay', help='run the live pipeline offline over logs into an MCAP',
                        description='Replay CAN logs (.log, .asc, .blf, .mcap) through the monitor\'s live '
-                                   'pipeline (decode, model, online estimator, diagnostics) as fast as the '
+                                   'pipeline (decode, model, analyses, diagnostics) as fast as the '
                                    'machine allows, writing the topics the node publishes. Deterministic.')
     p.add_argument('logs', nargs='+', metavar='LOG', help='log files (taken in order of their first frame)')
     p.add_argument('--out', required=True, metavar='OUT.mcap', help='the MCAP to write')

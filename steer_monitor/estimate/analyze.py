@@ -43,11 +43,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from steer_monitor.can.decoder import Series
-from steer_monitor.can.signals import PRESSURE_INPUTS
 from steer_monitor.estimate import fit as F
+from steer_monitor.estimate import window as W
 from steer_monitor.estimate.batch import ClearanceEstimate, Rows, estimate_clearances, lag_moments, make_rows
-from steer_monitor.estimate.effects import Candidate, candidates, iter_z_columns, low_side_offsets, z_columns
+from steer_monitor.estimate.effects import Candidate, Effect, candidate_of, candidates, iter_z_columns, low_side_offsets, z_columns
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.locate import Located, locate
 from steer_monitor.estimate.moments import Moments
@@ -56,6 +55,7 @@ from steer_monitor.estimate.rams import (OPPOSED, RamShare, UnevenSpan, describe
                                          uneven_spans, within, working_against)
 from steer_monitor.estimate.refine import refine_profile
 from steer_monitor.model.gear import GearParams
+from steer_monitor.model.inputs import PRESSURE_INPUTS, Series
 
 __all__ = ['DELAY_KEEP_S', 'DELAY_STEP_S', 'DELAY_VERTEX_S', 'EXPLAINED_RATIO', 'MAX_TRIED', 'MIN_BIC_DROP', 'MIN_CV_DEVIANCE',
            'MIN_SYSTEMATIC_SHARE', 'OUTLIER_SIGMAS',
@@ -105,14 +105,21 @@ class Screening:
 @dataclass(frozen=True)
 class Step:
     """One adopted effect: its name, parameters (engineers' units, with intervals, from the
-    final model), its screening, and the estimates before and after it."""
+    final model), its screening, and the estimates before and after it. In a run under a
+    given model (:func:`analyze` with ``model``) an effect is applied, not screened:
+    ``screening`` is None and ``before`` is ``after``."""
 
     name: str
     params: dict[str, Interval | str]
-    screening: Screening
+    screening: Screening | None
     before: ClearanceEstimate = field(repr=False)
     after: ClearanceEstimate = field(repr=False)
     candidate: Candidate = field(repr=False)
+
+    @property
+    def effect(self) -> Effect:
+        """The effect as a later run applies it (:attr:`Analysis.adopted`)."""
+        return Effect(self.name, tuple(sorted((self.candidate.fixed or {}).items())), self.candidate.shape)
 
 
 @dataclass(frozen=True)
@@ -141,6 +148,10 @@ class Analysis:
             residual is the one ``located`` describes).
         uneven: stretches where the rams did not share the force evenly, left out of it all.
         rams: how the rams shared the force over the instants of steady motion kept.
+        given: True for a run under a given model (``analyze(..., model=...)``: no screening,
+            ``screening`` empty, ``declared`` is that model's own fit).
+        window: the data analysed (:func:`~steer_monitor.estimate.window.select`), when a
+            window was asked for.
     """
 
     declared: ClearanceEstimate
@@ -159,6 +170,14 @@ class Analysis:
     model: ClearanceEstimate | None = field(default=None, repr=False)
     uneven: tuple[UnevenSpan, ...] = ()
     rams: RamShare | None = None
+    given: bool = False
+    window: W.Window | None = field(default=None, repr=False)
+
+    @property
+    def adopted(self) -> tuple[Effect, ...]:
+        """The effects adopted, in order, as a run under this model applies them
+        (``analyze(..., model=a.adopted)``)."""
+        return tuple(s.effect for s in self.steps)
 
 
 def grid_2z_from(min_clearance: float) -> NDArray[np.float64]:
@@ -429,12 +448,22 @@ def declared_fit(gear: GearParams, signals: Mapping[str, Series], *, min_clearan
 
 
 def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z: float = 0.0,
-            ram_share_warn: float = 0.15, progress: Callable[[str], None] | None = None) -> Analysis:
+            ram_share_warn: float = 0.15, progress: Callable[[str], None] | None = None,
+            window_motion_s: float = 0.0, model: Sequence[Effect] | None = None) -> Analysis:
     """Fit, screen, adopt effect after effect, locate what is left, refit (see the module
     docstring). ``ram_share_warn``: a stretch where a ram's share of the force departs from an
-    even half by more than this is left out. Pure."""
+    even half by more than this is left out. ``window_motion_s`` (> 0): only the window of the
+    last that many seconds of steady motion (:func:`~steer_monitor.estimate.window.select`),
+    as the node keeps it. ``model``: no screening, the clearances estimated with these effects
+    applied as they are (a delay reads the angle later, the others add their columns; their
+    coefficients refitted), the verdict and the location of a misfit as in a loop: what the
+    node does between two runs of the loop. Pure."""
     say = progress or (lambda _msg: None)
     grid_2z = grid_2z_from(min_clearance_2z)
+    win = None
+    if window_motion_s > 0:
+        win = W.select(signals, gear.ram_area, window_motion_s)
+        signals = win.signals
     obs = build_observations(signals, gear.ram_area)
     whole = ram_share(obs.force[obs.moving])
     if whole is not None and judge(whole, ram_share_warn, gear.ram_area) == OPPOSED:   # a ram reversed: nothing holds
@@ -447,6 +476,8 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
         obs = build_observations(signals, gear.ram_area)
     rams = ram_share(obs.force[obs.moving])
     note = _uneven_note(uneven)
+    if model is not None:
+        return _given(gear, signals, obs, tuple(model), grid_2z, say, note, uneven, rams, win)
     base, n_out = _declared(gear, obs, grid_2z, say)
     declared = base.est
     steps: list[Step] = []
@@ -478,19 +509,48 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
         steps.append(Step(cand.name, {}, sc, base.est, trial.est, cand))
         adopted.add(cand.name)
         base = trial
+    steps = [replace(s, params=_effect_params(s.candidate, base.est, base.obs)) for s in steps]
+    closest = next((s for s in rounds[-1]), None)
+    return _conclude(gear, obs, base, declared, steps, rounds[0], closest, unkept, n_out, note, uneven, rams,
+                     grid_2z, say, False, win)
+
+
+def _given(gear: GearParams, signals: Mapping[str, Series], obs: Observations, model: tuple[Effect, ...],
+           grid_2z: NDArray, say: Callable[[str], None], note: str, uneven: tuple[UnevenSpan, ...],
+           rams: RamShare | None, win: W.Window | None) -> Analysis:
+    """:func:`analyze` under a given model: its delay applied to the angle, its other effects'
+    columns fitted with the declared model, the outlying instants of that fit set aside."""
+    say('the model given: ' + (', '.join(e.name for e in model) or 'declared'))
+    cands = [candidate_of(e) for e in model]
+    delay = sum(c.angle_shift_s for c in cands)
+    m_obs = build_observations(signals, gear.ram_area, angle_shift_s=delay) if delay else obs
+    extra: tuple[F.Column, ...] = tuple(col for c in cands for col in c.columns)
+    first = estimate_clearances(gear, m_obs, make_rows(m_obs, z_columns(m_obs, gear)), extra, grid_2z=grid_2z)
+    outliers = outlier_instants(first.residual, m_obs.direction)
+    n_out = int(outliers.sum())
+    base = _base(gear, m_obs, ~outliers, extra, grid_2z, est=None if outliers.any() else first)
+    steps = [Step(c.name, _effect_params(c, base.est, base.obs), None, base.est, base.est, c) for c in cands]
+    return _conclude(gear, obs, base, base.est, steps, [], None, [], n_out, note, uneven, rams, grid_2z, say, True,
+                     win)
+
+
+def _conclude(gear: GearParams, obs: Observations, base: _Base, declared: ClearanceEstimate, steps: list[Step],
+              screening: list[Screening], closest: Screening | None, unkept: list[str], n_out: int, note: str,
+              uneven: tuple[UnevenSpan, ...], rams: RamShare | None, grid_2z: NDArray, say: Callable[[str], None],
+              given: bool, win: W.Window | None) -> Analysis:
+    """The verdict on ``base`` (the model the loop chose, or the one given), and when it does not
+    explain the data, where the misfit lives and the clearances refitted with it as a nuisance."""
     final_obs = base.obs
-    steps = [replace(s, params=_effect_params(s.candidate, base.est, final_obs)) for s in steps]
     explained = base.est.smooth_rms <= EXPLAINED_RATIO * base.est.noise_rms
-    screening = rounds[0]
     names = [s.name for s in steps]
     if explained:
         verdict = 'effect' if steps else 'declared'
-        msg = _message(verdict, declared, base.est, None, steps)
+        msg = _message(verdict, declared, base.est, None, steps, given)
         if not steps and unkept:
             msg += f' ({"; ".join(unkept)})'
         return Analysis(declared, base.est, names[0] if names else None, steps[0].params if steps else {}, verdict,
-                        msg + note, screening, None, obs, final_obs, n_out, tuple(steps), None, base.est, uneven, rams)
-    closest = next((s for s in rounds[-1]), None)
+                        msg + note, screening, None, obs, final_obs, n_out, tuple(steps), None, base.est, uneven, rams,
+                        given, win)
     say('locating the unexplained residual')
     located = locate(base.obs, base.est.residual, base.est.inflation)
     final = base.est
@@ -509,12 +569,13 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
     if not nuisance:                    # the model's own fit, its intervals counting the misfit as noise
         final = estimate_clearances(gear, base.obs, base.rows, base.extra, grid_2z=grid_2z,
                                     model_inflation=unexplained_inflation(base.est))
-    msg = _message('unexplained', declared, base.est, closest, steps)
+    msg = _message('unexplained', declared, base.est, closest, steps, given)
     msg += f'; {located.message(gear.ram_area)}' if located is not None else '; no observed variable carries it'
     msg += ('; the clearances are fitted with that term as a nuisance and rest on an incomplete model' if nuisance
             else '; the clearances rest on an incomplete model')
     return Analysis(declared, final, names[0] if names else None, steps[0].params if steps else {}, 'unexplained',
-                    msg + note, screening, closest, obs, final_obs, n_out, tuple(steps), located, base.est, uneven, rams)
+                    msg + note, screening, closest, obs, final_obs, n_out, tuple(steps), located, base.est, uneven,
+                    rams, given, win)
 
 
 def _without_pressures(signals: Mapping[str, Series], spans: Sequence[UnevenSpan]) -> dict[str, Series]:
@@ -661,15 +722,27 @@ def skew_equivalent_s(steps: Sequence[Step]) -> float | None:
 
 
 def _message(verdict: str, declared: ClearanceEstimate, final: ClearanceEstimate | None,
-             best: Screening | None, steps: Sequence[Step] = ()) -> str:
+             best: Screening | None, steps: Sequence[Step] = (), given: bool = False) -> str:
     names = [s.name for s in steps]
-    text = _verdict_text(verdict, declared, final, best, names)
+    text = _given_text(verdict, final or declared, names) if given else _verdict_text(verdict, declared, final, best,
+                                                                                        names)
     caveats = [f'{n}: {CAVEATS[n]}' for n in names if n in CAVEATS]
     skew = skew_equivalent_s(steps)
     if skew is not None:
         caveats.append(f'with the viscous friction found, this mass is what a skew of {1e3 * skew:.0f} ms between '
                        f'the angle and the pressures would show')
     return text + (f' ({"; ".join(caveats)})' if caveats else '')
+
+
+def _given_text(verdict: str, est: ClearanceEstimate, names: list[str]) -> str:
+    """The sentence of a run under a given model (no screening)."""
+    bar = 1e5 * est.ram_area
+    model = 'the declared model' + (f' with {", ".join(names)}' if names else '')
+    figures = f'residual {est.rms / bar:.2f} bar RMS, of which {est.smooth_rms / bar:.2f} bar systematic'
+    if verdict == 'unexplained':
+        return (f'residual not explained: under the model the residual loop last chose ({model}), {figures}, '
+                f'more than half the sensor noise ({est.noise_rms / bar:.2f} bar)')
+    return f'{model} (the residual loop\'s last choice) explains the data to the sensor noise: {figures}'
 
 
 def _verdict_text(verdict: str, declared: ClearanceEstimate, final: ClearanceEstimate | None,

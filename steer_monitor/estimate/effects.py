@@ -39,21 +39,71 @@ from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import GRID_NS, Observations
 from steer_monitor.model.gear import GearParams
 
-__all__ = ['DELAYS_S', 'STRIBECK_SPEEDS_MM_S', 'Candidate', 'candidates', 'iter_z_columns',
-           'low_side_offsets', 'z_columns']
+__all__ = ['DELAYS_S', 'NAMES', 'STRIBECK_SPEEDS_MM_S', 'Candidate', 'Effect', 'candidate_of', 'candidates',
+           'iter_z_columns', 'live_term', 'low_side_offsets', 'z_columns']
 
 STRIBECK_SPEEDS_MM_S = (1.0, 2.0, 3.0, 5.0, 8.0)
 DELAYS_S = tuple(round(0.05 * k, 2) for k in range(1, 21))   # 0.05 .. 1.0 s
 
 
+#: the library's effects, in the order the table above gives them
+NAMES = ('viscous', 'stribeck', 'pressure_friction', 'temp_friction', 'pressure_offset', 'angle_delay', 'ram_inertia')
+
+
 @dataclass(frozen=True)
 class Candidate:
-    """One candidate (for stribeck: one of its v_s; for angle_delay: one tau)."""
+    """One candidate (for stribeck: one of its v_s; for angle_delay: one tau). ``shape``:
+    temp_friction's friction law (F_s [N], mu_b, mu_g) its column scales with temperature."""
 
     name: str
     columns: tuple[Column, ...] = ()
     fixed: dict[str, float] | None = None     # parameters fixed by the candidate (v_s, tau)
     angle_shift_s: float = 0.0
+    shape: tuple[float, float, float] | None = None
+
+
+@dataclass(frozen=True)
+class Effect:
+    """An effect the residual loop adopted, as a later run applies it without screening (plain
+    values: it is kept in the node's state and sent to other processes): its name, the
+    parameters its candidate fixes (``v_s_mm_s``, ``tau_s``) and temp_friction's ``shape``."""
+
+    name: str
+    fixed: tuple[tuple[str, float], ...] = ()
+    shape: tuple[float, float, float] | None = None
+
+    def __post_init__(self) -> None:
+        if self.name not in NAMES:
+            msg = f'unknown effect {self.name!r} (the library has {", ".join(NAMES)})'
+            raise ValueError(msg)
+
+    def to_json(self) -> dict[str, object]:
+        return {'name': self.name, 'fixed': dict(self.fixed), 'shape': None if self.shape is None else list(self.shape)}
+
+    @classmethod
+    def from_json(cls, d: dict) -> Effect:
+        """The effect of :meth:`to_json` (ValueError, TypeError or KeyError naming what does not fit)."""
+        shape = d.get('shape')
+        return cls(str(d['name']), tuple(sorted((str(k), float(v)) for k, v in dict(d.get('fixed') or {}).items())),
+                   None if shape is None else tuple(float(x) for x in shape))    # type: ignore[arg-type]
+
+
+def candidate_of(effect: Effect) -> Candidate:
+    """The candidate an adopted effect stands for (its columns made again)."""
+    fixed = dict(effect.fixed)
+    if effect.name == 'angle_delay':
+        tau = float(fixed['tau_s'])
+        return Candidate('angle_delay', fixed={'tau_s': tau}, angle_shift_s=tau)
+    if effect.name == 'stribeck':
+        vs = float(fixed['v_s_mm_s'])
+        return Candidate('stribeck', (Column('f_st_n', f'stribeck_{vs:g}', _direction),), fixed={'v_s_mm_s': vs})
+    if effect.name == 'temp_friction':
+        if effect.shape is None:
+            msg = 'temp_friction needs the friction law it scales (shape)'
+            raise ValueError(msg)
+        return Candidate('temp_friction', (Column('k_per_k', 'dtemp', _friction_feature(*effect.shape)),),
+                         shape=effect.shape)
+    return next(c for c in candidates({}, (0.0, 0.0, 0.0)) if c.name == effect.name)
 
 
 def _ones(mom: Moments, feats: dict) -> NDArray[np.float64]:
@@ -117,7 +167,8 @@ def candidates(z: dict[str, NDArray], declared: tuple[float, float, float]) -> l
         out.append(Candidate('stribeck', (Column('f_st_n', f'stribeck_{vs:g}', _direction),),
                              fixed={'v_s_mm_s': vs}))
     if 'dtemp' in z:
-        out.append(Candidate('temp_friction', (Column('k_per_k', 'dtemp', _friction_feature(*declared)),)))
+        out.append(Candidate('temp_friction', (Column('k_per_k', 'dtemp', _friction_feature(*declared)),),
+                             shape=tuple(float(x) for x in declared)))   # type: ignore[arg-type]
     for tau in DELAYS_S:
         out.append(Candidate('angle_delay', fixed={'tau_s': tau}, angle_shift_s=tau))
     return out
@@ -136,3 +187,30 @@ def low_side_offsets(obs: Observations, names: tuple[str, ...], margin: float = 
     finite = [v for v in med.values() if math.isfinite(v)]
     ref = float(np.median(finite)) if finite else math.nan
     return {k: v - ref for k, v in med.items()}
+
+
+def live_term(model: tuple[Effect, ...], terms: dict[str, float], direction: float, v_ram: float, abs_y: float,
+              oil_temp: float, shape_friction: float, ram: int) -> float:
+    """What the adopted effects add to one ram's force [N] at one instant, as their columns
+    predict it (:func:`candidates`), for a residual worked out sample by sample (the live
+    monitor's): ``direction`` +-1, ram speed ``v_ram`` [m/s], the ram's |force| ``abs_y`` [N],
+    the oil temperature [K], ``shape_friction`` the friction law temp_friction scales, at this
+    instant [N] (F_s + mu_b N_b + mu_g |F_gb| of its shape), ``ram`` 0 or 1. A delay is not a
+    term (the caller reads the angle later) and a ram's moving mass is left out (its
+    acceleration is not followed sample by sample); ``terms``: :attr:`Finding.terms`."""
+    out = 0.0
+    for e in model:
+        name = e.name
+        if name == 'viscous':
+            out += direction * terms['c_ns_per_m'] * v_ram
+        elif name == 'stribeck':
+            vs = dict(e.fixed)['v_s_mm_s'] * 1e-3
+            out += direction * terms['f_st_n'] * math.exp(-(v_ram / vs) ** 2)
+        elif name == 'pressure_friction':
+            out += direction * terms['k'] * abs_y
+        elif name == 'temp_friction':
+            if math.isfinite(oil_temp) and math.isfinite(terms.get('t_ref_k', math.nan)):
+                out += direction * terms['k_per_k'] * (oil_temp - terms['t_ref_k']) * shape_friction
+        elif name == 'pressure_offset':
+            out += terms['offset_ram1_n' if ram == 0 else 'offset_ram2_n']
+    return out

@@ -15,11 +15,12 @@ from typing import Any
 import numpy as np
 
 from steer_monitor.can.rejects import RejectSnapshot
-from steer_monitor.can.signals import PRESSURE_INPUTS, REQUIRED, SignalMap
+from steer_monitor.can.signals import SignalMap
 from steer_monitor.estimate.rams import (EVEN, IDLE, MIN_SHARE_INSTANTS, MIN_SHARE_SPREAD_PA, OPPOSED, UNJUDGED, enough,
                                          judge, opposed_cause, weak_ram_cause)
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.hardover import hard_over_time, pumps_running
+from steer_monitor.model.inputs import PRESSURE_INPUTS, REQUIRED
 from steer_monitor.model.loadshare import load_sharing_at
 from steer_monitor.model.study import landmarks
 from steer_monitor.monitor.verdict import ERROR, OK, WARN, clearance_verdict
@@ -29,8 +30,6 @@ from steer_monitor.params import ram_share_warn_from_params
 __all__ = ['ERROR', 'OK', 'STALE', 'WARN', 'DiagnosticsBuilder', 'DiagnosticsConfig', 'Status']
 
 STALE = 3          # REP-107 levels: OK, WARN and ERROR (0, 1, 2) are the verdict's own
-#: residual samples (both rams) before model health is judged: about 15 s of steady motion
-MIN_JUDGED_SAMPLES = 600
 LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR', STALE: 'STALE'}
 PREFIX = 'steer_monitor: '
 
@@ -60,7 +59,6 @@ class DiagnosticsConfig:
     limit_zgb: float = 0.25e-3
     guide_idle_warn_deg: float = 10.0
     solas_hard_over_s: float = 28.0
-    residual_warn_bar: float = 3.0
     #: WARN when a ram's share of the driving force departs from an even half by more than this
     ram_share_warn: float = 0.15
     #: the gear's main pumps (SOLAS's hard-over time is judged with all of them running)
@@ -75,7 +73,6 @@ class DiagnosticsConfig:
                    limit_2z=p['clearances.limit_2z_mm'] * 1e-3, limit_zgb=p['clearances.limit_zgb_mm'] * 1e-3,
                    guide_idle_warn_deg=p['diagnostics.guide_idle_warn_deg'],
                    solas_hard_over_s=p['diagnostics.solas_hard_over_s'],
-                   residual_warn_bar=p['diagnostics.residual_warn_bar'],
                    ram_share_warn=ram_share_warn_from_params(p),
                    pumps=p['hydraulics.pumps'], ram_speed_per_pump=p['hydraulics.ram_speed_per_pump_mm_s'] * 1e-3)
 
@@ -109,9 +106,11 @@ class DiagnosticsBuilder:
         return self._onset_cache[gaps]
 
     def build(self, mon: LiveMonitor, rejects: RejectSnapshot, now_ns: int,
-              recording: Status | None = None) -> list[Status]:
+              recording: Status | None = None, why: str | None = None) -> list[Status]:
+        """The statuses at ``now_ns``; ``why``: why the last analysis gave no finding (None: it
+        did, or none ran yet)."""
         out = [self.can_input(mon, rejects, now_ns), self.clearances(mon), self.guide_beam(mon),
-               self.performance(mon), self.model_health(mon), self.rams(mon)]
+               self.performance(mon), self.model_health(mon, why), self.rams(mon)]
         if recording is not None:
             out.append(recording)
         return out
@@ -155,7 +154,9 @@ class DiagnosticsBuilder:
         the limit with an interval narrow enough to say so; an interval wider than the limit
         itself that reaches from below the warn share to past the limit is too wide to judge:
         OK, and the message says so.
-        Clearances not yet estimated are OK: the configured values are shown, not judged."""
+        Clearances not yet estimated are OK: the configured values are shown, not judged; so
+        are clearances from an analysis whose model does not explain the pressures ('not
+        judged: ...'; model health carries the WARN)."""
         cfg = self.cfg
         gaps = mon.gaps
         interval = mon.gaps_interval or {}
@@ -184,11 +185,19 @@ class DiagnosticsBuilder:
                     text += f': {v.note}'
             parts.append(text)
             worst = max(worst, level)
+        f = mon.finding
         if not mon.gaps_interval:
             values.append(('clearance_interval', 'none: configured values, not estimated'))
             message = 'not yet estimated; configured ' + '; '.join(parts)
+        elif f is not None and not f.explained:
+            worst = OK
+            message = (f"not judged: the model in use does not explain the pressures (systematic part "
+                       f"{f.systematic_bar:.2f} bar against {f.noise_bar:.2f} bar of sensor noise; see model health); "
+                       f"{'; '.join(parts)} [{mon.gaps_source}]")
         else:
             message = f"{'; '.join(parts)} [{mon.gaps_source}]"
+        if f is not None:
+            values.append(('judged', 'yes' if f.explained else 'no: the model does not explain the pressures'))
         values += sorted(mon.estimate_info.items())
         return self._status('clearances', worst, message, values)
 
@@ -270,28 +279,34 @@ class DiagnosticsBuilder:
             parts.append(f'responds to orders in {r.delay_s:.2f} s')
         return self._status('steering performance', level, '; '.join(parts), values)
 
-    def model_health(self, mon: LiveMonitor) -> Status:
+    def model_health(self, mon: LiveMonitor, why: str | None = None) -> Status:
+        """Judged as ``analyze`` judges: the last analysis's verdict on the model in use (its
+        residual's systematic part against the sensor noise, over the window it analysed):
+        OK when the model explains the pressures, WARN when it does not (the message says what
+        is left and where). The residual of the last minute of motion under that model is
+        shown beside it, not judged. Before any analysis: not judged yet."""
         rms = mon.residual_rms_bar()
+        f = mon.finding
         values = [('residual_rms_bar', _f(rms, '.2f')), ('residual_samples', str(mon.residual_count)),
                   ('residual_instants_not_judged', str(mon.residuals_skipped)),
-                  ('residual_warn_bar', f'{self.cfg.residual_warn_bar:g}')]
-        if rms is None:
-            if mon.residuals_skipped:
-                return self._status('model health', OK,
-                                    f'residual not judged: the model in use cannot judge any of the last '
-                                    f'{mon.residuals_skipped} instants of motion (a clearance bounded from below '
-                                    'only, or angles beyond those it learned)', values)
-            return self._status('model health', OK, 'no motion seen yet: residual not evaluated', values)
-        if mon.residual_count < MIN_JUDGED_SAMPLES:
-            # a few seconds of motion since the clearances changed source: an early estimate's
-            # friction (fitted on half a hard-over) is not the model's health
-            return self._status('model health', OK,
-                                f'declared model residual {rms:.2f} bar RMS over {mon.residual_count} samples of motion: '
-                                f'judged from {MIN_JUDGED_SAMPLES}', values)
-        level = WARN if rms > self.cfg.residual_warn_bar else OK
-        return self._status('model health', level,
-                            f'declared model residual {rms:.2f} bar RMS over the last {mon.residual_count} samples of motion',
-                            values)
+                  ('motion_s', f'{mon.motion_s:.0f}')]
+        live = '' if rms is None else f'; last minute of motion: residual {rms:.2f} bar RMS under that model'
+        if f is None:
+            head = ('not judged yet: no analysis of the data yet' if why is None else
+                    f'not judged yet: the last analysis could not be made: {why}')
+            if rms is not None:
+                head += f'; declared model residual {rms:.2f} bar RMS over the last {mon.residual_count} samples'
+            return self._status('model health', OK, head, values)
+        effects = ', '.join(e.name for e in f.model)
+        values += [('analysis_kind', f.kind), ('analysis_verdict', f.verdict),
+                   ('analysis_rms_bar', f'{f.rms_bar:.2f}'), ('analysis_systematic_bar', f'{f.systematic_bar:.2f}'),
+                   ('analysis_noise_bar', f'{f.noise_bar:.2f}'), ('analysis_motion_s', f'{f.motion_s:.0f}'),
+                   ('analysis_effects', effects or 'none')]
+        level = OK if f.explained else WARN
+        message = f.message + live
+        if why is not None:
+            message += f' (the latest analysis could not be made: {why})'
+        return self._status('model health', level, message, values)
 
     def rams(self, mon: LiveMonitor) -> Status:
         """How the two rams share the driving force (:mod:`~steer_monitor.estimate.rams`, judged

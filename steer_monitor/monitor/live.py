@@ -8,13 +8,16 @@ pressure sample it evaluates:
   Fa = A_r |p_stbd - p_port| (mean of the two rams), the tiller torque it implies,
   M = Fa n H / cos^2(alpha), and the scalar load-sharing solver with the current clearances.
   While the rudder moves Fa includes friction (the estimator of the clearances separates it);
-* the residual of the declared model (design doc section 4), with the configured torque and
-  friction until an estimate gives its clearances with the torque and friction fitted at
-  them (then the last minute of motion is judged again under that fit):
-  A_r (p_stbd - p_port) against sign(alpha) Fa_model + sign(dalpha/dt) F_fr, only where the
-  rudder moves steadily (at rest the pressure only bounds friction). Each pressure sample is
-  held 0.3 s and counted only when the angle's slope on both sides of it is above the motion
-  threshold with the same sign, so starts and stops do not pollute it;
+* the residual of the model in use (design doc section 4): the declared model with the
+  configured torque and friction until an analysis gives its clearances with the torque,
+  friction and effects fitted with them (:meth:`LiveMonitor.set_finding`; then the last
+  minute of motion is judged again under that model):
+  A_r (p_stbd - p_port) against sign(alpha) Fa_model + sign(dalpha/dt) F_fr + the effects'
+  terms (a delay reads the angle later), only where the rudder moves steadily (at rest the
+  pressure only bounds friction). Each pressure sample is held 0.3 s (and the delay) and
+  counted only when the angle's slope on both sides of it is above the motion threshold with
+  the same sign, so starts and stops do not pollute it; the time of those steady stretches
+  is counted (:attr:`LiveMonitor.motion_s`: what the node's analyses are scheduled on);
 * the steering performance: hard-over time from leaving 35 deg to reaching 30 deg the other
   side, and the response to order steps (direction, delay, settled accuracy);
 * how the two rams share the driving force over the last ``SHARE_INSTANTS`` pressure samples
@@ -33,12 +36,13 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from steer_monitor.can.decoder import Sample
-from steer_monitor.can.signals import INPUTS
+from steer_monitor.estimate.effects import Effect, live_term
+from steer_monitor.estimate.finding import Finding
 from steer_monitor.estimate.rams import RamShare, ram_share
 from steer_monitor.model.friction import FrictionParams, friction_force
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
+from steer_monitor.model.inputs import INPUTS, Sample
 from steer_monitor.model.loadshare import ShareScalar, load_sharing, load_sharing_scalar
 from steer_monitor.model.torque import TorqueTable
 
@@ -50,6 +54,8 @@ RATE_WINDOW_NS = 5_000_000_000      # the shortest window a rate is judged over
 ARRIVALS_KEPT_NS = 30_000_000_000   # arrivals kept per input: five periods down to 0.17 Hz
 SLOPE_WINDOW_NS = 500_000_000
 HALF_WINDOW_NS = 300_000_000   # each side of a pressure sample, for the residual
+MAX_DELAY_NS = 1_000_000_000   # the longest angle delay the model in use may read the angle later by
+MOTION_STEP_NS = 250_000_000   # a steady bracket of angle samples counts at most this much motion
 MOVING_RATE = 0.2 * DEG        # rad/s: below this the rudder is at rest
 RESIDUAL_SAMPLES = 1200        # about a minute of motion at 20 Hz
 SHARE_INSTANTS = 2400          # instants of steady motion the rams' shares are judged over
@@ -123,6 +129,7 @@ class LiveMonitor:
         #: the tiller torque fitted with the clearances in use (None: the configured curve)
         self.torque: TorqueTable | None = None
         self.signals: dict[str, _Signal] = {name: _Signal() for name in INPUTS}
+        self._model_signals = tuple(self.signals[n] for n in ('rudder_angle', *_PRESSURE_INDEX))
         self._history: deque[tuple[int, float]] = deque()   # the last 0.9 s of angles
         self._pending: deque[tuple[int, tuple[float, ...]]] = deque()   # (t, the four pressures)
         self._pressures = [math.nan] * 4
@@ -130,11 +137,13 @@ class LiveMonitor:
         self._state: LiveState | None = None
         self.rate = 0.0
         # the last minute of steady motion since the clearances' source last changed, per
-        # instant (alpha [rad], speed [m/s] or None, direction +-1, ram forces [N]), and its
-        # residual pair [bar] under the model in use (None: not judged); a new estimate
-        # recomputes them all, so the residual judges the model now in use, never a mix of
-        # models replaced since (an early fit used for seconds left 17 bar in the window)
-        self._motion: deque[tuple[float, float | None, float, float, float]] = deque(maxlen=RESIDUAL_SAMPLES // 2)
+        # instant (alpha [rad], speed [m/s] or None, direction +-1, ram forces [N], rate
+        # [rad/s], oil temperature [K]), and its residual pair [bar] under the model in use
+        # (None: not judged); a new estimate recomputes them all, so the residual judges the
+        # model now in use, never a mix of models replaced since (an early fit used for
+        # seconds left 17 bar in the window)
+        self._motion: deque[tuple[float, float | None, float, float, float, float, float]] = \
+            deque(maxlen=RESIDUAL_SAMPLES // 2)
         self._resid: deque[tuple[float, float] | None] = deque(maxlen=RESIDUAL_SAMPLES // 2)
         self._resid_summary: tuple[list[float], int, float | None] | None = None   # of _resid, until it changes
         # the four pressures at the same instants, kept whatever the model in use (the rams'
@@ -146,6 +155,16 @@ class LiveMonitor:
         self._ring_kept = 0
         self._share: RamShare | None = None
         self._share_stale = False
+        #: the analysis the model in use comes from (None: the configured model); its effects
+        #: and their coefficients, and how much later it reads the angle [ns]
+        self.finding: Finding | None = None
+        self._effects: tuple[Effect, ...] = ()
+        self._terms: dict[str, float] = {}
+        self._shape: FrictionParams | None = None
+        self._delay_ns = 0
+        #: seconds of steady motion counted (brackets of angle samples judged steady once each)
+        self.motion_ns = 0
+        self._counted_ns: int | None = None
         self._hard_over: tuple[float, int] | None = None  # (side, time last at hard over)
         self.hard_over_s: float | None = None
         self.response: Response | None = None
@@ -168,6 +187,32 @@ class LiveMonitor:
         self.torque = torque
         self._resid = deque(self._residual_pairs(list(self._motion)), maxlen=self._resid.maxlen)
         self._resid_summary = None
+
+    def set_finding(self, finding: Finding) -> None:
+        """Use an analysis's answer as the model in use: its clearances with their intervals,
+        the torque and friction fitted with them, its effects (their terms in the residual; a
+        delay reads the angle later) and what the diagnostics add (K_gl max, the verdict).
+        A delay beyond :data:`MAX_DELAY_NS` is read as that."""
+        self._effects = tuple(e for e in finding.model if e.name != 'angle_delay')
+        self._terms = dict(finding.terms)
+        temp = next((e for e in finding.model if e.name == 'temp_friction'), None)
+        self._shape = FrictionParams(*temp.shape) if temp is not None and temp.shape is not None else None
+        self._delay_ns = min(int(round(finding.terms.get('tau_s', 0.0) * 1e9)), MAX_DELAY_NS)
+        self.finding = finding
+        interval = {'2z': (finding.two_z.lo, finding.two_z.hi), 'zgb': (finding.z_gb.lo, finding.z_gb.hi)}
+        self.set_gaps(Gaps(finding.two_z.value, finding.z_gb.value), 'estimated', interval,   # type: ignore[arg-type]
+                      FrictionParams(*finding.friction), finding.torque_table(self.gear))
+        k = finding.k_gl_max
+        self.estimate_info = {'k_gl_max_estimated': f'{k.value:.3f}',
+                              'k_gl_max_lo': 'n/a' if k.lo is None else f'{k.lo:.3f}',
+                              'k_gl_max_hi': 'n/a' if k.hi is None else f'{k.hi:.3f}',
+                              'estimate_rows': str(int(finding.rows)),
+                              'estimate_motion_s': f'{finding.motion_s:.0f}'}
+
+    @property
+    def motion_s(self) -> float:
+        """Seconds of steady rudder motion counted since this monitor started."""
+        return self.motion_ns / 1e9
 
     def _summary(self) -> tuple[list[float], int, float | None]:
         """(residuals, instants not judged, RMS [bar]) of the kept minute, worked out once
@@ -192,11 +237,12 @@ class LiveMonitor:
         angles its fitted torque was learned at."""
         return self._summary()[1]
 
-    def _residual_pair(self, instant: tuple[float, float | None, float, float, float]) -> tuple[float, float] | None:
+    def _residual_pair(self, instant: tuple[float, float | None, float, float, float, float, float]
+                       ) -> tuple[float, float] | None:
         """The residual [bar] of each ram at one instant of steady motion under the model in
-        use: A_r (p_stbd - p_port) against sign(alpha) Fa + direction F_fr; None where the
-        model cannot judge it."""
-        alpha, speed, direction, force_1, force_2 = instant
+        use: A_r (p_stbd - p_port) against sign(alpha) Fa + direction F_fr + the effects'
+        terms; None where the model cannot judge it."""
+        alpha, speed, direction, force_1, force_2, rate, oil = instant
         gear, gaps = self.gear, self.gaps
         torque = (self.torque or gear.torque).scalar(alpha, speed)
         if math.isnan(torque):           # beyond the angles the fitted torque was learned at
@@ -211,16 +257,29 @@ class LiveMonitor:
         f_fr = float(friction_force(self.priors, m.r_a, m.r_e, m.m_a, m.guide_force, gear.bushing_length))
         predicted = math.copysign(m.axial, alpha) + direction * f_fr
         area = gear.ram_area
-        return (force_1 - predicted) / area / 1e5, (force_2 - predicted) / area / 1e5
+        if not self._effects:
+            return (force_1 - predicted) / area / 1e5, (force_2 - predicted) / area / 1e5
+        shape = 0.0 if self._shape is None else float(friction_force(self._shape, m.r_a, m.r_e, m.m_a, m.guide_force,
+                                                                     gear.bushing_length))
+        cos_a = math.cos(alpha)
+        v_ram = gear.stock_to_ram / (cos_a * cos_a) * abs(rate)
+        out = []
+        for ram, force in enumerate((force_1, force_2)):
+            term = live_term(self._effects, self._terms, direction, v_ram, abs(force), oil, shape, ram)
+            out.append((force - predicted - term) / area / 1e5)
+        return out[0], out[1]
 
-    def _residual_pairs(self, instants: list[tuple[float, float | None, float, float, float]]
+    def _residual_pairs(self, instants: list[tuple[float, float | None, float, float, float, float, float]]
                         ) -> list[tuple[float, float] | None]:
         """:meth:`_residual_pair` of many instants at once (the minute a new estimate re-judges,
         up to 600 instants once a second of motion: one vectorized load-sharing solve instead
-        of one per instant). Equal to the one-instant results to rounding (tested)."""
+        of one per instant). Equal to the one-instant results to rounding (tested); with the
+        effects of an analysis in use, instant by instant."""
         if not instants:
             return []
-        arr = np.array([(a, math.nan if s is None else s, d, f1, f2) for a, s, d, f1, f2 in instants])
+        if self._effects:
+            return [self._residual_pair(x) for x in instants]
+        arr = np.array([(a, math.nan if s is None else s, d, f1, f2) for a, s, d, f1, f2, _, _ in instants])
         alpha, speed, direction, force_1, force_2 = arr.T
         gear, gaps = self.gear, self.gaps
         torque = (self.torque or gear.torque).scalars(alpha, speed)
@@ -289,8 +348,8 @@ class LiveMonitor:
         as :meth:`share_of`, to the bit)."""
         if self._dirty:
             self._dirty = False
-            t = max(self.signals['rudder_angle'].last_t_ns or 0,
-                    *(self.signals[n].last_t_ns or 0 for n in _PRESSURE_INDEX))
+            a, p0, p1, p2, p3 = self._model_signals
+            t = max(a.last_t_ns or 0, p0.last_t_ns or 0, p1.last_t_ns or 0, p2.last_t_ns or 0, p3.last_t_ns or 0)
             self._state = self._evaluate(t) or self._state
         return self._state
 
@@ -347,51 +406,60 @@ class LiveMonitor:
 
     def _on_angle(self, t_ns: int, alpha: float) -> None:
         self._history.append((t_ns, alpha))
-        while self._history and self._history[0][0] < t_ns - 3 * HALF_WINDOW_NS:
+        while self._history and self._history[0][0] < t_ns - 3 * HALF_WINDOW_NS - self._delay_ns:
             self._history.popleft()
         slope = self._slope([p for p in self._history if p[0] >= t_ns - SLOPE_WINDOW_NS])
         if slope is not None:
             self.rate = slope
-        if self._pending and self._pending[0][0] <= t_ns - HALF_WINDOW_NS:
-            self._residuals_until(t_ns - HALF_WINDOW_NS)
+        if self._pending and self._pending[0][0] <= t_ns - HALF_WINDOW_NS - self._delay_ns:
+            self._residuals_until(t_ns - HALF_WINDOW_NS - self._delay_ns)
         self._track_hard_over(t_ns, alpha)
         self._track_response(t_ns, alpha)
 
-    def _steady(self, hist: list[tuple[int, float]], times: list[int], i: int) -> float:
-        """Direction (+1/-1) if the rudder moves steadily through angle sample i, else 0: the
-        slopes over 0.3 s before and after it both exceed the motion threshold, same sign."""
+    def _steady(self, hist: list[tuple[int, float]], times: list[int], i: int) -> tuple[float, float]:
+        """(direction +1/-1, rate [rad/s]) if the rudder moves steadily through angle sample i,
+        else (0, 0): the slopes over 0.3 s before and after it both exceed the motion threshold,
+        same sign; the rate is their mean."""
         t = times[i]
         before = hist[bisect.bisect_left(times, t - HALF_WINDOW_NS):i + 1]
         after = hist[i:bisect.bisect_right(times, t + HALF_WINDOW_NS)]
         s1, s2 = self._slope(before), self._slope(after)
         if s1 is None or s2 is None or min(abs(s1), abs(s2)) <= MOVING_RATE or (s1 > 0) != (s2 > 0):
-            return 0.0
-        return 1.0 if s1 > 0 else -1.0
+            return 0.0, 0.0
+        return (1.0 if s1 > 0 else -1.0), 0.5 * (s1 + s2)
 
     def _residuals_until(self, t_end: int) -> None:
         """Residuals of the held pressure samples up to ``t_end``; motion is judged once per
-        pair of angle samples that brackets them, the angle interpolated to each one's time
-        (near midships the torque curve is steep: an angle 0.1 s old is worth several bar)."""
+        pair of angle samples that brackets them (with the model's delay: the angle that
+        much later), the angle interpolated to each one's time (near midships the torque curve
+        is steep: an angle 0.1 s old is worth several bar). Each steady bracket counts its
+        time of motion once (:attr:`motion_s`)."""
         hist = list(self._history)
         times = [t for t, _ in hist]
         area = self.gear.ram_area
-        judged: dict[int, float] = {}
+        judged: dict[int, tuple[float, float]] = {}
         speed = self.signals['ship_speed'].last_value
         speed = None if math.isnan(speed) else speed
+        oil = self.signals['oil_temperature'].last_value
+        delay = self._delay_ns
         while self._pending and self._pending[0][0] <= t_end:
             t, chambers = self._pending.popleft()
-            i = bisect.bisect_right(times, t) - 1
+            i = bisect.bisect_right(times, t + delay) - 1
             if i < 0 or i + 1 >= len(hist):
                 continue
-            direction = judged.get(i)
-            if direction is None:
-                direction = judged[i] = self._steady(hist, times, i)
+            steady = judged.get(i)
+            if steady is None:
+                steady = judged[i] = self._steady(hist, times, i)
+                if steady[0] != 0.0 and (self._counted_ns is None or times[i] > self._counted_ns):
+                    self.motion_ns += min(times[i + 1] - times[i], MOTION_STEP_NS)
+                    self._counted_ns = times[i]
+            direction, rate = steady
             if direction == 0.0:
                 continue
             (t_a, a_a), (t_b, a_b) = hist[i], hist[i + 1]
-            alpha = a_a + (a_b - a_a) * (t - t_a) / (t_b - t_a)
+            alpha = a_a + (a_b - a_a) * (t + delay - t_a) / (t_b - t_a)
             force_1, force_2 = area * (chambers[0] - chambers[1]), area * (chambers[2] - chambers[3])
-            instant = (alpha, speed, direction, force_1, force_2)
+            instant = (alpha, speed, direction, force_1, force_2, rate, oil)
             self._motion.append(instant)
             self._resid.append(self._residual_pair(instant))
             self._resid_summary = None

@@ -9,17 +9,17 @@ Schedule (``t`` is a frame's timestamp, integer ns since the epoch):
   of a slot is emitted when the first frame of a later slot arrives (live, also when the
   bus has been quiet past the slot's end: :meth:`Pipeline.idle`).
 * **each whole second** ``k`` (after every frame before it, before any frame at or after
-  it): pending estimator results due by ``k`` are applied to the live model, the samples
-  since the last second go to the clearance estimator (a job started at ``k``), then the
-  diagnostics are built with ``now = k``. Every second of a gap is taken (live, the node
-  goes on emitting them while the bus is silent, so inputs show STALE), up to
-  ``MAX_GAP_SECONDS``; a longer jump (the next log, a long outage) takes those and its
-  last second only.
-* **estimator results** are applied ``APPLY_DELAY_NS`` of data time after the job started:
-  live, the job runs on its own thread meanwhile (a full profile takes about a second on
-  this machine, up to three with the node busy at a full bus) and the pipeline waits for it
-  only if it is later than that; offline it
-  runs at once. Either way the live model changes clearances at the same sample.
+  it): the findings of analyses due by ``k`` are applied to the live model, the
+  :class:`~steer_monitor.monitor.analyst.Analyst` is asked whether an analysis of the data
+  before ``k`` is due (a job started at ``k``), then the diagnostics are built with
+  ``now = k``. Every second of a gap is taken (live, the node goes on emitting them while
+  the bus is silent, so inputs show STALE), up to ``MAX_GAP_SECONDS``; a longer jump (the
+  next log, a long outage) takes those and its last second only.
+* **analyses** are applied :func:`apply_delay_ns` of data time after the job started (20 s
+  and 1 % of the motion the window may hold: time for ``analyze`` of an hour of motion on a
+  busy node's second core): live, the job runs on the node's worker thread meanwhile and the
+  pipeline waits for it only if it is later than that; offline it runs when and where the
+  replay likes. Either way the live model takes the finding at the same sample.
 
 Outputs are :class:`StateOut` and :class:`DiagOut` records, in order.
 """
@@ -36,25 +36,26 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from steer_monitor.can.decoder import DecodedRun, Decoder, Sample
+from steer_monitor.can.decoder import DecodedRun, Decoder
 from steer_monitor.can.frames import Frame
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
-from steer_monitor.estimate.online import OnlineEstimate, OnlineEstimator
-from steer_monitor.model.friction import FrictionParams
+from steer_monitor.estimate.effects import Effect
 from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.inputs import Sample
+from steer_monitor.monitor.analyst import (ANALYSED, Analyst, AnalystSettings, Job, JobRunner, Outcome, SyncJobs,
+                                           run_job)
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, Status
 from steer_monitor.monitor.live import LiveMonitor, LiveState
 from steer_monitor.params import min_clearance_2z_from_params, ram_share_warn_from_params
 
-__all__ = ['APPLY_DELAY_NS', 'MAX_GAP_SECONDS', 'SECOND_NS', 'SLOT_NS', 'DiagOut', 'EstimateSnapshot', 'EstimatorJobs',
-           'JobSchedule', 'Pipeline', 'StateOut',
-           'SyncEstimatorJobs', 'ThreadedEstimatorJobs', 'apply_estimate', 'estimator_from_params', 'plausible',
-           'run_job']
+__all__ = ['APPLY_DELAY_NS', 'APPLY_PER_MOTION', 'MAX_GAP_SECONDS', 'SECOND_NS', 'SLOT_NS', 'DiagOut', 'Pipeline',
+           'StateOut', 'ThreadedJobs', 'analyst_from_params', 'apply_delay_ns', 'settings_from_params']
 
 SLOT_NS = 10_000_000
 SECOND_NS = 1_000_000_000
-APPLY_DELAY_NS = 10 * SECOND_NS
+APPLY_DELAY_NS = 20 * SECOND_NS     # a finding is applied this long after its job started ...
+APPLY_PER_MOTION = 0.01             # ... and this share of the motion its window may hold
 MAX_GAP_SECONDS = 60
 
 
@@ -79,91 +80,53 @@ class DiagOut:
 Output = StateOut | DiagOut
 
 
-@dataclass(frozen=True)
-class EstimateSnapshot:
-    """What an estimator job hands back when the estimate changed."""
-
-    estimate: OnlineEstimate
-    motion_s: float
-
-
-class EstimatorJobs(Protocol):
-    """Runs the online estimator's jobs in submission order."""
-
-    def submit(self, samples: list[Sample]) -> object: ...
-
-    def result(self, handle: object) -> EstimateSnapshot | None: ...
-
-    def close(self) -> None: ...
-
-
-def estimator_from_params(gear: GearParams, p: Mapping[str, Any]) -> OnlineEstimator:
-    """A fresh online estimator as the parameters configure it (grid from the new fit's 2Z,
-    forgetting half-life, the rams' uneven share it does not learn from)."""
-    return OnlineEstimator(gear, min_clearance_2z=min_clearance_2z_from_params(p),
-                           half_life_s=p['estimator.half_life_h'] * 3600.0,
+def settings_from_params(p: Mapping[str, Any]) -> AnalystSettings:
+    """The analyses as the parameters configure them (``estimator.*``)."""
+    return AnalystSettings(window_motion_s=p['estimator.window_motion_h'] * 3600.0,
+                           loop_every_s=p['estimator.loop_every_motion_s'], every_s=p['estimator.every_motion_s'],
+                           min_clearance_2z=min_clearance_2z_from_params(p),
                            ram_share_warn=ram_share_warn_from_params(p))
 
 
-def run_job(est: OnlineEstimator, samples: list[Sample],
-            on_error: Callable[[SteerMonitorError], None] | None) -> EstimateSnapshot | None:
-    """One job: the samples in, an update; the new estimate, or None (no change, or an update
-    that failed, which ``on_error`` hears: it guards a defect, the monitoring goes on)."""
-    try:
-        for s in samples:
-            est.add(s)
-        if est.update() and est.estimate is not None:
-            return EstimateSnapshot(est.estimate, est.motion_s)
-    except SteerMonitorError as exc:
-        if on_error is not None:
-            on_error(exc)
-    return None
+def analyst_from_params(gear: GearParams, p: Mapping[str, Any]) -> Analyst:
+    """A fresh analyst as the parameters configure it."""
+    return Analyst(gear, settings_from_params(p))
 
 
-class SyncEstimatorJobs:
-    """Each job runs when submitted (offline). ``on_error`` hears an update that failed."""
-
-    def __init__(self, est: OnlineEstimator, on_error: Callable[[SteerMonitorError], None] | None = None) -> None:
-        self.est = est
-        self.on_error = on_error
-
-    def submit(self, samples: list[Sample]) -> object:
-        return run_job(self.est, samples, self.on_error)
-
-    def result(self, handle: object) -> EstimateSnapshot | None:
-        return handle  # type: ignore[return-value]
-
-    def close(self) -> None:
-        pass
+def apply_delay_ns(settings: AnalystSettings, motion_s: float) -> int:
+    """How long after its job starts a finding is applied [ns of data time]: ``APPLY_DELAY_NS``
+    and ``APPLY_PER_MOTION`` of the motion the window holds by then (the analysis's work grows
+    with it), so that live the node's worker has it ready; the same in a replay."""
+    held = min(motion_s, settings.window_motion_s)
+    return APPLY_DELAY_NS + int(APPLY_PER_MOTION * held * 1e9)
 
 
-class ThreadedEstimatorJobs:
-    """Jobs run one after the other on a worker thread (live). ``after`` runs on that thread
-    after each job (the node saves the estimator state there). Context manager; close waits
-    for the running job and is idempotent."""
+class ThreadedJobs:
+    """Jobs run one after the other on a worker thread (live); each estimate job takes the
+    model of the loop before it. ``after`` runs on that thread after each job (the node logs
+    its outcome there). Context manager; close waits for the running job and is idempotent."""
 
-    def __init__(self, est: OnlineEstimator, on_error: Callable[[SteerMonitorError], None] | None = None,
-                 after: Callable[[], None] | None = None) -> None:
-        self.est = est
-        self.on_error = on_error
+    def __init__(self, gear: GearParams, settings: AnalystSettings, model: tuple[Effect, ...] = (),
+                 after: Callable[[Outcome], None] | None = None) -> None:
+        self.gear, self.settings, self.model = gear, settings, model
         self.after = after
-        self._pool: ThreadPoolExecutor | None = ThreadPoolExecutor(1, thread_name_prefix='steer_monitor-estimator')
+        self._pool: ThreadPoolExecutor | None = ThreadPoolExecutor(1, thread_name_prefix='steer_monitor-analysis')
         self._lock = threading.Lock()
 
-    def _run(self, samples: list[Sample]) -> EstimateSnapshot | None:
-        try:
-            return run_job(self.est, samples, self.on_error)
-        finally:
-            if self.after is not None:
-                self.after()
+    def _run(self, job: Job) -> Outcome:
+        out = run_job(self.gear, self.settings, job, self.model)
+        self.model = out.model
+        if self.after is not None:
+            self.after(out)
+        return out
 
-    def submit(self, samples: list[Sample]) -> object:
+    def submit(self, job: Job) -> object:
         with self._lock:
             if self._pool is None:
                 return None
-            return self._pool.submit(self._run, samples)
+            return self._pool.submit(self._run, job)
 
-    def result(self, handle: object) -> EstimateSnapshot | None:
+    def result(self, handle: object) -> Outcome | None:   # type: ignore[override]
         return handle.result() if isinstance(handle, Future) else None
 
     def close(self) -> None:
@@ -172,51 +135,11 @@ class ThreadedEstimatorJobs:
         if pool is not None:
             pool.shutdown(wait=True, cancel_futures=True)
 
-    def __enter__(self) -> ThreadedEstimatorJobs:
+    def __enter__(self) -> ThreadedJobs:
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-MAX_MU = 0.5            # a friction coefficient beyond this (or below 0) is not a physical fit
-
-
-def plausible(friction: tuple[float, float, float]) -> bool:
-    """F_s >= 0 and both friction coefficients in [0, ``MAX_MU``]: early estimates, on a
-    minute of data, can fit the friction with numbers no gear has (mu_g = -9.9 was seen)."""
-    f_s, mu_b, mu_g = friction
-    return all(map(math.isfinite, friction)) and f_s >= 0.0 and 0.0 <= mu_b <= MAX_MU and 0.0 <= mu_g <= MAX_MU
-
-
-def apply_estimate(monitor: LiveMonitor, snap: EstimateSnapshot) -> bool:
-    """Hand an estimate to the live model: the gaps with their intervals, the friction fitted
-    with them, and what the clearance diagnostic adds (K_gl max with its interval). An
-    estimate whose friction is not physical (:func:`plausible`) is not used: the live model
-    keeps what it has, since its residual would judge the declared model by a fit no gear
-    has. Returns whether it was used."""
-    e = snap.estimate
-    if not plausible(e.friction):
-        return False
-    interval = {'2z': (e.two_z.lo, e.two_z.hi), 'zgb': (e.z_gb.lo, e.z_gb.hi)}
-    fr = FrictionParams(*e.friction)
-    # The clearances with the torque and friction fitted at them, as one model: a clearance the
-    # data only bound from below keeps the fit's own value (the configured one with the fit's
-    # friction was tried: an early fit's mu_b of 0.47 with the configured 2Z put the residual at
-    # 17 bar in the demo), and the fit's friction goes with the fit's torque (beside the
-    # configured torque it left 3-10 bar on a clean gear). Where that clearance would clamp the
-    # model's ram beyond what the fit saw, or beyond the angles it learned, the residual is not
-    # judged; the minute of motion the residual covers is judged again under the new model
-    # (LiveMonitor).
-    monitor.set_gaps(Gaps(e.two_z.value, e.z_gb.value), 'estimated', interval, fr,  # type: ignore[arg-type]
-                     e.torque_table(monitor.gear))
-    k = e.k_gl_max
-    monitor.estimate_info = {'k_gl_max_estimated': f'{k.value:.3f}',
-                             'k_gl_max_lo': 'n/a' if k.lo is None else f'{k.lo:.3f}',
-                             'k_gl_max_hi': 'n/a' if k.hi is None else f'{k.hi:.3f}',
-                             'estimate_rows': str(int(e.rows)),
-                             'estimate_motion_s': f'{snap.motion_s:.0f}'}
-    return True
 
 
 class Pipeline:
@@ -224,17 +147,24 @@ class Pipeline:
     thread-safe: feed it from one thread (the node holds a lock around it)."""
 
     def __init__(self, decoder: Decoder, rejects: RejectCounter, monitor: LiveMonitor, diag: DiagnosticsBuilder,
-                 jobs: EstimatorJobs | None = None) -> None:
+                 analyst: Analyst | None = None, jobs: JobRunner | None = None,
+                 on_failed: Callable[[str], None] | None = None) -> None:
+        """``on_failed`` hears an analysis that failed (a defect), when its finding would have
+        been applied."""
         self.decoder = decoder
+        self.on_failed = on_failed
         self.rejects = rejects
         self.monitor = monitor
         self.diag = diag
-        self.jobs = jobs
+        self.analyst = analyst
+        self.jobs = jobs if jobs is not None or analyst is None else SyncJobs(analyst.gear, analyst.settings,
+                                                                             analyst.model)
         self._slot: int | None = None          # slot of the newest frame
         self._state_pending = False            # samples since the last emitted state
         self._next_second: int | None = None   # the next whole second to act on
-        self._samples: list[Sample] = []       # for the estimator since the last second
         self._pending: deque[tuple[int, object]] = deque()   # (due, job handle)
+        if analyst is not None and analyst.finding is not None:
+            monitor.set_finding(analyst.finding)
         self.frames = 0
         self.last_changed_state = False        # the last frame fed changed the live model's state
 
@@ -313,10 +243,11 @@ class Pipeline:
         self.last_changed_state = False
         if samples:
             mon = self.monitor
+            analyst = self.analyst
             for s in samples:
                 mon.update(s)
-            if self.jobs is not None:
-                self._samples.extend(samples)
+                if analyst is not None and s.signal in ANALYSED:
+                    analyst.add(s.signal, s.t_ns, s.value)
             self._state_pending = mon.changed
             self.last_changed_state = mon.changed
 
@@ -379,44 +310,34 @@ class Pipeline:
     def _second(self, k_ns: int, out: list[Output]) -> None:
         mon = self.monitor
         while self._pending and self._pending[0][0] <= k_ns:
-            _, handle = self._pending.popleft()
-            assert self.jobs is not None
-            snap = self.jobs.result(handle)
-            if snap is not None:
-                apply_estimate(mon, snap)
-        if self.jobs is not None:
-            samples, self._samples = self._samples, []
-            self._pending.append((k_ns + APPLY_DELAY_NS, self.jobs.submit(samples)))
+            self._apply(self._pending.popleft()[1])
+        analyst = self.analyst
+        if analyst is not None:
+            job = analyst.due(k_ns, mon.motion_s)
+            if job is not None:
+                assert self.jobs is not None
+                due = k_ns + apply_delay_ns(analyst.settings, analyst.motion_base_s + mon.motion_s)
+                self._pending.append((due, self.jobs.submit(job)))
         out.append(self.diagnostics_now(k_ns))
+
+    def _apply(self, handle: object) -> None:
+        """A job's outcome to the analyst, and its finding, if any, to the live model."""
+        assert self.jobs is not None and self.analyst is not None
+        outcome = self.jobs.result(handle)
+        if outcome is None:          # the runner was closed before it ran
+            return
+        if outcome.failed and self.on_failed is not None:
+            self.on_failed(outcome.why or 'the analysis failed')
+        finding = self.analyst.take(outcome)
+        if finding is not None:
+            self.monitor.set_finding(finding)
 
     def diagnostics_now(self, now_ns: int) -> DiagOut:
         """Diagnostics at ``now_ns`` with the clearances then in use. Each whole second takes
         them here; live, also at other times while the bus is silent (no second boundary
         comes; STALE shows here). Does not touch the schedule."""
         mon = self.monitor
-        statuses = self.diag.build(mon, self.rejects.snapshot(), now_ns)
+        statuses = self.diag.build(mon, self.rejects.snapshot(), now_ns,
+                                   why=None if self.analyst is None else self.analyst.why)
         interval = dict(mon.gaps_interval) if mon.gaps_interval else None
         return DiagOut(now_ns, tuple(statuses), mon.gaps, interval, mon.gaps_source)
-
-
-class JobSchedule(Pipeline):
-    """The pipeline's schedule alone: the same frames in give the same estimator jobs (the
-    samples since the last whole second, at each whole second, in the same order) as a
-    :class:`Pipeline` fed them, handed to ``submit``; no live model, states or diagnostics.
-    A replay's worker process runs it over the logs to run the jobs ahead of the pipeline
-    (:mod:`~steer_monitor.ashore.replay_worker`)."""
-
-    def __init__(self, decoder: Decoder, submit: Callable[[list[Sample]], None]) -> None:
-        super().__init__(decoder, decoder.rejects, None, None, None)  # type: ignore[arg-type]
-        self._submit = submit
-
-    def _take(self, samples: list[Sample]) -> None:
-        if samples:
-            self._samples.extend(samples)
-
-    def _emit_state(self, out: list[Output]) -> None:
-        pass
-
-    def _second(self, k_ns: int, out: list[Output]) -> None:
-        samples, self._samples = self._samples, []
-        self._submit(samples)

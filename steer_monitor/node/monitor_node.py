@@ -4,12 +4,13 @@ Threads: a reader thread owns the bus (listen-only, reopened with backoff) and f
 to the :class:`~steer_monitor.monitor.pipeline.Pipeline`, which decides on the frames' own
 timestamps what to publish: the state at the end of each 10 ms slot of data, and at each whole
 second of data the diagnostics, the clearances in use and their source. So a replay of the same
-frames (``steer-monitor replay``) publishes the same values. The clearance estimator runs its
-jobs on its own thread and keeps its state on disk; its results reach the live model a fixed 10 s
-of data time after each job started. The executor's 1 Hz timer publishes diagnostics on wall
+frames (``steer-monitor replay``) publishes the same values. The analyses of the data window
+(``steer-monitor analyze`` of it, :mod:`~steer_monitor.monitor.analyst`) run on a worker thread
+and the window is kept on disk; their findings reach the live model a fixed data time after
+each job started (:func:`~steer_monitor.monitor.pipeline.apply_delay_ns`). The executor's 1 Hz timer publishes diagnostics on wall
 time only when the bus has been silent for more than 1.5 s (that is where STALE shows). The
 recorder writes MCAP on its own thread. SIGINT and SIGTERM shut down cleanly: the outputs of
-the last frames, the estimator state, and the MCAP file finished.
+the last frames, the analyses' state, and the MCAP file finished.
 
 Topics (standard message types only) are listed in
 :mod:`steer_monitor.monitor.messages`.
@@ -37,12 +38,11 @@ from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import can_setup
 from steer_monitor.errors import OutputError, ParameterError, SteerMonitorError
 from steer_monitor.estimate.observe import EstimateError
-from steer_monitor.estimate.online import OnlineEstimator
 from steer_monitor.monitor.diagnostics import ERROR, OK, WARN, DiagnosticsBuilder, DiagnosticsConfig, Status
 from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages
-from steer_monitor.monitor.pipeline import (DiagOut, EstimateSnapshot, Output, Pipeline, StateOut,
-                                            ThreadedEstimatorJobs, apply_estimate, estimator_from_params)
+from steer_monitor.monitor.analyst import Analyst, Outcome, describe
+from steer_monitor.monitor.pipeline import (DiagOut, Output, Pipeline, StateOut, ThreadedJobs, analyst_from_params)
 from steer_monitor.node.params_ros import declare_parameters
 from steer_monitor.node.rosmsg import message_class, to_ros
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
@@ -70,10 +70,10 @@ class MonitorNode(Node):
                  context: Any = None, bus_opener: Callable[[], ListenOnlyBus] | None = None,
                  config_path: str | None = None) -> None:
         super().__init__(node_name, context=context, parameter_overrides=list(parameter_overrides or []))
-        if not single_blas_thread():   # the estimator's profiles: a second BLAS thread only spins
+        if not single_blas_thread():   # the analyses' profiles: a second BLAS thread only spins
             self.get_logger().info('threadpoolctl is not installed: BLAS keeps its own threads '
                                    '(same answers, more CPU; pip install threadpoolctl)')
-        # the estimator thread's profiles run Python and numpy under the GIL for up to a second;
+        # the analysis thread runs Python and numpy under the GIL for seconds;
         # the reader thread gets the GIL back within 1 ms of asking, not the default 5 ms
         sys.setswitchinterval(min(sys.getswitchinterval(), SWITCH_INTERVAL_S))
         self.params = declare_parameters(self)
@@ -106,13 +106,13 @@ class MonitorNode(Node):
         self._bus_mode: tuple[bool | None, str] = (None, 'bus not opened yet')
         self._bus_clock: BusClock | None = None
         self._clock_told: tuple[bool | None, int] = (None, 0)
-        self._save_error: str | None = None    # the estimator state's last save failure, until one succeeds
+        self._save_error: str | None = None    # the analyses' state's last save failure, until one succeeds
         self._state_dir_made = False           # the state file's directory was made (or found) once
         self._stop = threading.Event()
         self._closed = False
         self._closing = False
-        self.estimator: OnlineEstimator | None = None
-        jobs = self._start_estimator() if p['estimator.enabled'] else None
+        self.analyst: Analyst | None = None
+        jobs = self._start_analyst() if p['estimator.enabled'] else None
         self.pipeline = self._new_pipeline(jobs)
         self.restarts = 0                      # times the monitor started again after the data time went back
         interface, channel = p['can.interface'], p['can.channel']
@@ -192,46 +192,47 @@ class MonitorNode(Node):
         message = how if silent is not None else f'listen-only cannot be confirmed: {how}'
         return Status('steer_monitor: CAN bus', level, message, p['node.hardware_id'], values)
 
-    # --- estimator ---------------------------------------------------------------------------
-    def _start_estimator(self) -> ThreadedEstimatorJobs:
+    # --- analyses ----------------------------------------------------------------------------
+    def _start_analyst(self) -> ThreadedJobs:
+        """The analyst (its state loaded when kept), its job runner, and the timer that saves its
+        state every ``estimator.save_every_s``."""
         p = self.params
-        self.estimator = est = estimator_from_params(self.gear, p)
+        self.analyst = analyst = analyst_from_params(self.gear, p)
         path = self._state_path()
-        if path is not None:
-            if path.exists():
-                try:
-                    est.load(path)
-                    self.get_logger().info(f'estimator state loaded from {path}: '
-                                           f'{est.motion_s:.0f} s of rudder motion learned')
-                    self._apply_learned(est)
-                except EstimateError as exc:
-                    self.get_logger().warning(f'{exc}; starting the estimate afresh')
-        self._last_save = time.monotonic()
-        return self._estimator_jobs(est)
+        if path is not None and path.exists():
+            try:
+                motion = analyst.load(path)
+                self.get_logger().info(
+                    f'analysis state loaded from {path}: {motion:.0f} s of rudder motion counted, '
+                    + (describe(analyst.finding) if analyst.finding is not None else 'no finding yet'))
+            except EstimateError as exc:
+                self.get_logger().warning(f'{exc}; starting the analyses afresh')
+        self.create_timer(p['estimator.save_every_s'], self._save_analyst)
+        return self._analysis_jobs(analyst)
+
+    def _analysis_jobs(self, analyst: Analyst) -> ThreadedJobs:
+        return ThreadedJobs(self.gear, analyst.settings, analyst.model, after=self._analysed)
+
+    def _analysed(self, out: Outcome) -> None:
+        """On the analysis thread, after each job: one line in the log."""
+        if out.failed:
+            self._log().error(f'{out.kind} analysis of the data before {_utc(out.t_ns)}: {out.why}',
+                              throttle_duration_sec=GUARD_LOG_S)
+        elif out.finding is not None:
+            self._log().info(f'{out.kind} analysis of the data before {_utc(out.t_ns)}: '
+                             f'{describe(out.finding)}')
+        else:
+            self._log().info(f'{out.kind} analysis of the data before {_utc(out.t_ns)}: none ({out.why})')
 
     def _new_monitor(self) -> LiveMonitor:
-        """A live model on the configured clearances and friction (until an estimate comes)."""
+        """A live model on the configured clearances and friction (until an analysis comes)."""
         p = self.params
         return LiveMonitor(self.gear, gaps_from_params(p), 'configured', friction_from_params(p))
 
-    def _new_pipeline(self, jobs: ThreadedEstimatorJobs | None) -> Pipeline:
-        """The pipeline over a new decoder, on the live model and diagnostics in use."""
-        return Pipeline(Decoder(self._db, self.smap, self.rejects), self.rejects, self.monitor, self.diag, jobs)
-
-    def _apply_learned(self, est: OnlineEstimator) -> None:
-        """The estimator's estimate, if it has one, to the live model."""
-        if est.estimate is not None:
-            apply_estimate(self.monitor, EstimateSnapshot(est.estimate, est.motion_s))
-
-    def _estimator_jobs(self, est: OnlineEstimator) -> ThreadedEstimatorJobs:
-        return ThreadedEstimatorJobs(est, on_error=lambda exc: self._log().error(
-            f'estimator update failed: {exc}', throttle_duration_sec=GUARD_LOG_S), after=self._maybe_save)
-
-    def _maybe_save(self) -> None:
-        """On the estimator's thread, after a job: save the state every ``save_every_s``."""
-        if time.monotonic() - self._last_save >= self.params['estimator.save_every_s']:
-            self._save_estimator()
-            self._last_save = time.monotonic()
+    def _new_pipeline(self, jobs: ThreadedJobs | None) -> Pipeline:
+        """The pipeline over a new decoder, on the live model, diagnostics and analyst in use."""
+        return Pipeline(Decoder(self._db, self.smap, self.rejects), self.rejects, self.monitor, self.diag,
+                        self.analyst if jobs is not None else None, jobs)
 
     def _state_path(self) -> Path | None:
         """The estimator's state file (None: not kept): a relative name lives in the recording
@@ -250,9 +251,12 @@ class MonitorNode(Node):
         import rclpy.logging
         return rclpy.logging.get_logger(f'{self.get_name()}.closing')
 
-    def _save_estimator(self) -> None:
+    def _save_analyst(self) -> None:
+        """Save the analyses' state (the window, the schedule, the last finding): on the
+        executor's timer and when closing, under the pipeline's lock (the reader thread feeds
+        the window)."""
         path = self._state_path()
-        if self.estimator is None or path is None:
+        if self.analyst is None or path is None:
             return
         try:
             if not self._state_dir_made:
@@ -260,16 +264,17 @@ class MonitorNode(Node):
                 # the disk beneath its mount point (the recorder refuses that too)
                 ensure_dir(path.parent)
                 self._state_dir_made = True
-            self.estimator.save(path)
+            with self._lock:
+                self.analyst.save(path, self.monitor.motion_s)
         except OutputError as exc:
-            text = f'cannot save the estimator state: {exc}'
+            text = f'cannot save the analyses\' state: {exc}'
             if text != self._save_error:       # once, not at every save while it lasts
                 self._log().error(text)
             self._save_error = text
             return
         if self._save_error is not None:
             self._save_error = None
-            self._log().info(f'estimator state saved to {path} again')
+            self._log().info(f'analyses\' state saved to {path} again')
 
     # --- set-up ------------------------------------------------------------------------------
     def _make_publishers(self) -> None:
@@ -316,8 +321,9 @@ class MonitorNode(Node):
         The decoder would refuse every frame until the clock passed the last time it accepted,
         for as long as the clock was ahead (years, after a GPS week rollover). Instead the
         monitor starts again from the new time as a restart would: the old pipeline's last
-        outputs, then a new decoder, live model and schedule; the estimator keeps all it
-        learned and its estimate (its jobs not yet run are dropped, as on stopping). Returns the
+        outputs, then a new decoder, live model and schedule; the analyst keeps its finding,
+        schedule and the motion counted, but not the window's samples (they lie after the new
+        time); its jobs not yet run are dropped, as on stopping. Returns the
         old pipeline's last outputs; the caller publishes them, then splits the recording, so
         the new time goes to a new file."""
         old = self.pipeline
@@ -326,15 +332,15 @@ class MonitorNode(Node):
         old.close()
         self.monitor = self._new_monitor()
         jobs = None
-        est = self.estimator
-        if est is not None:
-            est.restart_stream()
-            self._apply_learned(est)
-            jobs = self._estimator_jobs(est)
+        analyst = self.analyst
+        if analyst is not None:
+            analyst.restart_stream(old.monitor.motion_s)
+            analyst.buffer.clear()
+            jobs = self._analysis_jobs(analyst)
         self.pipeline = self._new_pipeline(jobs)
         self.restarts += 1
         self._log().warning(f'the CAN frames\' time went back {step_ns / 1e9:.1f} s (the host clock set back?): '
-                            'the monitor starts again from the new time, keeping what the estimator learned'
+                            'the monitor starts again from the new time, keeping the last analysis'
                             + ('; the recording goes on in a new file' if self.recorder is not None else ''))
         return outs
 
@@ -414,8 +420,8 @@ class MonitorNode(Node):
         self._reader_thread.join(5)
         if not self._reader_thread.is_alive():
             self._finish_outputs()
-        self.pipeline.close()            # waits for the running estimator job
-        self._save_estimator()
+        self.pipeline.close()            # waits for the running analysis
+        self._save_analyst()
         self.reader.close()
         if self.recorder is not None:
             self.recorder.close()
@@ -475,3 +481,9 @@ def main(args: Sequence[str] | None = None) -> int:
 
 if __name__ == '__main__':
     sys.exit(main())
+
+
+def _utc(t_ns: int) -> str:
+    """A data time as an ISO 8601 UTC time to the second."""
+    import datetime
+    return datetime.datetime.fromtimestamp(t_ns / 1e9, datetime.timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')

@@ -84,21 +84,41 @@ def encode_joint_state(m: dict[str, Any]) -> bytes:
     return w.done()
 
 
+_U32 = struct.Struct('<I')
+
+
+def _put_string(buf: bytearray, s: str) -> None:
+    """A CDR string at the end of ``buf`` (whose length counts from after the encapsulation
+    header): aligned to 4, its length with the NUL, the bytes, the NUL."""
+    pad = -len(buf) % 4
+    if pad:
+        buf += b'\x00' * pad
+    raw = s.encode()
+    buf += _U32.pack(len(raw) + 1)
+    buf += raw
+    buf += b'\x00'
+
+
 def encode_diagnostic_array(m: dict[str, Any]) -> bytes:
     """``diagnostic_msgs/msg/DiagnosticArray``: the header, then each status (byte level,
-    name, message, hardware_id, then its key/value strings)."""
+    name, message, hardware_id, then its key/value strings). Written straight into one
+    buffer: it is the replay's and the recorder's every second, about sixty strings each."""
     w = _Writer()
     w.header(m['header'])
+    buf = w.buf
     w.u32(len(m['status']))
     for st in m['status']:
-        w.u8(st['level'])
-        w.string(st['name'])
-        w.string(st['message'])
-        w.string(st['hardware_id'])
-        w.u32(len(st['values']))
+        buf.append(st['level'])
+        _put_string(buf, st['name'])
+        _put_string(buf, st['message'])
+        _put_string(buf, st['hardware_id'])
+        pad = -len(buf) % 4
+        if pad:
+            buf += b'\x00' * pad
+        buf += _U32.pack(len(st['values']))
         for kv in st['values']:
-            w.string(kv['key'])
-            w.string(kv['value'])
+            _put_string(buf, kv['key'])
+            _put_string(buf, kv['value'])
     return w.done()
 
 

@@ -37,6 +37,19 @@ def logs(tmp_path_factory, r18_params, can_db):
     return paths
 
 
+@pytest.fixture(scope='module')
+def busy(tmp_path_factory):
+    """The R-18 parameters with the node's analyses made often (an estimate every 10 s of
+    motion), so a replay of a minute of data runs several, loops and estimates."""
+    from test.conftest import R18_YAML
+    d = tmp_path_factory.mktemp('config')
+    text = R18_YAML.read_text().replace('every_motion_s: 300.0', 'every_motion_s: 10.0')
+    assert 'every_motion_s: 10.0' in text
+    (d / 'busy.yaml').write_text(text)
+    (d / 'nmea2000_steering.dbc').write_text((R18_YAML.parent / 'nmea2000_steering.dbc').read_text())
+    return d / 'busy.yaml'
+
+
 def _read(path):
     from rosbags.highlevel import AnyReader
     out: dict[str, list] = {}
@@ -87,13 +100,11 @@ def _hostile(frames: list) -> list:
     return out
 
 
-@pytest.mark.parametrize('worker', [False, True])
 @pytest.mark.parametrize('case', ['all', 'no frames', 'split', 'hostile', 'two hours apart', 'broken'])
-def test_the_fast_replay_writes_the_reference_bytes(tmp_path, logs, case, worker):
-    """States are packed in batches, runs of frames decoded at once, the estimator's jobs
-    run at once or (``worker``) ahead in a process of their own; the file is the per-frame
-    reference's (every message built and written one at a time), byte for byte, chunk
-    boundaries included."""
+def test_the_fast_replay_writes_the_reference_bytes(tmp_path, logs, busy, case):
+    """States are packed in batches, runs of frames decoded at once; the file is the
+    per-frame reference's (every message built and written one at a time), byte for byte,
+    chunk boundaries included, and so are the analyses."""
     paths = {'split': [logs['b.mcap'], logs['a.log']]}.get(case, [logs['all.log']])
     if case in ('hostile', 'two hours apart'):
         from steer_monitor.can.frames import Frame
@@ -112,10 +123,11 @@ def test_the_fast_replay_writes_the_reference_bytes(tmp_path, logs, case, worker
         paths = [logs['a.log'], tmp_path / 'cut.mcap']
         raw = logs['b.mcap'].read_bytes()
         paths[1].write_bytes(raw[: len(raw) // 2])
-    fast = replay(paths, tmp_path / 'fast.mcap', frames=case != 'no frames', worker=worker)
-    ref = replay(paths, tmp_path / 'ref.mcap', frames=case != 'no frames', reference=True)
+    fast = replay(paths, tmp_path / 'fast.mcap', busy, frames=case != 'no frames')
+    ref = replay(paths, tmp_path / 'ref.mcap', busy, frames=case != 'no frames', reference=True)
     assert fast.states == ref.states > 1000 and fast.rejects == ref.rejects and fast.errors == ref.errors
-    assert fast.estimate == ref.estimate is not None and fast.motion_s == ref.motion_s
+    assert fast.finding == ref.finding and fast.motion_s == ref.motion_s
+    assert fast.analyses == ref.analyses >= {'hostile': 1, 'broken': 0}.get(case, 3)
     assert (tmp_path / 'fast.mcap').read_bytes() == (tmp_path / 'ref.mcap').read_bytes()
     if case == 'hostile':
         assert {'error_frame', 'unknown_id', 'wrong_length', 'duplicate', 'time_jump', 'time_backwards'} <= set(ref.rejects)
@@ -197,50 +209,33 @@ def test_every_programme_and_effect_replays_to_the_reference_bytes(tmp_path, r18
     with LogWriter(log) as w:
         for f in s.frames.frames():
             w.write(f)
-    fast = replay([log], tmp_path / 'fast.mcap', worker=True)
+    fast = replay([log], tmp_path / 'fast.mcap')
     ref = replay([log], tmp_path / 'ref.mcap', reference=True)
     assert fast.states == ref.states > 1000 and fast.errors == ref.errors == []
-    assert fast.estimate == ref.estimate and fast.motion_s == ref.motion_s
+    assert fast.finding == ref.finding and fast.motion_s == ref.motion_s
     assert (tmp_path / 'fast.mcap').read_bytes() == (tmp_path / 'ref.mcap').read_bytes()
 
 
-def test_a_worker_that_dies_stops_the_replay_with_no_output(tmp_path, logs, monkeypatch):
-    """The estimator's process killed (here it exits at once): the replay says so in one line
-    and leaves no output, rather than a file without the estimates."""
-    import os
-
-    import steer_monitor.ashore.replay as R
-    from steer_monitor.errors import SteerMonitorError
-
-    def dying(paths, db, smap, date):
-        def source(submit):
-            os._exit(9)
-        return source
-    monkeypatch.setattr(R, '_job_source', dying)
-    with pytest.raises(SteerMonitorError, match=r'the estimator process ended unexpectedly \(exit code 9\)'):
-        replay([logs['all.log']], tmp_path / 'out.mcap', worker=True)
-    assert not (tmp_path / 'out.mcap').exists()
-    assert list(tmp_path.iterdir()) == []
-
-
-def test_the_workers_errors_stand_where_the_reference_puts_them(tmp_path, logs, monkeypatch):
-    """Estimator updates that fail, on both sides of a damaged log's error: the worker's come
-    back later than the job ran, and still stand in the reference's order."""
-    from steer_monitor.errors import FitError
-    from steer_monitor.estimate.online import OnlineEstimator
+def test_analyses_that_fail_are_errors_where_the_reference_puts_them(tmp_path, logs, busy, monkeypatch):
+    """Analyses that raise (a defect), on both sides of a damaged log's error: each is one error
+    in the summary when its finding would have come, the replay goes on, and the fast replay's
+    errors and file are the reference's."""
+    import steer_monitor.monitor.analyst as A
     calls = {'n': 0}
-    real = OnlineEstimator.update
+    real = A.analyze
 
-    def failing(self):
+    def failing(*args, **kwargs):
         calls['n'] += 1
-        if calls['n'] % 3 == 0:
-            msg = f'update {calls["n"]} refused'
-            raise FitError(msg)
-        return real(self)
-    monkeypatch.setattr(OnlineEstimator, 'update', failing)
-    from steer_monitor.can.logs import iter_log
+        if calls['n'] % 2 == 1:
+            msg = f'analysis {calls["n"]} refused'
+            raise ValueError(msg)
+        return real(*args, **kwargs)
+    monkeypatch.setattr(A, 'analyze', failing)
     from steer_monitor.can.mcapio import McapWriter
-    frames = list(iter_log(logs['all.log']))
+    from steer_monitor.can.setup import load_setup
+    _, params, db, smap = load_setup(busy)
+    frames = sim.run(params, sim.SimConfig(program='hard_over_2,zigzag_10,zigzag_20', max_duration_s=150.0), db, smap,
+                     5).frames.frames()
     third = len(frames) // 3
     paths = [tmp_path / 'first.log', tmp_path / 'cut.mcap', tmp_path / 'last.log']
     for path, part in ((paths[0], frames[:third]), (paths[2], frames[2 * third:])):
@@ -252,13 +247,13 @@ def test_the_workers_errors_stand_where_the_reference_puts_them(tmp_path, logs, 
             w.write_frame(f)
     raw = paths[1].read_bytes()
     paths[1].write_bytes(raw[: len(raw) // 2])       # the middle log breaks off
-    ref = replay(paths, tmp_path / 'ref.mcap', reference=True)
+    ref = replay(paths, tmp_path / 'ref.mcap', busy, reference=True)
     calls['n'] = 0
-    fast = replay(paths, tmp_path / 'fast.mcap', worker=True)
-    damaged = [i for i, e in enumerate(ref.errors) if 'cut.mcap' in e]
-    assert len(damaged) == 1 and 0 < damaged[0] < len(ref.errors) - 1, ref.errors   # errors either side
-    assert fast.errors == ref.errors
-    assert (tmp_path / 'fast.mcap').read_bytes() == (tmp_path / 'ref.mcap').read_bytes()
+    again = replay(paths, tmp_path / 'again.mcap', busy)
+    failed = [e for e in ref.errors if e.startswith('the analysis failed: ValueError: analysis')]
+    assert failed and len(ref.errors) > len(failed)
+    assert again.errors == ref.errors
+    assert (tmp_path / 'again.mcap').read_bytes() == (tmp_path / 'ref.mcap').read_bytes()
 
 
 def test_a_log_within_the_time_of_the_ones_before_it_is_said(tmp_path, logs, capsys):

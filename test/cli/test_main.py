@@ -11,8 +11,16 @@ import time
 import pytest
 
 from steer_monitor.cli.main import main
-from test.ashore.test_replay_worker import _gone
 from test.conftest import PKG
+
+
+def _gone(pid: int) -> bool:
+    """The process has ended (or is a zombie its parent has not reaped)."""
+    try:
+        with open(f'/proc/{pid}/stat') as fh:
+            return fh.read().split(') ')[1].split()[0] == 'Z'
+    except OSError:
+        return True
 
 
 def _children(pid: int) -> list[int]:

@@ -11,15 +11,15 @@ import pytest
 
 from steer_monitor import sim
 from steer_monitor.can import Decoder, RejectCounter
-from steer_monitor.can.decoder import Sample
+from steer_monitor.estimate.finding import Finding
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.model import Gaps
 from steer_monitor.model.friction import FrictionParams
 from steer_monitor.monitor import ERROR, OK, WARN, DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
 from steer_monitor.monitor.diagnostics import LEVEL_NAMES
 from steer_monitor.monitor.live import REVERSAL_NS
-from steer_monitor.monitor.pipeline import DiagOut, EstimateSnapshot, Pipeline, SyncEstimatorJobs, apply_estimate, \
-    estimator_from_params
+from steer_monitor.model.inputs import Sample
+from steer_monitor.monitor.pipeline import DiagOut, Pipeline, analyst_from_params
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
 
 #: every helm programme, one after the other (about 70 minutes of data)
@@ -37,7 +37,7 @@ def _replay(params, can_db, program, gaps_mm, seed, effects=()):
     rejects = RejectCounter()
     mon = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params))
     diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(params), smap, gear)
-    p = Pipeline(Decoder(db, smap, rejects), rejects, mon, diag, SyncEstimatorJobs(estimator_from_params(gear, params)))
+    p = Pipeline(Decoder(db, smap, rejects), rejects, mon, diag, analyst_from_params(gear, params))
     t0 = int(s.frames.t_ns[0])
     out = []
     for f in s.frames.frames():
@@ -66,9 +66,13 @@ def test_a_worn_gear_is_found(r18_params, can_db):
     assert any(st.level == WARN for _, st in statuses if st.name.endswith('guide beam'))
 
 
-def test_an_undeclared_friction_is_found(r18_params, can_db):
+def test_an_undeclared_friction_is_named(r18_params, can_db):
+    """Viscous friction the declared model lacks: the node's analysis names it, as analyze
+    does, and judges the model with it (no alarm: the model then explains the pressures)."""
     statuses = _replay(r18_params, can_db, 'hard_over_2,zigzag_20,zigzag_10', (0.45, 0.12), 5, effects=['viscous'])
-    assert any(st.level == WARN for _, st in statuses if st.name.endswith('model health'))
+    health = [st for _, st in statuses if st.name.endswith('model health')]
+    assert 'added viscous' in health[-1].message and health[-1].value('analysis_effects') == 'viscous'
+    assert all(st.level == OK for st in health)
 
 
 @pytest.mark.parametrize('program, effect, level, text, within_s', [
@@ -294,35 +298,35 @@ def test_a_short_lived_early_fit_leaves_no_alarm_behind(r18_params, can_db):
         rejects = RejectCounter()
         mon = LiveMonitor(gear, gaps_from_params(r18_params), 'configured', friction_from_params(r18_params))
         diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(r18_params), smap, gear)
-        p = Pipeline(Decoder(db, smap, rejects), rejects, mon, diag,
-                     SyncEstimatorJobs(estimator_from_params(gear, r18_params)))
+        p = Pipeline(Decoder(db, smap, rejects), rejects, mon, diag, analyst_from_params(gear, r18_params))
         last = None
         for f, ta in zip(frames.frames(), arrival.tolist()):
             last = next((o for o in reversed(p.feed(dataclasses.replace(f, t_ns=ta))) if isinstance(o, DiagOut)), last)
+        # the bus falls silent; the node goes on counting seconds, and the finding comes
+        quiet = p.idle(int(arrival[-1]) + 60 * 10**9)
+        last = next(o for o in reversed(quiet) if isinstance(o, DiagOut))
         health = next(st for st in last.statuses if st.name.endswith('model health'))
         assert mon.gaps_source == 'estimated'
         assert health.level == OK, health.message
         assert mon.residual_rms_bar() is None or mon.residual_rms_bar() < 1.0, health.message
 
 
-def _snapshot(two_z: Interval, z_gb: Interval) -> EstimateSnapshot:
-    from steer_monitor.estimate.online import OnlineEstimate
-    k = Interval(0.5, 0.4, 0.6)
-    est = OnlineEstimate(two_z=two_z, z_gb=z_gb, k_gl_max=k, rows=1000.0, t_ns=T0, full=True,
-                         friction=(9000.0, 0.13, 0.05))
-    return EstimateSnapshot(est, 100.0)
+def _finding(two_z: Interval, z_gb: Interval, verdict: str = 'declared') -> Finding:
+    return Finding(T0, 'loop', two_z, z_gb, Interval(0.5, 0.4, 0.6), (9000.0, 0.13, 0.05), (), 0.0, (), {}, verdict,
+                   'the declared model explains the data', 0.4, 0.1 if verdict != 'unexplained' else 0.5, 0.35,
+                   100.0, 1000)
 
 
-def test_an_estimate_is_used_with_its_own_friction(mon):
+def test_a_finding_is_used_with_its_own_friction(mon):
     """Clearances and the friction fitted at them go to the live model as a pair, a lower
     bound as it is: its residual is judged by one fit."""
-    assert apply_estimate(mon, _snapshot(Interval(0.06 * MM, 0.06 * MM, None), Interval(0.1 * MM, 0.08 * MM, 0.12 * MM)))
+    mon.set_finding(_finding(Interval(0.06 * MM, 0.06 * MM, None), Interval(0.1 * MM, 0.08 * MM, 0.12 * MM)))
     assert mon.gaps == Gaps(0.06 * MM, 0.1 * MM) and mon.priors.mu_bushing == 0.13
     assert mon.gaps_interval == {'2z': (0.06 * MM, None), 'zgb': (0.08 * MM, 0.12 * MM)}
-    assert mon.torque is None                  # no fitted torque in the estimate: the configured one
+    assert mon.torque is None                  # no fitted torque in the finding: the configured one
 
 
-def test_an_estimate_is_used_with_its_own_torque(mon):
+def test_a_finding_is_used_with_its_own_torque(mon):
     """The torque fitted with the friction goes with it, up to the angles it was learned at."""
     import dataclasses
 
@@ -334,9 +338,8 @@ def test_an_estimate_is_used_with_its_own_torque(mon):
     basis = F.TorqueBasis(gear.max_rudder)
     grid = np.radians(np.linspace(0.0, 35.0, 200))
     coef, *_ = np.linalg.lstsq(basis(grid), np.abs(gear.torque(grid)) * 0.9, rcond=None)   # a tenth weaker
-    snap = _snapshot(Interval(0.4 * MM, 0.3 * MM, 0.5 * MM), Interval(0.1 * MM, 0.08 * MM, 0.12 * MM))
-    snap = EstimateSnapshot(dataclasses.replace(snap.estimate, torque_coef=tuple(coef), max_angle=math.radians(30)), 100.0)
-    assert apply_estimate(mon, snap)
+    found = _finding(Interval(0.4 * MM, 0.3 * MM, 0.5 * MM), Interval(0.1 * MM, 0.08 * MM, 0.12 * MM))
+    mon.set_finding(dataclasses.replace(found, torque_coef=tuple(float(c) for c in coef), max_angle=math.radians(30)))
     for deg in (3.0, 12.5, 29.9):
         a = math.radians(deg)
         assert mon.torque.scalar(-a) == pytest.approx(-0.9 * gear.torque.scalar(a), rel=2e-3)
@@ -379,3 +382,17 @@ def test_a_ram_read_the_wrong_way_round_is_an_error_naming_the_map(builder, mon)
         'the rams push against each other (their forces correlate at -1.00 over 2000 instants of motion): the '
         'starboard and port pressures of one ram are read the wrong way round: pressure_r1_stbd and pressure_r1_port '
         'or pressure_r2_stbd and pressure_r2_port swapped in the signals map'), st.message
+
+
+def test_clearances_of_a_model_that_does_not_explain_the_data_are_not_judged(builder, mon):
+    """Past the limit, but from a model the pressures do not fit: the clearances say 'not
+    judged' at OK, and model health carries the WARN with what is left."""
+    mon.set_finding(_finding(Interval(0.4 * MM, 0.3 * MM, 0.5 * MM), Interval(0.3 * MM, 0.28 * MM, 0.32 * MM),
+                             'unexplained'))
+    st = builder.clearances(mon)
+    assert st.level == OK and st.message.startswith('not judged: the model in use does not explain the pressures')
+    assert 'Z_gb 0.300 mm [0.280 .. 0.320]' in st.message and st.value('judged').startswith('no')
+    health = builder.model_health(mon)
+    assert health.level == WARN and health.value('analysis_verdict') == 'unexplained'
+    mon.set_finding(_finding(Interval(0.4 * MM, 0.3 * MM, 0.5 * MM), Interval(0.3 * MM, 0.28 * MM, 0.32 * MM)))
+    assert builder.clearances(mon).level == ERROR and builder.model_health(mon).level == OK

@@ -235,7 +235,8 @@ def test_a_minute_rejudged_at_once_is_each_instant_judged_alone(r18_params, case
     gaps = Gaps.from_mm(0.1, 0.05)
     mon = LiveMonitor(gear, Gaps.from_mm(0.6, 0.25))
     rng = np.random.default_rng(7)
-    instants = [(float(a), None if rng.random() < 0.3 else float(rng.uniform(2.0, 9.0)), float(d), float(f1), float(f2))
+    instants = [(float(a), None if rng.random() < 0.3 else float(rng.uniform(2.0, 9.0)), float(d), float(f1), float(f2),
+                 0.02, 310.0)
                 for a, d, f1, f2 in zip(rng.uniform(-0.61, 0.61, 600), rng.choice([-1.0, 1.0], 600),
                                         rng.uniform(-3e5, 3e5, 600), rng.uniform(-3e5, 3e5, 600))]
     angles = np.radians(np.arange(0.0, 25.01, 0.5))

@@ -1,5 +1,5 @@
 """The pipeline's schedule on the data clock: states per 10 ms slot, diagnostics each whole
-second, estimator results applied a fixed data time after their job."""
+second, the analyses' findings applied a fixed data time after their job."""
 
 from __future__ import annotations
 
@@ -10,12 +10,13 @@ import pytest
 from steer_monitor import sim
 from steer_monitor.can import Decoder, Frame, RejectCounter
 from steer_monitor.can.timejump import CONFIRM_FRAMES
+from steer_monitor.estimate.finding import Finding
 from steer_monitor.estimate.intervals import Interval
-from steer_monitor.estimate.online import OnlineEstimate
 from steer_monitor.model import Gaps
 from steer_monitor.monitor import DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
-from steer_monitor.monitor.pipeline import (APPLY_DELAY_NS, MAX_GAP_SECONDS, SECOND_NS, SLOT_NS, DiagOut,
-                                            EstimateSnapshot, Pipeline, StateOut)
+from steer_monitor.monitor.analyst import Analyst, AnalystSettings, Job, Outcome
+from steer_monitor.monitor.pipeline import (MAX_GAP_SECONDS, SECOND_NS, SLOT_NS, DiagOut, Pipeline, StateOut,
+                                            apply_delay_ns)
 from steer_monitor.params import gear_from_params
 
 
@@ -26,13 +27,21 @@ def frames(r18_params, can_db):
     return s.frames.frames()
 
 
-def _pipeline(r18_params, can_db, jobs=None):
+@pytest.fixture(scope='module')
+def long_frames(r18_params, can_db):
+    """Longer than a finding's delay (20 s of data time)."""
+    db, smap = can_db
+    s = sim.run(r18_params, sim.SimConfig(program='hard_over_2', max_duration_s=40.0), db, smap, 4)
+    return s.frames.frames()
+
+
+def _pipeline(r18_params, can_db, analyst=None, jobs=None):
     db, smap = can_db
     gear = gear_from_params(r18_params)
     rejects = RejectCounter()
     mon = LiveMonitor(gear, Gaps.from_mm(0.6, 0.25))
     diag = DiagnosticsBuilder(DiagnosticsConfig(hardware_id='test'), smap, gear)
-    return Pipeline(Decoder(db, smap, rejects), rejects, mon, diag, jobs)
+    return Pipeline(Decoder(db, smap, rejects), rejects, mon, diag, analyst, jobs)
 
 
 def _run(p, frames):
@@ -92,18 +101,30 @@ def test_a_gap_in_the_data(r18_params, can_db, frames, gap_s):
         assert out[-1].statuses[0].level == 3
 
 
+FINDING = Finding(0, 'loop', Interval(0.3e-3, 0.2e-3, 0.4e-3), Interval(0.1e-3, 0.05e-3, 0.15e-3),
+                  Interval(0.4, 0.3, 0.5), (3000.0, 0.1, 0.12), (), 0.0, (), {}, 'declared', 'fits', 0.4, 0.05, 0.35,
+                  42.0, 1000)
+
+
+class EverySecond(Analyst):
+    """An analyst that makes a job at every whole second (the real one waits for motion)."""
+
+    def due(self, t_ns, motion_s):
+        self.jobs_made += 1
+        return Job(self.jobs_made, t_ns, 'loop', self.buffer.signals())
+
+
 class FakeJobs:
-    """Returns an estimate from the job started at ``second``; records what it was given."""
+    """Gives a finding for the ``second``-th job; records the jobs' times and their samples."""
 
     def __init__(self, second: int) -> None:
         self.second = second
-        self.submitted: list[int] = []
-        self.snap = EstimateSnapshot(OnlineEstimate(Interval(0.3e-3, 0.2e-3, 0.4e-3), Interval(0.1e-3, 0.05e-3, 0.15e-3),
-                                                    Interval(0.4, 0.3, 0.5), 1000.0, 0, True, (3000.0, 0.1, 0.12)), 42.0)
+        self.submitted: list[Job] = []
 
-    def submit(self, samples):
-        self.submitted.append(len(samples))
-        return self.snap if len(self.submitted) == self.second else None
+    def submit(self, job):
+        self.submitted.append(job)
+        found = FINDING if len(self.submitted) == self.second else None
+        return Outcome(job.seq, job.t_ns, job.kind, found, None if found else 'nothing', ())
 
     def result(self, handle):
         return handle
@@ -112,14 +133,16 @@ class FakeJobs:
         pass
 
 
-def test_an_estimate_is_applied_a_fixed_data_time_after_its_job(r18_params, can_db, frames):
+def test_a_finding_is_applied_a_fixed_data_time_after_its_job(r18_params, can_db, long_frames):
+    frames = long_frames
     jobs = FakeJobs(second=2)
-    p = _pipeline(r18_params, can_db, jobs)
+    analyst = EverySecond(gear_from_params(r18_params), AnalystSettings())
+    p = _pipeline(r18_params, can_db, analyst, jobs)
     out = _run(p, frames)
     diags = [o for _, o in out if isinstance(o, DiagOut)]
-    started = diags[1].t_ns                       # the second second's job returns the estimate
+    started = diags[1].t_ns                       # the second second's job gives the finding
     for d in diags:
-        if d.t_ns < started + APPLY_DELAY_NS:
+        if d.t_ns < started + apply_delay_ns(analyst.settings, 0.0):
             assert d.source == 'configured' and d.gaps == Gaps.from_mm(0.6, 0.25)
         else:
             assert d.source == 'estimated'
@@ -128,9 +151,14 @@ def test_an_estimate_is_applied_a_fixed_data_time_after_its_job(r18_params, can_
             clear = dict(d.statuses[1].values)
             assert clear['k_gl_max_lo'] == '0.300' and clear['estimate_motion_s'] == '42'
     assert any(d.source == 'estimated' for d in diags)
-    assert sum(jobs.submitted) > 0 and len(jobs.submitted) == len(diags)
-    # the friction fitted with the gaps comes with them
-    assert p.monitor.priors.seal == 3000.0
+    assert len(jobs.submitted) == len(diags)
+    # each job holds the samples before its second, all of them
+    for job in jobs.submitted:
+        angle = job.signals['rudder_angle']
+        assert angle.t_ns.max() < job.t_ns
+        assert len(angle) == sum(1 for f in frames if f.t_ns < job.t_ns and (f.can_id >> 8) & 0x3FFFF == 127245)
+    # the friction fitted with the gaps comes with them, and the analyst keeps the finding
+    assert p.monitor.priors.seal == 3000.0 and analyst.finding == FINDING and analyst.why == 'nothing'
 
 
 def test_idle_emits_only_after_the_margin(r18_params, can_db, frames):
@@ -153,20 +181,3 @@ def test_nothing_fed_nothing_out(r18_params, can_db):
     assert p.finish() == [] and p.idle(10**18) == []
     d = p.diagnostics_now(10**18)
     assert d.statuses[0].level == 3 and math.isclose(d.gaps.two_z, 0.6e-3)
-
-
-@pytest.mark.parametrize('friction', [(3000.0, 0.46, -9.9), (-1.0, 0.1, 0.1), (3000.0, 1.3, 0.05),
-                                      (math.nan, 0.1, 0.1)])
-def test_an_estimate_with_unphysical_friction_is_not_used(r18_params, can_db, frames, friction):
-    """Early estimates on a minute of data can fit friction no gear has; the live residual
-    would then condemn the declared model (48 bar RMS on the demo's clean data)."""
-    from dataclasses import replace
-
-    from steer_monitor.monitor.pipeline import apply_estimate, plausible
-    jobs = FakeJobs(second=1)
-    jobs.snap = EstimateSnapshot(replace(jobs.snap.estimate, friction=friction), 1.0)
-    p = _pipeline(r18_params, can_db, jobs)
-    out = _run(p, frames)
-    assert all(o.source == 'configured' for _, o in out if isinstance(o, DiagOut))
-    assert not plausible(friction) and apply_estimate(p.monitor, jobs.snap) is False
-    assert plausible((9000.0, 0.13, 0.05))

@@ -1,0 +1,206 @@
+"""The node's analyses: its findings are ``analyze``'s of the log cut at their time, its state
+survives a restart, an older or damaged state is refused in one line."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from steer_monitor import sim
+from steer_monitor.can import Decoder, RejectCounter
+from steer_monitor.estimate.analyze import analyze
+from steer_monitor.estimate.effects import Effect
+from steer_monitor.estimate.finding import Finding, finding_of
+from steer_monitor.estimate.intervals import Interval
+from steer_monitor.estimate.observe import EstimateError
+from steer_monitor.model import Gaps
+from steer_monitor.model.inputs import Series
+from steer_monitor.monitor import DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
+from steer_monitor.monitor.analyst import Analyst, AnalystSettings, SyncJobs
+from steer_monitor.monitor.pipeline import DiagOut, Pipeline, analyst_from_params
+from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
+
+T0 = 1_767_225_600_000_000_000
+
+
+class Recording(SyncJobs):
+    """The jobs run at once, each job and its outcome kept."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.done: list = []
+
+    def submit(self, job):
+        out = super().submit(job)
+        self.done.append((job, out))
+        return out
+
+
+def _node_over(params, can_db, frames):
+    """The node's pipeline over ``frames``: (its analyst, the jobs and their outcomes, the
+    diagnostics)."""
+    db, smap = can_db
+    gear = gear_from_params(params)
+    rejects = RejectCounter()
+    mon = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params))
+    diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(params), smap, gear)
+    analyst = analyst_from_params(gear, params)
+    jobs = Recording(gear, analyst.settings)
+    p = Pipeline(Decoder(db, smap, rejects), rejects, mon, diag, analyst, jobs)
+    diags = []
+    for f in frames:
+        diags += [o for o in p.feed(f) if isinstance(o, DiagOut)]
+    diags += [o for o in p.finish() if isinstance(o, DiagOut)]
+    return analyst, jobs.done, diags
+
+
+def _close(a: Finding, b: Finding) -> bool:
+    """Equal but for rounding (the same code on the same samples in one process gives the same
+    bits; 1e-9 of each value allows for a BLAS that sums in another order)."""
+    def near(x, y):
+        if isinstance(x, Interval):
+            return all(near(p, q) for p, q in zip((x.value, x.lo, x.hi), (y.value, y.lo, y.hi)))
+        if x is None or y is None:
+            return x is y
+        if isinstance(x, float):
+            return (math.isnan(x) and math.isnan(y)) or math.isclose(x, y, rel_tol=1e-9, abs_tol=1e-12)
+        if isinstance(x, tuple | list):
+            return len(x) == len(y) and all(near(p, q) for p, q in zip(x, y))
+        if isinstance(x, dict):
+            return x.keys() == y.keys() and all(near(x[k], y[k]) for k in x)
+        return x == y
+    return all(near(getattr(a, f), getattr(b, f)) for f in a.__dataclass_fields__)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('program, effects, seed', [
+    ('realistic', (), 41),                            # a realistic voyage
+    ('realistic', ('angle_delay:tau_s=0.25',), 42),   # one with an effect the declared model lacks
+    ('autopilot:1500', (), 43),                       # autopilot only
+])
+def test_the_nodes_findings_are_analyze_of_the_log_cut_at_their_time(r18_params, can_db, program, effects, seed):
+    """Every analysis the node runs on a voyage (loops and estimates, on its own compacted
+    window of the data) equals ``analyze`` of the decoded log cut at the job's second with the
+    node's window (and, for an estimate, the model of the loop before it): the clearances with
+    their intervals, K_gl max, friction, torque, effects, verdict and message."""
+    db, smap = can_db
+    cfg = sim.SimConfig(program=program, gaps=Gaps.from_mm(0.33, 0.205), max_duration_s=1500.0,
+                        effects=tuple(sim.parse_effect(e) for e in effects))
+    s = sim.run(r18_params, cfg, db, smap, seed)
+    params = {**r18_params, 'estimator.every_motion_s': 90.0}     # estimates between the loops, too
+    analyst, done, diags = _node_over(params, can_db, s.frames.frames())
+    kinds = [job.kind for job, _ in done]
+    assert kinds.count('loop') >= 4 and 'estimate' in kinds, kinds
+    signals = Decoder(db, smap).decode_arrays(s.frames)
+    gear = gear_from_params(r18_params)
+    settings = analyst.settings
+    model: tuple[Effect, ...] = ()
+    for job, out in done:
+        cut = {n: Series(v.t_ns[v.t_ns < job.t_ns], v.value[v.t_ns < job.t_ns]) for n, v in signals.items()
+               if n in job.signals}
+        try:
+            a = analyze(gear, cut, min_clearance_2z=settings.min_clearance_2z, ram_share_warn=settings.ram_share_warn,
+                        window_motion_s=settings.window_motion_s, model=None if job.kind == 'loop' else model)
+        except EstimateError as exc:
+            assert out.finding is None and out.why == str(exc)
+            continue
+        want = finding_of(a, job.t_ns, job.kind)
+        assert out.finding is not None and _close(out.finding, want), (job.kind, job.t_ns, out.finding, want)
+        if job.kind == 'loop':
+            model = want.model
+    # and what the node published at each second is the last finding it applied
+    published = [(d.t_ns, d.gaps, d.interval) for d in diags if d.source == 'estimated']
+    assert published
+    findings = [out.finding for _, out in done if out.finding is not None]
+    for _, gaps, interval in published:
+        assert any(gaps == Gaps(f.two_z.value, f.z_gb.value)
+                   and interval == {'2z': (f.two_z.lo, f.two_z.hi), 'zgb': (f.z_gb.lo, f.z_gb.hi)} for f in findings)
+
+
+def _finding(t_ns: int = T0) -> Finding:
+    return Finding(t_ns, 'loop', Interval(0.3e-3, 0.25e-3, None), Interval(0.2e-3, 0.19e-3, 0.21e-3),
+                   Interval(0.5, 0.45, 0.55), (9e3, 0.13, 0.05), (1.0, 2.0, 3.0), 0.6,
+                   (Effect('angle_delay', (('tau_s', 0.25),)),), {'tau_s': 0.25}, 'effect', 'added angle_delay', 0.33,
+                   0.06, 0.32, 880.0, 35000)
+
+
+@pytest.fixture
+def analyst(r18):
+    a = Analyst(r18, AnalystSettings())
+    for k in range(50):
+        a.add('rudder_angle', T0 + k * 100_000_000, 0.01 * k)
+        a.add('pressure_r1_stbd', T0 + k * 50_000_000, 2e5 + k)
+    a.finding, a.model = _finding(), _finding().model
+    a.schedule.due(45.0)
+    return a
+
+
+def test_the_state_survives_a_restart(r18, analyst, tmp_path):
+    path = analyst.save(tmp_path / 'state.npz', motion_s=45.0)
+    again = Analyst(r18, AnalystSettings())
+    assert again.load(path) == 45.0
+    assert again.finding == analyst.finding and again.model == analyst.model
+    assert again.schedule.to_dict() == analyst.schedule.to_dict()
+    a, b = analyst.buffer.signals(), again.buffer.signals()
+    assert a.keys() == b.keys()
+    for n in a:
+        np.testing.assert_array_equal(a[n].t_ns, b[n].t_ns)
+        np.testing.assert_array_equal(a[n].value, b[n].value)
+    # the motion counted goes on from there: the schedule sees it with this run's
+    assert again.motion_base_s == 45.0
+
+
+def _write(path, meta, **arrays):
+    np.savez(path, meta=np.array(json.dumps(meta)), **arrays)
+
+
+@pytest.mark.parametrize('change, text', [
+    ({'version': 3}, 'format 3, written by the estimator this release replaced (binned moments, no data to analyse); '
+                     'this build reads format 4'),
+    ({'version': 9}, 'format 9; this build reads format 4'),
+    ({'gear': [1.0] * 10}, 'learned on another gear geometry; not used'),
+    ({'schedule': {'next_loop_s': -1.0, 'next_estimate_s': 1.0}}, 'damaged (ValueError: analysis schedule: next loop'),
+    ({'model': [{'name': 'wobble'}]}, "damaged (ValueError: unknown effect 'wobble'"),
+    ({'finding': {'kind': 'loop'}}, 'damaged (KeyError:'),
+    ({'motion_s': -5.0}, 'damaged (ValueError: motion counted -5.0 s)'),
+])
+def test_an_older_or_damaged_state_is_refused_in_one_line(r18, analyst, tmp_path, change, text):
+    path = analyst.save(tmp_path / 'state.npz', motion_s=45.0)
+    with np.load(path) as d:
+        meta = json.loads(str(d['meta']))
+        arrays = {k: d[k] for k in d.files if k != 'meta'}
+    _write(tmp_path / 'bad.npz', {**meta, **change}, **arrays)
+    fresh = Analyst(r18, AnalystSettings())
+    with pytest.raises(EstimateError) as err:
+        fresh.load(tmp_path / 'bad.npz')
+    assert str(err.value).startswith(f'analysis state {tmp_path / "bad.npz"}: ') and text in str(err.value)
+    assert '\n' not in str(err.value)
+    assert fresh.finding is None and len(fresh.buffer) == 0       # nothing taken
+
+
+@pytest.mark.parametrize('data', [b'', b'not a zip', b'PK\x03\x04' + bytes(40)])
+def test_a_file_that_is_no_state_is_refused_in_one_line(r18, tmp_path, data):
+    (tmp_path / 's.npz').write_bytes(data)
+    with pytest.raises(EstimateError, match=r'^analysis state .*: cannot read it \('):
+        Analyst(r18, AnalystSettings()).load(tmp_path / 's.npz')
+
+
+def test_samples_out_of_order_in_a_state_are_refused(r18, analyst, tmp_path):
+    path = analyst.save(tmp_path / 'state.npz', motion_s=1.0)
+    with np.load(path) as d:
+        meta = json.loads(str(d['meta']))
+        arrays = {k: d[k] for k in d.files if k != 'meta'}
+    arrays['t_rudder_angle'] = arrays['t_rudder_angle'][::-1].copy()
+    _write(tmp_path / 'bad.npz', meta, **arrays)
+    with pytest.raises(EstimateError, match='the samples of rudder_angle are not a time series'):
+        Analyst(r18, AnalystSettings()).load(tmp_path / 'bad.npz')
+
+
+def test_a_finding_round_trips_its_json():
+    f = _finding()
+    assert Finding.from_json(json.loads(json.dumps(f.to_json()))) == f
+    assert not replace(f, verdict='unexplained').explained
