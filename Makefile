@@ -24,8 +24,15 @@ $(STAMP): setup.py setup.cfg package.xml requirements-ros.txt requirements-dev.t
 demo: $(STAMP)
 	$(BIN)/steer-monitor demo --out $(OUT)
 
+# make test: the suite without the slow studies (under 10 minutes on two cores); make test-all: all of it (CI)
 test: $(STAMP)
+	$(BIN)/python -m pytest -m "not slow" $(PYTEST_ARGS)
+
+test-all: $(STAMP)
 	$(BIN)/python -m pytest $(PYTEST_ARGS)
+
+lint: $(STAMP)
+	$(BIN)/ruff check .
 
 bench: $(STAMP)
 	$(BIN)/python bench/run.py

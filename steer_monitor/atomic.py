@@ -18,11 +18,18 @@ itself) and the link stays. A target that exists and is no file at all (a termin
 renaming over it would swap the device or pipe for a file (as root, ``/dev/full`` became a
 regular file). It is written straight through, and what the system says (``/dev/full``: no
 space left) is the error.
+
+No output replaces what a command was made from or what the package ships, unless the user
+says so (``--force``): inside :func:`command_scope`, every file the command reads (its logs,
+its parameters file: :func:`note_input`) is refused as a target, and so, always, is an
+existing file of the installed package's ``config/`` (the parameters every command and
+``ros2 run`` read when given none).
 """
 
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import errno
 import os
 import re
@@ -33,9 +40,11 @@ from pathlib import Path
 from typing import IO, Any
 
 from steer_monitor.errors import OutputError
+from steer_monitor.resources import config_dirs
 
-__all__ = ['STALE_AFTER_S', 'atomic_path', 'atomic_write', 'check_target', 'ensure_dir', 'is_stream', 'os_reason',
-           'remove_stale_temporaries', 'temporary_name', 'write_bytes', 'write_files', 'write_text']
+__all__ = ['STALE_AFTER_S', 'atomic_path', 'atomic_write', 'check_target', 'command_scope', 'ensure_dir', 'is_stream',
+           'note_input', 'os_reason', 'overwrite_forced', 'remove_stale_temporaries', 'temporary_name', 'write_bytes', 'write_files',
+           'write_text']
 
 #: a temporary not written to for this long, of a process that no longer runs, is debris [s]
 STALE_AFTER_S = 600.0
@@ -74,6 +83,61 @@ def is_stream(path: str | Path) -> bool:
     return not (stat.S_ISREG(mode) or stat.S_ISDIR(mode))
 
 
+class _Scope:
+    """What one command has read, and whether it may write over it."""
+
+    def __init__(self, force: bool) -> None:
+        self.force = force
+        self.inputs: list[Path] = []
+
+
+_SCOPE: contextvars.ContextVar[_Scope | None] = contextvars.ContextVar('steer_monitor_output_scope', default=None)
+
+
+@contextlib.contextmanager
+def command_scope(force: bool = False) -> Iterator[None]:
+    """One command's run: the inputs it notes (:func:`note_input`) are refused as outputs,
+    and so are the package's own files, unless ``force``."""
+    token = _SCOPE.set(_Scope(force))
+    try:
+        yield
+    finally:
+        _SCOPE.reset(token)
+
+
+def note_input(path: str | Path | None) -> None:
+    """Record that the running command reads ``path`` (nothing outside a command's scope)."""
+    scope = _SCOPE.get()
+    if scope is not None and path is not None:
+        scope.inputs.append(Path(path))
+
+
+def overwrite_forced() -> bool:
+    """Whether the running command was told ``--force`` (may write over its inputs)."""
+    scope = _SCOPE.get()
+    return scope is not None and scope.force
+
+
+def _protected(target: Path, inputs: Iterable[str | Path | None]) -> str | None:
+    """Why ``target`` must not be written over (None: it may be): an input of the command,
+    or an existing file of the installed package's configuration."""
+    scope = _SCOPE.get()
+    for source in [*inputs, *(scope.inputs if scope is not None else ())]:
+        if source is not None and _same_file(target, Path(source)):
+            return f'it is the input {source}'
+    try:
+        if not target.is_file():
+            return None
+        real = Path(os.path.realpath(target))
+    except (OSError, ValueError):
+        return None
+    for directory in config_dirs():
+        with contextlib.suppress(OSError, ValueError):
+            if real.is_relative_to(Path(os.path.realpath(directory))):
+                return f'it is a file of the installed package ({directory})'
+    return None
+
+
 def _resolved(path: str | Path) -> Path:
     """The path a write of ``path`` replaces: a link's target (so the link stays), else
     ``path`` itself."""
@@ -88,12 +152,14 @@ def check_target(path: str | Path, inputs: Iterable[str | Path | None] = ()) -> 
     """:class:`OutputError` now if ``path`` cannot be written later (a directory, no parent
     directory, a parent without write permission), or if it is one of the command's
     ``inputs`` (a log, a parameters file: written, the output would replace what it was made
-    from): commands that work for minutes before they write check their outputs first."""
+    from), an input the running command noted (:func:`note_input`) or an existing packaged
+    file, unless the command was given ``--force``: commands that work for minutes before
+    they write check their outputs first."""
     target = Path(path)
-    for source in inputs:
-        if source is not None and _same_file(target, Path(source)):
-            msg = f'cannot write {target}: it is the input {source}; give another output'
-            raise OutputError(msg)
+    reason = None if overwrite_forced() else _protected(target, inputs)
+    if reason is not None:
+        msg = f'cannot write {target}: {reason}; give another output, or --force to replace it'
+        raise OutputError(msg)
     if is_stream(target):
         if not os.access(target, os.W_OK):
             msg = f'cannot write {target}: {os.strerror(errno.EACCES)}'

@@ -19,13 +19,13 @@ from __future__ import annotations
 import difflib
 
 import math
+import json
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 
-from steer_monitor.can.busclock import TIMESTAMP_MODES
 from steer_monitor.errors import ParameterError
 from steer_monitor.model.fits import parse_fit
 from steer_monitor.model.friction import FrictionParams
@@ -36,6 +36,7 @@ from steer_monitor.yamlfile import load_yaml
 
 __all__ = [
     'NODE_NAME',
+    'TIMESTAMP_MODES',
     'load_config',
     'PARAMETERS',
     'ParamSpec',
@@ -45,10 +46,13 @@ __all__ = [
     'ram_share_warn_from_params',
     'gear_from_params',
     'load_params_file',
+    'recorded_params',
     'validate_params',
 ]
 
 NODE_NAME = 'steer_monitor'
+#: what ``can.timestamps`` may say (:class:`~steer_monitor.can.busclock.BusClock` reads them)
+TIMESTAMP_MODES = ('auto', 'bus', 'host')
 
 
 @dataclass(frozen=True)
@@ -166,9 +170,12 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('estimator.window_motion_h', 'double', 1.0,
               'the analyses look at the last this many hours of steady rudder motion (older data are '
               'forgotten; memory about 1.5 MB an hour) [h]', 0.0, 100.0, True),
+    ParamSpec('estimator.first_motion_s', 'double', 240.0,
+              'the first analysis when this many seconds of steady rudder motion are in (fewer do not pin a '
+              'clearance down: docs/accuracy-online.md) [s]', 10.0, 1e6),
     ParamSpec('estimator.loop_every_motion_s', 'double', 1800.0,
-              'the whole residual loop runs when 30 s of motion are in, each time the motion doubles, then every '
-              'this many seconds of motion [s]', 30.0, 1e6),
+              'the whole residual loop runs at estimator.first_motion_s of motion, each time the motion doubles, '
+              'then every this many seconds of motion [s]', 10.0, 1e6),
     ParamSpec('estimator.every_motion_s', 'double', 300.0,
               'between loops, the estimate under the model the loop chose every this many seconds of motion [s]',
               10.0, 1e6),
@@ -340,6 +347,25 @@ def validate_params(values: Mapping[str, Any]) -> dict[str, Any]:
         msg = f'parameters gear.* / torque.*: {exc}'
         raise ParameterError(msg) from exc
     return out
+
+
+def recorded_params(values: Mapping[str, str]) -> tuple[dict[str, Any], list[str]]:
+    """The validated parameters a recording was made with (its ``steer_monitor.parameters``
+    metadata: each value as JSON), and the names left out: parameters this version does not
+    read (retired, or of a later version); those it lacks take their defaults. Raises
+    :class:`ParameterError` naming what does not fit."""
+    decoded: dict[str, Any] = {}
+    dropped: list[str] = []
+    for name, text in values.items():
+        if name not in _BY_NAME:
+            dropped.append(name)
+            continue
+        try:
+            decoded[name] = json.loads(text)
+        except (TypeError, ValueError):
+            msg = f'the recorded parameter {name} is not JSON: {str(text)[:60]!r}'
+            raise ParameterError(msg) from None
+    return validate_params(decoded), sorted(dropped)
 
 
 def load_config(config: str | Path | None) -> tuple[Path, dict[str, Any]]:

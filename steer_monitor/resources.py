@@ -7,7 +7,7 @@ from pathlib import Path
 
 from steer_monitor.errors import ParameterError
 
-__all__ = ['config_dir', 'default_config']
+__all__ = ['config_dir', 'config_dirs', 'default_config']
 
 PACKAGE = 'steer_monitor'
 
@@ -25,6 +25,12 @@ def _candidates() -> list[Path]:
     found.append(Path(sys.prefix) / 'share' / PACKAGE / 'config')  # pip install
     found.append(Path(__file__).resolve().parent.parent / 'config')  # source tree / editable
     return found
+
+
+def config_dirs() -> list[Path]:
+    """Every existing config directory of the installed package (the ament index's, pip's,
+    the source tree's): the files a command must not write over unasked."""
+    return [p for p in _candidates() if p.is_dir()]
 
 
 def config_dir() -> Path:

@@ -3,8 +3,10 @@
 The estimator's linear algebra is many small systems: per row of the clearance grid a batch
 of normal equations of ~40 unknowns. OpenBLAS's second thread gives no speed there and
 doubles the CPU it takes (its threads spin between calls). Measured on a full profile of the
-online estimator after 300 s of the voyage programme, three runs each: 0.84-0.93 s wall and
-1.53-1.68 s CPU with two threads, 0.85-0.96 s wall and 0.85-0.96 s CPU with one. The node,
+estimator of the time (2026-11-21) after 300 s of the voyage programme, three runs each:
+0.84-0.93 s wall and 1.53-1.68 s CPU with two threads, 0.85-0.96 s wall and 0.85-0.96 s CPU
+with one. One thread also makes an analysis's sums come in one order, so the node's worker
+and a replay give the same finding to the bit. The node,
 the CLI and the batch path's processes call :func:`single_blas_thread` at start, so the other
 core stays free for the CAN reader, the DDS threads or the log reader.
 """

@@ -13,6 +13,7 @@ from typing import Any
 
 import yaml
 
+from steer_monitor.atomic import note_input
 from steer_monitor.errors import ParameterError
 
 __all__ = ['MAX_BYTES', 'load_yaml']
@@ -35,6 +36,7 @@ def load_yaml(path: str | Path, what: str) -> Any:
     """The document in ``path``; :class:`ParameterError` naming ``what`` (e.g. "parameters
     file") and the path when it cannot be read as plain YAML."""
     path = Path(path)
+    note_input(path)
     try:
         with open(path, 'rb') as fh:
             raw = fh.read(MAX_BYTES + 1)

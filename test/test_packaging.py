@@ -171,3 +171,73 @@ def test_systemd_unit_stops_with_sigint_and_restarts():
     assert svc['KillSignal'] == 'SIGINT' and svc['Restart'] == 'on-failure'
     assert 'ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST' in svc['Environment']
     assert 'ros2 launch steer_monitor monitor.launch.py' in svc['ExecStart']
+
+
+#: what the pure core may not load, even through another module: ROS, the bus and log file
+#: libraries, and the package's own I/O and vessel or shore parts
+NOT_IN_THE_CORE = ('rclpy', 'can', 'mcap', 'mcap_ros2', 'cantools', 'rosbags', 'dask', 'pyarrow')
+NOT_IN_THE_CORE_PARTS = ('can', 'record', 'node', 'ashore', 'cli', 'monitor', 'sim')
+
+
+def _core_modules() -> list[str]:
+    return sorted(f'steer_monitor.{p.parent.name}' + ('' if p.stem == '__init__' else f'.{p.stem}')
+                  for part in ('model', 'estimate') for p in (PKG / 'steer_monitor' / part).glob('*.py'))
+
+
+def test_the_core_loads_nothing_of_the_io_even_transitively():
+    """Every module of ``model/`` and ``estimate/`` imported in a fresh interpreter: what
+    ``sys.modules`` then holds is numbers, the core and the package's root helpers (none of
+    them loads anything else either: had one, it would be there)."""
+    import json
+    import subprocess
+    import sys
+    names = _core_modules()
+    probe = ('import importlib, json, sys\n'
+             'for name in json.loads(sys.argv[1]):\n'
+             '    importlib.import_module(name)\n'
+             'print(json.dumps(sorted(sys.modules)))\n')
+    p = subprocess.run([sys.executable, '-c', probe, json.dumps(names)], capture_output=True, text=True, check=True,
+                       cwd=PKG)
+    loaded = json.loads(p.stdout)
+    bad = [m for m in loaded if m.split('.')[0] in NOT_IN_THE_CORE
+           or (m.startswith('steer_monitor.') and m.split('.')[1] in NOT_IN_THE_CORE_PARTS)]
+    assert len(names) >= 20 and set(names) <= set(loaded) and bad == []
+
+
+def _unit_imports() -> dict[str, set[str]]:
+    """Which part of the package (a subpackage, or a module at its root) imports which other,
+    at any level (a function's own imports too)."""
+    graph: dict[str, set[str]] = {}
+    for path in (PKG / 'steer_monitor').rglob('*.py'):
+        unit = path.relative_to(PKG / 'steer_monitor').parts[0].removesuffix('.py')
+        for mod in _modules(path):
+            if mod.startswith('steer_monitor.'):
+                other = mod.split('.')[1]
+                if other != unit:
+                    graph.setdefault(unit, set()).add(other)
+    return graph
+
+
+def test_no_two_parts_of_the_package_import_each_other():
+    """The parts of the package form layers: no cycle between subpackages (or the modules at
+    its root), of any length."""
+    graph = _unit_imports()
+    state: dict[str, int] = {}
+    path: list[str] = []
+
+    def visit(u: str) -> list[str] | None:
+        state[u] = 1
+        path.append(u)
+        for v in sorted(graph.get(u, ())):
+            if state.get(v) == 1:
+                return path[path.index(v):] + [v]
+            if v not in state and (cycle := visit(v)):
+                return cycle
+        state[u] = 2
+        path.pop()
+        return None
+
+    for u in sorted(graph):
+        if u not in state:
+            assert visit(u) is None, ' -> '.join(path[path.index(path[-1]):]) if path else ''
+    assert {'can', 'model', 'estimate', 'monitor', 'ashore'} <= set(graph)

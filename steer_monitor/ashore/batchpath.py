@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from steer_monitor.can.decoder import Decoder
+from steer_monitor.can.decoder import Decoder, clock_notes
 from steer_monitor.can.fastlogs import in_time_order, iter_log_blocks, log_end_ns
 from steer_monitor.can.frames import FrameArrays
 from steer_monitor.can.logs import LogError
@@ -43,8 +43,10 @@ class BatchRun:
 def _decoded(paths: list[Path], db: object, smap: object, rejects: RejectCounter,
              date: datetime.date | None = None) -> Iterator[tuple[str, Any, int]]:
     """Read and decode ``paths`` in order: ('block', signals, frames) per block, ('error',
-    text, 0) for a log that breaks off, and last ('done', reject counts, 0)."""
-    decoder = Decoder(db, smap, rejects)  # type: ignore[arg-type]
+    text, 0) for a log that breaks off, ('note', text, 0) for what to say of the frames'
+    clock (a step back is stitched: :class:`~steer_monitor.can.decoder.Decoder`), and last
+    ('done', reject counts, 0)."""
+    decoder = Decoder(db, smap, rejects, stitch=True)  # type: ignore[arg-type]
     for path in paths:
         try:
             for block in iter_log_blocks(path, rejects, date):
@@ -52,6 +54,8 @@ def _decoded(paths: list[Path], db: object, smap: object, rejects: RejectCounter
         except LogError as exc:
             yield 'error', str(exc), 0
     yield 'block', decoder.decode_arrays(FrameArrays.empty(), final=True), 0   # frames held at the end
+    for note in clock_notes(decoder.clock_steps):
+        yield 'note', note, 0
     yield 'done', dict(rejects.snapshot().counts), 0
 
 
@@ -83,6 +87,7 @@ def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *,
     end = None if not ends or None in ends else max(e for e in ends if e is not None)
     frames = 0
     errors: list[str] = []
+    notes: list[str] = []
     counts: dict[str, int] = {}
     proc = None
     if jobs > 1:
@@ -104,6 +109,8 @@ def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *,
                     progress(n)
             elif kind == 'error':
                 errors.append(payload)
+            elif kind == 'note':
+                notes.append(payload)
             else:
                 counts = payload
                 break
@@ -113,4 +120,5 @@ def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *,
             if proc.is_alive():
                 proc.kill()
     result = review.finish()
+    result.notes[:0] = notes
     return BatchRun(result, [str(p) for p in paths], frames, dict(sorted(counts.items())), errors)

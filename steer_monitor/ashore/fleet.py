@@ -3,7 +3,7 @@ kept, trends and limit dates out.
 
 A vessel is a directory (its name is the vessel's): its logs in any format the tool reads,
 found recursively, and optionally its own parameters file ``steer_monitor.yaml`` at its top.
-Each log is one task, :func:`~steer_monitor.ashore.logresult.analyse_log`, on an in-process
+Each log is one task, :func:`~steer_monitor.ashore.logresult.log_result`, on an in-process
 ``LocalCluster`` (worker processes on this machine, scheduler on the loopback address) or an
 existing cluster (``scheduler``). A task whose worker dies is run again by Dask; a log that
 fails for good is reported with its error, never fatal for the fleet.
@@ -20,7 +20,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from steer_monitor.ashore.logresult import LogResult, analyse_log, file_digest
+from steer_monitor.ashore.logresult import LogResult, file_digest, log_result
+from steer_monitor.ashore.modelcheck import NOT_JUDGED
 from steer_monitor.ashore.store import load_results, save_results
 from steer_monitor.atomic import os_reason
 from steer_monitor.can.compressed import plain_suffix
@@ -28,7 +29,7 @@ from steer_monitor.can.logs import log_path_problem
 from steer_monitor.errors import InputError
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.trend import YEAR_S, Trend, TrendPoint, fit_trend
-from steer_monitor.monitor.verdict import LABELS, clearance_verdict
+from steer_monitor.monitor.verdict import clearance_verdict
 from steer_monitor.params import load_config
 from steer_monitor.record.provenance import parameters_digest
 
@@ -174,7 +175,7 @@ def run_fleet(dirs: Sequence[str | Path], out: str | Path, *, workers: int | Non
         try:
             def page_dir(v: Vessel, sha: str, cfg_sha: str) -> str | None:
                 return str((out / report_path(v.name, sha, cfg_sha)).parent.resolve()) if reports else None
-            futures = {client.submit(analyse_log, v.name, str(log), None if v.config is None else str(v.config),
+            futures = {client.submit(log_result, v.name, str(log), None if v.config is None else str(v.config),
                                      sha, cfg_sha, page_dir(v, sha, cfg_sha),
                                      key=f'steer_monitor-log-{v.name}-{sha[:16]}-{cfg_sha[:8]}',
                                      retries=TASK_RETRIES, pure=False): (v, log, sha, cfg_sha)
@@ -235,6 +236,26 @@ def _interval(r: LogResult, attr: str) -> Interval | None:
 def _est(r: LogResult, attr: str, k: float = 1e3) -> dict[str, Any] | None:
     iv = _interval(r, attr)
     return None if iv is None else iv.scaled(k)
+
+
+def _clearance(r: LogResult, attr: str, limit: float, warn_share: float) -> dict[str, Any]:
+    """A clearance of a log as the fleet page and ``fleet.json`` give it: ``{value, ci95,
+    bounded, level}`` in mm, judged as the report judges it (not judged without an estimate
+    or when the model check's model does not explain the data)."""
+    iv = _interval(r, attr)
+    if iv is None:
+        return {'value': None, 'ci95': [None, None], 'bounded': False, 'level': NOT_JUDGED}
+    level = (NOT_JUDGED if r.verdict == 'unexplained' else
+             clearance_verdict(iv.value, iv.lo, iv.hi, limit, warn_share).label)
+    return {**iv.scaled(1e3), 'level': level}
+
+
+#: levels from the least to the most serious (a log's level is its worst clearance's)
+_LEVELS = (NOT_JUDGED, 'OK', 'WARN', 'OVER LIMIT')
+
+
+def _worst(levels: Any) -> str:
+    return max(levels, key=_LEVELS.index)
 
 
 #: a log whose span lies this much (fraction of its own) within a fuller log's is the same data
@@ -313,18 +334,15 @@ def fleet_json(run: FleetRun) -> dict[str, Any]:
         share = p['diagnostics.clearance_warn_share']
         logs = []
         for r in rs:
-            verdicts = {}
+            clearances = {}
             for key, attr, limit in (('clearance_2z_mm', 'two_z', p['clearances.limit_2z_mm'] * 1e-3),
                                      ('clearance_zgb_mm', 'z_gb', p['clearances.limit_zgb_mm'] * 1e-3)):
-                iv = _interval(r, attr)
-                if iv is not None:
-                    verdicts[key] = clearance_verdict(iv.value, iv.lo, iv.hi, limit, share)
-            worst = max((vd.level for vd in verdicts.values()), default=None)
+                clearances[key] = _clearance(r, attr, limit, share)
             logs.append({'log': r.log, 'start_utc': _iso(r.start_ns), 'end_utc': _iso(r.end_ns), 'frames': r.frames,
-                         'clearance_2z_mm': _est(r, 'two_z'), 'clearance_zgb_mm': _est(r, 'z_gb'),
-                         'k_gl_max': _est(r, 'k_gl_max', 1.0),
-                         'verdict': None if worst is None else LABELS[worst],
-                         'verdicts': {k: vd.label for k, vd in verdicts.items()},
+                         **clearances, 'k_gl_max': _est(r, 'k_gl_max', 1.0),
+                         'level': _worst(c['level'] for c in clearances.values()),
+                         'model_check': ({'verdict': r.verdict, 'effects': [e for e in r.effects.split(',') if e]}
+                                         if r.verdict else None),
                          'hard_overs_s': [round(h['seconds'], 2) for h in json.loads(r.hard_overs_json)],
                          'report': _report(run, v.name, r),
                          'read_errors': json.loads(r.read_errors_json),

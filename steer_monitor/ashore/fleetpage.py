@@ -74,7 +74,7 @@ def fleet_page(run: FleetRun) -> str:
         rows = ''.join(
             f"<tr><td>{_log_cell(lg)}</td><td>{esc(lg['start_utc'] or '-')}</td>"
             f"<td>{_iv(lg['clearance_2z_mm'])}</td><td>{_iv(lg['clearance_zgb_mm'])}</td>"
-            f"<td class=\"{esc((lg['verdict'] or 'NONE').split()[0])}\">{esc(lg['verdict'] or lg['error'] or '-')}</td>"
+            f"<td class=\"{esc(_css(lg['level']))}\">{esc(_level_text(lg))}</td>"
             f"<td{warn if lg['uneven_rams'] else ''}>{esc(_rams(lg['uneven_rams']))}</td></tr>"
             for lg in v['logs'])
         trend = '; '.join(
@@ -87,7 +87,7 @@ def fleet_page(run: FleetRun) -> str:
             for key, t in v['trend'].items())
         parts.append(f"<section><h2>{esc(v['name'])}</h2><p>{esc(trend)}</p>"
                      f"<img alt=\"{esc(v['name'])}\" src=\"data:image/png;base64,{_plot(rs, run.params[v['name']])}\">"
-                     f"<table><tr><th>log</th><th>start (UTC)</th><th>2Z [mm]</th><th>Z_gb [mm]</th><th>verdict</th><th>rams</th></tr>"
+                     f"<table><tr><th>log</th><th>start (UTC)</th><th>2Z [mm]</th><th>Z_gb [mm]</th><th>level</th><th>rams</th></tr>"
                      f"{rows}</table></section>")
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>steer_monitor fleet</title>
@@ -112,6 +112,22 @@ def _log_cell(lg: dict[str, Any]) -> str:
     if lg.get('same_time_as'):
         name += f' (the time of {html.escape(Path(lg["same_time_as"]).name)}: not in the trend)'
     return name
+
+
+def _css(level: str) -> str:
+    return 'NONE' if level == 'not judged' else level.split()[0]
+
+
+def _level_text(lg: dict[str, Any]) -> str:
+    """A log's level, and the model check's verdict when it is not the declared model."""
+    if lg['error']:
+        return lg['error']
+    mc = lg['model_check']
+    if mc is None:
+        return lg['level']
+    if mc['verdict'] == 'unexplained':
+        return f"{lg['level']}: the model does not explain the pressures"
+    return lg['level'] + (f" (with {', '.join(mc['effects'])})" if mc['effects'] else '')
 
 
 def _iv(d: dict[str, Any] | None) -> str:

@@ -10,7 +10,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-__all__ = ['LogResult', 'analyse_log', 'file_digest']
+__all__ = ['LogResult', 'file_digest', 'log_result']
 
 _CHUNK = 1 << 20
 
@@ -26,9 +26,12 @@ def file_digest(path: str | Path) -> str:
 
 @dataclass(frozen=True)
 class LogResult:
-    """A log's estimate in SI (NaN where none; ``*_hi`` NaN also for a lower bound only),
-    its span [ns], hard-over times [s] and the stretches of uneven rams as JSON, and
-    ``error`` ('' when it was read)."""
+    """A log's clearances and K_gl max in SI (NaN where none; ``*_hi`` NaN also for a lower
+    bound only): the model check's (:mod:`~steer_monitor.ashore.modelcheck`: ``analyze`` of
+    its last hours, ``steer-monitor analyze`` of a shorter log), with its ``verdict``
+    ('declared', 'effect', 'unexplained'; '' when none could be made) and the ``effects`` it
+    adopted (comma-separated); its span [ns], hard-over times [s] and the stretches of uneven
+    rams as JSON (from the review on the batch path), and ``error`` ('' when it was read)."""
 
     vessel: str
     log: str
@@ -52,6 +55,8 @@ class LogResult:
     #: stretches where the rams did not share the force evenly, left out of the estimate: JSON
     #: list of {"start_ns", "end_ns", "ram" (the weaker, 1 or 2), "share", "idle"}
     uneven_json: str = '[]'
+    verdict: str = ''
+    effects: str = ''
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -70,20 +75,27 @@ def _iv(iv: Any) -> tuple[float, float, float]:
     return (float(iv.value), nan if iv.lo is None else float(iv.lo), nan if iv.hi is None else float(iv.hi))
 
 
-def analyse_log(vessel: str, log: str, config: str | None, log_sha256: str, config_sha256: str,
-                report_dir: str | None = None) -> LogResult:
-    """Review one log on the batch path (in this process) and flatten the whole log's
-    estimate; with ``report_dir``, write its report page there too (from the same review,
-    without the model check, which ``steer-monitor report`` makes). A log that cannot be
-    read at all is a result with ``error`` set, not an exception: the fleet goes on, and says
-    so; a page that cannot be written is said in the result's read errors."""
+def log_result(vessel: str, log: str, config: str | None, log_sha256: str, config_sha256: str,
+               report_dir: str | None = None) -> LogResult:
+    """One log's result: reviewed on the batch path (in this process: its span, hard-overs,
+    uneven rams) and its clearances from the model check, as ``steer-monitor report`` gives
+    them; with ``report_dir``, its report page written there too (from the same review and
+    check). A log that cannot be read at all is a result with ``error`` set, not an
+    exception: the fleet goes on, and says so; a page that cannot be written is said in the
+    result's read errors."""
     from steer_monitor.ashore.batchpath import review_logs
+    from steer_monitor.ashore.modelcheck import model_check
     from steer_monitor.errors import SteerMonitorError
+    from steer_monitor.params import load_config
     from steer_monitor.threads import single_blas_thread
 
     single_blas_thread()
+    analysis, note = None, ''
     try:
         run = review_logs([log], config, jobs=1)
+        if len(run.review.t_ns):
+            config_path, params = load_config(config)
+            analysis, note = model_check([log], params, config_path, int(run.review.t_ns[-1]))
     except SteerMonitorError as exc:
         return LogResult.failed(vessel, log, log_sha256, config_sha256, str(exc))
     except (OSError, MemoryError) as exc:
@@ -96,11 +108,11 @@ def analyse_log(vessel: str, log: str, config: str | None, log_sha256: str, conf
     errors = list(run.errors)
     if report_dir is not None and run.frames:
         try:
-            _write_report(log, config, run, report_dir)
+            _write_report(log, config, run, report_dir, analysis, note)
         except SteerMonitorError as exc:
             errors.append(f'report not written: {exc}')
     r = run.review
-    e = r.estimates[-1].estimate if r.estimates else None
+    e = analysis.final if analysis is not None else None
     start = int(r.t_ns[0]) if len(r.t_ns) else 0
     end = int(r.t_ns[-1]) if len(r.t_ns) else 0
     hard = [{'t_leave_ns': int(h.t_leave_ns), 'seconds': float(h.seconds)} for h in r.hard_overs]
@@ -109,7 +121,9 @@ def analyse_log(vessel: str, log: str, config: str | None, log_sha256: str, conf
                      *_iv(None if e is None else e.k_gl_max), json.dumps(hard), json.dumps(errors),
                      _why_none(e, r.opposed, run),
                      json.dumps([{'start_ns': sp.start_ns, 'end_ns': sp.end_ns, 'ram': sp.ram + 1, 'share': sp.share,
-                                  'idle': sp.idle} for sp in r.uneven]))
+                                  'idle': sp.idle} for sp in r.uneven]),
+                     '' if analysis is None else analysis.verdict,
+                     '' if analysis is None else ','.join(st.name for st in analysis.steps))
 
 
 def _why_none(estimate: Any, opposed: str, run: Any) -> str:
@@ -124,10 +138,9 @@ def _why_none(estimate: Any, opposed: str, run: Any) -> str:
     return run.errors[0] if run.errors else 'no frames'
 
 
-def _write_report(log: str, config: str | None, run: Any, report_dir: str) -> None:
+def _write_report(log: str, config: str | None, run: Any, report_dir: str, analysis: Any, note: str) -> None:
     from steer_monitor.params import load_config
     from steer_monitor.ashore.report.logreport import report_input, write_report_dir
 
     config_path, params = load_config(config)
-    note = 'model check not made in a fleet run: steer-monitor report LOG makes it'
-    write_report_dir(report_input([Path(log)], run, params, config_path, None, note), report_dir)
+    write_report_dir(report_input([Path(log)], run, params, config_path, analysis, note), report_dir)

@@ -31,23 +31,25 @@ from steer_monitor.can.decoder import DecodedRun, Decoder
 from steer_monitor.can.fastlogs import in_time_order, iter_log_blocks
 from steer_monitor.can.frames import Frame, FrameArrays
 from steer_monitor.can.logs import LogError, log_path_problem
-from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, McapWriter
+from steer_monitor.can.codec import DbcError
+from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, McapWriter, leading_metadata
 from steer_monitor.can.rejects import RejectCounter
-from steer_monitor.can.setup import load_setup
-from steer_monitor.errors import SteerMonitorError
+from steer_monitor.can.setup import Setup, can_setup, load_setup
+from steer_monitor.errors import ParameterError, SteerMonitorError
 from steer_monitor.estimate.finding import Finding
 from steer_monitor.monitor.analyst import Analyst, SyncJobs
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig
 from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages, topic_name
 from steer_monitor.monitor.pipeline import Output, Pipeline, StateOut, analyst_from_params
-from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
+from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params, recorded_params
 from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.record.msgdefs import msgdef
-from steer_monitor.record.provenance import run_metadata
+from steer_monitor.record.provenance import PARAMETERS_RECORD, RUN_RECORD, run_metadata
+from steer_monitor.resources import default_config
 from steer_monitor.record.staterecords import pack_states
 
-__all__ = ['ReplayError', 'ReplaySummary', 'replay', 'summary_json']
+__all__ = ['ReplayError', 'ReplaySummary', 'recorded_setup', 'replay', 'summary_json']
 
 FRAME_BATCH = 4096
 MIN_RUN = 64        # frames: below this, a run the decoder cannot take at once goes one by one
@@ -82,8 +84,10 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
            frames: bool = True, estimator: bool = True, node_name: str = 'steer_monitor',
            progress: Callable[[int, int | None], None] | None = None,
            date: datetime.date | None = None, reference: bool = False) -> ReplaySummary:
-    """Replay ``logs`` into ``output`` (an MCAP). ``frames``: record the raw frames too, as
-    the node does. ``progress`` is called with the number of frames done since its last call
+    """Replay ``logs`` into ``output`` (an MCAP) with the parameters file ``config`` (None:
+    those the first log was recorded with, when it is a recording that carries them
+    (:func:`recorded_setup`), else the packaged R-18 ones). ``frames``: record the raw frames
+    too, as the node does. ``progress`` is called with the number of frames done since its last call
     and the data time reached [ns] (None before the stream's time is confirmed).
     ``reference``: the plain per-frame path (every message built and written one at a time, as
     the node publishes them), kept to check the fast one against: the same file, byte for
@@ -97,13 +101,16 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
         if problem is not None:
             raise ReplayError(problem)
     check_target(output, [*paths, config])
-    config_path, params, db, smap = load_setup(config)
+    recorded = recorded_setup(paths[0]) if config is None else None
+    config_path, params, db, smap = recorded[0] if recorded is not None else load_setup(config)
     gear = gear_from_params(params)
     rejects = RejectCounter()
     monitor = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params),
                           defer_share=not reference)
     diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(params), smap, gear)
     summary = ReplaySummary(str(output), [str(p) for p in paths])
+    if recorded is not None:
+        summary.notes.append(recorded[1])
     analyst: Analyst | None = None
     jobs: SyncJobs | None = None
     if estimator and params['estimator.enabled']:
@@ -116,6 +123,31 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
                        reference)
     finally:
         pipeline.close()
+
+
+def recorded_setup(log: str | Path) -> tuple[Setup, str] | None:
+    """The setup an MCAP recording was made with (its parameters metadata, written by the
+    node and ``replay``: :mod:`~steer_monitor.record.provenance`), and a note saying so; None
+    when ``log`` carries none. A node's recording replayed with its own parameters gives what
+    the node published, whatever the packaged defaults have become. The DBC is looked for
+    beside the parameters file the recording names, then in the packaged config. Raises
+    :class:`~steer_monitor.errors.ParameterError` naming the log when the recorded parameters
+    do not validate."""
+    meta = leading_metadata(log) if str(log).lower().endswith('.mcap') else {}
+    values = meta.get(PARAMETERS_RECORD)
+    if not values:
+        return None
+    named = meta.get(RUN_RECORD, {}).get('parameters_file')
+    where = Path(named) if named and Path(named).is_file() else default_config()
+    try:
+        params, dropped = recorded_params(values)
+        db, smap = can_setup(params, where)
+    except (DbcError, ParameterError) as exc:
+        msg = f'{log}: the parameters it was recorded with: {exc} (give --config)'
+        raise ParameterError(msg) from None
+    note = (f'{log}: replayed with the parameters it was recorded with (--config to use others)'
+            + (f'; not read by this version: {", ".join(dropped)}' if dropped else ''))
+    return Setup(where, params, db, smap), note
 
 
 def _replay(paths: list[Path], output: str | Path, config_path: Path, params: Any, pipeline: Pipeline,

@@ -22,7 +22,7 @@ its interval over time: up to ``MAX_WINDOWS`` windows of whole 10 minutes, and t
 at the end). With :meth:`Review.plan` (where the data will end) a window is estimated as
 soon as the data pass its end, while the log is still being read; otherwise all at
 :meth:`Review.finish`. Each: the coarse profile, the inflation factor of the residuals at its
-best point over the last ``TAIL_NS`` of motion read (as the online estimator measures it),
+best point over the last ``TAIL_NS`` of motion read,
 then the fine profile on the search box of :func:`~steer_monitor.estimate.batch.search_box`.
 A window after the first tries the box of the last coarse profile first (the moments have only
 grown since) and keeps it when the answer lies inside (the best point and the interval's ends

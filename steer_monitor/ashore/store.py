@@ -23,8 +23,9 @@ __all__ = ['LATER_COLUMNS', 'RESULTS_FILE', 'load_results', 'save_results']
 RESULTS_FILE = 'results.parquet'
 #: columns added since the file was first written: a file without them was written by an
 #: earlier version, whose results are not kept but made again (that version's estimates
-#: took in stretches where the rams did not share the force evenly)
-LATER_COLUMNS = ('uneven_json',)
+#: took in stretches where the rams did not share the force evenly; then the declared
+#: model's, where the clearances now are the model check's)
+LATER_COLUMNS = ('uneven_json', 'verdict', 'effects')
 
 
 def load_results(directory: str | Path) -> tuple[dict[tuple[str, str], LogResult], int]:

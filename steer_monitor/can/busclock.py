@@ -39,10 +39,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ['TIMESTAMP_MODES', 'BusClock']
+from steer_monitor.params import TIMESTAMP_MODES
 
-#: the choices of the ``can.timestamps`` parameter
-TIMESTAMP_MODES = ('auto', 'bus', 'host')
+__all__ = ['TIMESTAMP_MODES', 'BusClock']
 
 
 @dataclass

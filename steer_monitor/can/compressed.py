@@ -61,10 +61,16 @@ def _decompressor(raw: BinaryIO, kind: str) -> Any:
     return _Zstd(raw)
 
 
+#: compressed bytes fed to the zstd decoder at a time: a zstd block of at most 128 KiB can be
+#: written in 4 bytes (a run of one byte), so this bounds what one call gives at 8 MiB
+ZSTD_FEED_BYTES = 256
+
+
 class _Zstd:
     """``read`` of zstd data, frame after frame, that raises ``EOFError`` when the data ends
     inside a frame (zstandard's ``stream_reader`` then simply ends: a log cut short would
-    pass for a whole one)."""
+    pass for a whole one). The compressed bytes go in ``ZSTD_FEED_BYTES`` at a time, so a
+    stream that expands a thousand-fold (a run of zeros) costs at most 8 MiB of memory."""
 
     def __init__(self, raw: BinaryIO) -> None:
         import zstandard
@@ -72,23 +78,34 @@ class _Zstd:
         self._raw = raw
         self._obj = self._zstd.decompressobj()
         self._started = False       # the current frame has had input
-        self._out = b''
+        self._in = b''              # compressed bytes read, not yet fed
+        self._out = b''             # decompressed, from ``_at`` on not yet handed out
+        self._at = 0
 
-    def read(self, n: int) -> bytes:
-        while len(self._out) < n:
-            data = self._raw.read(PIECE_BYTES)
-            if not data:
+    def _more(self) -> bool:
+        """Decompress the next few compressed bytes; False at the end of the data."""
+        if not self._in:
+            self._in = self._raw.read(PIECE_BYTES)
+            if not self._in:
                 if self._started and not self._obj.eof:
                     raise EOFError('zstd data ended inside a frame')
+                return False
+        data, self._in = self._in[:ZSTD_FEED_BYTES], self._in[ZSTD_FEED_BYTES:]
+        self._started = True
+        got = self._obj.decompress(data)
+        if self._obj.eof:           # the next frame, if any, in a fresh decoder
+            self._in = self._obj.unused_data + self._in
+            self._obj = self._zstd.decompressobj()
+            self._started = False
+        self._out, self._at = self._out[self._at:] + got, 0
+        return True
+
+    def read(self, n: int) -> bytes:
+        while len(self._out) - self._at < n:
+            if not self._more():
                 break
-            while data:
-                self._started = True
-                self._out += self._obj.decompress(data)
-                data = self._obj.unused_data if self._obj.eof else b''
-                if self._obj.eof:   # the next frame, if any, in a fresh decoder
-                    self._obj = self._zstd.decompressobj()
-                    self._started = False
-        piece, self._out = self._out[:n], self._out[n:]
+        piece = self._out[self._at:self._at + n]
+        self._at += len(piece)
         return piece
 
     def close(self) -> None:

@@ -17,14 +17,15 @@ from pathlib import Path
 import numpy as np
 
 from steer_monitor.can.codec import CanDatabase
-from steer_monitor.can.decoder import Decoder, Series, SignalSet
+from steer_monitor.can.decoder import ClockStep, Decoder, Series, SignalSet, clock_notes
 from steer_monitor.can.fastlogs import iter_log_blocks
 from steer_monitor.can.frames import FrameArrays
 from steer_monitor.can.logs import LogError
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.signals import SignalMap
+from steer_monitor.utc import utc_text
 
-__all__ = ['DecodedLogs', 'decode_logs']
+__all__ = ['DecodedLogs', 'clock_steps_json', 'decode_logs']
 
 
 @dataclass(frozen=True)
@@ -38,6 +39,9 @@ class DecodedLogs:
             glitched frame's time, rejected, does not stretch it.
         errors: one line per log that broke off or had corrupt parts (its readable frames
             are in ``signals``).
+        clock_steps: the steps of the frames' clock met (:class:`~steer_monitor.can.decoder.ClockStep`);
+            the samples after a step back follow those before it (their times shifted).
+        notes: what to say of them, a line each.
     """
 
     signals: SignalSet
@@ -45,6 +49,8 @@ class DecodedLogs:
     first_ns: int | None
     last_ns: int | None
     errors: tuple[str, ...]
+    clock_steps: tuple[ClockStep, ...] = ()
+    notes: tuple[str, ...] = ()
 
     @property
     def span_s(self) -> float:
@@ -57,7 +63,7 @@ def decode_logs(paths: Sequence[str | Path], db: CanDatabase, smap: SignalMap, r
     """Read and decode ``paths`` in the order given as one stream (frames before ``since_ns``
     left out); rejects are counted in ``rejects``. ``progress`` hears the frames of each block.
     ``date``: of a YDWG raw log's first line (:func:`~steer_monitor.can.gateway.ydwg_date`)."""
-    decoder = Decoder(db, smap, rejects)
+    decoder = Decoder(db, smap, rejects, stitch=True)
     parts: dict[str, list[Series]] = {name: [] for name in smap.names}
     frames = 0
     errors: list[str] = []
@@ -85,4 +91,12 @@ def decode_logs(paths: Sequence[str | Path], db: CanDatabase, smap: SignalMap, r
     firsts = [int(s.t_ns.min()) for s in signals.values() if len(s)]
     lasts = [int(s.t_ns.max()) for s in signals.values() if len(s)]
     return DecodedLogs(signals, frames, min(firsts) if firsts else None, max(lasts) if lasts else None,
-                       tuple(errors))
+                       tuple(errors), tuple(decoder.clock_steps), tuple(clock_notes(decoder.clock_steps)))
+
+
+def clock_steps_json(steps: Sequence[ClockStep]) -> list[dict[str, object]]:
+    """The clock steps as JSON: ``{"before_utc", "after_utc", "before_ns", "after_ns",
+    "step_s", "shift_s"}`` each (``shift_s``: what the data after it were moved by)."""
+    return [{'before_utc': utc_text(st.before_ns), 'after_utc': utc_text(st.after_ns), 'before_ns': st.before_ns,
+             'after_ns': st.after_ns, 'step_s': round(st.step_s, 3), 'shift_s': round(st.shift_ns / 1e9, 3)}
+            for st in steps]

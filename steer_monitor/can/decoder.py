@@ -32,8 +32,10 @@ from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.signals import SignalMap, SignalSpec
 from steer_monitor.can.timejump import HELD, REJECTED, RELEASED, JumpFilter
 from steer_monitor.model.inputs import Sample, Series, SignalSet
+from steer_monitor.utc import utc_text
 
-__all__ = ['DecodedRun', 'Decoder', 'Sample', 'Series', 'SignalSet', 'collect']
+__all__ = ['STITCH_GAP_NS', 'ClockStep', 'DecodedRun', 'Decoder', 'Sample', 'Series', 'SignalSet', 'clock_notes',
+           'collect']
 
 
 
@@ -52,6 +54,60 @@ def _id_text(can_id: int) -> str:
     return f'0x{can_id:08X}'
 
 
+#: what a log's data after a step of its clock back are put after the data before it [ns]:
+#: longer than any gap the observations bridge, so the two stretches stay apart
+STITCH_GAP_NS = 60_000_000_000
+
+
+@dataclass(frozen=True)
+class ClockStep:
+    """A step of a log's clock: the last frame's time before it and the first after it [ns,
+    the frames' own times]; ``shift_ns``: what was added to the times from there on (after a
+    step back: the data follow the data before, ``STITCH_GAP_NS`` later; 0 otherwise)."""
+
+    before_ns: int
+    after_ns: int
+    shift_ns: int
+
+    @property
+    def step_s(self) -> float:
+        return (self.after_ns - self.before_ns) / 1e9
+
+    def text(self) -> str:
+        """One line: when and how large, and what was done."""
+        size = _duration_text(abs(self.after_ns - self.before_ns))
+        when = utc_text(self.before_ns)
+        if self.after_ns < self.before_ns:
+            return (f'the frames\' clock steps back {size} after {when} (a clock set back): the data after it are '
+                    f'kept as a new stretch, their times shifted by +{_duration_text(self.shift_ns)} in the outputs')
+        return f'the frames\' clock jumps forward {size} after {when} (a clock step, or a pause in the log)'
+
+
+def _duration_text(ns: int) -> str:
+    s = ns / 1e9
+    if s < 120:
+        return f'{s:.1f} s'
+    if s < 7200:
+        return f'{s / 60:.1f} min'
+    if s < 172800:
+        return f'{s / 3600:.2f} h'
+    return f'{s / 86400:.2f} days'
+
+
+def clock_notes(steps: list[ClockStep]) -> list[str]:
+    """What to say of a stream's clock steps: one line per step back, one for the steps
+    forward together (a log paused is one too)."""
+    out = [st.text() for st in steps if st.after_ns < st.before_ns]
+    fwd = [st for st in steps if st.after_ns > st.before_ns]
+    if len(fwd) == 1:
+        out.append(fwd[0].text())
+    elif fwd:
+        big = max(fwd, key=lambda st: st.after_ns - st.before_ns)
+        out.append(f'the frames\' clock jumps forward {len(fwd)} times (clock steps, or pauses in the log); the '
+                   f'largest: {big.text().partition("jumps forward ")[2]}')
+    return out
+
+
 class Decoder:
     """Decode steering frames with a DBC and a signal map, counting rejects.
 
@@ -59,11 +115,22 @@ class Decoder:
     duplicate checks), so successive calls continue one stream.
     """
 
-    def __init__(self, db: CanDatabase, signal_map: SignalMap, rejects: RejectCounter | None = None) -> None:
+    def __init__(self, db: CanDatabase, signal_map: SignalMap, rejects: RejectCounter | None = None,
+                 stitch: bool = False) -> None:
+        """``stitch`` (logs read block by block, :meth:`decode_arrays`): a confirmed step of
+        the frames' clock back in time starts a new stretch after the data before it, rather
+        than the frames being refused as ``time_backwards`` until the clock has caught up;
+        every step is kept in :attr:`clock_steps`. The live node restarts its monitor
+        instead."""
         signal_map.check(db)
         self.db = db
         self.map = signal_map
         self.rejects = rejects if rejects is not None else RejectCounter()
+        self.stitch = stitch
+        #: the clock steps met (back or forward beyond the jump limit), in order
+        self.clock_steps: list[ClockStep] = []
+        self._shift_ns = 0                   # added to the times after the steps back so far
+        self._last_released: int | None = None   # the last released frame's own time
         self._last: dict[int, tuple[int, bytes]] = {}
         self.jumps = JumpFilter(signal_map.max_jump_ns)
         self._held: list[tuple[Frame, MessageLayout, int]] = []  # frame by frame, after a jump
@@ -291,6 +358,8 @@ class Decoder:
         self._held_fa = fa.take(rows[verdict == HELD])
         self._held_owner = owner[rows[verdict == HELD]]
         ok[rows[verdict != RELEASED]] = False
+        if self.stitch:
+            fa = self._stitched(fa, np.nonzero(ok)[0])
         ok &= self._time_checks(fa, ok)
 
         words = CanDatabase.words(fa.data)
@@ -324,6 +393,30 @@ class Decoder:
         return {name: Series(np.concatenate(out_t[name]) if out_t[name] else np.zeros(0, np.int64),
                              np.concatenate(out_v[name]) if out_v[name] else np.zeros(0, np.float64))
                 for name in self.map.names}
+
+    def _stitched(self, fa: FrameArrays, rows: NDArray[np.intp]) -> FrameArrays:
+        """``fa`` with the released ``rows``' times put after every step back of the clock
+        (:data:`STITCH_GAP_NS` after the last time before the step), the steps kept."""
+        if rows.size == 0:
+            return fa
+        t = fa.t_ns[rows]
+        prev = np.empty_like(t)
+        prev[0] = t[0] if self._last_released is None else self._last_released
+        prev[1:] = t[:-1]
+        step = np.nonzero(np.abs(t - prev) > self.jumps.max_jump_ns)[0]
+        shift = np.full(t.size, self._shift_ns, np.int64)
+        for k in step.tolist():
+            before, after = int(prev[k]), int(t[k])
+            add = before - after + STITCH_GAP_NS if after < before else 0
+            self.clock_steps.append(ClockStep(before, after, self._shift_ns + add))
+            self._shift_ns += add
+            shift[k:] += add
+        self._last_released = int(t[-1])
+        if not shift.any():
+            return fa
+        t_ns = fa.t_ns.copy()
+        t_ns[rows] = t + shift
+        return FrameArrays(t_ns, fa.can_id, fa.dlc, fa.data, fa.flags)
 
     @staticmethod
     def _flag_rejects(flags: NDArray[np.uint8]) -> tuple[NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]]:

@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 from steer_monitor.can import digits
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, FrameArrays
 from steer_monitor.can.logs import (CAN_ERR_FLAG, LogError, _candump_line, candump_line, is_compressed, iter_log_as,
-                                   log_format, open_log, skipped_parts)
+                                   log_format, open_log, open_text_log, skipped_parts)
 from steer_monitor.can.mcapio import FRAME_DATATYPE
 from steer_monitor.can.rejects import RejectCounter
 
@@ -308,7 +308,7 @@ def iter_candump_blocks(path: str | Path, rejects: RejectCounter | None = None,
     """Frames of a candump ``.log`` in file order, a block of about ``block_bytes`` at a time.
     Lines of another shape are parsed one by one (and counted in ``rejects`` if bad)."""
     path = Path(path)
-    fh = open_log(path)
+    fh = open_text_log(path, rejects)     # lines bounded: the carried part of a line stays small
     lineno = 0
     carry = b''
     # one buffer for every block: the carried part of a line, the block read into it after,

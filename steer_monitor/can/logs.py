@@ -34,17 +34,22 @@ from steer_monitor.can.bus import frame_from_message, message_from_frame
 from steer_monitor.can.compressed import COMPRESSED_SUFFIXES, compression, open_decompressed, plain_suffix
 from steer_monitor.can.frames import Frame, FrameArrays
 from steer_monitor.can.gateway import CANBOAT_LINE, YDWG_LINE, canboat_frames, ydwg_date, ydwg_frames
+from steer_monitor.can.linebound import bounded_lines
 from steer_monitor.can.mcapio import McapWriter, iter_mcap_frames
 from steer_monitor.can.rejects import RejectCounter
+from steer_monitor.atomic import note_input
 from steer_monitor.errors import SteerMonitorError
 
-__all__ = ['FORMATS', 'READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'candump_line', 'is_compressed',
-           'iter_log', 'iter_log_as', 'log_format', 'log_path_problem', 'open_log', 'read_log_arrays', 'skipped_parts']
+__all__ = ['BINARY_FORMATS', 'FORMATS', 'READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'candump_line',
+           'is_compressed', 'iter_log', 'iter_log_as', 'log_format', 'log_path_problem', 'open_log', 'open_text_log',
+           'read_log_arrays', 'skipped_parts']
 
 READ_SUFFIXES = ('.log', '.asc', '.blf', '.mcap')
 #: formats read, by the name :func:`log_format` gives them
 FORMATS = {'candump': 'candump -L', 'asc': 'Vector ASC', 'blf': 'Vector BLF', 'mcap': 'MCAP',
            'canboat': 'CANboat plain (actisense-serial)', 'ydwg': 'Yacht Devices YDWG raw'}
+#: the formats of records, not lines (the rest are text, read a line at a time)
+BINARY_FORMATS = ('blf', 'mcap')
 _BY_SUFFIX = {'.log': 'candump', '.asc': 'asc', '.blf': 'blf', '.mcap': 'mcap'}
 _SNIFF_BYTES = 4096
 #: the most a BLF log container may declare uncompressed [bytes]; writers use 128 KiB
@@ -120,6 +125,7 @@ def open_log(path: Path) -> BinaryIO:
     """``path`` opened for reading bytes, decompressed if it is compressed (gzip, xz, bzip2,
     zstd: :mod:`~steer_monitor.can.compressed`); :class:`LogError` naming it when it cannot
     be."""
+    note_input(path)
     try:
         fh = open(path, 'rb')
     except OSError as exc:
@@ -139,6 +145,12 @@ def open_log(path: Path) -> BinaryIO:
         fh.close()
         msg = f'{path}: {kind} data corrupt ({type(exc).__name__}: {exc})'
         raise LogError(msg) from exc
+
+
+def open_text_log(path: Path, rejects: RejectCounter | None) -> BinaryIO:
+    """:func:`open_log` of a text log, its lines bounded (:mod:`~steer_monitor.can.linebound`):
+    a run of bytes without a line end costs a fixed buffer, and is counted in ``rejects``."""
+    return bounded_lines(open_log(path), path, rejects)
 
 
 def is_compressed(path: str | Path) -> bool:
@@ -189,7 +201,7 @@ def iter_log_as(path: Path, fmt: str, rejects: RejectCounter | None = None, date
         except OSError as exc:
             msg = f'cannot read log {path}: {exc.strerror or exc}'
             raise LogError(msg) from exc
-    with open_log(path) as fh:
+    with (open_log(path) if fmt in BINARY_FORMATS else open_text_log(path, rejects)) as fh:
         if fmt == 'canboat':
             yield from canboat_frames(fh, path, rejects)
             return
@@ -262,7 +274,7 @@ def _asc_reader(path: Path, rejects: RejectCounter | None) -> tuple[Any, _Lines]
     import can
 
     try:
-        lines = _Lines(io.TextIOWrapper(open_log(path), encoding='latin-1', newline=None), path, rejects)
+        lines = _Lines(io.TextIOWrapper(open_text_log(path, rejects), encoding='latin-1', newline=None), path, rejects)
     except OSError as exc:
         msg = f'cannot read {path}: {exc.strerror or exc}'
         raise LogError(msg) from exc

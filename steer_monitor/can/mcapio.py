@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, Frame, FrameArrays
 
 __all__ = ['DEFAULT_QOS', 'FRAME_DATATYPE', 'FRAME_MSGDEF', 'FRAME_TOPIC', 'Counted', 'McapWriter', 'frame_cdr',
-           'frame_message', 'frame_records', 'iter_mcap_frames', 'ros_time']
+           'frame_message', 'frame_records', 'iter_mcap_frames', 'leading_metadata', 'ros_time']
 
 FRAME_TOPIC = '/steering_can/rx'
 FRAME_DATATYPE = 'can_msgs/msg/Frame'
@@ -356,6 +356,29 @@ def iter_mcap_frames(stream: IO[bytes], topic: str | None = None) -> Iterator[Fr
         yield Frame(t_ns=int(t_ns), can_id=int(msg.id), data=bytes(msg.data)[:dlc],
                     is_extended=bool(msg.is_extended), is_error=bool(msg.is_error),
                     is_remote=bool(msg.is_rtr), channel=msg.header.frame_id)
+
+
+def leading_metadata(path: str | Path, limit_bytes: int = 1 << 20) -> dict[str, dict[str, str]]:
+    """The metadata records written before the first chunk or message of an MCAP file (where
+    the node's recorder and ``replay`` put theirs: :mod:`~steer_monitor.record.provenance`),
+    by name. Reads the file's head only (records up to ``limit_bytes`` each), so a file cut
+    short or damaged further on is read as far as that; {} when the head is not MCAP or holds
+    none. Never raises for the file's content."""
+    from mcap.exceptions import McapError
+    from mcap.records import Chunk, Message, Metadata
+    from mcap.stream_reader import StreamReader
+
+    out: dict[str, dict[str, str]] = {}
+    try:
+        with open(path, 'rb') as fh:
+            for record in StreamReader(fh, emit_chunks=True, record_size_limit=limit_bytes).records:
+                if isinstance(record, Chunk | Message):
+                    break
+                if isinstance(record, Metadata):
+                    out[record.name] = dict(record.metadata)
+    except (McapError, ValueError, struct.error, EOFError, UnicodeDecodeError):
+        pass
+    return out
 
 
 class _Sequential:

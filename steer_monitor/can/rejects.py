@@ -19,6 +19,8 @@ MAX_DETAIL = 200
 #: reason code -> what it means, as shown to engineers.
 REASONS: dict[str, str] = {
     'malformed_record': 'log record that cannot be parsed',
+    'long_line': 'bytes of a text log past 64 KiB without a line end (binary data, a run of NUL bytes after a power '
+                 'cut): skipped to the next line end',
     'gateway_record': "gateway's own record, not a bus frame (PGN beyond the NMEA 2000 range, e.g. Actisense status)",
     'multi_frame': 'multi-frame PGN reassembled by the gateway (over 8 bytes; the DBC maps single frames only)',
     'corrupt_chunk': 'MCAP chunk failing its CRC or decompression (its frames are not used)',

@@ -28,6 +28,7 @@ from steer_monitor.cli.output import dump_json
 from steer_monitor.errors import ParameterError
 from steer_monitor.params import load_params_file
 from steer_monitor.resources import default_config
+from steer_monitor.cli.options import add_config_option, add_force_option
 
 __all__ = ['markdown', 'register', 'run']
 
@@ -328,7 +329,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser('accuracy', help='accuracy study of the clearance estimator over simulated logs',
                        description='Simulate a grid of true clearances under several helm programmes, analyze '
                                    'each log, and tabulate error and 95 % interval coverage.')
-    p.add_argument('--config', help='ROS 2 parameters file (default: the packaged config/r18.yaml)')
+    add_config_option(p)
     p.add_argument('--programmes', default=','.join(A.PROGRAMMES),
                    help=f'comma-separated, from {", ".join(A.PROGRAMMES)} (default: all)')
     p.add_argument('--grid-2z-mm', help='true 2Z values, mm (default: ' + ','.join(map(str, A.GRID_2Z_MM)) + ')')
@@ -355,4 +356,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                    _parse_grid(a.grid_zgb_mm, A.GRID_ZGB_MM, '--grid-zgb-mm'),
                    a.seeds, a.jobs, a.out, a.json_out, command='steer-monitor accuracy ' + ' '.join(sys.argv[2:]),
                    sensitivity_seeds=a.sensitivity_seeds, off_grid=a.off_grid, long_seeds=a.long_seeds)
+    add_force_option(p)
     p.set_defaults(handler=handler)

@@ -32,6 +32,9 @@ a value from below)::
                                            "share_pct" (its share), "instants", "idle"}}
     torque_curve_knm                       [[deg, kN m, half-width of the 95 % band], ...]
     data                                   log, frames, span, steady-motion rows, max angle
+    window                                 the data analysed: {"until_utc" (--until, or null),
+                                           "motion_h" (--window-motion-h, null: all),
+                                           "motion_s" (the steady motion it held)}
 """
 
 from __future__ import annotations
@@ -45,14 +48,18 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from steer_monitor.atomic import atomic_write, check_target
-from steer_monitor.can.decodelog import decode_logs
+from steer_monitor.can.decodelog import clock_steps_json, decode_logs
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.setup import load_setup
 from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors, text_stream
 from steer_monitor.estimate.analyze import Analysis, analyze
 from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.estimate.batch import ClearanceEstimate
+from steer_monitor.estimate.window import before
+from steer_monitor.errors import ParameterError
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params, ram_share_warn_from_params
+from steer_monitor.utc import parse_utc, utc_text
+from steer_monitor.cli.options import add_config_option, add_force_option
 
 __all__ = ['analysis_json', 'analyze_log', 'register', 'run']
 
@@ -150,17 +157,22 @@ def analysis_json(a: Analysis) -> dict[str, Any]:
 
 
 def analyze_log(path: str | Path, config: str | Path | None = None, progress: bool = False,
-                date: datetime.date | None = None) -> tuple[Analysis, dict[str, Any]]:
+                date: datetime.date | None = None, until_ns: int | None = None,
+                window_motion_s: float = 0.0) -> tuple[Analysis, dict[str, Any]]:
     """The analysis of one log and its JSON. A log that breaks off or holds corrupt chunks is
-    analysed on what could be read; ``data.read_errors`` says what was wrong."""
+    analysed on what could be read; ``data.read_errors`` says what was wrong. ``until_ns``:
+    only the data before that time [ns]; ``window_motion_s``: only the last that many seconds
+    of steady motion (0: all), the window a node analyses (``estimator.window_motion_h``)."""
     config_path, params, db, smap = load_setup(config)
     gear = gear_from_params(params)
     rejects = RejectCounter()
     logs = decode_logs([path], db, smap, rejects, date=date)
+    signals = logs.signals if until_ns is None else before(logs.signals, until_ns)
     say = (lambda msg: print(f'  {msg} ...', file=sys.stderr)) if progress else None
     try:
-        a = analyze(gear, logs.signals, min_clearance_2z=min_clearance_2z_from_params(params),
-                    ram_share_warn=ram_share_warn_from_params(params), progress=say)
+        a = analyze(gear, signals, min_clearance_2z=min_clearance_2z_from_params(params),
+                    ram_share_warn=ram_share_warn_from_params(params), progress=say,
+                    window_motion_s=window_motion_s)
     except EstimateError as exc:
         if logs.errors and logs.frames == 0:    # nothing read: the reason is the log, first
             raise EstimateError(f'{logs.errors[0]}: nothing to analyse') from exc
@@ -171,16 +183,24 @@ def analyze_log(path: str | Path, config: str | Path | None = None, progress: bo
     out['data'] = {'log': str(path), 'frames': logs.frames, 'span_s': logs.span_s,
                    'rejects': dict(sorted(rejects.snapshot().counts.items())),
                    'read_errors': list(logs.errors),
+                   'clock_steps': clock_steps_json(logs.clock_steps), 'notes': list(logs.notes),
                    'config': str(config_path)}
+    out['window'] = {'until_utc': None if until_ns is None else utc_text(until_ns),
+                     'motion_h': window_motion_s / 3600.0 if window_motion_s > 0 else None,
+                     'motion_s': round(a.window.motion_s, 2) if a.window is not None else None}
     return a, out
 
 
 def run(path: str | Path, config: str | Path | None = None, json_out: str | Path | None = None,
         report: str | Path | None = None, out: TextIO | None = None, err: TextIO | None = None,
-        date: datetime.date | None = None) -> int:
-    """Analyse ``path``; 0 when it was read whole, 1 when it broke off or had corrupt parts
-    (the outputs are still written, from what could be read; one line per problem on
-    ``err``)."""
+        date: datetime.date | None = None, until_ns: int | None = None, window_motion_h: float = 0.0) -> int:
+    """Analyse ``path`` (the data before ``until_ns``, the last ``window_motion_h`` hours of
+    steady motion of them: 0 for all); 0 when it was read whole, 1 when it broke off or had
+    corrupt parts (the outputs are still written, from what could be read; one line per
+    problem on ``err``)."""
+    if not (math.isfinite(window_motion_h) and window_motion_h >= 0):
+        raise ParameterError(f'--window-motion-h must be a number of hours >= 0 (0: all the motion), '
+                             f'not {window_motion_h:g}')
     out = out or sys.stdout
     err = err or sys.stderr
     out = text_stream([None if str(json_out) == '-' else json_out, report], out, err)
@@ -190,8 +210,11 @@ def run(path: str | Path, config: str | Path | None = None, json_out: str | Path
             check_target(target, [path, config])
     t0 = time.perf_counter()
     date_notes('analyze', [path], date, err)
-    a, result = analyze_log(path, config, progress=sys.stderr.isatty(), date=date)
+    a, result = analyze_log(path, config, progress=sys.stderr.isatty(), date=date, until_ns=until_ns,
+                            window_motion_s=window_motion_h * 3600.0)
     result['analysis_s'] = round(time.perf_counter() - t0, 2)
+    for note in result['data']['notes']:
+        err.write(f'steer-monitor analyze: note: {path}: {note}\n')
     if json_out is not None:
         if str(json_out) == '-':
             dump_json(result, out)
@@ -233,8 +256,23 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    'the clearances with 95 % intervals, test the residual against the '
                                    'library of candidate effects and refit with the one the data support.')
     p.add_argument('log', help='the log file')
-    p.add_argument('--config', help='ROS 2 parameters file (default: packaged R-18)')
+    add_config_option(p)
     p.add_argument('--json', dest='json_out', metavar='OUT', help="write the JSON answer here ('-': stdout)")
     p.add_argument('--report', metavar='OUT.html', help='write a self-contained HTML report')
+    p.add_argument('--until', type=_utc_arg, metavar='UTC',
+                   help='analyse only the data before this time (ISO 8601, e.g. 2026-11-26T14:03:00Z): '
+                        'what the node had then')
+    p.add_argument('--window-motion-h', type=float, default=0.0, metavar='H',
+                   help='analyse only the last H hours of steady rudder motion, as the node does '
+                        '(its estimator.window_motion_h; default 0: all of it)')
     add_date_option(p)
-    p.set_defaults(handler=lambda a: run(a.log, a.config, a.json_out, a.report, date=a.date))
+    add_force_option(p)
+    p.set_defaults(handler=lambda a: run(a.log, a.config, a.json_out, a.report, date=a.date, until_ns=a.until,
+                                         window_motion_h=a.window_motion_h))
+
+
+def _utc_arg(text: str) -> int:
+    try:
+        return parse_utc(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None

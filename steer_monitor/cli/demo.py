@@ -20,10 +20,12 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from steer_monitor.errors import ParameterError
+from steer_monitor.cli.options import add_config_option, add_force_option
 
 __all__ = ['register', 'residual_text', 'run']
 
 LEVELS = {0: 'OK', 1: 'WARN', 2: 'ERROR', 3: 'STALE'}
+DEMO_FIRST_MOTION_S = 30.0
 
 
 def residual_text(values: dict[str, str]) -> str:
@@ -70,9 +72,12 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: 
               f'true gaps 2Z 0.600 mm, Z_gb 0.250 mm\n\n')
     context = rclpy.Context()
     rclpy.init(context=context)
+    # a minute of helm holds 50 s of motion: the demo analyses after 30 s of it, to show one
+    # (on a vessel the first waits for estimator.first_motion_s, four minutes of motion)
     overrides = overrides_from_file(str(config_path), {
         'can.interface': 'virtual', 'can.channel': channel,
-        'recording.directory': str(record_dir), 'recording.enabled': True})
+        'recording.directory': str(record_dir), 'recording.enabled': True,
+        'estimator.first_motion_s': DEMO_FIRST_MOTION_S})
     node = MonitorNode(parameter_overrides=overrides, context=context, config_path=str(config_path))
     listener = rclpy.create_node('steer_monitor_demo_listener', context=context)
     seen: dict[str, int] = {}
@@ -145,6 +150,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    'listener and an MCAP recording, for about a minute; then the '
                                    'load-sharing study and the report page of the recording.')
     p.add_argument('--out', default='out', help='output directory (default: out)')
-    p.add_argument('--config', help='ROS 2 parameters file (default: the packaged config/r18.yaml)')
+    add_config_option(p)
     p.add_argument('--program', default='hard_over_2', help='helm programme of the simulator')
+    add_force_option(p)
     p.set_defaults(handler=lambda a: run(a.out, a.config, a.program))

@@ -32,6 +32,7 @@ from steer_monitor.cli.output import add_date_option, date_notes, dump_json, rep
 from steer_monitor.errors import InputError, ParameterError
 from steer_monitor.params import NODE_NAME, load_params_file
 from steer_monitor.resources import config_dir
+from steer_monitor.cli.options import add_config_option, add_force_option
 
 __all__ = ['discover', 'register', 'run', 'write_config']
 
@@ -193,11 +194,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    'from address claims, and a proposed signals map, from CAN logs of any '
                                    'format read (candump, ASC, BLF, MCAP, CANboat plain, YDWG raw).')
     p.add_argument('logs', nargs='+', help='log files (a minute of the bus is enough)')
-    p.add_argument('--config', help='parameters file whose DBC and map say where inputs are looked for, and which '
-                                    '--write-config starts from (default: packaged R-18)')
+    add_config_option(p, role='its DBC and map say where inputs are looked for; --write-config starts from it')
     add_date_option(p)
     p.add_argument('--write-config', metavar='OUT.yaml', help='write the parameters file with the proposed map')
     p.add_argument('--pgn-database', metavar='canboat.json',
                    help="CANboat's PGN database, to name the PGNs the DBC does not know")
     p.add_argument('--json', action='store_true', help='print JSON')
+    add_force_option(p)
     p.set_defaults(handler=lambda a: run(a.logs, a.config, a.date, a.json, a.write_config, a.pgn_database))

@@ -13,6 +13,7 @@ from typing import TextIO
 
 from steer_monitor.atomic import ensure_dir, write_files
 from steer_monitor.cli.output import dump_json, report_read_errors
+from steer_monitor.cli.options import add_config_option, add_force_option
 
 __all__ = ['register', 'run']
 
@@ -60,7 +61,7 @@ def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = N
                 out.write(f"  {log['log']} holds the time of {log['same_time_as']}: counted once in the trend\n")
         if data['earlier_version_results']:
             out.write(f"{data['earlier_version_results']} kept results were written by an earlier version of "
-                      'steer_monitor (before stretches of uneven rams were left out): their logs analysed again\n')
+                      'steer_monitor (without the model check\'s clearances and verdict): their logs analysed again\n')
         out.write(f"{data['analysed']} analysed, {data['reused']} kept from earlier runs -> {page}\n")
     return report_read_errors('fleet', data['failed'], err)
 
@@ -75,9 +76,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     g = p.add_mutually_exclusive_group()
     g.add_argument('--workers', type=int, help='worker processes of a local cluster (default: the cores)')
     g.add_argument('--scheduler', metavar='ADDRESS', help='an existing Dask scheduler, e.g. tcp://host:8786')
-    p.add_argument('--config', help='parameters for vessels without their own steer_monitor.yaml')
+    add_config_option(p, default='the packaged R-18', role='for vessels without their own steer_monitor.yaml')
     p.add_argument('--json', action='store_true', help='print fleet.json')
     p.add_argument('--no-reports', dest='reports', action='store_false',
                    help="do not write each log's report page (DIR/reports/VESSEL/...; about a second a log)")
+    add_force_option(p)
     p.set_defaults(handler=lambda a: run(a.vessels, a.out, a.workers, a.scheduler, a.config, a.json,
                                          reports=a.reports))

@@ -17,11 +17,12 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from steer_monitor.can.decodelog import decode_logs
+from steer_monitor.can.decodelog import clock_steps_json, decode_logs
 from steer_monitor.can.rejects import REASONS, RejectCounter
 from steer_monitor.can.setup import load_setup
 from steer_monitor.can.devices import format_name
 from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors, table
+from steer_monitor.cli.options import add_config_option
 
 __all__ = ['inspect_log', 'register', 'run']
 
@@ -80,6 +81,8 @@ def inspect_log(path: str | Path, config: str | Path | None = None, date: dateti
         'reject_reasons': {k: REASONS[k] for k in sorted(snap.counts)},
         'reject_examples': dict(sorted(snap.last.items())),
         'read_error': '; '.join(logs.errors) or None,
+        'clock_steps': clock_steps_json(logs.clock_steps),
+        'notes': list(logs.notes),
     }
 
 
@@ -120,6 +123,8 @@ def run(path: str | Path, config: str | Path | None = None, as_json: bool = Fals
                                                    for k, n in s['rejects'].items()], out)
         else:
             out.write('\nno rejects\n')
+        for note in s['notes']:
+            out.write(f'\n{note}\n')
     return report_read_errors('inspect', _problems(s), err)
 
 
@@ -139,7 +144,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description='Frames, samples per signal, rejects per reason, time span and '
                                    'gaps over 1 s of a CAN log (candump, ASC, BLF, MCAP, CANboat plain, YDWG raw).')
     p.add_argument('log', help='the log file')
-    p.add_argument('--config', help='ROS 2 parameters file with the DBC and signal map (default: packaged R-18)')
+    add_config_option(p, role='its DBC and signal map decode the log')
     add_date_option(p)
     p.add_argument('--json', action='store_true', help='print JSON')
     p.set_defaults(handler=lambda a: run(a.log, a.config, a.json, date=a.date))

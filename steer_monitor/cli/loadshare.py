@@ -17,6 +17,7 @@ from steer_monitor.model.loadshare import LoadSharing, load_sharing_at
 from steer_monitor.model.study import Landmarks, landmarks
 from steer_monitor.params import gaps_from_params, gear_from_params, load_params_file
 from steer_monitor.resources import default_config
+from steer_monitor.cli.options import add_config_option, add_force_option
 
 __all__ = ['ROW_KEYS', 'loadshare_rows', 'register', 'run']
 
@@ -107,12 +108,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser('loadshare', help='ram / guide-beam load sharing over the rudder range',
                        description='Load sharing between ram and guide beam (paper 004), '
                                    'a row per step from 0 to the largest rudder angle.')
-    p.add_argument('--config', help='ROS 2 parameters file (default: the packaged config/r18.yaml)')
+    add_config_option(p)
     p.add_argument('--gap-2z', type=float, help='ram/bushing diametral clearance 2Z [mm] (default: config)')
     p.add_argument('--gap-zgb', type=float, help='slipper/guide-beam clearance Z_gb [mm] (default: config)')
     p.add_argument('--speed-kn', type=float, help='ship speed [kn] (default: the service speed)')
     p.add_argument('--step-deg', type=float, default=0.5, help='angle step [deg] (default 0.5)')
     p.add_argument('--plot', help='write the Fig. 7 plot to this PNG')
     p.add_argument('--json', action='store_true', help='print JSON')
+    add_force_option(p)
     p.set_defaults(handler=lambda a: run(a.config, a.gap_2z, a.gap_zgb, a.speed_kn, a.plot,
                                          a.step_deg, a.json))

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from steer_monitor import __version__
 from steer_monitor.cli import (accuracy, analyze, backlash, demo, discover, fit, fleet, inspect, loadshare, recover,
                                replay, report, run, simulate, study)
+from steer_monitor.atomic import command_scope
 from steer_monitor.errors import SteerMonitorError
 from steer_monitor.threads import single_blas_thread
 
@@ -66,7 +67,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _dispatch(args: argparse.Namespace, where: str) -> int:
     try:
-        return int(args.handler(args))
+        with command_scope(force=bool(getattr(args, 'force', False))):
+            return int(args.handler(args))
     except SteerMonitorError as exc:
         print(f'{where}: error: {_one_line(str(exc))}', file=sys.stderr)
         return 1

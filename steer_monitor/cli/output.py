@@ -68,9 +68,11 @@ def text_stream(targets: Sequence[str | Path | None], out: TextIO, err: TextIO) 
 def check_logs(paths: Sequence[str | Path]) -> None:
     """:class:`~steer_monitor.errors.ParameterError` naming the first log that is not a file
     (missing, a directory), before any work is done."""
+    from steer_monitor.atomic import note_input
     from steer_monitor.can.logs import log_path_problem
     from steer_monitor.errors import ParameterError
     for p in paths:
+        note_input(p)
         problem = log_path_problem(Path(p))
         if problem is not None:
             raise ParameterError(problem)

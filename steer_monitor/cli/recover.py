@@ -10,6 +10,7 @@ from typing import TextIO
 
 from steer_monitor.cli.output import dump_json, report_read_errors, text_stream
 from steer_monitor.record.recover import recover
+from steer_monitor.cli.options import add_force_option
 
 __all__ = ['register', 'run']
 
@@ -46,4 +47,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('file', help='the MCAP file')
     p.add_argument('--out', help='output file (default: <name>.recovered.mcap)')
     p.add_argument('--json', action='store_true', help='print JSON')
+    add_force_option(p)
     p.set_defaults(handler=lambda a: run(a.file, a.out, a.json))

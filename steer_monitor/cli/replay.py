@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import TextIO
 
 from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors, text_stream
+from steer_monitor.cli.options import add_config_option, add_force_option
 
 __all__ = ['register', 'run']
 
@@ -64,12 +65,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    'machine allows, writing the topics the node publishes. Deterministic.')
     p.add_argument('logs', nargs='+', metavar='LOG', help='log files (taken in order of their first frame)')
     p.add_argument('--out', required=True, metavar='OUT.mcap', help='the MCAP to write')
-    p.add_argument('--config', help='ROS 2 parameters file (default: packaged R-18)')
+    add_config_option(p, default='the parameters a recording was made with, else the packaged R-18')
     p.add_argument('--no-frames', dest='frames', action='store_false',
                    help='do not copy the raw frames into the output')
     p.add_argument('--json', action='store_true', help='print the summary as JSON')
     p.add_argument('--progress', action='store_true',
                    help='show the progress bar on stderr even when it is not a terminal')
     add_date_option(p)
+    add_force_option(p)
     p.set_defaults(handler=lambda a: run(a.logs, a.out, a.config, a.frames, a.json, date=a.date,
                                          progress=a.progress))

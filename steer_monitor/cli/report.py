@@ -1,10 +1,19 @@
 """``steer-monitor report LOG_OR_MCAP... --out DIR``: a page engineers read (``DIR/index.html``,
 self-contained, with its PNG plots beside it) from a CAN log, a node recording or a replay.
 
-The review runs on the batch path over the whole log (:mod:`steer_monitor.ashore.batchpath`); the
-model check (residual before and after an added effect, :func:`~steer_monitor.estimate.
-analyze.analyze`) on the last ``--analysis-hours`` of data (default 3), which is where the
-check is about the gear as it is now and keeps its cost bounded on a long log.
+The review runs on the batch path over the whole log (:mod:`steer_monitor.ashore.batchpath`): the
+plots and the clearances over time. The clearances the page and ``--json`` give, with their
+levels, are the model check's (:mod:`steer_monitor.ashore.modelcheck`: ``analyze`` of the last
+``--analysis-hours`` of data, default 3, which is ``steer-monitor analyze`` of a shorter log).
+
+``--json`` prints::
+
+    page, frames, errors, notes, estimates (windows reviewed), hard_overs_s
+    clearance_2z_mm, clearance_zgb_mm   {"value", "ci95": [lo, hi], "bounded",
+                                         "level": "OK" | "WARN" | "OVER LIMIT" | "not judged"}
+    k_gl_max                            {"value", "ci95", "bounded"} or null
+    model_check                         {"verdict", "effects", "message"} or null
+    model_check_note                    why there is none, or null
 """
 
 from __future__ import annotations
@@ -17,33 +26,14 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
+from steer_monitor.ashore.modelcheck import ANALYSIS_HOURS
 from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors
+from steer_monitor.cli.options import add_config_option, add_force_option
 
 __all__ = ['register', 'run']
 
 
-def _analysis(paths: list[Path], config_path: Path, params: dict[str, Any], since_ns: int,
-              date: datetime.date | None = None) -> tuple[Any, str]:
-    from steer_monitor.can.decodelog import decode_logs
-    from steer_monitor.can.rejects import RejectCounter
-    from steer_monitor.can.setup import can_setup
-    from steer_monitor.estimate.analyze import analyze
-    from steer_monitor.estimate.observe import EstimateError
-    from steer_monitor.params import gear_from_params, min_clearance_2z_from_params, ram_share_warn_from_params
-
-    db, smap = can_setup(params, config_path)
-    logs = decode_logs(paths, db, smap, RejectCounter(), since_ns=since_ns, date=date)   # breaks: in the review already
-    if logs.first_ns is None:
-        return None, 'no data for the model check'
-    try:
-        return analyze(gear_from_params(params), logs.signals,
-                       min_clearance_2z=min_clearance_2z_from_params(params),
-                       ram_share_warn=ram_share_warn_from_params(params)), ''
-    except EstimateError as exc:
-        return None, f'model check not made: {exc}'
-
-
-def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, analysis_hours: float = 3.0,
+def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, analysis_hours: float = ANALYSIS_HOURS,
         as_json: bool = False, out: TextIO | None = None, err: TextIO | None = None,
         date: datetime.date | None = None) -> int:
     """Review ``logs`` into ``out_dir``; 1 (one line per log on ``err``) when a log broke off
@@ -52,6 +42,7 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
 
     from steer_monitor.atomic import ensure_dir
     from steer_monitor.ashore.batchpath import review_logs
+    from steer_monitor.ashore.modelcheck import headline_json, headlines, model_check
     from steer_monitor.can.logs import LogError
     from steer_monitor.errors import ParameterError
     from steer_monitor.params import load_config
@@ -77,19 +68,22 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
     r = batch.review
     analysis, note = None, 'no data'
     if len(r.t_ns) and analysis_hours > 0:
-        analysis, note = _analysis(paths, config_path, params, int(r.t_ns[-1] - analysis_hours * 3.6e12), date)
+        analysis, note = model_check(paths, params, config_path, int(r.t_ns[-1]), analysis_hours, date)
     elif analysis_hours == 0:
         note = 'model check not asked for (--analysis-hours 0)'
-    page = write_review_report(report_input(paths, batch, params, config_path, analysis, note), out_dir)
+    inp = report_input(paths, batch, params, config_path, analysis, note)
+    page = write_review_report(inp, out_dir)
     elapsed = time.perf_counter() - t0
     if as_json:
-        e = r.estimates[-1].estimate if r.estimates else None
+        h2z, hzgb = headlines(analysis, inp.limit_2z, inp.limit_zgb, inp.warn_share)
         dump_json({'page': str(page), 'frames': batch.frames, 'errors': batch.errors, 'notes': r.notes,
                    'estimates': len(r.estimates), 'hard_overs_s': [round(h.seconds, 2) for h in r.hard_overs],
-                   'clearance_2z_mm': None if e is None else e.two_z.scaled(1e3),
-                   'clearance_zgb_mm': None if e is None else e.z_gb.scaled(1e3),
-                   'k_gl_max': None if e is None else e.k_gl_max.scaled(1.0),
-                   'model_check': None if analysis is None else analysis.verdict, 'elapsed_s': round(elapsed, 2)}, out)
+                   'clearance_2z_mm': headline_json(h2z), 'clearance_zgb_mm': headline_json(hzgb),
+                   'k_gl_max': None if analysis is None else analysis.final.k_gl_max.scaled(1.0, 3),
+                   'model_check': None if analysis is None else {
+                       'verdict': analysis.verdict, 'effects': [s.name for s in analysis.steps],
+                       'message': analysis.message},
+                   'model_check_note': note or None, 'elapsed_s': round(elapsed, 2)}, out)
     else:
         out.write(f'report of {batch.frames} frames written to {page} ({elapsed:.1f} s)\n')
     return report_read_errors('report', batch.errors, err)
@@ -103,9 +97,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    'over time, the model residual, hard-over times against SOLAS.')
     p.add_argument('logs', nargs='+', metavar='LOG_OR_MCAP', help='log files (taken in order of their first frame)')
     p.add_argument('--out', required=True, metavar='DIR', help='directory for index.html and the PNGs')
-    p.add_argument('--config', help='ROS 2 parameters file (default: packaged R-18)')
+    add_config_option(p)
     p.add_argument('--analysis-hours', type=float, default=3.0,
                    help='hours of data at the end for the model check (0: none; default 3)')
     p.add_argument('--json', action='store_true', help='print a summary as JSON')
     add_date_option(p)
+    add_force_option(p)
     p.set_defaults(handler=lambda a: run(a.logs, a.out, a.config, a.analysis_hours, a.json, date=a.date))

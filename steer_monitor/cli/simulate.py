@@ -19,6 +19,7 @@ from steer_monitor.errors import OutputError, ParameterError
 from steer_monitor.model.gear import Gaps
 from steer_monitor.params import gaps_from_params
 from steer_monitor import sim
+from steer_monitor.cli.options import add_config_option, add_force_option
 
 __all__ = ['parse_speed_profile', 'register', 'run', 'truth_path']
 
@@ -145,7 +146,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description='Simulate the declared plant of the gear and encode it as NMEA 2000 '
                                    'frames, to a file (.log, .blf, .mcap, with a truth JSON beside it) '
                                    'or live onto a python-can bus.')
-    p.add_argument('--config', help='ROS 2 parameters file (default: the packaged config/r18.yaml)')
+    add_config_option(p)
     p.add_argument('--program', default='hard_over_2',
                    help=f'helm programme, comma-separated steps from: {", ".join(sim.PROGRAMS)} '
                         '(e.g. "hard_over_2,zigzag_10,autopilot:600"); default hard_over_2')
@@ -165,6 +166,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--json', action='store_true', help='print the truth as JSON')
     p.add_argument('--i-know-this-is-a-real-bus', dest='real_bus', action='store_true',
                    help='allow --bus on a hardware interface (the frames are sent onto that bus)')
+    add_force_option(p)
     p.set_defaults(handler=lambda a: run(a.config, a.program, a.out, a.bus, a.speed_factor, a.seed,
                                          a.gap_2z, a.gap_zgb, a.speed_profile, a.effect, not a.no_noise,
                                          a.max_duration, a.json, real_bus=a.real_bus))

@@ -27,6 +27,7 @@ from steer_monitor.model.study import gap_sensitivity
 from steer_monitor.params import gear_from_params, load_params_file
 from steer_monitor.plots import gap_sensitivity_png, load_sharing_png
 from steer_monitor.resources import default_config
+from steer_monitor.cli.options import add_config_option, add_force_option
 
 __all__ = ['STUDY_2Z_MM', 'STUDY_ZGB_MM', 'register', 'run']
 
@@ -111,5 +112,6 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description='The R-18 load-sharing study on the packaged defaults: landmarks, '
                                    "the paper's claim about 2Z, backlash; plots and JSON in --out.")
     p.add_argument('--out', default='out', help='output directory (default: out)')
-    p.add_argument('--config', help='ROS 2 parameters file (default: the packaged config/r18.yaml)')
+    add_config_option(p)
+    add_force_option(p)
     p.set_defaults(handler=lambda a: run(a.out, a.config))

@@ -234,7 +234,11 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, 
         with np.errstate(over='ignore', invalid='ignore'):   # ill-posed fits in a wide region
             se = np.sqrt(np.maximum(np.array([f.cov_unscaled[k, k] for _, _, f in region_fits]), 0.0) * sigma2 * vif)
         ok = np.isfinite(c) & np.isfinite(se)
-        coefs[name] = Interval(float(best.coef[k]), float(np.min((c - 1.96 * se)[ok])), float(np.max((c + 1.96 * se)[ok])))
+        if ok.any():
+            coefs[name] = Interval(float(best.coef[k]), float(np.min((c - 1.96 * se)[ok])),
+                                   float(np.max((c + 1.96 * se)[ok])))
+        else:       # the data do not determine it anywhere in the region (a guide beam never loaded)
+            coefs[name] = Interval(float(best.coef[k]), None, None)
     angles = np.union1d(np.radians(np.arange(0.0, math.degrees(max_seen), 0.5)), [max_seen])
     bmat = basis(angles)
     tq = bmat @ best.coef[:basis.size]
@@ -278,7 +282,7 @@ def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: 
 
 def estimate_from_moments(gear: GearParams, mom: Moments, vif: float, grid_2z: NDArray = F.GRID_2Z,
                           grid_zgb: NDArray = F.GRID_ZGB) -> ClearanceEstimate:
-    """The same estimate from the binned statistics alone (the online path), with the
+    """The same estimate from the binned statistics alone (the batch path's windows), with the
     inflation factor supplied; no per-sample residuals (``residual`` empty, noise/smooth NaN)."""
     return estimate_in_box(gear, mom, grid_2z, grid_zgb, lambda *_: vif)
 

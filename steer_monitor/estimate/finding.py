@@ -46,7 +46,8 @@ class Finding:
             ``c_ns_per_m``, ``f_st_n``, ``k``, ``k_per_k``, ``offset_ram1_n`` ..., ``tau_s``,
             ``mass_kg``, and ``t_ref_k``, the oil temperature temp_friction is relative to).
         verdict: 'declared', 'effect' or 'unexplained'; message: the analysis's sentence.
-        rms_bar, systematic_bar, noise_bar: the final model's residual and its two parts [bar].
+        rms_bar, systematic_bar, noise_bar: the residual of the model judged (the adopted effects,
+            before any located nuisance) and its two parts [bar]: what the verdict weighed.
         motion_s: the steady motion the window held [s]; rows: the rows fitted.
     """
 
@@ -132,10 +133,11 @@ def finding_of(a: Analysis, t_ns: int, kind: str) -> Finding:
             oil = a.final_observations.oil_temp
             terms['t_ref_k'] = float(np.nanmean(oil)) if np.isfinite(oil).any() else math.nan
     motion = a.window.motion_s if a.window is not None else float(np.count_nonzero(a.observations.moving)) * 0.05
+    judged = a.model if a.model is not None else f      # the verdict's model, before any located nuisance
     return Finding(
         t_ns=int(t_ns), kind=kind, two_z=f.two_z, z_gb=f.z_gb, k_gl_max=f.k_gl_max,
         friction=(f.seal_friction.value, f.mu_bushing.value, f.mu_guide.value),
         torque_coef=tuple(float(c) for c in f.fit.coef[:basis_size]), max_angle=float(f.max_angle_seen),
-        model=a.adopted, terms=terms, verdict=a.verdict, message=a.message, rms_bar=f.rms / bar,
-        systematic_bar=f.smooth_rms / bar, noise_bar=f.noise_rms / bar, motion_s=motion, rows=int(f.rows))
+        model=a.adopted, terms=terms, verdict=a.verdict, message=a.message, rms_bar=judged.rms / bar,
+        systematic_bar=judged.smooth_rms / bar, noise_bar=judged.noise_rms / bar, motion_s=motion, rows=int(f.rows))
 

@@ -11,9 +11,9 @@ and the torque columns multiply it: the load is exact per sample however the spe
 drifts within a class. The least-squares fit therefore needs, per bin, only the count,
 the mean |alpha| and the moment matrix of u = [1, speed_ratio, z_1 .. z_m, y], where y is
 the ram force and z are per-sample quantities that some candidate effects multiply with
-(ram speed, oil temperature ...). Batch and online
-estimation share this form: the online estimator folds the same bins as the data come,
-so on the same data it reaches the same numbers; memory is bounded by the bin layout.
+(ram speed, oil temperature ...). Every estimate shares this form: ``analyze`` and the
+batch path's review (which folds the same bins as a log is read, so its memory is bounded by
+the bin layout, not the log's length) reach the same numbers on the same data.
 
 Bins: |alpha| in ``ANGLE_BIN`` steps (0.1 deg), sign of alpha, direction, ship speed in
 ``SPEED_BIN`` steps (0.25 kn) or one class "speed not on the bus".

@@ -34,8 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from steer_monitor.can.decoder import Series
-from steer_monitor.can.signals import PRESSURE_INPUTS
+from steer_monitor.model.inputs import PRESSURE_INPUTS, Series
 from steer_monitor.errors import SteerMonitorError
 
 __all__ = ['GRID_NS', 'HALF_WINDOW_NS', 'MOVING_RATE', 'SEGMENT_NS', 'STEADY_FRACTION', 'EstimateError', 'Observations',
@@ -227,7 +226,7 @@ def build_observations(signals: Mapping[str, Series], ram_area: float, *,
     """Align the decoded streams on the grid (see the module docstring).
 
     Args:
-        signals: per input name, its series (as :class:`~steer_monitor.can.decoder.Decoder`
+        signals: per input name, its series (as the decoder
             gives them). ``rudder_angle`` and the four pressures are required.
         ram_area: A_r [m^2].
         start_ns, end_ns: the grid's span (default: the angle's first and last sample).

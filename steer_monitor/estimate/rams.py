@@ -46,7 +46,7 @@ UNJUDGED, EVEN, UNEVEN, IDLE, OPPOSED = 'unjudged', 'even', 'uneven', 'idle', 'o
 #: they cannot for long, so one ram's starboard and port pressures are swapped in the map (a
 #: ram idle or uneven correlates near 0 or above; two rams of one gear near +1)
 OPPOSED_CORRELATION = -0.5
-#: instants of steady motion a log's stretches and the online estimator judge over (30 s of
+#: instants of steady motion a log's stretches and the live rams status judge over (30 s of
 #: it on the 50 ms grid)
 WINDOW_INSTANTS = 600
 #: instants a stretch's end moves by at a time (3 s of steady motion on the 50 ms grid)

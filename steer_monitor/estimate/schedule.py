@@ -21,7 +21,7 @@ from typing import Literal
 
 __all__ = ['FIRST_S', 'AnalysisSchedule', 'Kind']
 
-FIRST_S = 30.0          # seconds of steady motion before the first analysis
+FIRST_S = 240.0         # seconds of steady motion before the first analysis (``estimator.first_motion_s``)
 
 Kind = Literal['loop', 'estimate']
 

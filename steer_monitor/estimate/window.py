@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from steer_monitor.model.inputs import FAST_INPUTS, Series
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, build_observations
 
-__all__ = ['FAST_MARGIN_NS', 'SETTLE_NS', 'SLOW_MARGIN_NS', 'Window', 'WindowBuffer', 'compact', 'select']
+__all__ = ['FAST_MARGIN_NS', 'SETTLE_NS', 'SLOW_MARGIN_NS', 'Window', 'WindowBuffer', 'before', 'compact', 'select']
 
 FAST_MARGIN_NS = 2_000_000_000      # angle and pressures kept this far either side of motion
 SLOW_MARGIN_NS = 15_000_000_000     # speed and oil temperature (their interpolation bracket is 10 s)
@@ -98,6 +98,16 @@ def _keep(signals: Mapping[str, Series], spans: NDArray[np.int64], before_ns: in
         if before_ns is not None:
             keep |= ser.t_ns >= before_ns - margin
         out[name] = ser if keep.all() else Series(ser.t_ns[keep], ser.value[keep])
+    return out
+
+
+def before(signals: Mapping[str, Series], t_ns: int) -> dict[str, Series]:
+    """The samples of ``signals`` older than ``t_ns`` [ns]: the data a node's analysis at
+    ``t_ns`` had (a log cut there)."""
+    out: dict[str, Series] = {}
+    for name, ser in signals.items():
+        k = int(np.searchsorted(ser.t_ns, t_ns, side='left'))
+        out[name] = ser if k == len(ser.t_ns) else Series(ser.t_ns[:k], ser.value[:k])
     return out
 
 

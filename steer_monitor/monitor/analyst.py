@@ -62,6 +62,7 @@ class AnalystSettings:
     window_motion_s: float = 3600.0
     loop_every_s: float = 1800.0
     every_s: float = 300.0
+    first_s: float = 240.0
     min_clearance_2z: float = 0.0
     ram_share_warn: float = 0.15
 
@@ -149,7 +150,7 @@ class Analyst:
         self.gear = gear
         self.settings = settings
         self.buffer = WindowBuffer(ANALYSED, gear.ram_area, settings.window_motion_s)
-        self.schedule = AnalysisSchedule(settings.loop_every_s, settings.every_s)
+        self.schedule = AnalysisSchedule(settings.loop_every_s, settings.every_s, settings.first_s)
         self.finding: Finding | None = None        # the last applied
         self.model: tuple[Effect, ...] = ()         # the last loop's choice, as the job runner has it
         self.why: str | None = None                 # why the last job gave no finding
@@ -224,7 +225,7 @@ class Analyst:
                 msg = f'analysis state {path}: learned on another gear geometry; not used'
                 raise EstimateError(msg)
             signals = _signals_of(arrays)
-            schedule = AnalysisSchedule(self.settings.loop_every_s, self.settings.every_s)
+            schedule = AnalysisSchedule(self.settings.loop_every_s, self.settings.every_s, self.settings.first_s)
             schedule.restore(meta['schedule'])
             model = tuple(Effect.from_json(e) for e in meta['model'])
             finding = None if meta['finding'] is None else Finding.from_json(meta['finding'])

@@ -45,6 +45,7 @@ from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
 from steer_monitor.model.inputs import INPUTS, Sample
 from steer_monitor.model.loadshare import ShareScalar, load_sharing, load_sharing_scalar
 from steer_monitor.model.torque import TorqueTable
+from steer_monitor.utc import utc_text
 
 __all__ = ['ARRIVALS_KEPT_NS', 'NO_RESPONSE_ERR', 'NO_RESPONSE_NS', 'RATE_WINDOW_NS', 'LiveMonitor', 'LiveState',
            'Response']
@@ -207,7 +208,9 @@ class LiveMonitor:
                               'k_gl_max_lo': 'n/a' if k.lo is None else f'{k.lo:.3f}',
                               'k_gl_max_hi': 'n/a' if k.hi is None else f'{k.hi:.3f}',
                               'estimate_rows': str(int(finding.rows)),
-                              'estimate_motion_s': f'{finding.motion_s:.0f}'}
+                              'estimate_motion_s': f'{finding.motion_s:.0f}',
+                              'estimate_kind': finding.kind,
+                              'estimate_data_until_utc': utc_text(finding.t_ns)}
 
     @property
     def motion_s(self) -> float:

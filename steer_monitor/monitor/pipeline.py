@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 from collections import deque
 from collections.abc import Callable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -84,6 +85,7 @@ def settings_from_params(p: Mapping[str, Any]) -> AnalystSettings:
     """The analyses as the parameters configure them (``estimator.*``)."""
     return AnalystSettings(window_motion_s=p['estimator.window_motion_h'] * 3600.0,
                            loop_every_s=p['estimator.loop_every_motion_s'], every_s=p['estimator.every_motion_s'],
+                           first_s=p['estimator.first_motion_s'],
                            min_clearance_2z=min_clearance_2z_from_params(p),
                            ram_share_warn=ram_share_warn_from_params(p))
 
@@ -112,9 +114,19 @@ class ThreadedJobs:
         self.after = after
         self._pool: ThreadPoolExecutor | None = ThreadPoolExecutor(1, thread_name_prefix='steer_monitor-analysis')
         self._lock = threading.Lock()
+        self.submitted = 0
+        #: each job run: (kind, CPU seconds it took on the worker thread)
+        self.done: list[tuple[str, float]] = []
+
+    @property
+    def pending(self) -> int:
+        """Jobs submitted and not yet run to their end."""
+        return self.submitted - len(self.done)
 
     def _run(self, job: Job) -> Outcome:
+        c0 = time.thread_time()
         out = run_job(self.gear, self.settings, job, self.model)
+        self.done.append((job.kind, time.thread_time() - c0))
         self.model = out.model
         if self.after is not None:
             self.after(out)
@@ -124,6 +136,7 @@ class ThreadedJobs:
         with self._lock:
             if self._pool is None:
                 return None
+            self.submitted += 1
             return self._pool.submit(self._run, job)
 
     def result(self, handle: object) -> Outcome | None:   # type: ignore[override]

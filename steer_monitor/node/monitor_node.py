@@ -51,6 +51,7 @@ from steer_monitor.record.msgdefs import msgdef
 from steer_monitor.record.provenance import run_metadata
 from steer_monitor.record.recorder import Recorder
 from steer_monitor.threads import single_blas_thread
+from steer_monitor.utc import utc_text
 
 __all__ = ['MonitorNode', 'main']
 
@@ -213,16 +214,26 @@ class MonitorNode(Node):
     def _analysis_jobs(self, analyst: Analyst) -> ThreadedJobs:
         return ThreadedJobs(self.gear, analyst.settings, analyst.model, after=self._analysed)
 
+    def analyses_running(self) -> int:
+        """Analyses submitted and not yet run to their end (0 with the analyses off)."""
+        jobs = self.pipeline.jobs
+        return jobs.pending if isinstance(jobs, ThreadedJobs) else 0
+
+    def analyses_done(self) -> list[str]:
+        """Each analysis this pipeline ran, as 'kind CPU s' (for a benchmark or a log line)."""
+        jobs = self.pipeline.jobs
+        return [f'{kind} {cpu:.2f} s' for kind, cpu in jobs.done] if isinstance(jobs, ThreadedJobs) else []
+
     def _analysed(self, out: Outcome) -> None:
         """On the analysis thread, after each job: one line in the log."""
         if out.failed:
-            self._log().error(f'{out.kind} analysis of the data before {_utc(out.t_ns)}: {out.why}',
+            self._log().error(f'{out.kind} analysis of the data before {utc_text(out.t_ns)}: {out.why}',
                               throttle_duration_sec=GUARD_LOG_S)
         elif out.finding is not None:
-            self._log().info(f'{out.kind} analysis of the data before {_utc(out.t_ns)}: '
+            self._log().info(f'{out.kind} analysis of the data before {utc_text(out.t_ns)}: '
                              f'{describe(out.finding)}')
         else:
-            self._log().info(f'{out.kind} analysis of the data before {_utc(out.t_ns)}: none ({out.why})')
+            self._log().info(f'{out.kind} analysis of the data before {utc_text(out.t_ns)}: none ({out.why})')
 
     def _new_monitor(self) -> LiveMonitor:
         """A live model on the configured clearances and friction (until an analysis comes)."""
@@ -481,9 +492,3 @@ def main(args: Sequence[str] | None = None) -> int:
 
 if __name__ == '__main__':
     sys.exit(main())
-
-
-def _utc(t_ns: int) -> str:
-    """A data time as an ISO 8601 UTC time to the second."""
-    import datetime
-    return datetime.datetime.fromtimestamp(t_ns / 1e9, datetime.timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from steer_monitor.atomic import atomic_path, os_reason
+from steer_monitor.atomic import atomic_path, os_reason, overwrite_forced
 from steer_monitor.can.fastlogs import decompress_chunk, summary_section
 from steer_monitor.can.mcapio import Counted
 from steer_monitor.errors import SteerMonitorError
@@ -85,8 +85,8 @@ def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult
         same = dst.resolve() == src.resolve()
     except (OSError, RuntimeError):     # RuntimeError: a loop of symbolic links (Python 3.11)
         same = False
-    if same:
-        msg = f'recover would overwrite its input {src}; give another output'
+    if same and not overwrite_forced():
+        msg = f'cannot write {dst}: it is the input {src}; give another output, or --force to replace it'
         raise RecoverError(msg)
     try:
         fin = open(src, 'rb')

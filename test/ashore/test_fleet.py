@@ -86,9 +86,9 @@ def test_a_year_of_a_fleet_with_a_worker_killed(tmp_path, fleet_dirs, client):
     d_lo, d_hi = wearing['limit_date_ci95']
     assert d_lo <= true_date <= d_hi, (wearing, true_date)
     assert by['steady']['trend']['clearance_zgb_mm']['limit_date_utc'] is None
-    assert all(lg['verdict'] in ('OK', 'WARN', 'OVER LIMIT') for v in data['vessels'] for lg in v['logs'])
+    assert all(lg['level'] in ('OK', 'WARN', 'OVER LIMIT', 'not judged') for v in data['vessels'] for lg in v['logs'])
     log0 = by['wearing']['logs'][0]
-    assert log0['start_utc'].startswith('2026-01-01') and set(log0['clearance_zgb_mm']) == {'value', 'ci95', 'bounded'}
+    assert log0['start_utc'].startswith('2026-01-01') and set(log0['clearance_zgb_mm']) == {'value', 'ci95', 'bounded', 'level'}
 
     # each log's report page, from the same review, whole (written aside and renamed)
     for v in data['vessels']:
@@ -160,8 +160,8 @@ def test_a_ram_that_did_not_carry_its_share_and_results_of_an_earlier_version(tm
     pq.write_table(table.drop_columns(list(LATER_COLUMNS)), out / RESULTS_FILE)
     assert main(['fleet', str(tmp_path / 'tanker'), '--out', str(out), '--workers', '1', '--no-reports']) == 0
     said = capsys.readouterr().out.splitlines()
-    assert said[-2:] == ['2 kept results were written by an earlier version of steer_monitor (before stretches of '
-                         'uneven rams were left out): their logs analysed again',
+    assert said[-2:] == ['2 kept results were written by an earlier version of steer_monitor (without the model '
+                         "check's clearances and verdict): their logs analysed again",
                          f"2 analysed, 0 kept from earlier runs -> {out / 'index.html'}"]
 
 
@@ -280,7 +280,7 @@ def test_the_page_says_which_log_was_left_out_of_the_trend(r18_params):
 
 def test_a_vessel_whose_map_reverses_a_ram_has_its_logs_failed_with_the_reason(tmp_path, r18_params, can_db):
     """Its logs gave no estimate and no word of why (the review's note was not kept)."""
-    from steer_monitor.ashore.logresult import analyse_log
+    from steer_monitor.ashore.logresult import log_result
     from test.conftest import PKG
     db, smap = can_db
     s = sim.run(r18_params, sim.SimConfig(program='autopilot:600'), db, smap, seed=8)
@@ -295,7 +295,7 @@ def test_a_vessel_whose_map_reverses_a_ram_has_its_logs_failed_with_the_reason(t
     assert swapped != text
     cfg = tmp_path / 'vessel.yaml'
     cfg.write_text(swapped)
-    r = analyse_log('mv', str(log), str(cfg), 'x', 'y')
+    r = log_result('mv', str(log), str(cfg), 'x', 'y')
     assert r.error.startswith('the rams push against each other') and 'of ram 2 are read the wrong way round' in r.error
     assert r.error.endswith('; nothing estimated') and r.frames == len(s.frames)
-    assert analyse_log('mv', str(log), None, 'x', 'y').error == ''
+    assert log_result('mv', str(log), None, 'x', 'y').error == ''

@@ -39,12 +39,13 @@ def logs(tmp_path_factory, r18_params, can_db):
 
 @pytest.fixture(scope='module')
 def busy(tmp_path_factory):
-    """The R-18 parameters with the node's analyses made often (an estimate every 10 s of
-    motion), so a replay of a minute of data runs several, loops and estimates."""
+    """The R-18 parameters with the node's analyses made often (the first at 10 s of motion,
+    an estimate every 10 s), so a replay of a minute of data runs several, loops and estimates."""
     from test.conftest import R18_YAML
     d = tmp_path_factory.mktemp('config')
-    text = R18_YAML.read_text().replace('every_motion_s: 300.0', 'every_motion_s: 10.0')
-    assert 'every_motion_s: 10.0' in text
+    text = (R18_YAML.read_text().replace('every_motion_s: 300.0', 'every_motion_s: 10.0')
+            .replace('first_motion_s: 240.0', 'first_motion_s: 10.0'))
+    assert 'every_motion_s: 10.0' in text and 'first_motion_s: 10.0' in text
     (d / 'busy.yaml').write_text(text)
     (d / 'nmea2000_steering.dbc').write_text((R18_YAML.parent / 'nmea2000_steering.dbc').read_text())
     return d / 'busy.yaml'
@@ -270,3 +271,36 @@ def test_a_log_within_the_time_of_the_ones_before_it_is_said(tmp_path, logs, cap
         'frames lie within the time of the logs before it (the logs overlap, or one is a copy): refused as '
         'time_backwards')
     assert captured.err == f'steer-monitor replay: note: {note}\n'
+
+
+def test_a_recording_is_replayed_with_the_parameters_it_was_made_with(logs, busy, tmp_path):
+    """A replay of a recording made with other parameters (here: analyses every 10 s of
+    motion) without --config uses them, says so, and gives what a replay with that file gives."""
+    from steer_monitor.ashore.replay import replay
+
+    src = tmp_path / 'node.mcap'
+    replay([logs['all.log']], src, busy)                   # a recording that carries busy's parameters
+    a = replay([src], tmp_path / 'a.mcap', busy, frames=False)
+    b = replay([src], tmp_path / 'b.mcap', frames=False)
+    assert any('replayed with the parameters it was recorded with' in n for n in b.notes)
+    assert a.analyses == b.analyses > 3 and a.finding == b.finding
+    assert (tmp_path / 'a.mcap').read_bytes() == (tmp_path / 'b.mcap').read_bytes()
+
+
+def test_recorded_parameters_that_do_not_validate_are_refused_in_one_line(tmp_path):
+    from steer_monitor.ashore.replay import recorded_setup
+    from steer_monitor.can.mcapio import McapWriter
+    from steer_monitor.errors import ParameterError
+    from steer_monitor.params import load_config
+    from steer_monitor.record.provenance import run_metadata
+
+    _, params = load_config(None)
+    path = tmp_path / 'bad.mcap'
+    with McapWriter(path) as w:
+        for name, data in run_metadata(params).items():
+            if name.endswith('parameters'):
+                data = {**data, 'estimator.every_motion_s': '-5.0', 'estimator.half_life_h': '2.0'}
+            w.add_metadata(name, data)
+    with pytest.raises(ParameterError, match=r'bad\.mcap: the parameters it was recorded with: parameter '
+                                              r'estimator\.every_motion_s.*\(give --config\)$'):
+        recorded_setup(path)

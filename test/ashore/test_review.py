@@ -55,7 +55,7 @@ def test_hard_overs_as_the_live_monitor_times_them(r18_params, can_db, voyage):
 
 def test_a_stretch_where_a_ram_did_not_carry_its_share_is_left_out(r18_params, can_db, voyage):
     """The voyage (seed 21) with ram 2's chambers joined from 400 to 900 s: the review names
-    it in its notes and folds none of it, as analyze and the online estimator do."""
+    it in its notes and folds none of it, as analyze and the node's analyses do."""
     db, smap = can_db
     faulty = sim.run(r18_params, sim.SimConfig(program='voyage', max_duration_s=1500.0,
                                                effects=(sim.parse_effect('ram_bypass:ram=2,start_s=400,end_s=900'),)),

@@ -97,8 +97,10 @@ def _check(capsys, command: str, path: Path, out: Path, want_rc: int | None, wan
     rc, lines, _ = _run(capsys, _argv(command, path, out))
     assert rc in (0, 1), (command, path.name, rc, lines)
     assert not any('Traceback' in line or 'internal error' in line for line in lines), lines
-    if rc:
-        assert len(lines) == 1 and lines[0].startswith(f'steer-monitor {command}: error: '), lines
+    if rc:      # one line of error (notes, such as the parameters a recording was replayed with, aside)
+        errors = [line for line in lines if f'steer-monitor {command}: note: ' not in line]
+        assert len(errors) == 1 and errors[0].startswith(f'steer-monitor {command}: error: '), lines
+        lines = errors
     if want_rc is not None:
         assert rc == want_rc, (command, path.name, lines)
     if want is not None:
@@ -415,10 +417,16 @@ def test_a_generous_max_duration_costs_nothing_and_a_cut_is_said(tmp_path, capsy
     ['discover', '{log}', '--config', '{cfg}', '--write-config', '{cfg}'],
     ['accuracy', '--config', '{cfg}', '--out', '{cfg}'],
     ['simulate', '--config', '{cfg}', '--out', '{cfglog}'],
+    ['recover', '{log}', '--out', '{log}'],
+    ['inspect', '{log}', '--config', '{cfg}', '--json', '--force'],     # a command that writes nothing: no force
 ])
 def test_an_output_that_is_an_input_is_refused_and_the_input_kept(base, tmp_path, capsys, argv):
     """`replay X --out X` replaced the log with its replay, `discover X --write-config X` with
-    a YAML file: the measurements lost. Refused before any work, naming both."""
+    a YAML file: the measurements lost. Refused before any work, naming both, unless --force."""
+    if argv[0] == 'inspect':
+        with pytest.raises(SystemExit):     # inspect writes no file: it has no --force to give
+            main(argv)
+        return
     import shutil
     log = tmp_path / 'short.log'
     shutil.copy(base['log'], log)
@@ -433,8 +441,53 @@ def test_an_output_that_is_an_input_is_refused_and_the_input_kept(base, tmp_path
     rc, lines, _ = _run(capsys, [a.format(**fill) for a in argv])
     assert rc == 1 and len(lines) == 1, lines
     assert re.fullmatch(rf'steer-monitor {argv[0]}: error: cannot write .*: it is the input '
-                        rf'({re.escape(str(log))}|{re.escape(str(cfg))}); give another output', lines[0]), lines
+                        rf'({re.escape(str(log))}|{re.escape(str(cfg))}); give another output, or --force to '
+                        rf'replace it', lines[0]), lines
     assert {p: p.read_bytes() for p in before} == before
+
+
+@pytest.mark.parametrize('argv', [
+    ['discover', '{log}', '--write-config', '{packaged}'],     # no --config: the packaged file is the one in use
+    ['loadshare', '--plot', '{packaged_png}'],                  # a link's target is what a write replaces
+    ['simulate', '--out', '{packaged_log}'],
+])
+def test_a_packaged_file_is_not_written_over_unasked(base, tmp_path, capsys, argv):
+    """`discover LOG --write-config steer_monitor/config/r18.yaml` replaced the parameters every
+    command and `ros2 run` read. A packaged file is refused as an output unless --force."""
+    import shutil
+
+    from steer_monitor.resources import config_dir
+    log = tmp_path / 'short.log'
+    shutil.copy(base['log'], log)
+    packaged = config_dir() / 'r18.yaml'
+    packaged_log = config_dir() / 'nmea2000_steering.dbc'      # any packaged file; the suffix only picks a format
+    link = tmp_path / 'packaged.log'
+    link.symlink_to(packaged_log)
+    png = tmp_path / 'plot.png'
+    png.symlink_to(packaged)
+    fill = {'log': str(log), 'packaged': str(packaged), 'packaged_log': str(link), 'packaged_png': str(png)}
+    before = {p: p.read_bytes() for p in (packaged, packaged_log)}
+    rc, lines, _ = _run(capsys, [a.format(**fill) for a in argv])
+    assert rc == 1 and len(lines) == 1, lines
+    # the packaged parameters are also the input of a command given no --config: either reason is right
+    assert re.fullmatch(rf'steer-monitor {argv[0]}: error: cannot write .*: it is (a file of the installed package '
+                        rf'\(.*\)|the input {re.escape(str(packaged))}); give another output, or --force to '
+                        rf'replace it', lines[0]), lines
+    assert {p: p.read_bytes() for p in before} == before
+
+
+def test_force_writes_over_an_input(base, tmp_path, capsys):
+    """--force is the user saying so: discover's map written over the parameters file it read."""
+    import shutil
+    log = tmp_path / 'short.log'
+    shutil.copy(base['log'], log)
+    cfg = tmp_path / 'c.yaml'
+    shutil.copy(PKG / 'config' / 'r18.yaml', cfg)
+    shutil.copy(PKG / 'config' / 'nmea2000_steering.dbc', tmp_path)
+    rc, lines, _ = _run(capsys, ['discover', str(log), '--config', str(cfg), '--write-config', str(cfg), '--force'])
+    assert rc == 0 and not [ln for ln in lines if ': error:' in ln], lines
+    from steer_monitor.params import load_params_file
+    assert load_params_file(cfg)['can.dbc_file']
 
 
 def test_recover_of_a_loop_of_links_is_one_line(tmp_path, capsys):
@@ -507,7 +560,7 @@ def test_simulator_refuses_real_buses(capsys, bus):
 
 def test_clock_step_of_years_is_bounded_by_the_data(base, tmp_path, capsys):
     """A host clock stepped ten years ahead mid-log (and kept there): the step is confirmed,
-    not rejected; analyze's grid, the online estimator and replay's schedule follow the data,
+    not rejected; analyze's grid, the node's analyses and replay's schedule follow the data,
     not the decade between (before: 47-57 GiB asked for, replay hung); the estimate is the
     one without the step, to the rows the cut takes."""
     lines = base['long'].read_bytes().splitlines(keepends=True)

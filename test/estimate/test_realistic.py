@@ -133,7 +133,7 @@ def test_refusal_names_each_unphysical_sign(effect, coef):
 
 def test_whole_log_rows_are_the_same_when_cut(r18, simulate_signals):
     """The steadiness erosion looks one grid point past a span's ends, so a log cut in two
-    gives the same steady instants as the whole (the online folds rely on it)."""
+    gives the same steady instants as the whole (the node's window relies on it)."""
     signals, _ = simulate_signals('pumps:1,autopilot_db:120', 0.6, 0.25, seed=8)
     whole = build_observations(signals, r18.ram_area)
     cut = int(whole.t_ns[whole.t_ns.size // 2])

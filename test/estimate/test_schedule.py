@@ -20,8 +20,14 @@ def _runs(s: AnalysisSchedule, upto: float, step: float = 1.0) -> list[tuple[flo
     return out
 
 
-def test_loops_as_the_motion_doubles_then_every_period_with_estimates_between():
+def test_the_first_analysis_waits_for_four_minutes_of_motion():
     runs = _runs(AnalysisSchedule(loop_every_s=1800.0, every_s=300.0), 6000.0)
+    assert FIRST_S == 240.0 and runs[0] == (240.0, 'loop')
+    assert [m for m, k in runs if k == 'loop'] == [240.0, 480.0, 960.0, 1920.0, 3720.0, 5520.0]
+
+
+def test_loops_as_the_motion_doubles_then_every_period_with_estimates_between():
+    runs = _runs(AnalysisSchedule(loop_every_s=1800.0, every_s=300.0, first_s=30.0), 6000.0)
     loops = [m for m, k in runs if k == 'loop']
     assert loops == [30.0, 60.0, 120.0, 240.0, 480.0, 960.0, 1920.0, 3720.0, 5520.0]
     estimates = [m for m, k in runs if k == 'estimate']

@@ -28,8 +28,9 @@ EVERY_PROGRAMME = ('hard_over_2,hard_over_1,zigzag_10,zigzag_25,autopilot:300,au
 T0 = 1_767_225_600_000_000_000
 
 
-def _replay(params, can_db, program, gaps_mm, seed, effects=()):
-    """Every diagnostic the node would publish for a simulated run: [(t_s, status)]."""
+def _replay(params, can_db, program, gaps_mm, seed, effects=(), motion=False):
+    """Every diagnostic the node would publish for a simulated run: [(t_s, status)] (with
+    ``motion``: [(t_s, motion_s, status)], the steady motion counted by then)."""
     db, smap = can_db
     gear = gear_from_params(params)
     s = sim.run(params, sim.SimConfig(program=program, gaps=Gaps.from_mm(*gaps_mm),
@@ -41,9 +42,11 @@ def _replay(params, can_db, program, gaps_mm, seed, effects=()):
     t0 = int(s.frames.t_ns[0])
     out = []
     for f in s.frames.frames():
-        out += [o for o in p.feed(f) if isinstance(o, DiagOut)]
-    out += [o for o in p.finish() if isinstance(o, DiagOut)]
-    return [((o.t_ns - t0) / 1e9, st) for o in out for st in o.statuses]
+        out += [(o, mon.motion_s) for o in p.feed(f) if isinstance(o, DiagOut)]
+    out += [(o, mon.motion_s) for o in p.finish() if isinstance(o, DiagOut)]
+    if motion:
+        return [((o.t_ns - t0) / 1e9, m, st) for o, m in out for st in o.statuses]
+    return [((o.t_ns - t0) / 1e9, st) for o, _ in out for st in o.statuses]
 
 
 def test_no_alarm_on_a_clean_plant_in_any_programme(r18_params, can_db):
@@ -59,17 +62,50 @@ def test_no_alarm_on_a_clean_plant_in_any_programme(r18_params, can_db):
                      'steer_monitor: steering performance', 'steer_monitor: model health', 'steer_monitor: rams'}
 
 
-def test_a_worn_gear_is_found(r18_params, can_db):
-    statuses = _replay(r18_params, can_db, 'voyage', (0.75, 0.33), 5)
+@pytest.mark.slow
+@pytest.mark.parametrize('effect', [e for e in sim.EFFECTS if e not in sim.FAULTS])
+def test_no_clearance_alarm_whatever_the_effect(r18_params, can_db, effect):
+    """A clean gear (0.33 / 0.135 mm: off the estimator's grid) on a realistic voyage carrying
+    one effect the declared model lacks, each of the library's and one outside it: no clearance
+    WARN or ERROR once the inputs are fresh. With a library effect nothing alarms at all (the
+    analysis names it); with one outside it, model health carries the WARN and the clearances
+    say they are not judged."""
+    statuses = _replay(r18_params, can_db, 'realistic:1500', (0.33, 0.135), 29, effects=[effect])
+    fresh = next(t for t, st in statuses if st.name.endswith('CAN input') and st.level == OK)
+    alarms = {(st.name, LEVEL_NAMES[st.level]) for t, st in statuses if t >= fresh and st.level}
     clearances = [st for _, st in statuses if st.name.endswith('clearances')]
-    assert clearances[-1].level == ERROR and 'Z_gb' in clearances[-1].message
-    assert any(st.level == WARN for _, st in statuses if st.name.endswith('guide beam'))
+    assert clearances[-1].value('clearance_source') == 'estimated'
+    if effect in sim.OUTSIDE_LIBRARY:
+        assert alarms == {('steer_monitor: model health', 'WARN')}
+        assert clearances[-1].message.startswith('not judged: the model in use does not explain the pressures')
+    else:
+        assert alarms == set()
+        health = [st for _, st in statuses if st.name.endswith('model health')]
+        assert effect in health[-1].value('analysis_effects').split(', ')
+
+
+#: how much steady motion a worn gear's ERROR may take: the largest of six runs was 511 s
+#: (voyage and realistic:1500, seeds 3, 8, 13, 2Z 0.70 / Z_gb 0.30 mm; docs/accuracy-online.md)
+WORN_ERROR_WITHIN_MOTION_S = 600.0
+
+
+@pytest.mark.parametrize('program, seed', [('voyage', 5), ('realistic:1500', 21)])
+def test_a_worn_gear_is_found(r18_params, can_db, program, seed):
+    """2Z 0.70, Z_gb 0.30 mm (past the 0.25 mm limit): ERROR on Z_gb within
+    ``WORN_ERROR_WITHIN_MOTION_S`` of steady motion, not withdrawn after, and the guide beam's
+    WARN; seeds unlike the six the bound was measured on."""
+    statuses = _replay(r18_params, can_db, program, (0.70, 0.30), seed, motion=True)
+    clearances = [(m, st) for _, m, st in statuses if st.name.endswith('clearances')]
+    first = next(k for k, (_, st) in enumerate(clearances) if st.level == ERROR)
+    assert clearances[first][0] <= WORN_ERROR_WITHIN_MOTION_S
+    assert all(st.level == ERROR and 'Z_gb' in st.message for _, st in clearances[first:])
+    assert any(st.level == WARN for _, _, st in statuses if st.name.endswith('guide beam'))
 
 
 def test_an_undeclared_friction_is_named(r18_params, can_db):
     """Viscous friction the declared model lacks: the node's analysis names it, as analyze
     does, and judges the model with it (no alarm: the model then explains the pressures)."""
-    statuses = _replay(r18_params, can_db, 'hard_over_2,zigzag_20,zigzag_10', (0.45, 0.12), 5, effects=['viscous'])
+    statuses = _replay(r18_params, can_db, 'voyage', (0.45, 0.12), 5, effects=['viscous'])
     health = [st for _, st in statuses if st.name.endswith('model health')]
     assert 'added viscous' in health[-1].message and health[-1].value('analysis_effects') == 'viscous'
     assert all(st.level == OK for st in health)
@@ -298,7 +334,8 @@ def test_a_short_lived_early_fit_leaves_no_alarm_behind(r18_params, can_db):
         rejects = RejectCounter()
         mon = LiveMonitor(gear, gaps_from_params(r18_params), 'configured', friction_from_params(r18_params))
         diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(r18_params), smap, gear)
-        p = Pipeline(Decoder(db, smap, rejects), rejects, mon, diag, analyst_from_params(gear, r18_params))
+        early = {**r18_params, 'estimator.first_motion_s': 30.0}    # an analysis of the first 30 s of motion
+        p = Pipeline(Decoder(db, smap, rejects), rejects, mon, diag, analyst_from_params(gear, early))
         last = None
         for f, ta in zip(frames.frames(), arrival.tolist()):
             last = next((o for o in reversed(p.feed(dataclasses.replace(f, t_ns=ta))) if isinstance(o, DiagOut)), last)

@@ -41,7 +41,9 @@ class Harness:
         rclpy.init(context=self.context)
         overrides = overrides_from_file(str(R18_YAML), {
             'can.interface': 'virtual', 'can.channel': channel, 'recording.directory': str(tmp),
-            'estimator.state_file': str(tmp / 'estimator.npz'), **(extra or {})})
+            'estimator.state_file': str(tmp / 'estimator.npz'),
+            # the tests play a minute of helm in real time: an analysis after 30 s of motion
+            'estimator.first_motion_s': 30.0, **(extra or {})})
         self.node = MonitorNode(parameter_overrides=overrides, context=self.context)
         self.listener = rclpy.create_node('diag_listener', context=self.context)
         self.diags: list = []
@@ -202,7 +204,10 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
     # Replay of the recorded frames publishes what the node published live on them.
     from steer_monitor.ashore.replay import replay
     (tmp_path / 'replay').mkdir()
-    replayed = replay([path], tmp_path / 'replay' / 'replay.mcap')
+    config = tmp_path / 'replay' / 'r18.yaml'         # the node's parameters (the harness's first analysis)
+    config.write_text(R18_YAML.read_text().replace('first_motion_s: 240.0', 'first_motion_s: 30.0'))
+    assert 'first_motion_s: 30.0' in config.read_text()
+    replayed = replay([path], tmp_path / 'replay' / 'replay.mcap', config)
     assert replayed.errors == [] and replayed.frames == len(run1) + len(run2)
     live, again = _by_topic(path), _by_topic(tmp_path / 'replay' / 'replay.mcap')
     for topic in ('/steer_monitor/rudder', '/steer_monitor/load_sharing'):
@@ -220,7 +225,7 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
             assert _same(live[topic][t], again[topic][t]), (topic, t)
     assert any(m.data == 'estimated' for m in again['/steer_monitor/clearance_source'].values())
     # and the replay's batch writing gives the per-frame reference's file on the node's recording
-    replay([path], tmp_path / 'replay' / 'reference.mcap', reference=True)
+    replay([path], tmp_path / 'replay' / 'reference.mcap', config, reference=True)
     assert (tmp_path / 'replay' / 'reference.mcap').read_bytes() == (tmp_path / 'replay' / 'replay.mcap').read_bytes()
 
 

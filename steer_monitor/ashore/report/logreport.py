@@ -18,17 +18,17 @@ from steer_monitor.atomic import os_reason
 from steer_monitor.errors import OutputError
 from steer_monitor.monitor.messages import CLEARANCE_NAMES
 
-__all__ = ['online_track', 'remove_report_debris', 'report_input', 'write_report_dir']
+__all__ = ['published_track', 'remove_report_debris', 'report_input', 'write_report_dir']
 
 
-def online_track(paths: Sequence[Path]) -> Any:
+def published_track(paths: Sequence[Path]) -> Any:
     """The clearances a node published (``*/clearances``) in MCAP inputs, as an
-    :class:`~steer_monitor.ashore.report.review.OnlineTrack`, or None."""
+    :class:`~steer_monitor.ashore.report.review.PublishedTrack`, or None."""
     import numpy as np
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
 
-    from steer_monitor.ashore.report.review import OnlineTrack
+    from steer_monitor.ashore.report.review import PublishedTrack
     from steer_monitor.can.fastlogs import mcap_chunks_within_limits
 
     rows: list[tuple[int, list[float]]] = []
@@ -56,7 +56,7 @@ def online_track(paths: Sequence[Path]) -> Any:
     rows.sort(key=lambda r: r[0])
     t = np.array([r[0] for r in rows], np.int64)
     d = np.array([r[1] for r in rows], float)
-    return OnlineTrack(t, *(d[:, k] for k in range(6)))
+    return PublishedTrack(t, *(d[:, k] for k in range(6)))
 
 
 def _clearance_values(msg: Any) -> list[float] | None:
@@ -90,7 +90,7 @@ def report_input(paths: Sequence[Path], batch: Any, params: dict[str, Any], conf
     from steer_monitor.ashore.report.review import ReportInput
 
     return ReportInput(', '.join(Path(p).name for p in paths), gear_from_params(params), batch.review, analysis,
-                       analysis_note, online_track(paths), batch.frames, batch.rejects, batch.errors,
+                       analysis_note, published_track(paths), batch.frames, batch.rejects, batch.errors,
                        params['clearances.limit_2z_mm'] * 1e-3, params['clearances.limit_zgb_mm'] * 1e-3,
                        params['diagnostics.solas_hard_over_s'], params['hydraulics.pumps'],
                        params['hydraulics.ram_speed_per_pump_mm_s'] * 1e-3, params['diagnostics.clearance_warn_share'],

@@ -4,7 +4,7 @@ base64, and the same PNGs beside it) that an engineer reads without the tool.
 Plots: rudder angle and pressures over time; K_gl, F_r and F_gb against the rudder angle from
 the measured pressures (the paper's Fig. 7 from data, with the model's curves at the
 estimated clearances); the clearance estimates with their 95 % intervals over time (and the
-online estimates the vessel published, when the log is a node recording or a replay); the
+estimates the vessel published, when the log is a node recording or a replay); the
 residual before and after the added effect; the hard-over times against SOLAS.
 """
 
@@ -29,7 +29,7 @@ from steer_monitor.model.loadshare import load_sharing_at
 from steer_monitor.ashore.report.analysis import residual_figure
 from steer_monitor.ashore.review import ReviewResult
 
-__all__ = ['PLOTS', 'OnlineTrack', 'ReportInput', 'write_review_report']
+__all__ = ['PLOTS', 'PublishedTrack', 'ReportInput', 'write_review_report']
 
 #: file stem -> heading, in page order
 PLOTS = {
@@ -42,7 +42,7 @@ PLOTS = {
 
 
 @dataclass(frozen=True)
-class OnlineTrack:
+class PublishedTrack:
     """The clearances a node published (``~/clearances``), (n,) arrays [ns], [m]; NaN: none."""
 
     t_ns: NDArray[np.int64]
@@ -63,7 +63,7 @@ class ReportInput:
     review: ReviewResult
     analysis: Analysis | None
     analysis_note: str
-    online: OnlineTrack | None
+    published: PublishedTrack | None
     frames: int
     rejects: dict[str, int]
     errors: list[str]
@@ -172,10 +172,10 @@ def _clearances(inp: ReportInput, tx: _TimeAxis) -> Any:
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.0), sharex=True)
     for k, (name, attr, limit) in enumerate((('2Z', 'two_z', inp.limit_2z), ('Z_gb', 'z_gb', inp.limit_zgb))):
         a = ax[k]
-        if inp.online is not None and len(inp.online.t_ns):
-            o = inp.online
+        if inp.published is not None and len(inp.published.t_ns):
+            o = inp.published
             hours = tx(o.t_ns)
-            a.plot(hours, getattr(o, attr) * 1e3, '-', color='tab:purple', lw=0.8, label='online (published)')
+            a.plot(hours, getattr(o, attr) * 1e3, '-', color='tab:purple', lw=0.8, label='published by the node')
             lo, hi = getattr(o, attr + '_lo') * 1e3, getattr(o, attr + '_hi') * 1e3
             a.fill_between(hours, lo, np.where(np.isfinite(hi), hi, np.nan), color='tab:purple', alpha=0.15, lw=0)
         for w in r.estimates:
@@ -243,38 +243,40 @@ def _utc(t_ns: int) -> str:
 
 
 def _verdict_block(inp: ReportInput) -> str:
-    """One box per clearance: OK / WARN / OVER LIMIT (the live diagnostics' rule, on the whole
-    log's estimate and its interval), % of limit, the interval; then where the page came from."""
+    """One box per clearance: OK / WARN / OVER LIMIT (the live diagnostics' rule, on the model
+    check's estimate and its interval), or NOT JUDGED (no check, or its model does not explain
+    the pressures); % of limit, the interval; then where the page came from."""
     from steer_monitor import __version__
-    from steer_monitor.monitor.verdict import clearance_verdict
+    from steer_monitor.ashore.modelcheck import NOT_JUDGED, headlines
 
     esc = html.escape
     r = inp.review
     boxes = []
-    e = r.estimates[-1].estimate if r.estimates else None
-    for name, what, limit, iv in (('2Z', 'ram bushing', inp.limit_2z, None if e is None else e.two_z),
-                                  ('Z_gb', 'guide slipper', inp.limit_zgb, None if e is None else e.z_gb)):
+    what = {'2Z': 'ram bushing', 'Z_gb': 'guide slipper'}
+    for h in headlines(inp.analysis, inp.limit_2z, inp.limit_zgb, inp.warn_share):
+        name, iv, limit = h.name, h.estimate, h.limit
         if iv is None:
-            boxes.append(f'<div class="box NONE" id="verdict-{name}"><h2>{name} ({what})</h2>'
-                         f'<div class="big">NOT ESTIMATED</div><div>too little steady motion in the log</div></div>')
+            boxes.append(f'<div class="box NONE" id="verdict-{name}"><h2>{name} ({what[name]})</h2>'
+                         f'<div class="big">NOT ESTIMATED</div><div>{esc(inp.analysis_note or h.note)}</div></div>')
             continue
-        v = clearance_verdict(iv.value, iv.lo, iv.hi, limit, inp.warn_share)
         if iv.hi is None:
             point = f'at least {iv.lo * 1e3:.3f} mm ({iv.lo / limit:.0%} of the {limit * 1e3:.3f} mm limit)'
             rng = 'the ram never clamped at the loads seen: no upper bound'
         else:
-            point = f'{iv.value * 1e3:.3f} mm, {v.share:.0%} of the {limit * 1e3:.3f} mm limit'
+            point = f'{iv.value * 1e3:.3f} mm, {iv.value / limit:.0%} of the {limit * 1e3:.3f} mm limit'
             rng = f'95 % interval {iv.lo * 1e3:.3f} .. {iv.hi * 1e3:.3f} mm'
         if iv.hi is None and name == 'Z_gb':
             rng = 'the guide beam never touched at the loads seen: no upper bound'
-        boxes.append(f'<div class="box {v.label.split()[0]}" id="verdict-{name}"><h2>{name} ({what})</h2>'
-                     f'<div class="big">{v.label}</div><div>{esc(point)}</div><div>{esc(rng)}</div>'
-                     + (f'<div>{esc(v.note)}</div>' if v.note and iv.hi is not None else '') + '</div>')
+        css = 'NONE' if h.level == NOT_JUDGED else h.level.split()[0]
+        boxes.append(f'<div class="box {css}" id="verdict-{name}"><h2>{name} ({what[name]})</h2>'
+                     f'<div class="big">{h.level.upper()}</div><div>{esc(point)}</div><div>{esc(rng)}</div>'
+                     + (f'<div>{esc(h.note)}</div>' if h.note and iv.hi is not None else '') + '</div>')
     span = (f'{_utc(int(r.t_ns[0]))} to {_utc(int(r.t_ns[-1]))}' if len(r.t_ns) else 'no rudder angle')
     prov = (f'{esc(inp.gear_name)} gear; data {esc(span)}; parameters {esc(inp.config or "(packaged)")} '
             f'(SHA-256 {esc(inp.parameters_sha256[:12])}); steer_monitor {esc(__version__)}. '
-            f'OK below {inp.warn_share:.0%} of a limit; WARN from it, OVER LIMIT when even the interval\'s '
-            f'low end is past the limit.')
+            f'Clearances from the model check (analyze of the last hours of data); OK below '
+            f'{inp.warn_share:.0%} of a limit; WARN from it, OVER LIMIT when even the interval\'s low end is past '
+            f'the limit; NOT JUDGED when the model does not explain the pressures.')
     return f'<div class="verdict">{"".join(boxes)}</div><p class="prov">{prov}</p>'
 
 

@@ -50,7 +50,7 @@ def test_page_renders_every_plot_in_chromium(tmp_path, logs, which, capsys):
     out = tmp_path / 'rep'
     assert cli.main(['report', str(logs[which]), '--out', str(out), '--json']) == 0
     summary = json.loads(capsys.readouterr().out)
-    assert summary['estimates'] >= 1 and summary['hard_overs_s'] and summary['model_check'] in ('declared', 'effect')
+    assert summary['estimates'] >= 1 and summary['hard_overs_s'] and summary['model_check']['verdict'] in ('declared', 'effect')
     page = out / 'index.html'
     for key in PLOTS:
         assert (out / f'{key}.png').stat().st_size > 5000
@@ -63,10 +63,13 @@ def test_page_renders_every_plot_in_chromium(tmp_path, logs, which, capsys):
     assert '2Z (ram bushing)' in dom and 'hard-overs' in dom
     for name in ('2Z', 'Z_gb'):        # the verdict, first on the page
         box = re.search(rf'id="verdict-{name}">(.*?)</div></div>', dom)
-        assert box is not None and re.search(r'class="big">(OK|WARN|OVER LIMIT|NOT ESTIMATED)<', box.group(1)), name
+        assert box is not None and re.search(r'class="big">(OK|WARN|OVER LIMIT|NOT ESTIMATED|NOT JUDGED)<',
+                                             box.group(1)), name
     assert 'R-18 gear; data 20' in dom and 'SHA-256' in dom and 'steer_monitor 0.1.0' in dom
-    for key in ('clearance_2z_mm', 'clearance_zgb_mm', 'k_gl_max'):
-        assert set(summary[key]) == {'value', 'ci95', 'bounded'}
+    for key in ('clearance_2z_mm', 'clearance_zgb_mm'):      # with the level the page's verdict box shows
+        assert set(summary[key]) == {'value', 'ci95', 'bounded', 'level'}
+        assert summary[key]['level'] in ('OK', 'WARN', 'OVER LIMIT', 'not judged'), summary[key]
+    assert set(summary['k_gl_max']) >= {'value', 'ci95', 'bounded'}
     shot = tmp_path / 'shot.png'
     _chromium('--window-size=1200,5000', f'--screenshot={shot}', page.as_uri())
     import matplotlib.image as mpimg
@@ -77,22 +80,22 @@ def test_page_renders_every_plot_in_chromium(tmp_path, logs, which, capsys):
     assert ink[:4000].mean() > 0.3
 
 
-def test_online_estimates_of_a_replay_are_read(logs):
-    from steer_monitor.ashore.report.logreport import online_track
-    track = online_track([logs['replay']])
+def test_the_estimates_a_replay_published_are_read(logs):
+    from steer_monitor.ashore.report.logreport import published_track
+    track = published_track([logs['replay']])
     assert track is not None and len(track.t_ns) > 100
     assert (track.t_ns[1:] > track.t_ns[:-1]).all()
-    assert online_track([logs['log']]) is None
+    assert published_track([logs['log']]) is None
 
 
 def test_a_recording_with_a_chunk_declaring_too_much_is_not_handed_to_mcaps_reader(tmp_path, logs):
     """mcap's reader inflates a chunk to the size it declares (a hostile 100 kB chunk can
-    declare gigabytes): a file with a chunk beyond what one may hold gives no online track
+    declare gigabytes): a file with a chunk beyond what one may hold gives no published track
     (its frames' reader has said it is corrupt), nothing is inflated."""
     import struct
     import tracemalloc
 
-    from steer_monitor.ashore.report.logreport import online_track
+    from steer_monitor.ashore.report.logreport import published_track
     from steer_monitor.can.fastlogs import MAX_CHUNK_BYTES, mcap_chunks_within_limits
     data = bytearray(logs['replay'].read_bytes())
     pos = 8
@@ -105,7 +108,7 @@ def test_a_recording_with_a_chunk_declaring_too_much_is_not_handed_to_mcaps_read
     assert 3 << 30 > MAX_CHUNK_BYTES
     tracemalloc.start()
     try:
-        assert online_track([path]) is None
+        assert published_track([path]) is None
         _, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
@@ -134,7 +137,7 @@ def test_clearances_of_older_recordings_are_read(tmp_path):
     import math
 
     from steer_monitor.can.mcapio import McapWriter
-    from steer_monitor.ashore.report.logreport import online_track
+    from steer_monitor.ashore.report.logreport import published_track
     from steer_monitor.monitor.messages import CLEARANCE_NAMES
     from steer_monitor.record import msgdef
     dt = 'std_msgs/msg/Float64MultiArray'
@@ -147,7 +150,7 @@ def test_clearances_of_older_recordings_are_read(tmp_path):
             w.write('/steer_monitor/clearances', {'layout': {'dim': [{'label': ','.join(labels), 'size': len(labels),
                                                                       'stride': len(labels)}], 'data_offset': 0},
                                                   'data': data}, 1_700_000_000_000_000_000 + k * 1_000_000_000)
-    track = online_track([path])
+    track = published_track([path])
     assert track is not None and track.t_ns.tolist() == [1_700_000_000_000_000_000]
     assert math.isclose(track.z_gb[0], 0.25e-3) and math.isnan(track.two_z_hi[0])
 
@@ -159,7 +162,7 @@ def test_clearances_of_jointstate_recordings_are_read(tmp_path):
 
     from steer_monitor.can.mcapio import McapWriter
     from steer_monitor.record import msgdef
-    from steer_monitor.ashore.report.logreport import online_track
+    from steer_monitor.ashore.report.logreport import published_track
     dt = 'sensor_msgs/msg/JointState'
     names = ['gap_2z_m', 'gap_2z_lo_m', 'gap_2z_hi_m', 'gap_2z_bounded',
              'gap_zgb_m', 'gap_zgb_lo_m', 'gap_zgb_hi_m', 'gap_zgb_bounded']
@@ -173,7 +176,7 @@ def test_clearances_of_jointstate_recordings_are_read(tmp_path):
                 'header': {'stamp': {'sec': 0, 'nanosec': 0}, 'frame_id': ''}, 'name': n, 'position': v,
                 'velocity': [math.nan] * len(v), 'effort': [math.nan] * len(v)},
                 1_700_000_000_000_000_000 + k * 1_000_000_000)
-    track = online_track([path])
+    track = published_track([path])
     assert track is not None and track.t_ns.tolist() == [1_700_000_000_000_000_000]
     assert math.isclose(track.two_z[0], 0.6e-3) and math.isclose(track.z_gb_hi[0], 0.27e-3)
     assert math.isnan(track.two_z_hi[0])

@@ -1,0 +1,27 @@
+"""Options several commands share, declared once: the parameters file and ``--force``."""
+
+from __future__ import annotations
+
+import argparse
+
+__all__ = ['CONFIG_HELP', 'add_config_option', 'add_force_option']
+
+#: what ``--config`` means in every command; a command adds what its default is, when it differs
+CONFIG_HELP = 'ROS 2 parameters file of the gear (default: the packaged R-18, config/r18.yaml)'
+
+
+def add_config_option(parser: argparse.ArgumentParser, default: str | None = None, role: str | None = None) -> None:
+    """``--config FILE``: the parameters file. ``default`` replaces the default's words (e.g.
+    replay: the parameters recorded in an MCAP); ``role`` says what else the command does with
+    it (e.g. discover: which file ``--write-config`` starts from)."""
+    text = CONFIG_HELP if default is None else f'ROS 2 parameters file of the gear (default: {default})'
+    if role:
+        text = f'{text}; {role}'
+    parser.add_argument('--config', metavar='FILE', help=text)
+
+
+def add_force_option(parser: argparse.ArgumentParser) -> None:
+    """``--force``: let an output replace a file the command reads or a packaged file (refused
+    otherwise, with one line saying which)."""
+    parser.add_argument('--force', action='store_true',
+                        help='write an output even over a file this command reads or a file of the installed package')

@@ -1,0 +1,27 @@
+"""Data times as text: ISO 8601 UTC, to the second (``2026-11-26T14:03:00Z``), and back. Pure."""
+
+from __future__ import annotations
+
+import datetime
+
+__all__ = ['parse_utc', 'utc_text']
+
+
+def utc_text(t_ns: int) -> str:
+    """A data time [ns since the epoch] as ISO 8601 UTC to the second (``...T14:03:00Z``)."""
+    return datetime.datetime.fromtimestamp(t_ns // 1_000_000_000, datetime.timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')
+
+
+def parse_utc(text: str) -> int:
+    """An ISO 8601 time (``2026-11-26T14:03:00Z``, ``2026-11-26 14:03``, an offset such as
+    ``+01:00``; without a zone it is UTC) as ns since the epoch. Raises ValueError naming the
+    text when it is not one."""
+    try:
+        t = datetime.datetime.fromisoformat(text.strip().replace('Z', '+00:00').replace('z', '+00:00'))
+    except ValueError:
+        msg = f'{text!r} is not an ISO 8601 time such as 2026-11-26T14:03:00Z'
+        raise ValueError(msg) from None
+    if t.tzinfo is None:
+        t = t.replace(tzinfo=datetime.timezone.utc)
+    delta = t - datetime.datetime(1970, 1, 1, tzinfo=datetime.timezone.utc)
+    return (delta.days * 86_400 + delta.seconds) * 1_000_000_000 + delta.microseconds * 1000
