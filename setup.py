@@ -40,7 +40,10 @@ setup(
     description='Condition monitor for ram-type hydraulic steering gear (ROS 2).',
     license='Apache-2.0',
     # ashore only (steer-monitor fleet), not the node's: Dask distributed and Parquet
-    extras_require={'test': ['pytest', 'hypothesis', 'rosbags'], 'ashore': ['dask[distributed]>=2024.1', 'pyarrow>=14']},
+    extras_require={
+        'test': ['pytest', 'hypothesis', 'rosbags'],
+        'ashore': ['dask[distributed]>=2024.1', 'pyarrow>=14'],
+    },
     entry_points={
         'console_scripts': [
             'steer-monitor = steer_monitor.cli.main:main',

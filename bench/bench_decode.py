@@ -14,9 +14,9 @@ from pathlib import Path
 
 from steer_monitor import sim
 from steer_monitor.can import Decoder, collect
-from steer_monitor.can.fastlogs import read_log_fast
-from steer_monitor.can.logs import LogWriter, iter_log, read_log_arrays
-from steer_monitor.can.setup import can_setup
+from steer_monitor.can.busconfig import can_setup
+from steer_monitor.logfiles.fastlogs import read_log_fast
+from steer_monitor.logfiles.logs import LogWriter, iter_log, read_log_arrays
 from steer_monitor.params import load_params_file
 from steer_monitor.resources import default_config
 

@@ -10,7 +10,8 @@ runs the node's pipeline and its jobs, one after the other, as the node's worker
 each job's CPU time, by kind (``loop``: the residual loop on the window; ``estimate``: the
 last loop's model refitted), and their sum over the data's span: the share of one core the
 node's worker needs at real time; then the steady state, a loop and an estimate on a window
-full of motion, and the share of a core they need on a gear that never stops. One BLAS thread, as the node and the command line set it.
+full of motion, and the share of a core they need on a gear that never stops. One BLAS thread, as the node and the
+command line set it.
 
 Run: ``python -m bench.bench_estimate`` (part of ``make bench``).
 """
@@ -39,10 +40,10 @@ def main() -> int:
 
     from steer_monitor import sim
     from steer_monitor.ashore.replay import replay
+    from steer_monitor.can.busconfig import can_setup
     from steer_monitor.can.decoder import Decoder
-    from steer_monitor.can.fastlogs import write_candump_arrays
-    from steer_monitor.can.setup import can_setup
     from steer_monitor.estimate.analyze import analyze
+    from steer_monitor.logfiles.fastlogs import write_candump_arrays
     from steer_monitor.monitor.analyst import SyncJobs
     from steer_monitor.params import gear_from_params, load_params_file
     from steer_monitor.resources import default_config

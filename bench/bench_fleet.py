@@ -22,8 +22,8 @@ import time
 from pathlib import Path
 
 from steer_monitor import sim
-from steer_monitor.can.fastlogs import write_candump_arrays
-from steer_monitor.can.setup import load_setup
+from steer_monitor.can.busconfig import load_setup
+from steer_monitor.logfiles.fastlogs import write_candump_arrays
 from steer_monitor.model import Gaps
 
 LOGS = 32

@@ -18,8 +18,8 @@ import time
 import numpy as np
 
 from steer_monitor.model import load_sharing, load_sharing_scalar
-from steer_monitor.model.loadshare import friction_normals
 from steer_monitor.model.friction import normal_forces
+from steer_monitor.model.loadshare import friction_normals
 from steer_monitor.params import gear_from_params, load_params_file
 from steer_monitor.resources import default_config
 

@@ -26,9 +26,9 @@ def make_log(path: Path) -> int:
     import numpy as np
 
     from steer_monitor import sim
-    from steer_monitor.can.fastlogs import write_candump_arrays
+    from steer_monitor.can.busconfig import can_setup
     from steer_monitor.can.frames import FrameArrays
-    from steer_monitor.can.setup import can_setup
+    from steer_monitor.logfiles.fastlogs import write_candump_arrays
     from steer_monitor.params import load_params_file
     from steer_monitor.resources import default_config
 

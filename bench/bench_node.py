@@ -91,7 +91,7 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
     from rclpy.executors import SingleThreadedExecutor
 
     from steer_monitor import sim
-    from steer_monitor.can.setup import can_setup
+    from steer_monitor.can.busconfig import can_setup
     from steer_monitor.node.monitor_node import MonitorNode
     from steer_monitor.node.params_ros import overrides_from_file
     from steer_monitor.params import load_params_file
@@ -183,7 +183,7 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
     print(f'  resident memory      : {rss_start:.0f} MB at start, {rss_end:.0f} MB at end '
           f'(process, simulator included; target < 250 MB, no growth)')
     if analyses:
-        print(f'  analyses             : ' + ', '.join(analyses))
+        print('  analyses             : ' + ', '.join(analyses))
     if record:
         print(f'  recording            : {recorded / 1e6:.1f} MB in {wall:.0f} s of bus, '
               f'{recorded / 1e9 * 3600 / wall:.2f} GB an hour, {recorded / 1e9 * 86400 / wall:.1f} GB a day')
@@ -193,7 +193,10 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
     if cpu_trace:
         print('  process CPU per 10 s : ' + ', '.join(f'{100 * c:.0f}' for c in cpu_trace) + ' % (simulator included)')
     by_thread = sorted(((v - threads0.get(k, 0.0), k) for k, v in threads1.items()), reverse=True)
-    print('  CPU by thread        : ' + ', '.join(f'{k} {100 * v / (wall + 1.0):.1f} %' for v, k in by_thread if v > 0.005 * wall))
+    print(
+        '  CPU by thread        : '
+        + ', '.join(f'{k} {100 * v / (wall + 1.0):.1f} %' for v, k in by_thread if v > 0.005 * wall)
+    )
     return {'sent': sent, 'dropped': dropped, 'cpu_share': node_cpu, 'p99_ms': float(np.percentile(lat, 99)),
             'rss_start_mb': rss_start, 'rss_end_mb': rss_end, 'recorded_bytes': recorded if record else 0}
 

@@ -20,7 +20,7 @@ Measured, each case in a fresh process (so its peak resident memory is its own):
   left out), its per-frame reference (``reference=True``: every frame through the pipeline one at a time,
   every message built and written alone; the same file), and a plain reader of the same file
   (python-can's ``CanutilsLogReader`` for candump; for MCAP, mcap-ros2's decoder through
-  :func:`steer_monitor.can.mcapio.iter_mcap_frames`, python-can having no MCAP reader): on the
+  :func:`steer_monitor.logfiles.mcapio.iter_mcap_frames`, python-can having no MCAP reader): on the
   whole one-hour log; on the 24-hour log, its first ``PER_FRAME_LIMIT`` frames (a file of its
   own, made with the logs: replay streams, so its rate and memory do not depend on the log's
   length; the whole day would take several minutes, the reference a quarter of an hour).
@@ -50,9 +50,9 @@ def _make_logs() -> dict[str, Path]:
     """The logs (made once): {'1h.log', '1h.mcap', '24h.log', '24h.mcap'} and the first
     ``PER_FRAME_LIMIT`` frames of the last two, '24h-first.log' and '24h-first.mcap'."""
     from steer_monitor import sim
-    from steer_monitor.can.fastlogs import write_candump_arrays
-    from steer_monitor.can.mcapio import McapWriter
-    from steer_monitor.can.setup import can_setup
+    from steer_monitor.can.busconfig import can_setup
+    from steer_monitor.logfiles.fastlogs import write_candump_arrays
+    from steer_monitor.logfiles.mcapio import McapWriter
     from steer_monitor.params import load_params_file
     from steer_monitor.resources import default_config
 
@@ -90,7 +90,7 @@ def _make_logs() -> dict[str, Path]:
 
 def _first_frames(paths: dict[str, Path]) -> None:
     """The first ``PER_FRAME_LIMIT`` frames of the 24-hour logs, as files of their own."""
-    from steer_monitor.can.logs import LogWriter, iter_log
+    from steer_monitor.logfiles.logs import LogWriter, iter_log
     for name in ('24h.log', '24h.mcap'):
         src, dst = paths[name], paths[name.replace('24h', '24h-first')]
         if dst.exists():
@@ -116,7 +116,7 @@ def _case(kind: str, path: str) -> dict:
                                      'estimates': len(run.review.estimates)}
     elif kind == 'reader':
         if path.endswith('.mcap'):
-            from steer_monitor.can.mcapio import iter_mcap_frames
+            from steer_monitor.logfiles.mcapio import iter_mcap_frames
             with open(path, 'rb') as fh:
                 frames = sum(1 for _ in iter_mcap_frames(fh))
         else:

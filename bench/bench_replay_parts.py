@@ -41,8 +41,8 @@ HOUR_PROGRAM = 'voyage,autopilot:2100'
 
 def _make_log(path: Path) -> int:
     from steer_monitor import sim
-    from steer_monitor.can.fastlogs import write_candump_arrays
-    from steer_monitor.can.setup import can_setup
+    from steer_monitor.can.busconfig import can_setup
+    from steer_monitor.logfiles.fastlogs import write_candump_arrays
     from steer_monitor.params import load_params_file
     from steer_monitor.resources import default_config
 
@@ -71,10 +71,10 @@ def _timed(spent: dict[str, float], part: str, fn):
 def _instrument(spent: dict[str, float]) -> None:
     import steer_monitor.ashore.replay as R
     from steer_monitor.can.decoder import Decoder
-    from steer_monitor.can.mcapio import McapWriter
+    from steer_monitor.logfiles.mcapio import McapWriter
+    from steer_monitor.monitor.analyst import Analyst, SyncJobs
     from steer_monitor.monitor.diagnostics import DiagnosticsBuilder
     from steer_monitor.monitor.live import LiveMonitor
-    from steer_monitor.monitor.analyst import Analyst, SyncJobs
 
     Decoder.decode = _timed(spent, 'decode', Decoder.decode)
     Decoder.decode_run = _timed(spent, 'decode', Decoder.decode_run)
@@ -126,8 +126,10 @@ def main() -> int:
     print(f'python-can CanutilsLogReader: {n / t_can:12,.0f} frames/s ({t_can:.2f} s)')
     print(f'replay:                       {n / t_plain:12,.0f} frames/s ({t_plain:.2f} s; '
           f'{n / t_plain / (n / t_can):.3f} x python-can)')
-    print(f'per-frame reference:          {n / t_ref:12,.0f} frames/s ({t_ref:.2f} s; replay is {t_ref / t_plain:.2f} x '
-          f'faster; {"the same bytes" if same else "FILES DIFFER"})')
+    print(
+        f'per-frame reference:          {n / t_ref:12,.0f} frames/s ({t_ref:.2f} s; replay is {t_ref / t_plain:.2f} x '
+        f'faster; {"the same bytes" if same else "FILES DIFFER"})'
+    )
     print(f'replay, timed:                {n / t_timed:12,.0f} frames/s ({t_timed:.2f} s)')
     parts = dict(spent)
     parts['reading and schedule (rest)'] = t_timed - sum(spent.values())

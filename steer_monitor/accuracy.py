@@ -47,10 +47,30 @@ from steer_monitor.model.gear import Gaps
 from steer_monitor.model.loadshare import STAGE_CLAMPED, load_sharing
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
 
-__all__ = ['FRACTIONS', 'GRID_2Z_MM', 'GRID_ZGB_MM', 'LONG_PROGRAMMES', 'MAGNITUDE', 'PAIRS', 'PROGRAMMES', 'SIZE', 'Case',
-           'CaseResult', 'cases', 'coverage_interval', 'long_voyage_cases', 'model_misfit', 'off_grid_cases',
-           'programme_text', 'run_case',
-           'scaled_effect', 'sensitivity_cases', 'summarize', 'summarize_sensitivity', 'true_forces']
+__all__ = [
+    'FRACTIONS',
+    'GRID_2Z_MM',
+    'GRID_ZGB_MM',
+    'LONG_PROGRAMMES',
+    'MAGNITUDE',
+    'PAIRS',
+    'PROGRAMMES',
+    'SIZE',
+    'Case',
+    'CaseResult',
+    'cases',
+    'coverage_interval',
+    'long_voyage_cases',
+    'model_misfit',
+    'off_grid_cases',
+    'programme_text',
+    'run_case',
+    'scaled_effect',
+    'sensitivity_cases',
+    'summarize',
+    'summarize_sensitivity',
+    'true_forces',
+]
 
 GRID_2Z_MM = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6)
 GRID_ZGB_MM = (0.05, 0.1, 0.15, 0.2, 0.25, 0.3, 0.35)
@@ -133,7 +153,7 @@ class CaseResult:
         effects adopted: the misfit in excess of the clean twin's (in quadrature; errors of
         independent origins add so), 0 where it is below."""
         base = self.misfit_clean_bar ** 2
-        return (math.sqrt(max(self.misfit_bar ** 2 - base, 0.0)), math.sqrt(max(self.misfit_after_bar ** 2 - base, 0.0)))
+        return (math.sqrt(max(self.misfit_bar**2 - base, 0.0)), math.sqrt(max(self.misfit_after_bar**2 - base, 0.0)))
 
     def covered(self, quantity: str) -> bool:
         lo, hi = self.ci95[quantity]
@@ -226,9 +246,14 @@ def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: 
     }
     est: dict[str, float] = {}
     ci: dict[str, tuple[float | None, float | None]] = {}
-    for q, iv, k in (('clearance_2z_mm', f.two_z, 1e3), ('clearance_zgb_mm', f.z_gb, 1e3), ('k_gl_max', f.k_gl_max, 1.0),
-                     ('seal_friction_n', f.seal_friction, 1.0), ('mu_bushing', f.mu_bushing, 1.0),
-                     ('mu_guide', f.mu_guide, 1.0)):
+    for q, iv, k in (
+        ('clearance_2z_mm', f.two_z, 1e3),
+        ('clearance_zgb_mm', f.z_gb, 1e3),
+        ('k_gl_max', f.k_gl_max, 1.0),
+        ('seal_friction_n', f.seal_friction, 1.0),
+        ('mu_bushing', f.mu_bushing, 1.0),
+        ('mu_guide', f.mu_guide, 1.0),
+    ):
         est[q], ci[q] = _scaled(iv, k)
     bar = gear.ram_area * 1e5
     model = a.model or f

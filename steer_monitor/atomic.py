@@ -42,9 +42,23 @@ from typing import IO, Any
 from steer_monitor.errors import OutputError
 from steer_monitor.resources import config_dirs
 
-__all__ = ['STALE_AFTER_S', 'atomic_path', 'atomic_write', 'check_target', 'command_scope', 'ensure_dir', 'is_stream',
-           'note_input', 'os_reason', 'overwrite_forced', 'remove_stale_temporaries', 'temporary_name', 'write_bytes', 'write_files',
-           'write_text']
+__all__ = [
+    'STALE_AFTER_S',
+    'atomic_path',
+    'atomic_write',
+    'check_target',
+    'command_scope',
+    'ensure_dir',
+    'is_stream',
+    'note_input',
+    'os_reason',
+    'overwrite_forced',
+    'remove_stale_temporaries',
+    'temporary_name',
+    'write_bytes',
+    'write_files',
+    'write_text',
+]
 
 #: a temporary not written to for this long, of a process that no longer runs, is debris [s]
 STALE_AFTER_S = 600.0

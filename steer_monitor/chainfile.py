@@ -21,7 +21,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-
 from steer_monitor.errors import ParameterError
 from steer_monitor.model.backlash import ChainJoint
 from steer_monitor.model.fits import parse_fit

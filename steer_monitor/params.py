@@ -17,14 +17,12 @@ A value ROS 2 would reject (an integer where a double is declared) is rejected h
 from __future__ import annotations
 
 import difflib
-
-import math
 import json
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
-
 
 from steer_monitor.errors import ParameterError
 from steer_monitor.model.fits import parse_fit

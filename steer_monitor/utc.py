@@ -9,7 +9,7 @@ __all__ = ['parse_utc', 'utc_text']
 
 def utc_text(t_ns: int) -> str:
     """A data time [ns since the epoch] as ISO 8601 UTC to the second (``...T14:03:00Z``)."""
-    return datetime.datetime.fromtimestamp(t_ns // 1_000_000_000, datetime.timezone.utc).strftime('%Y-%m-%dT%H:%M:%SZ')
+    return datetime.datetime.fromtimestamp(t_ns // 1_000_000_000, datetime.UTC).strftime('%Y-%m-%dT%H:%M:%SZ')
 
 
 def parse_utc(text: str) -> int:
@@ -22,6 +22,6 @@ def parse_utc(text: str) -> int:
         msg = f'{text!r} is not an ISO 8601 time such as 2026-11-26T14:03:00Z'
         raise ValueError(msg) from None
     if t.tzinfo is None:
-        t = t.replace(tzinfo=datetime.timezone.utc)
-    delta = t - datetime.datetime(1970, 1, 1, tzinfo=datetime.timezone.utc)
+        t = t.replace(tzinfo=datetime.UTC)
+    delta = t - datetime.datetime(1970, 1, 1, tzinfo=datetime.UTC)
     return (delta.days * 86_400 + delta.seconds) * 1_000_000_000 + delta.microseconds * 1000

@@ -33,7 +33,7 @@ def r18(r18_params) -> GearParams:
 @pytest.fixture(scope='session')
 def can_db(r18_params):
     """(DBC codec, signal map) of the packaged R-18 config."""
-    from steer_monitor.can.setup import can_setup
+    from steer_monitor.can.busconfig import can_setup
     return can_setup(r18_params, R18_YAML)
 
 

@@ -12,8 +12,19 @@ from typing import Any
 import pytest
 
 from steer_monitor import atomic
-from steer_monitor.atomic import (NAME_MAX, STALE_AFTER_S, atomic_path, atomic_write, ensure_dir, os_reason,
-                                  remove_stale_temporaries, temporary_name, write_bytes, write_files, write_text)
+from steer_monitor.atomic import (
+    NAME_MAX,
+    STALE_AFTER_S,
+    atomic_path,
+    atomic_write,
+    ensure_dir,
+    os_reason,
+    remove_stale_temporaries,
+    temporary_name,
+    write_bytes,
+    write_files,
+    write_text,
+)
 from steer_monitor.errors import OutputError
 
 

@@ -126,7 +126,7 @@ def test_ashore_dependencies_stay_ashore():
 
 
 #: the vessel side and the pure core: what the node runs
-VESSEL = ('can', 'model', 'estimate', 'monitor', 'node', 'record', 'sim')
+VESSEL = ('can', 'logfiles', 'model', 'estimate', 'monitor', 'node', 'record', 'sim')
 
 
 @pytest.mark.parametrize('part', VESSEL)
@@ -139,9 +139,20 @@ def test_the_vessel_side_never_imports_the_shore_side(part):
 @pytest.mark.parametrize('part', ['model', 'estimate', 'monitor'])
 def test_the_core_is_pure(part):
     """Physics, estimation and the live monitor take arrays and records: no ROS, bus or file
-    format library."""
+    format library, and none of the package's log files."""
     for path in sorted((PKG / 'steer_monitor' / part).rglob('*.py')):
         assert _imports([path]) & {'rclpy', 'can', 'mcap', 'mcap_ros2', 'cantools'} == set(), path
+        assert not {m for m in _modules(path) if m.startswith('steer_monitor.logfiles')}, path
+
+
+def test_the_bus_side_stands_apart_from_the_log_files():
+    """``can/`` is the bus (frames, codec, signals, devices, decoder, bus clock): it reads no
+    log file; ``logfiles/`` builds on it, and discovery is an ashore tool."""
+    for path in sorted((PKG / 'steer_monitor' / 'can').rglob('*.py')):
+        mods = {m for m in _modules(path) if m.startswith(('steer_monitor.logfiles', 'steer_monitor.ashore'))}
+        assert not mods, f'{path.relative_to(PKG)} imports {sorted(mods)}'
+    assert _imports(sorted((PKG / 'steer_monitor' / 'can').rglob('*.py'))) & {'mcap', 'mcap_ros2'} == set()
+    assert not (PKG / 'steer_monitor' / 'can' / 'discover.py').exists()
 
 
 def test_launch_file_declares_its_arguments():
@@ -176,7 +187,7 @@ def test_systemd_unit_stops_with_sigint_and_restarts():
 #: what the pure core may not load, even through another module: ROS, the bus and log file
 #: libraries, and the package's own I/O and vessel or shore parts
 NOT_IN_THE_CORE = ('rclpy', 'can', 'mcap', 'mcap_ros2', 'cantools', 'rosbags', 'dask', 'pyarrow')
-NOT_IN_THE_CORE_PARTS = ('can', 'record', 'node', 'ashore', 'cli', 'monitor', 'sim')
+NOT_IN_THE_CORE_PARTS = ('can', 'logfiles', 'record', 'node', 'ashore', 'cli', 'monitor', 'sim')
 
 
 def _core_modules() -> list[str]:
@@ -240,4 +251,4 @@ def test_no_two_parts_of_the_package_import_each_other():
     for u in sorted(graph):
         if u not in state:
             assert visit(u) is None, ' -> '.join(path[path.index(path[-1]):]) if path else ''
-    assert {'can', 'model', 'estimate', 'monitor', 'ashore'} <= set(graph)
+    assert {'can', 'logfiles', 'model', 'estimate', 'monitor', 'ashore'} <= set(graph)

@@ -27,7 +27,27 @@ def test_r18_file_loads_with_design_values(r18_params, r18):
 
 
 def test_every_spec_has_a_unit_or_is_unitless_by_nature():
-    units = ('_m', '_mm', '_pa', '_mm4', '_deg', '_knm', '_kn', '_mm_s', '_hz', '_s', '_bar', '_n', '_mb', '_gb', '_minutes', '_share', '_h', '_ms', '_pct')
+    units = (
+        '_m',
+        '_mm',
+        '_pa',
+        '_mm4',
+        '_deg',
+        '_knm',
+        '_kn',
+        '_mm_s',
+        '_hz',
+        '_s',
+        '_bar',
+        '_n',
+        '_mb',
+        '_gb',
+        '_minutes',
+        '_share',
+        '_h',
+        '_ms',
+        '_pct',
+    )
     unitless = ('.name', '.rams', '.euler_amplification', '.pumps', '.new_fit', '.interface',
                 '.channel', '.bitrate', '.dbc_file', '.pgn', '.field', '.instance', '.source',
                 '.hardware_id', '.mu_bushing', '.mu_guide', '.enabled', '.directory', '.prefix',
@@ -56,27 +76,57 @@ def _drop(section, key):
     return mutate
 
 
-@pytest.mark.parametrize('mutate,msg', [
-    (_set('gear', 'stock_to_ram_m', -0.6), 'parameter gear.stock_to_ram_m: must be > 0, got -0.6'),
-    (_set('gear', 'bushing_span_m', 1600), r'parameter gear.bushing_span_m: expected a floating-point number, got 1600 \(write 1600.0'),
-    (_set('gear', 'rams', 2.0), 'parameter gear.rams: expected a whole number, got 2.0'),
-    (_set('gear', 'euler_amplification', 'no'), "parameter gear.euler_amplification: expected true or false, got 'no'"),
-    (_set('gear', 'stock_to_ramm_m', 0.6), 'unknown parameter gear.stock_to_ramm_m'),
-    (_drop('gear', 'bushing_span_m'), 'missing parameter gear.bushing_span_m'),
-    (_set('torque', 'torque_knm', [0.0, 330.0, 584.0]), 'parameter torque.torque_knm: has 3 values but torque.angle_deg has 6'),
-    (_set('torque', 'torque_knm', [0.0, 330, 584.0, 766.0, 930.0, 1000.0]), r'parameter torque.torque_knm\[1\]: expected a finite floating-point number'),
-    (_set('torque', 'torque_knm', [0.0, 330.0, 584.0, 500.0, 930.0, 1000.0]), 'torque curve torques must not decrease with angle'),
-    (_set('torque', 'angle_deg', [1.0, 5.0, 10.0, 21.0, 27.5, 35.0]), r'torque curve must start at \(0 deg, 0 kN m\)'),
-    (_set('clearances', 'new_fit', '240 H9/q9'), "parameter clearances.new_fit: fit '240 H9/q9': shaft letter 'q' is not supported"),
-    (_set('clearances', 'gap_2z_mm', -0.1), 'parameter clearances.gap_2z_mm: must be >= 0, got -0.1'),
-    (_set('gear', 'ram_inner_diameter_m', 0.3), 'ram_inner_diameter must lie in'),
-    (_set('gear', 'max_rudder_deg', 55.0), 'max_rudder 55.0 deg moves the crosshead'),
-    (_set('gear', 'bushing_length_m', 2.0), r'bushing_length must be shorter than bushing_span \(the bushings at A and E '
-                                            r'would overlap\), got 2.0 with span 1.6'),
-    (_set('recording', 'max_total_gb', 1.0), r'parameter recording.max_total_gb: 1 GB does not hold two files of '
-                                            r'recording.max_file_mb \(512 MB\)'),
-    (_set('recording', 'keep_free_gb', -1.0), 'parameter recording.keep_free_gb: must be >= 0, got -1.0'),
-])
+@pytest.mark.parametrize(
+    'mutate,msg',
+    [
+        (_set('gear', 'stock_to_ram_m', -0.6), 'parameter gear.stock_to_ram_m: must be > 0, got -0.6'),
+        (
+            _set('gear', 'bushing_span_m', 1600),
+            r'parameter gear.bushing_span_m: expected a floating-point number, got 1600 \(write 1600.0',
+        ),
+        (_set('gear', 'rams', 2.0), 'parameter gear.rams: expected a whole number, got 2.0'),
+        (
+            _set('gear', 'euler_amplification', 'no'),
+            "parameter gear.euler_amplification: expected true or false, got 'no'",
+        ),
+        (_set('gear', 'stock_to_ramm_m', 0.6), 'unknown parameter gear.stock_to_ramm_m'),
+        (_drop('gear', 'bushing_span_m'), 'missing parameter gear.bushing_span_m'),
+        (
+            _set('torque', 'torque_knm', [0.0, 330.0, 584.0]),
+            'parameter torque.torque_knm: has 3 values but torque.angle_deg has 6',
+        ),
+        (
+            _set('torque', 'torque_knm', [0.0, 330, 584.0, 766.0, 930.0, 1000.0]),
+            r'parameter torque.torque_knm\[1\]: expected a finite floating-point number',
+        ),
+        (
+            _set('torque', 'torque_knm', [0.0, 330.0, 584.0, 500.0, 930.0, 1000.0]),
+            'torque curve torques must not decrease with angle',
+        ),
+        (
+            _set('torque', 'angle_deg', [1.0, 5.0, 10.0, 21.0, 27.5, 35.0]),
+            r'torque curve must start at \(0 deg, 0 kN m\)',
+        ),
+        (
+            _set('clearances', 'new_fit', '240 H9/q9'),
+            "parameter clearances.new_fit: fit '240 H9/q9': shaft letter 'q' is not supported",
+        ),
+        (_set('clearances', 'gap_2z_mm', -0.1), 'parameter clearances.gap_2z_mm: must be >= 0, got -0.1'),
+        (_set('gear', 'ram_inner_diameter_m', 0.3), 'ram_inner_diameter must lie in'),
+        (_set('gear', 'max_rudder_deg', 55.0), 'max_rudder 55.0 deg moves the crosshead'),
+        (
+            _set('gear', 'bushing_length_m', 2.0),
+            r'bushing_length must be shorter than bushing_span \(the bushings at A and E '
+            r'would overlap\), got 2.0 with span 1.6',
+        ),
+        (
+            _set('recording', 'max_total_gb', 1.0),
+            r'parameter recording.max_total_gb: 1 GB does not hold two files of '
+            r'recording.max_file_mb \(512 MB\)',
+        ),
+        (_set('recording', 'keep_free_gb', -1.0), 'parameter recording.keep_free_gb: must be >= 0, got -1.0'),
+    ],
+)
 def test_bad_values_are_named(tmp_path, mutate, msg):
     with pytest.raises(ParameterError, match=msg):
         load_params_file(_write(tmp_path, mutate))

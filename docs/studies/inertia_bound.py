@@ -37,8 +37,8 @@ def main(argv: list[str]) -> int:
 
     from steer_monitor import sim
     from steer_monitor.accuracy import true_forces
+    from steer_monitor.can.busconfig import can_setup
     from steer_monitor.can.decoder import Decoder
-    from steer_monitor.can.setup import can_setup
     from steer_monitor.estimate.analyze import declared_fit
     from steer_monitor.params import gear_from_params, load_params_file
     from steer_monitor.resources import default_config

@@ -24,11 +24,11 @@ from steer_monitor.ashore.logresult import LogResult, file_digest, log_result
 from steer_monitor.ashore.modelcheck import NOT_JUDGED
 from steer_monitor.ashore.store import load_results, save_results
 from steer_monitor.atomic import os_reason
-from steer_monitor.can.compressed import plain_suffix
-from steer_monitor.can.logs import log_path_problem
 from steer_monitor.errors import InputError
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.trend import YEAR_S, Trend, TrendPoint, fit_trend
+from steer_monitor.logfiles.compressed import plain_suffix
+from steer_monitor.logfiles.logs import log_path_problem
 from steer_monitor.monitor.verdict import clearance_verdict
 from steer_monitor.params import load_config
 from steer_monitor.record.provenance import parameters_digest
@@ -219,7 +219,7 @@ def _utc(t_s: float | None) -> str | None:
     if t_s is None or not math.isfinite(t_s):
         return None
     try:
-        return datetime.datetime.fromtimestamp(t_s, tz=datetime.timezone.utc).date().isoformat()
+        return datetime.datetime.fromtimestamp(t_s, tz=datetime.UTC).date().isoformat()
     except (OverflowError, OSError, ValueError):
         return None
 
@@ -378,5 +378,5 @@ def _soonest(v: dict[str, Any]) -> str:
 def _iso(t_ns: int) -> str | None:
     if not t_ns:
         return None
-    return datetime.datetime.fromtimestamp(t_ns / 1e9, tz=datetime.timezone.utc).isoformat(timespec='seconds')
+    return datetime.datetime.fromtimestamp(t_ns / 1e9, tz=datetime.UTC).isoformat(timespec='seconds')
 

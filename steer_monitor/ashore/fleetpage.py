@@ -85,10 +85,13 @@ def fleet_page(run: FleetRun) -> str:
                 (f"reached {t['limit_date_utc']} [{t['limit_date_ci95'][0]} .. {t['limit_date_ci95'][1]}]"
                  if t['limit_date_utc'] else 'not reached: no wear detected'))
             for key, t in v['trend'].items())
-        parts.append(f"<section><h2>{esc(v['name'])}</h2><p>{esc(trend)}</p>"
-                     f"<img alt=\"{esc(v['name'])}\" src=\"data:image/png;base64,{_plot(rs, run.params[v['name']])}\">"
-                     f"<table><tr><th>log</th><th>start (UTC)</th><th>2Z [mm]</th><th>Z_gb [mm]</th><th>level</th><th>rams</th></tr>"
-                     f"{rows}</table></section>")
+        parts.append(
+            f"<section><h2>{esc(v['name'])}</h2><p>{esc(trend)}</p>"
+            f"<img alt=\"{esc(v['name'])}\" src=\"data:image/png;base64,{_plot(rs, run.params[v['name']])}\">"
+            "<table><tr><th>log</th><th>start (UTC)</th><th>2Z [mm]</th><th>Z_gb [mm]</th><th>level</th>"
+            "<th>rams</th></tr>"
+            f"{rows}</table></section>"
+        )
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>steer_monitor fleet</title>
 <style>body{{font-family:sans-serif;max-width:1200px;margin:2em auto;color:#222}}img{{width:100%}}

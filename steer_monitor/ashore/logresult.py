@@ -139,8 +139,8 @@ def _why_none(estimate: Any, opposed: str, run: Any) -> str:
 
 
 def _write_report(log: str, config: str | None, run: Any, report_dir: str, analysis: Any, note: str) -> None:
-    from steer_monitor.params import load_config
     from steer_monitor.ashore.report.logreport import report_input, write_report_dir
+    from steer_monitor.params import load_config
 
     config_path, params = load_config(config)
     write_report_dir(report_input([Path(log)], run, params, config_path, analysis, note), report_dir)

@@ -37,9 +37,9 @@ def model_check(paths: Sequence[str | Path], params: Mapping[str, Any], config_p
     """``analyze`` of the data of ``paths`` from ``hours`` before ``end_ns`` (the last data
     time, ns) on; (None, why) when it cannot be made. Breaks in the logs are the review's to
     report (read here again)."""
-    from steer_monitor.can.decodelog import decode_logs
+    from steer_monitor.can.busconfig import can_setup
     from steer_monitor.can.rejects import RejectCounter
-    from steer_monitor.can.setup import can_setup
+    from steer_monitor.logfiles.decodelog import decode_logs
     from steer_monitor.params import gear_from_params, min_clearance_2z_from_params, ram_share_warn_from_params
 
     db, smap = can_setup(params, config_path)

@@ -27,16 +27,16 @@ from typing import Any
 import numpy as np
 
 from steer_monitor.atomic import atomic_path, check_target, os_reason
-from steer_monitor.can.decoder import DecodedRun, Decoder
-from steer_monitor.can.fastlogs import in_time_order, iter_log_blocks
-from steer_monitor.can.frames import Frame, FrameArrays
-from steer_monitor.can.logs import LogError, log_path_problem
+from steer_monitor.can.busconfig import Setup, can_setup, load_setup
 from steer_monitor.can.codec import DbcError
-from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, McapWriter, leading_metadata
+from steer_monitor.can.decoder import DecodedRun, Decoder
+from steer_monitor.can.frames import Frame, FrameArrays
 from steer_monitor.can.rejects import RejectCounter
-from steer_monitor.can.setup import Setup, can_setup, load_setup
 from steer_monitor.errors import ParameterError, SteerMonitorError
 from steer_monitor.estimate.finding import Finding
+from steer_monitor.logfiles.fastlogs import in_time_order, iter_log_blocks
+from steer_monitor.logfiles.logs import LogError, log_path_problem
+from steer_monitor.logfiles.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, McapWriter, leading_metadata
 from steer_monitor.monitor.analyst import Analyst, SyncJobs
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig
 from steer_monitor.monitor.live import LiveMonitor
@@ -46,8 +46,8 @@ from steer_monitor.params import friction_from_params, gaps_from_params, gear_fr
 from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.record.msgdefs import msgdef
 from steer_monitor.record.provenance import PARAMETERS_RECORD, RUN_RECORD, run_metadata
-from steer_monitor.resources import default_config
 from steer_monitor.record.staterecords import pack_states
+from steer_monitor.resources import default_config
 
 __all__ = ['ReplayError', 'ReplaySummary', 'recorded_setup', 'replay', 'summary_json']
 

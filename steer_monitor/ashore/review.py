@@ -43,13 +43,31 @@ from numpy.typing import NDArray
 from steer_monitor.can.decoder import Series, SignalSet
 from steer_monitor.can.signals import PRESSURE_INPUTS
 from steer_monitor.estimate import fit as F
-from steer_monitor.estimate.batch import (MIN_MOTION_SAMPLES, ClearanceEstimate, box_holds, coarse_profile,
-                                          estimate_from_moments, estimate_in_box, make_rows, residuals_and_inflation,
-                                          search_box)
+from steer_monitor.estimate.batch import (
+    MIN_MOTION_SAMPLES,
+    ClearanceEstimate,
+    box_holds,
+    coarse_profile,
+    estimate_from_moments,
+    estimate_in_box,
+    make_rows,
+    residuals_and_inflation,
+    search_box,
+)
 from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations, build_observations
-from steer_monitor.estimate.rams import (OPPOSED, WINDOW_INSTANTS, UnevenSpan, describe, judge, opposed_cause, ram_share,
-                                         uneven_spans, within, working_against)
+from steer_monitor.estimate.rams import (
+    OPPOSED,
+    WINDOW_INSTANTS,
+    UnevenSpan,
+    describe,
+    judge,
+    opposed_cause,
+    ram_share,
+    uneven_spans,
+    within,
+    working_against,
+)
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.loadshare import LoadSharing, load_sharing
 from steer_monitor.monitor.live import HARD_OVER_DEG, OTHER_SIDE_DEG

@@ -1,8 +1,9 @@
-"""The steering CAN bus: frames, the DBC codec, the signal map, decoding with rejects
-counted per reason, the listen-only bus, and log files.
+"""The steering CAN bus: frames, the DBC codec, the signal map, the devices, decoding with
+rejects counted per reason, the bus clock and time-jump rule, and the listen-only bus.
 
-Pure parts (frames, codec, signals, decoder, rejects) import no python-can; the bus and the
-log readers are the boundary where python-can, cantools and mcap errors become
+Log files are :mod:`steer_monitor.logfiles`; discovering a bus's streams from a log is
+:mod:`steer_monitor.ashore.discovery`. Pure parts (frames, codec, signals, decoder, rejects)
+import no python-can; the bus is the boundary where python-can's errors become
 steer_monitor errors.
 """
 

@@ -28,7 +28,8 @@ integer nanoseconds:
   stepping (NTP, or an operator, setting it) while frames stamped before the step were still
   queued: socketcan's stamps are the host kernel's, so the frames after it agree again, and
   moving the offset for the few queued ones would have put every later frame off UTC by the
-  step (the queued ones are given the host's reading time too, on its new time). Between steps, a relative clock's offset follows the host's at most ``slew`` (100
+  step (the queued ones are given the host's reading time too, on its new time). Between steps, a relative clock's
+  offset follows the host's at most ``slew`` (100
   ppm) of the time elapsed, about an adapter crystal's drift, so intervals change by no more
   than that; a clock taken as UTC is left as it is.
 

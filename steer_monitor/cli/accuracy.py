@@ -23,12 +23,12 @@ from typing import Any, TextIO
 
 from steer_monitor import accuracy as A
 from steer_monitor.atomic import atomic_write, check_target, write_text
-from steer_monitor.can.setup import can_setup
+from steer_monitor.can.busconfig import can_setup
+from steer_monitor.cli.options import add_config_option, add_force_option
 from steer_monitor.cli.output import dump_json
 from steer_monitor.errors import ParameterError
 from steer_monitor.params import load_params_file
 from steer_monitor.resources import default_config
-from steer_monitor.cli.options import add_config_option, add_force_option
 
 __all__ = ['markdown', 'register', 'run']
 
@@ -318,10 +318,13 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
                 dump_json(payload, fh)
     a = summary['all']
     if str(out_md) != '-' and str(json_out) != '-':
-        out.write(f"{len(results)} logs: Z_gb coverage {a['clearance_zgb_mm']['coverage']:.2f}, "
-                  f"RMS error {a['clearance_zgb_mm']['rms_error']:.4f} mm; 2Z coverage {a['clearance_2z_mm']['coverage']:.2f}"
-                  f" ({a['clearance_2z_mm_clamped']['cases']} clamped); K_gl max coverage {a['k_gl_max']['coverage']:.2f}"
-                  + (f'; table in {out_md}' if out_md else '') + '\n')
+        out.write(
+            f"{len(results)} logs: Z_gb coverage {a['clearance_zgb_mm']['coverage']:.2f}, "
+            f"RMS error {a['clearance_zgb_mm']['rms_error']:.4f} mm; 2Z coverage {a['clearance_2z_mm']['coverage']:.2f}"
+            f" ({a['clearance_2z_mm_clamped']['cases']} clamped); K_gl max coverage {a['k_gl_max']['coverage']:.2f}"
+            + (f'; table in {out_md}' if out_md else '')
+            + '\n'
+        )
     return 0
 
 
@@ -343,10 +346,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--sensitivity-seeds', type=int, default=0,
                    help='logs per effect and magnitude in the residual loop\'s sensitivity study (default: 0, '
                         'none; docs/accuracy.md is made with 2)')
-    p.add_argument('--long-seeds', type=int, default=0,
-                   help=f'logs per library effect at {A.LONG_FRACTION:g} of its default on the hour-long realistic voyage, '
-                        f'and {A.LONG_CLEAN_PER_SEED} clean hour-long logs per seed (default: 0, none; '
-                        'docs/accuracy.md is made with 2)')
+    p.add_argument(
+        '--long-seeds',
+        type=int,
+        default=0,
+        help=f'logs per library effect at {A.LONG_FRACTION:g} of its default on the hour-long realistic voyage, '
+        f'and {A.LONG_CLEAN_PER_SEED} clean hour-long logs per seed (default: 0, none; '
+        'docs/accuracy.md is made with 2)',
+    )
     p.add_argument('--out', default='docs/accuracy.md', help='Markdown table, - for stdout (default: docs/accuracy.md)')
     p.add_argument('--json', dest='json_out', help='per-case results and summary as JSON (- for stdout)')
 

@@ -48,18 +48,18 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from steer_monitor.atomic import atomic_write, check_target
-from steer_monitor.can.decodelog import clock_steps_json, decode_logs
+from steer_monitor.can.busconfig import load_setup
 from steer_monitor.can.rejects import RejectCounter
-from steer_monitor.can.setup import load_setup
+from steer_monitor.cli.options import add_config_option, add_force_option
 from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors, text_stream
-from steer_monitor.estimate.analyze import Analysis, analyze
-from steer_monitor.estimate.observe import EstimateError
-from steer_monitor.estimate.batch import ClearanceEstimate
-from steer_monitor.estimate.window import before
 from steer_monitor.errors import ParameterError
+from steer_monitor.estimate.analyze import Analysis, analyze
+from steer_monitor.estimate.batch import ClearanceEstimate
+from steer_monitor.estimate.observe import EstimateError
+from steer_monitor.estimate.window import before
+from steer_monitor.logfiles.decodelog import clock_steps_json, decode_logs
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params, ram_share_warn_from_params
 from steer_monitor.utc import parse_utc, utc_text
-from steer_monitor.cli.options import add_config_option, add_force_option
 
 __all__ = ['analysis_json', 'analyze_log', 'register', 'run']
 

@@ -3,7 +3,8 @@
 The simulated R-18 gear (SOLAS hard-over with two pumps, about 70 s of real time) plays onto
 a python-can virtual bus; the monitor node listens, runs the model, publishes /diagnostics
 and records MCAP; a listener prints each diagnostic status when its level changes, and every
-10 s a line with the rudder angle, K_gl and the model residual. After the simulator stops, the input goes STALE. Then the load-sharing study of
+10 s a line with the rudder angle, K_gl and the model residual. After the simulator stops, the input goes STALE.
+Then the load-sharing study of
 paper 004 is written beside the recording, and the report page of the recording
 (``steer-monitor report``) in ``OUT/report``.
 """
@@ -19,8 +20,8 @@ import uuid
 from pathlib import Path
 from typing import Any, TextIO
 
-from steer_monitor.errors import ParameterError
 from steer_monitor.cli.options import add_config_option, add_force_option
+from steer_monitor.errors import ParameterError
 
 __all__ = ['register', 'residual_text', 'run']
 
@@ -49,7 +50,7 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: 
     from rclpy.executors import SingleThreadedExecutor
 
     from steer_monitor import sim
-    from steer_monitor.can.setup import load_setup
+    from steer_monitor.can.busconfig import load_setup
     from steer_monitor.cli import study
     from steer_monitor.node.monitor_node import MonitorNode
     from steer_monitor.node.params_ros import overrides_from_file

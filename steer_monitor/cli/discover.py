@@ -2,7 +2,7 @@
 
 Lists one stream per PGN, source address and instance (frames, rate, time span and, for
 PGNs of the DBC, each field's range of valid values), the devices that claimed an address,
-and the ``signals`` map :func:`~steer_monitor.can.discover.propose` makes of them. Every
+and the ``signals`` map :func:`~steer_monitor.ashore.discovery.propose` makes of them. Every
 choice among several senders and every input not found is a note, printed on stderr too.
 ``--write-config OUT.yaml`` writes the parameters file (``--config``, or the packaged one)
 with that map, ready for ``inspect --config OUT.yaml`` and ``run``.
@@ -21,18 +21,18 @@ from typing import Any, TextIO
 
 import yaml
 
+from steer_monitor.ashore.discovery import RULES, Discovery, propose
 from steer_monitor.atomic import atomic_path, check_target, is_stream
-from steer_monitor.can.discover import RULES, Discovery, propose
-from steer_monitor.can.fastlogs import iter_log_blocks
-from steer_monitor.can.logs import LogError
+from steer_monitor.can.busconfig import Setup, dbc_path, load_setup
 from steer_monitor.can.rejects import REASONS, RejectCounter
-from steer_monitor.can.setup import Setup, dbc_path, load_setup
 from steer_monitor.can.signals import INPUTS, REQUIRED
+from steer_monitor.cli.options import add_config_option, add_force_option
 from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors, table, text_stream
 from steer_monitor.errors import InputError, ParameterError
+from steer_monitor.logfiles.fastlogs import iter_log_blocks
+from steer_monitor.logfiles.logs import LogError
 from steer_monitor.params import NODE_NAME, load_params_file
 from steer_monitor.resources import config_dir
-from steer_monitor.cli.options import add_config_option, add_force_option
 
 __all__ = ['discover', 'register', 'run', 'write_config']
 
@@ -85,6 +85,7 @@ def discover(paths: Sequence[str | Path], setup: Setup, date: datetime.date | No
         'streams': [s.as_dict() for s in disc.sorted_streams()],
         'devices': [d.as_dict() for d in sorted(disc.devices.values(), key=lambda d: (d.source, d.name))],
         'proposed': proposed,
+        'missing_required': [n for n in REQUIRED if n in proposed and not proposed[n]['on_bus']],
         'rule': RULES,
         'notes': notes,
         'rejects': dict(sorted(snap.counts.items())),
@@ -177,15 +178,23 @@ def run(paths: Sequence[str | Path], config: str | Path | None = None, date: dat
                   [[v['source'], v['name_hex'], v['manufacturer_code'], v['device_function'], v['device_class'],
                     v['claims']] for v in d['devices']], out)
         out.write('\nproposed signals:\n')
-        table(['input', 'PGN', 'field', 'inst', 'source', 'addr', 'device', 'Hz'],
-              [[n, v['pgn'], v['field'], v['instance'], v['source'], v['address'], v['device_name'] or '-',
+        table(['input', 'on bus', 'PGN', 'field', 'inst', 'source', 'addr', 'device', 'Hz'],
+              [[n, 'yes' if v['on_bus'] else ('NO (kept as given)' if n in REQUIRED else 'no (left out)'),
+                v['pgn'] or '-', v['field'], v['instance'], v['source'], v['address'], v['device_name'] or '-',
                 v['rate_hz']] for n, v in d['proposed'].items()], out)
     for note in d['notes']:
         err.write(f'steer-monitor discover: note: {note}\n')
     if write is not None:
         write_config(write, setup, d['proposed'], d['logs'], d['notes'])
-        err.write(f'steer-monitor discover: wrote {write}: check it, then: steer-monitor inspect LOG --config {write}\n')
-    return report_read_errors('discover', d['read_errors'], err)
+        err.write(f'steer-monitor discover: wrote {write}: check it, then: steer-monitor inspect {d["logs"][0]} '
+                  f'--config {write}\n')
+    status = report_read_errors('discover', d['read_errors'], err)
+    if d['missing_required']:
+        err.write(f'steer-monitor discover: error: the bus lacks inputs the monitor needs: '
+                  f'{", ".join(d["missing_required"])}; the map {"written " if write else ""}keeps them as the given '
+                  f'map has them, so it is partial: find where the gear sends them (a longer log, another bus)\n')
+        return 1
+    return status
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -12,8 +12,8 @@ from pathlib import Path
 from typing import TextIO
 
 from steer_monitor.atomic import ensure_dir, write_files
-from steer_monitor.cli.output import dump_json, report_read_errors
 from steer_monitor.cli.options import add_config_option, add_force_option
+from steer_monitor.cli.output import dump_json, report_read_errors
 
 __all__ = ['register', 'run']
 

@@ -11,18 +11,18 @@ import argparse
 import datetime
 import math
 import sys
-from datetime import datetime as _datetime, timezone
+from datetime import datetime as _datetime
 from pathlib import Path
 from typing import Any, TextIO
 
 import numpy as np
 
-from steer_monitor.can.decodelog import clock_steps_json, decode_logs
-from steer_monitor.can.rejects import REASONS, RejectCounter
-from steer_monitor.can.setup import load_setup
+from steer_monitor.can.busconfig import load_setup
 from steer_monitor.can.devices import format_name
-from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors, table
+from steer_monitor.can.rejects import REASONS, RejectCounter
 from steer_monitor.cli.options import add_config_option
+from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors, table
+from steer_monitor.logfiles.decodelog import clock_steps_json, decode_logs
 
 __all__ = ['inspect_log', 'register', 'run']
 
@@ -32,7 +32,7 @@ MAX_GAPS_LISTED = 50
 
 def _iso(t_ns: int) -> str:
     try:
-        return _datetime.fromtimestamp(t_ns / 1e9, tz=timezone.utc).isoformat(timespec='milliseconds')
+        return _datetime.fromtimestamp(t_ns / 1e9, tz=datetime.UTC).isoformat(timespec='milliseconds')
     except (ValueError, OverflowError, OSError):   # beyond what datetime holds (year 9999)
         return f'{t_ns} ns since 1970'
 

@@ -10,6 +10,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from steer_monitor.cli.options import add_config_option, add_force_option
 from steer_monitor.cli.output import dump_json, table
 from steer_monitor.errors import ParameterError
 from steer_monitor.model.gear import Gaps, GearParams
@@ -17,7 +18,6 @@ from steer_monitor.model.loadshare import LoadSharing, load_sharing_at
 from steer_monitor.model.study import Landmarks, landmarks
 from steer_monitor.params import gaps_from_params, gear_from_params, load_params_file
 from steer_monitor.resources import default_config
-from steer_monitor.cli.options import add_config_option, add_force_option
 
 __all__ = ['ROW_KEYS', 'loadshare_rows', 'register', 'run']
 
@@ -75,6 +75,10 @@ def run(config: str | Path | None = None, gap_2z_mm: float | None = None,
     params = load_params_file(config or default_config())
     gear = gear_from_params(params)
     configured = gaps_from_params(params)
+    for option, value in (('--gap-2z', gap_2z_mm), ('--gap-zgb', gap_zgb_mm)):
+        if value is not None and not (math.isfinite(value) and value >= 0.0):
+            msg = f'{option} must be a clearance of at least 0 mm, got {value:g} mm'
+            raise ParameterError(msg)
     gaps = Gaps.from_mm(configured.two_z * 1e3 if gap_2z_mm is None else gap_2z_mm,
                         configured.z_gb * 1e3 if gap_zgb_mm is None else gap_zgb_mm)
     s, (alpha, res, marks) = loadshare_rows(gear, gaps, speed_kn, step_deg)
@@ -95,7 +99,7 @@ def run(config: str | Path | None = None, gap_2z_mm: float | None = None,
     lm = s['landmarks']
 
     def fmt(v: float | None) -> str:
-        return 'never' if v is None else f'{v:.1f} deg'
+        return 'not reached' if v is None else f'{v:.1f} deg'
     out.write(f"\nguide beam carries load from {fmt(lm['guide_onset_deg'])}; F_r = F_gb at "
               f"{fmt(lm['crossover_deg'])}; max K_gl {lm['k_gl_max']:.3f} at {lm['k_gl_max_deg']:.1f} deg; "
               f"ram clamps from {fmt(lm['clamp_onset_deg'])}\n")

@@ -9,15 +9,46 @@ import threading
 from collections.abc import Sequence
 
 from steer_monitor import __version__
-from steer_monitor.cli import (accuracy, analyze, backlash, demo, discover, fit, fleet, inspect, loadshare, recover,
-                               replay, report, run, simulate, study)
 from steer_monitor.atomic import command_scope
+from steer_monitor.cli import (
+    accuracy,
+    analyze,
+    backlash,
+    demo,
+    discover,
+    fit,
+    fleet,
+    inspect,
+    loadshare,
+    recover,
+    replay,
+    report,
+    run,
+    simulate,
+    study,
+)
 from steer_monitor.errors import SteerMonitorError
 from steer_monitor.threads import single_blas_thread
 
 __all__ = ['Terminated', 'build_parser', 'main']
 
-SUBCOMMANDS = (fit, backlash, loadshare, simulate, discover, inspect, analyze, accuracy, run, replay, report, fleet, recover, study, demo)
+SUBCOMMANDS = (
+    fit,
+    backlash,
+    loadshare,
+    simulate,
+    discover,
+    inspect,
+    analyze,
+    accuracy,
+    run,
+    replay,
+    report,
+    fleet,
+    recover,
+    study,
+    demo,
+)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -69,8 +69,8 @@ def check_logs(paths: Sequence[str | Path]) -> None:
     """:class:`~steer_monitor.errors.ParameterError` naming the first log that is not a file
     (missing, a directory), before any work is done."""
     from steer_monitor.atomic import note_input
-    from steer_monitor.can.logs import log_path_problem
     from steer_monitor.errors import ParameterError
+    from steer_monitor.logfiles.logs import log_path_problem
     for p in paths:
         note_input(p)
         problem = log_path_problem(Path(p))
@@ -103,8 +103,8 @@ def add_date_option(p: argparse.ArgumentParser) -> None:
 
 def date_notes(command: str, paths: Sequence[str | Path], date: datetime.date | None, err: TextIO) -> None:
     """Say, on ``err``, which date each YDWG raw log is read with and where it came from."""
-    from steer_monitor.can.gateway import ydwg_date
-    from steer_monitor.can.logs import LogError, log_format
+    from steer_monitor.logfiles.gateway import ydwg_date
+    from steer_monitor.logfiles.logs import LogError, log_format
 
     for path in paths:
         try:

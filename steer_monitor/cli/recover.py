@@ -8,9 +8,9 @@ import sys
 from pathlib import Path
 from typing import TextIO
 
+from steer_monitor.cli.options import add_force_option
 from steer_monitor.cli.output import dump_json, report_read_errors, text_stream
 from steer_monitor.record.recover import recover
-from steer_monitor.cli.options import add_force_option
 
 __all__ = ['register', 'run']
 

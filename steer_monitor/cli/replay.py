@@ -14,8 +14,8 @@ import time
 from pathlib import Path
 from typing import TextIO
 
-from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors, text_stream
 from steer_monitor.cli.options import add_config_option, add_force_option
+from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors, text_stream
 
 __all__ = ['register', 'run']
 
@@ -26,8 +26,8 @@ def run(logs: list[str], out_path: str | Path, config: str | Path | None = None,
     """Replay ``logs`` into ``out_path``; 1 (one line per log on ``err``) when a log broke
     off or had corrupt parts, whose readable frames were replayed. A progress bar (data
     time, percentage, ETA) on a terminal, or anywhere with ``progress``."""
-    from steer_monitor.cli.progress import DataTimeProgress, log_spans
     from steer_monitor.ashore.replay import replay, summary_json
+    from steer_monitor.cli.progress import DataTimeProgress, log_spans
 
     out = out or sys.stdout
     err = err or sys.stderr

@@ -24,11 +24,11 @@ import math
 import sys
 import time
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TextIO
 
 from steer_monitor.ashore.modelcheck import ANALYSIS_HOURS
-from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors
 from steer_monitor.cli.options import add_config_option, add_force_option
+from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors
 
 __all__ = ['register', 'run']
 
@@ -40,14 +40,14 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
     or had corrupt parts (the page is made from what could be read and says so)."""
     from tqdm import tqdm
 
-    from steer_monitor.atomic import ensure_dir
     from steer_monitor.ashore.batchpath import review_logs
     from steer_monitor.ashore.modelcheck import headline_json, headlines, model_check
-    from steer_monitor.can.logs import LogError
-    from steer_monitor.errors import ParameterError
-    from steer_monitor.params import load_config
     from steer_monitor.ashore.report.logreport import report_input
     from steer_monitor.ashore.report.review import write_review_report
+    from steer_monitor.atomic import ensure_dir
+    from steer_monitor.errors import ParameterError
+    from steer_monitor.logfiles.logs import LogError
+    from steer_monitor.params import load_config
 
     out = out or sys.stdout
     err = err or sys.stderr

@@ -11,15 +11,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
+from steer_monitor import sim
 from steer_monitor.atomic import atomic_path, check_target, os_reason, write_text
-from steer_monitor.can.logs import LogError, LogWriter
-from steer_monitor.can.setup import load_setup
+from steer_monitor.can.busconfig import load_setup
+from steer_monitor.cli.options import add_config_option, add_force_option
 from steer_monitor.cli.output import dump_json
 from steer_monitor.errors import OutputError, ParameterError
+from steer_monitor.logfiles.logs import LogError, LogWriter
 from steer_monitor.model.gear import Gaps
 from steer_monitor.params import gaps_from_params
-from steer_monitor import sim
-from steer_monitor.cli.options import add_config_option, add_force_option
 
 __all__ = ['parse_speed_profile', 'register', 'run', 'truth_path']
 
@@ -162,7 +162,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--effect', action='append', default=[], metavar='NAME[:k=v,...]',
                    help=f'add an undeclared effect: {", ".join(sim.EFFECTS)}')
     p.add_argument('--no-noise', action='store_true', help='no sensor noise (quantisation stays)')
-    p.add_argument('--max-duration', type=float, default=7200.0, help='cut the programme after this many seconds (default: %(default)g)')
+    p.add_argument(
+        '--max-duration',
+        type=float,
+        default=7200.0,
+        help='cut the programme after this many seconds (default: %(default)g)',
+    )
     p.add_argument('--json', action='store_true', help='print the truth as JSON')
     p.add_argument('--i-know-this-is-a-real-bus', dest='real_bus', action='store_true',
                    help='allow --bus on a hardware interface (the frames are sent onto that bus)')

@@ -21,13 +21,13 @@ from steer_monitor.atomic import ensure_dir, write_files
 from steer_monitor.cli import backlash as backlash_cli
 from steer_monitor.cli.fit import fit_summary
 from steer_monitor.cli.loadshare import loadshare_rows
+from steer_monitor.cli.options import add_config_option, add_force_option
 from steer_monitor.cli.output import dump_json, table
 from steer_monitor.model.gear import Gaps
 from steer_monitor.model.study import gap_sensitivity
 from steer_monitor.params import gear_from_params, load_params_file
 from steer_monitor.plots import gap_sensitivity_png, load_sharing_png
 from steer_monitor.resources import default_config
-from steer_monitor.cli.options import add_config_option, add_force_option
 
 __all__ = ['STUDY_2Z_MM', 'STUDY_ZGB_MM', 'register', 'run']
 
@@ -47,9 +47,11 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None,
     out.write(f"== the {params['gear.name']} load-sharing study (paper 004) ==\n\n")
     fit = fit_summary(params['clearances.new_fit'])
     summary['new_fit'] = fit
-    out.write(f"Ram in bushing when new, {fit['fit']}: 2Z = {fit['clearance_min_mm']:.3f}..{fit['clearance_max_mm']:.3f} mm "
-              f"(probable {fit['probable_min_mm']:.3f}..{fit['probable_max_mm']:.3f}); wear limit "
-              f"[2Z] = {params['clearances.limit_2z_mm']:.3f} mm, [Z_gb] = {params['clearances.limit_zgb_mm']:.3f} mm\n\n")
+    out.write(
+        f"Ram in bushing when new, {fit['fit']}: 2Z = {fit['clearance_min_mm']:.3f}..{fit['clearance_max_mm']:.3f} mm "
+        f"(probable {fit['probable_min_mm']:.3f}..{fit['probable_max_mm']:.3f}); wear limit "
+        f"[2Z] = {params['clearances.limit_2z_mm']:.3f} mm, [Z_gb] = {params['clearances.limit_zgb_mm']:.3f} mm\n\n"
+    )
 
     limits = Gaps.from_mm(params['clearances.limit_2z_mm'], params['clearances.limit_zgb_mm'])
     sweep, (alpha, res, marks) = loadshare_rows(gear, limits, None, 0.5)
@@ -69,8 +71,13 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None,
             *(lambda k: (k.min(), k.max()))(res.k_gl[np.degrees(alpha) >= 21.0 - 1e-9]))],
     ], out)
     fig7 = out_dir / 'fig7_load_sharing.png'
-    fig7_png = load_sharing_png(alpha, res, f"{params['gear.name']} at the wear limits: 2Z = {limits.two_z * 1e3:.2f} mm, "
-                                f"Z_gb = {limits.z_gb * 1e3:.2f} mm", marks)
+    fig7_png = load_sharing_png(
+        alpha,
+        res,
+        f"{params['gear.name']} at the wear limits: 2Z = {limits.two_z * 1e3:.2f} mm, "
+        f"Z_gb = {limits.z_gb * 1e3:.2f} mm",
+        marks,
+    )
 
     study_alpha = np.radians(np.arange(0.0, math.degrees(gear.max_rudder) + 1e-9, 0.1))
     study = gap_sensitivity(gear, np.array(STUDY_2Z_MM) * 1e-3, np.array(STUDY_ZGB_MM) * 1e-3,

@@ -18,7 +18,8 @@ coefficients break its physics is refused. Among those passing, the largest held
 refitted and adopted if what it takes from the residual is systematic: the residual's
 autocovariance at the next instant (50 ms) must fall by at least ``MIN_SYSTEMATIC_SHARE`` of
 the fall of its mean square (a column that fits the noise, or the instants a shifted angle
-keeps, explains nothing systematic and is no effect, however it scores); else the next one is tried (at most ``MAX_TRIED``). An adopted effect stays even
+keeps, explains nothing systematic and is no effect, however it scores); else the next one is tried (at most
+``MAX_TRIED``). An adopted effect stays even
 when a residual remains.
 
 The model explains the data when its smooth part is at most ``EXPLAINED_RATIO`` of its noise
@@ -46,21 +47,59 @@ from numpy.typing import NDArray
 from steer_monitor.estimate import fit as F
 from steer_monitor.estimate import window as W
 from steer_monitor.estimate.batch import ClearanceEstimate, Rows, estimate_clearances, lag_moments, make_rows
-from steer_monitor.estimate.effects import Candidate, Effect, candidate_of, candidates, iter_z_columns, low_side_offsets, z_columns
+from steer_monitor.estimate.effects import (
+    Candidate,
+    Effect,
+    candidate_of,
+    candidates,
+    iter_z_columns,
+    low_side_offsets,
+    z_columns,
+)
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.locate import Located, locate
 from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import EstimateError, Observations, build_observations
-from steer_monitor.estimate.rams import (OPPOSED, RamShare, UnevenSpan, describe, judge, opposed_cause, ram_share,
-                                         uneven_spans, within, working_against)
+from steer_monitor.estimate.rams import (
+    OPPOSED,
+    RamShare,
+    UnevenSpan,
+    describe,
+    judge,
+    opposed_cause,
+    ram_share,
+    uneven_spans,
+    within,
+    working_against,
+)
 from steer_monitor.estimate.refine import refine_profile
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.inputs import PRESSURE_INPUTS, Series
 
-__all__ = ['DELAY_KEEP_S', 'DELAY_STEP_S', 'DELAY_VERTEX_S', 'EXPLAINED_RATIO', 'MAX_TRIED', 'MIN_BIC_DROP', 'MIN_CV_DEVIANCE',
-           'MIN_SYSTEMATIC_SHARE', 'OUTLIER_SIGMAS',
-           'SIGNS', 'SYSTEMATIC_LAG_STEPS', 'CAVEATS', 'Analysis', 'Screening', 'Step', 'analyze', 'block_ns',
-           'declared_fit', 'grid_2z_from', 'outlier_instants', 'refusal', 'skew_equivalent_s']
+__all__ = [
+    'DELAY_KEEP_S',
+    'DELAY_STEP_S',
+    'DELAY_VERTEX_S',
+    'EXPLAINED_RATIO',
+    'MAX_TRIED',
+    'MIN_BIC_DROP',
+    'MIN_CV_DEVIANCE',
+    'MIN_SYSTEMATIC_SHARE',
+    'OUTLIER_SIGMAS',
+    'SIGNS',
+    'SYSTEMATIC_LAG_STEPS',
+    'CAVEATS',
+    'Analysis',
+    'Screening',
+    'Step',
+    'analyze',
+    'block_ns',
+    'declared_fit',
+    'grid_2z_from',
+    'outlier_instants',
+    'refusal',
+    'skew_equivalent_s',
+]
 
 MIN_CV_DEVIANCE = 10.0   # held-out deviance on the effective sample size
 MIN_BIC_DROP = 15.0      # "very strong" (10) plus 2 ln 10 for the ~10 candidates a round tests
@@ -325,8 +364,14 @@ def unexplained_inflation(est: ClearanceEstimate) -> float:
     return 1.0 + (est.smooth_rms / est.noise_rms) ** 2
 
 
-def _screen(gear: GearParams, signals: Mapping[str, Series], base: _Base, grid_2z: NDArray, adopted: set[str],
-            say: Callable[[str], None]) -> tuple[list[tuple[Screening, Candidate]], dict[float, tuple[Observations, NDArray[np.bool_]]]]:
+def _screen(
+    gear: GearParams,
+    signals: Mapping[str, Series],
+    base: _Base,
+    grid_2z: NDArray,
+    adopted: set[str],
+    say: Callable[[str], None],
+) -> tuple[list[tuple[Screening, Candidate]], dict[float, tuple[Observations, NDArray[np.bool_]]]]:
     """Every candidate not yet adopted, scored against ``base`` (best held-out gain first),
     and the shifted observations of the best delay (with the instants it keeps)."""
     basis = F.TorqueBasis(gear.max_rudder)
@@ -756,9 +801,11 @@ def _verdict_text(verdict: str, declared: ClearanceEstimate, final: ClearanceEst
         return (f'added {added}: residual {declared.rms / bar:.2f} -> {final.rms / bar:.2f} bar RMS '
                 f'(systematic part {declared.smooth_rms / bar:.2f} -> {final.smooth_rms / bar:.2f} bar)')
     if names and final is not None:
-        text = (f'residual not explained: added {added} (residual {declared.rms / bar:.2f} -> {final.rms / bar:.2f} bar '
-                f'RMS), and a systematic part of {final.smooth_rms / bar:.2f} bar remains that no effect in the '
-                f'library explains')
+        text = (
+            f'residual not explained: added {added} (residual {declared.rms / bar:.2f} -> {final.rms / bar:.2f} bar '
+            f'RMS), and a systematic part of {final.smooth_rms / bar:.2f} bar remains that no effect in the '
+            f'library explains'
+        )
     else:
         text = (f'residual not explained: {declared.rms / bar:.2f} bar RMS with a systematic part of '
                 f'{declared.smooth_rms / bar:.2f} bar that no effect in the library explains')

@@ -129,7 +129,9 @@ class ClearanceEstimate:
         return m.axis, (m.rss - self.rss_floor) / unit
 
 
-def lag_moments(resid: NDArray[np.float64], t_ns: NDArray[np.int64], lag: int = SMOOTH_LAG_STEPS) -> tuple[float, float]:
+def lag_moments(
+    resid: NDArray[np.float64], t_ns: NDArray[np.int64], lag: int = SMOOTH_LAG_STEPS
+) -> tuple[float, float]:
     """(mean square, autocovariance at ``lag`` grid steps, 200 ms by default) of residuals
     (n, 2) [N^2], the latter over the
     pairs of the same ram with both instants fitted, unclamped (it may come out negative

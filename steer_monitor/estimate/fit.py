@@ -34,8 +34,34 @@ from steer_monitor.estimate.moments import SPEED_Z, Moments
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import friction_normals, load_sharing
 
-__all__ = ['GRID_2Z', 'GRID_ZGB', 'KNOT_STEP_DEG', 'Column', 'FitAt', 'Profile', 'TorqueBasis', 'axial_load', 'is_nuisance', 'speed_scale_columns', 'torque_z', 'design_at', 'design_columns', 'fit_at', 'normal_equations', 'residual_sum_of_squares', 'solve_normal_equations',
-           'closing_clearances', 'friction_features', 'PointFits', 'PointFitter', 'fit_points', 'profile', 'torque_columns', 'torque_of_load', 'torque_prefit']
+__all__ = [
+    'GRID_2Z',
+    'GRID_ZGB',
+    'KNOT_STEP_DEG',
+    'Column',
+    'FitAt',
+    'Profile',
+    'TorqueBasis',
+    'axial_load',
+    'is_nuisance',
+    'speed_scale_columns',
+    'torque_z',
+    'design_at',
+    'design_columns',
+    'fit_at',
+    'normal_equations',
+    'residual_sum_of_squares',
+    'solve_normal_equations',
+    'closing_clearances',
+    'friction_features',
+    'PointFits',
+    'PointFitter',
+    'fit_points',
+    'profile',
+    'torque_columns',
+    'torque_of_load',
+    'torque_prefit',
+]
 
 DEG = math.pi / 180.0
 GRID_2Z = np.round(np.arange(0.0, 1.5001e-3, 0.02e-3), 9)    # m: 0 .. 1.5 mm
@@ -144,7 +170,9 @@ def torque_columns(gear: GearParams, basis: TorqueBasis, mom: Moments) -> NDArra
     cache = mom.__dict__.setdefault('_torque_columns', {})
     if key not in cache:
         a = mom.abs_alpha
-        scale = mom.side * _speed_factor(mom, gear.torque.service_speed) * np.cos(a) ** 2 / (gear.rams * gear.stock_to_ram)
+        scale = (
+            mom.side * _speed_factor(mom, gear.torque.service_speed) * np.cos(a) ** 2 / (gear.rams * gear.stock_to_ram)
+        )
         cache.clear()
         cache[key] = basis(a) * scale[:, None]
     return cache[key]

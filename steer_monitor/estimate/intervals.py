@@ -19,7 +19,15 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ['CHI2_1_95', 'CHI2_2_95', 'PLATEAU_THRESHOLD', 'Interval', 'inflation', 'plateau_interval', 'profile_interval']
+__all__ = [
+    'CHI2_1_95',
+    'CHI2_2_95',
+    'PLATEAU_THRESHOLD',
+    'Interval',
+    'inflation',
+    'plateau_interval',
+    'profile_interval',
+]
 
 CHI2_1_95 = 3.841458820694124
 CHI2_2_95 = 5.991464547107979

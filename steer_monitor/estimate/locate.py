@@ -39,8 +39,18 @@ from steer_monitor.estimate.fit import Column
 from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import Observations
 
-__all__ = ['EDGE_MARGIN', 'MIN_BIN_ROWS', 'MIN_BIC_DROP', 'N_BINS', 'SIGNIFICANT', 'VARIABLES', 'Located', 'Shape', 'locate',
-           'variable_values']
+__all__ = [
+    'EDGE_MARGIN',
+    'MIN_BIN_ROWS',
+    'MIN_BIC_DROP',
+    'N_BINS',
+    'SIGNIFICANT',
+    'VARIABLES',
+    'Located',
+    'Shape',
+    'locate',
+    'variable_values',
+]
 
 VARIABLES = ('alpha_deg', 'rate_deg_s', 'speed_kn', 'pressure_bar', 'oil_temp_c', 'time_s')
 UNITS = {'alpha_deg': 'deg', 'rate_deg_s': 'deg/s', 'speed_kn': 'kn', 'pressure_bar': 'bar',

@@ -34,8 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from steer_monitor.model.inputs import PRESSURE_INPUTS, Series
 from steer_monitor.errors import SteerMonitorError
+from steer_monitor.model.inputs import PRESSURE_INPUTS, Series
 
 __all__ = ['GRID_NS', 'HALF_WINDOW_NS', 'MOVING_RATE', 'SEGMENT_NS', 'STEADY_FRACTION', 'EstimateError', 'Observations',
            'build_observations', 'data_grid', 'grid_times']

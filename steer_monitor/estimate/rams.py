@@ -252,7 +252,7 @@ def within(t_ns: NDArray[np.int64], spans: Sequence[UnevenSpan]) -> NDArray[np.b
 def describe(sp: UnevenSpan) -> str:
     """One stretch in words, its times in UTC."""
     def clock(t_ns: int) -> str:
-        return datetime.datetime.fromtimestamp(t_ns / 1e9, datetime.timezone.utc).strftime('%Y-%m-%d %H:%M:%S')
+        return datetime.datetime.fromtimestamp(t_ns / 1e9, datetime.UTC).strftime('%Y-%m-%d %H:%M:%S')
     return (f'ram {sp.ram + 1} carried {100 * sp.share:.0f} % of the driving force from {clock(sp.start_ns)} to '
             f'{clock(sp.end_ns)} UTC ({sp.instants} instants of steady motion'
             f'{", next to no work" if sp.idle else ""}: {UNEVEN_CAUSE.format(ram=sp.ram + 1)})')

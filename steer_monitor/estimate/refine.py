@@ -177,7 +177,7 @@ def _conditional(evaluate: _Evaluator, axis: int, xs: NDArray[np.float64], guess
         shift = np.where(curve > 0, 0.5 * h * (side[:, 0] - side[:, 1]) / curve, 0.0)
     vertex = np.round(np.clip(best_at + np.clip(shift, -h, h), lo, hi), DECIMALS)
     at_vertex = evaluate(xs, vertex) if axis == 0 else evaluate(vertex, xs)
-    for k, (r, y) in enumerate(zip((side[:, 0], side[:, 1], at_vertex), (ys[:, 0], ys[:, 1], vertex))):
+    for r, y in zip((side[:, 0], side[:, 1], at_vertex), (ys[:, 0], ys[:, 1], vertex)):
         better = r < best_rss
         best_rss[better], best_at[better] = r[better], y[better]
     return best_rss, best_at

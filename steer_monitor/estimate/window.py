@@ -29,8 +29,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from steer_monitor.model.inputs import FAST_INPUTS, Series
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, build_observations
+from steer_monitor.model.inputs import FAST_INPUTS, Series
 
 __all__ = ['FAST_MARGIN_NS', 'SETTLE_NS', 'SLOW_MARGIN_NS', 'Window', 'WindowBuffer', 'before', 'compact', 'select']
 
@@ -126,7 +126,8 @@ def select(signals: Mapping[str, Series], ram_area: float, motion_s: float = 0.0
 def compact(signals: Mapping[str, Series], ram_area: float, motion_s: float = 0.0) -> dict[str, Series]:
     """The samples a node keeps of ``signals`` for its later windows: those newer than
     ``SETTLE_NS`` before the newest angle sample (their observations are not final yet) and
-    the input's margin before that, and of the older ones those :func:`select` would keep now. Any later window of the data that
+    the input's margin before that, and of the older ones those :func:`select` would keep now. Any later window of
+    the data that
     follow is :func:`select` of these and what comes after, as of the whole data."""
     angle = signals.get('rudder_angle')
     if angle is None or len(angle) == 0:

@@ -44,8 +44,18 @@ from steer_monitor.model.gear import GearParams
 from steer_monitor.model.inputs import INPUTS, Series
 from steer_monitor.threads import single_blas_thread
 
-__all__ = ['ANALYSED', 'STATE_VERSION', 'Analyst', 'AnalystSettings', 'Job', 'JobRunner', 'Outcome', 'SyncJobs', 'describe',
-           'run_job']
+__all__ = [
+    'ANALYSED',
+    'STATE_VERSION',
+    'Analyst',
+    'AnalystSettings',
+    'Job',
+    'JobRunner',
+    'Outcome',
+    'SyncJobs',
+    'describe',
+    'run_job',
+]
 
 STATE_VERSION = 4               # 4: the data window and findings (3 and before: the binned moments of
                                 # the estimator this one replaced)

@@ -16,15 +16,25 @@ import numpy as np
 
 from steer_monitor.can.rejects import RejectSnapshot
 from steer_monitor.can.signals import SignalMap
-from steer_monitor.estimate.rams import (EVEN, IDLE, MIN_SHARE_INSTANTS, MIN_SHARE_SPREAD_PA, OPPOSED, UNJUDGED, enough,
-                                         judge, opposed_cause, weak_ram_cause)
+from steer_monitor.estimate.rams import (
+    EVEN,
+    IDLE,
+    MIN_SHARE_INSTANTS,
+    MIN_SHARE_SPREAD_PA,
+    OPPOSED,
+    UNJUDGED,
+    enough,
+    judge,
+    opposed_cause,
+    weak_ram_cause,
+)
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.hardover import hard_over_time, pumps_running
 from steer_monitor.model.inputs import PRESSURE_INPUTS, REQUIRED
 from steer_monitor.model.loadshare import load_sharing_at
 from steer_monitor.model.study import landmarks
-from steer_monitor.monitor.verdict import ERROR, OK, WARN, clearance_verdict
 from steer_monitor.monitor.live import ARRIVALS_KEPT_NS, RATE_WINDOW_NS, LiveMonitor
+from steer_monitor.monitor.verdict import ERROR, OK, WARN, clearance_verdict
 from steer_monitor.params import ram_share_warn_from_params
 
 __all__ = ['ERROR', 'OK', 'STALE', 'WARN', 'DiagnosticsBuilder', 'DiagnosticsConfig', 'Status']
@@ -262,16 +272,20 @@ class DiagnosticsBuilder:
                 level = OK if ok else WARN
                 parts.append(f"{head} ({'within' if ok else 'OVER'} SOLAS {self.cfg.solas_hard_over_s:g} s)")
         r = mon.response
-        values += [('order_deg', _f(None if r is None else math.degrees(r.order), '.2f')),
-                   ('response_direction_ok', 'n/a' if r is None or r.direction_ok is None else str(r.direction_ok).lower()),
-                   ('response_delay_s', _f(None if r is None else r.delay_s, '.2f')),
-                   ('response_accuracy_deg', _f(None if r is None or r.accuracy is None else math.degrees(r.accuracy), '.2f')),
-                   ('response_stalled_s', _f(None if r is None else r.stalled_s, '.1f'))]
+        values += [
+            ('order_deg', _f(None if r is None else math.degrees(r.order), '.2f')),
+            ('response_direction_ok', 'n/a' if r is None or r.direction_ok is None else str(r.direction_ok).lower()),
+            ('response_delay_s', _f(None if r is None else r.delay_s, '.2f')),
+            ('response_accuracy_deg', _f(None if r is None or r.accuracy is None else math.degrees(r.accuracy), '.2f')),
+            ('response_stalled_s', _f(None if r is None else r.stalled_s, '.1f')),
+        ]
         if r is not None and r.stalled_s is not None and r.stalled_at is not None:
             level = ERROR
-            parts.append(f'rudder has not moved for {r.stalled_s:.0f} s since the order went to '
-                         f'{math.degrees(r.order):.1f} deg (rudder at {math.degrees(r.stalled_at):.1f} deg): the rudder '
-                         'angle sensor frozen, the rudder jammed, or no pump running')
+            parts.append(
+                f'rudder has not moved for {r.stalled_s:.0f} s since the order went to '
+                f'{math.degrees(r.order):.1f} deg (rudder at {math.degrees(r.stalled_at):.1f} deg): the rudder '
+                'angle sensor frozen, the rudder jammed, or no pump running'
+            )
         elif r is not None and r.direction_ok is False:
             level = ERROR
             parts.append('rudder moved AGAINST the order')
@@ -325,16 +339,24 @@ class DiagnosticsBuilder:
                   ('ram_share_warn_pct', f'{100 * warn:g}')]
         verdict = judge(sh, warn, self.gear.ram_area)
         if sh is None:
-            return self._status('rams', OK, 'not judged yet: no instants of steady motion with both rams\' pressures '
-                                f'yet (judged from {MIN_SHARE_INSTANTS} instants and {MIN_SHARE_SPREAD_PA / 1e5:g} bar)',
-                                values)
+            return self._status(
+                'rams',
+                OK,
+                'not judged yet: no instants of steady motion with both rams\' pressures '
+                f'yet (judged from {MIN_SHARE_INSTANTS} instants and {MIN_SHARE_SPREAD_PA / 1e5:g} bar)',
+                values,
+            )
         if verdict == OPPOSED:      # no share means anything until the map is right
             return self._status('rams', ERROR, opposed_cause(sh, None, PRESSURE_INPUTS) + '; no estimate is made from '
                                 'them', values)
         shares = f'ram 1 {100 * sh.share[0]:.0f} %, ram 2 {100 * sh.share[1]:.0f} %'
         if verdict == UNJUDGED:
-            have = (f'{shares}, too uncertain' if enough(sh, self.gear.ram_area) else
-                    f'{sh.instants} instants of steady motion, the rams\' mean force varying by {sh.spread / bar:.2f} bar')
+            have = (
+                f'{shares}, too uncertain'
+                if enough(sh, self.gear.ram_area)
+                else f'{sh.instants} instants of steady motion, the rams\' mean force varying by '
+                f'{sh.spread / bar:.2f} bar'
+            )
             return self._status('rams', OK, f'not judged yet: {have} (judged from {MIN_SHARE_INSTANTS} instants '
                                 f'and {MIN_SHARE_SPREAD_PA / 1e5:g} bar)', values)
         if verdict == EVEN:
@@ -343,8 +365,13 @@ class DiagnosticsBuilder:
         weak = sh.weaker
         cause = weak_ram_cause(mon.share_pressures(), weak, PRESSURE_INPUTS)
         if verdict == IDLE:
-            return self._status('rams', ERROR, f'ram {weak + 1} does next to no work ({100 * sh.share[weak]:.0f} % of the '
-                                f'driving force, ram {2 - weak} {100 * sh.share[1 - weak]:.0f} %): {cause}; on one ram '
-                                'the gear has half its torque', values)
+            return self._status(
+                'rams',
+                ERROR,
+                f'ram {weak + 1} does next to no work ({100 * sh.share[weak]:.0f} % of the '
+                f'driving force, ram {2 - weak} {100 * sh.share[1 - weak]:.0f} %): {cause}; on one ram '
+                'the gear has half its torque',
+                values,
+            )
         return self._status('rams', WARN, f'uneven: {shares} of the driving force (warn beyond '
                             f'{100 * (0.5 - warn):.0f}-{100 * (0.5 + warn):.0f} %): {cause}', values)

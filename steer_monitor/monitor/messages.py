@@ -37,10 +37,10 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from steer_monitor.can.mcapio import ros_time
 from steer_monitor.monitor.diagnostics import Status
 from steer_monitor.monitor.live import LiveState
 from steer_monitor.monitor.pipeline import DiagOut, StateOut
+from steer_monitor.rostime import ros_time
 
 __all__ = ['CLEARANCE_NAMES', 'LOAD_SHARING_NAMES', 'TOPICS', 'diag_messages', 'state_messages', 'stamp',
            'topic_name']

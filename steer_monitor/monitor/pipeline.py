@@ -26,26 +26,23 @@ Outputs are :class:`StateOut` and :class:`DiagOut` records, in order.
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 from collections import deque
 from collections.abc import Callable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
 from steer_monitor.can.decoder import DecodedRun, Decoder
 from steer_monitor.can.frames import Frame
 from steer_monitor.can.rejects import RejectCounter
-from steer_monitor.errors import SteerMonitorError
 from steer_monitor.estimate.effects import Effect
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.inputs import Sample
-from steer_monitor.monitor.analyst import (ANALYSED, Analyst, AnalystSettings, Job, JobRunner, Outcome, SyncJobs,
-                                           run_job)
+from steer_monitor.monitor.analyst import ANALYSED, Analyst, AnalystSettings, Job, JobRunner, Outcome, SyncJobs, run_job
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, Status
 from steer_monitor.monitor.live import LiveMonitor, LiveState
 from steer_monitor.params import min_clearance_2z_from_params, ram_share_warn_from_params

@@ -7,7 +7,8 @@ second of data the diagnostics, the clearances in use and their source. So a rep
 frames (``steer-monitor replay``) publishes the same values. The analyses of the data window
 (``steer-monitor analyze`` of it, :mod:`~steer_monitor.monitor.analyst`) run on a worker thread
 and the window is kept on disk; their findings reach the live model a fixed data time after
-each job started (:func:`~steer_monitor.monitor.pipeline.apply_delay_ns`). The executor's 1 Hz timer publishes diagnostics on wall
+each job started (:func:`~steer_monitor.monitor.pipeline.apply_delay_ns`). The executor's 1 Hz timer publishes
+diagnostics on wall
 time only when the bus has been silent for more than 1.5 s (that is where STALE shows). The
 recorder writes MCAP on its own thread. SIGINT and SIGTERM shut down cleanly: the outputs of
 the last frames, the analyses' state, and the MCAP file finished.
@@ -32,17 +33,17 @@ from rclpy.node import Node
 from steer_monitor.atomic import ensure_dir
 from steer_monitor.can.bus import BusReader, ListenOnlyBus
 from steer_monitor.can.busclock import BusClock
+from steer_monitor.can.busconfig import can_setup
 from steer_monitor.can.decoder import Decoder
 from steer_monitor.can.frames import Frame
 from steer_monitor.can.rejects import RejectCounter
-from steer_monitor.can.setup import can_setup
 from steer_monitor.errors import OutputError, ParameterError, SteerMonitorError
 from steer_monitor.estimate.observe import EstimateError
+from steer_monitor.monitor.analyst import Analyst, Outcome, describe
 from steer_monitor.monitor.diagnostics import ERROR, OK, WARN, DiagnosticsBuilder, DiagnosticsConfig, Status
 from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages
-from steer_monitor.monitor.analyst import Analyst, Outcome, describe
-from steer_monitor.monitor.pipeline import (DiagOut, Output, Pipeline, StateOut, ThreadedJobs, analyst_from_params)
+from steer_monitor.monitor.pipeline import DiagOut, Output, Pipeline, StateOut, ThreadedJobs, analyst_from_params
 from steer_monitor.node.params_ros import declare_parameters
 from steer_monitor.node.rosmsg import message_class, to_ros
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
@@ -373,7 +374,9 @@ class MonitorNode(Node):
                             if not batch:
                                 batch_start = received
                             batch.append(frame)
-                    if batch and (frame is None or len(batch) >= RECORD_BATCH or received - batch_start >= RECORD_BATCH_NS):
+                    if batch and (
+                        frame is None or len(batch) >= RECORD_BATCH or received - batch_start >= RECORD_BATCH_NS
+                    ):
                         recorder.write_frames(batch)  # type: ignore[union-attr]
                         batch = []
                     try:

@@ -57,7 +57,7 @@ def _field_types(text: str, pkg: str) -> list[str]:
     return out
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def msgdef(datatype: str) -> str:
     """``pkg/msg/Name`` -> its definition followed by every dependency's, depth first."""
     seen: list[str] = []

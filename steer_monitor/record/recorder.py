@@ -44,12 +44,12 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
 from steer_monitor.can.frames import Frame
-from steer_monitor.can.mcapio import DEFAULT_QOS, FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, McapWriter
+from steer_monitor.logfiles.mcapio import DEFAULT_QOS, FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, McapWriter
 
 __all__ = ['Recorder', 'RecorderStatus']
 
@@ -438,7 +438,7 @@ class Recorder:
     def _open(self, log_time_ns: int, now: float) -> None:
         self._ensure_directory()
         self._keep_budget()
-        stamp = datetime.fromtimestamp(log_time_ns / 1e9, tz=timezone.utc).strftime('%Y%m%dT%H%M%SZ')
+        stamp = datetime.fromtimestamp(log_time_ns / 1e9, tz=UTC).strftime('%Y%m%dT%H%M%SZ')
         while True:     # never over a recording already there (a restart in the same second, a second node)
             self._index += 1
             path = self.directory / f'{self.prefix}_{stamp}_{self._index:03d}.mcap'

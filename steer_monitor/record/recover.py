@@ -16,9 +16,9 @@ from pathlib import Path
 from typing import Any
 
 from steer_monitor.atomic import atomic_path, os_reason, overwrite_forced
-from steer_monitor.can.fastlogs import decompress_chunk, summary_section
-from steer_monitor.can.mcapio import Counted
 from steer_monitor.errors import SteerMonitorError
+from steer_monitor.logfiles.fastlogs import decompress_chunk, summary_section
+from steer_monitor.logfiles.mcapio import Counted
 
 __all__ = ['RecoverError', 'RecoverResult', 'recover']
 
@@ -46,7 +46,7 @@ class RecoverResult:
 
 def _summary_definitions(fin: Any) -> list[Any]:
     """The schemas, then the channels, of the MCAP ``fin``'s summary section when it checks
-    out (:func:`~steer_monitor.can.fastlogs.summary_section`: footer, bounds, CRC, which
+    out (:func:`~steer_monitor.logfiles.fastlogs.summary_section`: footer, bounds, CRC, which
     mcap's reader does not check) and reads whole; none otherwise. Leaves ``fin`` at the start."""
     from mcap.exceptions import EndOfFile
     from mcap.records import Channel, Schema
@@ -126,7 +126,9 @@ def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult
             msg = f'cannot write {dst}: {os_reason(exc)}'
             raise RecoverError(msg) from exc
         with fout:
-            writer = Writer(fout if fout.seekable() else Counted(fout), compression=CompressionType.ZSTD, enable_crcs=True)
+            writer = Writer(
+                fout if fout.seekable() else Counted(fout), compression=CompressionType.ZSTD, enable_crcs=True
+            )
             writer.start(profile='ros2', library='steer_monitor recover')
             # a finished file repeats its schemas and channels in its summary: taken first, so
             # a dropped chunk that defined them (the first one defines them all) does not take

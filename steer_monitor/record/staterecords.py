@@ -6,7 +6,7 @@ one (:func:`~steer_monitor.monitor.messages.state_messages`, the CDR encoders of
 :mod:`~steer_monitor.record.cdr`, ``McapWriter.write_cdr``) they cost about 15 us each, a
 sixth of a replay. Both messages have a fixed size, so here the records of a batch of states
 are filled in by numpy into templates, and the writer appends them at once
-(:meth:`~steer_monitor.can.mcapio.McapWriter.write_records`).
+(:meth:`~steer_monitor.logfiles.mcapio.McapWriter.write_records`).
 
 The templates and the places of the fields in them are taken from the one-by-one path
 itself (its bytes for a state of sentinel values), so the two cannot drift apart silently;
@@ -30,12 +30,12 @@ from steer_monitor.monitor.live import LiveState
 from steer_monitor.monitor.messages import state_messages
 from steer_monitor.monitor.pipeline import StateOut
 from steer_monitor.record.cdr import FAST_ENCODERS
+from steer_monitor.rostime import SEC_MAX
 
 __all__ = ['PackedStates', 'pack_states']
 
 _RECORD_HEADER = struct.Struct('<BQHIQQ')     # opcode, length, channel, sequence, log, publish time
 _MESSAGE = 0x05
-_SEC_MAX = (1 << 31) - 1
 
 # sentinel values: a state whose every field has a bit pattern found once in its messages
 _T_NS = 1_234_567_890 * 1_000_000_000 + 987_654_321
@@ -108,7 +108,7 @@ def _fill(layout: _Layout, channel: int, t: NDArray[np.int64], floats: NDArray[n
     head[:, 15:23] = times
     head[:, 23:31] = times
     sec, nsec = np.divmod(t, 1_000_000_000)
-    unset = (sec > _SEC_MAX) | (sec < -_SEC_MAX - 1)     # see mcapio.ros_time
+    unset = (sec > SEC_MAX) | (sec < -SEC_MAX - 1)     # see rostime.ros_time
     stamp = np.empty(n, [('sec', '<i4'), ('nsec', '<u4')])
     stamp['sec'], stamp['nsec'] = np.where(unset, 0, sec), np.where(unset, 0, nsec)
     rec[:, layout.sec:layout.sec + 8] = stamp.view(np.uint8).reshape(n, 8)

@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from steer_monitor import sim
-from steer_monitor.can.fastlogs import write_candump_arrays
 from steer_monitor.ashore.logresult import LogResult
+from steer_monitor.logfiles.fastlogs import write_candump_arrays
 from steer_monitor.model import Gaps
 
 pytestmark = pytest.mark.slow
@@ -88,7 +88,12 @@ def test_a_year_of_a_fleet_with_a_worker_killed(tmp_path, fleet_dirs, client):
     assert by['steady']['trend']['clearance_zgb_mm']['limit_date_utc'] is None
     assert all(lg['level'] in ('OK', 'WARN', 'OVER LIMIT', 'not judged') for v in data['vessels'] for lg in v['logs'])
     log0 = by['wearing']['logs'][0]
-    assert log0['start_utc'].startswith('2026-01-01') and set(log0['clearance_zgb_mm']) == {'value', 'ci95', 'bounded', 'level'}
+    assert log0['start_utc'].startswith('2026-01-01') and set(log0['clearance_zgb_mm']) == {
+        'value',
+        'ci95',
+        'bounded',
+        'level',
+    }
 
     # each log's report page, from the same review, whole (written aside and renamed)
     for v in data['vessels']:
@@ -227,7 +232,10 @@ def _result(log: str, day: float, hours: float, z_gb_mm: float, frames: int = 10
 
 def _fleet(rs: list[LogResult], r18_params) -> dict:
     from steer_monitor.ashore.fleet import FleetRun, Vessel, fleet_json
-    return fleet_json(FleetRun([Vessel('mv', Path('mv'), None, ())], {'mv': rs}, {'mv': dict(r18_params)}))['vessels'][0]
+
+    return fleet_json(FleetRun([Vessel('mv', Path('mv'), None, ())], {'mv': rs}, {'mv': dict(r18_params)}))['vessels'][
+        0
+    ]
 
 
 def test_a_log_of_the_same_time_is_counted_once_in_the_trend(r18_params):

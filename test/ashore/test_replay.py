@@ -8,11 +8,11 @@ import math
 import pytest
 
 from steer_monitor import sim
-from steer_monitor.can.logs import LogWriter
-from steer_monitor.can.mcapio import FRAME_TOPIC
+from steer_monitor.ashore.replay import ReplayError, replay
 from steer_monitor.cli import main as cli
 from steer_monitor.errors import OutputError
-from steer_monitor.ashore.replay import ReplayError, replay
+from steer_monitor.logfiles.logs import LogWriter
+from steer_monitor.logfiles.mcapio import FRAME_TOPIC
 
 pytestmark = pytest.mark.slow
 
@@ -109,7 +109,7 @@ def test_the_fast_replay_writes_the_reference_bytes(tmp_path, logs, busy, case):
     paths = {'split': [logs['b.mcap'], logs['a.log']]}.get(case, [logs['all.log']])
     if case in ('hostile', 'two hours apart'):
         from steer_monitor.can.frames import Frame
-        from steer_monitor.can.logs import iter_log
+        from steer_monitor.logfiles.logs import iter_log
         frames = list(iter_log(logs['all.log']))
         if case == 'hostile':
             frames = _hostile(frames)
@@ -131,7 +131,9 @@ def test_the_fast_replay_writes_the_reference_bytes(tmp_path, logs, busy, case):
     assert fast.analyses == ref.analyses >= {'hostile': 1, 'broken': 0}.get(case, 3)
     assert (tmp_path / 'fast.mcap').read_bytes() == (tmp_path / 'ref.mcap').read_bytes()
     if case == 'hostile':
-        assert {'error_frame', 'unknown_id', 'wrong_length', 'duplicate', 'time_jump', 'time_backwards'} <= set(ref.rejects)
+        assert {'error_frame', 'unknown_id', 'wrong_length', 'duplicate', 'time_jump', 'time_backwards'} <= set(
+            ref.rejects
+        )
 
 
 def test_split_logs_in_any_order_give_the_whole_log(tmp_path, logs):
@@ -232,8 +234,8 @@ def test_analyses_that_fail_are_errors_where_the_reference_puts_them(tmp_path, l
             raise ValueError(msg)
         return real(*args, **kwargs)
     monkeypatch.setattr(A, 'analyze', failing)
-    from steer_monitor.can.mcapio import McapWriter
-    from steer_monitor.can.setup import load_setup
+    from steer_monitor.can.busconfig import load_setup
+    from steer_monitor.logfiles.mcapio import McapWriter
     _, params, db, smap = load_setup(busy)
     frames = sim.run(params, sim.SimConfig(program='hard_over_2,zigzag_10,zigzag_20', max_duration_s=150.0), db, smap,
                      5).frames.frames()
@@ -289,8 +291,8 @@ def test_a_recording_is_replayed_with_the_parameters_it_was_made_with(logs, busy
 
 def test_recorded_parameters_that_do_not_validate_are_refused_in_one_line(tmp_path):
     from steer_monitor.ashore.replay import recorded_setup
-    from steer_monitor.can.mcapio import McapWriter
     from steer_monitor.errors import ParameterError
+    from steer_monitor.logfiles.mcapio import McapWriter
     from steer_monitor.params import load_config
     from steer_monitor.record.provenance import run_metadata
 

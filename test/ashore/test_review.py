@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 from steer_monitor import sim
+from steer_monitor.ashore.review import MAX_WINDOWS, Review
 from steer_monitor.can import Decoder, FrameArrays, RejectCounter
-from steer_monitor.can.logs import LogWriter
+from steer_monitor.logfiles.logs import LogWriter
 from steer_monitor.model import Gaps
 from steer_monitor.monitor import LiveMonitor
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
-from steer_monitor.ashore.review import MAX_WINDOWS, Review
 
 pytestmark = pytest.mark.slow
 
@@ -187,7 +187,10 @@ def test_a_ram_read_the_wrong_way_round_is_named_and_nothing_estimated(r18_param
                 min_clearance_2z=min_clearance_2z_from_params(r18_params))
     for part in np.array_split(np.arange(len(voyage)), 3):
         signals = dec.decode_arrays(voyage.take(part))
-        signals['pressure_r2_stbd'], signals['pressure_r2_port'] = signals['pressure_r2_port'], signals['pressure_r2_stbd']
+        signals['pressure_r2_stbd'], signals['pressure_r2_port'] = (
+            signals['pressure_r2_port'],
+            signals['pressure_r2_stbd'],
+        )
         rv.add(signals)
     res = rv.finish()
     assert res.estimates == []

@@ -49,8 +49,11 @@ def test_results_of_an_earlier_version_are_made_again_and_a_foreign_table_refuse
     pq.write_table(table.drop_columns(list(LATER_COLUMNS)), path)
     assert load_results(tmp_path) == ({}, 3)
     pq.write_table(table.drop_columns(['z_gb_lo', *LATER_COLUMNS]), path)
-    with pytest.raises(InputError, match=r'kept results .*results\.parquet lack columns z_gb_lo, uneven_json, verdict, effects '
-                                         r'\(written by another version\? remove it\)'):
+    with pytest.raises(
+        InputError,
+        match=r'kept results .*results\.parquet lack columns z_gb_lo, uneven_json, verdict, effects '
+        r'\(written by another version\? remove it\)',
+    ):
         load_results(tmp_path)
 
 

@@ -24,7 +24,9 @@ def channel():
 
 def test_listen_only_bus_refuses_to_send(channel):
     with ListenOnlyBus('virtual', channel) as bus:
-        with pytest.raises(ListenOnlyError, match=f'steer_monitor only listens on virtual:{channel}; it never transmits'):
+        with pytest.raises(
+            ListenOnlyError, match=f'steer_monitor only listens on virtual:{channel}; it never transmits'
+        ):
             bus.send(can.Message(arbitration_id=1))
         assert bus.send_attempts == 1
     bus.close()  # idempotent
@@ -211,7 +213,9 @@ def test_reader_takes_a_busy_bus_in_batches(batch):
 
 @pytest.mark.parametrize('batch', [-0.001, 0.01, 0.5])
 def test_reader_batch_must_be_shorter_than_its_poll(batch):
-    with pytest.raises(ValueError, match=f'read batch {batch:g} s must be at least 0 and shorter than the poll of 0.01 s'):
+    with pytest.raises(
+        ValueError, match=f'read batch {batch:g} s must be at least 0 and shorter than the poll of 0.01 s'
+    ):
         BusReader(lambda: None, RejectCounter(), poll=0.01, batch=batch)
 
 

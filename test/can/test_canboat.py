@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from test.conftest import PKG, SHARED
+from test.conftest import SHARED
 
 CANBOAT = SHARED / 'realbus' / 'canboat.json'
 

@@ -13,7 +13,9 @@ from steer_monitor.can.frames import make_id, pgn_of, priority_of, source_of
 PGNS = (127245, 130314, 128259, 130316)
 
 
-@pytest.mark.parametrize('priority,pgn,source', [(2, 127245, 0x10), (7, 130314, 0xFE), (0, 128259, 0), (5, 130316, 0x40)])
+@pytest.mark.parametrize(
+    'priority,pgn,source', [(2, 127245, 0x10), (7, 130314, 0xFE), (0, 128259, 0), (5, 130316, 0x40)]
+)
 def test_id_round_trip(priority, pgn, source):
     can_id = make_id(priority, pgn, source)
     assert (priority_of(can_id), pgn_of(can_id), source_of(can_id)) == (priority, pgn, source)

@@ -125,7 +125,9 @@ def test_reject_text_names_the_frame(db, smap):
     d.finish()     # the stream's first frames wait for its time to be confirmed (timejump)
     last = d.rejects.snapshot().last
     assert last['unknown_id'] == 'unknown identifier: PGN not in the DBC: 0x0DF80105 (PGN 129025)'
-    assert 'rudder_angle = 0.8727 rad' in last['out_of_range'] and 'possible: -0.785398..0.785398' in last['out_of_range']
+    assert (
+        'rudder_angle = 0.8727 rad' in last['out_of_range'] and 'possible: -0.785398..0.785398' in last['out_of_range']
+    )
 
 
 @pytest.mark.parametrize('bar,ok', [(-1.5, False), (-0.9, True), (399.0, True), (401.0, False)])

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from steer_monitor.can import Frame, SignalMap, make_id
 from steer_monitor.can.devices import CANNOT_CLAIM, DeviceName, DeviceTable, format_name, parse_name
 from test.can.test_decoder import T0, assert_same, both, rudder
-from test.can.test_gateway import REALBUS, SUSTERANNA, _canboat_rows, capture
+from test.logfiles.test_gateway import REALBUS, SUSTERANNA, _canboat_rows, capture
 
 AUTOPILOT = 0xC0508C002FB89064          # a NAME from the Suster Anna capture (address 13)
 OTHER = 0xC03282002221B0B1
@@ -143,8 +143,13 @@ _events = st.lists(st.tuples(st.sampled_from(['claim', 'rudder']), st.integers(0
 @given(events=_events, seeded=st.booleans())
 def test_fuzz_device_following_paths_agree(db, smap, events, seeded):
     m = _by_name(smap, AUTOPILOT, address=13 if seeded else -1, instance=0)
-    frames = [claim(T0 + i * 10 ** 6, a, n) if kind == 'claim' else      # times rising: no time rejects
-              rudder(db, T0 + i * 10 ** 6, t, instance=inst, source=a) for i, (kind, t, a, n, inst) in enumerate(events)]
+    frames = [
+        claim(T0 + i * 10**6, a, n)
+        if kind == 'claim'
+        # times rising: no time rejects
+        else rudder(db, T0 + i * 10**6, t, instance=inst, source=a)
+        for i, (kind, t, a, n, inst) in enumerate(events)
+    ]
     a, b = both(db, m, frames)
     assert_same(a, b)
     # by hand: the device table, frame by frame

@@ -9,9 +9,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from steer_monitor.can import Decoder, Frame, FrameArrays, RejectCounter, collect
-from steer_monitor.can.fastlogs import iter_candump_blocks
-from steer_monitor.can.logs import candump_line, read_log_arrays
 from steer_monitor.can.timejump import CONFIRM_FRAMES
+from steer_monitor.logfiles.fastlogs import iter_candump_blocks
+from steer_monitor.logfiles.logs import candump_line, read_log_arrays
 from test.can.test_decoder import pressure, rudder
 
 T0 = 1_767_225_600_000_000_000
@@ -29,7 +29,7 @@ def _frames(db, step_list, values) -> list[Frame]:
     """Rudder and pressure frames of the R-18 bus at the times the steps give."""
     t = T0
     out = []
-    for k, (dt, (kind, angle, bar)) in enumerate(zip(step_list, values)):
+    for dt, (kind, angle, bar) in zip(step_list, values):
         t = max(0, min(t + dt, (1 << 62)))
         if kind == 0:
             out.append(rudder(db, t, angle))
@@ -150,7 +150,13 @@ def test_a_confirmed_step_back_is_counted_with_its_size_in_both_paths(db, smap):
     back = [T0 + 99 * ms - 3600 * 10**9 + k * ms for k in range(100)]
     forward = [T0 + 3600 * 10**9 + k * ms for k in range(100)]
     glitch = steady[:50] + [T0 - 10**12] * 3 + steady[50:]
-    for times, n in ((steady + back, 1), (steady + forward, 0), (glitch, 0), (back, 0), (steady + back + forward + back, 2)):
+    for times, n in (
+        (steady + back, 1),
+        (steady + forward, 0),
+        (glitch, 0),
+        (back, 0),
+        (steady + back + forward + back, 2),
+    ):
         one = JumpFilter()
         for t in times:
             one.push(t)

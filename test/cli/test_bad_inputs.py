@@ -41,8 +41,8 @@ def _uncompressed_mcap(log: Path, out: Path) -> None:
     byte inside one changes a frame silently unless the CRC is checked."""
     from mcap.writer import CompressionType, Writer
 
-    from steer_monitor.can.fastlogs import read_log_fast
-    from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, DEFAULT_QOS, frame_cdr
+    from steer_monitor.logfiles.fastlogs import read_log_fast
+    from steer_monitor.logfiles.mcapio import DEFAULT_QOS, FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, frame_cdr
     fa = read_log_fast(log)
     with open(out, 'wb') as fh:
         w = Writer(fh, chunk_size=8192, compression=CompressionType.NONE, enable_crcs=True)
@@ -276,9 +276,9 @@ def test_cut_blf_and_asc_are_analysed_and_say_so(base, tmp_path, capsys, suffix)
     """A BLF or ASC log cut short: every command uses the frames before the cut and says the
     log breaks off (exit 1). The block readers once dropped a cut BLF's frames altogether."""
 
-    from steer_monitor.can.fastlogs import read_log_fast
-    from steer_monitor.can.logs import LogWriter
-    from test.can.test_logs import _write_asc
+    from steer_monitor.logfiles.fastlogs import read_log_fast
+    from steer_monitor.logfiles.logs import LogWriter
+    from test.logfiles.test_logs import _write_asc
     frames = read_log_fast(base['long'])
     whole = tmp_path / f'whole{suffix}'
     if suffix == '.blf':
@@ -322,7 +322,7 @@ def test_a_compressed_log_cut_short_is_analysed_and_says_so(base, tmp_path, caps
     out = json.loads((tmp_path / 'analyze' / 'a.json').read_text())
     import zlib
 
-    from steer_monitor.can.compressed import PIECE_BYTES
+    from steer_monitor.logfiles.compressed import PIECE_BYTES
     decoder = {'gz': lambda: zlib.decompressobj(31), 'xz': lzma.LZMADecompressor,
                'zst': lambda: zstandard.ZstdDecompressor().decompressobj()}[kind]()
     lines_in_reach = decoder.decompress(path.read_bytes()).count(b'\n')   # what the format gives up to the cut

@@ -70,15 +70,27 @@ def test_errors_are_messages_not_tracebacks(capsys, argv, msg):
     assert 'Traceback' not in err
 
 
-@pytest.mark.parametrize('text,msg', [
-    ('chain: {stock_to_ram_m: 0.6, joints: []}', 'chain.joints: expected a non-empty list'),
-    ('chain: {stock_to_ram_m: 0.6, joints: [{name: a, fit: 180 H7/q7}]}', "chain.joints[0].fit: fit '180 H7/q7'"),
-    ('chain: {stock_to_ram_m: 0.6, joints: [{name: a, nominal_mm: 50.0, hole_mm: [0.1]}]}', 'chain.joints[0]: missing shaft_mm'),
-    ('chain: {stock_to_ram_m: 0.6, joints: [{name: a, fit: 50 H7/g6, colour: red}]}', "chain.joints[0]: unknown key 'colour'"),
-    ('chain: {joints: [{name: a, fit: 50 H7/g6}]}', 'chain.stock_to_ram_m: missing'),
-    ('chain: {stock_to_ram_m: 0.6, joints: [{name: a, nominal_mm: 50.0, hole_mm: [0.0, 0.1], shaft_mm: [0.0, -0.1]}]}',
-     'upper deviation 0.0000 mm is below lower deviation 0.1000 mm'),
-])
+@pytest.mark.parametrize(
+    'text,msg',
+    [
+        ('chain: {stock_to_ram_m: 0.6, joints: []}', 'chain.joints: expected a non-empty list'),
+        ('chain: {stock_to_ram_m: 0.6, joints: [{name: a, fit: 180 H7/q7}]}', "chain.joints[0].fit: fit '180 H7/q7'"),
+        (
+            'chain: {stock_to_ram_m: 0.6, joints: [{name: a, nominal_mm: 50.0, hole_mm: [0.1]}]}',
+            'chain.joints[0]: missing shaft_mm',
+        ),
+        (
+            'chain: {stock_to_ram_m: 0.6, joints: [{name: a, fit: 50 H7/g6, colour: red}]}',
+            "chain.joints[0]: unknown key 'colour'",
+        ),
+        ('chain: {joints: [{name: a, fit: 50 H7/g6}]}', 'chain.stock_to_ram_m: missing'),
+        (
+            'chain: {stock_to_ram_m: 0.6, joints: [{name: a, nominal_mm: 50.0, hole_mm: [0.0, 0.1], '
+            'shaft_mm: [0.0, -0.1]}]}',
+            'upper deviation 0.0000 mm is below lower deviation 0.1000 mm',
+        ),
+    ],
+)
 def test_bad_chain_files(tmp_path, capsys, text, msg):
     path = tmp_path / 'c.yaml'
     path.write_text(text)

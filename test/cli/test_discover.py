@@ -10,7 +10,7 @@ import pytest
 
 from steer_monitor.cli.main import main
 from steer_monitor.params import load_params_file
-from test.can.test_gateway import MERRIMAC, REALBUS, SUSTERANNA, SUSTERANNA_2020, capture
+from test.logfiles.test_gateway import MERRIMAC, REALBUS, SUSTERANNA, SUSTERANNA_2020, capture
 
 
 @pytest.mark.parametrize('path, extra, address, samples', [
@@ -19,9 +19,16 @@ from test.can.test_gateway import MERRIMAC, REALBUS, SUSTERANNA, SUSTERANNA_2020
 def test_discover_then_inspect_sees_the_rudder(tmp_path, capsys, path, extra, address, samples):
     capture(path)
     out = tmp_path / 'vessel.yaml'
-    assert main(['discover', str(path), '--write-config', str(out), '--json'] + extra) == 0
+    # these buses carry a rudder angle but no ram pressures: the map is written, partial, and said so
+    assert main(['discover', str(path), '--write-config', str(out), '--json'] + extra) == 1
     cap = capsys.readouterr()
     d = json.loads(cap.out)
+    missing = ['pressure_r1_stbd', 'pressure_r1_port', 'pressure_r2_stbd', 'pressure_r2_port']
+    assert d['missing_required'] == missing and not any(d['proposed'][n]['on_bus'] for n in missing)
+    assert d['proposed']['rudder_angle']['on_bus']
+    assert cap.err.splitlines()[-1] == ('steer-monitor discover: error: the bus lacks inputs the monitor needs: '
+                                       f'{", ".join(missing)}; the map written keeps them as the given map has them, '
+                                       'so it is partial: find where the gear sends them (a longer log, another bus)')
     assert set(d) >= {'streams', 'devices', 'proposed', 'notes'}
     for s in d['streams']:
         assert set(s) >= {'pgn', 'name', 'source', 'instance', 'frames', 'rate_hz', 'first_ns', 'last_ns', 'fields'}
@@ -40,8 +47,9 @@ def test_discover_then_inspect_sees_the_rudder(tmp_path, capsys, path, extra, ad
 
 def test_text_output_and_ambiguity_on_stderr(tmp_path, capsys):
     capture(SUSTERANNA)
-    assert main(['discover', str(SUSTERANNA), '--pgn-database', str(REALBUS / 'canboat.json')]) == 0
+    assert main(['discover', str(SUSTERANNA), '--pgn-database', str(REALBUS / 'canboat.json')]) == 1
     cap = capsys.readouterr()
+    assert 'NO (kept as given)' in cap.out and 'no (left out)' in cap.out     # required and optional inputs not found
     assert 'Rudder' in cap.out and 'Vessel Heading' in cap.out          # named from canboat.json
     assert 'devices (address claims):' in cap.out and 'C0508C002FB89064' in cap.out
     assert 'steer-monitor discover: note: ship_speed: 3 senders of 128259' in cap.err
@@ -56,7 +64,7 @@ def test_ydwg_date_is_said(tmp_path, capsys):
     assert 'YDWG raw log (time of day only) read as starting on 2020-08-22 UTC, the date given' in cap.err
     copy = tmp_path / 'merrimac-2021-03-04.raw'
     shutil.copy(MERRIMAC, copy)
-    assert main(['discover', str(copy)]) == 0
+    assert main(['discover', str(copy)]) == 1      # no ram pressures on this bus
     assert 'starting on 2021-03-04 UTC, the date from the file name; give --date if that is wrong' \
         in capsys.readouterr().err
 
@@ -114,7 +122,7 @@ def test_a_log_of_no_frames(tmp_path, capsys):
 def test_a_bad_device_name_in_the_parameters(tmp_path, capsys):
     capture(SUSTERANNA)
     out = tmp_path / 'vessel.yaml'
-    assert main(['discover', str(SUSTERANNA), '--write-config', str(out)]) == 0
+    assert main(['discover', str(SUSTERANNA), '--write-config', str(out)]) == 1      # partial: no pressures
     capsys.readouterr()
     out.write_text(out.read_text().replace("device_name: ''", "device_name: not-a-name", 1))
     assert main(['inspect', str(SUSTERANNA), '--config', str(out)]) == 1
@@ -125,7 +133,7 @@ def test_a_bad_device_name_in_the_parameters(tmp_path, capsys):
 def test_replay_reads_a_gateway_log_with_its_date(tmp_path, capsys):
     capture(MERRIMAC)
     cfg = tmp_path / 'vessel.yaml'
-    assert main(['discover', str(MERRIMAC), '--date', '2020-08-22', '--write-config', str(cfg)]) == 0
+    assert main(['discover', str(MERRIMAC), '--date', '2020-08-22', '--write-config', str(cfg)]) == 1   # partial
     capsys.readouterr()
     assert main(['replay', str(MERRIMAC), '--date', '2020-08-22', '--config', str(cfg), '--out',
                  str(tmp_path / 'r.mcap'), '--json']) == 0
@@ -133,7 +141,7 @@ def test_replay_reads_a_gateway_log_with_its_date(tmp_path, capsys):
     r = json.loads(cap.out)
     assert r['frames'] == 914
     assert 'read as starting on 2020-08-22 UTC, the date given' in cap.err
-    from steer_monitor.can.fastlogs import read_log_fast
+    from steer_monitor.logfiles.fastlogs import read_log_fast
     frames = read_log_fast(tmp_path / 'r.mcap')
     assert len(frames) == 914 and str(frames.t_ns[0]).startswith('15980')     # 2020-08-22
     from mcap.reader import make_reader
@@ -142,3 +150,15 @@ def test_replay_reads_a_gateway_log_with_its_date(tmp_path, capsys):
     assert meta['steer_monitor']['writer'] == 'steer-monitor replay'
     assert meta['steer_monitor']['parameters_file'] == str(cfg)
     assert json.loads(meta['steer_monitor.parameters']['signals.rudder_angle.address']) == 13
+
+
+def test_a_bus_with_every_input_gives_a_whole_map(tmp_path, capsys):
+    """The simulator's bus carries every input: each is found, the map is whole, exit 0."""
+    log, out = tmp_path / 'sim.log', tmp_path / 'vessel.yaml'
+    assert main(['simulate', '--program', 'hard_over_2', '--max-duration', '20', '--out', str(log)]) == 0
+    capsys.readouterr()
+    assert main(['discover', str(log), '--write-config', str(out), '--json']) == 0
+    cap = capsys.readouterr()
+    d = json.loads(cap.out)
+    assert d['missing_required'] == [] and all(v['on_bus'] for v in d['proposed'].values()), d['proposed']
+    assert f"then: steer-monitor inspect {log} --config {out}" in cap.err      # no placeholder

@@ -76,7 +76,8 @@ def test_the_sigterm_handler_is_the_caller_s_again_afterwards(capsys):
 
 @pytest.mark.parametrize('command', ['replay', 'discover', 'analyze', 'recover'])
 def test_an_output_to_stdout_in_a_pipe_is_the_file_and_the_words_go_to_stderr(tmp_path, command):
-    """``--out /dev/stdout | ...``: as root, the link /dev/stdout was replaced by the file; an MCAP asked where it was (a pipe cannot say: 'Illegal
+    """``--out /dev/stdout | ...``: as root, the link /dev/stdout was replaced by the file; an MCAP asked where it
+    was (a pipe cannot say: 'Illegal
     seek'), discover read its written file back (from the pipe: it hung), and the summary for
     people went into the same stream as the file's bytes. Now the pipe carries the file alone,
     the same bytes as a file of that name."""
@@ -107,8 +108,9 @@ def test_an_output_to_stdout_in_a_pipe_is_the_file_and_the_words_go_to_stderr(tm
     elif command != 'replay':
         assert piped.stdout == in_file.read_bytes()
     else:       # a replay's metadata holds its output's name
-        from mcap.reader import make_reader
         import io
+
+        from mcap.reader import make_reader
 
         def messages(data: bytes) -> list:
             return [(c.topic, m.log_time, m.data) for _, c, m in make_reader(io.BytesIO(data)).iter_messages()]

@@ -8,9 +8,9 @@ import io
 import pytest
 
 from steer_monitor import sim
-from steer_monitor.can.logs import LogWriter
 from steer_monitor.cli import main as cli
 from steer_monitor.cli.progress import DataTimeProgress, log_spans
+from steer_monitor.logfiles.logs import LogWriter
 
 
 @pytest.fixture(scope='module')

@@ -14,7 +14,7 @@ from steer_monitor.model.gear import Gaps
 @pytest.fixture(scope='session')
 def simulate_signals(r18_params, db, smap):
     """(program, 2Z mm, Z_gb mm, effects, seed, max_s) -> (decoded signals, Simulation)."""
-    @functools.lru_cache(maxsize=None)
+    @functools.cache
     def make(program: str = 'voyage', two_z: float = 0.6, z_gb: float = 0.25, effects: tuple[str, ...] = (),
              seed: int = 1, max_s: float = 7200.0):
         cfg = sim.SimConfig(program=program, gaps=Gaps.from_mm(two_z, z_gb),

@@ -174,8 +174,12 @@ def test_a_ram_whose_pressures_are_swapped_in_the_map_is_named_and_nothing_estim
     stbd, port = f'pressure_r{ram}_stbd', f'pressure_r{ram}_port'
     signals[stbd], signals[port] = signals[port], signals[stbd]
     from steer_monitor.estimate.observe import EstimateError
-    with pytest.raises(EstimateError, match=rf'^the rams push against each other \(their forces correlate at -[01]\.\d\d '
-                                            rf'over \d+ instants of motion\): the starboard and port pressures of ram '
-                                            rf'{ram} are read the wrong way round: {stbd} and {port} swapped in the '
-                                            r'signals map \(or the transducers swapped on the gear\); nothing estimated$'):
+
+    with pytest.raises(
+        EstimateError,
+        match=rf'^the rams push against each other \(their forces correlate at -[01]\.\d\d '
+        rf'over \d+ instants of motion\): the starboard and port pressures of ram '
+        rf'{ram} are read the wrong way round: {stbd} and {port} swapped in the '
+        r'signals map \(or the transducers swapped on the gear\); nothing estimated$',
+    ):
         analyze(r18, signals, min_clearance_2z=MIN_2Z)

@@ -8,7 +8,6 @@ import math
 import numpy as np
 import pytest
 
-from steer_monitor.estimate import fit as F
 from steer_monitor.estimate.effects import NAMES, Effect, candidate_of, candidates, live_term, z_columns
 from steer_monitor.estimate.moments import Moments, rows_from_observations
 from steer_monitor.estimate.observe import build_observations
@@ -56,8 +55,13 @@ def test_a_term_sample_by_sample_is_what_its_columns_predict(r18, simulate_signa
     n_a = np.maximum(np.abs(ls.r_a), 2 * np.abs(ls.m_a) / r18.bushing_length)
     feats = {'n_b': n_a + np.abs(ls.r_e), 'f_gb': np.abs(ls.guide_force), 'load': np.abs(ls.axial)}
     rows = slice(0, 400)
-    mom = Moments.from_rows(np.arange(keys.size)[rows] * 4 + (obs.direction[idx][rows] > 0) + 2 * (obs.alpha[idx][rows] >= 0),
-                            aa[rows], v2[rows], u[rows], zn)
+    mom = Moments.from_rows(
+        np.arange(keys.size)[rows] * 4 + (obs.direction[idx][rows] > 0) + 2 * (obs.alpha[idx][rows] >= 0),
+        aa[rows],
+        v2[rows],
+        u[rows],
+        zn,
+    )
     predicted = np.zeros(mom.keys.size)
     for col in cand.columns:
         feature = col.feature(mom, {k: v[rows] for k, v in feats.items()})

@@ -6,11 +6,16 @@ import math
 
 import numpy as np
 import pytest
-
 from scipy.stats import chi2
 
-from steer_monitor.estimate.intervals import (CHI2_1_95, PLATEAU_THRESHOLD, Interval, inflation, plateau_interval,
-                                              profile_interval)
+from steer_monitor.estimate.intervals import (
+    CHI2_1_95,
+    PLATEAU_THRESHOLD,
+    Interval,
+    inflation,
+    plateau_interval,
+    profile_interval,
+)
 
 
 def test_profile_interval_of_a_parabola_matches_the_closed_form():

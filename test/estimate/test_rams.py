@@ -6,8 +6,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from steer_monitor.estimate.rams import (EVEN, IDLE, MIN_SHARE_INSTANTS, OPPOSED, UNEVEN, UNJUDGED, RamShare, judge,
-                                         opposed_cause, ram_share, uneven_spans, weak_ram_cause, working_against)
+from steer_monitor.estimate.rams import (
+    EVEN,
+    IDLE,
+    MIN_SHARE_INSTANTS,
+    OPPOSED,
+    UNEVEN,
+    UNJUDGED,
+    RamShare,
+    judge,
+    opposed_cause,
+    ram_share,
+    uneven_spans,
+    weak_ram_cause,
+    working_against,
+)
 
 AREA = 0.045239          # A_r of the R-18 [m^2]
 BAR = AREA * 1e5         # one bar of ram pressure as force [N]

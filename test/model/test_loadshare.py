@@ -63,7 +63,7 @@ def _inputs_for(r18, alpha_deg, fl_kn, f_theta_kn, f_z_kn):
     return alpha, torque, two_z, z_gb
 
 
-I, II, III = STAGE_PINNED, STAGE_CLAMPED, STAGE_GUIDE
+I, II, III = STAGE_PINNED, STAGE_CLAMPED, STAGE_GUIDE  # noqa: E741  the paper's stage numerals
 
 
 @pytest.mark.parametrize('fl,f_theta,f_z,case,stages', [

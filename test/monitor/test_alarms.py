@@ -15,10 +15,10 @@ from steer_monitor.estimate.finding import Finding
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.model import Gaps
 from steer_monitor.model.friction import FrictionParams
+from steer_monitor.model.inputs import Sample
 from steer_monitor.monitor import ERROR, OK, WARN, DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
 from steer_monitor.monitor.diagnostics import LEVEL_NAMES
 from steer_monitor.monitor.live import REVERSAL_NS
-from steer_monitor.model.inputs import Sample
 from steer_monitor.monitor.pipeline import DiagOut, Pipeline, analyst_from_params
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
 
@@ -111,16 +111,25 @@ def test_an_undeclared_friction_is_named(r18_params, can_db):
     assert all(st.level == OK for st in health)
 
 
-@pytest.mark.parametrize('program, effect, level, text, within_s', [
-    # at sea: ram 2's chambers joined a quarter of an hour into the watch
-    ('realistic:1200', 'ram_bypass:ram=2,start_s=300', ERROR, 'ram 2 does next to no work', 120),
-    ('realistic:1200', 'ram_bypass:ram=2,start_s=300', ERROR, 'its two chambers read the same pressure (2.0 and 2.0 '
-                                                             'bar): joined, a bypass or isolating valve open on ram 2', 120),
-    # a valve left half open: ram 1 carries a quarter, ram 2 three quarters
-    ('realistic:1200', 'ram_bypass:ram=1,carries=0.5,start_s=300', WARN, 'uneven: ram 1 25 %, ram 2 75 %', 120),
-    # at berth, the steering gear test before departure: no ship speed, friction alone to go by
-    ('speed:0,hold:10,hard_over_2,hard_over_1', 'ram_bypass:ram=1', ERROR, 'ram 1 does next to no work', 60),
-])
+@pytest.mark.parametrize(
+    'program, effect, level, text, within_s',
+    [
+        # at sea: ram 2's chambers joined a quarter of an hour into the watch
+        ('realistic:1200', 'ram_bypass:ram=2,start_s=300', ERROR, 'ram 2 does next to no work', 120),
+        (
+            'realistic:1200',
+            'ram_bypass:ram=2,start_s=300',
+            ERROR,
+            'its two chambers read the same pressure (2.0 and 2.0 '
+            'bar): joined, a bypass or isolating valve open on ram 2',
+            120,
+        ),
+        # a valve left half open: ram 1 carries a quarter, ram 2 three quarters
+        ('realistic:1200', 'ram_bypass:ram=1,carries=0.5,start_s=300', WARN, 'uneven: ram 1 25 %, ram 2 75 %', 120),
+        # at berth, the steering gear test before departure: no ship speed, friction alone to go by
+        ('speed:0,hold:10,hard_over_2,hard_over_1', 'ram_bypass:ram=1', ERROR, 'ram 1 does next to no work', 60),
+    ],
+)
 def test_a_ram_that_does_not_carry_its_share_is_found(r18_params, can_db, program, effect, level, text, within_s):
     """A fault of the hydraulics, not of the model: the rams status names the ram within a few
     minutes of motion, and says nothing before the fault."""

@@ -213,8 +213,8 @@ def test_analyze_of_the_log_until_a_findings_time_gives_what_the_node_published(
     """What a superintendent can check: the clearances status names the data its estimate
     was made of (``estimate_data_until_utc``); ``steer-monitor analyze LOG --until THAT
     --window-motion-h 1`` gives the published values, as the diagnostics print them."""
-    from steer_monitor.can.mcapio import McapWriter
     from steer_monitor.cli import analyze as A
+    from steer_monitor.logfiles.mcapio import McapWriter
 
     db, smap = can_db
     s = sim.run(r18_params, sim.SimConfig(program='realistic:900', gaps=Gaps.from_mm(0.41, 0.1717)), db, smap, 47)
@@ -237,6 +237,10 @@ def test_analyze_of_the_log_until_a_findings_time_gives_what_the_node_published(
     assert got['window']['until_utc'] == until and got['window']['motion_h'] == 1.0
     for key in ('2z', 'zgb'):      # the JSON to 0.0001 mm, the diagnostics to 0.001 mm
         q = got[f'clearance_{key}_mm']
-        shown = [st.value(f'clearance_{key}_mm'), st.value(f'clearance_{key}_lo_mm'), st.value(f'clearance_{key}_hi_mm')]
+        shown = [
+            st.value(f'clearance_{key}_mm'),
+            st.value(f'clearance_{key}_lo_mm'),
+            st.value(f'clearance_{key}_hi_mm'),
+        ]
         for x, v in zip([q['value'], *q['ci95']], shown):
             assert (x is None and v == 'n/a') or abs(x - float(v)) <= 0.00055, (key, q, shown)

@@ -240,7 +240,9 @@ def test_a_minute_rejudged_at_once_is_each_instant_judged_alone(r18_params, case
                 for a, d, f1, f2 in zip(rng.uniform(-0.61, 0.61, 600), rng.choice([-1.0, 1.0], 600),
                                         rng.uniform(-3e5, 3e5, 600), rng.uniform(-3e5, 3e5, 600))]
     angles = np.radians(np.arange(0.0, 25.01, 0.5))
-    table = TorqueTable(angles, 1.1 * gear.torque(angles), gear.torque.service_speed) if case == 'fitted torque' else None
+    table = (
+        TorqueTable(angles, 1.1 * gear.torque(angles), gear.torque.service_speed) if case == 'fitted torque' else None
+    )
     interval = {'2z': (0.05e-3, None), 'zgb': (0.0, None)} if case == 'lower bounds only' else None
     mon.set_gaps(gaps, 'estimated' if case != 'configured' else 'configured', interval,
                  FrictionParams(9000.0, 0.13, 0.05), table)

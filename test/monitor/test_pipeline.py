@@ -15,8 +15,15 @@ from steer_monitor.estimate.intervals import Interval
 from steer_monitor.model import Gaps
 from steer_monitor.monitor import DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
 from steer_monitor.monitor.analyst import Analyst, AnalystSettings, Job, Outcome
-from steer_monitor.monitor.pipeline import (MAX_GAP_SECONDS, SECOND_NS, SLOT_NS, DiagOut, Pipeline, StateOut,
-                                            apply_delay_ns)
+from steer_monitor.monitor.pipeline import (
+    MAX_GAP_SECONDS,
+    SECOND_NS,
+    SLOT_NS,
+    DiagOut,
+    Pipeline,
+    StateOut,
+    apply_delay_ns,
+)
 from steer_monitor.params import gear_from_params
 
 

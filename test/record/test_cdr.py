@@ -51,11 +51,20 @@ def test_rclpy_serializes_the_same_message():
 
 DIAGNOSTICS = [
     {'header': {'stamp': {'sec': 1_700_000_000, 'nanosec': 0}, 'frame_id': ''}, 'status': []},
-    {'header': {'stamp': {'sec': 1_700_000_001, 'nanosec': 5}, 'frame_id': 'x'},
-     'status': [{'level': 0, 'name': 'steer_monitor: CAN input', 'message': 'ok', 'hardware_id': 'r18',
-                 'values': [{'key': 'rate_hz', 'value': '10.0'}, {'key': '', 'value': ''}]},
-                {'level': 2, 'name': 'b', 'message': 'd\u00e9j\u00e0 vu \u00b0', 'hardware_id': '', 'values': []},
-                {'level': 3, 'name': '', 'message': 'abc', 'hardware_id': 'ab', 'values': [{'key': 'k', 'value': 'vv'}]}]},
+    {
+        'header': {'stamp': {'sec': 1_700_000_001, 'nanosec': 5}, 'frame_id': 'x'},
+        'status': [
+            {
+                'level': 0,
+                'name': 'steer_monitor: CAN input',
+                'message': 'ok',
+                'hardware_id': 'r18',
+                'values': [{'key': 'rate_hz', 'value': '10.0'}, {'key': '', 'value': ''}],
+            },
+            {'level': 2, 'name': 'b', 'message': 'd\u00e9j\u00e0 vu \u00b0', 'hardware_id': '', 'values': []},
+            {'level': 3, 'name': '', 'message': 'abc', 'hardware_id': 'ab', 'values': [{'key': 'k', 'value': 'vv'}]},
+        ],
+    },
 ]
 
 

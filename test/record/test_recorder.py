@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from steer_monitor.can import Frame, make_id
-from steer_monitor.can.mcapio import FRAME_TOPIC
+from steer_monitor.logfiles.mcapio import FRAME_TOPIC
 from steer_monitor.record import Recorder, RecoverError, msgdef, recover
 from test.conftest import fill
 
@@ -334,7 +334,9 @@ def test_every_file_says_what_it_was_made_with(tmp_path, r18_params):
     for path in rec.files:
         with open(path, 'rb') as fh:
             got = {m.name: m.metadata for m in make_reader(fh).iter_metadata()}
-        assert got[RUN_RECORD]['gear'] == 'R-18' and got[RUN_RECORD]['parameters_sha256'] == parameters_digest(r18_params)
+        assert got[RUN_RECORD]['gear'] == 'R-18' and got[RUN_RECORD]['parameters_sha256'] == parameters_digest(
+            r18_params
+        )
         assert got[RUN_RECORD]['parameters_file'] == 'config/r18.yaml'
         assert json.loads(got[PARAMETERS_RECORD]['gear.stock_to_ram_m']) == r18_params['gear.stock_to_ram_m']
     out = recover(rec.files[0], tmp_path / 'recovered.mcap')

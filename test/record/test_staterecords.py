@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from steer_monitor.can.mcapio import McapWriter
+from steer_monitor.logfiles.mcapio import McapWriter
 from steer_monitor.model.gear import Gaps
 from steer_monitor.model.loadshare import ShareScalar, load_sharing_scalar
 from steer_monitor.monitor.live import LiveState

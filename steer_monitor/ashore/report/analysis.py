@@ -160,9 +160,11 @@ def write_analysis_report(a: Analysis, result: dict[str, Any], path: str | Path)
                    for name, key in (('2Z [mm]', 'clearance_2z_mm'), ('Z_gb [mm]', 'clearance_zgb_mm'),
                                      ('K_gl max', 'k_gl_max'), ('F_s [N]', 'seal_friction_n'),
                                      ('mu_b', 'mu_bushing'), ('mu_g', 'mu_guide')))
-    scr = ''.join(f"<tr><td>{esc(s['name'])}</td><td>{esc(_words(s['fixed']))}</td><td>{s['held_out_gain']:.3f}</td>"
-                  f"<td>{s['delta_bic']:.1f}</td><td>{s['rmse_bar']:.3f}</td><td>{'yes' if s['passes'] else 'no'}</td></tr>"
-                  for s in result['screening'])
+    scr = ''.join(
+        f"<tr><td>{esc(s['name'])}</td><td>{esc(_words(s['fixed']))}</td><td>{s['held_out_gain']:.3f}</td>"
+        f"<td>{s['delta_bic']:.1f}</td><td>{s['rmse_bar']:.3f}</td><td>{'yes' if s['passes'] else 'no'}</td></tr>"
+        for s in result['screening']
+    )
     effects = result['effects']
     eff = 'none' if not effects else '; '.join(
         f"{esc(e['name'])} ({e['rmse_before_bar']} &rarr; {e['rmse_after_bar']} bar): {esc(_words(e['params']))}"

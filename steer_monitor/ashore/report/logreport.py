@@ -29,7 +29,7 @@ def published_track(paths: Sequence[Path]) -> Any:
     from mcap_ros2.decoder import DecoderFactory
 
     from steer_monitor.ashore.report.review import PublishedTrack
-    from steer_monitor.can.fastlogs import mcap_chunks_within_limits
+    from steer_monitor.logfiles.fastlogs import mcap_chunks_within_limits
 
     rows: list[tuple[int, list[float]]] = []
     for path in paths:
@@ -85,9 +85,9 @@ def report_input(paths: Sequence[Path], batch: Any, params: dict[str, Any], conf
     """The page's input for ``paths`` reviewed as ``batch`` (a
     :class:`~steer_monitor.ashore.batchpath.BatchRun`) with these parameters; ``analysis``: the model
     check (None, and ``analysis_note`` says why)."""
+    from steer_monitor.ashore.report.review import ReportInput
     from steer_monitor.params import gear_from_params
     from steer_monitor.record.provenance import parameters_digest
-    from steer_monitor.ashore.report.review import ReportInput
 
     return ReportInput(', '.join(Path(p).name for p in paths), gear_from_params(params), batch.review, analysis,
                        analysis_note, published_track(paths), batch.frames, batch.rejects, batch.errors,

@@ -15,19 +15,20 @@ import html
 import io
 import math
 from dataclasses import dataclass
+from datetime import UTC
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from steer_monitor.ashore.report.analysis import residual_figure
+from steer_monitor.ashore.review import ReviewResult
 from steer_monitor.atomic import ensure_dir, write_files
 from steer_monitor.estimate.analyze import Analysis
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.hardover import pumps_running
 from steer_monitor.model.loadshare import load_sharing_at
-from steer_monitor.ashore.report.analysis import residual_figure
-from steer_monitor.ashore.review import ReviewResult
 
 __all__ = ['PLOTS', 'PublishedTrack', 'ReportInput', 'write_review_report']
 
@@ -238,8 +239,8 @@ def _iv_text(iv: Any, scale: float, unit: str) -> str:
 
 
 def _utc(t_ns: int) -> str:
-    from datetime import datetime, timezone
-    return datetime.fromtimestamp(t_ns / 1e9, tz=timezone.utc).strftime('%Y-%m-%d %H:%M:%S UTC')
+    from datetime import datetime
+    return datetime.fromtimestamp(t_ns / 1e9, tz=UTC).strftime('%Y-%m-%d %H:%M:%S UTC')
 
 
 def _verdict_block(inp: ReportInput) -> str:
@@ -300,8 +301,11 @@ def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
     esc = html.escape
     verdict = _verdict_block(inp)
     span_h = (int(r.t_ns[-1]) - t0) / 3.6e12 if len(r.t_ns) else 0.0
-    rows = [('log', inp.title), ('frames', f'{inp.frames:,d}'), ('data', f'{span_h:.2f} h, '
-                                                                    f'{r.motion_s / 60:.0f} min of steady rudder motion')]
+    rows = [
+        ('log', inp.title),
+        ('frames', f'{inp.frames:,d}'),
+        ('data', f'{span_h:.2f} h, {r.motion_s / 60:.0f} min of steady rudder motion'),
+    ]
     if r.estimates:
         e = r.estimates[-1].estimate
         rows += [('2Z (ram bushing)', _iv_text(e.two_z, 1e3, 'mm') + f'; limit {inp.limit_2z * 1e3:.3f} mm'),
@@ -361,7 +365,8 @@ section{{margin-top:2em}}.verdict{{display:flex;gap:1em;margin:1em 0}}
 .OVER{{background:#c62828}}.NONE{{background:#757575}}.prov{{color:#555;font-size:90%}}</style>
 <script>window.addEventListener('load', function () {{
   var imgs = document.querySelectorAll('img.plot'), ok = 0;
-  imgs.forEach(function (i) {{ var r = i.complete && i.naturalWidth > 0; i.dataset.rendered = r ? 'yes' : 'no'; if (r) ok++; }});
+  imgs.forEach(function (i) {{ var r = i.complete && i.naturalWidth > 0; i.dataset.rendered = r ? 'yes' : 'no'; if
+  (r) ok++; }});
   document.body.dataset.plotsRendered = ok + '/' + imgs.length;
 }});</script></head>
 <body><h1>Steering gear report: {esc(inp.hardware_id or inp.gear_name)}</h1>

@@ -10,9 +10,9 @@ import subprocess
 import pytest
 
 from steer_monitor import sim
-from steer_monitor.can.logs import LogWriter
-from steer_monitor.cli import main as cli
 from steer_monitor.ashore.report.review import PLOTS
+from steer_monitor.cli import main as cli
+from steer_monitor.logfiles.logs import LogWriter
 
 pytestmark = pytest.mark.slow
 
@@ -50,7 +50,11 @@ def test_page_renders_every_plot_in_chromium(tmp_path, logs, which, capsys):
     out = tmp_path / 'rep'
     assert cli.main(['report', str(logs[which]), '--out', str(out), '--json']) == 0
     summary = json.loads(capsys.readouterr().out)
-    assert summary['estimates'] >= 1 and summary['hard_overs_s'] and summary['model_check']['verdict'] in ('declared', 'effect')
+    assert (
+        summary['estimates'] >= 1
+        and summary['hard_overs_s']
+        and summary['model_check']['verdict'] in ('declared', 'effect')
+    )
     page = out / 'index.html'
     for key in PLOTS:
         assert (out / f'{key}.png').stat().st_size > 5000
@@ -96,7 +100,7 @@ def test_a_recording_with_a_chunk_declaring_too_much_is_not_handed_to_mcaps_read
     import tracemalloc
 
     from steer_monitor.ashore.report.logreport import published_track
-    from steer_monitor.can.fastlogs import MAX_CHUNK_BYTES, mcap_chunks_within_limits
+    from steer_monitor.logfiles.fastlogs import MAX_CHUNK_BYTES, mcap_chunks_within_limits
     data = bytearray(logs['replay'].read_bytes())
     pos = 8
     while data[pos] != 0x06:                                  # the first chunk record
@@ -136,8 +140,8 @@ def test_clearances_of_older_recordings_are_read(tmp_path):
     Float64MultiArray; the report reads those too (and leaves other arrays alone)."""
     import math
 
-    from steer_monitor.can.mcapio import McapWriter
     from steer_monitor.ashore.report.logreport import published_track
+    from steer_monitor.logfiles.mcapio import McapWriter
     from steer_monitor.monitor.messages import CLEARANCE_NAMES
     from steer_monitor.record import msgdef
     dt = 'std_msgs/msg/Float64MultiArray'
@@ -160,9 +164,9 @@ def test_clearances_of_jointstate_recordings_are_read(tmp_path):
     flag per clearance) are read by name; a JointState without those names is left alone."""
     import math
 
-    from steer_monitor.can.mcapio import McapWriter
-    from steer_monitor.record import msgdef
     from steer_monitor.ashore.report.logreport import published_track
+    from steer_monitor.logfiles.mcapio import McapWriter
+    from steer_monitor.record import msgdef
     dt = 'sensor_msgs/msg/JointState'
     names = ['gap_2z_m', 'gap_2z_lo_m', 'gap_2z_hi_m', 'gap_2z_bounded',
              'gap_zgb_m', 'gap_zgb_lo_m', 'gap_zgb_hi_m', 'gap_zgb_bounded']

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from steer_monitor.can import digits
+from steer_monitor.logfiles import digits
 
 DEC = set(b'0123456789')
 HEX = set(b'0123456789abcdefABCDEF')

@@ -7,13 +7,13 @@ from collections import defaultdict
 
 import pytest
 
+from steer_monitor.ashore.discovery import Discovery, propose
 from steer_monitor.can import Frame, FrameArrays
-from steer_monitor.can.discover import Discovery, propose
-from steer_monitor.can.fastlogs import iter_log_blocks
 from steer_monitor.can.signals import REQUIRED
+from steer_monitor.logfiles.fastlogs import iter_log_blocks
 from test.can.test_decoder import T0, pressure, rudder
 from test.can.test_devices import AUTOPILOT, OTHER, claim
-from test.can.test_gateway import MERRIMAC, SUSTERANNA, SUSTERANNA_2020, _canboat_rows, capture
+from test.logfiles.test_gateway import MERRIMAC, SUSTERANNA, SUSTERANNA_2020, _canboat_rows, capture
 
 
 def discovered(db, path, date=None):

@@ -260,7 +260,8 @@ def propose(discovery: Discovery, smap: SignalMap, required: tuple[str, ...]) ->
     """A ``signals`` map for the streams found, from the map ``smap`` (its PGNs, fields and
     source fields say where each input is looked for), and the notes saying what was chosen
     among several, what is not on the bus and what was kept. ``required``: inputs that
-    cannot be left out (kept as given when not found)."""
+    cannot be left out (kept as given when not found). Each entry says whether its stream was
+    found (``on_bus``)."""
     specs = {s.name: s for s in smap.specs}
     proposed: dict[str, dict[str, Any]] = {}
     notes: list[str] = []
@@ -268,19 +269,21 @@ def propose(discovery: Discovery, smap: SignalMap, required: tuple[str, ...]) ->
     def not_found(name: str, why: str) -> None:
         spec = specs[name]
         if name in required:
-            proposed[name] = _given(spec)
+            proposed[name] = {**_given(spec), 'on_bus': False}
             notes.append(f'{name}: {why}; kept as the given map has it (PGN {spec.pgn}): the monitor needs it')
         else:
-            proposed[name] = {**_given(spec), 'pgn': 0}
+            proposed[name] = {**_given(spec), 'pgn': 0, 'on_bus': False}
             notes.append(f'{name}: {why}; left out (pgn 0)')
 
     def choose(name: str, cands: list[Stream]) -> Stream:
         spec = specs[name]
         if len(cands) > 1:
             others = '; '.join(_describe(st, spec.field) for st in cands[1:])
-            notes.append(f'{name}: {len(cands)} senders of {spec.pgn} {spec.field}: took {_describe(cands[0], spec.field)} '
-                         f'(the most valid values); not taken: {others}. To take another, set '
-                         f'signals.{name}.address')
+            notes.append(
+                f'{name}: {len(cands)} senders of {spec.pgn} {spec.field}: took {_describe(cands[0], spec.field)} '
+                f'(the most valid values); not taken: {others}. To take another, set '
+                f'signals.{name}.address'
+            )
         return cands[0]
 
     rudder = None
@@ -318,6 +321,8 @@ def propose(discovery: Discovery, smap: SignalMap, required: tuple[str, ...]) ->
                              sorted(others, key=lambda s: s.source))
             not_found(name, f'no PGN {spec.pgn}{what} with a valid {spec.field} on this bus'
                             + (f' (there are: {seen})' if seen else ''))
+    for entry in proposed.values():
+        entry.setdefault('on_bus', True)
     return proposed, notes
 
 
@@ -339,6 +344,16 @@ def _propose_pressures(discovery: Discovery, specs: Mapping[str, SignalSpec], pr
         by_device.setdefault(st.source, []).append(st)
     full = {a: sorted(v, key=lambda s: s.instance or 0) for a, v in by_device.items() if len(v) >= len(names)}
     if not full:
+        # a transducer per chamber, each a device of its own: found where the given map's instance is
+        own = {n: [st for st in _candidates(discovery, specs[n]) if st.instance == specs[n].instance
+                   and specs[n].address in (-1, st.source)] for n in names}
+        if all(own.values()) and len({own[n][0].source for n in names}) == len(names):
+            for n in names:
+                proposed[n] = _entry(specs[n], own[n][0], specs[n].field, discovery, notes)
+            notes.append('pressures: a device per chamber, found at the given map\'s instances ('
+                         + ', '.join(f'{n} = address {own[n][0].source} instance {own[n][0].instance}' for n in names)
+                         + '): check this against the sensors\' wiring')
+            return
         seen = ', '.join(f'address {a}: {len(v)} instance(s)' for a, v in sorted(by_device.items()))
         for n in names:
             not_found(n, f'no device sends {len(names)} instances of PGN {spec.pgn} with pressure source '

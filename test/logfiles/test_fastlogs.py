@@ -10,10 +10,16 @@ import pytest
 
 from steer_monitor import sim
 from steer_monitor.can import FrameArrays, RejectCounter
-from steer_monitor.can.fastlogs import iter_candump_blocks, iter_log_blocks, iter_mcap_blocks, log_end_ns, \
-    read_log_fast, write_candump_arrays
-from steer_monitor.can.logs import LogError, LogWriter, iter_log, read_log_arrays
-from steer_monitor.can.mcapio import McapWriter
+from steer_monitor.logfiles.fastlogs import (
+    iter_candump_blocks,
+    iter_log_blocks,
+    iter_mcap_blocks,
+    log_end_ns,
+    read_log_fast,
+    write_candump_arrays,
+)
+from steer_monitor.logfiles.logs import LogError, LogWriter, iter_log, read_log_arrays
+from steer_monitor.logfiles.mcapio import McapWriter
 
 COLUMNS = ('t_ns', 'can_id', 'dlc', 'data', 'flags')
 
@@ -33,7 +39,11 @@ def _same(a: FrameArrays, b: FrameArrays) -> None:
 def _both(path, **kw):
     r1, r2 = RejectCounter(), RejectCounter()
     ref = read_log_arrays(path, r1)
-    got = FrameArrays.concat(list(iter_candump_blocks(path, r2, **kw))) if path.suffix == '.log' else read_log_fast(path, r2)
+    got = (
+        FrameArrays.concat(list(iter_candump_blocks(path, r2, **kw)))
+        if path.suffix == '.log'
+        else read_log_fast(path, r2)
+    )
     return ref, got, r1.snapshot(), r2.snapshot()
 
 
@@ -153,13 +163,15 @@ def _mcap_with(path, schema_name, schema_encoding, definition, message_encoding,
     """An MCAP of ``frames`` (their CDR) on one channel as given, beside a second channel."""
     from mcap.writer import Writer
 
-    from steer_monitor.can.mcapio import frame_cdr
+    from steer_monitor.logfiles.mcapio import frame_cdr
     with open(path, 'wb') as fh:
         w = Writer(fh)
         w.start(profile='ros2', library='test')
         sid = w.register_schema(schema_name, schema_encoding, definition.encode())
         cid = w.register_channel(topic, message_encoding, sid)
-        other = w.register_channel('/rosout', 'cdr', w.register_schema('rcl_interfaces/msg/Log', 'ros2msg', b'uint8 level'))
+        other = w.register_channel(
+            '/rosout', 'cdr', w.register_schema('rcl_interfaces/msg/Log', 'ros2msg', b'uint8 level')
+        )
         for f in frames:
             w.add_message(cid, log_time=f.t_ns, publish_time=f.t_ns, data=frame_cdr(f))
         w.add_message(other, log_time=frames[0].t_ns, publish_time=0, data=b'\x00\x01\x00\x00\x14')
@@ -170,7 +182,7 @@ def _mcap_with(path, schema_name, schema_encoding, definition, message_encoding,
 def test_frame_channel_as_rosbag2_writes_it_is_read(tmp_path, simulated):
     """A definition with comments, the short ``Header`` and a topic of its own (as rosbag2
     records ros2_socketcan's frames) is can_msgs/msg/Frame all the same."""
-    from steer_monitor.can.mcapio import FRAME_MSGDEF
+    from steer_monitor.logfiles.mcapio import FRAME_MSGDEF
     definition = ('# a CAN frame\nHeader header  # stamp\nuint32 id\nbool is_rtr\nbool is_extended\nbool is_error\n'
                   'uint8 dlc\nuint8[8] data\n' + FRAME_MSGDEF[FRAME_MSGDEF.index('====='):])
     frames = simulated.frames()[:300]
@@ -191,7 +203,7 @@ def test_frame_channel_as_rosbag2_writes_it_is_read(tmp_path, simulated):
 def test_frames_that_cannot_be_read_are_named(tmp_path, simulated, case, want):
     """An MCAP whose CAN frames are not ROS 2 can_msgs/msg/Frame in CDR is one error naming
     the channel and what it holds instead, not a silent empty log."""
-    from steer_monitor.can.mcapio import FRAME_MSGDEF
+    from steer_monitor.logfiles.mcapio import FRAME_MSGDEF
     name, encoding, definition = {'json': ('can_msgs/msg/Frame', 'jsonschema', '{}'),
                                   'other definition': ('can_msgs/msg/Frame', 'ros2msg', 'uint32 id\nuint8[] data\n'),
                                   'no frame channel': ('my_msgs/msg/CanFrame', 'ros2msg', FRAME_MSGDEF)}[case]
@@ -246,14 +258,14 @@ SUBSTITUTES = b'0 9aFG.#(x\x00\x7f\xff\t\r\x0b'   # with whitespace the line par
 
 
 def _block(lines: list[bytes]):
-    from steer_monitor.can import fastlogs
+    from steer_monitor.logfiles import fastlogs
     raw = b''.join(line + b'\n' for line in lines)
     pb = fastlogs._PAD_BYTES + raw + fastlogs._PAD_BYTES
     return pb, np.frombuffer(pb, np.uint8, count=len(raw), offset=fastlogs._PAD)
 
 
 def test_a_block_of_one_layout_is_read_by_strided_words():
-    from steer_monitor.can.fastlogs import _uniform_frames
+    from steer_monitor.logfiles.fastlogs import _uniform_frames
     lines = [USUAL.replace(b'008079', f'{i:06d}'.encode()) for i in range(40)]
     fa = _uniform_frames(*_block(lines))
     assert fa is not None and len(fa) == 40
@@ -266,7 +278,7 @@ def test_one_changed_character_anywhere(tmp_path, pos):
     """Each character of a usual line replaced by digits, letters, delimiters and control
     bytes, among lines of its layout: what the line parser makes of it, whichever path reads
     it; the one-layout path declines a block with a line it would reject."""
-    from steer_monitor.can.fastlogs import _uniform_frames
+    from steer_monitor.logfiles.fastlogs import _uniform_frames
     good = [USUAL] * 20
     for c in SUBSTITUTES:
         line = USUAL[:pos] + bytes([c]) + USUAL[pos + 1:]
@@ -287,9 +299,9 @@ def test_frame_records_as_columns():
     """Runs of frame records among other records: flags, DLC (above 8 read as 8) and the
     payload bytes past the DLC (not the frame's) dropped; a record too short for its frame_id
     is an error that says so."""
-    from steer_monitor.can.fastlogs import _McapState, _walk_records
     from steer_monitor.can.frames import Frame
-    from steer_monitor.can.mcapio import FRAME_DATATYPE, _record_dtype, frame_records
+    from steer_monitor.logfiles.fastlogs import _McapState, _walk_records
+    from steer_monitor.logfiles.mcapio import FRAME_DATATYPE, _record_dtype, frame_records
     dlcs = [0, 3, 8, 15, 1]
     frames = [Frame(1_767_225_600_000_000_000 + i * 1000, 0x100 + i, bytes(8), i % 2 == 0, i == 2, i == 4, '')
               for i in range(len(dlcs))]
@@ -339,7 +351,7 @@ def test_a_chunk_is_decompressed_and_checked(compression):
     import lz4.frame
     import zstandard
 
-    from steer_monitor.can.fastlogs import CorruptChunk, decompress_chunk
+    from steer_monitor.logfiles.fastlogs import CorruptChunk, decompress_chunk
     raw = bytes(range(256)) * 64
     data = {'': raw, 'zstd': zstandard.ZstdCompressor().compress(raw), 'lz4': lz4.frame.compress(raw)}[compression]
     assert decompress_chunk(compression, data, len(raw), zlib.crc32(raw)) == raw
@@ -361,7 +373,7 @@ def test_a_chunk_that_inflates_past_its_declared_size_is_not_inflated(compressio
     import lz4.frame
     import zstandard
 
-    from steer_monitor.can.fastlogs import CorruptChunk, decompress_chunk
+    from steer_monitor.logfiles.fastlogs import CorruptChunk, decompress_chunk
     zeros = bytes(64 << 20)
     data = (zstandard.ZstdCompressor(write_content_size=False).compress(zeros) if compression == 'zstd'
             else lz4.frame.compress(zeros))
@@ -382,7 +394,7 @@ def test_a_chunk_declaring_more_than_a_chunk_may_hold_is_refused_at_once():
     and a minute. Beyond MAX_CHUNK_BYTES the chunk is corrupt before anything is inflated."""
     import zstandard
 
-    from steer_monitor.can.fastlogs import MAX_CHUNK_BYTES, CorruptChunk, decompress_chunk
+    from steer_monitor.logfiles.fastlogs import MAX_CHUNK_BYTES, CorruptChunk, decompress_chunk
     data = zstandard.ZstdCompressor(write_content_size=False).compress(b'x' * 1000)
     for size in (MAX_CHUNK_BYTES + 1, 1 << 44):
         with pytest.raises(CorruptChunk, match=f'declares {size} bytes uncompressed, more than the 256 MiB'):
@@ -394,8 +406,8 @@ def test_a_chunk_declaring_more_than_a_chunk_may_hold_is_refused_at_once():
 def test_channels_are_judged_whichever_comes_first_schema_or_channel():
     """A channel naming a schema given later, a channel given again with another schema, a
     schema given again: the frame channels follow, one channel judged at a time."""
-    from steer_monitor.can.fastlogs import _McapState
-    from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF
+    from steer_monitor.logfiles.fastlogs import _McapState
+    from steer_monitor.logfiles.mcapio import FRAME_DATATYPE, FRAME_MSGDEF
     st = _McapState()
     st.channel(1, 7, '/steering_can/rx', 'cdr')
     assert st.frame_channels == set()
@@ -417,7 +429,7 @@ def test_a_file_of_sixty_thousand_channels_is_read_in_time(tmp_path, simulated):
 
     from mcap.writer import CompressionType, Writer
 
-    from steer_monitor.can.mcapio import DEFAULT_QOS, FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, frame_cdr
+    from steer_monitor.logfiles.mcapio import DEFAULT_QOS, FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, frame_cdr
     path = tmp_path / 'channels.mcap'
     with open(path, 'wb') as fh:
         w = Writer(fh, compression=CompressionType.ZSTD)

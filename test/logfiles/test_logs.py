@@ -10,8 +10,8 @@ import pytest
 
 from steer_monitor import sim
 from steer_monitor.can import Decoder, FrameArrays, RejectCounter
-from steer_monitor.can.logs import LogError, LogWriter, iter_log, read_log_arrays
-from steer_monitor.can.mcapio import FRAME_TOPIC
+from steer_monitor.logfiles.logs import LogError, LogWriter, iter_log, read_log_arrays
+from steer_monitor.logfiles.mcapio import FRAME_TOPIC
 
 FORMATS = ('.log', '.blf', '.mcap')
 
@@ -145,7 +145,7 @@ def test_malformed_candump_lines_are_counted_not_fatal(tmp_path):
 @pytest.mark.parametrize('suffix', ['.mcap', '.blf'])
 def test_truncated_file_keeps_what_came_before(tmp_path, simulated, suffix):
     if suffix == '.mcap':  # small chunks, so the cut lands inside the data, not the summary
-        from steer_monitor.can.mcapio import McapWriter
+        from steer_monitor.logfiles.mcapio import McapWriter
         path = tmp_path / 'x.mcap'
         with McapWriter(path, chunk_size=4096) as w:
             for f in simulated.frames.frames():
@@ -165,9 +165,12 @@ def test_truncated_file_keeps_what_came_before(tmp_path, simulated, suffix):
 
 def test_unsupported_and_missing(tmp_path):
     (tmp_path / 'x.txt').write_text('hello, world\n')
-    with pytest.raises(LogError, match=r"x.txt: unsupported log format '.txt': its content is none of candump -L, "
-                                       r"Vector ASC, .*, Yacht Devices YDWG raw \(suffixes: .log, .asc, .blf, .mcap, each also "
-                                       r"compressed: .gz, .xz, .bz2, .zst\)"):
+    with pytest.raises(
+        LogError,
+        match=r"x.txt: unsupported log format '.txt': its content is none of candump -L, "
+        r"Vector ASC, .*, Yacht Devices YDWG raw \(suffixes: .log, .asc, .blf, .mcap, each also "
+        r"compressed: .gz, .xz, .bz2, .zst\)",
+    ):
         list(iter_log(tmp_path / 'x.txt'))
     with pytest.raises(LogError, match='cannot open log'):
         list(iter_log(tmp_path / 'missing.log'))
@@ -301,7 +304,7 @@ def test_damaged_blf_container_is_skipped_and_the_rest_read(tmp_path, longer, da
     assert 0.5 * per_container < lost < 1.5 * per_container + 2
     assert back.t_ns[-1] == longer.t_ns[-1]          # the containers after it were read
     import can
-    with pytest.raises(Exception):                   # python-can's own reader stops there
+    with pytest.raises(Exception):  # noqa: B017  python-can's own reader stops there, with an error of its choosing
         list(can.BLFReader(str(bad)))
 
 

@@ -14,9 +14,10 @@ from mcap.records import MessageIndex
 from numpy.typing import NDArray
 
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, Frame, FrameArrays
+from steer_monitor.rostime import SEC_MAX, ros_time
 
 __all__ = ['DEFAULT_QOS', 'FRAME_DATATYPE', 'FRAME_MSGDEF', 'FRAME_TOPIC', 'Counted', 'McapWriter', 'frame_cdr',
-           'frame_message', 'frame_records', 'iter_mcap_frames', 'leading_metadata', 'ros_time']
+           'frame_message', 'frame_records', 'iter_mcap_frames', 'leading_metadata']
 
 FRAME_TOPIC = '/steering_can/rx'
 FRAME_DATATYPE = 'can_msgs/msg/Frame'
@@ -47,19 +48,6 @@ DEFAULT_QOS = ('- history: 3\n  depth: 0\n  reliability: 1\n  durability: 2\n'
 
 
 _CDR_HEADER = b'\x00\x01\x00\x00'  # CDR, little-endian
-_SEC_MAX = (1 << 31) - 1
-
-
-def ros_time(t_ns: int) -> tuple[int, int]:
-    """(sec, nanosec) of a ``builtin_interfaces/Time`` for ``t_ns`` [ns since 1970].
-
-    ROS time holds seconds in an int32, so it ends on 2038-01-19 (and starts in 1901). A time
-    outside that is stamped (0, 0), ROS's "unset"; the MCAP record's log time (uint64 ns)
-    still carries it, and every reader here takes the log time when the stamp is unset."""
-    sec, nsec = divmod(int(t_ns), 1_000_000_000)
-    if not -_SEC_MAX - 1 <= sec <= _SEC_MAX:
-        return 0, 0
-    return sec, nsec
 
 
 def frame_cdr(frame: Frame, frame_id: str = 'steering_can') -> bytes:
@@ -101,7 +89,7 @@ def frame_records(frames: Sequence[Frame] | FrameArrays, channel_id: int, frame_
     rec['publish_time'] = t
     rec['cdr_header'] = np.void(_CDR_HEADER)
     sec, nsec = np.divmod(t, 1_000_000_000)
-    unset = (sec > _SEC_MAX) | (sec < -_SEC_MAX - 1)      # see ros_time
+    unset = (sec > SEC_MAX) | (sec < -SEC_MAX - 1)      # see ros_time
     rec['sec'], rec['nsec'] = np.where(unset, 0, sec), np.where(unset, 0, nsec)
     rec['fid_len'] = len(frame_id.encode()) + 1
     rec['fid'] = np.void(fid)

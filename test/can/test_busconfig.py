@@ -7,8 +7,8 @@ import shutil
 
 import pytest
 
+from steer_monitor.can.busconfig import can_setup, dbc_path
 from steer_monitor.can.codec import DbcError
-from steer_monitor.can.setup import can_setup, dbc_path
 from steer_monitor.params import load_params_file
 from steer_monitor.resources import config_dir, default_config
 
@@ -43,5 +43,7 @@ def test_dbc_found_nowhere_names_both_places(tmp_path, params):
     params['can.dbc_file'] = 'missing.dbc'
     with pytest.raises(DbcError) as err:
         can_setup(params, tmp_path / 'vessel.yaml')
-    assert str(err.value) == (f'cannot read DBC file missing.dbc (parameter can.dbc_file): not beside the parameters '
-                              f'file ({tmp_path / "missing.dbc"}) nor in the packaged config directory ({config_dir()})')
+    assert str(err.value) == (
+        f'cannot read DBC file missing.dbc (parameter can.dbc_file): not beside the parameters '
+        f'file ({tmp_path / "missing.dbc"}) nor in the packaged config directory ({config_dir()})'
+    )

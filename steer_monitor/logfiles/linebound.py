@@ -6,7 +6,8 @@ file, a compressed stream that expands a thousand-fold into one "line") would ot
 held whole while the reader looks for its end. :class:`LineBound` wraps the log's byte stream
 and lets no line grow past :data:`MAX_LINE_BYTES`: the first ``MAX_LINE_BYTES`` of such a run
 pass (a line the readers then refuse as ``malformed_record``), the rest up to the next line
-end (or, in a run of NUL bytes, up to the first byte that is not one) is skipped and counted as ``long_line`` bytes with one example saying where, and reading
+end (or, in a run of NUL bytes, up to the first byte that is not one) is skipped and counted as ``long_line`` bytes
+with one example saying where, and reading
 goes on at the next line. Memory: the wrapper holds one piece (:data:`PIECE_BYTES`) at a time.
 """
 

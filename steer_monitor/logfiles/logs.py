@@ -1,5 +1,5 @@
 """CAN log files: candump, Vector ASC and BLF, MCAP, and NMEA 2000 gateways' logs (CANboat
-plain, YDWG raw: :mod:`~steer_monitor.can.gateway`).
+plain, YDWG raw: :mod:`~steer_monitor.logfiles.gateway`).
 
 A log's format is told by its content (:func:`log_format`: the MCAP and BLF magic, the shape
 of the first text lines), and by its suffix when the content does not tell (an empty or
@@ -30,15 +30,15 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, BinaryIO
 
-from steer_monitor.can.bus import frame_from_message, message_from_frame
-from steer_monitor.can.compressed import COMPRESSED_SUFFIXES, compression, open_decompressed, plain_suffix
-from steer_monitor.can.frames import Frame, FrameArrays
-from steer_monitor.can.gateway import CANBOAT_LINE, YDWG_LINE, canboat_frames, ydwg_date, ydwg_frames
-from steer_monitor.can.linebound import bounded_lines
-from steer_monitor.can.mcapio import McapWriter, iter_mcap_frames
-from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.atomic import note_input
+from steer_monitor.can.bus import frame_from_message, message_from_frame
+from steer_monitor.can.frames import Frame, FrameArrays
+from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
+from steer_monitor.logfiles.compressed import COMPRESSED_SUFFIXES, compression, open_decompressed, plain_suffix
+from steer_monitor.logfiles.gateway import CANBOAT_LINE, YDWG_LINE, canboat_frames, ydwg_date, ydwg_frames
+from steer_monitor.logfiles.linebound import bounded_lines
+from steer_monitor.logfiles.mcapio import McapWriter, iter_mcap_frames
 
 __all__ = ['BINARY_FORMATS', 'FORMATS', 'READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'candump_line',
            'is_compressed', 'iter_log', 'iter_log_as', 'log_format', 'log_path_problem', 'open_log', 'open_text_log',
@@ -123,7 +123,7 @@ def log_format(path: str | Path) -> str:
 
 def open_log(path: Path) -> BinaryIO:
     """``path`` opened for reading bytes, decompressed if it is compressed (gzip, xz, bzip2,
-    zstd: :mod:`~steer_monitor.can.compressed`); :class:`LogError` naming it when it cannot
+    zstd: :mod:`~steer_monitor.logfiles.compressed`); :class:`LogError` naming it when it cannot
     be."""
     note_input(path)
     try:
@@ -148,7 +148,7 @@ def open_log(path: Path) -> BinaryIO:
 
 
 def open_text_log(path: Path, rejects: RejectCounter | None) -> BinaryIO:
-    """:func:`open_log` of a text log, its lines bounded (:mod:`~steer_monitor.can.linebound`):
+    """:func:`open_log` of a text log, its lines bounded (:mod:`~steer_monitor.logfiles.linebound`):
     a run of bytes without a line end costs a fixed buffer, and is counted in ``rejects``."""
     return bounded_lines(open_log(path), path, rejects)
 
@@ -187,7 +187,7 @@ def _candump_line(line: str, lineno: int, rejects: RejectCounter | None, path: P
 def iter_log(path: str | Path, rejects: RejectCounter | None = None, date: datetime.date | None = None
              ) -> Iterator[Frame]:
     """Frames of a log file in file order. Bad records are counted in ``rejects``. ``date``:
-    the date of a YDWG log's first line (see :func:`~steer_monitor.can.gateway.ydwg_date`)."""
+    the date of a YDWG log's first line (see :func:`~steer_monitor.logfiles.gateway.ydwg_date`)."""
     path = Path(path)
     yield from iter_log_as(path, log_format(path), rejects, date)
 
@@ -236,7 +236,7 @@ class _Lines:
     counted as ``malformed_record`` here (the reader skips it as it skips unknown events)."""
 
     def __init__(self, fh: Any, path: Path, rejects: RejectCounter | None) -> None:
-        from can.io.asc import ASC_MESSAGE_REGEX   # python-can's pattern for a line it reads as a frame
+        from can.io.asc import ASC_MESSAGE_REGEX  # python-can's pattern for a line it reads as a frame
 
         self.frame_pattern = ASC_MESSAGE_REGEX
         self.fh = fh
@@ -395,7 +395,6 @@ def _blf_reader(path: Path, damaged: list[str], rejects: RejectCounter | None = 
 
 
 def _iter_python_can(path: Path, suffix: str, rejects: RejectCounter | None = None) -> Iterator[Frame]:
-    import can
     lines: _Lines | None = None
     damaged: list[str] = []
     try:

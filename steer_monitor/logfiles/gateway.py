@@ -29,7 +29,7 @@ from __future__ import annotations
 import os
 import re
 from collections.abc import Iterable, Iterator
-from datetime import date, datetime, timezone
+from datetime import UTC, date, datetime
 from pathlib import Path
 
 from steer_monitor.can.frames import Frame
@@ -70,7 +70,7 @@ def _canboat_time(text: str) -> int | None:
         return None
     y, mo, d, h, mi, s, frac = m.groups()
     try:
-        base = datetime(int(y), int(mo), int(d), int(h), int(mi), int(s), tzinfo=timezone.utc)
+        base = datetime(int(y), int(mo), int(d), int(h), int(mi), int(s), tzinfo=UTC)
     except ValueError:
         return None
     return int(base.timestamp()) * 1_000_000_000 + int((frac or '0').ljust(9, '0'))
@@ -127,12 +127,12 @@ def ydwg_date(path: str | Path, given: date | None = None) -> tuple[date, str]:
         except ValueError:
             continue
     mtime = os.stat(path).st_mtime
-    return datetime.fromtimestamp(mtime, tz=timezone.utc).date(), "the file's modification time"
+    return datetime.fromtimestamp(mtime, tz=UTC).date(), "the file's modification time"
 
 
 def ydwg_frames(lines: Iterable[bytes], path: Path, day: date, rejects: RejectCounter | None) -> Iterator[Frame]:
     """The CAN frames of a YDWG raw log's lines; the first line is on ``day`` (UTC)."""
-    day_ns = int(datetime(day.year, day.month, day.day, tzinfo=timezone.utc).timestamp()) * 1_000_000_000
+    day_ns = int(datetime(day.year, day.month, day.day, tzinfo=UTC).timestamp()) * 1_000_000_000
     prev_tod: int | None = None
     for lineno, raw in enumerate(lines, 1):
         line = raw.decode('ascii', 'replace').strip()

@@ -3,21 +3,21 @@ frames per second, block by block so memory stays bounded whatever the log's len
 
 Why our own readers: python-can's and mcap's readers build one object per frame (a few us
 each); a month of one vessel's steering bus is a few hundred million frames. These give the
-same frames and reject counts as :func:`steer_monitor.can.logs.iter_log` (the tests compare
+same frames and reject counts as :func:`steer_monitor.logfiles.logs.iter_log` (the tests compare
 them on every kind of line), which remains the reference and the fallback:
 
 * candump: lines of the usual shape ``(sec.frac) chan ID#HEX`` are parsed eight characters
-  at a time (:mod:`~steer_monitor.can.digits`) at the offsets of their layout. A block whose
+  at a time (:mod:`~steer_monitor.logfiles.digits`) at the offsets of their layout. A block whose
   lines are all of one length and layout (one writer, one DLC: the usual log) is read with
   strided words straight from the block, without finding its lines; otherwise the block is
   split on newlines and the lines grouped by length. Any other line (remote frames, odd
-  payloads, garbage) goes through the line parser of :mod:`~steer_monitor.can.logs`, which
+  payloads, garbage) goes through the line parser of :mod:`~steer_monitor.logfiles.logs`, which
   counts what it rejects.
 * MCAP: chunks are decompressed whole; inside one, a run of ``can_msgs/msg/Frame`` message
   records of equal size on one channel (how both the recorder and the log writer lay them
   out) is found with one vectorized comparison, and each field read as a strided view of its
   type. Other records are stepped over.
-* other formats (ASC, BLF through python-can; the gateway logs of :mod:`~steer_monitor.can.gateway`):
+* other formats (ASC, BLF through python-can; the gateway logs of :mod:`~steer_monitor.logfiles.gateway`):
   read frame by frame, gathered into blocks.
 """
 
@@ -36,16 +36,40 @@ from typing import IO, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from steer_monitor.can import digits
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, FrameArrays
-from steer_monitor.can.logs import (CAN_ERR_FLAG, LogError, _candump_line, candump_line, is_compressed, iter_log_as,
-                                   log_format, open_log, open_text_log, skipped_parts)
-from steer_monitor.can.mcapio import FRAME_DATATYPE
 from steer_monitor.can.rejects import RejectCounter
+from steer_monitor.logfiles import digits
+from steer_monitor.logfiles.logs import (
+    CAN_ERR_FLAG,
+    LogError,
+    _candump_line,
+    candump_line,
+    is_compressed,
+    iter_log_as,
+    log_format,
+    open_log,
+    open_text_log,
+    skipped_parts,
+)
+from steer_monitor.logfiles.mcapio import FRAME_DATATYPE
 
-__all__ = ['BLOCK_BYTES', 'BLOCK_FRAMES', 'MAX_CHUNK_BYTES', 'CorruptChunk', 'decompress_chunk', 'mcap_chunks_within_limits',
-           'summary_section', 'iter_candump_blocks', 'iter_log_blocks', 'first_frame_ns', 'in_time_order', 'iter_mcap_blocks', 'log_end_ns',
-           'read_log_fast', 'write_candump_arrays']
+__all__ = [
+    'BLOCK_BYTES',
+    'BLOCK_FRAMES',
+    'MAX_CHUNK_BYTES',
+    'CorruptChunk',
+    'decompress_chunk',
+    'mcap_chunks_within_limits',
+    'summary_section',
+    'iter_candump_blocks',
+    'iter_log_blocks',
+    'first_frame_ns',
+    'in_time_order',
+    'iter_mcap_blocks',
+    'log_end_ns',
+    'read_log_fast',
+    'write_candump_arrays',
+]
 
 BLOCK_BYTES = 16 << 20
 BLOCK_FRAMES = 1 << 18
@@ -154,7 +178,7 @@ def _layout_frames(words: Words, byte_at: Bytes, n: int, dot: int, cp: int, sp2:
                    ) -> tuple[FrameArrays, NDArray[np.bool_]]:
     """Frames of ``n`` lines of one layout (delimiters at these offsets, ``length``
     characters): ``words(off)`` gives the eight characters at line offset ``off`` of each line
-    as a uint64 (:mod:`~steer_monitor.can.digits`), ``byte_at(off)`` the one character.
+    as a uint64 (:mod:`~steer_monitor.logfiles.digits`), ``byte_at(off)`` the one character.
     Returns the frames of the lines that are of that layout and valid, and a mask of them."""
     good = byte_at(0) == ord('(')
     for off, ch in ((dot, b'.'), (cp, b')'), (cp + 1, b' '), (sp2, b' '), (hs, b'#')):
@@ -232,7 +256,8 @@ def _templates(pb: bytes | bytearray, a: NDArray[np.uint8], starts: NDArray[np.i
             continue
         rows = np.nonzero(length == L)[0]
         at = starts[rows]
-        fa, good = _layout_frames(lambda off: every[at + (_PAD + off)], lambda off: a[at + off], rows.size, *lay, L)
+        fa, good = _layout_frames(lambda off, at=at: every[at + (_PAD + off)], lambda off, at=at: a[at + off],
+                                  rows.size, *lay, L)
         parts.append(fa)
         lines.append(rows[good])
         done[rows[good]] = True
@@ -775,7 +800,7 @@ def iter_mcap_blocks(path: str | Path, rejects: RejectCounter | None = None) -> 
 def iter_log_blocks(path: str | Path, rejects: RejectCounter | None = None,
                     date: datetime.date | None = None) -> Iterator[FrameArrays]:
     """Any supported log as blocks of columns, in file order (``date``: see
-    :func:`~steer_monitor.can.logs.iter_log`)."""
+    :func:`~steer_monitor.logfiles.logs.iter_log`)."""
     path = Path(path)
     fmt = log_format(path)
     if fmt == 'candump':
@@ -853,7 +878,7 @@ def read_log_fast(path: str | Path, rejects: RejectCounter | None = None,
 
 
 def write_candump_arrays(fh: IO[bytes], fa: FrameArrays, channel: str = 'can0') -> None:
-    """Write frames as candump ``-L`` lines (what :class:`~steer_monitor.can.logs.LogWriter`
+    """Write frames as candump ``-L`` lines (what :class:`~steer_monitor.logfiles.logs.LogWriter`
     writes, byte for byte) with numpy: for making long logs quickly."""
     n = len(fa)
     if n == 0:

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from steer_monitor.can import Decoder, FrameArrays, RejectCounter, collect, make_id, pgn_of
-from steer_monitor.can.fastlogs import iter_log_blocks, read_log_fast
-from steer_monitor.can.gateway import canboat_id, ydwg_date
-from steer_monitor.can.logs import LogError, iter_log, log_format
-from steer_monitor.can.setup import load_setup
+from steer_monitor.can.busconfig import load_setup
+from steer_monitor.logfiles.fastlogs import iter_log_blocks, read_log_fast
+from steer_monitor.logfiles.gateway import canboat_id, ydwg_date
+from steer_monitor.logfiles.logs import LogError, iter_log, log_format
 from test.conftest import PKG, SHARED
 
 REALBUS = SHARED / 'realbus'
@@ -82,7 +82,7 @@ def test_canboat_lines_that_are_no_frame_are_counted(tmp_path, line, reason, tex
     r = RejectCounter()
     frames = list(iter_log(path, r))
     assert len(frames) == 1 and frames[0].can_id == make_id(2, 127245, 13)
-    assert frames[0].t_ns == int(datetime.datetime(2016, 4, 9, 16, 41, 9, tzinfo=datetime.timezone.utc).timestamp()) * 10 ** 9
+    assert frames[0].t_ns == int(datetime.datetime(2016, 4, 9, 16, 41, 9, tzinfo=datetime.UTC).timestamp()) * 10 ** 9
     assert r.snapshot().counts == {reason: 1}
     assert text in r.snapshot().last[reason]
 
@@ -92,7 +92,7 @@ def test_canboat_time_forms_agree(tmp_path):
     path.write_text('2016-04-09T16:41:09.078Z,2,127245,13,255,1,ff\n2016-04-09-16:41:09.078,2,127245,13,255,1,fe\n')
     a, b = list(iter_log(path))
     assert a.t_ns == b.t_ns == int(datetime.datetime(2016, 4, 9, 16, 41, 9, 78000,
-                                                      tzinfo=datetime.timezone.utc).timestamp() * 1e6) * 1000
+                                                      tzinfo=datetime.UTC).timestamp() * 1e6) * 1000
 
 
 def test_ydwg_midnight_is_the_next_day_and_a_step_back_stays(tmp_path):
@@ -104,7 +104,7 @@ def test_ydwg_midnight_is_the_next_day_and_a_step_back_stays(tmp_path):
                     '00:00:01.000 R 09F10D0D FF F8 FF 7F 13 00 FF\n')
     r = RejectCounter()
     frames = list(iter_log(path, r, datetime.date(2024, 2, 28)))
-    midnight = int(datetime.datetime(2024, 2, 29, tzinfo=datetime.timezone.utc).timestamp()) * 10 ** 9
+    midnight = int(datetime.datetime(2024, 2, 29, tzinfo=datetime.UTC).timestamp()) * 10 ** 9
     assert [f.t_ns - midnight for f in frames] == [-100_000_000, 100_000_000, 50_000_000, 1_000_000_000]
     assert [len(f.data) for f in frames] == [8, 8, 8, 7]
     assert r.snapshot().counts == {'malformed_record': 1}
@@ -118,7 +118,7 @@ def test_ydwg_date_given_then_file_name_then_modification_time(tmp_path):
     assert ydwg_date(named, DAY) == (DAY, 'given')
     plain = tmp_path / 'ydwg-2020.raw'
     plain.write_text('')
-    t = datetime.datetime(2019, 5, 6, 12, tzinfo=datetime.timezone.utc).timestamp()
+    t = datetime.datetime(2019, 5, 6, 12, tzinfo=datetime.UTC).timestamp()
     os.utime(plain, (t, t))
     assert ydwg_date(plain) == (datetime.date(2019, 5, 6), "the file's modification time")
 
@@ -157,7 +157,7 @@ def test_a_real_ydwg_capture_becomes_its_frames():
     for f, ln in zip(frames, lines):
         assert f.can_id == int(ln[2], 16) and f.data == bytes(int(b, 16) for b in ln[3:])
     t = np.array([f.t_ns for f in frames])
-    start = int(datetime.datetime(2020, 8, 22, 0, 29, 58, 617000, tzinfo=datetime.timezone.utc).timestamp() * 1e3)
+    start = int(datetime.datetime(2020, 8, 22, 0, 29, 58, 617000, tzinfo=datetime.UTC).timestamp() * 1e3)
     assert t[0] == start * 1_000_000
     assert (t[-1] - t[0]) == 2_523_000_000          # 00:29:58.617 .. 00:30:01.140
 

@@ -11,7 +11,14 @@ from hypothesis import strategies as st
 from mcap_ros2._dynamic import serialize_dynamic
 
 from steer_monitor.can import Frame
-from steer_monitor.can.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, McapWriter, frame_cdr, frame_message, iter_mcap_frames
+from steer_monitor.logfiles.mcapio import (
+    FRAME_DATATYPE,
+    FRAME_MSGDEF,
+    McapWriter,
+    frame_cdr,
+    frame_message,
+    iter_mcap_frames,
+)
 
 ENCODE = serialize_dynamic(FRAME_DATATYPE, FRAME_MSGDEF)[FRAME_DATATYPE]
 
@@ -88,8 +95,8 @@ def test_write_frames_across_chunk_rollover_reads_back_with_crcs():
 def test_times_past_2038_are_kept_in_the_log_time(tmp_path, t_ns):
     """ROS time has int32 seconds: past 2038 the header stamp is left unset (0, 0) and the
     record's uint64 log time carries the time; both readers take it from there."""
-    from steer_monitor.can.fastlogs import iter_mcap_blocks
-    from steer_monitor.can.mcapio import ros_time
+    from steer_monitor.logfiles.fastlogs import iter_mcap_blocks
+    from steer_monitor.rostime import ros_time
     f = Frame(t_ns, 0x09F10D10, bytes(8))
     sec, nsec = ros_time(t_ns)
     assert (sec, nsec) == ((t_ns // 10**9, t_ns % 10**9) if t_ns < (1 << 31) * 10**9 else (0, 0))

@@ -1,7 +1,7 @@
 """Whole logs to decoded series, streamed a block of columns at a time.
 
 What ``inspect``, ``analyze`` and ``report`` read: every log in turn through the column
-readers (:func:`~steer_monitor.can.fastlogs.iter_log_blocks`) and the array decoder, so
+readers (:func:`~steer_monitor.logfiles.fastlogs.iter_log_blocks`) and the array decoder, so
 memory holds one block of frames and the decoded samples, never an object per frame. A log
 that breaks off or holds corrupt parts gives what could be read; what was wrong is kept, one
 line per log, for the command to report.
@@ -18,11 +18,11 @@ import numpy as np
 
 from steer_monitor.can.codec import CanDatabase
 from steer_monitor.can.decoder import ClockStep, Decoder, Series, SignalSet, clock_notes
-from steer_monitor.can.fastlogs import iter_log_blocks
 from steer_monitor.can.frames import FrameArrays
-from steer_monitor.can.logs import LogError
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.signals import SignalMap
+from steer_monitor.logfiles.fastlogs import iter_log_blocks
+from steer_monitor.logfiles.logs import LogError
 from steer_monitor.utc import utc_text
 
 __all__ = ['DecodedLogs', 'clock_steps_json', 'decode_logs']
@@ -62,7 +62,7 @@ def decode_logs(paths: Sequence[str | Path], db: CanDatabase, smap: SignalMap, r
                 date: datetime.date | None = None) -> DecodedLogs:
     """Read and decode ``paths`` in the order given as one stream (frames before ``since_ns``
     left out); rejects are counted in ``rejects``. ``progress`` hears the frames of each block.
-    ``date``: of a YDWG raw log's first line (:func:`~steer_monitor.can.gateway.ydwg_date`)."""
+    ``date``: of a YDWG raw log's first line (:func:`~steer_monitor.logfiles.gateway.ydwg_date`)."""
     decoder = Decoder(db, smap, rejects, stitch=True)
     parts: dict[str, list[Series]] = {name: [] for name in smap.names}
     frames = 0

@@ -1,0 +1,71 @@
+"""The README against the program: every command and option its synopsis names exists, and
+every file its examples name is where a user running them from the root finds it."""
+
+from __future__ import annotations
+
+import argparse
+import re
+
+import pytest
+
+from steer_monitor.cli.main import build_parser
+from test.conftest import PKG
+
+README = (PKG / 'README.md').read_text(encoding='utf-8')
+
+
+def _synopsis() -> list[str]:
+    """The lines of the Command line section's first code block, continuations joined."""
+    section = README[README.index('## Command line'):]
+    block = section[section.index('```sh\n') + 6:]
+    block = block[:block.index('```')]
+    return [' '.join(part.strip() for part in line.split('\\\n')) for line in block.replace('\\\n', ' ').splitlines()
+            if line.strip()]
+
+
+def _subparsers() -> dict[str, argparse.ArgumentParser]:
+    parser = build_parser()
+    action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return dict(action.choices)
+
+
+def test_the_synopsis_names_every_command():
+    named = [line.split()[1] for line in _synopsis()]
+    assert sorted(set(named)) == sorted(_subparsers()), named
+
+
+@pytest.mark.parametrize('line', _synopsis(), ids=lambda line: line.split()[1])
+def test_every_option_in_the_synopsis_exists(line):
+    command = line.split()[1]
+    code = line.split('#')[0].split(' -- ')[0]          # after --: ROS arguments, not ours
+    sub = _subparsers()[command]
+    known = {s for a in sub._actions for s in a.option_strings}
+    named = set(re.findall(r'(?<![\w-])(--[a-z][a-z0-9-]*)', code))
+    assert named <= known, f'{command}: {sorted(named - known)} not among {sorted(known)}'
+
+
+@pytest.mark.parametrize('line', _synopsis(), ids=lambda line: line.split()[1])
+def test_every_packaged_file_an_example_names_exists_from_the_root(line):
+    for path in re.findall(r'(config/[\w./-]+)', line):
+        assert (PKG / path).is_file(), f'{path} (named in: {line})'
+
+
+def test_what_the_readme_says_of_json_holds():
+    """The README says which commands take --json; each of those has it, and the others do not."""
+    subs = _subparsers()
+    with_json = sorted(n for n, p in subs.items() if any('--json' in a.option_strings for a in p._actions))
+    m = re.search(r'`--json` on ([^(]*) \(', README[README.index('## Command line'):])
+    assert m is not None, 'the README says which commands take --json'
+    said = sorted(re.findall(r'`(\w+)`', m.group(1)))
+    assert said == with_json, (said, with_json)
+
+
+def test_the_synopsis_is_complete():
+    """Every option of every command is in the synopsis (it omitted a dozen)."""
+    named: dict[str, set[str]] = {}
+    for line in _synopsis():
+        named.setdefault(line.split()[1], set()).update(
+            re.findall(r'(?<![\w-])(--[a-z][a-z0-9-]*)', line.split('#')[0]))
+    for command, sub in _subparsers().items():
+        options = {s for a in sub._actions for s in a.option_strings if s.startswith('--') and s != '--help'}
+        assert options <= named.get(command, set()), f'{command}: {sorted(options - named.get(command, set()))}'
