@@ -4,12 +4,25 @@ from __future__ import annotations
 
 import datetime
 
-__all__ = ['parse_utc', 'utc_text']
+__all__ = ['parse_utc', 'utc_json', 'utc_text']
 
 
 def utc_text(t_ns: int) -> str:
     """A data time [ns since the epoch] as ISO 8601 UTC to the second (``...T14:03:00Z``)."""
     return datetime.datetime.fromtimestamp(t_ns // 1_000_000_000, datetime.UTC).strftime('%Y-%m-%dT%H:%M:%SZ')
+
+
+def utc_json(t_ns: int | None) -> str | None:
+    """A time for JSON's ``*_utc`` keys: ISO 8601 UTC to the millisecond
+    (``2026-11-26T14:03:00.008Z``); None for None or a time beyond what a calendar date holds
+    (year 1..9999: the ``*_ns`` key beside it still says it)."""
+    if t_ns is None:
+        return None
+    try:
+        t = datetime.datetime.fromtimestamp(t_ns // 1_000_000 / 1e3, datetime.UTC)
+    except (ValueError, OverflowError, OSError):
+        return None
+    return t.strftime('%Y-%m-%dT%H:%M:%S.') + f'{t.microsecond // 1000:03d}Z'
 
 
 def parse_utc(text: str) -> int:

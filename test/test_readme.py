@@ -54,7 +54,7 @@ def test_what_the_readme_says_of_json_holds():
     """The README says which commands take --json; each of those has it, and the others do not."""
     subs = _subparsers()
     with_json = sorted(n for n, p in subs.items() if any('--json' in a.option_strings for a in p._actions))
-    m = re.search(r'`--json` on ([^(]*) \(', README[README.index('## Command line'):])
+    m = re.search(r'`--json` \(its vocabulary.*?\)\) on ([^(]*) \(', README[README.index('## Command line'):])
     assert m is not None, 'the README says which commands take --json'
     said = sorted(re.findall(r'`(\w+)`', m.group(1)))
     assert said == with_json, (said, with_json)

@@ -7,7 +7,7 @@ over simulated realistic voyages (``realistic:1500``: speed steps and drifts, pu
 a dead-band autopilot on solenoid valves, holds at odd angles, zigzags, hard-overs) and, for
 every second at which the clearances are estimated, asks whether each interval holds the
 plant's true clearance. Two sets of 16 voyages, each its own seed, true clearances drawn
-uniformly off the estimator's grid (:func:`steer_monitor.accuracy.off_grid_cases`: 2Z 0.1 to
+uniformly off the estimator's grid (:func:`steer_monitor.studies.accuracy.off_grid_cases`: 2Z 0.1 to
 0.6 mm, Z_gb 0.05 to 0.35 mm, drawn from seed 9301 by default (the second argument): the
 study first ran from seed 9101 with the first analysis at 30 s of motion, and chose
 ``estimator.first_motion_s`` from it; these seeds were not used to choose anything):
@@ -141,7 +141,7 @@ def run(v: Voyage) -> Voyage:
 
 
 def _share(hits: int, n: int) -> str:
-    from steer_monitor.accuracy import coverage_interval
+    from steer_monitor.studies.accuracy import coverage_interval
     if n == 0:
         return '-'
     lo, hi = coverage_interval(hits, n)
@@ -149,9 +149,9 @@ def _share(hits: int, n: int) -> str:
 
 
 def main(argv: list[str]) -> int:
-    from steer_monitor.accuracy import off_grid_cases
     from steer_monitor.params import load_params_file
     from steer_monitor.resources import default_config
+    from steer_monitor.studies.accuracy import off_grid_cases
 
     out = argv[1] if len(argv) > 1 else None
     first_seed = int(argv[2]) if len(argv) > 2 else FIRST_SEED

@@ -36,12 +36,12 @@ def main(argv: list[str]) -> int:
     import numpy as np
 
     from steer_monitor import sim
-    from steer_monitor.accuracy import true_forces
     from steer_monitor.can.busconfig import can_setup
     from steer_monitor.can.decoder import Decoder
     from steer_monitor.estimate.analyze import declared_fit
     from steer_monitor.params import gear_from_params, load_params_file
     from steer_monitor.resources import default_config
+    from steer_monitor.studies.accuracy import true_forces
 
     prog, seeds = argv[0], [int(s) for s in argv[1].split(',')]
     mass = float(argv[2]) if len(argv) > 2 else 12e3

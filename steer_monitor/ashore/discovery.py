@@ -23,6 +23,7 @@ from steer_monitor.can.codec import CanDatabase
 from steer_monitor.can.devices import ADDRESS_CLAIM_PGN, DeviceName, DeviceTable, format_name
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, FrameArrays, pgn_of
 from steer_monitor.can.signals import PRESSURE_INPUTS, SignalMap, SignalSpec
+from steer_monitor.utc import utc_json
 
 __all__ = ['RULES', 'Device', 'Discovery', 'FieldStats', 'Stream', 'propose']
 
@@ -72,7 +73,9 @@ class Stream:
 
     def as_dict(self) -> dict[str, Any]:
         return {'pgn': self.pgn, 'name': self.name, 'source': self.source, 'instance': self.instance,
-                'frames': self.frames, 'rate_hz': self.rate_hz, 'first_ns': self.first_ns, 'last_ns': self.last_ns,
+                'frames': self.frames, 'rate_hz': None if self.rate_hz is None else round(self.rate_hz, 4),
+                'first_utc': utc_json(self.first_ns), 'first_ns': self.first_ns,
+                'last_utc': utc_json(self.last_ns), 'last_ns': self.last_ns,
                 'fields': {k: v.as_dict() for k, v in self.fields.items()}}
 
 
@@ -89,7 +92,8 @@ class Device:
 
     def as_dict(self) -> dict[str, Any]:
         return {'source': self.source, **DeviceName(self.name).fields(), 'claims': self.claims,
-                'addresses': self.addresses, 'first_ns': self.first_ns, 'last_ns': self.last_ns}
+                'addresses': self.addresses, 'first_utc': utc_json(self.first_ns), 'first_ns': self.first_ns,
+                'last_utc': utc_json(self.last_ns), 'last_ns': self.last_ns}
 
 
 class Discovery:

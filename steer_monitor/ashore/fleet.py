@@ -32,6 +32,7 @@ from steer_monitor.logfiles.logs import log_path_problem
 from steer_monitor.monitor.verdict import clearance_verdict
 from steer_monitor.params import load_config
 from steer_monitor.record.provenance import parameters_digest
+from steer_monitor.utc import utc_json
 
 __all__ = ['LOG_SUFFIXES', 'REPORTS_DIR', 'SAME_TIME_SHARE', 'VESSEL_CONFIG', 'WORKER_ENVIRON', 'FleetRun', 'Vessel',
            'find_vessels', 'fleet_json', 'make_client', 'report_path', 'run_fleet', 'same_time_as', 'worker_environ']
@@ -338,7 +339,8 @@ def fleet_json(run: FleetRun) -> dict[str, Any]:
             for key, attr, limit in (('clearance_2z_mm', 'two_z', p['clearances.limit_2z_mm'] * 1e-3),
                                      ('clearance_zgb_mm', 'z_gb', p['clearances.limit_zgb_mm'] * 1e-3)):
                 clearances[key] = _clearance(r, attr, limit, share)
-            logs.append({'log': r.log, 'start_utc': _iso(r.start_ns), 'end_utc': _iso(r.end_ns), 'frames': r.frames,
+            logs.append({'log': r.log, 'start_utc': _iso(r.start_ns), 'start_ns': r.start_ns or None,
+                         'end_utc': _iso(r.end_ns), 'end_ns': r.end_ns or None, 'frames': r.frames,
                          **clearances, 'k_gl_max': _est(r, 'k_gl_max', 1.0),
                          'level': _worst(c['level'] for c in clearances.values()),
                          'model_check': ({'verdict': r.verdict, 'effects': [e for e in r.effects.split(',') if e]}
@@ -346,7 +348,8 @@ def fleet_json(run: FleetRun) -> dict[str, Any]:
                          'hard_overs_s': [round(h['seconds'], 2) for h in json.loads(r.hard_overs_json)],
                          'report': _report(run, v.name, r),
                          'read_errors': json.loads(r.read_errors_json),
-                         'uneven_rams': [{'start_utc': _iso(u['start_ns']), 'end_utc': _iso(u['end_ns']),
+                         'uneven_rams': [{'start_utc': _iso(u['start_ns']), 'start_ns': u['start_ns'],
+                                          'end_utc': _iso(u['end_ns']), 'end_ns': u['end_ns'],
                                           'ram': u['ram'], 'share_pct': round(100 * u['share'], 1), 'idle': u['idle']}
                                          for u in json.loads(r.uneven_json)],
                          'same_time_as': None,
@@ -376,7 +379,5 @@ def _soonest(v: dict[str, Any]) -> str:
 
 
 def _iso(t_ns: int) -> str | None:
-    if not t_ns:
-        return None
-    return datetime.datetime.fromtimestamp(t_ns / 1e9, tz=datetime.UTC).isoformat(timespec='seconds')
+    return utc_json(t_ns) if t_ns else None     # 0: a log with no time
 

@@ -14,6 +14,7 @@ import numpy as np
 
 from steer_monitor.ashore.fleet import FleetRun, fleet_json, vessel_trends
 from steer_monitor.estimate.trend import Z95
+from steer_monitor.jsonvocab import estimate_text
 
 __all__ = ['fleet_page']
 
@@ -136,10 +137,7 @@ def _level_text(lg: dict[str, Any]) -> str:
 def _iv(d: dict[str, Any] | None) -> str:
     if d is None:
         return '-'
-    lo, hi = d['ci95']
-    if hi is None:
-        return f'&ge; {lo:.3f}' if lo is not None else '-'
-    return f"{d['value']:.3f} [{lo:.3f} .. {hi:.3f}]"
+    return html.escape(estimate_text(d, digits=3))
 
 
 def _rams(spans: list[dict[str, Any]]) -> str:

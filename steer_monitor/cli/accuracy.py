@@ -4,9 +4,9 @@ Simulates a grid of true clearances (2Z x Z_gb) under several helm programmes, a
 log as ``steer-monitor analyze`` would, and writes a Markdown table of the error and the
 95 %-interval coverage of every estimate (``--out``, default ``docs/accuracy.md``) and the
 per-case results as JSON (``--json``). With ``--sensitivity-seeds N`` (docs/accuracy.md: 2)
-it also runs the residual loop's sensitivity study (:func:`~steer_monitor.accuracy.sensitivity_cases`)
+it also runs the residual loop's sensitivity study (:func:`~steer_monitor.studies.accuracy.sensitivity_cases`)
 and tabulates detection against effect magnitude; with ``--long-seeds N`` (docs: 2) its
-hour-long part too (:func:`~steer_monitor.accuracy.long_voyage_cases`). Cases run in parallel over ``--jobs``
+hour-long part too (:func:`~steer_monitor.studies.accuracy.long_voyage_cases`). Cases run in parallel over ``--jobs``
 processes; the outcome does not depend on the number of jobs.
 """
 
@@ -21,7 +21,6 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any, TextIO
 
-from steer_monitor import accuracy as A
 from steer_monitor.atomic import atomic_write, check_target, write_text
 from steer_monitor.can.busconfig import can_setup
 from steer_monitor.cli.options import add_config_option, add_force_option
@@ -29,6 +28,7 @@ from steer_monitor.cli.output import dump_json
 from steer_monitor.errors import ParameterError
 from steer_monitor.params import load_params_file
 from steer_monitor.resources import default_config
+from steer_monitor.studies import accuracy as A
 
 __all__ = ['markdown', 'register', 'run']
 

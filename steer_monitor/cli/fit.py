@@ -4,29 +4,12 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any, TextIO
+from typing import TextIO
 
 from steer_monitor.cli.output import dump_json
-from steer_monitor.model.fits import parse_fit
+from steer_monitor.studies.tables import fit_summary
 
 __all__ = ['register', 'run']
-
-
-def fit_summary(designation: str) -> dict[str, Any]:
-    """The fit's tolerances and clearances in mm."""
-    fit = parse_fit(designation)
-    hole, shaft, cl = fit.hole, fit.shaft, fit.clearance
-    mm = 1e3
-    return {
-        'fit': fit.designation,
-        'hole_mm': {'upper': hole.upper * mm, 'lower': hole.lower * mm},
-        'shaft_mm': {'upper': shaft.upper * mm, 'lower': shaft.lower * mm},
-        'clearance_min_mm': cl.minimum * mm,
-        'clearance_max_mm': cl.maximum * mm,
-        'clearance_mean_mm': cl.mean * mm,
-        'probable_min_mm': cl.probable_min * mm,
-        'probable_max_mm': cl.probable_max * mm,
-    }
 
 
 def run(designation: str, as_json: bool = False, out: TextIO | None = None) -> int:

@@ -6,66 +6,17 @@ import argparse
 import math
 import sys
 from pathlib import Path
-from typing import Any, TextIO
-
-import numpy as np
+from typing import TextIO
 
 from steer_monitor.cli.options import add_config_option, add_force_option
 from steer_monitor.cli.output import dump_json, table
 from steer_monitor.errors import ParameterError
-from steer_monitor.model.gear import Gaps, GearParams
-from steer_monitor.model.loadshare import LoadSharing, load_sharing_at
-from steer_monitor.model.study import Landmarks, landmarks
+from steer_monitor.model.gear import Gaps
 from steer_monitor.params import gaps_from_params, gear_from_params, load_params_file
 from steer_monitor.resources import default_config
+from steer_monitor.studies.tables import loadshare_rows
 
-__all__ = ['ROW_KEYS', 'loadshare_rows', 'register', 'run']
-
-ROW_KEYS = ('alpha_deg', 'torque_knm', 'f_lateral_n', 'f_ram_n', 'f_guide_n', 'k_gl',
-            'deflection_mm', 'case')
-KNOT = 1852.0 / 3600.0
-MIN_STEP_DEG = 0.001    # 35,000 rows over the R-18's range; finer says nothing more and runs out of memory
-
-
-def _deg_or_none(x: float | None) -> float | None:
-    return None if x is None else math.degrees(x)
-
-
-def loadshare_rows(gear: GearParams, gaps: Gaps, speed_kn: float | None = None,
-                   step_deg: float = 0.5) -> tuple[dict[str, Any], tuple[Any, LoadSharing, Landmarks]]:
-    """The sweep 0..max rudder angle as rows (engineers' units) plus its landmarks, and the
-    sweep itself (angles [rad], load sharing, landmarks) for plotting."""
-    if not (math.isfinite(step_deg) and MIN_STEP_DEG <= step_deg <= 5):
-        msg = f'--step-deg must lie in [{MIN_STEP_DEG:g}, 5], got {step_deg!r}'
-        raise ParameterError(msg)
-    if speed_kn is not None and not (math.isfinite(speed_kn) and 0 <= speed_kn <= 60):
-        msg = f'--speed-kn must lie in [0, 60] kn, got {speed_kn!r}'
-        raise ParameterError(msg)
-    max_deg = math.degrees(gear.max_rudder)
-    deg = np.round(np.arange(0.0, max_deg + 1e-9, step_deg), 6)
-    alpha = np.radians(deg)
-    speed = None if speed_kn is None else speed_kn * KNOT
-    res = load_sharing_at(gear, alpha, gaps, speed)
-    torque = gear.torque(alpha, speed)
-    rows = [dict(zip(ROW_KEYS, (float(deg[i]), float(torque[i]) / 1e3, float(res.lateral[i]),
-                                float(res.ram_force[i]), float(res.guide_force[i]), float(res.k_gl[i]),
-                                float(res.deflection[i]) * 1e3, int(res.case[i]))))
-            for i in range(deg.size)]
-    marks = landmarks(alpha, res)
-    return {
-        'gap_2z_mm': gaps.two_z * 1e3,
-        'gap_zgb_mm': gaps.z_gb * 1e3,
-        'speed_kn': speed_kn if speed_kn is not None else gear.torque.service_speed / KNOT,
-        'landmarks': {
-            'guide_onset_deg': _deg_or_none(marks.guide_onset),
-            'crossover_deg': _deg_or_none(marks.crossover),
-            'k_gl_max': marks.k_gl_max,
-            'k_gl_max_deg': math.degrees(marks.k_gl_max_angle),
-            'clamp_onset_deg': _deg_or_none(marks.clamp_onset),
-        },
-        'rows': rows,
-    }, (alpha, res, marks)
-
+__all__ = ['register', 'run']
 
 def run(config: str | Path | None = None, gap_2z_mm: float | None = None,
         gap_zgb_mm: float | None = None, speed_kn: float | None = None,
@@ -83,14 +34,14 @@ def run(config: str | Path | None = None, gap_2z_mm: float | None = None,
                         configured.z_gb * 1e3 if gap_zgb_mm is None else gap_zgb_mm)
     s, (alpha, res, marks) = loadshare_rows(gear, gaps, speed_kn, step_deg)
     if plot is not None:
-        from steer_monitor.plots import plot_load_sharing
-        title = (f"{params['gear.name']}: 2Z = {s['gap_2z_mm']:.3f} mm, "
-                 f"Z_gb = {s['gap_zgb_mm']:.3f} mm, {s['speed_kn']:.1f} kn")
+        from steer_monitor.studies.plots import plot_load_sharing
+        title = (f"{params['gear.name']}: 2Z = {s['clearance_2z_mm']:.3f} mm, "
+                 f"Z_gb = {s['clearance_zgb_mm']:.3f} mm, {s['speed_kn']:.1f} kn")
         s['plot'] = str(plot_load_sharing(alpha, res, plot, title, marks))
     if as_json:
         dump_json(s, out)
         return 0
-    out.write(f"{params['gear.name']}: 2Z = {s['gap_2z_mm']:.3f} mm, Z_gb = {s['gap_zgb_mm']:.3f} mm, "
+    out.write(f"{params['gear.name']}: 2Z = {s['clearance_2z_mm']:.3f} mm, Z_gb = {s['clearance_zgb_mm']:.3f} mm, "
               f"speed {s['speed_kn']:.1f} kn\n")
     table(['alpha deg', 'M kN m', 'Fl kN', 'Fr kN', 'Fgb kN', 'K_gl', 'defl mm', 'case'],
           [[f"{r['alpha_deg']:.1f}", f"{r['torque_knm']:.1f}", f"{r['f_lateral_n'] / 1e3:.1f}",

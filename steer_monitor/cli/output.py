@@ -12,19 +12,26 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-__all__ = ['add_date_option', 'check_logs', 'date_notes', 'dump_json', 'report_read_errors', 'table', 'text_stream']
+__all__ = ['JSON_DIGITS', 'add_date_option', 'check_logs', 'date_notes', 'dump_json', 'report_read_errors', 'table',
+           'text_stream']
+
+
+#: significant digits a float keeps in JSON: a computation's last bits are no data (0.115, not
+#: 0.11499999999999999); quantities are rounded further where they are made (docs/json.md)
+JSON_DIGITS = 9
 
 
 def _clean(obj: Any) -> Any:
-    """Make numpy scalars and non-finite floats JSON-safe (NaN/inf become null)."""
+    """Make numpy scalars and non-finite floats JSON-safe (NaN/inf become null), floats kept
+    to :data:`JSON_DIGITS` significant digits."""
     if isinstance(obj, dict):
         return {str(k): _clean(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [_clean(v) for v in obj]
     if hasattr(obj, 'item') and callable(obj.item):
         obj = obj.item()
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
+    if isinstance(obj, float):
+        return float(f'{obj:.{JSON_DIGITS}g}') if math.isfinite(obj) else None
     return obj
 
 

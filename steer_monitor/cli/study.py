@@ -19,15 +19,14 @@ import numpy as np
 
 from steer_monitor.atomic import ensure_dir, write_files
 from steer_monitor.cli import backlash as backlash_cli
-from steer_monitor.cli.fit import fit_summary
-from steer_monitor.cli.loadshare import loadshare_rows
 from steer_monitor.cli.options import add_config_option, add_force_option
 from steer_monitor.cli.output import dump_json, table
 from steer_monitor.model.gear import Gaps
 from steer_monitor.model.study import gap_sensitivity
 from steer_monitor.params import gear_from_params, load_params_file
-from steer_monitor.plots import gap_sensitivity_png, load_sharing_png
 from steer_monitor.resources import default_config
+from steer_monitor.studies.plots import gap_sensitivity_png, load_sharing_png
+from steer_monitor.studies.tables import fit_summary, loadshare_rows
 
 __all__ = ['STUDY_2Z_MM', 'STUDY_ZGB_MM', 'register', 'run']
 

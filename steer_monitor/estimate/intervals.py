@@ -54,11 +54,13 @@ class Interval:
 
     def scaled(self, k: float, digits: int = 4) -> dict[str, object]:
         """``{"value", "ci95": [lo, hi], "bounded"}`` in units of 1/k (e.g. k = 1e3 for mm):
-        the one JSON shape of an estimate in every command; ``bounded`` false when an end of
-        the interval is open (None)."""
+        the one JSON shape of an estimate in every command (docs/json.md); ``bounded`` false
+        when an end of the interval is open (None), and then ``value`` is None too: a bound is
+        no point estimate (the profile's best point on a plateau is any of its points)."""
         def r(v: float | None) -> float | None:
             return None if v is None else round(v * k, digits)
-        return {'value': r(self.value), 'ci95': [r(self.lo), r(self.hi)], 'bounded': not self.one_sided}
+        return {'value': None if self.one_sided else r(self.value), 'ci95': [r(self.lo), r(self.hi)],
+                'bounded': not self.one_sided}
 
 
 def inflation(resid: NDArray[np.float64], t_ns: NDArray[np.int64], step_ns: int) -> float:

@@ -45,7 +45,7 @@ from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
 from steer_monitor.model.inputs import INPUTS, Sample
 from steer_monitor.model.loadshare import ShareScalar, load_sharing, load_sharing_scalar
 from steer_monitor.model.torque import TorqueTable
-from steer_monitor.utc import utc_text
+from steer_monitor.utc import utc_json
 
 __all__ = ['ARRIVALS_KEPT_NS', 'NO_RESPONSE_ERR', 'NO_RESPONSE_NS', 'RATE_WINDOW_NS', 'LiveMonitor', 'LiveState',
            'Response']
@@ -210,7 +210,7 @@ class LiveMonitor:
                               'estimate_rows': str(int(finding.rows)),
                               'estimate_motion_s': f'{finding.motion_s:.0f}',
                               'estimate_kind': finding.kind,
-                              'estimate_data_until_utc': utc_text(finding.t_ns)}
+                              'estimate_data_until_utc': utc_json(finding.t_ns)}
 
     @property
     def motion_s(self) -> float:

@@ -46,6 +46,7 @@ from steer_monitor.monitor.analyst import ANALYSED, Analyst, AnalystSettings, Jo
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, Status
 from steer_monitor.monitor.live import LiveMonitor, LiveState
 from steer_monitor.params import min_clearance_2z_from_params, ram_share_warn_from_params
+from steer_monitor.threads import release_freed_memory
 
 __all__ = ['APPLY_DELAY_NS', 'APPLY_PER_MOTION', 'MAX_GAP_SECONDS', 'SECOND_NS', 'SLOT_NS', 'DiagOut', 'Pipeline',
            'StateOut', 'ThreadedJobs', 'analyst_from_params', 'apply_delay_ns', 'settings_from_params']
@@ -123,6 +124,7 @@ class ThreadedJobs:
     def _run(self, job: Job) -> Outcome:
         c0 = time.thread_time()
         out = run_job(self.gear, self.settings, job, self.model)
+        release_freed_memory()      # the analysis's arrays, freed: back to the system, not kept at its peak
         self.done.append((job.kind, time.thread_time() - c0))
         self.model = out.model
         if self.after is not None:

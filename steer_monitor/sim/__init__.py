@@ -20,6 +20,7 @@ from steer_monitor.sim.effects import EFFECTS, FAULTS, OUTSIDE_LIBRARY, Effect, 
 from steer_monitor.sim.encode import SensorStreams, encode_frames, sensor_streams
 from steer_monitor.sim.plant import DEFAULT_START_NS, SimConfig, SimResult, simulate
 from steer_monitor.sim.programs import PROGRAMS, parse_program
+from steer_monitor.utc import utc_json
 
 __all__ = ['DEFAULT_START_NS', 'EFFECTS', 'FAULTS', 'OUTSIDE_LIBRARY', 'PROGRAMS', 'Effect', 'SimConfig', 'SimResult',
            'Simulation', 'parse_effect', 'parse_program', 'run', 'truth']
@@ -52,6 +53,7 @@ def truth(params: Mapping[str, Any], cfg: SimConfig, sim: Simulation, seed: int)
         'seed': seed,
         'gear': params['gear.name'],
         'program': cfg.program,
+        'start_utc': utc_json(cfg.start_ns),
         'start_ns': cfg.start_ns,
         'duration_s': p.duration,
         'clearance_2z_mm': cfg.gaps.two_z * 1e3,
@@ -62,13 +64,14 @@ def truth(params: Mapping[str, Any], cfg: SimConfig, sim: Simulation, seed: int)
         'return_pressure_bar': cfg.return_pressure / 1e5,
         'angle_noise_rad': cfg.angle_noise if cfg.noise else 0.0,
         'pressure_noise_bar': cfg.pressure_noise / 1e5 if cfg.noise else 0.0,
-        'speed_profile_kn': [list(x) for x in cfg.speed_profile],
-        'oil_temp_c': [cfg.oil_temp_start_c, cfg.oil_temp_end_c, cfg.oil_temp_tau_s],
+        'speed_profile': [{'t_s': t, 'speed_kn': kn} for t, kn in cfg.speed_profile],
+        'oil_temperature': {'start_c': cfg.oil_temp_start_c, 'end_c': cfg.oil_temp_end_c,
+                            'time_constant_s': cfg.oil_temp_tau_s},
         'effects': [{'name': e.name, 'params': dict(e.params)} for e in cfg.effects],
         'frames': len(sim.frames),
         'samples': {name: int(t.size) for name, t in sim.sensors.t_ns.items()},
-        'rudder_range_deg': [float(np.degrees(p.alpha.min())) if p.alpha.size else 0.0,
-                             float(np.degrees(p.alpha.max())) if p.alpha.size else 0.0],
-        'moving_share': float(moving.mean()) if moving.size else 0.0,
-        'k_gl_max': float(p.k_gl.max()) if p.k_gl.size else 0.0,
+        'rudder_range_deg': [round(float(np.degrees(p.alpha.min())), 3) if p.alpha.size else 0.0,
+                             round(float(np.degrees(p.alpha.max())), 3) if p.alpha.size else 0.0],
+        'moving_share': round(float(moving.mean()), 4) if moving.size else 0.0,
+        'k_gl_max': round(float(p.k_gl.max()), 4) if p.k_gl.size else 0.0,
     }

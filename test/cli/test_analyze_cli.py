@@ -28,10 +28,10 @@ def test_analyze_writes_the_documented_json_and_a_report(tmp_path, capsys):
         assert d[key]['bounded'] == (None not in d[key]['ci95'])
     assert d['clearance_2z_mm']['ci95'][1] is None          # the ram never clamps at 0.6 mm
     assert d['clearance_zgb_mm']['ci95'][0] <= 0.25 <= d['clearance_zgb_mm']['ci95'][1]
-    assert {'k_gl_max', 'effect', 'effects', 'unexplained', 'rmse_before_kn', 'rmse_after_kn', 'verdict',
+    assert {'k_gl_max', 'effect', 'effects', 'unexplained', 'rmse_before_n', 'rmse_after_n', 'verdict',
             'message'} <= set(d)
     assert d['effect'] is None and d['effects'] == [] and d['unexplained'] is None
-    assert d['rmse_after_kn'] == d['rmse_before_kn']
+    assert d['rmse_after_n'] == d['rmse_before_n']
     page = html.read_text()
     assert page.count('<img') == 3 and 'data:image/png;base64,' in page
 

@@ -9,6 +9,7 @@ import pytest
 
 from steer_monitor.cli import backlash, fit, loadshare, study
 from steer_monitor.cli.main import main
+from steer_monitor.studies.tables import ROW_KEYS
 from test.conftest import PKG, fill
 
 CHAIN = PKG / 'config' / 'r18_chain.yaml'
@@ -33,7 +34,7 @@ def test_loadshare_json_rows_and_plot(tmp_path):
     rows = s['rows']
     assert len(rows) == 71
     assert [r['alpha_deg'] for r in rows[:3]] == [0.0, 0.5, 1.0] and rows[-1]['alpha_deg'] == 35.0
-    assert set(rows[0]) == set(loadshare.ROW_KEYS)
+    assert set(rows[0]) == set(ROW_KEYS)
     r275 = next(r for r in rows if r['alpha_deg'] == 27.5)
     assert r275['k_gl'] == pytest.approx(0.59, abs=0.01)
     assert r275['torque_knm'] == pytest.approx(930.0)
@@ -57,7 +58,7 @@ def test_backlash_json_with_limit():
 
 @pytest.mark.parametrize('argv,msg', [
     (['fit', '240 X9/f9'], "only hole-basis fits (hole H) are supported, got hole 'X'"),
-    (['loadshare', '--gap-2z', '-1'], 'clearance two_z must be a finite number >= 0 m'),
+    (['loadshare', '--gap-2z', '-1'], '--gap-2z must be a clearance of at least 0 mm, got -1 mm'),  # its words
     (['loadshare', '--speed-kn', '99'], '--speed-kn must lie in [0, 60] kn'),
     (['loadshare', '--config', 'nope.yaml'], 'cannot read parameters file nope.yaml'),
     (['backlash', str(CHAIN), '--angle-deg', '50'], "--angle-deg 50 is outside the chain's range"),

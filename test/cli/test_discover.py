@@ -40,7 +40,7 @@ def test_discover_then_inspect_sees_the_rudder(tmp_path, capsys, path, extra, ad
     assert main(['inspect', str(path), '--config', str(out), '--json'] + extra) == 0
     s = json.loads(capsys.readouterr().out)
     rudder = s['signals']['rudder_angle']
-    assert rudder['samples'] == samples and rudder['min'] is not None
+    assert rudder['samples'] == samples and rudder['min_deg'] is not None
     assert 'rudder' not in ''.join(s['reject_examples'].get('unmapped', ''))
     assert 'multi_frame' not in s['rejects'] or s['rejects']['multi_frame'] > 0
 
@@ -60,7 +60,7 @@ def test_ydwg_date_is_said(tmp_path, capsys):
     capture(MERRIMAC)
     assert main(['inspect', str(MERRIMAC), '--date', '2020-08-22', '--json']) == 0
     cap = capsys.readouterr()
-    assert json.loads(cap.out)['start'].startswith('2020-08-22T00:29:58')
+    assert json.loads(cap.out)['start_utc'].startswith('2020-08-22T00:29:58')
     assert 'YDWG raw log (time of day only) read as starting on 2020-08-22 UTC, the date given' in cap.err
     copy = tmp_path / 'merrimac-2021-03-04.raw'
     shutil.copy(MERRIMAC, copy)

@@ -7,9 +7,9 @@ from __future__ import annotations
 import pytest
 
 from steer_monitor import sim
-from steer_monitor.accuracy import MAGNITUDE, scaled_effect
-from steer_monitor.cli.analyze import analysis_json
+from steer_monitor.ashore.loganalysis import analysis_json
 from steer_monitor.estimate.analyze import analyze, skew_equivalent_s
+from steer_monitor.studies.accuracy import MAGNITUDE, scaled_effect
 from test.estimate.conftest import holds
 
 pytestmark = pytest.mark.slow

@@ -109,9 +109,9 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
         # the onset the model gives for the clearances in use (10 deg at the true ones; about
         # 1 deg per 0.04 mm of Z_gb); WARN only when, estimated, it lies beyond 10 deg even at
         # the low end of the Z_gb interval
-        from steer_monitor.cli.loadshare import loadshare_rows
         from steer_monitor.model.gear import Gaps
         from steer_monitor.params import gear_from_params
+        from steer_monitor.studies.tables import loadshare_rows
         in_use = Gaps.from_mm(float(cl['clearance_2z_mm']), float(cl['clearance_zgb_mm']))
         sweep, _ = loadshare_rows(gear_from_params(r18_params), in_use, None, 0.1)
         assert float(_values(gb)['guide_onset_deg']) == pytest.approx(sweep['landmarks']['guide_onset_deg'], abs=0.6)

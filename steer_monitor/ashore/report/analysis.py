@@ -16,6 +16,7 @@ import numpy as np
 from steer_monitor.atomic import write_text
 from steer_monitor.estimate.analyze import Analysis
 from steer_monitor.estimate.intervals import CHI2_1_95
+from steer_monitor.jsonvocab import estimate_text
 
 __all__ = ['located_figure', 'png_base64', 'residual_figure', 'write_analysis_report']
 
@@ -137,9 +138,7 @@ def _words(d: Any) -> str:
     out = []
     for k, v in d.items():
         if isinstance(v, dict) and 'value' in v:
-            lo, hi = v.get('ci95', [None, None])
-            out.append(f"{k} {v['value']:g} [{'-' if lo is None else f'{lo:g}'} .. "
-                       f"{'unbounded' if hi is None else f'{hi:g}'}]")
+            out.append(f'{k} {estimate_text(v)}')
         elif isinstance(v, float):
             out.append(f'{k} {v:g}')
         else:
@@ -153,8 +152,7 @@ def write_analysis_report(a: Analysis, result: dict[str, Any], path: str | Path)
     esc = html.escape
 
     def iv(d: dict[str, Any]) -> str:
-        lo, hi = d['ci95']
-        return f"{d['value']} [{'-' if lo is None else lo} .. {'unbounded' if hi is None else hi}]"
+        return estimate_text(d)
 
     rows = ''.join(f'<tr><td>{esc(name)}</td><td>{esc(iv(result[key]))}</td></tr>'
                    for name, key in (('2Z [mm]', 'clearance_2z_mm'), ('Z_gb [mm]', 'clearance_zgb_mm'),
@@ -182,7 +180,7 @@ table{{border-collapse:collapse}}tr:nth-child(even){{background:#f2f2f2}}img{{ma
 <p><b>{esc(result['message'])}</b></p>
 <table><tr><th>quantity</th><th>value [95 % interval]</th></tr>{rows}</table>
 <p>Added effects: {eff}. Residual {result['rmse_before_bar']} &rarr; {result['rmse_after_bar']} bar RMS
-({result['rmse_before_kn']} &rarr; {result['rmse_after_kn']} kN of ram force).</p>
+({result['rmse_before_n'] / 1e3:.3f} &rarr; {result['rmse_after_n'] / 1e3:.3f} kN of ram force).</p>
 {img}
 <h2>Candidates</h2><table><tr><th>effect</th><th>fixed</th><th>held-out gain</th><th>&Delta;BIC</th>
 <th>RMS [bar]</th><th>passes</th></tr>{scr}</table>

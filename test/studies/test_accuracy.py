@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from steer_monitor import accuracy as A
 from steer_monitor.cli import accuracy as cli
 from steer_monitor.cli.main import main
+from steer_monitor.studies import accuracy as A
 
 
 def _result(programme: str, tz: float, zg: float, est_zg: float, ci_zg: tuple, clamped: float = 0.0,

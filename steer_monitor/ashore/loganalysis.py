@@ -1,0 +1,196 @@
+"""The analysis of one log and its JSON answer (``steer-monitor analyze``'s, the fleet's per-log
+check and the report's model check use it): decode the log, run the residual loop
+(:func:`steer_monitor.estimate.analyze.analyze`) on its data (optionally the data before a
+time, the last hours of steady motion), and give the answer in the JSON vocabulary of
+docs/json.md.
+
+The JSON (units in the key names; intervals are 95 %; a clearance the data bound from below
+only is ``{"value": null, "ci95": [lo, null], "bounded": false}``)::
+
+    clearance_2z_mm, clearance_zgb_mm      {"value", "ci95": [lo, hi], "bounded"}   (final model)
+    k_gl_max                               {"value", "ci95": [lo, hi], "bounded"}
+    seal_friction_n, mu_bushing, mu_guide  {"value", "ci95": [lo, hi], "bounded"}
+    effects                                the adopted effects in order, each {"name", "params",
+                                           "rmse_before_bar", "rmse_after_bar", "rmse_before_n",
+                                           "rmse_after_n", "systematic_before_bar",
+                                           "systematic_after_bar"} (params from the final model)
+    effect                                 the first of them ({"name", "params"}) or null
+    verdict                                "declared" | "effect" | "unexplained"
+    unexplained                            where an unexplained residual lives, or null:
+                                           {"variable", "range": [lo, hi] in its "unit",
+                                           "either_side", "systematic_bar", "share", "ram",
+                                           "direction", "message"}
+    message                                one sentence
+    rmse_before_n, rmse_after_n            ram-force residual RMS [N], declared / final
+    rmse_before_bar, rmse_after_bar        the same in bar of cylinder pressure
+    systematic_before_bar, systematic_after_bar, noise_bar   the residual's smooth part and
+                                           its sensor-noise part
+    declared, final                        each model's estimates
+    screening                              every candidate against the declared model
+    outlier_instants                       instants set aside before screening
+    rams                                   how the rams shared the driving force: {"shares":
+                                           [{"ram": 1, "share_pct"}, {"ram": 2, ...}] over the
+                                           steady motion kept (null: not judged), "instants",
+                                           "uneven": stretches left out, each {"start_utc",
+                                           "start_ns", "end_utc", "end_ns", "ram" (the weaker,
+                                           1 or 2), "share_pct" (its share), "instants", "idle"}}
+    torque_curve                           [{"angle_deg", "torque_knm", "band_knm" (half-width of
+                                           the 95 % band)}, ...]
+    data                                   log, frames, span, steady-motion rows, max angle
+    window                                 the data analysed: {"until_utc" (--until, or null),
+                                           "motion_h" (--window-motion-h, null: all),
+                                           "motion_s" (the steady motion it held)}
+"""
+
+from __future__ import annotations
+
+import datetime
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+from steer_monitor.can.busconfig import load_setup
+from steer_monitor.can.rejects import RejectCounter
+from steer_monitor.estimate.analyze import Analysis, analyze
+from steer_monitor.estimate.batch import ClearanceEstimate
+from steer_monitor.estimate.locate import UNITS
+from steer_monitor.estimate.observe import EstimateError
+from steer_monitor.estimate.window import before
+from steer_monitor.logfiles.decodelog import clock_steps_json, decode_logs
+from steer_monitor.params import gear_from_params, min_clearance_2z_from_params, ram_share_warn_from_params
+from steer_monitor.utc import utc_json
+
+__all__ = ['analysis_json', 'analyze_log']
+
+
+def _quantities(e: ClearanceEstimate) -> dict[str, Any]:
+    """The estimated quantities with their intervals, in engineers' units."""
+    return {
+        'clearance_2z_mm': e.two_z.scaled(1e3),
+        'clearance_zgb_mm': e.z_gb.scaled(1e3),
+        'k_gl_max': e.k_gl_max.scaled(1.0, 3),
+        'seal_friction_n': e.seal_friction.scaled(1.0, 0),
+        'mu_bushing': e.mu_bushing.scaled(1.0, 4),
+        'mu_guide': e.mu_guide.scaled(1.0, 4),
+    }
+
+
+def _estimate_json(e: ClearanceEstimate) -> dict[str, Any]:
+    bar = e.ram_area * 1e5
+    return {
+        **_quantities(e),
+        'rmse_n': round(e.rms, 1),
+        'rmse_bar': round(e.rms / bar, 4),
+        'systematic_bar': round(e.smooth_rms / bar, 4),
+        'noise_bar': round(e.noise_rms / bar, 4),
+        'variance_inflation': round(e.inflation, 2),
+        'rows': e.rows,
+    }
+
+
+def _params_json(params: dict[str, Any]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in params.items():
+        if isinstance(v, str):
+            out[k] = v
+        elif v.lo is None and v.hi is None:
+            out[k] = round(v.value, 6)
+        else:
+            out[k] = v.scaled(1.0, 6)
+    return out
+
+
+def _located_json(a: Analysis) -> dict[str, Any] | None:
+    loc = a.located
+    if loc is None:
+        return None
+    bar = a.final.ram_area * 1e5
+    digits = 1 if loc.variable in ('time_s', 'pressure_bar') else 2
+    return {'variable': loc.variable, 'range': [round(loc.lo, digits), round(loc.hi, digits)],
+            'unit': UNITS[loc.variable],
+            'either_side': loc.either_side, 'systematic_bar': round(loc.level / bar, 3),
+            'share': round(loc.share, 3), 'ram': loc.shape.ram_name, 'direction': loc.shape.direction_name,
+            'odd_in_direction': loc.shape.odd and not loc.shape.direction,
+            'message': loc.message(a.final.ram_area)}
+
+
+def analysis_json(a: Analysis) -> dict[str, Any]:
+    """The JSON answer (see the module docstring)."""
+    d, f = a.declared, a.final
+    bar = f.ram_area * 1e5
+    effects = [{'name': s.name, 'params': _params_json(s.params),
+                'rmse_before_bar': round(s.before.rms / bar, 4), 'rmse_after_bar': round(s.after.rms / bar, 4),
+                'rmse_before_n': round(s.before.rms, 1), 'rmse_after_n': round(s.after.rms, 1),
+                'systematic_before_bar': round(s.before.smooth_rms / bar, 4),
+                'systematic_after_bar': round(s.after.smooth_rms / bar, 4)} for s in a.steps]
+    angles, torque, band = f.torque_curve
+    return {
+        **_quantities(f),
+        'effects': effects,
+        'effect': {'name': effects[0]['name'], 'params': effects[0]['params']} if effects else None,
+        'verdict': a.verdict,
+        'message': a.message,
+        'unexplained': _located_json(a),
+        'rmse_before_n': round(d.rms, 1),
+        'rmse_after_n': round(f.rms, 1),
+        'rmse_before_bar': round(d.rms / bar, 4),
+        'rmse_after_bar': round(f.rms / bar, 4),
+        'systematic_before_bar': round(d.smooth_rms / bar, 4),
+        'systematic_after_bar': round(f.smooth_rms / bar, 4),
+        'noise_bar': round(f.noise_rms / bar, 4),
+        'declared': _estimate_json(d),
+        'final': _estimate_json(f),
+        'screening': [{'name': s.name, 'fixed': s.fixed, 'held_out_gain': round(s.cv_gain, 4),
+                       'held_out_deviance': round(s.cv_deviance, 1),
+                       'delta_bic': round(s.delta_bic, 1), 'rmse_bar': round(s.rms / bar, 4),
+                       'passes': s.passes, 'refused': s.refused} for s in a.screening],
+        'outlier_instants': a.outliers,
+        'rams': {'shares': None if a.rams is None else [{'ram': k + 1, 'share_pct': round(100 * x, 2)}
+                                                         for k, x in enumerate(a.rams.share)],
+                 'instants': 0 if a.rams is None else a.rams.instants,
+                 'uneven': [{'start_utc': utc_json(sp.start_ns), 'start_ns': sp.start_ns,
+                             'end_utc': utc_json(sp.end_ns), 'end_ns': sp.end_ns, 'ram': sp.ram + 1,
+                             'share_pct': round(100 * sp.share, 2), 'instants': sp.instants, 'idle': sp.idle}
+                            for sp in a.uneven]},
+        'torque_curve': [{'angle_deg': round(math.degrees(x), 2), 'torque_knm': round(t / 1e3, 2),
+                          'band_knm': round(b / 1e3, 2)} for x, t, b in zip(angles, torque, band)],
+        'max_angle_seen_deg': round(math.degrees(f.max_angle_seen), 2),
+    }
+
+
+def analyze_log(path: str | Path, config: str | Path | None = None, progress: bool = False,
+                date: datetime.date | None = None, until_ns: int | None = None,
+                window_motion_s: float = 0.0) -> tuple[Analysis, dict[str, Any]]:
+    """The analysis of one log and its JSON. A log that breaks off or holds corrupt chunks is
+    analysed on what could be read; ``data.read_errors`` says what was wrong. ``until_ns``:
+    only the data before that time [ns]; ``window_motion_s``: only the last that many seconds
+    of steady motion (0: all), the window a node analyses (``estimator.window_motion_h``)."""
+    config_path, params, db, smap = load_setup(config)
+    gear = gear_from_params(params)
+    rejects = RejectCounter()
+    logs = decode_logs([path], db, smap, rejects, date=date)
+    signals = logs.signals if until_ns is None else before(logs.signals, until_ns)
+    say = (lambda msg: print(f'  {msg} ...', file=sys.stderr)) if progress else None
+    try:
+        a = analyze(gear, signals, min_clearance_2z=min_clearance_2z_from_params(params),
+                    ram_share_warn=ram_share_warn_from_params(params), progress=say,
+                    window_motion_s=window_motion_s)
+    except EstimateError as exc:
+        if logs.errors and logs.frames == 0:    # nothing read: the reason is the log, first
+            raise EstimateError(f'{logs.errors[0]}: nothing to analyse') from exc
+        if logs.errors:      # say why the data are short as well
+            raise EstimateError(f'{exc} ({logs.errors[0]})') from exc
+        raise
+    out = analysis_json(a)
+    out['data'] = {'log': str(path), 'frames': logs.frames, 'span_s': logs.span_s,
+                   'rejects': dict(sorted(rejects.snapshot().counts.items())),
+                   'read_errors': list(logs.errors),
+                   'clock_steps': clock_steps_json(logs.clock_steps), 'notes': list(logs.notes),
+                   'config': str(config_path)}
+    out['window'] = {'until_utc': utc_json(until_ns), 'until_ns': until_ns,
+                     'motion_h': window_motion_s / 3600.0 if window_motion_s > 0 else None,
+                     'motion_s': round(a.window.motion_s, 2) if a.window is not None else None}
+    return a, out
+
+
