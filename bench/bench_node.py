@@ -25,8 +25,9 @@ frames dropped, CPU of the node (process CPU minus the simulator thread's, so it
 the DDS threads; also per 10 s and per thread), p99 latency from the frame's bus timestamp
 (when the virtual bus took it; the kernel's receive time on socketcan) to the published
 state, so the time a frame waits in the receive queue counts, resident memory at start and
-end and every 10 s, and what the simulator's voyage held when it was made (measured before the
-node starts, in the same process: the node's own memory is the process's less that).
+end and every 10 s, and what the frames to play held when they were made (the simulated voyage
+and the other traffic, measured before the node starts, in the same process: the node's own
+memory is the process's less that).
 Targets: 0 dropped, < 25 % of a core, p99 < 20 ms, < 250 MB and no growth.
 
 Run: ``python -m bench.bench_node [bus] [speedup] [voyage] [--seconds=S] [--no-record]`` (part
@@ -104,7 +105,7 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
     from steer_monitor.node.params_ros import overrides_from_file
     from steer_monitor.params import load_params_file
     from steer_monitor.resources import default_config
-    from steer_monitor.sim.live import play
+    from steer_monitor.sim.playback import play
 
     config = default_config()
     params = load_params_file(config)
@@ -112,7 +113,6 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
     program = f'realistic:{seconds:.0f}' if mode == 'voyage' else 'voyage'
     rss_before_sim = _rss_mb()
     frames = sim.run(params, sim.SimConfig(program=program), db, smap, seed=1).frames
-    sim_mb = _rss_mb() - rss_before_sim
     native_rate = len(frames) / ((int(frames.t_ns[-1]) - int(frames.t_ns[0])) / 1e9)
     if mode == 'speedup':
         frames = frames.take(np.arange(min(int(BUS_RATE * seconds), len(frames))))
@@ -125,6 +125,7 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
         both = FrameArrays.concat([own, other])
         frames = both.take(np.argsort(both.t_ns, kind='stable'))
         factor = 1.0
+    sim_mb = _rss_mb() - rss_before_sim     # the simulator's voyage and the other traffic, made before the node
     channel = f'bench-{uuid.uuid4().hex[:6]}'
     with tempfile.TemporaryDirectory() as tmp:
         context = rclpy.Context()
@@ -191,8 +192,9 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
     print(f'  latency frame->state : p50 {np.percentile(lat, 50):.1f} ms, p99 {np.percentile(lat, 99):.1f} ms, '
           f'max {lat.max():.1f} ms (target p99 < 20 ms)')
     print(f'  resident memory      : {rss_start:.0f} MB at start, {rss_end:.0f} MB at end '
-          f'(process, simulator included); the simulator\'s voyage held {sim_mb:.0f} MB when made, so the '
-          f'node about {rss_end - sim_mb:.0f} MB at end (target < 250 MB, no growth)')
+          f'(process, simulator included); the frames to play (the simulated voyage, the other traffic) held '
+          f'{sim_mb:.0f} MB when made, so the node about {rss_start - sim_mb:.0f} MB at start and '
+          f'{rss_end - sim_mb:.0f} MB at end (target < 250 MB, no growth)')
     if analyses:
         print('  analyses             : ' + ', '.join(analyses))
     if record:

@@ -96,7 +96,7 @@ def _sensitivity_markdown(sens: dict[str, Any]) -> list[str]:
         '',
         'The **realistic** voyage with undeclared effects in the plant: each effect of the analysis '
         'library alone at a fraction of the simulator\'s default magnitude (defaults in '
-        '`steer_monitor/sim/effects.py`), two effects at once, and an effect outside the library. '
+        '`steer_monitor/sim/plant_effects.py`), two effects at once, and an effect outside the library. '
         '*Named*: logs whose adopted effects include every simulated library effect; *other adopted*: logs '
         'that adopted an effect that was not simulated; *systematic* is the median smooth part of the '
         'residual (bar) under the declared model and under the final model with the adopted effects. '

@@ -14,7 +14,7 @@ from typing import Any, TextIO
 
 from steer_monitor.ashore.loganalysis import analyze_log
 from steer_monitor.atomic import atomic_write, check_target
-from steer_monitor.cli.options import add_config_option, add_force_option
+from steer_monitor.cli.options import LOG_FORMATS, add_config_option, add_force_option
 from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors, text_stream
 from steer_monitor.errors import ParameterError
 from steer_monitor.jsonvocab import estimate_text
@@ -79,10 +79,13 @@ def _summary(r: dict[str, Any], out: TextIO) -> None:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser('analyze', help='estimate the clearances from a log and test the residual',
-                       description='Fit the declared model to a CAN log (.log, .asc, .blf, .mcap), profile '
-                                   'the clearances with 95 % intervals, test the residual against the '
-                                   'library of candidate effects and refit with the one the data support.')
+    p = sub.add_parser(
+        'analyze',
+        help='estimate the clearances from a log and test the residual',
+        description='Fit the declared model to a CAN log (any log inspect reads: ' + LOG_FORMATS + '), profile '
+        'the clearances with 95 % intervals, test the residual against the '
+        'library of candidate effects and refit with the one the data support.',
+    )
     p.add_argument('log', help='the log file')
     add_config_option(p)
     p.add_argument('--json', dest='json_out', metavar='OUT', help="write the JSON answer here ('-': stdout)")

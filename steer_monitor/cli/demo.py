@@ -54,7 +54,7 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: 
     from steer_monitor.cli import study
     from steer_monitor.node.monitor_node import MonitorNode
     from steer_monitor.node.params_ros import overrides_from_file
-    from steer_monitor.sim.live import play
+    from steer_monitor.sim.playback import play
 
     out_dir = Path(out_dir)
     record_dir = out_dir / 'recordings'

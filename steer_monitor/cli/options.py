@@ -4,7 +4,11 @@ from __future__ import annotations
 
 import argparse
 
-__all__ = ['CONFIG_HELP', 'add_config_option', 'add_force_option']
+__all__ = ['CONFIG_HELP', 'LOG_FORMATS', 'add_config_option', 'add_force_option']
+
+#: the logs every command reads, in the help's words
+LOG_FORMATS = ('candump, Vector ASC and BLF, MCAP, CANboat plain, YDWG raw; each also gzip, xz, bzip2 or zstd '
+               'compressed')
 
 #: what ``--config`` means in every command; a command adds what its default is, when it differs
 CONFIG_HELP = 'ROS 2 parameters file of the gear (default: the packaged R-18, config/r18.yaml)'

@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 from typing import TextIO
 
-from steer_monitor.cli.options import add_config_option, add_force_option
+from steer_monitor.cli.options import LOG_FORMATS, add_config_option, add_force_option
 from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors, text_stream
 
 __all__ = ['register', 'run']
@@ -59,10 +59,13 @@ def run(logs: list[str], out_path: str | Path, config: str | Path | None = None,
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser('replay', help='run the live pipeline offline over logs into an MCAP',
-                       description='Replay CAN logs (.log, .asc, .blf, .mcap) through the monitor\'s live '
-                                   'pipeline (decode, model, analyses, diagnostics) as fast as the '
-                                   'machine allows, writing the topics the node publishes. Deterministic.')
+    p = sub.add_parser(
+        'replay',
+        help='run the live pipeline offline over logs into an MCAP',
+        description='Replay CAN logs (any log inspect reads: ' + LOG_FORMATS + ') through the monitor\'s live '
+        'pipeline (decode, model, analyses, diagnostics) as fast as the '
+        'machine allows, writing the topics the node publishes. Deterministic.',
+    )
     p.add_argument('logs', nargs='+', metavar='LOG', help='log files (taken in order of their first frame)')
     p.add_argument('--out', required=True, metavar='OUT.mcap', help='the MCAP to write')
     add_config_option(p, default='the parameters a recording was made with, else the packaged R-18')

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import TextIO
 
 from steer_monitor.ashore.modelcheck import ANALYSIS_HOURS
-from steer_monitor.cli.options import add_config_option, add_force_option
+from steer_monitor.cli.options import LOG_FORMATS, add_config_option, add_force_option
 from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors
 
 __all__ = ['register', 'run']
@@ -43,7 +43,7 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
     from steer_monitor.ashore.batchpath import review_logs
     from steer_monitor.ashore.modelcheck import headline_json, headlines, model_check
     from steer_monitor.ashore.report.logreport import report_input
-    from steer_monitor.ashore.report.review import write_review_report
+    from steer_monitor.ashore.report.reviewpage import write_review_report
     from steer_monitor.atomic import ensure_dir
     from steer_monitor.errors import ParameterError
     from steer_monitor.logfiles.logs import LogError
@@ -90,11 +90,14 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser('report', help='an HTML page with plots from a log, a recording or a replay',
-                       description='Review logs (.log, .asc, .blf, .mcap, including node recordings and '
-                                   'replays) on the batch path and write DIR/index.html with PNG plots: '
-                                   'angle and pressures, load sharing against angle, clearance estimates '
-                                   'over time, the model residual, hard-over times against SOLAS.')
+    p = sub.add_parser(
+        'report',
+        help='an HTML page with plots from a log, a recording or a replay',
+        description='Review logs (any log inspect reads: ' + LOG_FORMATS + '; including node recordings and '
+        'replays) on the batch path and write DIR/index.html with PNG plots: '
+        'angle and pressures, load sharing against angle, clearance estimates '
+        'over time, the model residual, hard-over times against SOLAS.',
+    )
     p.add_argument('logs', nargs='+', metavar='LOG_OR_MCAP', help='log files (taken in order of their first frame)')
     p.add_argument('--out', required=True, metavar='DIR', help='directory for index.html and the PNGs')
     add_config_option(p)

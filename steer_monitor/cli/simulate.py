@@ -119,7 +119,7 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
         import can
 
         from steer_monitor.can.bus import BusError
-        from steer_monitor.sim.live import play
+        from steer_monitor.sim.playback import play
         interface, _, channel = bus.partition(':')
         try:
             handle = can.Bus(interface=interface, channel=channel)

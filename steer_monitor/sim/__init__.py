@@ -16,9 +16,9 @@ from steer_monitor.can.codec import CanDatabase
 from steer_monitor.can.frames import FrameArrays
 from steer_monitor.can.signals import SignalMap
 from steer_monitor.params import gear_from_params
-from steer_monitor.sim.effects import EFFECTS, FAULTS, OUTSIDE_LIBRARY, Effect, parse_effect
 from steer_monitor.sim.encode import SensorStreams, encode_frames, sensor_streams
 from steer_monitor.sim.plant import DEFAULT_START_NS, SimConfig, SimResult, simulate
+from steer_monitor.sim.plant_effects import EFFECTS, FAULTS, OUTSIDE_LIBRARY, Effect, parse_effect
 from steer_monitor.sim.programs import PROGRAMS, parse_program
 from steer_monitor.utc import utc_json
 

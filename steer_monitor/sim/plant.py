@@ -28,7 +28,7 @@ from steer_monitor.errors import ParameterError
 from steer_monitor.model.friction import FrictionParams, friction_force
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.loadshare import load_sharing
-from steer_monitor.sim.effects import Effect
+from steer_monitor.sim.plant_effects import Effect
 from steer_monitor.sim.programs import SPEED_TAU_S, HelmProgram, parse_program
 
 __all__ = ['DEFAULT_START_NS', 'SimConfig', 'SimResult', 'simulate']

@@ -14,7 +14,7 @@ import pytest
 from steer_monitor import sim
 from steer_monitor.can import Decoder, RejectCounter, collect
 from steer_monitor.can.bus import BusError, BusReader, ListenOnlyBus, ListenOnlyError
-from steer_monitor.sim.live import play
+from steer_monitor.sim.playback import play
 
 
 @pytest.fixture

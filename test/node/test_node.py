@@ -17,7 +17,7 @@ import can
 import pytest
 
 from steer_monitor import sim
-from steer_monitor.sim.live import play
+from steer_monitor.sim.playback import play
 from test.conftest import PKG, R18_YAML
 
 pytestmark = pytest.mark.slow

@@ -23,12 +23,12 @@ __all__ = ['published_track', 'remove_report_debris', 'report_input', 'write_rep
 
 def published_track(paths: Sequence[Path]) -> Any:
     """The clearances a node published (``*/clearances``) in MCAP inputs, as an
-    :class:`~steer_monitor.ashore.report.review.PublishedTrack`, or None."""
+    :class:`~steer_monitor.ashore.report.reviewpage.PublishedTrack`, or None."""
     import numpy as np
     from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
 
-    from steer_monitor.ashore.report.review import PublishedTrack
+    from steer_monitor.ashore.report.reviewpage import PublishedTrack
     from steer_monitor.logfiles.fastlogs import mcap_chunks_within_limits
 
     rows: list[tuple[int, list[float]]] = []
@@ -85,7 +85,7 @@ def report_input(paths: Sequence[Path], batch: Any, params: dict[str, Any], conf
     """The page's input for ``paths`` reviewed as ``batch`` (a
     :class:`~steer_monitor.ashore.batchpath.BatchRun`) with these parameters; ``analysis``: the model
     check (None, and ``analysis_note`` says why)."""
-    from steer_monitor.ashore.report.review import ReportInput
+    from steer_monitor.ashore.report.reviewpage import ReportInput
     from steer_monitor.params import gear_from_params
     from steer_monitor.record.provenance import parameters_digest
 
@@ -118,7 +118,7 @@ def write_report_dir(inp: Any, out_dir: str | Path) -> Path:
     """Write the page into ``out_dir`` whole or not at all: into a temporary directory beside
     it, then renamed (an earlier page there is replaced). For pages many workers write into
     one tree, where a worker that dies must not leave half a page behind. Returns the page."""
-    from steer_monitor.ashore.report.review import write_review_report
+    from steer_monitor.ashore.report.reviewpage import write_review_report
 
     out_dir = Path(out_dir)
     tmp = _temp_dir(out_dir, os.getpid())

@@ -10,7 +10,7 @@ import subprocess
 import pytest
 
 from steer_monitor import sim
-from steer_monitor.ashore.report.review import PLOTS
+from steer_monitor.ashore.report.reviewpage import PLOTS
 from steer_monitor.cli import main as cli
 from steer_monitor.logfiles.logs import LogWriter
 
