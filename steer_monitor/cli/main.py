@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import signal
 import sys
 import threading
@@ -10,56 +11,33 @@ from collections.abc import Sequence
 
 from steer_monitor import __version__
 from steer_monitor.atomic import command_scope
-from steer_monitor.cli import (
-    accuracy,
-    analyze,
-    backlash,
-    demo,
-    discover,
-    fit,
-    fleet,
-    inspect,
-    loadshare,
-    recover,
-    replay,
-    report,
-    run,
-    simulate,
-    study,
-)
 from steer_monitor.errors import SteerMonitorError
 from steer_monitor.threads import single_blas_thread
 
 __all__ = ['Terminated', 'build_parser', 'main']
 
-SUBCOMMANDS = (
-    fit,
-    backlash,
-    loadshare,
-    simulate,
-    discover,
-    inspect,
-    analyze,
-    accuracy,
-    run,
-    replay,
-    report,
-    fleet,
-    recover,
-    study,
-    demo,
-)
+#: the subcommands, each a module of this package with ``register`` and ``run``, in help order
+SUBCOMMANDS = ('fit', 'backlash', 'loadshare', 'simulate', 'discover', 'inspect', 'analyze', 'accuracy', 'run',
+               'replay', 'report', 'fleet', 'recover', 'study', 'demo')
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser of every subcommand, or only of ``command`` (what :func:`main` runs: a
+    command imports only what it needs; ``inspect`` does not load the estimator's compiled
+    solver, which ``fit``'s module would, about 70 MB)."""
     parser = argparse.ArgumentParser(
         prog='steer-monitor',
         description='Condition monitor for ram-type (Rapson-slide) hydraulic steering gear.')
     parser.add_argument('--version', action='version', version=f'%(prog)s {__version__}')
     sub = parser.add_subparsers(dest='command', required=True, metavar='COMMAND')
-    for module in SUBCOMMANDS:
-        module.register(sub)
+    for name in SUBCOMMANDS if command not in SUBCOMMANDS else (command,):
+        importlib.import_module(f'steer_monitor.cli.{name}').register(sub)
     return parser
+
+
+def _command_of(argv: Sequence[str]) -> str | None:
+    """The subcommand ``argv`` names (its first word not an option), or None."""
+    return next((a for a in argv if not a.startswith('-')), None)
 
 
 def _one_line(text: str) -> str:
@@ -83,8 +61,9 @@ OWN_SIGTERM = frozenset({'run', 'demo'})
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one subcommand. Every failure is one line on stderr and exit status 1 (argparse's
     usage errors: 2); never a traceback. SIGTERM ends a command as Ctrl-C does (status 143)."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    parser = build_parser(_command_of(words))
+    args = parser.parse_args(words)
     single_blas_thread()
     where = f'steer-monitor {args.command}'
     ours = args.command not in OWN_SIGTERM and threading.current_thread() is threading.main_thread()

@@ -119,3 +119,17 @@ def test_an_output_to_stdout_in_a_pipe_is_the_file_and_the_words_go_to_stderr(tm
     if command != 'analyze':
         assert str(stdout) in words, words
     assert stdout.is_symlink()
+
+
+def test_a_command_loads_only_what_it_needs():
+    """`steer-monitor inspect` parses with its own module only: it does not load the
+    estimator's compiled solver (numba, about 70 MB of resident memory), which the modules of
+    fit, analyze or report would."""
+    import subprocess
+    import sys
+    probe = ('import sys\n'
+             'from steer_monitor.cli.main import build_parser\n'
+             'build_parser("inspect").parse_args(["inspect", "x.log"])\n'
+             'print("numba" in sys.modules, "steer_monitor.cli.fit" in sys.modules)\n')
+    out = subprocess.run([sys.executable, '-c', probe], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ['False', 'False'], out
