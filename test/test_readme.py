@@ -69,3 +69,10 @@ def test_the_synopsis_is_complete():
     for command, sub in _subparsers().items():
         options = {s for a in sub._actions for s in a.option_strings if s.startswith('--') and s != '--help'}
         assert options <= named.get(command, set()), f'{command}: {sorted(options - named.get(command, set()))}'
+
+
+def test_every_section_the_readme_points_to_exists():
+    """"see *Recording*" pointed to a section that had moved to docs/."""
+    headings = [h.strip('# ').strip() for h in README.splitlines() if h.startswith('#')]
+    for name in re.findall(r'see \*([^*]+)\*', README):
+        assert any(h.startswith(name) or name in h for h in headings), name
