@@ -22,7 +22,7 @@ def test_analyze_writes_the_documented_json_and_a_report(tmp_path, capsys):
     # best point on its plateau (it read as an estimate: 2Z 0.3 mm for a true 0.7 mm)
     text = capsys.readouterr().out
     first = text.splitlines()[0]
-    assert first == f"2Z      >= {d['clearance_2z_mm']['ci95'][0]} mm  (lower bound only)", first
+    assert first == f"2Z      >= {d['clearance_2z_mm']['ci95'][0]} mm (lower bound only)", first
     for key in ('clearance_2z_mm', 'clearance_zgb_mm'):
         assert set(d[key]) == {'value', 'ci95', 'bounded'} and len(d[key]['ci95']) == 2
         assert d[key]['bounded'] == (None not in d[key]['ci95'])
