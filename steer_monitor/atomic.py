@@ -52,7 +52,6 @@ __all__ = [
     'is_stream',
     'note_input',
     'os_reason',
-    'overwrite_forced',
     'remove_stale_temporaries',
     'temporary_name',
     'write_bytes',
@@ -126,7 +125,7 @@ def note_input(path: str | Path | None) -> None:
         scope.inputs.append(Path(path))
 
 
-def overwrite_forced() -> bool:
+def _forced() -> bool:
     """Whether the running command was told ``--force`` (may write over its inputs)."""
     scope = _SCOPE.get()
     return scope is not None and scope.force
@@ -170,7 +169,7 @@ def check_target(path: str | Path, inputs: Iterable[str | Path | None] = ()) -> 
     file, unless the command was given ``--force``: commands that work for minutes before
     they write check their outputs first."""
     target = Path(path)
-    reason = None if overwrite_forced() else _protected(target, inputs)
+    reason = None if _forced() else _protected(target, inputs)
     if reason is not None:
         msg = f'cannot write {target}: {reason}; give another output, or --force to replace it'
         raise OutputError(msg)

@@ -12,11 +12,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-__all__ = ['LEVELS', 'estimate_text']
-
-#: the levels a clearance is judged at, as the report page and the diagnostics show them
-LEVELS = ('OK', 'WARN', 'OVER LIMIT', 'not judged')
-
+__all__ = ['estimate_text']
 
 def estimate_text(d: Mapping[str, Any], unit: str = '', digits: int | None = None) -> str:
     """An estimate of the JSON vocabulary as a person reads it: ``0.245 mm [0.232 .. 0.261]``,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import datetime
 
-__all__ = ['parse_utc', 'utc_json', 'utc_text']
+__all__ = ['parse_utc', 'time_json', 'utc_json', 'utc_text']
 
 
 def utc_text(t_ns: int) -> str:
@@ -23,6 +23,12 @@ def utc_json(t_ns: int | None) -> str | None:
     except (ValueError, OverflowError, OSError):
         return None
     return t.strftime('%Y-%m-%dT%H:%M:%S.') + f'{t.microsecond // 1000:03d}Z'
+
+
+def time_json(name: str, t_ns: int | None) -> dict[str, str | int | None]:
+    """A time in the JSON vocabulary (docs/json.md): ``{name}_utc`` (:func:`utc_json`) and
+    ``{name}_ns``."""
+    return {f'{name}_utc': utc_json(t_ns), f'{name}_ns': t_ns}
 
 
 def parse_utc(text: str) -> int:

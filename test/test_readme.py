@@ -19,8 +19,7 @@ def _synopsis() -> list[str]:
     section = README[README.index('## Command line'):]
     block = section[section.index('```sh\n') + 6:]
     block = block[:block.index('```')]
-    return [' '.join(part.strip() for part in line.split('\\\n')) for line in block.replace('\\\n', ' ').splitlines()
-            if line.strip()]
+    return [' '.join(line.split()) for line in block.replace('\\\n', ' ').splitlines() if line.strip()]
 
 
 def _subparsers() -> dict[str, argparse.ArgumentParser]:

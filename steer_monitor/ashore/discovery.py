@@ -23,7 +23,7 @@ from steer_monitor.can.codec import CanDatabase
 from steer_monitor.can.devices import ADDRESS_CLAIM_PGN, DeviceName, DeviceTable, format_name
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, FrameArrays, pgn_of
 from steer_monitor.can.signals import PRESSURE_INPUTS, SignalMap, SignalSpec
-from steer_monitor.utc import utc_json
+from steer_monitor.utc import time_json
 
 __all__ = ['RULES', 'Device', 'Discovery', 'FieldStats', 'Stream', 'propose']
 
@@ -74,8 +74,7 @@ class Stream:
     def as_dict(self) -> dict[str, Any]:
         return {'pgn': self.pgn, 'name': self.name, 'source': self.source, 'instance': self.instance,
                 'frames': self.frames, 'rate_hz': None if self.rate_hz is None else round(self.rate_hz, 4),
-                'first_utc': utc_json(self.first_ns), 'first_ns': self.first_ns,
-                'last_utc': utc_json(self.last_ns), 'last_ns': self.last_ns,
+                **time_json('first', self.first_ns), **time_json('last', self.last_ns),
                 'fields': {k: v.as_dict() for k, v in self.fields.items()}}
 
 
@@ -92,8 +91,7 @@ class Device:
 
     def as_dict(self) -> dict[str, Any]:
         return {'source': self.source, **DeviceName(self.name).fields(), 'claims': self.claims,
-                'addresses': self.addresses, 'first_utc': utc_json(self.first_ns), 'first_ns': self.first_ns,
-                'last_utc': utc_json(self.last_ns), 'last_ns': self.last_ns}
+                'addresses': self.addresses, **time_json('first', self.first_ns), **time_json('last', self.last_ns)}
 
 
 class Discovery:

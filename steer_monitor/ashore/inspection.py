@@ -22,7 +22,7 @@ from steer_monitor.can.busconfig import load_setup
 from steer_monitor.can.devices import format_name
 from steer_monitor.can.rejects import REASONS, RejectCounter
 from steer_monitor.logfiles.decodelog import clock_steps_json, decode_logs
-from steer_monitor.utc import utc_json
+from steer_monitor.utc import time_json
 
 __all__ = ['DISPLAY', 'GAP_NS', 'inspect_log', 'range_text']
 
@@ -66,13 +66,13 @@ def inspect_log(path: str | Path, config: str | Path | None = None, date: dateti
             'device_name': format_name(spec.device_name) if spec.device_name is not None else None,
             'samples': len(s),
             **_range_json(spec.name, s.value),
-            **_time_json('first', int(t[0]) if t.size else None),
-            **_time_json('last', int(t[-1]) if t.size else None),
+            **time_json('first', int(t[0]) if t.size else None),
+            **time_json('last', int(t[-1]) if t.size else None),
             'rate_hz': (round(float((t.size - 1) / ((t[-1] - t[0]) / 1e9)), 4) if t.size > 1 and t[-1] > t[0]
                         else None),
             'expected_rate_hz': spec.rate_hz,
             'gaps_over_1s': len(gap_idx),  # beyond the expected period
-            'gaps': [{**_time_json('start', int(t[i])), **_time_json('end', int(t[i + 1])),
+            'gaps': [{**time_json('start', int(t[i])), **time_json('end', int(t[i + 1])),
                       'length_s': round(float(d[i] / 1e9), 3)}
                      for i in gap_idx[:MAX_GAPS_LISTED]],
             'rejects': {reason: n for (reason, name), n in snap.by_signal.items() if name == spec.name},
@@ -81,8 +81,8 @@ def inspect_log(path: str | Path, config: str | Path | None = None, date: dateti
     return {
         'log': str(path),
         'frames': logs.frames,
-        **_time_json('start', first),
-        **_time_json('end', last),
+        **time_json('start', first),
+        **time_json('end', last),
         'span_s': logs.span_s,
         'signals': signals,
         'rejects': dict(sorted(snap.counts.items())),
@@ -92,11 +92,6 @@ def inspect_log(path: str | Path, config: str | Path | None = None, date: dateti
         'clock_steps': clock_steps_json(logs.clock_steps),
         'notes': list(logs.notes),
     }
-
-
-def _time_json(name: str, t_ns: int | None) -> dict[str, Any]:
-    """``{name}_utc`` (ISO 8601, milliseconds) and ``{name}_ns``: a time in the vocabulary."""
-    return {f'{name}_utc': utc_json(t_ns), f'{name}_ns': t_ns}
 
 
 def _range_json(name: str, value: NDArray[np.float64]) -> dict[str, Any]:

@@ -59,7 +59,7 @@ from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.estimate.window import before
 from steer_monitor.logfiles.decodelog import clock_steps_json, decode_logs
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params, ram_share_warn_from_params
-from steer_monitor.utc import utc_json
+from steer_monitor.utc import time_json
 
 __all__ = ['analysis_json', 'analyze_log']
 
@@ -149,8 +149,7 @@ def analysis_json(a: Analysis) -> dict[str, Any]:
         'rams': {'shares': None if a.rams is None else [{'ram': k + 1, 'share_pct': round(100 * x, 2)}
                                                          for k, x in enumerate(a.rams.share)],
                  'instants': 0 if a.rams is None else a.rams.instants,
-                 'uneven': [{'start_utc': utc_json(sp.start_ns), 'start_ns': sp.start_ns,
-                             'end_utc': utc_json(sp.end_ns), 'end_ns': sp.end_ns, 'ram': sp.ram + 1,
+                 'uneven': [{**time_json('start', sp.start_ns), **time_json('end', sp.end_ns), 'ram': sp.ram + 1,
                              'share_pct': round(100 * sp.share, 2), 'instants': sp.instants, 'idle': sp.idle}
                             for sp in a.uneven]},
         'torque_curve': [{'angle_deg': round(math.degrees(x), 2), 'torque_knm': round(t / 1e3, 2),
@@ -188,7 +187,7 @@ def analyze_log(path: str | Path, config: str | Path | None = None, progress: bo
                    'read_errors': list(logs.errors),
                    'clock_steps': clock_steps_json(logs.clock_steps), 'notes': list(logs.notes),
                    'config': str(config_path)}
-    out['window'] = {'until_utc': utc_json(until_ns), 'until_ns': until_ns,
+    out['window'] = {**time_json('until', until_ns),
                      'motion_h': window_motion_s / 3600.0 if window_motion_s > 0 else None,
                      'motion_s': round(a.window.motion_s, 2) if a.window is not None else None}
     return a, out

@@ -11,7 +11,7 @@ from typing import TextIO
 from steer_monitor.cli.options import add_force_option
 from steer_monitor.cli.output import dump_json, report_read_errors, text_stream
 from steer_monitor.record.recover import recover
-from steer_monitor.utc import utc_json
+from steer_monitor.utc import time_json
 
 __all__ = ['register', 'run']
 
@@ -26,7 +26,7 @@ def run(path: str | Path, output: str | Path | None = None, as_json: bool = Fals
     r = recover(path, output)
     if as_json:
         d = dataclasses.asdict(r)
-        dump_json({**d, 'first_utc': utc_json(r.first_ns), 'last_utc': utc_json(r.last_ns)}, out)
+        dump_json({**d, **time_json('first', r.first_ns), **time_json('last', r.last_ns)}, out)
     else:
         span = '' if r.first_ns is None or r.last_ns is None else f', {(r.last_ns - r.first_ns) / 1e9:.1f} s'
         if r.complete:

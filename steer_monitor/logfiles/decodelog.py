@@ -23,7 +23,7 @@ from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.signals import SignalMap
 from steer_monitor.logfiles.fastlogs import iter_log_blocks
 from steer_monitor.logfiles.logs import LogError
-from steer_monitor.utc import utc_json
+from steer_monitor.utc import time_json
 
 __all__ = ['DecodedLogs', 'clock_steps_json', 'decode_logs']
 
@@ -97,6 +97,5 @@ def decode_logs(paths: Sequence[str | Path], db: CanDatabase, smap: SignalMap, r
 def clock_steps_json(steps: Sequence[ClockStep]) -> list[dict[str, object]]:
     """The clock steps as JSON: ``{"before_utc", "after_utc", "before_ns", "after_ns",
     "step_s", "shift_s"}`` each (``shift_s``: what the data after it were moved by)."""
-    return [{'before_utc': utc_json(st.before_ns), 'after_utc': utc_json(st.after_ns), 'before_ns': st.before_ns,
-             'after_ns': st.after_ns, 'step_s': round(st.step_s, 3), 'shift_s': round(st.shift_ns / 1e9, 3)}
-            for st in steps]
+    return [{**time_json('before', st.before_ns), **time_json('after', st.after_ns), 'step_s': round(st.step_s, 3),
+             'shift_s': round(st.shift_ns / 1e9, 3)} for st in steps]

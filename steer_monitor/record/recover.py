@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from steer_monitor.atomic import atomic_path, os_reason, overwrite_forced
+from steer_monitor.atomic import atomic_path, check_target, os_reason
 from steer_monitor.errors import SteerMonitorError
 from steer_monitor.logfiles.fastlogs import decompress_chunk, summary_section
 from steer_monitor.logfiles.mcapio import Counted
@@ -81,13 +81,7 @@ def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult
 
     src = Path(path)
     dst = Path(output) if output is not None else src.with_name(src.stem + '.recovered.mcap')
-    try:
-        same = dst.resolve() == src.resolve()
-    except (OSError, RuntimeError):     # RuntimeError: a loop of symbolic links (Python 3.11)
-        same = False
-    if same and not overwrite_forced():
-        msg = f'cannot write {dst}: it is the input {src}; give another output, or --force to replace it'
-        raise RecoverError(msg)
+    check_target(dst, [src])       # not over its input unless --force: the rule every command follows
     try:
         fin = open(src, 'rb')
     except OSError as exc:

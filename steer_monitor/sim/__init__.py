@@ -20,7 +20,7 @@ from steer_monitor.sim.encode import SensorStreams, encode_frames, sensor_stream
 from steer_monitor.sim.plant import DEFAULT_START_NS, SimConfig, SimResult, simulate
 from steer_monitor.sim.plant_effects import EFFECTS, FAULTS, OUTSIDE_LIBRARY, Effect, parse_effect
 from steer_monitor.sim.programs import PROGRAMS, parse_program
-from steer_monitor.utc import utc_json
+from steer_monitor.utc import time_json
 
 __all__ = ['DEFAULT_START_NS', 'EFFECTS', 'FAULTS', 'OUTSIDE_LIBRARY', 'PROGRAMS', 'Effect', 'SimConfig', 'SimResult',
            'Simulation', 'parse_effect', 'parse_program', 'run', 'truth']
@@ -53,8 +53,7 @@ def truth(params: Mapping[str, Any], cfg: SimConfig, sim: Simulation, seed: int)
         'seed': seed,
         'gear': params['gear.name'],
         'program': cfg.program,
-        'start_utc': utc_json(cfg.start_ns),
-        'start_ns': cfg.start_ns,
+        **time_json('start', cfg.start_ns),
         'duration_s': p.duration,
         'clearance_2z_mm': cfg.gaps.two_z * 1e3,
         'clearance_zgb_mm': cfg.gaps.z_gb * 1e3,

@@ -2,7 +2,9 @@
 step by step, vectorized over samples with numpy, the structure switched at each event (the
 slope at A reaches theta_max: clamp; the deflection at B reaches Z_gb: guide), three steps
 covering every case. ``steer_monitor.model.loadshare`` resolves the same events in closed form
-(one compiled element function); ``test_loadshare`` compares the two. Not used by the package.
+(one compiled element function); ``test_loadshare`` compares the two. The beams'
+compliances and the gaps' checks are the package's own (what is compared is how the events
+are resolved). Not used by the package.
 """
 
 from __future__ import annotations
@@ -10,50 +12,25 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from steer_monitor.errors import ModelError
 from steer_monitor.model.beams import (
-    clamped_clamped_compliance,
-    clamped_pinned_compliance,
     clamped_pinned_reactions,
-    pinned_pinned_compliance,
     pinned_pinned_reactions,
-    pinned_pinned_slope_at_a,
 )
 from steer_monitor.model.gear import GearParams
-from steer_monitor.model.kinematics import RapsonState, rapson_state
-from steer_monitor.model.loadshare import STAGE_CLAMPED, STAGE_GUIDE, STAGE_PINNED, Compliances, LoadSharing, paper_case
+from steer_monitor.model.kinematics import rapson_state
+from steer_monitor.model.loadshare import (
+    STAGE_CLAMPED,
+    STAGE_GUIDE,
+    STAGE_PINNED,
+    LoadSharing,
+    _checked_gaps,
+    compliances,
+    paper_case,
+)
 
 __all__ = ['load_sharing_stepwise']
 
 Array = NDArray[np.float64]
-
-
-def _compliances(gear: GearParams, state: RapsonState) -> Compliances:
-    """Beam compliances of ram and guide beam at the given kinematic state."""
-    ei_r = gear.youngs_modulus * gear.ram_inertia
-    ei_g = gear.youngs_modulus * gear.guide_beam_inertia
-    lam1 = pinned_pinned_compliance(state.near, state.far, ei_r)
-    lam2 = clamped_pinned_compliance(state.near, state.far, ei_r)
-    slope = pinned_pinned_slope_at_a(state.near, state.far, ei_r)
-    if gear.euler_amplification:
-        if np.any(state.axial >= state.euler):
-            worst = float(np.max(state.axial / state.euler))
-            msg = f'axial ram force reaches {worst:.2f} of the Euler force: the ram buckles'
-            raise ModelError(msg)
-        amp = state.amplification
-        lam1, lam2, slope = lam1 * amp, lam2 * amp, slope * amp
-    lam_g = clamped_clamped_compliance(state.guide_a, state.guide_b, ei_g)
-    return Compliances(lam1, lam2, slope, lam_g)
-
-
-def _gap_arrays(gear: GearParams, two_z: ArrayLike, z_gb: ArrayLike) -> tuple[Array, Array]:
-    tz = np.asarray(two_z, dtype=float)
-    zg = np.asarray(z_gb, dtype=float)
-    for name, value in (('two_z', tz), ('z_gb', zg)):
-        if not np.all(np.isfinite(value)) or np.any(value < 0):
-            msg = f'clearance {name} must be finite and >= 0 m'
-            raise ModelError(msg)
-    return tz / gear.bushing_length, zg
 
 
 def load_sharing_stepwise(gear: GearParams, alpha: ArrayLike, torque: ArrayLike,
@@ -70,9 +47,10 @@ def load_sharing_stepwise(gear: GearParams, alpha: ArrayLike, torque: ArrayLike,
     Returns:
         :class:`LoadSharing` with arrays of the broadcast shape.
     """
-    theta_max, zg = _gap_arrays(gear, two_z, z_gb)
+    tz, zg = _checked_gaps(two_z, z_gb)
+    theta_max = tz / gear.bushing_length
     state = rapson_state(gear, alpha, torque)
-    comp = _compliances(gear, state)
+    comp = compliances(gear, state)
     shape = np.broadcast_shapes(state.lateral.shape, theta_max.shape, zg.shape)
     fl = np.broadcast_to(state.lateral, shape)
     lam1 = np.broadcast_to(comp.pinned, shape)
