@@ -67,7 +67,7 @@ def main() -> dict:
         n = int(made.stdout.strip().splitlines()[-1])
         size_mb = log.stat().st_size / 1e6
         print(f'log: {n:,d} frames, {size_mb:.0f} MB')
-        for name, argv in (('inspect', [*exe, 'inspect', str(log), '--json']),
+        for name, argv in (('inspect', [*exe, 'inspect', str(log), '--json', '-']),
                            ('analyze', [*exe, 'analyze', str(log), '--json', str(Path(tmp) / 'a.json')])):
             rc, seconds, mb = peak(argv)
             print(f'{name:8s} exit {rc}  {seconds:7.1f} s  peak {mb:6.0f} MB')

@@ -42,14 +42,14 @@ def _env(**extra: str) -> dict[str, str]:
 
 
 def _check_installed(python: str, script: Path, env: dict[str, str], share: Path) -> None:
-    out = subprocess.run([str(script), 'fit', '240 H9/f9', '--json'], env=env, check=True,
+    out = subprocess.run([str(script), 'fit', '240 H9/f9', '--json', '-'], env=env, check=True,
                          capture_output=True, text=True).stdout
     assert round(json.loads(out)['probable_max_mm'], 3) == 0.246
     where = subprocess.run([python, '-c', 'from steer_monitor.resources import default_config; '
                             'print(default_config())'], env=env, check=True, capture_output=True,
                            text=True, cwd='/').stdout.strip()
     assert Path(where) == share / 'config' / 'r18.yaml'
-    out = subprocess.run([str(script), 'loadshare', '--json'], env=env, check=True, cwd='/',
+    out = subprocess.run([str(script), 'loadshare', '--json', '-'], env=env, check=True, cwd='/',
                          capture_output=True, text=True).stdout
     assert len(json.loads(out)['rows']) == 71
 

@@ -75,3 +75,13 @@ def test_every_section_the_readme_points_to_exists():
     headings = [h.strip('# ').strip() for h in README.splitlines() if h.startswith('#')]
     for name in re.findall(r'see \*([^*]+)\*', README):
         assert any(h.startswith(name) or name in h for h in headings), name
+
+
+def test_above_and_below_point_the_right_way():
+    """"see *Ashore* below" pointed down to a section that is above it."""
+    lines = README.splitlines()
+    where = {h.strip('# ').strip(): i for i, h in enumerate(lines) if h.startswith('#')}
+    for i, line in enumerate(lines):
+        for name, direction in re.findall(r'see \*([^*]+)\* (above|below)', line):
+            at = next(j for h, j in where.items() if h.startswith(name) or name in h)
+            assert (at < i) == (direction == 'above'), (name, direction, i + 1)

@@ -24,7 +24,7 @@ from steer_monitor.ashore.logresult import LogResult, file_digest, log_result
 from steer_monitor.ashore.modelcheck import NOT_JUDGED
 from steer_monitor.ashore.store import load_results, save_results
 from steer_monitor.atomic import os_reason
-from steer_monitor.errors import InputError
+from steer_monitor.errors import InputError, SteerMonitorError
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.trend import YEAR_S, Trend, TrendPoint, fit_trend
 from steer_monitor.logfiles.compressed import plain_suffix
@@ -103,9 +103,21 @@ def make_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
             msg = f'cannot reach the Dask scheduler {scheduler}: {exc}'
             raise InputError(msg) from exc
     n = workers or os.cpu_count() or 1
+    import multiprocessing
+    if multiprocessing.parent_process() is not None:
+        # the spawned worker re-imports a script that calls this at its top level: without the
+        # guard every worker would start a cluster of its own ("Nanny failed to start")
+        msg = ("cannot start the fleet's worker processes from a worker process: a script that runs the fleet "
+               "must call it under `if __name__ == '__main__':`")
+        raise SteerMonitorError(msg)
     with dask.config.set({WORKER_ENVIRON: worker_environ()}):   # read once per worker's nanny
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host='127.0.0.1',
-                               dashboard_address='127.0.0.1:0', silence_logs=50)
+        try:
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host='127.0.0.1',
+                                   dashboard_address='127.0.0.1:0', silence_logs=50)
+        except RuntimeError as exc:
+            msg = (f"cannot start the fleet's {n} worker process(es) ({exc}); from a script, call the fleet "
+                   "under `if __name__ == '__main__':`")
+            raise SteerMonitorError(msg) from exc
     return Client(cluster), cluster
 
 

@@ -21,10 +21,10 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any, TextIO
 
-from steer_monitor.atomic import atomic_write, check_target, write_text
+from steer_monitor.atomic import check_target, write_text
 from steer_monitor.can.busconfig import can_setup
-from steer_monitor.cli.options import add_config_option, add_force_option
-from steer_monitor.cli.output import dump_json
+from steer_monitor.cli.options import add_config_option, add_force_option, add_json_option
+from steer_monitor.cli.output import check_json_target, emit_json, json_to_stdout
 from steer_monitor.errors import ParameterError
 from steer_monitor.params import load_params_file
 from steer_monitor.resources import default_config
@@ -273,9 +273,12 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
     config_path = str(config or default_config())
     params = load_params_file(config_path)
     can_setup(params, config_path)   # a bad config fails here, not in every worker
-    for target in (out_md, json_out):     # before an hour of work, not after
-        if target is not None and str(target) != '-':
-            check_target(target, [config_path])
+    if out_md is not None and str(out_md) != '-':     # before an hour of work, not after
+        check_target(out_md, [config_path])
+    check_json_target(json_out, [config_path, out_md])
+    if out_md is not None and json_out is not None and str(out_md) == '-' and json_to_stdout(json_out):
+        msg = '--out - and --json - would both write to stdout: give one of them a file'
+        raise ParameterError(msg)
     from tqdm import tqdm
     jobs = jobs or min(len(todo), os.cpu_count() or 1)
     bar = tqdm(total=len(todo), unit='log', disable=not sys.stderr.isatty(), file=sys.stderr, desc='accuracy')
@@ -311,13 +314,9 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
         if long is not None:
             payload['sensitivity_long'] = {**long, 'cases': [r.to_json() for r in long_results],
                                            'clean_cases': [r.to_json() for r in long_clean_results]}
-        if str(json_out) == '-':
-            dump_json(payload, out)
-        else:
-            with atomic_write(json_out, 'w', encoding='utf-8') as fh:
-                dump_json(payload, fh)
+        emit_json(payload, json_out, out)
     a = summary['all']
-    if str(out_md) != '-' and str(json_out) != '-':
+    if str(out_md) != '-' and not json_to_stdout(json_out):
         out.write(
             f"{len(results)} logs: Z_gb coverage {a['clearance_zgb_mm']['coverage']:.2f}, "
             f"RMS error {a['clearance_zgb_mm']['rms_error']:.4f} mm; 2Z coverage {a['clearance_2z_mm']['coverage']:.2f}"
@@ -355,7 +354,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         'docs/accuracy.md is made with 2)',
     )
     p.add_argument('--out', default='docs/accuracy.md', help='Markdown table, - for stdout (default: docs/accuracy.md)')
-    p.add_argument('--json', dest='json_out', help='per-case results and summary as JSON (- for stdout)')
+    add_json_option(p, 'the per-case results and the summary')
 
     def handler(a: argparse.Namespace) -> int:
         return run(a.config, [x.strip() for x in a.programmes.split(',') if x.strip()],

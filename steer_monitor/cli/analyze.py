@@ -13,9 +13,18 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from steer_monitor.ashore.loganalysis import analyze_log
-from steer_monitor.atomic import atomic_write, check_target
-from steer_monitor.cli.options import LOG_FORMATS, add_config_option, add_force_option
-from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors, text_stream
+from steer_monitor.atomic import check_target
+from steer_monitor.cli.options import LOG_FORMATS, add_config_option, add_force_option, add_json_option
+from steer_monitor.cli.output import (
+    add_date_option,
+    check_json_target,
+    check_logs,
+    date_notes,
+    emit_json,
+    json_to_stdout,
+    report_read_errors,
+    text_stream,
+)
 from steer_monitor.errors import ParameterError
 from steer_monitor.jsonvocab import estimate_text
 from steer_monitor.utc import parse_utc
@@ -35,11 +44,11 @@ def run(path: str | Path, config: str | Path | None = None, json_out: str | Path
                              f'not {window_motion_h:g}')
     out = out or sys.stdout
     err = err or sys.stderr
-    out = text_stream([None if str(json_out) == '-' else json_out, report], out, err)
+    out = text_stream([None if json_to_stdout(json_out) else json_out, report], out, err)
     check_logs([path])
-    for target in (json_out, report):     # before minutes of work, not after
-        if target is not None and str(target) != '-':
-            check_target(target, [path, config])
+    check_json_target(json_out, [path, config])     # before minutes of work, not after
+    if report is not None:
+        check_target(report, [path, config])
     t0 = time.perf_counter()
     date_notes('analyze', [path], date, err)
     a, result = analyze_log(path, config, progress=sys.stderr.isatty(), date=date, until_ns=until_ns,
@@ -47,16 +56,11 @@ def run(path: str | Path, config: str | Path | None = None, json_out: str | Path
     result['analysis_s'] = round(time.perf_counter() - t0, 2)
     for note in result['data']['notes']:
         err.write(f'steer-monitor analyze: note: {path}: {note}\n')
-    if json_out is not None:
-        if str(json_out) == '-':
-            dump_json(result, out)
-        else:
-            with atomic_write(json_out, 'w', encoding='utf-8') as fh:
-                dump_json(result, fh)
+    emit_json(result, json_out, out)
     if report is not None:
         from steer_monitor.ashore.report.analysis import write_analysis_report
         write_analysis_report(a, result, report)
-    if json_out is None or str(json_out) != '-':
+    if not json_to_stdout(json_out):
         _summary(result, out)
     return report_read_errors('analyze', result['data']['read_errors'], err)
 
@@ -88,7 +92,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument('log', help='the log file')
     add_config_option(p)
-    p.add_argument('--json', dest='json_out', metavar='OUT', help="write the JSON answer here ('-': stdout)")
+    add_json_option(p, 'the analysis')
     p.add_argument('--report', metavar='OUT.html', help='write a self-contained HTML report')
     p.add_argument('--until', type=_utc_arg, metavar='UTC',
                    help='analyse only the data before this time (ISO 8601, e.g. 2026-11-26T14:03:00Z): '

@@ -26,8 +26,17 @@ from steer_monitor.atomic import atomic_path, check_target, is_stream
 from steer_monitor.can.busconfig import Setup, dbc_path, load_setup
 from steer_monitor.can.rejects import REASONS, RejectCounter
 from steer_monitor.can.signals import INPUTS, REQUIRED
-from steer_monitor.cli.options import add_config_option, add_force_option
-from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors, table, text_stream
+from steer_monitor.cli.options import add_config_option, add_force_option, add_json_option
+from steer_monitor.cli.output import (
+    add_date_option,
+    check_json_target,
+    date_notes,
+    emit_json,
+    json_to_stdout,
+    report_read_errors,
+    table,
+    text_stream,
+)
 from steer_monitor.errors import InputError, ParameterError
 from steer_monitor.logfiles.fastlogs import iter_log_blocks
 from steer_monitor.logfiles.logs import LogError
@@ -148,21 +157,21 @@ def _fmt_range(f: dict[str, Any]) -> str:
 
 
 def run(paths: Sequence[str | Path], config: str | Path | None = None, date: datetime.date | None = None,
-        as_json: bool = False, write: str | Path | None = None, pgn_database: str | Path | None = None,
+        json_out: str | Path | None = None, write: str | Path | None = None, pgn_database: str | Path | None = None,
         out: TextIO | None = None, err: TextIO | None = None) -> int:
     """Print what the logs hold and the proposed map; write it with ``write``. 1 (one line
     per log on ``err``) when a log broke off or had corrupt parts."""
     out = out or sys.stdout
     err = err or sys.stderr
-    out = text_stream([write], out, err)
+    out = text_stream([write, None if json_to_stdout(json_out) else json_out], out, err)
     if write is not None:
         check_target(write, [*paths, config, pgn_database])
+    check_json_target(json_out, [*paths, config, pgn_database, write])
     date_notes('discover', paths, date, err)
     setup = load_setup(config)
     d = discover(paths, setup, date, pgn_database)
-    if as_json:
-        dump_json({k: v for k, v in d.items() if k != 'read_errors'}, out)
-    else:
+    emit_json({k: v for k, v in d.items() if k != 'read_errors'}, json_out, out)
+    if not json_to_stdout(json_out):
         out.write(f"{', '.join(d['logs'])}: {d['frames']} frames, {len(d['streams'])} streams, "
                   f"{len(d['devices'])} devices\n\n")
         rows = []
@@ -208,6 +217,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--write-config', metavar='OUT.yaml', help='write the parameters file with the proposed map')
     p.add_argument('--pgn-database', metavar='canboat.json',
                    help="CANboat's PGN database, to name the PGNs the DBC does not know")
-    p.add_argument('--json', action='store_true', help='print JSON')
+    add_json_option(p, 'the streams, devices and proposed map')
     add_force_option(p)
-    p.set_defaults(handler=lambda a: run(a.logs, a.config, a.date, a.json, a.write_config, a.pgn_database))
+    p.set_defaults(handler=lambda a: run(a.logs, a.config, a.date, a.json_out, a.write_config, a.pgn_database))

@@ -12,14 +12,14 @@ from pathlib import Path
 from typing import TextIO
 
 from steer_monitor.atomic import ensure_dir, write_files
-from steer_monitor.cli.options import add_config_option, add_force_option
-from steer_monitor.cli.output import dump_json, report_read_errors
+from steer_monitor.cli.options import add_config_option, add_force_option, add_json_option
+from steer_monitor.cli.output import check_json_target, emit_json, json_to_stdout, report_read_errors, text_stream
 
 __all__ = ['register', 'run']
 
 
 def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = None, scheduler: str | None = None,
-        config: str | Path | None = None, as_json: bool = False, out: TextIO | None = None,
+        config: str | Path | None = None, json_out: str | Path | None = None, out: TextIO | None = None,
         err: TextIO | None = None, reports: bool = True) -> int:
     """Run the fleet; 1 (one line per log on ``err``) when some log failed for good, whose
     vessel's other logs are in the results. ``reports``: each log's report page too."""
@@ -35,6 +35,8 @@ def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = N
     if workers is not None and workers < 1:
         from steer_monitor.errors import ParameterError
         raise ParameterError(f'--workers must be at least 1, got {workers}')
+    out = text_stream([None if json_to_stdout(json_out) else json_out], out, err)
+    check_json_target(json_out, [*dirs, config])
     out_dir = ensure_dir(out_dir)
     with tqdm(unit='log', disable=not sys.stderr.isatty(), file=sys.stderr, desc='fleet') as bar:
         def progress(done: int, total: int) -> None:
@@ -47,9 +49,8 @@ def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = N
     # the two together or neither (a full disk does not leave a new fleet.json beside an old page)
     write_files({page: fleet_page(fleet).encode('utf-8'),
                  out_dir / 'fleet.json': (json.dumps(data, indent=2, allow_nan=False) + '\n').encode('utf-8')})
-    if as_json:
-        dump_json(data, out)
-    else:
+    emit_json(data, json_out, out)
+    if not json_to_stdout(json_out):
         for v in data['vessels']:
             dates = {k: t['limit_date_utc'] for k, t in v['trend'].items() if t is not None}
             soon = min((d for d in dates.values() if d), default=None)
@@ -77,9 +78,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.add_argument('--workers', type=int, help='worker processes of a local cluster (default: the cores)')
     g.add_argument('--scheduler', metavar='ADDRESS', help='an existing Dask scheduler, e.g. tcp://host:8786')
     add_config_option(p, default='the packaged R-18', role='for vessels without their own steer_monitor.yaml')
-    p.add_argument('--json', action='store_true', help='print fleet.json')
+    add_json_option(p, 'fleet.json')
     p.add_argument('--no-reports', dest='reports', action='store_false',
                    help="do not write each log's report page (DIR/reports/VESSEL/...; about a second a log)")
     add_force_option(p)
-    p.set_defaults(handler=lambda a: run(a.vessels, a.out, a.workers, a.scheduler, a.config, a.json,
+    p.set_defaults(handler=lambda a: run(a.vessels, a.out, a.workers, a.scheduler, a.config, a.json_out,
                                          reports=a.reports))

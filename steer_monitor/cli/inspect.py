@@ -10,23 +10,34 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from steer_monitor.ashore.inspection import inspect_log, range_text
-from steer_monitor.cli.options import add_config_option
-from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors, table
+from steer_monitor.cli.options import add_config_option, add_force_option, add_json_option
+from steer_monitor.cli.output import (
+    add_date_option,
+    check_json_target,
+    check_logs,
+    date_notes,
+    emit_json,
+    json_to_stdout,
+    report_read_errors,
+    table,
+    text_stream,
+)
 
 __all__ = ['register', 'run']
 
-def run(path: str | Path, config: str | Path | None = None, as_json: bool = False,
+def run(path: str | Path, config: str | Path | None = None, json_out: str | Path | None = None,
         out: TextIO | None = None, err: TextIO | None = None, date: datetime.date | None = None) -> int:
     """Print what ``path`` holds; 1 (with one line on ``err``) when it broke off or had
     corrupt parts, whose readable frames are counted, or held no frame at all."""
     out = out or sys.stdout
     err = err or sys.stderr
+    out = text_stream([None if json_to_stdout(json_out) else json_out], out, err)
     check_logs([path])
+    check_json_target(json_out, [path, config])
     date_notes('inspect', [path], date, err)
     s = inspect_log(path, config, date)
-    if as_json:
-        dump_json(s, out)
-    else:
+    emit_json(s, json_out, out)
+    if not json_to_stdout(json_out):
         out.write(f"{s['log']}: {s['frames']} frames, {s['span_s']:.1f} s"
                   + (f" ({s['start_utc']} .. {s['end_utc']})" if s['start_utc'] else '') + '\n')
         table(['signal', 'PGN', 'inst', 'addr', 'samples', 'rate Hz', 'expected', 'gaps>1s', 'range'],
@@ -62,5 +73,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('log', help='the log file')
     add_config_option(p, role='its DBC and signal map decode the log')
     add_date_option(p)
-    p.add_argument('--json', action='store_true', help='print JSON')
-    p.set_defaults(handler=lambda a: run(a.log, a.config, a.json, date=a.date))
+    add_json_option(p, 'what the log holds')
+    add_force_option(p)
+    p.set_defaults(handler=lambda a: run(a.log, a.config, a.json_out, date=a.date))

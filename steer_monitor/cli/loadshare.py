@@ -8,8 +8,8 @@ import sys
 from pathlib import Path
 from typing import TextIO
 
-from steer_monitor.cli.options import add_config_option, add_force_option
-from steer_monitor.cli.output import dump_json, table
+from steer_monitor.cli.options import add_config_option, add_force_option, add_json_option
+from steer_monitor.cli.output import check_json_target, emit_json, json_to_stdout, table, text_stream
 from steer_monitor.errors import ParameterError
 from steer_monitor.model.gear import Gaps
 from steer_monitor.params import gaps_from_params, gear_from_params, load_params_file
@@ -20,9 +20,11 @@ __all__ = ['register', 'run']
 
 def run(config: str | Path | None = None, gap_2z_mm: float | None = None,
         gap_zgb_mm: float | None = None, speed_kn: float | None = None,
-        plot: str | Path | None = None, step_deg: float = 0.5, as_json: bool = False,
+        plot: str | Path | None = None, step_deg: float = 0.5, json_out: str | Path | None = None,
         out: TextIO | None = None) -> int:
     out = out or sys.stdout
+    out = text_stream([None if json_to_stdout(json_out) else json_out, plot], out, sys.stderr)
+    check_json_target(json_out, [config, plot])
     params = load_params_file(config or default_config())
     gear = gear_from_params(params)
     configured = gaps_from_params(params)
@@ -38,8 +40,8 @@ def run(config: str | Path | None = None, gap_2z_mm: float | None = None,
         title = (f"{params['gear.name']}: 2Z = {s['clearance_2z_mm']:.3f} mm, "
                  f"Z_gb = {s['clearance_zgb_mm']:.3f} mm, {s['speed_kn']:.1f} kn")
         s['plot'] = str(plot_load_sharing(alpha, res, plot, title, marks))
-    if as_json:
-        dump_json(s, out)
+    emit_json(s, json_out, out)
+    if json_to_stdout(json_out):
         return 0
     out.write(f"{params['gear.name']}: 2Z = {s['clearance_2z_mm']:.3f} mm, Z_gb = {s['clearance_zgb_mm']:.3f} mm, "
               f"speed {s['speed_kn']:.1f} kn\n")
@@ -69,7 +71,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--speed-kn', type=float, help='ship speed [kn] (default: the service speed)')
     p.add_argument('--step-deg', type=float, default=0.5, help='angle step [deg] (default 0.5)')
     p.add_argument('--plot', help='write the Fig. 7 plot to this PNG')
-    p.add_argument('--json', action='store_true', help='print JSON')
+    add_json_option(p, 'the table and its landmarks')
     add_force_option(p)
     p.set_defaults(handler=lambda a: run(a.config, a.gap_2z, a.gap_zgb, a.speed_kn, a.plot,
-                                         a.step_deg, a.json))
+                                         a.step_deg, a.json_out))

@@ -1,10 +1,11 @@
-"""Options several commands share, declared once: the parameters file and ``--force``."""
+"""Options several commands share, declared once: the parameters file, ``--json`` and
+``--force``."""
 
 from __future__ import annotations
 
 import argparse
 
-__all__ = ['CONFIG_HELP', 'LOG_FORMATS', 'add_config_option', 'add_force_option']
+__all__ = ['CONFIG_HELP', 'LOG_FORMATS', 'add_config_option', 'add_force_option', 'add_json_option']
 
 #: the logs every command reads, in the help's words
 LOG_FORMATS = ('candump, Vector ASC and BLF, MCAP, CANboat plain, YDWG raw; each also gzip, xz, bzip2 or zstd '
@@ -29,3 +30,10 @@ def add_force_option(parser: argparse.ArgumentParser) -> None:
     otherwise, with one line saying which)."""
     parser.add_argument('--force', action='store_true',
                         help='write an output even over a file this command reads or a file of the installed package')
+
+
+def add_json_option(parser: argparse.ArgumentParser, what: str = 'the answer') -> None:
+    """``--json OUT``: ``what`` as JSON (docs/json.md) written to the file ``OUT``, or to
+    stdout for ``-`` (then the words for people are left out). The same on every command."""
+    parser.add_argument('--json', dest='json_out', metavar='OUT',
+                        help=f"write {what} as JSON to OUT ('-': stdout, instead of the text)")

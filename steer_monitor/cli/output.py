@@ -12,8 +12,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-__all__ = ['JSON_DIGITS', 'add_date_option', 'check_logs', 'date_notes', 'dump_json', 'report_read_errors', 'table',
-           'text_stream']
+from steer_monitor.texttable import table
+
+__all__ = ['JSON_DIGITS', 'add_date_option', 'check_json_target', 'check_logs', 'date_notes', 'dump_json', 'emit_json',
+           'json_to_stdout', 'report_read_errors', 'table', 'text_stream']
 
 
 #: significant digits a float keeps in JSON: a computation's last bits are no data (0.115, not
@@ -41,15 +43,30 @@ def dump_json(obj: Any, out: TextIO) -> None:
     out.write('\n')
 
 
-def table(headers: Sequence[str], rows: Sequence[Sequence[Any]], out: TextIO) -> None:
-    """Write a text table: first column left-aligned (names), the rest right-aligned."""
-    cells = [[str(h) for h in headers]] + [[str(c) for c in r] for r in rows]
-    widths = [max(len(r[i]) for r in cells) for i in range(len(headers))]
-    for k, row in enumerate(cells):
-        line = [c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths))]
-        out.write('  '.join(line).rstrip() + '\n')
-        if k == 0:
-            out.write('  '.join('-' * w for w in widths) + '\n')
+def json_to_stdout(target: str | Path | None) -> bool:
+    """Whether ``--json`` asked for stdout (``-``): then the command prints JSON only."""
+    return target is not None and str(target) == '-'
+
+
+def check_json_target(target: str | Path | None, inputs: Sequence[str | Path | None] = ()) -> None:
+    """Refuse, before any work, a ``--json`` file that cannot be written or would replace an
+    input (:func:`steer_monitor.atomic.check_target`); nothing for stdout or no ``--json``."""
+    if target is not None and not json_to_stdout(target):
+        from steer_monitor.atomic import check_target
+        check_target(target, inputs)
+
+
+def emit_json(obj: Any, target: str | Path | None, out: TextIO) -> None:
+    """The JSON answer to ``--json``'s ``target``: ``-`` is ``out``; a file is written through a
+    temporary name and renamed (nothing for None)."""
+    if target is None:
+        return
+    if json_to_stdout(target):
+        dump_json(obj, out)
+        return
+    from steer_monitor.atomic import atomic_write
+    with atomic_write(target, 'w', encoding='utf-8') as fh:
+        dump_json(obj, fh)
 
 
 def text_stream(targets: Sequence[str | Path | None], out: TextIO, err: TextIO) -> TextIO:

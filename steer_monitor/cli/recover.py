@@ -8,26 +8,26 @@ import sys
 from pathlib import Path
 from typing import TextIO
 
-from steer_monitor.cli.options import add_force_option
-from steer_monitor.cli.output import dump_json, report_read_errors, text_stream
+from steer_monitor.cli.options import add_force_option, add_json_option
+from steer_monitor.cli.output import check_json_target, emit_json, json_to_stdout, report_read_errors, text_stream
 from steer_monitor.record.recover import recover
 from steer_monitor.utc import time_json
 
 __all__ = ['register', 'run']
 
 
-def run(path: str | Path, output: str | Path | None = None, as_json: bool = False,
+def run(path: str | Path, output: str | Path | None = None, json_out: str | Path | None = None,
         out: TextIO | None = None, err: TextIO | None = None) -> int:
     """Recover ``path``. 0 when everything readable was copied (a file cut short is what this
     is for); 1 when corrupt chunks were dropped, with one line on ``err`` saying which."""
     out = out or sys.stdout
     err = err or sys.stderr
-    out = text_stream([output], out, err)
+    out = text_stream([output, None if json_to_stdout(json_out) else json_out], out, err)
+    check_json_target(json_out, [path, output])
     r = recover(path, output)
-    if as_json:
-        d = dataclasses.asdict(r)
-        dump_json({**d, **time_json('first', r.first_ns), **time_json('last', r.last_ns)}, out)
-    else:
+    d = dataclasses.asdict(r)
+    emit_json({**d, **time_json('first', r.first_ns), **time_json('last', r.last_ns)}, json_out, out)
+    if not json_to_stdout(json_out):
         span = '' if r.first_ns is None or r.last_ns is None else f', {(r.last_ns - r.first_ns) / 1e9:.1f} s'
         if r.complete:
             state = 'the file was complete'
@@ -48,6 +48,6 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description='Copy every intact record of an unfinished MCAP into a new, finished file.')
     p.add_argument('file', help='the MCAP file')
     p.add_argument('--out', help='output file (default: <name>.recovered.mcap)')
-    p.add_argument('--json', action='store_true', help='print JSON')
+    add_json_option(p, 'what was recovered')
     add_force_option(p)
-    p.set_defaults(handler=lambda a: run(a.file, a.out, a.json))
+    p.set_defaults(handler=lambda a: run(a.file, a.out, a.json_out))

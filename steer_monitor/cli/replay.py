@@ -14,14 +14,22 @@ import time
 from pathlib import Path
 from typing import TextIO
 
-from steer_monitor.cli.options import LOG_FORMATS, add_config_option, add_force_option
-from steer_monitor.cli.output import add_date_option, date_notes, dump_json, report_read_errors, text_stream
+from steer_monitor.cli.options import LOG_FORMATS, add_config_option, add_force_option, add_json_option
+from steer_monitor.cli.output import (
+    add_date_option,
+    check_json_target,
+    date_notes,
+    emit_json,
+    json_to_stdout,
+    report_read_errors,
+    text_stream,
+)
 
 __all__ = ['register', 'run']
 
 
 def run(logs: list[str], out_path: str | Path, config: str | Path | None = None, frames: bool = True,
-        as_json: bool = False, out: TextIO | None = None, err: TextIO | None = None,
+        json_out: str | Path | None = None, out: TextIO | None = None, err: TextIO | None = None,
         date: datetime.date | None = None, progress: bool = False) -> int:
     """Replay ``logs`` into ``out_path``; 1 (one line per log on ``err``) when a log broke
     off or had corrupt parts, whose readable frames were replayed. A progress bar (data
@@ -31,7 +39,8 @@ def run(logs: list[str], out_path: str | Path, config: str | Path | None = None,
 
     out = out or sys.stdout
     err = err or sys.stderr
-    out = text_stream([out_path], out, err)
+    out = text_stream([out_path, None if json_to_stdout(json_out) else json_out], out, err)
+    check_json_target(json_out, [*logs, config, out_path])
     date_notes('replay', logs, date, err)
     t0 = time.perf_counter()
     show = progress or sys.stderr.isatty()
@@ -43,9 +52,8 @@ def run(logs: list[str], out_path: str | Path, config: str | Path | None = None,
     elapsed = time.perf_counter() - t0
     result['elapsed_s'] = round(elapsed, 2)
     result['frames_per_s'] = round(summary.frames / elapsed) if elapsed > 0 else None
-    if as_json:
-        dump_json(result, out)
-    else:
+    emit_json(result, json_out, out)
+    if not json_to_stdout(json_out):
         out.write(f"replayed {summary.frames} frames ({result['span_s']:.0f} s of data) from "
                   f"{len(summary.logs)} log(s) in {elapsed:.1f} s: {summary.states} states, "
                   f"{summary.diagnostics} diagnostics -> {summary.output}\n")
@@ -71,10 +79,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_config_option(p, default='the parameters a recording was made with, else the packaged R-18')
     p.add_argument('--no-frames', dest='frames', action='store_false',
                    help='do not copy the raw frames into the output')
-    p.add_argument('--json', action='store_true', help='print the summary as JSON')
+    add_json_option(p, 'the summary')
     p.add_argument('--progress', action='store_true',
                    help='show the progress bar on stderr even when it is not a terminal')
     add_date_option(p)
     add_force_option(p)
-    p.set_defaults(handler=lambda a: run(a.logs, a.out, a.config, a.frames, a.json, date=a.date,
+    p.set_defaults(handler=lambda a: run(a.logs, a.out, a.config, a.frames, a.json_out, date=a.date,
                                          progress=a.progress))

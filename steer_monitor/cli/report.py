@@ -27,14 +27,23 @@ from pathlib import Path
 from typing import TextIO
 
 from steer_monitor.ashore.modelcheck import ANALYSIS_HOURS
-from steer_monitor.cli.options import LOG_FORMATS, add_config_option, add_force_option
-from steer_monitor.cli.output import add_date_option, check_logs, date_notes, dump_json, report_read_errors
+from steer_monitor.cli.options import LOG_FORMATS, add_config_option, add_force_option, add_json_option
+from steer_monitor.cli.output import (
+    add_date_option,
+    check_json_target,
+    check_logs,
+    date_notes,
+    emit_json,
+    json_to_stdout,
+    report_read_errors,
+    text_stream,
+)
 
 __all__ = ['register', 'run']
 
 
 def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, analysis_hours: float = ANALYSIS_HOURS,
-        as_json: bool = False, out: TextIO | None = None, err: TextIO | None = None,
+        json_out: str | Path | None = None, out: TextIO | None = None, err: TextIO | None = None,
         date: datetime.date | None = None) -> int:
     """Review ``logs`` into ``out_dir``; 1 (one line per log on ``err``) when a log broke off
     or had corrupt parts (the page is made from what could be read and says so)."""
@@ -55,7 +64,9 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
         msg = f'--analysis-hours must be a finite number >= 0, got {analysis_hours}'
         raise ParameterError(msg)
     paths = [Path(p) for p in logs]
+    out = text_stream([None if json_to_stdout(json_out) else json_out], out, err)
     check_logs(paths)
+    check_json_target(json_out, [*paths, config])
     config_path, params = load_config(config)
     ensure_dir(out_dir)               # before the review, not after
     date_notes('report', paths, date, err)
@@ -74,17 +85,17 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
     inp = report_input(paths, batch, params, config_path, analysis, note)
     page = write_review_report(inp, out_dir)
     elapsed = time.perf_counter() - t0
-    if as_json:
+    if json_out is not None:
         h2z, hzgb = headlines(analysis, inp.limit_2z, inp.limit_zgb, inp.warn_share)
-        dump_json({'page': str(page), 'frames': batch.frames, 'errors': batch.errors, 'notes': r.notes,
+        emit_json({'page': str(page), 'frames': batch.frames, 'errors': batch.errors, 'notes': r.notes,
                    'estimates': len(r.estimates), 'hard_overs_s': [round(h.seconds, 2) for h in r.hard_overs],
                    'clearance_2z_mm': headline_json(h2z), 'clearance_zgb_mm': headline_json(hzgb),
                    'k_gl_max': None if analysis is None else analysis.final.k_gl_max.scaled(1.0, 3),
                    'model_check': None if analysis is None else {
                        'verdict': analysis.verdict, 'effects': [s.name for s in analysis.steps],
                        'message': analysis.message},
-                   'model_check_note': note or None, 'elapsed_s': round(elapsed, 2)}, out)
-    else:
+                   'model_check_note': note or None, 'elapsed_s': round(elapsed, 2)}, json_out, out)
+    if not json_to_stdout(json_out):
         out.write(f'report of {batch.frames} frames written to {page} ({elapsed:.1f} s)\n')
     return report_read_errors('report', batch.errors, err)
 
@@ -103,7 +114,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_config_option(p)
     p.add_argument('--analysis-hours', type=float, default=3.0,
                    help='hours of data at the end for the model check (0: none; default 3)')
-    p.add_argument('--json', action='store_true', help='print a summary as JSON')
+    add_json_option(p, 'a summary')
     add_date_option(p)
     add_force_option(p)
-    p.set_defaults(handler=lambda a: run(a.logs, a.out, a.config, a.analysis_hours, a.json, date=a.date))
+    p.set_defaults(handler=lambda a: run(a.logs, a.out, a.config, a.analysis_hours, a.json_out, date=a.date))

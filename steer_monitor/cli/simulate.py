@@ -14,8 +14,8 @@ from typing import Any, TextIO
 from steer_monitor import sim
 from steer_monitor.atomic import atomic_path, check_target, os_reason, write_text
 from steer_monitor.can.busconfig import load_setup
-from steer_monitor.cli.options import add_config_option, add_force_option
-from steer_monitor.cli.output import dump_json
+from steer_monitor.cli.options import add_config_option, add_force_option, add_json_option
+from steer_monitor.cli.output import check_json_target, emit_json, json_to_stdout
 from steer_monitor.errors import OutputError, ParameterError
 from steer_monitor.logfiles.logs import LogError, LogWriter
 from steer_monitor.model.gear import Gaps
@@ -53,7 +53,7 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
         bus: str | None = None, speed_factor: float = 1.0, seed: int = 0,
         gap_2z_mm: float | None = None, gap_zgb_mm: float | None = None,
         speed_profile: str | None = None, effects: Sequence[str] = (), noise: bool = True,
-        max_duration_s: float = 7200.0, as_json: bool = False, out: TextIO | None = None,
+        max_duration_s: float = 7200.0, json_out: str | Path | None = None, out: TextIO | None = None,
         real_bus: bool = False) -> int:
     """Simulate into a file or onto a bus. Onto anything but python-can's ``virtual`` bus or
     a vcan link only with ``real_bus`` (``--i-know-this-is-a-real-bus``): a simulator's frames
@@ -85,6 +85,7 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
     if out_path is not None:          # before the simulation, not after
         for target in (Path(out_path), truth_path(Path(out_path))):
             check_target(target, [config])
+    check_json_target(json_out, [config, out_path])
     _, params, db, smap = load_setup(config)
     configured = gaps_from_params(params)
     gaps = Gaps.from_mm(configured.two_z * 1e3 if gap_2z_mm is None else gap_2z_mm,
@@ -98,7 +99,7 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
     if out_path is not None:
         path = Path(out_path)
         tpath = truth_path(path)
-        progress = _progress(len(result.frames), sys.stderr.isatty() and not as_json)
+        progress = _progress(len(result.frames), sys.stderr.isatty() and not json_to_stdout(json_out))
         with atomic_path(path) as tmp:
             try:
                 writer = LogWriter(tmp)
@@ -131,9 +132,8 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
         finally:
             handle.shutdown()
         truth['output'] = bus
-    if as_json:
-        dump_json(truth, out)
-    else:
+    emit_json(truth, json_out, out)
+    if not json_to_stdout(json_out):
         cut = f' (cut at --max-duration {max_duration_s:g} s)' if result.plant.cut else ''
         out.write(f"simulated {truth['program']} for {truth['duration_s']:.1f} s{cut}: {truth['frames']} frames "
                   f"-> {truth['output']}" + (f" (truth: {truth['truth_file']})" if 'truth_file' in truth else '')
@@ -168,10 +168,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=7200.0,
         help='cut the programme after this many seconds (default: %(default)g)',
     )
-    p.add_argument('--json', action='store_true', help='print the truth as JSON')
+    add_json_option(p, 'the truth')
     p.add_argument('--i-know-this-is-a-real-bus', dest='real_bus', action='store_true',
                    help='allow --bus on a hardware interface (the frames are sent onto that bus)')
     add_force_option(p)
     p.set_defaults(handler=lambda a: run(a.config, a.program, a.out, a.bus, a.speed_factor, a.seed,
                                          a.gap_2z, a.gap_zgb, a.speed_profile, a.effect, not a.no_noise,
-                                         a.max_duration, a.json, real_bus=a.real_bus))
+                                         a.max_duration, a.json_out, real_bus=a.real_bus))

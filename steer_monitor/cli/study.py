@@ -18,13 +18,13 @@ from typing import Any, TextIO
 import numpy as np
 
 from steer_monitor.atomic import ensure_dir, write_files
-from steer_monitor.cli import backlash as backlash_cli
 from steer_monitor.cli.options import add_config_option, add_force_option
 from steer_monitor.cli.output import dump_json, table
 from steer_monitor.model.gear import Gaps
 from steer_monitor.model.study import gap_sensitivity
 from steer_monitor.params import gear_from_params, load_params_file
 from steer_monitor.resources import default_config
+from steer_monitor.studies.chain import backlash_summary, write_backlash
 from steer_monitor.studies.plots import gap_sensitivity_png, load_sharing_png
 from steer_monitor.studies.tables import fit_summary, loadshare_rows
 
@@ -101,8 +101,8 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None,
 
     chain_path = default_config('r18_chain.yaml')
     out.write(f'\nBacklash of the example chain ({chain_path.name}):\n')
-    backlash_cli.run(chain_path, 0.0, 8.0, 'worst', False, out)
-    summary['backlash'] = backlash_cli.backlash_summary(chain_path, 0.0, 8.0)
+    summary['backlash'] = backlash_summary(chain_path, 0.0, 8.0)
+    write_backlash(summary['backlash'], out)
 
     summary['files'] = {'fig7': str(fig7), 'gap_study': str(gap_png)}
     text = io.StringIO()

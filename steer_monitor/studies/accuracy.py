@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -42,6 +42,7 @@ from steer_monitor.can.signals import PRESSURE_INPUTS, SignalMap
 from steer_monitor.estimate.analyze import analyze, declared_fit
 from steer_monitor.estimate.batch import ClearanceEstimate, k_gl_max
 from steer_monitor.estimate.intervals import Interval
+from steer_monitor.estimate.locate import UNITS
 from steer_monitor.estimate.observe import Observations
 from steer_monitor.model.gear import Gaps
 from steer_monitor.model.loadshare import STAGE_CLAMPED, load_sharing
@@ -164,10 +165,36 @@ class CaseResult:
         return lo is not None and hi is not None
 
     def to_json(self) -> dict[str, Any]:
-        d = asdict(self)
-        d['ci95'] = {k: list(v) for k, v in self.ci95.items()}
-        d['covered'] = {q: self.covered(q) for q in QUANTITIES}
-        return d
+        """The case in the JSON vocabulary (docs/json.md): what was simulated, each quantity's
+        estimate as ``{value, ci95: [lo, hi], bounded}`` (no point value for a bound), its
+        truth and whether the interval holds it, and the residual loop's outcome."""
+        c = self.case
+
+        def estimate(q: str) -> dict[str, Any]:
+            lo, hi = self.ci95[q]
+            bounded = lo is not None and hi is not None
+            return {'value': self.estimate[q] if bounded else None, 'ci95': [lo, hi], 'bounded': bounded}
+
+        def bar(v: float) -> float | None:
+            return round(v, 4) if math.isfinite(v) else None
+
+        return {
+            'programme': c.programme, 'seed': c.seed, 'effects': list(c.effects),
+            'true_clearance_2z_mm': c.two_z_mm, 'true_clearance_zgb_mm': c.z_gb_mm,
+            'duration_s': round(self.duration_s, 2), 'rows': self.rows,
+            'clamped_share': round(self.clamped_share, 4), 'max_angle_deg': round(self.max_angle_deg, 2),
+            'inflation': round(self.inflation, 3),
+            'estimates': {q: estimate(q) for q in QUANTITIES},
+            'truth': {q: self.truth[q] for q in QUANTITIES},
+            'covered': {q: self.covered(q) for q in QUANTITIES},
+            'verdict': self.verdict, 'effect': self.effect, 'adopted': list(self.adopted),
+            'unexplained': None if self.located is None else {
+                'variable': self.located, 'unit': UNITS[self.located],
+                'range': None if self.located_range is None else [round(v, 2) for v in self.located_range]},
+            'systematic_bar': bar(self.systematic_bar), 'systematic_after_bar': bar(self.systematic_after_bar),
+            'misfit_bar': bar(self.misfit_bar), 'misfit_after_bar': bar(self.misfit_after_bar),
+            'misfit_clean_bar': bar(self.misfit_clean_bar), 'analysis_s': round(self.seconds, 2),
+        }
 
 
 def cases(programmes: Iterable[str], grid_2z_mm: Sequence[float] = GRID_2Z_MM,

@@ -185,7 +185,7 @@ def test_cli_with_a_broken_log_and_a_vessel_of_its_own_parameters(tmp_path, flee
     (vessel / 'recordings' / 'endless.log').symlink_to('/dev/zero')           # read, it would never end
     shutil.copy(R18_YAML, vessel / 'steer_monitor.yaml')
     out = tmp_path / 'out'
-    rc = main(['fleet', str(vessel), '--out', str(out), '--workers', '2', '--json'])
+    rc = main(['fleet', str(vessel), '--out', str(out), '--workers', '2', '--json', '-'])
     cap = capsys.readouterr()
     assert rc == 1
     assert 'steer-monitor fleet: error: mv_example:' in cap.err and 'broken.log' in cap.err
@@ -307,3 +307,17 @@ def test_a_vessel_whose_map_reverses_a_ram_has_its_logs_failed_with_the_reason(t
     assert r.error.startswith('the rams push against each other') and 'of ram 2 are read the wrong way round' in r.error
     assert r.error.endswith('; nothing estimated') and r.frames == len(s.frames)
     assert log_result('mv', str(log), None, 'x', 'y').error == ''
+
+
+def test_a_script_without_the_main_guard_is_told_what_to_do(tmp_path):
+    """A script that runs the fleet at its top level made every spawned worker start a
+    cluster of its own, and ended in "Nanny failed to start": now the error says why."""
+    import subprocess
+    import sys
+    script = tmp_path / 'fleet_script.py'
+    script.write_text('from steer_monitor.ashore.fleet import make_client\nmake_client(1, None)\n')
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=180, env=env,
+                          check=False)
+    assert done.returncode != 0
+    assert "call the fleet under `if __name__ == '__main__':`" in done.stderr.splitlines()[-1], done.stderr[-2000:]

@@ -188,7 +188,7 @@ def test_a_replay_without_frames_given_as_a_log_says_what_it_is(tmp_path, logs, 
 
 
 def test_cli_json(tmp_path, logs, capsys):
-    rc = cli.main(['replay', str(logs['a.log']), '--out', str(tmp_path / 'j.mcap'), '--json', '--no-frames'])
+    rc = cli.main(['replay', str(logs['a.log']), '--out', str(tmp_path / 'j.mcap'), '--json', '-', '--no-frames'])
     assert rc == 0
     d = json.loads(capsys.readouterr().out)
     assert d['frames'] > 0 and d['errors'] == [] and d['diagnostics'] > 10
@@ -265,7 +265,7 @@ def test_a_log_within_the_time_of_the_ones_before_it_is_said(tmp_path, logs, cap
     s = replay([logs['a.log'], logs['b.mcap']], tmp_path / 'ab.mcap', frames=False)
     assert s.notes == []
     rc = cli.main(['replay', str(logs['all.log']), str(logs['a.log']), '--out', str(tmp_path / 'x.mcap'),
-                   '--no-frames', '--json'])
+                   '--no-frames', '--json', '-'])
     captured = capsys.readouterr()
     assert rc == 0
     (note,) = json.loads(captured.out)['notes']

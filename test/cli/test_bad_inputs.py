@@ -80,7 +80,7 @@ def _run(capsys, argv: list[str]) -> tuple[int, list[str], str]:
 
 
 def _argv(command: str, path: Path, out: Path) -> list[str]:
-    return {'inspect': ['inspect', str(path), '--json'],
+    return {'inspect': ['inspect', str(path), '--json', '-'],
             'analyze': ['analyze', str(path), '--json', str(out / 'a.json')],
             'report': ['report', str(path), '--out', str(out / 'page'), '--analysis-hours', '0'],
             'replay': ['replay', str(path), '--out', str(out / 'r.mcap'), '--no-frames'],
@@ -164,7 +164,7 @@ def test_one_far_future_frame_costs_that_frame_only(base, tmp_path, capsys):
     path.write_bytes(b''.join(lines[:2000]) + glitch + b''.join(lines[2000:]))
     got = {}
     for p in (base['long'], path):
-        rc, _, out = _run(capsys, ['inspect', str(p), '--json'])
+        rc, _, out = _run(capsys, ['inspect', str(p), '--json', '-'])
         assert rc == 0
         got[p] = json.loads(out)
     g, b = got[base['long']], got[path]
@@ -183,10 +183,10 @@ def test_corrupt_chunk_is_skipped_counted_and_reported(base, tmp_path, capsys):
     lo, hi = spans[len(spans) // 2]
     path = tmp_path / 'flipped.mcap'
     path.write_bytes(_flip(good, 8, lo + 100, hi - 100, 2))
-    rc, lines, out = _run(capsys, ['inspect', str(path), '--json'])
+    rc, lines, out = _run(capsys, ['inspect', str(path), '--json', '-'])
     assert rc == 1 and len(lines) == 1 and '1 corrupt chunk(s) skipped' in lines[0] and 'CRC mismatch' in lines[0]
     s = json.loads(out)
-    rc, _, ref = _run(capsys, ['inspect', str(base['chunks']), '--json'])
+    rc, _, ref = _run(capsys, ['inspect', str(base['chunks']), '--json', '-'])
     r = json.loads(ref)
     assert s['rejects'].get('corrupt_chunk') == 1
     assert 0 < r['frames'] - s['frames'] < 200                # one chunk's frames, the rest kept
@@ -218,14 +218,14 @@ def test_a_corrupt_first_chunk_does_not_lose_the_channels_it_defined(base, tmp_p
     lo, hi = _chunk_spans(src)[0]
     path = tmp_path / 'first.mcap'
     path.write_bytes(_flip(src.read_bytes(), 16, lo + 50, hi - 50, 5))
-    rc, lines, out = _run(capsys, ['inspect', str(path), '--json'])
+    rc, lines, out = _run(capsys, ['inspect', str(path), '--json', '-'])
     assert rc == 1 and len(lines) == 1 and '1 corrupt chunk(s) skipped' in lines[0], lines
-    got, ref = json.loads(out), json.loads(_run(capsys, ['inspect', str(src), '--json'])[2])
+    got, ref = json.loads(out), json.loads(_run(capsys, ['inspect', str(src), '--json', '-'])[2])
     assert 0 < ref['frames'] - got['frames'] < ref['frames'] // 2, (got['frames'], ref['frames'])
     lines = _check(capsys, 'replay', path, tmp_path / 'o', 1, 'corrupt chunk')
     # recover too: it took the definitions from the data only, and its copy held no frame
     _check(capsys, 'recover', path, tmp_path / 'rc', 1, 'corrupt chunk(s) dropped')
-    rc, _, out = _run(capsys, ['inspect', str(tmp_path / 'rc' / 'rc.mcap'), '--json'])
+    rc, _, out = _run(capsys, ['inspect', str(tmp_path / 'rc' / 'rc.mcap'), '--json', '-'])
     assert rc == 0 and json.loads(out)['frames'] == got['frames']
 
 
@@ -418,15 +418,11 @@ def test_a_generous_max_duration_costs_nothing_and_a_cut_is_said(tmp_path, capsy
     ['accuracy', '--config', '{cfg}', '--out', '{cfg}'],
     ['simulate', '--config', '{cfg}', '--out', '{cfglog}'],
     ['recover', '{log}', '--out', '{log}'],
-    ['inspect', '{log}', '--config', '{cfg}', '--json', '--force'],     # a command that writes nothing: no force
+    ['inspect', '{log}', '--config', '{cfg}', '--json', '{cfg}'],
 ])
 def test_an_output_that_is_an_input_is_refused_and_the_input_kept(base, tmp_path, capsys, argv):
     """`replay X --out X` replaced the log with its replay, `discover X --write-config X` with
     a YAML file: the measurements lost. Refused before any work, naming both, unless --force."""
-    if argv[0] == 'inspect':
-        with pytest.raises(SystemExit):     # inspect writes no file: it has no --force to give
-            main(argv)
-        return
     import shutil
     log = tmp_path / 'short.log'
     shutil.copy(base['log'], log)
@@ -450,6 +446,7 @@ def test_an_output_that_is_an_input_is_refused_and_the_input_kept(base, tmp_path
     ['discover', '{log}', '--write-config', '{packaged}'],     # no --config: the packaged file is the one in use
     ['loadshare', '--plot', '{packaged_png}'],                  # a link's target is what a write replaces
     ['simulate', '--out', '{packaged_log}'],
+    ['fit', '240 H9/f9', '--json', '{packaged}'],               # every command that writes JSON to a file
 ])
 def test_a_packaged_file_is_not_written_over_unasked(base, tmp_path, capsys, argv):
     """`discover LOG --write-config steer_monitor/config/r18.yaml` replaced the parameters every
@@ -540,7 +537,7 @@ def test_bad_chain_file(tmp_path, capsys):
     assert rc == 1 and len(lines) == 1 and 'chain file' in lines[0], lines
 
 
-@pytest.mark.parametrize('argv', [['inspect'], ['replay', 'x.log'], ['analyze', '--json'], ['nonsense']])
+@pytest.mark.parametrize('argv', [['inspect'], ['replay', 'x.log'], ['analyze', '--json', '-'], ['nonsense']])
 def test_usage_errors_exit_2(capsys, argv):
     rc, lines, _ = _run(capsys, argv)
     assert rc == 2 and lines and not any('Traceback' in line for line in lines)

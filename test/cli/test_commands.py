@@ -17,7 +17,7 @@ CHAIN = PKG / 'config' / 'r18_chain.yaml'
 
 def _json(run, *args, **kwargs):
     out = io.StringIO()
-    assert run(*args, as_json=True, out=out, **kwargs) == 0
+    assert run(*args, json_out='-', out=out, **kwargs) == 0
     return json.loads(out.getvalue())
 
 
@@ -151,3 +151,31 @@ def test_console_script_help(capsys):
 def test_the_demo_says_why_the_residual_is_missing(values, text):
     from steer_monitor.cli.demo import residual_text
     assert residual_text(values) == text
+
+
+@pytest.mark.parametrize('argv', [['fit', '240 H9/f9'], ['loadshare', '--gap-2z', '0.6'],
+                                  ['backlash', str(CHAIN), '--angle-deg', '20']])
+def test_json_to_a_file_is_what_stdout_gets_and_the_text_still_prints(tmp_path, capsys, argv):
+    """`--json OUT` means the same on every command: `-` prints JSON instead of the text, a
+    file name gets the same JSON while the text still goes to stdout."""
+    assert main([*argv, '--json', '-']) == 0
+    to_stdout = json.loads(capsys.readouterr().out)
+    target = tmp_path / 'answer.json'
+    assert main([*argv, '--json', str(target)]) == 0
+    text = capsys.readouterr().out
+    assert json.loads(target.read_text()) == to_stdout
+    assert text.strip() and not text.lstrip().startswith('{'), text
+
+
+def test_every_json_option_takes_a_file_or_dash():
+    """No command's --json is a bare flag where another's takes a file: one spelling, OUT."""
+    from steer_monitor.cli.main import build_parser
+    parser = build_parser()
+    subs = next(a for a in parser._actions if a.choices and 'fit' in a.choices).choices
+    found = {}
+    for name, p in subs.items():
+        for a in p._actions:
+            if '--json' in a.option_strings:
+                found[name] = (a.nargs, a.metavar, a.dest)
+    assert len(found) >= 12, found
+    assert set(found.values()) == {(None, 'OUT', 'json_out')}, found

@@ -20,7 +20,7 @@ def test_discover_then_inspect_sees_the_rudder(tmp_path, capsys, path, extra, ad
     capture(path)
     out = tmp_path / 'vessel.yaml'
     # these buses carry a rudder angle but no ram pressures: the map is written, partial, and said so
-    assert main(['discover', str(path), '--write-config', str(out), '--json'] + extra) == 1
+    assert main(['discover', str(path), '--write-config', str(out), '--json', '-'] + extra) == 1
     cap = capsys.readouterr()
     d = json.loads(cap.out)
     missing = ['pressure_r1_stbd', 'pressure_r1_port', 'pressure_r2_stbd', 'pressure_r2_port']
@@ -37,7 +37,7 @@ def test_discover_then_inspect_sees_the_rudder(tmp_path, capsys, path, extra, ad
         assert f'steer-monitor discover: note: {note}' in cap.err
     params = load_params_file(out)
     assert params['signals.rudder_angle.address'] == address
-    assert main(['inspect', str(path), '--config', str(out), '--json'] + extra) == 0
+    assert main(['inspect', str(path), '--config', str(out), '--json', '-'] + extra) == 0
     s = json.loads(capsys.readouterr().out)
     rudder = s['signals']['rudder_angle']
     assert rudder['samples'] == samples and rudder['min_deg'] is not None
@@ -58,7 +58,7 @@ def test_text_output_and_ambiguity_on_stderr(tmp_path, capsys):
 
 def test_ydwg_date_is_said(tmp_path, capsys):
     capture(MERRIMAC)
-    assert main(['inspect', str(MERRIMAC), '--date', '2020-08-22', '--json']) == 0
+    assert main(['inspect', str(MERRIMAC), '--date', '2020-08-22', '--json', '-']) == 0
     cap = capsys.readouterr()
     assert json.loads(cap.out)['start_utc'].startswith('2020-08-22T00:29:58')
     assert 'YDWG raw log (time of day only) read as starting on 2020-08-22 UTC, the date given' in cap.err
@@ -136,7 +136,7 @@ def test_replay_reads_a_gateway_log_with_its_date(tmp_path, capsys):
     assert main(['discover', str(MERRIMAC), '--date', '2020-08-22', '--write-config', str(cfg)]) == 1   # partial
     capsys.readouterr()
     assert main(['replay', str(MERRIMAC), '--date', '2020-08-22', '--config', str(cfg), '--out',
-                 str(tmp_path / 'r.mcap'), '--json']) == 0
+                 str(tmp_path / 'r.mcap'), '--json', '-']) == 0
     cap = capsys.readouterr()
     r = json.loads(cap.out)
     assert r['frames'] == 914
@@ -157,7 +157,7 @@ def test_a_bus_with_every_input_gives_a_whole_map(tmp_path, capsys):
     log, out = tmp_path / 'sim.log', tmp_path / 'vessel.yaml'
     assert main(['simulate', '--program', 'hard_over_2', '--max-duration', '20', '--out', str(log)]) == 0
     capsys.readouterr()
-    assert main(['discover', str(log), '--write-config', str(out), '--json']) == 0
+    assert main(['discover', str(log), '--write-config', str(out), '--json', '-']) == 0
     cap = capsys.readouterr()
     d = json.loads(cap.out)
     assert d['missing_required'] == [] and all(v['on_bus'] for v in d['proposed'].values()), d['proposed']

@@ -15,7 +15,7 @@ from test.conftest import PKG
 
 SCHEMAS = PKG / 'docs' / 'schemas'
 COMMANDS = ('fit', 'backlash', 'loadshare', 'simulate', 'truth', 'discover', 'inspect', 'analyze', 'replay', 'report',
-            'recover', 'fleet', 'fleet-json')
+            'recover', 'fleet', 'fleet-json', 'accuracy')
 
 
 @pytest.fixture(scope='module')
@@ -34,22 +34,25 @@ def outputs(tmp_path_factory) -> dict[str, Any]:
         assert rc == 0, (name, rc)
         got[name] = json.loads(capsys_out.read_text() if capsys_out is not None else buf.getvalue())
 
-    run('simulate', ['simulate', '--program', 'hard_over_2,zigzag_10', '--seed', '3', '--out', str(log), '--json'])
+    run('simulate', ['simulate', '--program', 'hard_over_2,zigzag_10', '--seed', '3', '--out', str(log), '--json', '-'])
     got['truth'] = json.loads((d / 'v.truth.json').read_text())
-    run('fit', ['fit', '240 H9/f9', '--json'])
+    run('fit', ['fit', '240 H9/f9', '--json', '-'])
     run('backlash', ['backlash', str(PKG / 'config' / 'r18_chain.yaml'), '--angle-deg', '20', '--limit-arcmin', '8',
-                     '--json'])
-    run('loadshare', ['loadshare', '--json'])
-    run('discover', ['discover', str(log), '--json'])
-    run('inspect', ['inspect', str(log), '--json'])
+                     '--json', '-'])
+    run('loadshare', ['loadshare', '--json', '-'])
+    run('discover', ['discover', str(log), '--json', '-'])
+    run('inspect', ['inspect', str(log), '--json', '-'])
     run('analyze', ['analyze', str(log), '--json', str(d / 'a.json')], d / 'a.json')
-    run('replay', ['replay', str(log), '--out', str(d / 'r.mcap'), '--json'])
-    run('report', ['report', str(d / 'r.mcap'), '--out', str(d / 'rep'), '--json'])
-    run('recover', ['recover', str(d / 'r.mcap'), '--out', str(d / 'rr.mcap'), '--json'])
+    run('replay', ['replay', str(log), '--out', str(d / 'r.mcap'), '--json', '-'])
+    run('report', ['report', str(d / 'r.mcap'), '--out', str(d / 'rep'), '--json', '-'])
+    run('recover', ['recover', str(d / 'r.mcap'), '--out', str(d / 'rr.mcap'), '--json', '-'])
     (d / 'fleet' / 'mv').mkdir(parents=True)
     (d / 'fleet' / 'mv' / 'v.log').symlink_to(log)
-    run('fleet', ['fleet', str(d / 'fleet' / 'mv'), '--out', str(d / 'fl'), '--workers', '1', '--json', '--no-reports'])
+    run('fleet', ['fleet', str(d / 'fleet' / 'mv'), '--out', str(d / 'fl'), '--workers', '1', '--json', '-',
+                  '--no-reports'])
     got['fleet-json'] = json.loads((d / 'fl' / 'fleet.json').read_text())
+    run('accuracy', ['accuracy', '--programmes', 'manoeuvres', '--grid-2z-mm', '0.1', '--grid-zgb-mm', '0.2',
+                     '--jobs', '1', '--out', str(d / 'acc.md'), '--json', '-'])
     return got
 
 

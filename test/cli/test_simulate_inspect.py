@@ -15,7 +15,7 @@ from steer_monitor.cli.main import main
 def test_round_trip_sample_counts(tmp_path, suffix):
     path = tmp_path / f'voyage{suffix}'
     out = io.StringIO()
-    assert simulate.run(None, 'hard_over_2,hold:20', path, seed=3, as_json=True, out=out) == 0
+    assert simulate.run(None, 'hard_over_2,hold:20', path, seed=3, json_out='-', out=out) == 0
     truth = json.loads(out.getvalue())
     report = inspect.inspect_log(path)
     assert report['frames'] == truth['frames']
@@ -41,7 +41,7 @@ def test_inspect_reports_gaps_and_rejects(tmp_path, capsys):
     kept.insert(6, '(1767225600.050000) can0 0DF80105#0000000000000000')
     bad = tmp_path / 'b.log'
     bad.write_text('\n'.join(kept) + '\n')
-    assert main(['inspect', str(bad), '--json']) == 0
+    assert main(['inspect', str(bad), '--json', '-']) == 0
     report = json.loads(capsys.readouterr().out)
     assert report['rejects'] == {'malformed_record': 1, 'unknown_id': 1}
     assert report['reject_reasons']['unknown_id'] == 'unknown identifier: PGN not in the DBC'

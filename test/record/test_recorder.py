@@ -308,7 +308,7 @@ def test_recover_cli_and_errors(tmp_path, capsys):
     with Recorder(tmp_path) as rec:
         for i in range(100):
             rec.write_frame(_frame(i))
-    assert main(['recover', str(rec.files[0]), '--json']) == 0
+    assert main(['recover', str(rec.files[0]), '--json', '-']) == 0
     out = json.loads(capsys.readouterr().out)
     assert out['complete'] is True and out['messages'] == 100
     junk = tmp_path / 'junk.mcap'

@@ -48,7 +48,7 @@ def _chromium(*args: str) -> str:
 @pytest.mark.parametrize('which', ['log', 'replay'])
 def test_page_renders_every_plot_in_chromium(tmp_path, logs, which, capsys):
     out = tmp_path / 'rep'
-    assert cli.main(['report', str(logs[which]), '--out', str(out), '--json']) == 0
+    assert cli.main(['report', str(logs[which]), '--out', str(out), '--json', '-']) == 0
     summary = json.loads(capsys.readouterr().out)
     assert (
         summary['estimates'] >= 1
