@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import argparse
 
+from steer_monitor.logfiles.formats import formats_text
+
 __all__ = ['CONFIG_HELP', 'LOG_FORMATS', 'add_config_option', 'add_force_option', 'add_json_option']
 
 #: the logs every command reads, in the help's words
-LOG_FORMATS = ('candump, Vector ASC and BLF, MCAP, CANboat plain, YDWG raw; each also gzip, xz, bzip2 or zstd '
-               'compressed')
+LOG_FORMATS = formats_text()
 
 #: what ``--config`` means in every command; a command adds what its default is, when it differs
 CONFIG_HELP = 'ROS 2 parameters file of the gear (default: the packaged R-18, config/r18.yaml)'

@@ -1,4 +1,4 @@
-"""Log files of the steering bus: readers and writers of candump, ASC, BLF, TRC, MCAP and the
+"""Log files of the steering bus: readers and writers of candump, ASC, BLF, MCAP and the
 gateways' text formats (Actisense, Yacht Devices, canboat), their compressed forms, the
 column readers the batch path uses, and the decoding of a whole log with clock steps
 stitched.

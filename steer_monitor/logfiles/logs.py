@@ -36,6 +36,7 @@ from steer_monitor.can.frames import Frame, FrameArrays
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
 from steer_monitor.logfiles.compressed import COMPRESSED_SUFFIXES, compression, open_decompressed, plain_suffix
+from steer_monitor.logfiles.formats import FORMATS
 from steer_monitor.logfiles.gateway import CANBOAT_LINE, YDWG_LINE, canboat_frames, ydwg_date, ydwg_frames
 from steer_monitor.logfiles.linebound import bounded_lines
 from steer_monitor.logfiles.mcapio import McapWriter, iter_mcap_frames
@@ -46,8 +47,6 @@ __all__ = ['BINARY_FORMATS', 'FORMATS', 'READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogE
 
 READ_SUFFIXES = ('.log', '.asc', '.blf', '.mcap')
 #: formats read, by the name :func:`log_format` gives them
-FORMATS = {'candump': 'candump -L', 'asc': 'Vector ASC', 'blf': 'Vector BLF', 'mcap': 'MCAP',
-           'canboat': 'CANboat plain (actisense-serial)', 'ydwg': 'Yacht Devices YDWG raw'}
 #: the formats of records, not lines (the rest are text, read a line at a time)
 BINARY_FORMATS = ('blf', 'mcap')
 _BY_SUFFIX = {'.log': 'candump', '.asc': 'asc', '.blf': 'blf', '.mcap': 'mcap'}
