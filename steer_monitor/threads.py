@@ -48,7 +48,15 @@ def release_freed_memory() -> bool:
     at its end, but glibc keeps what a thread's arena freed for the next allocation: the node's
     resident memory stayed at each analysis's peak and grew with the largest (307 to 459 MB
     over a 10-minute voyage, ``bench_node voyage``). Measured on four analyses of a 25-minute
-    voyage on a worker thread: 394 MB resident after each without it, 195 MB with it."""
+    voyage on a worker thread: 394 MB resident after each without it, 195 MB with it.
+
+    Objects in a reference cycle are freed only when Python's cycle collector runs, which it
+    does on counts of container objects allocated, not of bytes: a cycle that holds an
+    analysis's arrays (one held the fitters and their moments, 100-350 MB, until fixed) could
+    outlive many analyses. So the collector runs first (about 35 ms of the interpreter's lock
+    in the node's process, once per analysis)."""
+    import gc
+    gc.collect()
     global _trim
     if _trim is None:
         try:

@@ -23,6 +23,7 @@ per-bin feature and one of the per-sample z columns of the moments.
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -487,7 +488,8 @@ class PointFitter:
 
     def __init__(self, gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray[np.float64],
                  extra: Sequence[Column] = (), *, per_cell: bool = True) -> None:
-        self.gear, self.basis, self.mom, self.load, self.extra = gear, basis, mom, load.copy(), tuple(extra)
+        self.gear, self.basis, self.load, self.extra = gear, basis, load.copy(), tuple(extra)
+        self._mom: Moments | weakref.ref[Moments] = mom
         self.per_cell = per_cell
         torque = torque_of_load(gear, mom, load)
         zero = {'n_b': np.zeros(len(mom)), 'f_gb': np.zeros(len(mom)), 'load': load}
@@ -539,6 +541,18 @@ class PointFitter:
             self._closes = closing_clearances(self.gear, self.cell_alpha, self.cell_torque)
         return self._closes
 
+    @property
+    def mom(self) -> Moments:
+        """The moments fitted (held weakly by a fitter kept with them, :meth:`of`)."""
+        m = self._mom
+        if isinstance(m, weakref.ref):
+            held = m()
+            if held is None:
+                msg = 'the moments of this fitter are gone: keep them while the fitter is used'
+                raise RuntimeError(msg)
+            return held
+        return m
+
     @classmethod
     def of(cls, gear: GearParams, basis: TorqueBasis, mom: Moments, load: NDArray[np.float64],
            extra: Sequence[Column] = (), *, per_cell: bool = True) -> PointFitter:
@@ -552,6 +566,10 @@ class PointFitter:
                     and all(a is b for a, b in zip(f.extra, extra)) and np.array_equal(f.load, load)):
                 return f
         f = cls(gear, basis, mom, load, extra, per_cell=per_cell)
+        # kept on the moments, it refers to them weakly: a cycle (moments -> fitter -> moments)
+        # outlived each analysis until Python's cycle collector happened to run, holding the
+        # fitters' arrays (the node's worker kept 300-560 MB after a loop instead of 200 MB)
+        f._mom = weakref.ref(mom)
         kept.append(f)
         del kept[:-FITTERS_KEPT]
         return f

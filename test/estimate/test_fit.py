@@ -232,3 +232,24 @@ def test_rss_from_centred_moments_is_the_per_row_sum(r18, seed):
     for other in (shuffled, a.merge(b)):
         np.testing.assert_array_equal(other.keys, mom.keys)
         assert F.residual_sum_of_squares(other, cols, zs, fit.coef) == pytest.approx(fit.rss, rel=1e-12)
+
+
+def test_a_kept_fitter_does_not_keep_its_moments_alive(r18):
+    """The fitter kept with its moments referred to them: a cycle that held the fitters' arrays
+    (hundreds of MB on a voyage) until Python's cycle collector happened to run, which the
+    node's worker reached after many analyses. Freed by reference counts alone now."""
+    import gc
+    import weakref
+    mom = _moments(r18, n=3000)
+    basis = F.TorqueBasis(r18.max_rudder)
+    load = F.axial_load(r18, basis, mom, F.torque_prefit(r18, basis, mom))
+    fitter = F.PointFitter.of(r18, basis, mom, load)
+    assert F.PointFitter.of(r18, basis, mom, load) is fitter and fitter.mom is mom
+    fitter.fit(np.array([0.6e-3]), np.array([0.25e-3]))
+    gone_mom, gone_fitter = weakref.ref(mom), weakref.ref(fitter)
+    gc.disable()
+    try:
+        del mom, fitter
+        assert gone_mom() is None and gone_fitter() is None
+    finally:
+        gc.enable()
