@@ -17,8 +17,9 @@ Measured, each case in a fresh process (so its peak resident memory is its own):
   up to half again slower than the others;
 * ``replay`` (:func:`steer_monitor.ashore.replay.replay`, the node's pipeline: the decoder, live
   model, diagnostics and the node's analyses on its schedule, topics written to MCAP, frames
-  left out), its per-frame reference (``reference=True``: every frame through the pipeline one at a time,
-  every message built and written alone; the same file), and a plain reader of the same file
+  left out), its per-frame reference (the tests' oracle, ``test/ashore/replay_reference.py``:
+  every frame through the pipeline one at a time, every message built and written alone; the
+  same file), and a plain reader of the same file
   (python-can's ``CanutilsLogReader`` for candump; for MCAP, mcap-ros2's decoder through
   :func:`steer_monitor.logfiles.mcapio.iter_mcap_frames`, python-can having no MCAP reader): on the
   whole one-hour log; on the 24-hour log, its first ``PER_FRAME_LIMIT`` frames (a file of its
@@ -125,8 +126,10 @@ def _case(kind: str, path: str) -> dict:
         extra = {}
     else:
         from steer_monitor.ashore.replay import replay
+        from test.ashore.replay_reference import reference_replay
         with tempfile.TemporaryDirectory() as tmp:
-            summary = replay([path], Path(tmp) / 'out.mcap', frames=False, reference=kind == 'reference')
+            run = reference_replay if kind == 'reference' else replay
+            summary = run([path], Path(tmp) / 'out.mcap', frames=False)
         frames, extra = summary.frames, {}
     elapsed = time.perf_counter() - t0
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0

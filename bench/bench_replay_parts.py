@@ -19,7 +19,7 @@ shown apart as the difference between the timed and an untimed run):
   writing them (with the frames) to the MCAP;
 * the rest: reading the log into blocks and the pipeline's schedule, by difference.
 
-The per-frame reference (``replay(..., reference=True)``: one call per frame, every message
+The per-frame reference (the tests' oracle, ``test/ashore/replay_reference.py``: one call per frame, every message
 built and written one at a time) is timed in the same run, and the files checked to be the
 same bytes. One BLAS thread, as the command line sets it.
 
@@ -98,6 +98,7 @@ def main() -> int:
     import can
 
     from steer_monitor.ashore.replay import replay
+    from test.ashore.replay_reference import reference_replay
 
     print('== replay: where the time goes (an hour of simulated gear traffic, candump) ==')
     with tempfile.TemporaryDirectory() as tmp:
@@ -111,7 +112,7 @@ def main() -> int:
         s = replay([log], Path(tmp) / 'plain.mcap')
         t_plain = time.perf_counter() - t0
         t0 = time.perf_counter()
-        replay([log], Path(tmp) / 'reference.mcap', reference=True)
+        reference_replay([log], Path(tmp) / 'reference.mcap')
         t_ref = time.perf_counter() - t0
         ref_bytes = (Path(tmp) / 'reference.mcap').read_bytes()
         same = (Path(tmp) / 'plain.mcap').read_bytes() == ref_bytes

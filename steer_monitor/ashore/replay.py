@@ -30,7 +30,7 @@ from steer_monitor.atomic import atomic_path, check_target, os_reason
 from steer_monitor.can.busconfig import Setup, can_setup, load_setup
 from steer_monitor.can.codec import DbcError
 from steer_monitor.can.decoder import DecodedRun, Decoder
-from steer_monitor.can.frames import Frame, FrameArrays
+from steer_monitor.can.frames import FrameArrays
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import ParameterError, SteerMonitorError
 from steer_monitor.estimate.finding import Finding
@@ -40,7 +40,7 @@ from steer_monitor.logfiles.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TO
 from steer_monitor.monitor.analyst import Analyst, SyncJobs
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig
 from steer_monitor.monitor.live import LiveMonitor
-from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages, topic_name
+from steer_monitor.monitor.messages import TOPICS, diag_messages, topic_name
 from steer_monitor.monitor.pipeline import Output, Pipeline, StateOut, analyst_from_params
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params, recorded_params
 from steer_monitor.record.cdr import FAST_ENCODERS
@@ -49,7 +49,8 @@ from steer_monitor.record.provenance import PARAMETERS_RECORD, RUN_RECORD, run_m
 from steer_monitor.record.staterecords import pack_states
 from steer_monitor.resources import default_config
 
-__all__ = ['ReplayError', 'ReplaySummary', 'recorded_setup', 'replay', 'summary_json']
+__all__ = ['FRAME_BATCH', 'ReplayError', 'ReplaySummary', 'Runner', 'SpanWatch', 'add_channels', 'note_overlap',
+           'recorded_setup', 'replay', 'replay_with', 'summary_json', 'write_messages']
 
 FRAME_BATCH = 4096
 MIN_RUN = 64        # frames: below this, a run the decoder cannot take at once goes one by one
@@ -83,15 +84,30 @@ class ReplaySummary:
 def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | None = None, *,
            frames: bool = True, estimator: bool = True, node_name: str = 'steer_monitor',
            progress: Callable[[int, int | None], None] | None = None,
-           date: datetime.date | None = None, reference: bool = False) -> ReplaySummary:
+           date: datetime.date | None = None) -> ReplaySummary:
     """Replay ``logs`` into ``output`` (an MCAP) with the parameters file ``config`` (None:
     those the first log was recorded with, when it is a recording that carries them
     (:func:`recorded_setup`), else the packaged R-18 ones). ``frames``: record the raw frames
     too, as the node does. ``progress`` is called with the number of frames done since its last call
-    and the data time reached [ns] (None before the stream's time is confirmed).
-    ``reference``: the plain per-frame path (every message built and written one at a time, as
-    the node publishes them), kept to check the fast one against: the same file, byte for
-    byte."""
+    and the data time reached [ns] (None before the stream's time is confirmed). The file is
+    the one the node's pipeline gives frame by frame with each message written as it comes
+    (the tests' per-frame oracle, ``test/ashore/replay_reference.py``), byte for byte."""
+    return replay_with(_run, logs, output, config, frames=frames, estimator=estimator, node_name=node_name,
+                       progress=progress, date=date, defer_share=True)
+
+
+#: how a replay feeds the logs' frames through the pipeline and writes what it emits:
+#: ``run(paths, pipeline, writer, topics, encoders, frames, rejects, summary, progress, date)``
+Runner = Callable[..., None]
+
+
+def replay_with(run: Runner, logs: Sequence[str | Path], output: str | Path, config: str | Path | None = None, *,
+                frames: bool = True, estimator: bool = True, node_name: str = 'steer_monitor',
+                progress: Callable[[int, int | None], None] | None = None,
+                date: datetime.date | None = None, defer_share: bool = True) -> ReplaySummary:
+    """:func:`replay` with the feeding and writing done by ``run`` (:func:`replay` passes its
+    batched one; the tests pass the per-frame oracle). ``defer_share``: the states' load
+    sharing is solved when they are written, in batches, not by the live model."""
     if not logs:
         msg = 'no log given'
         raise ReplayError(msg)
@@ -106,7 +122,7 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
     gear = gear_from_params(params)
     rejects = RejectCounter()
     monitor = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params),
-                          defer_share=not reference)
+                          defer_share=defer_share)
     diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(params), smap, gear)
     summary = ReplaySummary(str(output), [str(p) for p in paths])
     if recorded is not None:
@@ -119,8 +135,7 @@ def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | 
     pipeline = Pipeline(Decoder(db, smap, rejects), rejects, monitor, diag, analyst, jobs,
                         on_failed=summary.errors.append)
     try:
-        return _replay(paths, output, config_path, params, pipeline, summary, node_name, frames, progress, date,
-                       reference)
+        return _replay(run, paths, output, config_path, params, pipeline, summary, node_name, frames, progress, date)
     finally:
         pipeline.close()
 
@@ -150,10 +165,9 @@ def recorded_setup(log: str | Path) -> tuple[Setup, str] | None:
     return Setup(where, params, db, smap), note
 
 
-def _replay(paths: list[Path], output: str | Path, config_path: Path, params: Any, pipeline: Pipeline,
+def _replay(run: Runner, paths: list[Path], output: str | Path, config_path: Path, params: Any, pipeline: Pipeline,
             summary: ReplaySummary, node_name: str, frames: bool,
-            progress: Callable[[int, int | None], None] | None, date: datetime.date | None,
-            reference: bool) -> ReplaySummary:
+            progress: Callable[[int, int | None], None] | None, date: datetime.date | None) -> ReplaySummary:
     """The replay once set up: the MCAP written atomically, the summary filled in."""
     rejects = pipeline.rejects
     topics = {key: topic_name(key, node_name) for key in TOPICS}
@@ -167,7 +181,7 @@ def _replay(paths: list[Path], output: str | Path, config_path: Path, params: An
         with writer:
             for name, data in run_metadata(params, config_path, 'steer-monitor replay').items():
                 writer.add_metadata(name, data)
-            _run(paths, pipeline, writer, topics, encoders, frames, rejects, summary, progress, date, reference)
+            run(paths, pipeline, writer, topics, encoders, frames, rejects, summary, progress, date)
         if summary.frames == 0:     # nothing to write: no output rather than an empty one
             msg = summary.errors[0] if summary.errors else 'no frame in ' + ', '.join(str(p) for p in paths)
             raise ReplayError(msg)
@@ -179,13 +193,8 @@ def _replay(paths: list[Path], output: str | Path, config_path: Path, params: An
     return summary
 
 
-def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict[str, str],
-         encoders: dict[str, Any], frames: bool, rejects: RejectCounter, summary: ReplaySummary,
-         progress: Callable[[int, int | None], None] | None, date: datetime.date | None,
-         reference: bool) -> None:
-    """Feed every frame of ``paths`` through ``pipeline``, writing what it emits (and the
-    frames) to ``writer``: states packed in batches, or (``reference``) each message as it
-    comes; the same bytes either way."""
+def add_channels(writer: McapWriter, topics: dict[str, str], frames: bool) -> None:
+    """The schemas and channels of the node's topics (and of the frames, with ``frames``)."""
     for key, (_, datatype) in TOPICS.items():
         writer.add_schema(datatype, msgdef(datatype))
         writer.add_channel(topics[key], datatype)
@@ -193,17 +202,55 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
         writer.add_schema(FRAME_DATATYPE, FRAME_MSGDEF)
         writer.add_channel(FRAME_TOPIC, FRAME_DATATYPE)
 
-    queue: list[Output] = []       # fast: outputs not yet written, their states solved and packed together
+
+def write_messages(writer: McapWriter, topics: dict[str, str], encoders: dict[str, Any],
+                   msgs: list[tuple[str, int, Any]]) -> None:
+    """Messages ``(topic key, time [ns], fields)`` written, in CDR by the fast encoder where
+    there is one."""
+    for key, t_ns, fields in msgs:
+        fast = encoders.get(key)
+        if fast is not None:
+            writer.write_cdr(topics[key], fast(fields), t_ns)
+        else:
+            writer.write(topics[key], fields, t_ns)
+
+
+class SpanWatch:
+    """The span of the stream a replay saw: :meth:`see` the stream's time before each frame
+    (or a run's first and last) and its stamp; the first and last times go to the summary (a
+    glitched stamp does not stretch it)."""
+
+    def __init__(self, summary: ReplaySummary, max_jump_ns: int) -> None:
+        self.summary, self.jump = summary, max_jump_ns
+        self.early: int | None = None     # the first stamp, while the stream's first frames await confirmation
+
+    def see(self, t: int | None, stamp: int) -> None:
+        s = self.summary
+        if t is None:
+            self.early = stamp if self.early is None else self.early
+        else:
+            if s.first_ns is None:     # the confirmed stream's own start
+                s.first_ns = self.early if self.early is not None and 0 <= t - self.early <= self.jump else t
+            s.last_ns = t
+
+
+def note_overlap(summary: ReplaySummary, path: Path, n_log: int, refused: int) -> None:
+    """A log most of whose frames were refused as older than the logs before it, noted."""
+    if n_log and refused > n_log // 2:
+        summary.notes.append(f'{path}: {refused} of its {n_log} frames lie within the time of the logs before '
+                             'it (the logs overlap, or one is a copy): refused as time_backwards')
+
+
+def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict[str, str],
+         encoders: dict[str, Any], frames: bool, rejects: RejectCounter, summary: ReplaySummary,
+         progress: Callable[[int, int | None], None] | None, date: datetime.date | None) -> None:
+    """Feed every frame of ``paths`` through ``pipeline`` in runs the decoder takes at once,
+    writing what it emits (and the frames) to ``writer``: the states' load sharing solved and
+    their records packed in batches of up to ``FRAME_BATCH`` frames' outputs."""
+    add_channels(writer, topics, frames)
+    queue: list[Output] = []       # outputs not yet written, their states solved and packed together
     rudder, share = writer.channel_id(topics['rudder']), writer.channel_id(topics['load_sharing'])
     gear = pipeline.monitor.gear
-
-    def write(msgs: list[tuple[str, int, Any]]) -> None:
-        for key, t_ns, fields in msgs:
-            fast = encoders.get(key)
-            if fast is not None:
-                writer.write_cdr(topics[key], fast(fields), t_ns)
-            else:
-                writer.write(topics[key], fields, t_ns)
 
     def flush() -> None:
         """The queued outputs, in order: the load sharing of all their states solved at once,
@@ -224,7 +271,7 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
                 seen += 1
             else:
                 records_until_seen()
-                write(diag_messages(o))
+                write_messages(writer, topics, encoders, diag_messages(o))
         records_until_seen()
         queue.clear()
 
@@ -234,60 +281,23 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
                 summary.states += 1
             else:
                 summary.diagnostics += 1
-            if not reference:
-                queue.append(o)
-            elif isinstance(o, StateOut):
-                write(state_messages(o))
-            else:
-                write(diag_messages(o))
+            queue.append(o)
 
-    early: int | None = None     # the first stamp, while the stream's first frames await confirmation
-    jump = pipeline.decoder.jumps.max_jump_ns
-
-    def see(t: int | None, stamp: int) -> None:
-        """The span: the stream's time before a frame stamped ``stamp`` was taken (a glitched
-        stamp does not stretch it)."""
-        nonlocal early
-        if t is None:
-            early = stamp if early is None else early
-        else:
-            if summary.first_ns is None:     # the confirmed stream's own start
-                summary.first_ns = early if early is not None and 0 <= t - early <= jump else t
-            summary.last_ns = t
-
-    def feed(frame: Frame) -> None:
-        see(pipeline.clock(frame.t_ns), frame.t_ns)
-        outs = pipeline.feed(frame)
-        if outs:
-            emit(outs)
-
-    batch: list[Frame] = []          # reference: frames to write
-    pending: list[FrameArrays] = []  # fast: the same, as columns
-    pending_n = 0                    # fast: frames fed since the outputs and frames were last written
+    span = SpanWatch(summary, pipeline.decoder.jumps.max_jump_ns)
+    pending: list[FrameArrays] = []  # the frames fed since the outputs and frames were last written
+    pending_n = 0
     for path in paths:
         n_log = 0
         backwards = rejects['time_backwards']
         try:
             for block in iter_log_blocks(path, rejects, date):
-                if reference:
-                    for frame in block.frames():
-                        if frames:
-                            batch.append(frame)
-                        feed(frame)
-                        if len(batch) >= FRAME_BATCH:
-                            writer.write_frames(batch)
-                            batch = []
-                        n_log += 1
-                        if progress is not None and n_log % FRAME_BATCH == 0:
-                            progress(FRAME_BATCH, summary.last_ns)
-                    continue
-                # fast: runs of frames decoded at once, cut where the reference writes its frames
+                # runs of frames decoded at once, cut where the per-frame path writes its frames
                 pos = 0
                 while pos < len(block):
                     k = min(len(block) - pos, FRAME_BATCH - pending_n)
                     part = block.take(np.arange(pos, pos + k))
                     pos += k
-                    emit(feed_part(pipeline, part, see))
+                    emit(feed_part(pipeline, part, span.see))
                     if frames:
                         pending.append(part)
                     pending_n += k
@@ -301,16 +311,9 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
                         progress(k, summary.last_ns)
         except LogError as exc:
             summary.errors.append(str(exc))
-        if progress is not None and reference:
-            progress(n_log % FRAME_BATCH, summary.last_ns)
         summary.frames += n_log
-        refused = rejects['time_backwards'] - backwards
-        if n_log and refused > n_log // 2:
-            summary.notes.append(f'{path}: {refused} of its {n_log} frames lie within the time of the logs before '
-                                 'it (the logs overlap, or one is a copy): refused as time_backwards')
+        note_overlap(summary, path, n_log, rejects['time_backwards'] - backwards)
     flush()
-    if batch:
-        writer.write_frames(batch)
     if pending:
         writer.write_frames(FrameArrays.concat(pending))
     emit(pipeline.finish())

@@ -13,6 +13,7 @@ from steer_monitor.cli import main as cli
 from steer_monitor.errors import OutputError
 from steer_monitor.logfiles.logs import LogWriter
 from steer_monitor.logfiles.mcapio import FRAME_TOPIC
+from test.ashore.replay_reference import reference_replay
 
 pytestmark = pytest.mark.slow
 
@@ -125,7 +126,7 @@ def test_the_fast_replay_writes_the_reference_bytes(tmp_path, logs, busy, case):
         raw = logs['b.mcap'].read_bytes()
         paths[1].write_bytes(raw[: len(raw) // 2])
     fast = replay(paths, tmp_path / 'fast.mcap', busy, frames=case != 'no frames')
-    ref = replay(paths, tmp_path / 'ref.mcap', busy, frames=case != 'no frames', reference=True)
+    ref = reference_replay(paths, tmp_path / 'ref.mcap', busy, frames=case != 'no frames')
     assert fast.states == ref.states > 1000 and fast.rejects == ref.rejects and fast.errors == ref.errors
     assert fast.finding == ref.finding and fast.motion_s == ref.motion_s
     assert fast.analyses == ref.analyses >= {'hostile': 1, 'broken': 0}.get(case, 3)
@@ -213,7 +214,7 @@ def test_every_programme_and_effect_replays_to_the_reference_bytes(tmp_path, r18
         for f in s.frames.frames():
             w.write(f)
     fast = replay([log], tmp_path / 'fast.mcap')
-    ref = replay([log], tmp_path / 'ref.mcap', reference=True)
+    ref = reference_replay([log], tmp_path / 'ref.mcap')
     assert fast.states == ref.states > 1000 and fast.errors == ref.errors == []
     assert fast.finding == ref.finding and fast.motion_s == ref.motion_s
     assert (tmp_path / 'fast.mcap').read_bytes() == (tmp_path / 'ref.mcap').read_bytes()
@@ -250,7 +251,7 @@ def test_analyses_that_fail_are_errors_where_the_reference_puts_them(tmp_path, l
             w.write_frame(f)
     raw = paths[1].read_bytes()
     paths[1].write_bytes(raw[: len(raw) // 2])       # the middle log breaks off
-    ref = replay(paths, tmp_path / 'ref.mcap', busy, reference=True)
+    ref = reference_replay(paths, tmp_path / 'ref.mcap', busy)
     calls['n'] = 0
     again = replay(paths, tmp_path / 'again.mcap', busy)
     failed = [e for e in ref.errors if e.startswith('the analysis failed: ValueError: analysis')]

@@ -18,6 +18,7 @@ import pytest
 
 from steer_monitor import sim
 from steer_monitor.sim.playback import play
+from test.ashore.replay_reference import reference_replay
 from test.conftest import PKG, R18_YAML
 
 pytestmark = pytest.mark.slow
@@ -225,7 +226,7 @@ def test_simulator_to_diagnostics_stale_and_back(tmp_path, r18_params, can_db):
             assert _same(live[topic][t], again[topic][t]), (topic, t)
     assert any(m.data == 'estimated' for m in again['/steer_monitor/clearance_source'].values())
     # and the replay's batch writing gives the per-frame reference's file on the node's recording
-    replay([path], tmp_path / 'replay' / 'reference.mcap', config, reference=True)
+    reference_replay([path], tmp_path / 'replay' / 'reference.mcap', config)
     assert (tmp_path / 'replay' / 'reference.mcap').read_bytes() == (tmp_path / 'replay' / 'replay.mcap').read_bytes()
 
 
