@@ -16,9 +16,11 @@ from steer_monitor import sim
 from steer_monitor.can import Decoder, collect
 from steer_monitor.can.busconfig import can_setup
 from steer_monitor.logfiles.fastlogs import read_log_fast
-from steer_monitor.logfiles.logs import LogWriter, iter_log, read_log_arrays
+from steer_monitor.logfiles.logs import LogWriter
 from steer_monitor.params import load_params_file
 from steer_monitor.resources import default_config
+from test.logfiles.reference_reader import iter_log_reference as iter_log
+from test.logfiles.reference_reader import read_log_reference as read_log_arrays
 
 BUS_RATE = 1908.0
 PROGRAM = 'voyage,voyage,autopilot:610'  # about one hour

@@ -21,7 +21,7 @@ Measured, each case in a fresh process (so its peak resident memory is its own):
   every frame through the pipeline one at a time, every message built and written alone; the
   same file), and a plain reader of the same file
   (python-can's ``CanutilsLogReader`` for candump; for MCAP, mcap-ros2's decoder through
-  :func:`steer_monitor.logfiles.mcapio.iter_mcap_frames`, python-can having no MCAP reader): on the
+  :func:`test.logfiles.reference_reader.iter_mcap_frames`, python-can having no MCAP reader): on the
   whole one-hour log; on the 24-hour log, its first ``PER_FRAME_LIMIT`` frames (a file of its
   own, made with the logs: replay streams, so its rate and memory do not depend on the log's
   length; the whole day would take several minutes, the reference a quarter of an hour).
@@ -91,7 +91,8 @@ def _make_logs() -> dict[str, Path]:
 
 def _first_frames(paths: dict[str, Path]) -> None:
     """The first ``PER_FRAME_LIMIT`` frames of the 24-hour logs, as files of their own."""
-    from steer_monitor.logfiles.logs import LogWriter, iter_log
+    from steer_monitor.logfiles.fastlogs import iter_log
+    from steer_monitor.logfiles.logs import LogWriter
     for name in ('24h.log', '24h.mcap'):
         src, dst = paths[name], paths[name.replace('24h', '24h-first')]
         if dst.exists():
@@ -117,7 +118,7 @@ def _case(kind: str, path: str) -> dict:
                                      'estimates': len(run.review.estimates)}
     elif kind == 'reader':
         if path.endswith('.mcap'):
-            from steer_monitor.logfiles.mcapio import iter_mcap_frames
+            from test.logfiles.reference_reader import iter_mcap_frames
             with open(path, 'rb') as fh:
                 frames = sum(1 for _ in iter_mcap_frames(fh))
         else:

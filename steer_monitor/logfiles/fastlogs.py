@@ -2,9 +2,10 @@
 frames per second, block by block so memory stays bounded whatever the log's length.
 
 Why our own readers: python-can's and mcap's readers build one object per frame (a few us
-each); a month of one vessel's steering bus is a few hundred million frames. These give the
-same frames and reject counts as :func:`steer_monitor.logfiles.logs.iter_log` (the tests compare
-them on every kind of line), which remains the reference and the fallback:
+each); a month of one vessel's steering bus is a few hundred million frames. These are the
+package's one reader of every log; they give the same frames and reject counts as a plain
+reader, line by line and with the mcap library (the tests' oracle,
+``test/logfiles/reference_reader.py``, compared on every kind of line):
 
 * candump: lines of the usual shape ``(sec.frac) chan ID#HEX`` are parsed eight characters
   at a time (:mod:`~steer_monitor.logfiles.digits`) at the offsets of their layout. A block whose
@@ -36,7 +37,7 @@ from typing import IO, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, FrameArrays
+from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, Frame, FrameArrays
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.logfiles import digits
 from steer_monitor.logfiles.logs import (
@@ -67,6 +68,7 @@ __all__ = [
     'in_time_order',
     'iter_mcap_blocks',
     'log_end_ns',
+    'iter_log',
     'read_log_fast',
     'write_candump_arrays',
 ]
@@ -384,7 +386,6 @@ def _merge_slow(fa: FrameArrays, mask: NDArray[np.bool_], slow: NDArray[np.intp]
                 starts: NDArray[np.intp], ends: NDArray[np.intp], lineno: int, rejects: RejectCounter | None,
                 path: Path) -> FrameArrays:
     """The lines the column parser left, through the line parser, merged in line order."""
-    from steer_monitor.can.frames import Frame
     extra: list[Frame] = []
     at: list[int] = []
     for i in slow.tolist():
@@ -800,7 +801,7 @@ def iter_mcap_blocks(path: str | Path, rejects: RejectCounter | None = None) -> 
 def iter_log_blocks(path: str | Path, rejects: RejectCounter | None = None,
                     date: datetime.date | None = None) -> Iterator[FrameArrays]:
     """Any supported log as blocks of columns, in file order (``date``: see
-    :func:`~steer_monitor.logfiles.logs.iter_log`)."""
+    :func:`iter_log`)."""
     path = Path(path)
     fmt = log_format(path)
     if fmt == 'candump':
@@ -869,6 +870,15 @@ def in_time_order(paths: list[Path], date: datetime.date | None = None) -> list[
         t = first_frame_ns(p, date)
         return 1 << 62 if t is None else t
     return sorted(paths, key=key) if len(paths) > 1 else list(paths)
+
+
+def iter_log(path: str | Path, rejects: RejectCounter | None = None, date: datetime.date | None = None
+             ) -> Iterator[Frame]:
+    """Frames of any supported log, one at a time in file order (the blocks of
+    :func:`iter_log_blocks`). Bad records are counted in ``rejects``; ``date``: the date of a
+    YDWG log's first line (see :func:`~steer_monitor.logfiles.gateway.ydwg_date`)."""
+    for block in iter_log_blocks(path, rejects, date):
+        yield from block.frames()
 
 
 def read_log_fast(path: str | Path, rejects: RejectCounter | None = None,

@@ -32,18 +32,18 @@ from typing import Any, BinaryIO
 
 from steer_monitor.atomic import note_input
 from steer_monitor.can.bus import frame_from_message, message_from_frame
-from steer_monitor.can.frames import Frame, FrameArrays
+from steer_monitor.can.frames import Frame
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
 from steer_monitor.logfiles.compressed import COMPRESSED_SUFFIXES, compression, open_decompressed, plain_suffix
 from steer_monitor.logfiles.formats import FORMATS
 from steer_monitor.logfiles.gateway import CANBOAT_LINE, YDWG_LINE, canboat_frames, ydwg_date, ydwg_frames
 from steer_monitor.logfiles.linebound import bounded_lines
-from steer_monitor.logfiles.mcapio import McapWriter, iter_mcap_frames
+from steer_monitor.logfiles.mcapio import McapWriter
 
 __all__ = ['BINARY_FORMATS', 'FORMATS', 'READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'candump_line',
-           'is_compressed', 'iter_log', 'iter_log_as', 'log_format', 'log_path_problem', 'open_log', 'open_text_log',
-           'read_log_arrays', 'skipped_parts']
+           'is_compressed', 'iter_log_as', 'log_format', 'log_path_problem', 'open_log', 'open_text_log',
+           'skipped_parts']
 
 READ_SUFFIXES = ('.log', '.asc', '.blf', '.mcap')
 #: formats read, by the name :func:`log_format` gives them
@@ -183,17 +183,16 @@ def _candump_line(line: str, lineno: int, rejects: RejectCounter | None, path: P
                  is_extended=len(ident) == 8, is_error=is_error, is_remote=bool(rtr), channel=channel)
 
 
-def iter_log(path: str | Path, rejects: RejectCounter | None = None, date: datetime.date | None = None
-             ) -> Iterator[Frame]:
-    """Frames of a log file in file order. Bad records are counted in ``rejects``. ``date``:
-    the date of a YDWG log's first line (see :func:`~steer_monitor.logfiles.gateway.ydwg_date`)."""
-    path = Path(path)
-    yield from iter_log_as(path, log_format(path), rejects, date)
-
-
 def iter_log_as(path: Path, fmt: str, rejects: RejectCounter | None = None, date: datetime.date | None = None
                 ) -> Iterator[Frame]:
-    """:func:`iter_log` of a log whose format (:func:`log_format`) is known already."""
+    """Frames, one at a time, of a log whose format (:func:`log_format`) is known already and
+    has no column reader: ASC and BLF (python-can), CANboat plain and YDWG raw. Candump and
+    MCAP are read in columns (:func:`~steer_monitor.logfiles.fastlogs.iter_log_blocks`, the one
+    reader of every format). Bad records are counted in ``rejects``; ``date``: the date of a YDWG
+    log's first line (see :func:`~steer_monitor.logfiles.gateway.ydwg_date`)."""
+    if fmt in ('candump', 'mcap'):
+        msg = f'{fmt} logs are read in columns (fastlogs.iter_log_blocks), not here'
+        raise ValueError(msg)
     if fmt == 'ydwg':
         try:
             day, _ = ydwg_date(path, date)
@@ -206,19 +205,6 @@ def iter_log_as(path: Path, fmt: str, rejects: RejectCounter | None = None, date
             return
         if fmt == 'ydwg':
             yield from ydwg_frames(fh, path, day, rejects)
-            return
-        if fmt == 'candump':
-            for lineno, raw in enumerate(fh, 1):
-                frame = _candump_line(raw.decode('ascii', 'replace'), lineno, rejects, path)
-                if frame is not None:
-                    yield frame
-            return
-        if fmt == 'mcap':
-            try:
-                yield from iter_mcap_frames(fh)
-            except Exception as exc:  # mcap raises its own record/CRC errors
-                msg = f'{path}: MCAP breaks off or is corrupt ({type(exc).__name__}: {exc}); frames before it were read'
-                raise LogError(msg) from exc
             return
     yield from _iter_python_can(path, '.' + fmt, rejects)
 
@@ -453,12 +439,6 @@ def skipped_parts(where: list[str], what: str) -> str:
     how many, the first one (``where``: one text per part), and that the rest was read."""
     return (f'{len(where)} {what} skipped ({where[0]}' + (', ...' if len(where) > 1 else '')
             + '); the frames before and after them were read')
-
-
-def read_log_arrays(path: str | Path, rejects: RejectCounter | None = None,
-                    date: datetime.date | None = None) -> FrameArrays:
-    """A whole log as columns."""
-    return FrameArrays.from_frames(iter_log(path, rejects, date))
 
 
 def candump_line(frame: Frame, channel: str) -> str:

@@ -4,7 +4,7 @@ cdr encoding, ros2msg schema), as the node records them and ``replay`` reads the
 from __future__ import annotations
 
 import struct
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import IO, Any
 
@@ -17,7 +17,7 @@ from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX
 from steer_monitor.rostime import SEC_MAX, ros_time
 
 __all__ = ['DEFAULT_QOS', 'FRAME_DATATYPE', 'FRAME_MSGDEF', 'FRAME_TOPIC', 'Counted', 'McapWriter', 'frame_cdr',
-           'frame_message', 'frame_records', 'iter_mcap_frames', 'leading_metadata']
+           'frame_message', 'frame_records', 'leading_metadata']
 
 FRAME_TOPIC = '/steering_can/rx'
 FRAME_DATATYPE = 'can_msgs/msg/Frame'
@@ -327,25 +327,6 @@ class McapWriter:
         self.close()
 
 
-def iter_mcap_frames(stream: IO[bytes], topic: str | None = None) -> Iterator[Frame]:
-    """Frames from every ``can_msgs/msg/Frame`` channel (or one topic) of an MCAP stream, in
-    file order. Reads records sequentially (no summary needed), so a file cut short, e.g. by a
-    crash, yields every frame before the cut and then raises the reader's error."""
-    from mcap.reader import make_reader
-    from mcap_ros2.decoder import DecoderFactory
-
-    reader = make_reader(_Sequential(stream), validate_crcs=True, decoder_factories=[DecoderFactory()])
-    for schema, channel, message, msg in reader.iter_decoded_messages(log_time_order=False):
-        if schema is None or schema.name != FRAME_DATATYPE or (topic is not None and channel.topic != topic):
-            continue
-        stamp = msg.header.stamp
-        t_ns = stamp.sec * 1_000_000_000 + stamp.nanosec if (stamp.sec or stamp.nanosec) else message.log_time
-        dlc = min(int(msg.dlc), 8)
-        yield Frame(t_ns=int(t_ns), can_id=int(msg.id), data=bytes(msg.data)[:dlc],
-                    is_extended=bool(msg.is_extended), is_error=bool(msg.is_error),
-                    is_remote=bool(msg.is_rtr), channel=msg.header.frame_id)
-
-
 def leading_metadata(path: str | Path, limit_bytes: int = 1 << 20) -> dict[str, dict[str, str]]:
     """The metadata records written before the first chunk or message of an MCAP file (where
     the node's recorder and ``replay`` put theirs: :mod:`~steer_monitor.record.provenance`),
@@ -367,16 +348,3 @@ def leading_metadata(path: str | Path, limit_bytes: int = 1 << 20) -> dict[str, 
     except (McapError, ValueError, struct.error, EOFError, UnicodeDecodeError):
         pass
     return out
-
-
-class _Sequential:
-    """A read-only view of a stream that says it cannot seek, so mcap reads record by record."""
-
-    def __init__(self, stream: IO[bytes]) -> None:
-        self._stream = stream
-
-    def read(self, n: int = -1) -> bytes:
-        return self._stream.read(n)
-
-    def seekable(self) -> bool:
-        return False

@@ -1,4 +1,5 @@
-"""The column readers give what the reference reader (iter_log) gives: frames and rejects."""
+"""The column readers give what the reference reader (test/logfiles/reference_reader.py) gives:
+frames and rejects."""
 
 from __future__ import annotations
 
@@ -18,8 +19,10 @@ from steer_monitor.logfiles.fastlogs import (
     read_log_fast,
     write_candump_arrays,
 )
-from steer_monitor.logfiles.logs import LogError, LogWriter, iter_log, read_log_arrays
+from steer_monitor.logfiles.logs import LogError, LogWriter
 from steer_monitor.logfiles.mcapio import McapWriter
+from test.logfiles.reference_reader import iter_log_reference as iter_log
+from test.logfiles.reference_reader import read_log_reference as read_log_arrays
 
 COLUMNS = ('t_ns', 'can_id', 'dlc', 'data', 'flags')
 

@@ -17,8 +17,8 @@ from steer_monitor.logfiles.mcapio import (
     McapWriter,
     frame_cdr,
     frame_message,
-    iter_mcap_frames,
 )
+from test.logfiles.reference_reader import iter_mcap_frames
 
 ENCODE = serialize_dynamic(FRAME_DATATYPE, FRAME_MSGDEF)[FRAME_DATATYPE]
 
