@@ -86,7 +86,6 @@ def _instrument(spent: dict[str, float]) -> None:
     Analyst.due = _timed(spent, 'analyst (window, schedule)', Analyst.due)
     for name in ('write_cdr', 'write', 'write_frames', 'write_records'):
         setattr(McapWriter, name, _timed(spent, 'messages', getattr(McapWriter, name)))
-    R.state_messages = _timed(spent, 'messages', R.state_messages)
     R.pack_states = _timed(spent, 'messages', R.pack_states)
     R.diag_messages = _timed(spent, 'messages', R.diag_messages)
 
