@@ -31,6 +31,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -119,23 +120,51 @@ def data_grid(sample_ns: NDArray[np.int64], start_ns: int, end_ns: int) -> NDArr
 
 def _interp(series: Series | None, t: NDArray[np.int64], max_gap: int, shift_ns: int = 0) -> NDArray[np.float64]:
     """Linear interpolation to ``t`` where the bracketing samples are at most ``max_gap``
-    apart (and exact hits); NaN elsewhere."""
+    apart (and exact hits: the last sample at that time); NaN elsewhere. ``t`` in any order."""
     out = np.full(t.shape, np.nan)
     if series is None or len(series) == 0:
         return out
     ts = series.t_ns - np.int64(shift_ns)
-    v = series.value
-    j = np.searchsorted(ts, t, side='right')      # ts[j-1] <= t < ts[j]
-    inside = (j > 0) & (j < ts.size)
-    exact = (j > 0) & (ts[np.maximum(j - 1, 0)] == t)
-    jj = np.where(inside, j, 1)
-    t0, t1 = ts[jj - 1], ts[np.minimum(jj, ts.size - 1)]
-    ok = inside & ((t1 - t0) <= max_gap)
-    w = np.where(ok, (t - t0) / np.where(t1 > t0, t1 - t0, 1), 0.0)
-    val = v[jj - 1] + (v[np.minimum(jj, ts.size - 1)] - v[jj - 1]) * w
-    out[ok] = val[ok]
-    out[exact] = v[np.maximum(j - 1, 0)][exact]
+    _interp_into(np.ascontiguousarray(ts), np.ascontiguousarray(series.value, dtype=np.float64),
+                 np.ascontiguousarray(t, dtype=np.int64).reshape(-1), np.int64(max_gap), out.reshape(-1))
     return out
+
+
+@numba.njit(cache=True, nogil=True, error_model='numpy')
+def _interp_into(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.int64], max_gap: np.int64,
+                 out: NDArray[np.float64]) -> None:   # pragma: no cover - compiled
+    """:func:`_interp`'s loop, compiled: per point the first sample after it (walking on from
+    the point before when the points are in order, else a binary search), then the value. The
+    arithmetic is numpy's (int64 differences divided as float64, ``v0 + (v1 - v0) * w``, no
+    fused multiply-add), so the values are the same to the bit as the vectorized form this
+    replaced (``test_observe`` compares them). It makes no temporaries: the interpolation took
+    a third of a loop's time on an hour's window (0.51 s of 1.43 s), now 0.04 s."""
+    n = ts.size
+    j = 0
+    prev = t[0] if t.size else 0
+    for i in range(t.size):
+        ti = t[i]
+        if ti >= prev:                          # in order (the usual case): walk on from the last point
+            while j < n and ts[j] <= ti:
+                j += 1
+        else:                                   # out of order: search
+            lo, hi = 0, n
+            while lo < hi:
+                mid = (lo + hi) >> 1
+                if ts[mid] <= ti:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            j = lo
+        prev = ti                               # ts[j-1] <= ti < ts[j]
+        if j > 0 and ts[j - 1] == ti:
+            out[i] = v[j - 1]
+        elif 0 < j < n:
+            t0 = ts[j - 1]
+            t1 = ts[j]
+            if t1 - t0 <= max_gap:
+                w = (ti - t0) / (t1 - t0)
+                out[i] = v[j - 1] + (v[j] - v[j - 1]) * w
 
 
 def _window_sums(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.int64], y_ref: NDArray[np.float64],

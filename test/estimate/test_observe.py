@@ -124,3 +124,45 @@ def test_data_grid_is_the_plain_grid_without_long_gaps():
     from steer_monitor.estimate.observe import data_grid
     ts = np.arange(0, 100 * 10**9, 10**8, dtype=np.int64) + 1_767_225_600 * 10**9
     np.testing.assert_array_equal(data_grid(ts, int(ts[0]), int(ts[-1]) + 1), grid_times(int(ts[0]), int(ts[-1]) + 1))
+
+
+def _interp_numpy(series, t, max_gap, shift_ns=0):
+    """The vectorized interpolation the compiled loop replaced: the oracle, to the bit."""
+    out = np.full(t.shape, np.nan)
+    if series is None or len(series) == 0:
+        return out
+    ts = series.t_ns - np.int64(shift_ns)
+    v = series.value
+    j = np.searchsorted(ts, t, side='right')
+    inside = (j > 0) & (j < ts.size)
+    exact = (j > 0) & (ts[np.maximum(j - 1, 0)] == t)
+    jj = np.where(inside, j, 1)
+    t0, t1 = ts[jj - 1], ts[np.minimum(jj, ts.size - 1)]
+    ok = inside & ((t1 - t0) <= max_gap)
+    w = np.where(ok, (t - t0) / np.where(t1 > t0, t1 - t0, 1), 0.0)
+    val = v[jj - 1] + (v[np.minimum(jj, ts.size - 1)] - v[jj - 1]) * w
+    out[ok] = val[ok]
+    out[exact] = v[np.maximum(j - 1, 0)][exact]
+    return out
+
+
+@pytest.mark.parametrize('seed', range(6))
+def test_the_compiled_interpolation_is_the_vectorized_one_to_the_bit(seed):
+    """Irregular samples with gaps, repeated times and exact hits; points in order, out of
+    order (the segments' ends), before, between and after the samples; shifted."""
+    from steer_monitor.estimate.observe import _interp
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 3000))
+    steps = rng.choice([0, 50_000_000, 100_000_000, 400_000_000], size=n, p=[0.05, 0.45, 0.45, 0.05])
+    ts = 1_767_225_600_000_000_000 + np.cumsum(steps + rng.integers(0, 3_000_000, n)).astype(np.int64)
+    series = Series(ts, rng.normal(0.0, 0.3, n).cumsum())
+    span = int(ts[-1] - ts[0]) + 2_000_000_000
+    t = ts[0] - 1_000_000_000 + np.sort(rng.integers(0, span, 4000)).astype(np.int64)
+    t = np.concatenate([t, ts[rng.integers(0, n, 500)], rng.permutation(t)[:1000]])
+    for shift in (0, 250_000_000, -37_000_000):
+        got = _interp(series, t, 250_000_000, shift)
+        ref = _interp_numpy(series, t, 250_000_000, shift)
+        assert np.array_equal(np.isnan(got), np.isnan(ref))
+        assert np.array_equal(got.view(np.int64)[~np.isnan(ref)], ref.view(np.int64)[~np.isnan(ref)])
+    assert np.isnan(_interp(Series(ts[:0], series.value[:0]), t, 250_000_000)).all()
+    assert np.isnan(_interp(None, t, 250_000_000)).all()
