@@ -27,6 +27,7 @@ Pure numpy. Times integer ns, values SI.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -83,11 +84,14 @@ class Observations:
     def __len__(self) -> int:
         return int(self.t_ns.shape[0])
 
-    @property
+    @functools.cached_property
     def moving(self) -> NDArray[np.bool_]:
-        """Steady-motion instants with a valid angle and at least one valid ram force."""
+        """Steady-motion instants with a valid angle and at least one valid ram force (worked
+        out once: an analysis asks a hundred times; read-only, as the arrays are not changed)."""
         ok = np.isfinite(self.alpha) & np.any(np.isfinite(self.force), axis=1)
-        return (self.direction != 0) & ok
+        out = (self.direction != 0) & ok
+        out.flags.writeable = False
+        return out
 
     def select(self, mask: NDArray[np.bool_]) -> Observations:
         return Observations(self.t_ns[mask], self.alpha[mask], self.rate[mask], self.direction[mask],
