@@ -112,7 +112,7 @@ def test_inspect_reads_a_4_gib_run_of_zeros_in_a_gzip_log_in_bounded_memory(tmp_
     path = tmp_path / 'can0.log.gz'
     good = _gzip_bomb(path, 4)
     assert path.stat().st_size < 8 << 20
-    m = _measured('inspect', str(path), '--json')
+    m = _measured('inspect', str(path), '--json', '-')
     got = json.loads(m['out'])
     assert got['frames'] == good, m['err']
     assert got['rejects']['long_line'] == (4 << 30) - 65536
