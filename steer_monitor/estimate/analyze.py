@@ -59,7 +59,7 @@ from steer_monitor.estimate.effects import (
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.locate import Located, locate
 from steer_monitor.estimate.moments import Moments
-from steer_monitor.estimate.observe import EstimateError, Observations, build_observations
+from steer_monitor.estimate.observe import EstimateError, Observations, build_observations, in_sorted
 from steer_monitor.estimate.rams import (
     OPPOSED,
     RamShare,
@@ -398,8 +398,8 @@ def _screen(
         # which rows it kept, not by how well it fits: both are scored on the instants
         # steady under either reading.
         o = build_observations(signals, gear.ram_area, angle_shift_s=tau)
-        o_mask = np.isin(o.t_ns, steady_t)
-        base_mask = np.isin(obs.t_ns, o.t_ns[o.moving & o_mask]) & keep
+        o_mask = in_sorted(o.t_ns, steady_t)
+        base_mask = in_sorted(obs.t_ns, o.t_ns[o.moving & o_mask]) & keep
         return o, o_mask, base_mask
 
     def delay_trial(cand: Candidate) -> None:

@@ -166,3 +166,19 @@ def test_the_compiled_interpolation_is_the_vectorized_one_to_the_bit(seed):
         assert np.array_equal(got.view(np.int64)[~np.isnan(ref)], ref.view(np.int64)[~np.isnan(ref)])
     assert np.isnan(_interp(Series(ts[:0], series.value[:0]), t, 250_000_000)).all()
     assert np.isnan(_interp(None, t, 250_000_000)).all()
+
+
+@pytest.mark.parametrize('seed', range(4))
+def test_sorted_positions_and_in_sorted_are_numpys(seed):
+    """The compiled walk gives numpy's searchsorted positions (both sides) and isin's
+    booleans: keys in order, out of order, repeated, before and after every sample."""
+    from steer_monitor.estimate.observe import in_sorted, sorted_positions
+    rng = np.random.default_rng(seed)
+    ts = np.sort(rng.integers(0, 10_000, int(rng.integers(0, 500)))).astype(np.int64)
+    t = np.concatenate([np.sort(rng.integers(-100, 10_100, 800)), rng.integers(-100, 10_100, 200),
+                        ts[:50]]).astype(np.int64)
+    for right in (False, True):
+        assert np.array_equal(sorted_positions(ts, t, right=right),
+                              np.searchsorted(ts, t, side='right' if right else 'left'))
+    assert np.array_equal(in_sorted(t, ts), np.isin(t, ts))
+    assert np.array_equal(in_sorted(ts, np.unique(t)), np.isin(ts, t))
