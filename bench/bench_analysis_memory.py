@@ -18,17 +18,11 @@ import os
 import sys
 from concurrent.futures import ThreadPoolExecutor
 
+from bench.bench_node import rss_mb
+
 VOYAGE_S = 1500.0
 FRACTIONS = (0.2, 0.3, 0.45, 0.6, 0.8, 1.0)
 REPEATS = 4
-
-
-def _rss_mb() -> float:
-    with open('/proc/self/status') as fh:
-        for line in fh:
-            if line.startswith('VmRSS'):
-                return int(line.split()[1]) / 1024
-    return float('nan')
 
 
 def _signatures() -> int:
@@ -57,7 +51,7 @@ def main() -> int:
     t0 = min(int(s.t_ns[0]) for s in signals.values() if len(s))
     t1 = max(int(s.t_ns[-1]) for s in signals.values() if len(s))
     print(f'== the node\'s analyses on a worker thread: resident memory after each ({VOYAGE_S / 60:.0f}-minute '
-          f'realistic voyage) ==\nbefore the first: {_rss_mb():.0f} MB')
+          f'realistic voyage) ==\nbefore the first: {rss_mb():.0f} MB')
     settings = AnalystSettings()
     model: tuple = ()
     after: list[float] = []
@@ -73,7 +67,7 @@ def main() -> int:
             outcome = pool.submit(work).result()
             if kind == 'loop':
                 model = outcome.model
-            after.append(_rss_mb())
+            after.append(rss_mb())
             print(f'{kind:8s} of {(t - t0) / 1e9:5.0f} s of data: {after[-1]:6.1f} MB, numba signatures '
                   f'{_signatures()}, {"a finding" if outcome.finding else outcome.why}', flush=True)
 

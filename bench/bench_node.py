@@ -71,7 +71,8 @@ def _thread_cpu_s() -> dict[str, float]:
     return out
 
 
-def _rss_mb() -> float:
+def rss_mb() -> float:
+    """This process's resident memory [MB] (VmRSS)."""
     with open('/proc/self/status') as fh:
         for line in fh:
             if line.startswith('VmRSS:'):
@@ -111,7 +112,7 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
     params = load_params_file(config)
     db, smap = can_setup(params, config)
     program = f'realistic:{seconds:.0f}' if mode == 'voyage' else 'voyage'
-    rss_before_sim = _rss_mb()
+    rss_before_sim = rss_mb()
     frames = sim.run(params, sim.SimConfig(program=program), db, smap, seed=1).frames
     native_rate = len(frames) / ((int(frames.t_ns[-1]) - int(frames.t_ns[0])) / 1e9)
     if mode == 'speedup':
@@ -125,7 +126,7 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
         both = FrameArrays.concat([own, other])
         frames = both.take(np.argsort(both.t_ns, kind='stable'))
         factor = 1.0
-    sim_mb = _rss_mb() - rss_before_sim     # the simulator's voyage and the other traffic, made before the node
+    sim_mb = rss_mb() - rss_before_sim     # the simulator's voyage and the other traffic, made before the node
     channel = f'bench-{uuid.uuid4().hex[:6]}'
     with tempfile.TemporaryDirectory() as tmp:
         context = rclpy.Context()
@@ -141,7 +142,7 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
         spinner = threading.Thread(target=executor.spin, daemon=True)
         spinner.start()
         time.sleep(1.0)
-        rss_start = _rss_mb()
+        rss_start = rss_mb()
         bus = can.Bus(interface='virtual', channel=channel)
         rss_trace: list[tuple[float, float]] = []
         cpu_trace: list[float] = []
@@ -151,7 +152,7 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
             t_start = time.monotonic()
             last = sum(os.times()[:2])
             while not done.wait(10.0):
-                rss_trace.append((time.monotonic() - t_start, _rss_mb()))
+                rss_trace.append((time.monotonic() - t_start, rss_mb()))
                 now = sum(os.times()[:2])
                 cpu_trace.append((now - last) / 10.0)
                 last = now
@@ -170,7 +171,7 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
         cpu = sum(os.times()[:2]) - cpu0
         sim_cpu = time.thread_time() - main0
         threads1 = _thread_cpu_s()
-        rss_end = _rss_mb()
+        rss_end = rss_mb()
         bus.shutdown()
         executor.shutdown()
         received = node.frames_received

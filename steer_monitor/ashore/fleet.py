@@ -103,18 +103,11 @@ def make_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
             msg = f'cannot reach the Dask scheduler {scheduler}: {exc}'
             raise InputError(msg) from exc
     n = workers or os.cpu_count() or 1
-    import multiprocessing
-    if multiprocessing.parent_process() is not None:
-        # the spawned worker re-imports a script that calls this at its top level: without the
-        # guard every worker would start a cluster of its own ("Nanny failed to start")
-        msg = ("cannot start the fleet's worker processes from a worker process: a script that runs the fleet "
-               "must call it under `if __name__ == '__main__':`")
-        raise SteerMonitorError(msg)
     with dask.config.set({WORKER_ENVIRON: worker_environ()}):   # read once per worker's nanny
         try:
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host='127.0.0.1',
                                    dashboard_address='127.0.0.1:0', silence_logs=50)
-        except RuntimeError as exc:
+        except RuntimeError as exc:   # a spawned worker re-ran a script's top level, which started a cluster
             msg = (f"cannot start the fleet's {n} worker process(es) ({exc}); from a script, call the fleet "
                    "under `if __name__ == '__main__':`")
             raise SteerMonitorError(msg) from exc

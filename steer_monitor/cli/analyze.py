@@ -44,7 +44,7 @@ def run(path: str | Path, config: str | Path | None = None, json_out: str | Path
                              f'not {window_motion_h:g}')
     out = out or sys.stdout
     err = err or sys.stderr
-    out = text_stream([None if json_to_stdout(json_out) else json_out, report], out, err)
+    out = text_stream([json_out, report], out, err)
     check_logs([path])
     check_json_target(json_out, [path, config])     # before minutes of work, not after
     if report is not None:

@@ -163,7 +163,7 @@ def run(paths: Sequence[str | Path], config: str | Path | None = None, date: dat
     per log on ``err``) when a log broke off or had corrupt parts."""
     out = out or sys.stdout
     err = err or sys.stderr
-    out = text_stream([write, None if json_to_stdout(json_out) else json_out], out, err)
+    out = text_stream([write, json_out], out, err)
     if write is not None:
         check_target(write, [*paths, config, pgn_database])
     check_json_target(json_out, [*paths, config, pgn_database, write])

@@ -35,7 +35,7 @@ def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = N
     if workers is not None and workers < 1:
         from steer_monitor.errors import ParameterError
         raise ParameterError(f'--workers must be at least 1, got {workers}')
-    out = text_stream([None if json_to_stdout(json_out) else json_out], out, err)
+    out = text_stream([json_out], out, err)
     check_json_target(json_out, [*dirs, config])
     out_dir = ensure_dir(out_dir)
     with tqdm(unit='log', disable=not sys.stderr.isatty(), file=sys.stderr, desc='fleet') as bar:

@@ -25,13 +25,14 @@ from steer_monitor.cli.output import (
 
 __all__ = ['register', 'run']
 
+
 def run(path: str | Path, config: str | Path | None = None, json_out: str | Path | None = None,
         out: TextIO | None = None, err: TextIO | None = None, date: datetime.date | None = None) -> int:
     """Print what ``path`` holds; 1 (with one line on ``err``) when it broke off or had
     corrupt parts, whose readable frames are counted, or held no frame at all."""
     out = out or sys.stdout
     err = err or sys.stderr
-    out = text_stream([None if json_to_stdout(json_out) else json_out], out, err)
+    out = text_stream([json_out], out, err)
     check_logs([path])
     check_json_target(json_out, [path, config])
     date_notes('inspect', [path], date, err)

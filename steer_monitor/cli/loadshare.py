@@ -23,7 +23,7 @@ def run(config: str | Path | None = None, gap_2z_mm: float | None = None,
         plot: str | Path | None = None, step_deg: float = 0.5, json_out: str | Path | None = None,
         out: TextIO | None = None) -> int:
     out = out or sys.stdout
-    out = text_stream([None if json_to_stdout(json_out) else json_out, plot], out, sys.stderr)
+    out = text_stream([json_out, plot], out, sys.stderr)
     check_json_target(json_out, [config, plot])
     params = load_params_file(config or default_config())
     gear = gear_from_params(params)

@@ -72,13 +72,13 @@ def emit_json(obj: Any, target: str | Path | None, out: TextIO) -> None:
 def text_stream(targets: Sequence[str | Path | None], out: TextIO, err: TextIO) -> TextIO:
     """Where a command's words for people go: ``out``, unless one of its output files is
     ``out`` itself (``--out /dev/stdout`` into a pipe), whose bytes they would corrupt:
-    then ``err``."""
+    then ``err``. ``-`` (``--json -``: the JSON on ``out`` instead of the words) is no file."""
     try:
         here = os.fstat(out.fileno())
     except (OSError, ValueError, AttributeError, io.UnsupportedOperation):
         return out
     for target in targets:
-        if target is None:
+        if target is None or json_to_stdout(target):
             continue
         try:
             there = os.stat(target)

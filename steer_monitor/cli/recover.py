@@ -22,7 +22,7 @@ def run(path: str | Path, output: str | Path | None = None, json_out: str | Path
     is for); 1 when corrupt chunks were dropped, with one line on ``err`` saying which."""
     out = out or sys.stdout
     err = err or sys.stderr
-    out = text_stream([output, None if json_to_stdout(json_out) else json_out], out, err)
+    out = text_stream([output, json_out], out, err)
     check_json_target(json_out, [path, output])
     r = recover(path, output)
     d = dataclasses.asdict(r)

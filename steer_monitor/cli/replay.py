@@ -39,7 +39,7 @@ def run(logs: list[str], out_path: str | Path, config: str | Path | None = None,
 
     out = out or sys.stdout
     err = err or sys.stderr
-    out = text_stream([out_path, None if json_to_stdout(json_out) else json_out], out, err)
+    out = text_stream([out_path, json_out], out, err)
     check_json_target(json_out, [*logs, config, out_path])
     date_notes('replay', logs, date, err)
     t0 = time.perf_counter()

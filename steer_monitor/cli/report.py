@@ -64,7 +64,7 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
         msg = f'--analysis-hours must be a finite number >= 0, got {analysis_hours}'
         raise ParameterError(msg)
     paths = [Path(p) for p in logs]
-    out = text_stream([None if json_to_stdout(json_out) else json_out], out, err)
+    out = text_stream([json_out], out, err)
     check_logs(paths)
     check_json_target(json_out, [*paths, config])
     config_path, params = load_config(config)

@@ -134,6 +134,31 @@ def _interp(series: Series | None, t: NDArray[np.int64], max_gap: int, shift_ns:
     return out
 
 
+@numba.njit(cache=True, nogil=True, inline='always')
+def _next_position(ts: NDArray[np.int64], ti: np.int64, j: int, in_order: bool, right: bool
+                   ) -> int:   # pragma: no cover - compiled
+    """``searchsorted(ts, ti, side='right' if right else 'left')``: walking on from ``j``, the
+    position of the point before, when ``in_order`` (the points ascend: the usual case), else a
+    binary search."""
+    n = ts.size
+    if in_order:
+        if right:
+            while j < n and ts[j] <= ti:
+                j += 1
+        else:
+            while j < n and ts[j] < ti:
+                j += 1
+        return j
+    lo, hi = 0, n
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if ts[mid] < ti or (right and ts[mid] == ti):
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
 @numba.njit(cache=True, nogil=True, error_model='numpy')
 def _interp_into(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.int64], max_gap: np.int64,
                  out: NDArray[np.float64]) -> None:   # pragma: no cover - compiled
@@ -148,19 +173,8 @@ def _interp_into(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.in
     prev = t[0] if t.size else 0
     for i in range(t.size):
         ti = t[i]
-        if ti >= prev:                          # in order (the usual case): walk on from the last point
-            while j < n and ts[j] <= ti:
-                j += 1
-        else:                                   # out of order: search
-            lo, hi = 0, n
-            while lo < hi:
-                mid = (lo + hi) >> 1
-                if ts[mid] <= ti:
-                    lo = mid + 1
-                else:
-                    hi = mid
-            j = lo
-        prev = ti                               # ts[j-1] <= ti < ts[j]
+        j = _next_position(ts, ti, j, ti >= prev, True)     # ts[j-1] <= ti < ts[j]
+        prev = ti
         if j > 0 and ts[j - 1] == ti:
             out[i] = v[j - 1]
         elif 0 < j < n:
@@ -184,27 +198,11 @@ def sorted_positions(ts: NDArray[np.int64], t: NDArray[np.int64], *, right: bool
 @numba.njit(cache=True, nogil=True)
 def _positions_into(ts: NDArray[np.int64], t: NDArray[np.int64], right: bool,
                     out: NDArray[np.intp]) -> None:   # pragma: no cover - compiled
-    n = ts.size
     j = 0
     prev = t[0] if t.size else 0
     for i in range(t.size):
         ti = t[i]
-        if ti >= prev:
-            if right:
-                while j < n and ts[j] <= ti:
-                    j += 1
-            else:
-                while j < n and ts[j] < ti:
-                    j += 1
-        else:
-            lo, hi = 0, n
-            while lo < hi:
-                mid = (lo + hi) >> 1
-                if ts[mid] < ti or (right and ts[mid] == ti):
-                    lo = mid + 1
-                else:
-                    hi = mid
-            j = lo
+        j = _next_position(ts, ti, j, ti >= prev, right)
         prev = ti
         out[i] = j
 

@@ -46,7 +46,6 @@ __all__ = ['BINARY_FORMATS', 'FORMATS', 'READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogE
            'skipped_parts']
 
 READ_SUFFIXES = ('.log', '.asc', '.blf', '.mcap')
-#: formats read, by the name :func:`log_format` gives them
 #: the formats of records, not lines (the rest are text, read a line at a time)
 BINARY_FORMATS = ('blf', 'mcap')
 _BY_SUFFIX = {'.log': 'candump', '.asc': 'asc', '.blf': 'blf', '.mcap': 'mcap'}
