@@ -41,7 +41,8 @@ from steer_monitor.monitor.analyst import Analyst, SyncJobs
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig
 from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.messages import TOPICS, diag_messages, topic_name
-from steer_monitor.monitor.pipeline import Output, Pipeline, StateOut, analyst_from_params
+from steer_monitor.monitor.pipeline import DiagOut, Output, Pipeline, StateOut, analyst_from_params
+from steer_monitor.monitor.runfeed import StateRun
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params, recorded_params
 from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.record.msgdefs import msgdef
@@ -257,7 +258,8 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
         their records packed at once and written between the diagnostics."""
         if not queue:
             return
-        p = pack_states([o.state for o in queue if isinstance(o, StateOut)], rudder, share, gear)
+        p = pack_states([o.state if isinstance(o, StateOut) else o for o in queue if not isinstance(o, DiagOut)],
+                        rudder, share, gear)
         done = seen = 0            # records written, states passed
 
         def records_until_seen() -> None:
@@ -269,6 +271,8 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
         for o in queue:
             if isinstance(o, StateOut):
                 seen += 1
+            elif isinstance(o, StateRun):
+                seen += len(o)
             else:
                 records_until_seen()
                 write_messages(writer, topics, encoders, diag_messages(o))
@@ -279,6 +283,8 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
         for o in outs:
             if isinstance(o, StateOut):
                 summary.states += 1
+            elif isinstance(o, StateRun):
+                summary.states += len(o)
             else:
                 summary.diagnostics += 1
             queue.append(o)

@@ -635,6 +635,15 @@ class DecodedRun:
         self._event_row, self._event_kind = row[order], kind[order]
         self._next = 0                                   # the first event not counted
 
+    def counting_rows(self, visited: NDArray[np.intp]) -> NDArray[np.intp]:
+        """Of the frames ``visited`` (sorted) one by one with :meth:`count_rejects`, those at
+        which it counts something (the first visited at or after each reject's frame): calling
+        it at these alone counts the same, in the same order."""
+        if self._event_row.size == 0 or visited.size == 0:
+            return np.zeros(0, np.intp)
+        at = np.searchsorted(visited, self._event_row[self._next:], 'left')
+        return visited[np.unique(at[at < visited.size])]
+
     def count_rejects(self, upto: int) -> None:
         """Count the rejects of frames ``<= upto`` not counted yet."""
         rows, lo = self._event_row, self._next

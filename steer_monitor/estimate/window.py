@@ -165,6 +165,13 @@ class WindowBuffer:
             t.append(t_ns)
             self._v[name].append(value)
 
+    def extend(self, name: str, times: list[int], values: list[float]) -> None:
+        """Take samples of input ``name`` in order: :meth:`add` of each."""
+        t = self._t.get(name)
+        if t is not None:
+            t.extend(times)
+            self._v[name].extend(values)
+
     def signals(self) -> dict[str, Series]:
         """Every sample held, per input, as series."""
         out: dict[str, Series] = {}

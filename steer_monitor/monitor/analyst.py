@@ -170,6 +170,10 @@ class Analyst:
     def add(self, name: str, t_ns: int, value: float) -> None:
         self.buffer.add(name, t_ns, value)
 
+    def add_many(self, name: str, times: list[int], values: list[float]) -> None:
+        """Samples of one input in order: :meth:`add` of each."""
+        self.buffer.extend(name, times, values)
+
     def due(self, t_ns: int, motion_s: float) -> Job | None:
         """At the whole second ``t_ns`` with ``motion_s`` seconds of steady motion counted in
         this run: compact the window when due, and the job due now, if any."""

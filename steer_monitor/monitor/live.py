@@ -35,6 +35,7 @@ from collections import deque
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from numpy.typing import NDArray
 
 from steer_monitor.estimate.effects import Effect, live_term
 from steer_monitor.estimate.finding import Finding
@@ -48,7 +49,7 @@ from steer_monitor.model.torque import TorqueTable
 from steer_monitor.utc import utc_json
 
 __all__ = ['ARRIVALS_KEPT_NS', 'NO_RESPONSE_ERR', 'NO_RESPONSE_NS', 'RATE_WINDOW_NS', 'LiveMonitor', 'LiveState',
-           'Response']
+           'Response', 'measured_torque', 'measured_torques']
 
 DEG = math.pi / 180.0
 RATE_WINDOW_NS = 5_000_000_000      # the shortest window a rate is judged over
@@ -73,6 +74,25 @@ REVERSAL_NS = SLOPE_WINDOW_NS + 500_000_000
 NO_RESPONSE_NS = 5_000_000_000
 NO_RESPONSE_ERR = 1.0 * DEG
 _PRESSURE_INDEX = {'pressure_r1_stbd': 0, 'pressure_r1_port': 1, 'pressure_r2_stbd': 2, 'pressure_r2_port': 3}
+
+
+def measured_torque(gear: GearParams, alpha: float, p0: float, p1: float, p2: float, p3: float) -> float:
+    """The tiller torque [N m] the measured pressures [Pa] imply at rudder angle ``alpha``
+    [rad]: Fa = A_r |p_stbd - p_port| (mean of the two rams), M = Fa n H / cos^2(alpha)."""
+    area = gear.ram_area
+    fa = 0.5 * (abs(area * (p0 - p1)) + abs(area * (p2 - p3)))
+    cos_a = math.cos(alpha)
+    return fa * gear.rams * gear.stock_to_ram / (cos_a * cos_a)
+
+
+def measured_torques(gear: GearParams, alpha: NDArray[np.float64], p: NDArray[np.float64]) -> NDArray[np.float64]:
+    """:func:`measured_torque` of many states: ``alpha`` (n,) [rad], ``p`` (n, 4) [Pa]; the
+    same operations in the same order, element by element (the cosine by ``math.cos``), so
+    the same numbers to the bit."""
+    area = gear.ram_area
+    fa = 0.5 * (np.abs(area * (p[:, 0] - p[:, 1])) + np.abs(area * (p[:, 2] - p[:, 3])))
+    cos_a = np.fromiter(map(math.cos, alpha.tolist()), float, alpha.shape[0])
+    return fa * gear.rams * gear.stock_to_ram / (cos_a * cos_a)
 
 
 @dataclass
@@ -132,7 +152,7 @@ class LiveMonitor:
         self.signals: dict[str, _Signal] = {name: _Signal() for name in INPUTS}
         self._model_signals = tuple(self.signals[n] for n in ('rudder_angle', *_PRESSURE_INDEX))
         self._history: deque[tuple[int, float]] = deque()   # the last 0.9 s of angles
-        self._pending: deque[tuple[int, tuple[float, ...]]] = deque()   # (t, the four pressures)
+        self._pending: deque[tuple[int, float, float, float, float]] = deque()   # (t, the four pressures)
         self._pressures = [math.nan] * 4
         self._dirty = False
         self._state: LiveState | None = None
@@ -147,6 +167,10 @@ class LiveMonitor:
             deque(maxlen=RESIDUAL_SAMPLES // 2)
         self._resid: deque[tuple[float, float] | None] = deque(maxlen=RESIDUAL_SAMPLES // 2)
         self._resid_summary: tuple[list[float], int, float | None] | None = None   # of _resid, until it changes
+        # instants of _motion not judged yet: judged together when the residuals are read
+        # (:meth:`_summary`, the diagnostics once a second), as one vectorized solve
+        self._unjudged: deque[tuple[float, float | None, float, float, float, float, float]] = \
+            deque(maxlen=RESIDUAL_SAMPLES // 2)
         # the four pressures at the same instants, kept whatever the model in use (the rams'
         # share does not depend on it): a ring of the last SHARE_INSTANTS rows (numpy reads it
         # as it is, where a deque of tuples took 0.4 ms a second to convert), the next row
@@ -187,6 +211,7 @@ class LiveMonitor:
             self.priors = friction
         self.torque = torque
         self._resid = deque(self._residual_pairs(list(self._motion)), maxlen=self._resid.maxlen)
+        self._unjudged.clear()
         self._resid_summary = None
 
     def set_finding(self, finding: Finding) -> None:
@@ -222,6 +247,9 @@ class LiveMonitor:
         per change of it (the diagnostics read them several times a second, and at rest the
         minute does not change for hours)."""
         if self._resid_summary is None:
+            if self._unjudged:
+                self._resid.extend(self._residual_pairs(list(self._unjudged)))
+                self._unjudged.clear()
             res = [r for pair in self._resid if pair is not None for r in pair]
             rms = math.sqrt(math.fsum(r * r for r in res) / len(res)) if res else None   # fsum: see _slope
             self._resid_summary = (res, sum(pair is None for pair in self._resid), rms)
@@ -276,8 +304,11 @@ class LiveMonitor:
                         ) -> list[tuple[float, float] | None]:
         """:meth:`_residual_pair` of many instants at once (the minute a new estimate re-judges,
         up to 600 instants once a second of motion: one vectorized load-sharing solve instead
-        of one per instant). Equal to the one-instant results to rounding (tested); with the
-        effects of an analysis in use, instant by instant."""
+        of one per instant; every instant is judged here, the minute after a new estimate
+        and the instants taken since the residuals were last read). Equal to the one-instant
+        results to rounding (tested); with the effects of an analysis in use, instant by
+        instant. Element by element, so an instant's numbers do not depend on the others
+        judged with it."""
         if not instants:
             return []
         if self._effects:
@@ -328,8 +359,47 @@ class LiveMonitor:
             self._pressures[_PRESSURE_INDEX[name]] = sample.value
             p = self._pressures
             if not math.isnan(p[0] + p[1] + p[2] + p[3]):
-                self._pending.append((sample.t_ns, tuple(p)))
+                self._pending.append((sample.t_ns, p[0], p[1], p[2], p[3]))
             self._dirty = True
+
+    def record(self, name: str, times: list[int], values: list[float], ordered: bool) -> None:
+        """Samples of ``name`` [ns, SI] as :meth:`update` records them (last value, arrivals),
+        and nothing else: for the inputs whose samples only that (ship speed, oil temperature)
+        or whose other work the caller does at once (the pressures: :meth:`hold_pressures`).
+        ``ordered``: the times are in order (else they are taken one by one, as update does)."""
+        if not times:
+            return
+        sig = self.signals[name]
+        arrivals = sig.arrivals
+        if ordered and sig.ordered and (not arrivals or times[0] >= arrivals[-1]):
+            arrivals.extend(times)
+            cut = times[-1] - ARRIVALS_KEPT_NS   # what update() leaves, arrivals being in order
+            while arrivals[0] < cut:
+                arrivals.popleft()
+        else:
+            for t in times:
+                if arrivals and t < arrivals[-1]:
+                    sig.ordered = False
+                arrivals.append(t)
+                while arrivals and arrivals[0] < t - ARRIVALS_KEPT_NS:
+                    arrivals.popleft()
+        sig.last_t_ns, sig.last_value = times[-1], values[-1]
+
+    def hold_pressures(self, instants: list[tuple[int, float, float, float, float]],
+                       last: tuple[float, float, float, float] | None) -> None:
+        """What :meth:`update` of pressure samples holds for the residual: ``instants`` (t [ns],
+        the four pressures [Pa] after the sample) where all four are known, in order; ``last``
+        the four after the last of them (None: unchanged)."""
+        self._pending.extend(instants)
+        if last is not None:
+            self._pressures = list(last)
+
+    def mark_read(self, state: LiveState | None, changed: bool) -> None:
+        """After samples taken without :meth:`update` (a replay's run): the state last read by
+        :meth:`slot_state` (None: unchanged) and whether a rudder or pressure sample came since."""
+        if state is not None:
+            self._state = state
+        self._dirty = changed
 
     @property
     def changed(self) -> bool:
@@ -446,7 +516,7 @@ class LiveMonitor:
         oil = self.signals['oil_temperature'].last_value
         delay = self._delay_ns
         while self._pending and self._pending[0][0] <= t_end:
-            t, chambers = self._pending.popleft()
+            t, c0, c1, c2, c3 = self._pending.popleft()
             i = bisect.bisect_right(times, t + delay) - 1
             if i < 0 or i + 1 >= len(hist):
                 continue
@@ -461,13 +531,13 @@ class LiveMonitor:
                 continue
             (t_a, a_a), (t_b, a_b) = hist[i], hist[i + 1]
             alpha = a_a + (a_b - a_a) * (t + delay - t_a) / (t_b - t_a)
-            force_1, force_2 = area * (chambers[0] - chambers[1]), area * (chambers[2] - chambers[3])
+            force_1, force_2 = area * (c0 - c1), area * (c2 - c3)
             instant = (alpha, speed, direction, force_1, force_2, rate, oil)
             self._motion.append(instant)
-            self._resid.append(self._residual_pair(instant))
+            self._unjudged.append(instant)
             self._resid_summary = None
             row = self._ring_next
-            self._ring[row] = chambers
+            self._ring[row] = (c0, c1, c2, c3)
             self._ring_next = (row + 1) % SHARE_INSTANTS
             self._ring_kept = min(self._ring_kept + 1, SHARE_INSTANTS)
             self._share_stale = True
@@ -519,13 +589,21 @@ class LiveMonitor:
             return None
         if angle.last_t_ns is not None and t_ns > angle.last_t_ns:
             a += self.rate * (t_ns - angle.last_t_ns) / 1e9  # to the newest sample's time
-        gear = self.gear
-        area = gear.ram_area
-        fa = 0.5 * (abs(area * (p[0] - p[1])) + abs(area * (p[2] - p[3])))
-        cos_a = math.cos(a)
-        torque = fa * gear.rams * gear.stock_to_ram / (cos_a * cos_a)
-        share = None if self.defer_share else load_sharing_scalar(gear, a, torque, self.gaps.two_z, self.gaps.z_gb)
+        torque = measured_torque(self.gear, a, p[0], p[1], p[2], p[3])
+        share = None if self.defer_share else load_sharing_scalar(self.gear, a, torque, self.gaps.two_z,
+                                                                  self.gaps.z_gb)
         return LiveState(t_ns, a, self.rate, abs(self.rate) > MOVING_RATE, torque, share, self.gaps)
+
+    def state_at(self, t_ns: int, alpha: float, alpha_t_ns: int, rate: float, pressures: tuple[float, ...]
+                 ) -> LiveState:
+        """The state :meth:`slot_state` makes at ``t_ns`` from the angle ``alpha`` [rad] read at
+        ``alpha_t_ns``, the rate [rad/s] and the four pressures [Pa] then (a replay's run,
+        :meth:`take_run`, knows them without replaying each sample), its load sharing left to
+        the caller. Values must be finite."""
+        if t_ns > alpha_t_ns:
+            alpha += rate * (t_ns - alpha_t_ns) / 1e9
+        torque = measured_torque(self.gear, alpha, *pressures)
+        return LiveState(t_ns, alpha, rate, abs(rate) > MOVING_RATE, torque, None, self.gaps)
 
     def ram_share(self) -> RamShare | None:
         """How the rams shared the driving force over the last :data:`SHARE_INSTANTS` instants

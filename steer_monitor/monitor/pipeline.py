@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import threading
 import time
+from bisect import bisect_left
 from collections import deque
 from collections.abc import Callable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -35,6 +36,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from steer_monitor.can.decoder import DecodedRun, Decoder
 from steer_monitor.can.frames import Frame
@@ -45,6 +47,7 @@ from steer_monitor.model.inputs import Sample
 from steer_monitor.monitor.analyst import ANALYSED, Analyst, AnalystSettings, Job, JobRunner, Outcome, SyncJobs, run_job
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, Status
 from steer_monitor.monitor.live import LiveMonitor, LiveState
+from steer_monitor.monitor.runfeed import RunPlan, StateRun
 from steer_monitor.params import min_clearance_2z_from_params, ram_share_warn_from_params
 from steer_monitor.threads import release_freed_memory
 
@@ -76,7 +79,7 @@ class DiagOut:
     source: str
 
 
-Output = StateOut | DiagOut
+Output = StateOut | StateRun | DiagOut
 
 
 def settings_from_params(p: Mapping[str, Any]) -> AnalystSettings:
@@ -194,9 +197,10 @@ class Pipeline:
     def feed_run(self, run: DecodedRun) -> list[Output]:
         """Take a run of frames the decoder has decoded at once (:meth:`Decoder.decode_run`):
         the same outputs, in the same order, as :meth:`feed` of each frame in turn, with the
-        rejects counted as they would have been by each second's diagnostics. Only the frames
-        that carry samples or open a new slot are visited; for the others :meth:`feed` does
-        nothing but count them."""
+        rejects counted as they would have been by each second's diagnostics. Between whole
+        seconds the angle and order samples are taken one by one, the others recorded where
+        something reads them and the slots' states worked out at once (:mod:`.runfeed`); the
+        states come as :class:`~steer_monitor.monitor.runfeed.StateRun` columns."""
         t = run.t_ns
         n = t.shape[0]
         out: list[Output] = []
@@ -209,23 +213,104 @@ class Pipeline:
         before = np.empty(n, np.int64)                  # the newest slot before each frame
         before[0] = self._slot if self._slot is not None else np.iinfo(np.int64).min
         before[1:] = np.maximum(reached[:-1], before[0])
-        visit = slot > before
+        opens = slot > before
+        visit = opens.copy()
         visit[run.sample_row] = True
         visit[-1] = True                                # it sets last_changed_state
         if self._slot is None:
             visit[0] = True
         rows = np.flatnonzero(visit)
-        lo = np.searchsorted(run.sample_row, rows, 'left').tolist()
-        hi = np.searchsorted(run.sample_row, rows, 'right').tolist()
-        names, values, clocks, stamps = run.sample_name, run.sample_value.tolist(), clock.tolist(), t.tolist()
-        for i, a, b in zip(rows.tolist(), lo, hi):
-            run.count_rejects(i)
-            self._advance(clocks[i], out)
-            ti = stamps[i]
-            self._take([Sample(ti, names[k], values[k]) for k in range(a, b)])
+        lo = np.searchsorted(run.sample_row, rows, 'left')
+        hi = np.searchsorted(run.sample_row, rows, 'right')
+        plan = None
+        if self._slot is not None and self.monitor.defer_share:
+            plan = RunPlan(run, self.monitor, lo[opens[rows]])
+        if plan is None or not plan.ok:
+            names, values, clocks, stamps = run.sample_name, run.sample_value.tolist(), clock.tolist(), t.tolist()
+            for i, a, b in zip(rows.tolist(), lo.tolist(), hi.tolist()):
+                run.count_rejects(i)
+                self._advance(clocks[i], out)
+                ti = stamps[i]
+                self._take([Sample(ti, names[k], values[k]) for k in range(a, b)])
+        else:
+            self._feed_planned(run, plan, rows, lo, hi, opens[rows], clock, slot, out)
         run.count_rejects(n - 1)
         self.frames += n
         return out
+
+    def _feed_planned(self, run: DecodedRun, plan: RunPlan, rows: NDArray[np.intp], lo: NDArray[np.intp],
+                      hi: NDArray[np.intp], opens: NDArray[np.bool_], clock: NDArray[np.int64],
+                      slot: NDArray[np.int64], out: list[Output]) -> None:
+        """:meth:`feed_run` with the run laid out: rows (frames visited) one by one where a whole
+        second comes (and after it, until the state to emit is the one the live model would
+        evaluate), spans between them at once."""
+        mon, analyst = self.monitor, self.analyst
+        rows_l, lo_l, hi_l = rows.tolist(), lo.tolist(), hi.tolist()
+        clocks, stamps = clock.tolist(), run.t_ns.tolist()
+        reached = np.maximum.accumulate(clock[rows])
+        counting = run.counting_rows(rows).tolist()
+        opens_at = np.flatnonzero(opens)             # indices into rows
+        emits: list[tuple[int, NDArray[np.intp], Gaps]] = []   # (place in out, state positions, clearances)
+        c = 0                                        # counting rows passed
+        pos, n_rows = 0, len(rows_l)
+        while pos < n_rows:
+            if self._state_pending != mon.changed:   # after diagnostics read the state: one by one
+                j = pos
+            else:
+                assert self._next_second is not None
+                j = max(pos, int(np.searchsorted(reached, self._next_second, 'left')))
+            if j > pos:                              # a span: no whole second in it
+                a, b = lo_l[pos], hi_l[j - 1]
+                changed = mon.changed
+                for s in plan.seq[bisect_left(plan.seq, a):bisect_left(plan.seq, b)]:
+                    plan.before_sequential(mon, s)
+                    mon.update(Sample(plan.stamps[s], plan.names[s], plan.values[s]))
+                    plan.rate_after[s] = mon.rate
+                plan.sync(mon, analyst, b)
+                k0, k1 = int(np.searchsorted(opens_at, pos)), int(np.searchsorted(opens_at, j))
+                while c < len(counting) and counting[c] < rows_l[j - 1] + 1:
+                    run.count_rejects(counting[c])
+                    c += 1
+                state = None
+                if k1 > k0:
+                    at = lo[opens_at[k0:k1]]
+                    fresh = np.empty(k1 - k0, bool)      # the live model had changed since the last read
+                    fresh[0] = changed or plan.changed_between(a, int(at[0]))
+                    fresh[1:] = plan.changes[at[1:]] > plan.changes[at[:-1]]
+                    if fresh.any():
+                        emits.append((len(out), at[fresh], mon.gaps))
+                        out.append(None)             # type: ignore[arg-type]  # filled below
+                        state = plan.state_before(mon, int(at[fresh][-1]))
+                    changed = plan.changed_between(int(at[-1]), b)
+                    self._slot = int(slot[rows_l[opens_at[k1 - 1]]])
+                else:
+                    changed = changed or plan.changed_between(a, b)
+                mon.mark_read(state, changed)
+                self._state_pending = changed
+                self.last_changed_state = changed and hi_l[j - 1] > lo_l[j - 1]
+            if j >= n_rows:
+                break
+            i = rows_l[j]                            # one by one, as feed_run's loop
+            plan.sync(mon, analyst, lo_l[j])
+            while c < len(counting) and counting[c] <= i:
+                c += 1
+            run.count_rejects(i)
+            self._advance(clocks[i], out)
+            ti = stamps[i]
+            self._take([Sample(ti, plan.names[k], plan.values[k]) for k in range(lo_l[j], hi_l[j])])
+            plan.skip(hi_l[j])
+            for s in plan.seq[bisect_left(plan.seq, lo_l[j]):bisect_left(plan.seq, hi_l[j])]:
+                plan.rate_after[s] = mon.rate        # the rate after the row: all a later state reads
+            pos = j + 1
+        plan.sync(mon, analyst, plan.m)
+        if emits:
+            runs = plan.states(mon, np.concatenate([at for _, at, _ in emits]),
+                               [g for _, at, g in emits for _ in range(at.size)])
+            k = 0
+            for place, at, _ in emits:
+                out[place] = StateRun(*(col[k:k + at.size] for col in (runs.t_ns, runs.alpha, runs.rate, runs.torque,
+                                                                        runs.two_z, runs.z_gb)))
+                k += at.size
 
     def clock(self, t_ns: int) -> int | None:
         """The stream's time after a frame stamped ``t_ns``: its own stamp when it lies

@@ -29,6 +29,7 @@ from steer_monitor.model.loadshare import ShareScalar, load_sharing
 from steer_monitor.monitor.live import LiveState
 from steer_monitor.monitor.messages import state_messages
 from steer_monitor.monitor.pipeline import StateOut
+from steer_monitor.monitor.runfeed import StateRun
 from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.rostime import SEC_MAX
 
@@ -119,51 +120,98 @@ def _fill(layout: _Layout, channel: int, t: NDArray[np.int64], floats: NDArray[n
     return rec
 
 
-def _shares(states: Sequence[LiveState], given: NDArray[np.bool_], todo: NDArray[np.bool_],
-            alpha: NDArray[np.float64], torque: NDArray[np.float64], gear: GearParams | None
-            ) -> NDArray[np.float64]:
-    """The load sharing of the states that carry one (``given``) or are to have theirs solved
-    (``todo``), in state order: floats (m, 10) in the layout's order (the load case and stages
-    as floats, as the message carries them). The
-    states left to the caller (:meth:`~steer_monitor.monitor.live.LiveMonitor.slot_state`) are
-    solved all at once by :func:`~steer_monitor.model.loadshare.load_sharing` (the
-    live monitor's numbers, to the bit)."""
+def _shares(shares: list[ShareScalar], given: NDArray[np.bool_], todo: NDArray[np.bool_],
+            alpha: NDArray[np.float64], torque: NDArray[np.float64], two_z: NDArray[np.float64],
+            z_gb: NDArray[np.float64], gear: GearParams | None) -> NDArray[np.float64]:
+    """The load sharing of the states that carry one (``given``, their ``shares`` in order) or
+    are to have theirs solved (``todo``), in state order: floats (m, 10) in the layout's order
+    (the load case and stages as floats, as the message carries them). The states left to the
+    caller (:meth:`~steer_monitor.monitor.live.LiveMonitor.slot_state`) are solved all at once
+    by :func:`~steer_monitor.model.loadshare.load_sharing` (the live monitor's numbers, to the bit)."""
     has = given | todo
     m = int(np.count_nonzero(has))
     floats = np.empty((m, len(_SHARE_FLOATS)))
     mine, solved = given[has], todo[has]
     if mine.any():
-        known = [s.share for s in states if s.share is not None]
-        floats[mine] = np.array([_share_floats(x) for x in known], float)
+        floats[mine] = np.array([_share_floats(x) for x in shares], float)
     if solved.any():
         assert gear is not None
         idx = np.flatnonzero(todo)
-        two_z = np.fromiter((states[i].gaps.two_z for i in idx.tolist()), float, idx.size)
-        z_gb = np.fromiter((states[i].gaps.z_gb for i in idx.tolist()), float, idx.size)
-        ls = load_sharing(gear, alpha[idx], torque[idx], two_z, z_gb)
+        ls = load_sharing(gear, alpha[idx], torque[idx], two_z[idx], z_gb[idx])
         floats[solved] = np.stack([getattr(ls, k) for k in _SHARE_FLOATS], axis=1)
     return floats
 
 
-def pack_states(states: Sequence[LiveState], rudder_channel: int, share_channel: int,
+@dataclass
+class _Columns:
+    """States as columns: per state time, angle, rate, torque (0 where none), whether a torque
+    was measured, the clearances; the load sharings the states carry, and where."""
+
+    t: NDArray[np.int64]
+    alpha: NDArray[np.float64]
+    rate: NDArray[np.float64]
+    torque: NDArray[np.float64]
+    measured: NDArray[np.bool_]
+    two_z: NDArray[np.float64]
+    z_gb: NDArray[np.float64]
+    given: NDArray[np.bool_]
+    shares: list[ShareScalar]
+
+
+def _columns(items: Sequence[LiveState | StateRun]) -> _Columns:
+    """States given one by one and as columns, in order, as one set of columns."""
+    parts: list[tuple[NDArray, ...]] = []
+    shares: list[ShareScalar] = []
+    single: list[LiveState] = []
+
+    def singles() -> None:
+        if single:
+            k = len(single)
+            parts.append((np.fromiter((s.t_ns for s in single), np.int64, k),
+                          np.fromiter((s.alpha for s in single), float, k),
+                          np.fromiter((s.rate for s in single), float, k),
+                          np.fromiter((s.torque_measured or 0.0 for s in single), float, k),
+                          np.fromiter((s.torque_measured is not None for s in single), bool, k),
+                          np.fromiter((s.gaps.two_z for s in single), float, k),
+                          np.fromiter((s.gaps.z_gb for s in single), float, k),
+                          np.fromiter((s.share is not None for s in single), bool, k)))
+            shares.extend(s.share for s in single if s.share is not None)
+            single.clear()
+    for item in items:
+        if isinstance(item, StateRun):
+            singles()
+            k = len(item)
+            parts.append((item.t_ns, item.alpha, item.rate, item.torque, np.ones(k, bool), item.two_z, item.z_gb,
+                          np.zeros(k, bool)))
+        else:
+            single.append(item)
+    singles()
+    if not parts:
+        parts.append((np.zeros(0, np.int64), *(np.zeros(0) for _ in range(3)), np.zeros(0, bool),
+                      np.zeros(0), np.zeros(0), np.zeros(0, bool)))
+    cols = [np.concatenate(c) for c in zip(*parts)]
+    return _Columns(*cols, shares)
+
+
+def pack_states(states: Sequence[LiveState | StateRun], rudder_channel: int, share_channel: int,
                 gear: GearParams | None = None) -> PackedStates:
-    """The records of ``states`` in order: each state's rudder JointState, then its load
-    sharing's when it has one; the same bytes as ``state_messages`` encoded one by one. With ``gear``, a
-    state whose load sharing was left to the caller (``share`` None, ``torque_measured`` set)
-    has it solved here: the bytes of the state the live monitor would have made."""
+    """The records of ``states`` (one by one or as columns) in order: each state's rudder
+    JointState, then its load sharing's when it has one; the same bytes as ``state_messages``
+    encoded one by one. With ``gear``, a state whose load sharing was left to the caller
+    (``share`` None, ``torque_measured`` set; every state of a
+    :class:`~steer_monitor.monitor.runfeed.StateRun`) has it solved here: the bytes of the
+    state the live monitor would have made."""
     joint, share = _layouts()
-    n = len(states)
-    t = np.fromiter((s.t_ns for s in states), np.int64, n)
-    alpha = np.fromiter((s.alpha for s in states), float, n)
-    rate = np.fromiter((s.rate for s in states), float, n)
-    torque = np.fromiter((s.torque_measured or 0.0 for s in states), float, n)
+    c = _columns(states)
+    t, alpha, rate, torque = c.t, c.alpha, c.rate, c.torque
+    n = t.shape[0]
     rudder = _fill(joint, rudder_channel, t, np.stack([alpha, rate, np.copysign(torque, alpha)], axis=1))
-    given = np.fromiter((s.share is not None for s in states), bool, n)
+    given = c.given
     todo = np.zeros(n, bool)              # left to be solved here: only with the gear to solve them
     if gear is not None:
-        todo = ~given & np.fromiter((s.torque_measured is not None for s in states), bool, n)
+        todo = ~given & c.measured
     has = given | todo
-    floats = _shares(states, given, todo, alpha, torque, gear)
+    floats = _shares(c.shares, given, todo, alpha, torque, c.two_z, c.z_gb, gear)
     m = floats.shape[0]
     sh = _fill(share, share_channel, t[has], floats)
     a, b = rudder.shape[1], sh.shape[1]

@@ -1,0 +1,218 @@
+"""A decoded run's samples laid out for the pipeline to take at once. Pure.
+
+:meth:`~steer_monitor.monitor.pipeline.Pipeline.feed_run` must leave the live model, the
+analyst's window and the outputs exactly as :meth:`~steer_monitor.monitor.pipeline.Pipeline.feed`
+of each frame would. Most samples only record a value (the pressures, the ship's speed, the
+oil temperature) and most 10 ms slots only read the newest values; only the rudder's angle and
+order drive state machines sample by sample. So a run is laid out once (:class:`RunPlan`):
+per input its samples' positions, times and values; the four pressures as they stand after
+each sample (forward filled) and the instants the residual will hold; where each input's
+newest sample stands before any position. The pipeline then feeds the angle and order
+samples one by one, brings the rest up to date only where something reads them (before a
+whole second's diagnostics and analyses, at the run's end: :meth:`RunPlan.sync`), and works out the
+slots' states at once (:meth:`RunPlan.states`) from the values that stood at each.
+
+Positions are sample indices within the run; "before ``s``" means the samples ``< s``.
+"""
+
+from __future__ import annotations
+
+import math
+from bisect import bisect_left
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from steer_monitor.can.decoder import DecodedRun
+from steer_monitor.model.gear import Gaps
+from steer_monitor.model.inputs import INPUTS, PRESSURE_INPUTS
+from steer_monitor.monitor.analyst import ANALYSED, Analyst
+from steer_monitor.monitor.live import LiveMonitor, LiveState, measured_torques
+
+__all__ = ['ANGLE', 'ORDER', 'RunPlan', 'StateRun']
+
+_CODE = {name: k for k, name in enumerate(INPUTS)}
+ANGLE, ORDER = _CODE['rudder_angle'], _CODE['rudder_order']
+_PRESSURE = tuple(_CODE[n] for n in PRESSURE_INPUTS)
+_RECORDED = tuple(k for k, n in enumerate(INPUTS) if k not in (ANGLE, ORDER))   # only recorded by update()
+_SLOW = tuple(k for k in _RECORDED if k not in _PRESSURE)                         # read by the residual
+_ANALYSED = tuple(_CODE[n] for n in ANALYSED)
+
+
+@dataclass(frozen=True)
+class StateRun:
+    """States of consecutive 10 ms slots as columns (n,): time [ns], angle [rad], rate
+    [rad/s], measured torque [N m], the clearances in use [m]; their load sharing left to the
+    writer, as :meth:`~steer_monitor.monitor.live.LiveMonitor.slot_state` leaves it."""
+
+    t_ns: NDArray[np.int64]
+    alpha: NDArray[np.float64]
+    rate: NDArray[np.float64]
+    torque: NDArray[np.float64]
+    two_z: NDArray[np.float64]
+    z_gb: NDArray[np.float64]
+
+    def __len__(self) -> int:
+        return int(self.t_ns.shape[0])
+
+
+class RunPlan:
+    """A run's samples laid out (see the module). ``emit_at``: the positions before which a
+    slot's state may be emitted (the first sample of each frame that opens a slot)."""
+
+    def __init__(self, run: DecodedRun, mon: LiveMonitor, emit_at: NDArray[np.intp]) -> None:
+        m = len(run.sample_name)
+        self.m = m
+        code = np.fromiter(map(_CODE.__getitem__, run.sample_name), np.int8, m)
+        self.code = code
+        stamp = run.t_ns[run.sample_row]
+        value = run.sample_value
+        self.stamp, self.value = stamp, value
+        self.names = run.sample_name
+        self.stamps, self.values = stamp.tolist(), value.tolist()
+        pos = np.arange(m)
+        self.where: list[list[int]] = []
+        self.times: list[list[int]] = []
+        self.vals: list[list[float]] = []
+        self.in_order: list[bool] = []
+        for c in range(len(INPUTS)):
+            w = np.flatnonzero(code == c)
+            self.where.append(w.tolist())
+            self.times.append(stamp[w].tolist())
+            self.vals.append(value[w].tolist())
+            self.in_order.append(bool(np.all(np.diff(stamp[w]) >= 0)))
+        self.seq = np.flatnonzero((code == ANGLE) | (code == ORDER)).tolist()
+        # the newest sample of the angle and of each pressure before each position (-1: none in the run)
+        self.last = {c: np.maximum.accumulate(np.where(code == c, pos, -1)) if m else pos for c in (ANGLE, *_PRESSURE)}
+        # what stood before the run
+        angle = mon.signals['rudder_angle']
+        self.angle0 = (angle.last_value, angle.last_t_ns)
+        self.rate0 = mon.rate
+        self.pressure0 = tuple(mon._pressures)
+        self.pressure_t0 = tuple(mon.signals[n].last_t_ns or 0 for n in PRESSURE_INPUTS)
+        # the four pressures after each sample, and the instants update() holds for the residual
+        p = np.empty((m, 4))
+        for k, c in enumerate(_PRESSURE):
+            idx = self.last[c]
+            p[:, k] = np.where(idx >= 0, value[np.maximum(idx, 0)], self.pressure0[k])
+        self.pressures = p
+        held = np.isin(code, _PRESSURE) & ~np.isnan(((p[:, 0] + p[:, 1]) + p[:, 2]) + p[:, 3])
+        hp = np.flatnonzero(held)
+        self.held_at = hp.tolist()
+        self.held = list(zip(stamp[hp].tolist(), *(p[hp, k].tolist() for k in range(4))))
+        # rudder or pressure samples before each position (they make the live model's state change)
+        changes = np.isin(code, (ANGLE, *_PRESSURE))
+        self.changes = np.concatenate([[0], np.cumsum(changes)])
+        #: the rate after each angle sample (filled as they are taken)
+        self.rate_after = np.full(m, math.nan)
+        # progress: per input, samples recorded in the live model and given to the analyst; instants held
+        self._recorded = [0] * len(INPUTS)
+        self._analysed = [0] * len(INPUTS)
+        self._held = 0
+        self.emit_at = emit_at
+        self.ok = self._finite_at(emit_at)
+
+    # --- the values standing before a position -------------------------------------------
+    def _angle_before(self, at: NDArray[np.intp]) -> tuple[NDArray[np.float64], NDArray[np.int64],
+                                                           NDArray[np.float64]]:
+        """(angle [rad], its time [ns], the rate [rad/s]) standing before each position."""
+        idx = np.where(at > 0, self.last[ANGLE][np.maximum(at - 1, 0)], -1) if self.m else np.full(at.shape, -1)
+        has = idx >= 0
+        j = np.maximum(idx, 0)
+        a0, t0 = self.angle0
+        alpha = np.where(has, self.value[j], a0) if self.m else np.full(at.shape, a0)
+        t = np.where(has, self.stamp[j], t0 if t0 is not None else 0) if self.m else np.full(at.shape, t0 or 0)
+        rate = np.where(has, self.rate_after[j], self.rate0) if self.m else np.full(at.shape, self.rate0)
+        return alpha, t.astype(np.int64), rate
+
+    def _pressures_before(self, at: NDArray[np.intp]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        """(the four pressures (n, 4) [Pa], the newest of their times (n,) [ns]) before each position."""
+        n = at.shape[0]
+        if not self.m:
+            return np.tile(self.pressure0, (n, 1)), np.full(n, max(self.pressure_t0), np.int64)
+        prev = np.maximum(at - 1, 0)
+        p = np.where((at > 0)[:, None], self.pressures[prev], np.asarray(self.pressure0)[None, :])
+        t = np.zeros(n, np.int64)
+        for k, c in enumerate(_PRESSURE):
+            idx = np.where(at > 0, self.last[c][prev], -1)
+            t = np.maximum(t, np.where(idx >= 0, self.stamp[np.maximum(idx, 0)], self.pressure_t0[k]))
+        return p, t
+
+    def _finite_at(self, at: NDArray[np.intp]) -> bool:
+        """Every state to be emitted can be evaluated (angle and pressures known, finite); else
+        the run is taken frame by frame (the live model keeps its last state then)."""
+        if at.size == 0:
+            return True
+        alpha, _, _ = self._angle_before(at)
+        p, _ = self._pressures_before(at)
+        return bool(np.all(np.isfinite(alpha)) and np.all(np.isfinite(p)))
+
+    def changed_between(self, start: int, stop: int) -> bool:
+        """A rudder or pressure sample at a position in [start, stop)."""
+        return bool(self.changes[stop] > self.changes[start])
+
+    # --- bringing the live model and the analyst up to a position ------------------------
+    def before_sequential(self, mon: LiveMonitor, s: int) -> None:
+        """Before the angle or order sample at ``s``: what its residual reads (the instants
+        held, the ship's speed and oil temperature) brought up to it."""
+        k = bisect_left(self.held_at, s)
+        if k > self._held:
+            mon.hold_pressures(self.held[self._held:k], None)
+            self._held = k
+        for c in _SLOW:
+            i = bisect_left(self.where[c], s)
+            if i > self._recorded[c]:
+                mon.record(INPUTS[c], self.times[c][self._recorded[c]:i], self.vals[c][self._recorded[c]:i],
+                           self.in_order[c])
+                self._recorded[c] = i
+
+    def sync(self, mon: LiveMonitor, analyst: Analyst | None, upto: int) -> None:
+        """Everything before ``upto`` taken as update() and the analyst's add would have (the
+        angle and order samples themselves the caller has fed)."""
+        k = bisect_left(self.held_at, upto)
+        moved = False
+        for c in _RECORDED:
+            i = bisect_left(self.where[c], upto)
+            if i > self._recorded[c]:
+                mon.record(INPUTS[c], self.times[c][self._recorded[c]:i], self.vals[c][self._recorded[c]:i],
+                           self.in_order[c])
+                self._recorded[c] = i
+                moved = moved or c in _PRESSURE
+        if k > self._held or moved:
+            mon.hold_pressures(self.held[self._held:k], tuple(self.pressures[upto - 1].tolist()) if moved else None)
+            self._held = k
+        if analyst is not None:
+            for c in _ANALYSED:
+                i = bisect_left(self.where[c], upto)
+                if i > self._analysed[c]:
+                    analyst.add_many(INPUTS[c], self.times[c][self._analysed[c]:i], self.vals[c][self._analysed[c]:i])
+                    self._analysed[c] = i
+
+    def skip(self, upto: int) -> None:
+        """The samples before ``upto`` were fed one by one (update and add): nothing to bring."""
+        for c in range(len(INPUTS)):
+            self._recorded[c] = max(self._recorded[c], bisect_left(self.where[c], upto))
+            self._analysed[c] = max(self._analysed[c], bisect_left(self.where[c], upto))
+        self._held = max(self._held, bisect_left(self.held_at, upto))
+
+    # --- states --------------------------------------------------------------------------
+    def state_before(self, mon: LiveMonitor, s: int) -> LiveState:
+        """The state :meth:`~steer_monitor.monitor.live.LiveMonitor.slot_state` evaluates before
+        position ``s``, one (the same numbers as :meth:`states`)."""
+        at = np.array([s])
+        alpha, alpha_t, rate = self._angle_before(at)
+        p, pt = self._pressures_before(at)
+        t = int(max(int(alpha_t[0]), int(pt[0])))
+        return mon.state_at(t, float(alpha[0]), int(alpha_t[0]), float(rate[0]), tuple(p[0].tolist()))
+
+    def states(self, mon: LiveMonitor, at: NDArray[np.intp], gaps: list[Gaps]) -> StateRun:
+        """The states evaluated before positions ``at`` with the clearances ``gaps`` then in use."""
+        alpha, alpha_t, rate = self._angle_before(at)
+        p, pt = self._pressures_before(at)
+        t = np.maximum(alpha_t, pt)
+        later = t > alpha_t
+        alpha = np.where(later, alpha + rate * (t - alpha_t) / 1e9, alpha)
+        torque = measured_torques(mon.gear, alpha, p)
+        return StateRun(t, alpha, rate, torque, np.array([g.two_z for g in gaps], float),
+                        np.array([g.z_gb for g in gaps], float))
