@@ -7,8 +7,10 @@ shown apart as the difference between the timed and an untimed run):
 
 * decode: ``Decoder.decode_run`` over runs of up to 4,096 frames (``Decoder.decode`` for the
   frames it leaves to one at a time);
-* live model: ``LiveMonitor.update`` per sample and ``LiveMonitor.slot_state`` per 10 ms slot
-  (rate, residual; the states' load sharing is left to the packing, below);
+* live model: ``LiveMonitor.update`` per angle and order sample (rate, residual, the
+  performance trackers), a run's other samples laid out and recorded and the slots' states
+  worked out at once (``RunPlan``), ``LiveMonitor.slot_state`` where a slot's state is read
+  one at a time (the states' load sharing is left to the packing, below);
 * diagnostics: ``DiagnosticsBuilder.build``, once per second of data;
 * the analyst: the node's window of samples (``Analyst.add`` per sample, the compaction and
   the schedule in ``Analyst.due`` each second);
@@ -75,11 +77,14 @@ def _instrument(spent: dict[str, float]) -> None:
     from steer_monitor.monitor.analyst import Analyst, SyncJobs
     from steer_monitor.monitor.diagnostics import DiagnosticsBuilder
     from steer_monitor.monitor.live import LiveMonitor
+    from steer_monitor.monitor.runfeed import RunPlan
 
     Decoder.decode = _timed(spent, 'decode', Decoder.decode)
     Decoder.decode_run = _timed(spent, 'decode', Decoder.decode_run)
     LiveMonitor.update = _timed(spent, 'live model', LiveMonitor.update)
     LiveMonitor.slot_state = _timed(spent, 'live model', LiveMonitor.slot_state)
+    for name in ('__init__', 'sync', 'before_sequential', 'skip', 'state_before', 'states'):
+        setattr(RunPlan, name, _timed(spent, 'live model', getattr(RunPlan, name)))
     DiagnosticsBuilder.build = _timed(spent, 'diagnostics', DiagnosticsBuilder.build)
     SyncJobs.submit = _timed(spent, 'analyses', SyncJobs.submit)
     Analyst.add = _timed(spent, 'analyst (window, schedule)', Analyst.add)

@@ -64,6 +64,7 @@ class TorqueCurve:
         grid = np.linspace(0.0, angles[-1], int(math.ceil(math.degrees(angles[-1]) / 0.005)) + 1)
         object.__setattr__(self, '_grid', grid.tolist())
         object.__setattr__(self, '_table', self._pchip(grid).tolist())
+        object.__setattr__(self, '_arrays', (np.asarray(self._grid), np.asarray(self._table)))  # type: ignore[attr-defined]
 
     @classmethod
     def from_degrees_knm(cls, angles_deg: ArrayLike, torques_knm: ArrayLike,
@@ -81,7 +82,7 @@ class TorqueCurve:
     def scalars(self, alpha: NDArray[np.float64], speed: NDArray[np.float64]) -> NDArray[np.float64]:
         """:meth:`scalar` over arrays (n,): the same table, ``speed`` NaN where not known."""
         table = self._table  # type: ignore[attr-defined]
-        return _lookup_many(self._grid, table, alpha, speed, self.service_speed, table[-1])  # type: ignore[attr-defined]
+        return _lookup_many(self._arrays, alpha, speed, self.service_speed, table[-1])  # type: ignore[attr-defined]
 
     def __call__(self, alpha: ArrayLike, speed: ArrayLike | None = None) -> NDArray[np.float64]:
         """Torque [N m] at rudder angle ``alpha`` [rad], optionally at ship speed [m/s].
@@ -127,6 +128,7 @@ class TorqueTable:
             raise ParameterError(msg)
         object.__setattr__(self, '_grid', angles.tolist())
         object.__setattr__(self, '_table', torques.tolist())
+        object.__setattr__(self, '_arrays', (np.asarray(self._grid), np.asarray(self._table)))  # type: ignore[attr-defined]
 
     @property
     def max_angle(self) -> float:
@@ -139,7 +141,7 @@ class TorqueTable:
 
     def scalars(self, alpha: NDArray[np.float64], speed: NDArray[np.float64]) -> NDArray[np.float64]:
         """:meth:`scalar` over arrays (n,): the same table, ``speed`` NaN where not known."""
-        return _lookup_many(self._grid, self._table, alpha, speed, self.service_speed, math.nan)  # type: ignore[attr-defined]
+        return _lookup_many(self._arrays, alpha, speed, self.service_speed, math.nan)  # type: ignore[attr-defined]
 
 
 def _lookup(grid: list[float], table: list[float], alpha: float, speed: float | None, service_speed: float,
@@ -158,11 +160,12 @@ def _lookup(grid: list[float], table: list[float], alpha: float, speed: float | 
     return m
 
 
-def _lookup_many(grid: list[float], table: list[float], alpha: NDArray[np.float64], speed: NDArray[np.float64],
-                 service_speed: float, beyond: float) -> NDArray[np.float64]:
-    """:func:`_lookup` of many samples, shapes (n,): the same interpolation (each value equal
-    to the one-sample lookup to rounding), ``speed`` NaN where not known (no scaling there)."""
-    g, tb = np.asarray(grid), np.asarray(table)
+def _lookup_many(arrays: tuple[NDArray[np.float64], NDArray[np.float64]], alpha: NDArray[np.float64],
+                 speed: NDArray[np.float64], service_speed: float, beyond: float) -> NDArray[np.float64]:
+    """:func:`_lookup` of many samples, shapes (n,), from the table as arrays (grid, values):
+    the same interpolation (each value equal to the one-sample lookup to rounding), ``speed``
+    NaN where not known (no scaling there)."""
+    g, tb = arrays
     a = np.asarray(alpha, dtype=float)
     mag = np.abs(a)
     i = np.clip(np.searchsorted(g, mag, side='right') - 1, 0, g.size - 2)

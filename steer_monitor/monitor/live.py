@@ -33,6 +33,7 @@ import bisect
 import math
 from collections import deque
 from dataclasses import dataclass, field, replace
+from itertools import chain
 
 import numpy as np
 from numpy.typing import NDArray
@@ -46,6 +47,7 @@ from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
 from steer_monitor.model.inputs import INPUTS, Sample
 from steer_monitor.model.loadshare import ShareScalar, load_sharing, load_sharing_scalar
 from steer_monitor.model.torque import TorqueTable
+from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope, window_slopes
 from steer_monitor.utc import utc_json
 
 __all__ = ['ARRIVALS_KEPT_NS', 'NO_RESPONSE_ERR', 'NO_RESPONSE_NS', 'RATE_WINDOW_NS', 'LiveMonitor', 'LiveState',
@@ -134,6 +136,23 @@ class _Signal:
     ordered: bool = True        # arrivals in time order (a clock step back can break it)
 
 
+@dataclass(frozen=True)
+class _AnglePlan:
+    """The slopes of a run of angle samples (:meth:`LiveMonitor.plan_angles`): ``n`` samples
+    from global index ``base`` (counted from the monitor's first angle sample), their times,
+    the first global index of each one's rate and before-windows and the end of its
+    after-window, and per window (rate, before, after: ``w * n + k``) status and slope."""
+
+    base: int
+    n: int
+    t: list[int]
+    rate_lo: list[int]
+    before_lo: list[int]
+    after_hi: list[int]
+    status: list[int]
+    slope: list[float]
+
+
 class LiveMonitor:
     """Sample-by-sample state of the gear. Not thread-safe: feed it from one thread."""
 
@@ -152,6 +171,8 @@ class LiveMonitor:
         self.signals: dict[str, _Signal] = {name: _Signal() for name in INPUTS}
         self._model_signals = tuple(self.signals[n] for n in ('rudder_angle', *_PRESSURE_INDEX))
         self._history: deque[tuple[int, float]] = deque()   # the last 0.9 s of angles
+        self._hist_base = 0                                  # angle samples dropped from its front
+        self._plan: _AnglePlan | None = None                 # a replay run's slopes (plan_angles)
         self._pending: deque[tuple[int, float, float, float, float]] = deque()   # (t, the four pressures)
         self._pressures = [math.nan] * 4
         self._dirty = False
@@ -459,14 +480,26 @@ class LiveMonitor:
     # --- rudder --------------------------------------------------------------------------
     @staticmethod
     def _slope(points: list[tuple[int, float]] | deque[tuple[int, float]]) -> float | None:
-        """Least-squares slope [per s] of (t [ns], value) points, from centred moments. The
-        sums are ``math.fsum`` (correctly rounded) and the squares products, so the rate is the
-        same to the bit on any Python and C library (the built-in ``sum`` is compensated from
-        Python 3.12 on, plain before; ``x ** 2`` calls the C library's pow): a replay ashore
-        writes what the node on a vessel published."""
-        n = len(points)
-        if n < 3:
+        """Least-squares slope [per s] of (t [ns], value) points, from centred moments, by the
+        compiled kernel (:mod:`~steer_monitor.monitor.slopes`): every sum correctly rounded
+        (``math.fsum``'s algorithm) and the squares products, so the rate is the same to the
+        bit on any Python and C library (the built-in ``sum`` is compensated from Python 3.12
+        on, plain before; ``x ** 2`` calls the C library's pow): a replay ashore writes what the
+        node on a vessel published. Points holding a non-finite value are summed by
+        ``math.fsum`` itself (its special values and errors)."""
+        if len(points) < 3:
             return None
+        status, value = slope([t for t, _ in points], [a for _, a in points])
+        if status == SLOPE:
+            return value
+        if status == NONE:
+            return None
+        return LiveMonitor._slope_fsum(points)
+
+    @staticmethod
+    def _slope_fsum(points: list[tuple[int, float]] | deque[tuple[int, float]]) -> float | None:
+        """:meth:`_slope` summed by ``math.fsum`` (points holding a non-finite value)."""
+        n = len(points)
         t0 = points[0][0]
         ts = [(t - t0) / 1e9 for t, _ in points]
         mean_t = math.fsum(ts) / n
@@ -477,11 +510,58 @@ class LiveMonitor:
             return None
         return math.fsum(d * (a - mean_a) for d, (_, a) in zip(dt, points)) / sxx
 
+    def plan_angles(self, times: list[int] | None, values: list[float] | None = None) -> None:
+        """A replay's run of angle samples [ns, rad] about to be fed in this order: the slopes
+        they will need (the rate at each, and 0.3 s either side of each for the steady-motion
+        test) worked out at once by the same kernel, when the history and the run are in time
+        order. Each is used only where the window :meth:`update` takes is the one worked out
+        (else it is worked out then). None: forget the plan (the run's end)."""
+        self._plan = None
+        if not times or values is None:
+            return
+        t = np.fromiter(chain((p[0] for p in self._history), times), np.int64, len(self._history) + len(times))
+        if np.any(np.diff(t) < 0):
+            return
+        a = np.fromiter(chain((p[1] for p in self._history), values), float, t.shape[0])
+        n = t.shape[0]
+        k = np.arange(n)
+        lo = np.concatenate([np.searchsorted(t, t - SLOPE_WINDOW_NS, 'left'),
+                             np.searchsorted(t, t - HALF_WINDOW_NS, 'left'), k])
+        hi = np.concatenate([k + 1, k + 1, np.searchsorted(t, t + HALF_WINDOW_NS, 'right')])
+        status = np.empty(3 * n, np.int8)
+        out = np.empty(3 * n)
+        window_slopes(t, a, lo, hi, status, out)
+        self._plan = _AnglePlan(self._hist_base, n, t.tolist(), (lo[:n] + self._hist_base).tolist(),
+                                (lo[n:2 * n] + self._hist_base).tolist(), (hi[2 * n:] + self._hist_base).tolist(),
+                                status.tolist(), out.tolist())
+
+    def _planned(self, g: int, w: int) -> tuple[bool, float | None]:
+        """(known, slope) of window ``w`` (0 rate, 1 before, 2 after) of the history's sample
+        with global index ``g``, from the plan; not known where the plan has no such window."""
+        plan = self._plan
+        assert plan is not None
+        k = g - plan.base
+        st = plan.status[w * plan.n + k]
+        if st == SPECIAL:
+            return False, None
+        return True, (plan.slope[w * plan.n + k] if st == SLOPE else None)
+
     def _on_angle(self, t_ns: int, alpha: float) -> None:
-        self._history.append((t_ns, alpha))
-        while self._history and self._history[0][0] < t_ns - 3 * HALF_WINDOW_NS - self._delay_ns:
-            self._history.popleft()
-        slope = self._slope([p for p in self._history if p[0] >= t_ns - SLOPE_WINDOW_NS])
+        hist = self._history
+        hist.append((t_ns, alpha))
+        while hist and hist[0][0] < t_ns - 3 * HALF_WINDOW_NS - self._delay_ns:
+            hist.popleft()
+            self._hist_base += 1
+        plan, known = self._plan, False
+        if plan is not None:
+            k = self._hist_base + len(hist) - 1 - plan.base
+            if 0 <= k < plan.n and plan.t[k] == t_ns:
+                if plan.rate_lo[k] >= self._hist_base:
+                    known, slope = self._planned(plan.base + k, 0)
+            else:
+                self._plan = None      # not the samples planned: work each out
+        if not known:
+            slope = self._slope([p for p in hist if p[0] >= t_ns - SLOPE_WINDOW_NS])
         if slope is not None:
             self.rate = slope
         if self._pending and self._pending[0][0] <= t_ns - HALF_WINDOW_NS - self._delay_ns:
@@ -493,10 +573,18 @@ class LiveMonitor:
         """(direction +1/-1, rate [rad/s]) if the rudder moves steadily through angle sample i,
         else (0, 0): the slopes over 0.3 s before and after it both exceed the motion threshold,
         same sign; the rate is their mean."""
-        t = times[i]
-        before = hist[bisect.bisect_left(times, t - HALF_WINDOW_NS):i + 1]
-        after = hist[i:bisect.bisect_right(times, t + HALF_WINDOW_NS)]
-        s1, s2 = self._slope(before), self._slope(after)
+        plan, g = self._plan, self._hist_base + i
+        known = False
+        if plan is not None and 0 <= g - plan.base < plan.n and plan.before_lo[g - plan.base] >= self._hist_base \
+                and plan.after_hi[g - plan.base] <= self._hist_base + len(hist):
+            k1, s1 = self._planned(g, 1)
+            k2, s2 = self._planned(g, 2)
+            known = k1 and k2
+        if not known:
+            t = times[i]
+            before = hist[bisect.bisect_left(times, t - HALF_WINDOW_NS):i + 1]
+            after = hist[i:bisect.bisect_right(times, t + HALF_WINDOW_NS)]
+            s1, s2 = self._slope(before), self._slope(after)
         if s1 is None or s2 is None or min(abs(s1), abs(s2)) <= MOVING_RATE or (s1 > 0) != (s2 > 0):
             return 0.0, 0.0
         return (1.0 if s1 > 0 else -1.0), 0.5 * (s1 + s2)

@@ -47,7 +47,7 @@ from steer_monitor.model.inputs import Sample
 from steer_monitor.monitor.analyst import ANALYSED, Analyst, AnalystSettings, Job, JobRunner, Outcome, SyncJobs, run_job
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, Status
 from steer_monitor.monitor.live import LiveMonitor, LiveState
-from steer_monitor.monitor.runfeed import RunPlan, StateRun
+from steer_monitor.monitor.runfeed import ANGLE, RunPlan, StateRun
 from steer_monitor.params import min_clearance_2z_from_params, ram_share_warn_from_params
 from steer_monitor.threads import release_freed_memory
 
@@ -251,6 +251,7 @@ class Pipeline:
         counting = run.counting_rows(rows).tolist()
         opens_at = np.flatnonzero(opens)             # indices into rows
         emits: list[tuple[int, NDArray[np.intp], Gaps]] = []   # (place in out, state positions, clearances)
+        mon.plan_angles(plan.times[ANGLE], plan.vals[ANGLE])
         c = 0                                        # counting rows passed
         pos, n_rows = 0, len(rows_l)
         while pos < n_rows:
@@ -303,6 +304,7 @@ class Pipeline:
                 plan.rate_after[s] = mon.rate        # the rate after the row: all a later state reads
             pos = j + 1
         plan.sync(mon, analyst, plan.m)
+        mon.plan_angles(None)
         if emits:
             runs = plan.states(mon, np.concatenate([at for _, at, _ in emits]),
                                [g for _, at, g in emits for _ in range(at.size)])

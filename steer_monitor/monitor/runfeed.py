@@ -199,12 +199,18 @@ class RunPlan:
     # --- states --------------------------------------------------------------------------
     def state_before(self, mon: LiveMonitor, s: int) -> LiveState:
         """The state :meth:`~steer_monitor.monitor.live.LiveMonitor.slot_state` evaluates before
-        position ``s``, one (the same numbers as :meth:`states`)."""
-        at = np.array([s])
-        alpha, alpha_t, rate = self._angle_before(at)
-        p, pt = self._pressures_before(at)
-        t = int(max(int(alpha_t[0]), int(pt[0])))
-        return mon.state_at(t, float(alpha[0]), int(alpha_t[0]), float(rate[0]), tuple(p[0].tolist()))
+        position ``s``, one (the same numbers as :meth:`states`, read without arrays)."""
+        ai = int(self.last[ANGLE][s - 1]) if s > 0 else -1
+        if ai >= 0:
+            alpha, alpha_t, rate = self.values[ai], self.stamps[ai], float(self.rate_after[ai])
+        else:
+            alpha, alpha_t, rate = self.angle0[0], self.angle0[1] or 0, self.rate0
+        t = alpha_t
+        for k, c in enumerate(_PRESSURE):
+            pi = int(self.last[c][s - 1]) if s > 0 else -1
+            t = max(t, self.stamps[pi] if pi >= 0 else self.pressure_t0[k])
+        p = tuple(self.pressures[s - 1].tolist()) if s > 0 else self.pressure0
+        return mon.state_at(t, alpha, alpha_t, rate, p)
 
     def states(self, mon: LiveMonitor, at: NDArray[np.intp], gaps: list[Gaps]) -> StateRun:
         """The states evaluated before positions ``at`` with the clearances ``gaps`` then in use."""
