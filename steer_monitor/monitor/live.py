@@ -47,7 +47,7 @@ from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
 from steer_monitor.model.inputs import INPUTS, Sample
 from steer_monitor.model.loadshare import ShareScalar, load_sharing, load_sharing_scalar
 from steer_monitor.model.torque import TorqueTable
-from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope, window_slopes
+from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope, sum_of_squares, window_slopes
 from steer_monitor.utc import utc_json
 
 __all__ = ['ARRIVALS_KEPT_NS', 'NO_RESPONSE_ERR', 'NO_RESPONSE_NS', 'RATE_WINDOW_NS', 'LiveMonitor', 'LiveState',
@@ -271,9 +271,14 @@ class LiveMonitor:
             if self._unjudged:
                 self._resid.extend(self._residual_pairs(list(self._unjudged)))
                 self._unjudged.clear()
-            res = [r for pair in self._resid if pair is not None for r in pair]
-            rms = math.sqrt(math.fsum(r * r for r in res) / len(res)) if res else None   # fsum: see _slope
-            self._resid_summary = (res, sum(pair is None for pair in self._resid), rms)
+            pairs = [pair for pair in self._resid if pair is not None]
+            res = np.array(pairs, float).ravel().tolist() if pairs else []
+            rms = None
+            if res:                   # correctly rounded, as math.fsum: see _slope
+                total = sum_of_squares(np.array(res))
+                total = math.fsum(r * r for r in res) if total is None else total
+                rms = math.sqrt(total / len(res))
+            self._resid_summary = (res, len(self._resid) - len(pairs), rms)
         return self._resid_summary
 
     @property
@@ -569,7 +574,7 @@ class LiveMonitor:
         self._track_hard_over(t_ns, alpha)
         self._track_response(t_ns, alpha)
 
-    def _steady(self, hist: list[tuple[int, float]], times: list[int], i: int) -> tuple[float, float]:
+    def _steady(self, hist: deque[tuple[int, float]], i: int) -> tuple[float, float]:
         """(direction +1/-1, rate [rad/s]) if the rudder moves steadily through angle sample i,
         else (0, 0): the slopes over 0.3 s before and after it both exceed the motion threshold,
         same sign; the rate is their mean."""
@@ -581,9 +586,11 @@ class LiveMonitor:
             k2, s2 = self._planned(g, 2)
             known = k1 and k2
         if not known:
+            points = list(hist)
+            times = [p[0] for p in points]
             t = times[i]
-            before = hist[bisect.bisect_left(times, t - HALF_WINDOW_NS):i + 1]
-            after = hist[i:bisect.bisect_right(times, t + HALF_WINDOW_NS)]
+            before = points[bisect.bisect_left(times, t - HALF_WINDOW_NS):i + 1]
+            after = points[i:bisect.bisect_right(times, t + HALF_WINDOW_NS)]
             s1, s2 = self._slope(before), self._slope(after)
         if s1 is None or s2 is None or min(abs(s1), abs(s2)) <= MOVING_RATE or (s1 > 0) != (s2 > 0):
             return 0.0, 0.0
@@ -595,40 +602,59 @@ class LiveMonitor:
         much later), the angle interpolated to each one's time (near midships the torque curve
         is steep: an angle 0.1 s old is worth several bar). Each steady bracket counts its
         time of motion once (:attr:`motion_s`)."""
-        hist = list(self._history)
-        times = [t for t, _ in hist]
+        history = self._history
+        plan = self._plan
+        if plan is not None and plan.base <= self._hist_base and \
+                self._hist_base + len(history) <= plan.base + plan.n:    # the plan's times are the history's
+            times, first = plan.t, self._hist_base - plan.base
+        else:
+            times, first = [t for t, _ in history], 0
+        last = first + len(history)          # the history is times[first:last]
         area = self.gear.ram_area
         judged: dict[int, tuple[float, float]] = {}
         speed = self.signals['ship_speed'].last_value
         speed = None if math.isnan(speed) else speed
         oil = self.signals['oil_temperature'].last_value
         delay = self._delay_ns
-        while self._pending and self._pending[0][0] <= t_end:
-            t, c0, c1, c2, c3 = self._pending.popleft()
-            i = bisect.bisect_right(times, t + delay) - 1
-            if i < 0 or i + 1 >= len(hist):
+        rows: list[tuple[float, float, float, float]] = []
+        pending = self._pending
+        while pending and pending[0][0] <= t_end:
+            t, c0, c1, c2, c3 = pending.popleft()
+            i = bisect.bisect_right(times, t + delay, first, last) - 1 - first
+            if i < 0 or i + 1 >= len(history):
                 continue
             steady = judged.get(i)
             if steady is None:
-                steady = judged[i] = self._steady(hist, times, i)
-                if steady[0] != 0.0 and (self._counted_ns is None or times[i] > self._counted_ns):
-                    self.motion_ns += min(times[i + 1] - times[i], MOTION_STEP_NS)
-                    self._counted_ns = times[i]
+                steady = judged[i] = self._steady(history, i)
+                t_i = times[first + i]
+                if steady[0] != 0.0 and (self._counted_ns is None or t_i > self._counted_ns):
+                    self.motion_ns += min(times[first + i + 1] - t_i, MOTION_STEP_NS)
+                    self._counted_ns = t_i
             direction, rate = steady
             if direction == 0.0:
                 continue
-            (t_a, a_a), (t_b, a_b) = hist[i], hist[i + 1]
+            (t_a, a_a), (t_b, a_b) = history[i], history[i + 1]
             alpha = a_a + (a_b - a_a) * (t + delay - t_a) / (t_b - t_a)
             force_1, force_2 = area * (c0 - c1), area * (c2 - c3)
             instant = (alpha, speed, direction, force_1, force_2, rate, oil)
             self._motion.append(instant)
             self._unjudged.append(instant)
+            rows.append((c0, c1, c2, c3))
+        if rows:
             self._resid_summary = None
-            row = self._ring_next
-            self._ring[row] = (c0, c1, c2, c3)
-            self._ring_next = (row + 1) % SHARE_INSTANTS
-            self._ring_kept = min(self._ring_kept + 1, SHARE_INSTANTS)
-            self._share_stale = True
+            self._keep_share_rows(rows)
+
+    def _keep_share_rows(self, rows: list[tuple[float, float, float, float]]) -> None:
+        """The four pressures of instants of steady motion into the ring :meth:`ram_share`
+        reads (the last :data:`SHARE_INSTANTS`, the next at ``_ring_next``)."""
+        block = np.array(rows[-SHARE_INSTANTS:], float)
+        start = (self._ring_next + len(rows) - block.shape[0]) % SHARE_INSTANTS
+        head = min(block.shape[0], SHARE_INSTANTS - start)
+        self._ring[start:start + head] = block[:head]
+        self._ring[:block.shape[0] - head] = block[head:]
+        self._ring_next = (start + block.shape[0]) % SHARE_INSTANTS
+        self._ring_kept = min(self._ring_kept + len(rows), SHARE_INSTANTS)
+        self._share_stale = True
 
     def _track_hard_over(self, t_ns: int, alpha: float) -> None:
         deg = alpha / DEG

@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ['NONE', 'SLOPE', 'SPECIAL', 'slope', 'window_slopes']
+__all__ = ['NONE', 'SLOPE', 'SPECIAL', 'slope', 'sum_of_squares', 'window_slopes']
 
 #: what a window gave: a slope; no slope (fewer than 3 points, or all at one time); a
 #: non-finite value among its points (the caller sums those with ``math.fsum`` itself)
@@ -131,6 +131,27 @@ def window_slopes(t_ns: NDArray[np.int64], a: NDArray[np.float64], lo: NDArray[n
         s, v = _slope_of(t_ns, a, lo[w], hi[w], p, ts)
         status[w] = s
         out[w] = v
+
+
+@njit(cache=True, nogil=True)
+def _sum_of_squares(x: NDArray[np.float64]) -> tuple[int, float]:
+    p = np.empty(_MAX_PARTIALS)
+    k = 0
+    for j in range(x.shape[0]):
+        if not np.isfinite(x[j]):
+            return SPECIAL, 0.0
+        k = _add(p, k, x[j] * x[j])
+    total = _total(p, k)
+    if not np.isfinite(total):
+        return SPECIAL, 0.0
+    return SLOPE, total
+
+
+def sum_of_squares(x: NDArray[np.float64]) -> float | None:
+    """The sum of the squares of ``x`` (n,), correctly rounded (``math.fsum(v * v for v in x)``
+    to the bit); None where a value, or the sum, is not finite (left to ``math.fsum``)."""
+    status, total = _sum_of_squares(np.ascontiguousarray(x, np.float64))
+    return total if status == SLOPE else None
 
 
 def slope(t_ns: list[int] | NDArray[np.int64], a: list[float] | NDArray[np.float64]) -> tuple[int, float]:

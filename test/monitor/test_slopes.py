@@ -9,7 +9,7 @@ import zlib
 import numpy as np
 import pytest
 
-from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope, window_slopes
+from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope, sum_of_squares, window_slopes
 
 
 def _fsum_slope(t_ns: list[int], a: list[float]) -> float | None:
@@ -74,3 +74,12 @@ def test_many_windows_at_once_are_each_window_alone():
     for w in range(200):
         s, v = slope(t[lo[w]:hi[w]], a[lo[w]:hi[w]])
         assert status[w] == s and (s != SLOPE or out[w] == v)
+
+
+def test_the_sum_of_squares_is_math_fsums_to_the_bit():
+    rng = np.random.default_rng(11)
+    for _ in range(2000):
+        x = rng.normal(0.0, 1.0, int(rng.integers(0, 1300))) * 10.0 ** rng.integers(-8, 8)
+        assert sum_of_squares(x) == math.fsum(v * v for v in x.tolist())
+    assert sum_of_squares(np.array([1e200, 1e200])) is None        # the sum overflows: math.fsum's to say
+    assert sum_of_squares(np.array([1.0, math.nan])) is None
