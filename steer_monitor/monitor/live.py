@@ -272,10 +272,11 @@ class LiveMonitor:
                 self._resid.extend(self._residual_pairs(list(self._unjudged)))
                 self._unjudged.clear()
             pairs = [pair for pair in self._resid if pair is not None]
-            res = np.array(pairs, float).ravel().tolist() if pairs else []
+            arr = np.fromiter(chain.from_iterable(pairs), float, 2 * len(pairs))
+            res = arr.tolist()
             rms = None
             if res:                   # correctly rounded, as math.fsum: see _slope
-                total = sum_of_squares(np.array(res))
+                total = sum_of_squares(arr)
                 total = math.fsum(r * r for r in res) if total is None else total
                 rms = math.sqrt(total / len(res))
             self._resid_summary = (res, len(self._resid) - len(pairs), rms)
