@@ -51,7 +51,7 @@ from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope, sum_of_squ
 from steer_monitor.utc import utc_json
 
 __all__ = ['ARRIVALS_KEPT_NS', 'NO_RESPONSE_ERR', 'NO_RESPONSE_NS', 'RATE_WINDOW_NS', 'LiveMonitor', 'LiveState',
-           'Response', 'measured_torque', 'measured_torques']
+           'Response', 'measured_torques', 'states_at']
 
 DEG = math.pi / 180.0
 RATE_WINDOW_NS = 5_000_000_000      # the shortest window a rate is judged over
@@ -78,23 +78,27 @@ NO_RESPONSE_ERR = 1.0 * DEG
 _PRESSURE_INDEX = {'pressure_r1_stbd': 0, 'pressure_r1_port': 1, 'pressure_r2_stbd': 2, 'pressure_r2_port': 3}
 
 
-def measured_torque(gear: GearParams, alpha: float, p0: float, p1: float, p2: float, p3: float) -> float:
-    """The tiller torque [N m] the measured pressures [Pa] imply at rudder angle ``alpha``
-    [rad]: Fa = A_r |p_stbd - p_port| (mean of the two rams), M = Fa n H / cos^2(alpha)."""
-    area = gear.ram_area
-    fa = 0.5 * (abs(area * (p0 - p1)) + abs(area * (p2 - p3)))
-    cos_a = math.cos(alpha)
-    return fa * gear.rams * gear.stock_to_ram / (cos_a * cos_a)
-
-
 def measured_torques(gear: GearParams, alpha: NDArray[np.float64], p: NDArray[np.float64]) -> NDArray[np.float64]:
-    """:func:`measured_torque` of many states: ``alpha`` (n,) [rad], ``p`` (n, 4) [Pa]; the
-    same operations in the same order, element by element (the cosine by ``math.cos``), so
-    the same numbers to the bit."""
+    """The tiller torque [N m] the measured pressures ``p`` (n, 4) [Pa] imply at rudder angles
+    ``alpha`` (n,) [rad]: Fa = A_r |p_stbd - p_port| (mean of the two rams), M = Fa n H /
+    cos^2(alpha); element by element (the cosine by ``math.cos``), so a state's number does
+    not depend on the others worked out with it."""
     area = gear.ram_area
     fa = 0.5 * (np.abs(area * (p[:, 0] - p[:, 1])) + np.abs(area * (p[:, 2] - p[:, 3])))
     cos_a = np.fromiter(map(math.cos, alpha.tolist()), float, alpha.shape[0])
     return fa * gear.rams * gear.stock_to_ram / (cos_a * cos_a)
+
+
+def states_at(gear: GearParams, t_ns: NDArray[np.int64], alpha: NDArray[np.float64], alpha_t_ns: NDArray[np.int64],
+              rate: NDArray[np.float64], p: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The live model's numbers of states (n,) at ``t_ns`` from the angle ``alpha`` [rad] read
+    at ``alpha_t_ns``, the rate [rad/s] and the four pressures ``p`` (n, 4) [Pa] standing then:
+    (the angle carried to ``t_ns`` at the rate, the measured torque [N m]). The one
+    computation behind every state, one (:meth:`LiveMonitor.slot_state`) or many (a replay's
+    run)."""
+    later = t_ns > alpha_t_ns
+    a = np.where(later, alpha + rate * (t_ns - alpha_t_ns) / 1e9, alpha)
+    return a, measured_torques(gear, a, p)
 
 
 @dataclass
@@ -702,23 +706,20 @@ class LiveMonitor:
         p = self._pressures
         if math.isnan(a) or math.isnan(p[0] + p[1] + p[2] + p[3]):
             return None
-        if angle.last_t_ns is not None and t_ns > angle.last_t_ns:
-            a += self.rate * (t_ns - angle.last_t_ns) / 1e9  # to the newest sample's time
-        torque = measured_torque(self.gear, a, p[0], p[1], p[2], p[3])
-        share = None if self.defer_share else load_sharing_scalar(self.gear, a, torque, self.gaps.two_z,
-                                                                  self.gaps.z_gb)
-        return LiveState(t_ns, a, self.rate, abs(self.rate) > MOVING_RATE, torque, share, self.gaps)
+        st = self.state_at(t_ns, a, angle.last_t_ns if angle.last_t_ns is not None else t_ns, self.rate, tuple(p))
+        if self.defer_share:
+            return st
+        return replace(st, share=load_sharing_scalar(self.gear, st.alpha, st.torque_measured, self.gaps.two_z,
+                                                     self.gaps.z_gb))
 
     def state_at(self, t_ns: int, alpha: float, alpha_t_ns: int, rate: float, pressures: tuple[float, ...]
                  ) -> LiveState:
         """The state :meth:`slot_state` makes at ``t_ns`` from the angle ``alpha`` [rad] read at
-        ``alpha_t_ns``, the rate [rad/s] and the four pressures [Pa] then (a replay's run,
-        :meth:`take_run`, knows them without replaying each sample), its load sharing left to
-        the caller. Values must be finite."""
-        if t_ns > alpha_t_ns:
-            alpha += rate * (t_ns - alpha_t_ns) / 1e9
-        torque = measured_torque(self.gear, alpha, *pressures)
-        return LiveState(t_ns, alpha, rate, abs(rate) > MOVING_RATE, torque, None, self.gaps)
+        ``alpha_t_ns``, the rate [rad/s] and the four pressures [Pa] standing then
+        (:func:`states_at` of one), its load sharing left to the caller."""
+        a, torque = states_at(self.gear, np.array([t_ns], np.int64), np.array([alpha]),
+                              np.array([alpha_t_ns], np.int64), np.array([rate]), np.array([pressures], float))
+        return LiveState(t_ns, float(a[0]), rate, abs(rate) > MOVING_RATE, float(torque[0]), None, self.gaps)
 
     def ram_share(self) -> RamShare | None:
         """How the rams shared the driving force over the last :data:`SHARE_INSTANTS` instants

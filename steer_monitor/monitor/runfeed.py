@@ -28,7 +28,7 @@ from steer_monitor.can.decoder import DecodedRun
 from steer_monitor.model.gear import Gaps
 from steer_monitor.model.inputs import INPUTS, PRESSURE_INPUTS
 from steer_monitor.monitor.analyst import ANALYSED, Analyst
-from steer_monitor.monitor.live import LiveMonitor, LiveState, measured_torques
+from steer_monitor.monitor.live import LiveMonitor, LiveState, states_at
 
 __all__ = ['ANGLE', 'ORDER', 'RunPlan', 'StateRun']
 
@@ -217,8 +217,6 @@ class RunPlan:
         alpha, alpha_t, rate = self._angle_before(at)
         p, pt = self._pressures_before(at)
         t = np.maximum(alpha_t, pt)
-        later = t > alpha_t
-        alpha = np.where(later, alpha + rate * (t - alpha_t) / 1e9, alpha)
-        torque = measured_torques(mon.gear, alpha, p)
+        alpha, torque = states_at(mon.gear, t, alpha, alpha_t, rate, p)
         return StateRun(t, alpha, rate, torque, np.array([g.two_z for g in gaps], float),
                         np.array([g.z_gb for g in gaps], float))
