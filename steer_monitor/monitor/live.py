@@ -34,6 +34,7 @@ import math
 from collections import deque
 from dataclasses import dataclass, field, replace
 from itertools import chain
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -51,7 +52,7 @@ from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope, sum_of_squ
 from steer_monitor.utc import utc_json
 
 __all__ = ['ARRIVALS_KEPT_NS', 'NO_RESPONSE_ERR', 'NO_RESPONSE_NS', 'RATE_WINDOW_NS', 'LiveMonitor', 'LiveState',
-           'Response', 'measured_torques', 'states_at']
+           'Response', 'states_at']
 
 DEG = math.pi / 180.0
 RATE_WINDOW_NS = 5_000_000_000      # the shortest window a rate is judged over
@@ -78,14 +79,18 @@ NO_RESPONSE_ERR = 1.0 * DEG
 _PRESSURE_INDEX = {'pressure_r1_stbd': 0, 'pressure_r1_port': 1, 'pressure_r2_stbd': 2, 'pressure_r2_port': 3}
 
 
-def measured_torques(gear: GearParams, alpha: NDArray[np.float64], p: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The tiller torque [N m] the measured pressures ``p`` (n, 4) [Pa] imply at rudder angles
-    ``alpha`` (n,) [rad]: Fa = A_r |p_stbd - p_port| (mean of the two rams), M = Fa n H /
-    cos^2(alpha); element by element (the cosine by ``math.cos``), so a state's number does
-    not depend on the others worked out with it."""
+def _carried(alpha: Any, rate: Any, t_ns: Any, alpha_t_ns: Any) -> Any:
+    """The angle [rad] read at ``alpha_t_ns`` carried to ``t_ns`` [ns] at ``rate`` [rad/s]:
+    floats or arrays, the same operations in the same order."""
+    return alpha + rate * (t_ns - alpha_t_ns) / 1e9
+
+
+def _torque(gear: GearParams, cos_a: Any, p0: Any, p1: Any, p2: Any, p3: Any) -> Any:
+    """The tiller torque [N m] the measured pressures [Pa] imply where cos(alpha) is ``cos_a``:
+    Fa = A_r |p_stbd - p_port| (mean of the two rams), M = Fa n H / cos^2(alpha); floats or
+    arrays, the same operations in the same order."""
     area = gear.ram_area
-    fa = 0.5 * (np.abs(area * (p[:, 0] - p[:, 1])) + np.abs(area * (p[:, 2] - p[:, 3])))
-    cos_a = np.fromiter(map(math.cos, alpha.tolist()), float, alpha.shape[0])
+    fa = 0.5 * (abs(area * (p0 - p1)) + abs(area * (p2 - p3)))
     return fa * gear.rams * gear.stock_to_ram / (cos_a * cos_a)
 
 
@@ -93,12 +98,12 @@ def states_at(gear: GearParams, t_ns: NDArray[np.int64], alpha: NDArray[np.float
               rate: NDArray[np.float64], p: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The live model's numbers of states (n,) at ``t_ns`` from the angle ``alpha`` [rad] read
     at ``alpha_t_ns``, the rate [rad/s] and the four pressures ``p`` (n, 4) [Pa] standing then:
-    (the angle carried to ``t_ns`` at the rate, the measured torque [N m]). The one
-    computation behind every state, one (:meth:`LiveMonitor.slot_state`) or many (a replay's
-    run)."""
-    later = t_ns > alpha_t_ns
-    a = np.where(later, alpha + rate * (t_ns - alpha_t_ns) / 1e9, alpha)
-    return a, measured_torques(gear, a, p)
+    (the angle carried to ``t_ns`` at the rate, the measured torque [N m]). Element by element,
+    by the formulas :meth:`LiveMonitor.state_at` applies to one state (the cosine by
+    ``math.cos``): the same numbers to the bit."""
+    a = np.where(t_ns > alpha_t_ns, _carried(alpha, rate, t_ns, alpha_t_ns), alpha)
+    cos_a = np.fromiter(map(math.cos, a.tolist()), float, a.shape[0])
+    return a, _torque(gear, cos_a, p[:, 0], p[:, 1], p[:, 2], p[:, 3])
 
 
 @dataclass
@@ -715,11 +720,11 @@ class LiveMonitor:
     def state_at(self, t_ns: int, alpha: float, alpha_t_ns: int, rate: float, pressures: tuple[float, ...]
                  ) -> LiveState:
         """The state :meth:`slot_state` makes at ``t_ns`` from the angle ``alpha`` [rad] read at
-        ``alpha_t_ns``, the rate [rad/s] and the four pressures [Pa] standing then
-        (:func:`states_at` of one), its load sharing left to the caller."""
-        a, torque = states_at(self.gear, np.array([t_ns], np.int64), np.array([alpha]),
-                              np.array([alpha_t_ns], np.int64), np.array([rate]), np.array([pressures], float))
-        return LiveState(t_ns, float(a[0]), rate, abs(rate) > MOVING_RATE, float(torque[0]), None, self.gaps)
+        ``alpha_t_ns``, the rate [rad/s] and the four pressures [Pa] standing then, its load
+        sharing left to the caller (:func:`states_at`'s formulas, on floats)."""
+        a = _carried(alpha, rate, t_ns, alpha_t_ns) if t_ns > alpha_t_ns else alpha
+        torque = _torque(self.gear, math.cos(a), *pressures)
+        return LiveState(t_ns, a, rate, abs(rate) > MOVING_RATE, torque, None, self.gaps)
 
     def ram_share(self) -> RamShare | None:
         """How the rams shared the driving force over the last :data:`SHARE_INSTANTS` instants
