@@ -24,6 +24,7 @@ from steer_monitor.monitor.pipeline import (
     StateOut,
     apply_delay_ns,
 )
+from steer_monitor.monitor.runfeed import StateRun
 from steer_monitor.params import gear_from_params
 
 
@@ -42,11 +43,11 @@ def long_frames(r18_params, can_db):
     return s.frames.frames()
 
 
-def _pipeline(r18_params, can_db, analyst=None, jobs=None):
+def _pipeline(r18_params, can_db, analyst=None, jobs=None, defer_share=False):
     db, smap = can_db
     gear = gear_from_params(r18_params)
     rejects = RejectCounter()
-    mon = LiveMonitor(gear, Gaps.from_mm(0.6, 0.25))
+    mon = LiveMonitor(gear, Gaps.from_mm(0.6, 0.25), defer_share=defer_share)
     diag = DiagnosticsBuilder(DiagnosticsConfig(hardware_id='test'), smap, gear)
     return Pipeline(Decoder(db, smap, rejects), rejects, mon, diag, analyst, jobs)
 
@@ -83,6 +84,47 @@ def test_same_frames_same_outputs(r18_params, can_db, frames):
     a = _run(_pipeline(r18_params, can_db), frames)
     b = _run(_pipeline(r18_params, can_db), frames)
     assert repr(a) == repr(b)
+
+
+def _flat(out):
+    """States as (t, angle, rate, torque, 2Z, Z_gb), one by one or from columns; diagnostics as
+    they print."""
+    flat = []
+    for o in out:
+        if isinstance(o, StateRun):
+            flat += zip(o.t_ns.tolist(), o.alpha.tolist(), o.rate.tolist(), o.torque.tolist(), o.two_z.tolist(),
+                        o.z_gb.tolist())
+        elif isinstance(o, StateOut):
+            s = o.state
+            flat.append((s.t_ns, s.alpha, s.rate, s.torque_measured, s.gaps.two_z, s.gaps.z_gb))
+        else:
+            flat.append(repr(o))
+    return flat
+
+
+@pytest.mark.parametrize('batch', [4096, 97])
+def test_runs_taken_at_once_give_what_each_frame_gives(r18_params, can_db, batch):
+    """A replay's runs (samples laid out, states as columns) against feed() of each frame: the
+    same states, to the bit, and the same diagnostics, in the same order (the byte-for-byte
+    tests of whole replays, with analyses, are test_replay's)."""
+    import numpy as np
+
+    from steer_monitor.ashore.replay import feed_part
+    db, smap = can_db
+    arrays = sim.run(r18_params, sim.SimConfig(program='zigzag_10,hard_over_1', max_duration_s=45.0), db, smap,
+                     6).frames
+    one = _pipeline(r18_params, can_db, defer_share=True)
+    a = [o for f in arrays.frames() for o in one.feed(f)] + one.finish()
+    many = _pipeline(r18_params, can_db, defer_share=True)
+    b = []
+    for k in range(0, len(arrays), batch):
+        b += feed_part(many, arrays.take(np.arange(k, min(k + batch, len(arrays)))))
+    b += many.finish()
+    assert any(isinstance(o, StateRun) for o in b)                    # the run path was taken
+    fa, fb = _flat(a), _flat(b)
+    assert len(fa) > 3000 and fa == fb
+    assert many.monitor.motion_ns == one.monitor.motion_ns > 0
+    assert many.monitor.residuals == one.monitor.residuals
 
 
 @pytest.mark.parametrize('gap_s', [5.4, 30.0, 500.2])
