@@ -144,6 +144,15 @@ class _Signal:
     arrivals: deque = field(default_factory=deque)
     ordered: bool = True        # arrivals in time order (a clock step back can break it)
 
+    def arrive(self, t_ns: int) -> None:
+        """One arrival at ``t_ns``: kept, those older than :data:`ARRIVALS_KEPT_NS` dropped."""
+        arrivals = self.arrivals
+        if arrivals and t_ns < arrivals[-1]:
+            self.ordered = False
+        arrivals.append(t_ns)
+        while arrivals and arrivals[0] < t_ns - ARRIVALS_KEPT_NS:
+            arrivals.popleft()
+
 
 @dataclass(frozen=True)
 class _AnglePlan:
@@ -380,11 +389,7 @@ class LiveMonitor:
         newest sample; the residual and the performance trackers see every sample."""
         sig = self.signals[sample.signal]
         sig.last_t_ns, sig.last_value = sample.t_ns, sample.value
-        if sig.arrivals and sample.t_ns < sig.arrivals[-1]:
-            sig.ordered = False
-        sig.arrivals.append(sample.t_ns)
-        while sig.arrivals and sig.arrivals[0] < sample.t_ns - ARRIVALS_KEPT_NS:
-            sig.arrivals.popleft()
+        sig.arrive(sample.t_ns)
         name = sample.signal
         if name == 'rudder_angle':
             self._on_angle(sample.t_ns, sample.value)
@@ -414,11 +419,7 @@ class LiveMonitor:
                 arrivals.popleft()
         else:
             for t in times:
-                if arrivals and t < arrivals[-1]:
-                    sig.ordered = False
-                arrivals.append(t)
-                while arrivals and arrivals[0] < t - ARRIVALS_KEPT_NS:
-                    arrivals.popleft()
+                sig.arrive(t)
         sig.last_t_ns, sig.last_value = times[-1], values[-1]
 
     def hold_pressures(self, instants: list[tuple[int, float, float, float, float]],

@@ -269,7 +269,7 @@ class Pipeline:
                     plan.rate_after[s] = mon.rate
                 plan.sync(mon, analyst, b)
                 k0, k1 = int(np.searchsorted(opens_at, pos)), int(np.searchsorted(opens_at, j))
-                while c < len(counting) and counting[c] < rows_l[j - 1] + 1:
+                while c < len(counting) and counting[c] <= rows_l[j - 1]:
                     run.count_rejects(counting[c])
                     c += 1
                 state = None

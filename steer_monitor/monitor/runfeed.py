@@ -65,13 +65,10 @@ class RunPlan:
         m = len(run.sample_name)
         self.m = m
         code = np.fromiter(map(_CODE.__getitem__, run.sample_name), np.int8, m)
-        self.code = code
         stamp = run.t_ns[run.sample_row]
         value = run.sample_value
-        self.stamp, self.value = stamp, value
         self.names = run.sample_name
         self.stamps, self.values = stamp.tolist(), value.tolist()
-        pos = np.arange(m)
         self.where: list[list[int]] = []
         self.times: list[list[int]] = []
         self.vals: list[list[float]] = []
@@ -83,61 +80,53 @@ class RunPlan:
             self.vals.append(value[w].tolist())
             self.in_order.append(bool(np.all(np.diff(stamp[w]) >= 0)))
         self.seq = np.flatnonzero((code == ANGLE) | (code == ORDER)).tolist()
-        # the newest sample of the angle and of each pressure before each position (-1: none in the run)
-        self.last = {c: np.maximum.accumulate(np.where(code == c, pos, -1)) if m else pos for c in (ANGLE, *_PRESSURE)}
+        # before each position 0..m: the newest sample of the angle and of each pressure (-1:
+        # none in the run; read then from what stood before it, and -1 picks the NaN put last)
+        newest = np.maximum.accumulate(np.where(code[:, None] == np.array((ANGLE, *_PRESSURE)), np.arange(m)[:, None],
+                                                -1), axis=0) if m else np.zeros((0, 5), np.intp)
+        self.newest = np.vstack([np.full((1, 5), -1, np.intp), newest])
+        self._stamp = np.append(stamp, 0)
+        self._value = np.append(value, math.nan)
         # what stood before the run
         angle = mon.signals['rudder_angle']
-        self.angle0 = (angle.last_value, angle.last_t_ns)
+        self.angle0 = (angle.last_value, angle.last_t_ns or 0)
         self.rate0 = mon.rate
-        self.pressure0 = tuple(mon._pressures)
-        self.pressure_t0 = tuple(mon.signals[n].last_t_ns or 0 for n in PRESSURE_INPUTS)
-        # the four pressures after each sample, and the instants update() holds for the residual
-        p = np.empty((m, 4))
-        for k, c in enumerate(_PRESSURE):
-            idx = self.last[c]
-            p[:, k] = np.where(idx >= 0, value[np.maximum(idx, 0)], self.pressure0[k])
-        self.pressures = p
+        self.pressure_t0 = np.array([mon.signals[n].last_t_ns or 0 for n in PRESSURE_INPUTS], np.int64)
+        # the four pressures standing before each position 0..m, and the instants update()
+        # holds for the residual (each pressure sample's, where all four are known)
+        idx = self.newest[:, 1:]
+        self.pressures = np.where(idx >= 0, self._value[idx], np.asarray(mon._pressures, float)[None, :])
+        p = self.pressures[1:]
         held = np.isin(code, _PRESSURE) & ~np.isnan(((p[:, 0] + p[:, 1]) + p[:, 2]) + p[:, 3])
         hp = np.flatnonzero(held)
         self.held_at = hp.tolist()
         self.held = list(zip(stamp[hp].tolist(), *(p[hp, k].tolist() for k in range(4))))
         # rudder or pressure samples before each position (they make the live model's state change)
-        changes = np.isin(code, (ANGLE, *_PRESSURE))
-        self.changes = np.concatenate([[0], np.cumsum(changes)])
-        #: the rate after each angle sample (filled as they are taken)
-        self.rate_after = np.full(m, math.nan)
+        self.changes = np.concatenate([[0], np.cumsum(np.isin(code, (ANGLE, *_PRESSURE)))])
+        #: the rate after each angle sample (filled as they are taken); the last: what stood before
+        self.rate_after = np.full(m + 1, math.nan)
+        self.rate_after[m] = self.rate0
         # progress: per input, samples recorded in the live model and given to the analyst; instants held
         self._recorded = [0] * len(INPUTS)
         self._analysed = [0] * len(INPUTS)
         self._held = 0
-        self.emit_at = emit_at
         self.ok = self._finite_at(emit_at)
 
     # --- the values standing before a position -------------------------------------------
     def _angle_before(self, at: NDArray[np.intp]) -> tuple[NDArray[np.float64], NDArray[np.int64],
                                                            NDArray[np.float64]]:
         """(angle [rad], its time [ns], the rate [rad/s]) standing before each position."""
-        idx = np.where(at > 0, self.last[ANGLE][np.maximum(at - 1, 0)], -1) if self.m else np.full(at.shape, -1)
+        idx = self.newest[at, 0]
         has = idx >= 0
-        j = np.maximum(idx, 0)
         a0, t0 = self.angle0
-        alpha = np.where(has, self.value[j], a0) if self.m else np.full(at.shape, a0)
-        t = np.where(has, self.stamp[j], t0 if t0 is not None else 0) if self.m else np.full(at.shape, t0 or 0)
-        rate = np.where(has, self.rate_after[j], self.rate0) if self.m else np.full(at.shape, self.rate0)
-        return alpha, t.astype(np.int64), rate
+        return (np.where(has, self._value[idx], a0), np.where(has, self._stamp[idx], t0).astype(np.int64),
+                self.rate_after[idx])
 
     def _pressures_before(self, at: NDArray[np.intp]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
         """(the four pressures (n, 4) [Pa], the newest of their times (n,) [ns]) before each position."""
-        n = at.shape[0]
-        if not self.m:
-            return np.tile(self.pressure0, (n, 1)), np.full(n, max(self.pressure_t0), np.int64)
-        prev = np.maximum(at - 1, 0)
-        p = np.where((at > 0)[:, None], self.pressures[prev], np.asarray(self.pressure0)[None, :])
-        t = np.zeros(n, np.int64)
-        for k, c in enumerate(_PRESSURE):
-            idx = np.where(at > 0, self.last[c][prev], -1)
-            t = np.maximum(t, np.where(idx >= 0, self.stamp[np.maximum(idx, 0)], self.pressure_t0[k]))
-        return p, t
+        idx = self.newest[at, 1:]
+        t = np.where(idx >= 0, self._stamp[idx], self.pressure_t0[None, :]).max(axis=1, initial=0)
+        return self.pressures[at], t
 
     def _finite_at(self, at: NDArray[np.intp]) -> bool:
         """Every state to be emitted can be evaluated (angle and pressures known, finite); else
@@ -153,6 +142,16 @@ class RunPlan:
         return bool(self.changes[stop] > self.changes[start])
 
     # --- bringing the live model and the analyst up to a position ------------------------
+    def _record_upto(self, mon: LiveMonitor, c: int, upto: int) -> bool:
+        """Input ``c``'s samples before ``upto`` not yet recorded, recorded; whether there were any."""
+        i = bisect_left(self.where[c], upto)
+        done = self._recorded[c]
+        if i <= done:
+            return False
+        mon.record(INPUTS[c], self.times[c][done:i], self.vals[c][done:i], self.in_order[c])
+        self._recorded[c] = i
+        return True
+
     def before_sequential(self, mon: LiveMonitor, s: int) -> None:
         """Before the angle or order sample at ``s``: what its residual reads (the instants
         held, the ship's speed and oil temperature) brought up to it."""
@@ -161,11 +160,7 @@ class RunPlan:
             mon.hold_pressures(self.held[self._held:k], None)
             self._held = k
         for c in _SLOW:
-            i = bisect_left(self.where[c], s)
-            if i > self._recorded[c]:
-                mon.record(INPUTS[c], self.times[c][self._recorded[c]:i], self.vals[c][self._recorded[c]:i],
-                           self.in_order[c])
-                self._recorded[c] = i
+            self._record_upto(mon, c, s)
 
     def sync(self, mon: LiveMonitor, analyst: Analyst | None, upto: int) -> None:
         """Everything before ``upto`` taken as update() and the analyst's add would have (the
@@ -173,14 +168,9 @@ class RunPlan:
         k = bisect_left(self.held_at, upto)
         moved = False
         for c in _RECORDED:
-            i = bisect_left(self.where[c], upto)
-            if i > self._recorded[c]:
-                mon.record(INPUTS[c], self.times[c][self._recorded[c]:i], self.vals[c][self._recorded[c]:i],
-                           self.in_order[c])
-                self._recorded[c] = i
-                moved = moved or c in _PRESSURE
+            moved = self._record_upto(mon, c, upto) and c in _PRESSURE or moved
         if k > self._held or moved:
-            mon.hold_pressures(self.held[self._held:k], tuple(self.pressures[upto - 1].tolist()) if moved else None)
+            mon.hold_pressures(self.held[self._held:k], tuple(self.pressures[upto].tolist()) if moved else None)
             self._held = k
         if analyst is not None:
             for c in _ANALYSED:
@@ -200,17 +190,15 @@ class RunPlan:
     def state_before(self, mon: LiveMonitor, s: int) -> LiveState:
         """The state :meth:`~steer_monitor.monitor.live.LiveMonitor.slot_state` evaluates before
         position ``s``, one (the same numbers as :meth:`states`, read without arrays)."""
-        ai = int(self.last[ANGLE][s - 1]) if s > 0 else -1
+        ai, *pi = self.newest[s].tolist()
         if ai >= 0:
-            alpha, alpha_t, rate = self.values[ai], self.stamps[ai], float(self.rate_after[ai])
+            alpha, alpha_t = self.values[ai], self.stamps[ai]
         else:
-            alpha, alpha_t, rate = self.angle0[0], self.angle0[1] or 0, self.rate0
+            alpha, alpha_t = self.angle0
         t = alpha_t
-        for k, c in enumerate(_PRESSURE):
-            pi = int(self.last[c][s - 1]) if s > 0 else -1
-            t = max(t, self.stamps[pi] if pi >= 0 else self.pressure_t0[k])
-        p = tuple(self.pressures[s - 1].tolist()) if s > 0 else self.pressure0
-        return mon.state_at(t, alpha, alpha_t, rate, p)
+        for k, i in enumerate(pi):
+            t = max(t, self.stamps[i] if i >= 0 else int(self.pressure_t0[k]))
+        return mon.state_at(t, alpha, alpha_t, float(self.rate_after[ai]), tuple(self.pressures[s].tolist()))
 
     def states(self, mon: LiveMonitor, at: NDArray[np.intp], gaps: list[Gaps]) -> StateRun:
         """The states evaluated before positions ``at`` with the clearances ``gaps`` then in use."""
