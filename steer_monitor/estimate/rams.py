@@ -24,6 +24,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
 __all__ = ['EVEN', 'IDLE', 'IDLE_RAM_SHARE', 'JOINED_SHARE', 'MIN_SHARE_INSTANTS', 'MIN_SHARE_SPREAD_PA', 'OPPOSED',
@@ -98,27 +99,62 @@ class RamShare:
 def ram_share(force: NDArray[np.float64]) -> RamShare | None:
     """The shares of ``force`` (n, 2), each ram's A_r (p_stbd - p_port) [N] at instants of
     steady motion; rows with a non-finite force are left out. None with fewer than three
-    rows or a mean force that does not vary."""
-    f = np.asarray(force, dtype=float).reshape(-1, 2)
-    f = f[np.isfinite(f).all(axis=1)]
-    n = f.shape[0]
-    if n < 3:
+    rows or a mean force that does not vary.
+
+    Centred moments in three passes over the rows (the means; the centred sums of squares
+    and products and the slope; the fit's residual), compiled (:func:`_share_sums`): each
+    sum of n terms is within about n machine epsilons of its terms' magnitudes, and no
+    moment is a difference of large sums (the live rams status works one out every second
+    of motion over 2,400 instants, where numpy's dozen calls took 0.15 ms)."""
+    f = np.ascontiguousarray(force, dtype=float).reshape(-1, 2)
+    n, m_mean, d_mean, smm, smd, see, s11, s22, s12 = _share_sums(f)
+    if n < 3 or not smm > 0:
         return None
-    m = 0.5 * (f[:, 0] + f[:, 1])
-    d = f[:, 0] - f[:, 1]
-    mc = m - m.mean()
-    dc = d - d.mean()
-    smm = float(np.dot(mc, mc))
-    if not smm > 0:
-        return None
-    b = float(np.dot(mc, dc)) / smm
-    e = dc - b * mc
-    se_b = math.sqrt(float(np.dot(e, e)) / (n - 2) / smm)
+    b = smd / smm
+    se_b = math.sqrt(see / (n - 2) / smm)
     s1 = 0.5 + 0.25 * b
-    f1c, f2c = f[:, 0] - f[:, 0].mean(), f[:, 1] - f[:, 1].mean()
-    s11, s22 = float(np.dot(f1c, f1c)), float(np.dot(f2c, f2c))
-    corr = float(np.dot(f1c, f2c)) / math.sqrt(s11 * s22) if s11 > 0 and s22 > 0 else math.nan
-    return RamShare((s1, 1.0 - s1), 0.25 * se_b, math.sqrt(smm / n), float(d.mean() - b * m.mean()), n, corr)
+    corr = s12 / math.sqrt(s11 * s22) if s11 > 0 and s22 > 0 else math.nan
+    return RamShare((s1, 1.0 - s1), 0.25 * se_b, math.sqrt(smm / n), d_mean - b * m_mean, int(n), corr)
+
+
+@njit(cache=True, nogil=True)
+def _share_sums(f: NDArray[np.float64]) -> tuple[int, float, float, float, float, float, float, float, float]:
+    """Over the rows of ``f`` (n, 2) whose two values are finite, with m = (f1 + f2) / 2 and
+    d = f1 - f2: (rows, mean m, mean d, S_mm, S_md, the residual's sum of squares of d on m
+    about the slope S_md / S_mm, S_11, S_22, S_12), the S centred sums of products."""
+    n = 0
+    s_m = s_d = s_1 = s_2 = 0.0
+    for i in range(f.shape[0]):
+        a, c = f[i, 0], f[i, 1]
+        if np.isfinite(a) and np.isfinite(c):
+            n += 1
+            s_m += 0.5 * (a + c)
+            s_d += a - c
+            s_1 += a
+            s_2 += c
+    if n == 0:
+        return 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    m_mean, d_mean, f1_mean, f2_mean = s_m / n, s_d / n, s_1 / n, s_2 / n
+    smm = smd = s11 = s22 = s12 = 0.0
+    for i in range(f.shape[0]):
+        a, c = f[i, 0], f[i, 1]
+        if np.isfinite(a) and np.isfinite(c):
+            mc, dc = 0.5 * (a + c) - m_mean, (a - c) - d_mean
+            smm += mc * mc
+            smd += mc * dc
+            u, v = a - f1_mean, c - f2_mean
+            s11 += u * u
+            s22 += v * v
+            s12 += u * v
+    see = 0.0
+    if smm > 0:
+        b = smd / smm
+        for i in range(f.shape[0]):
+            a, c = f[i, 0], f[i, 1]
+            if np.isfinite(a) and np.isfinite(c):
+                e = ((a - c) - d_mean) - b * (0.5 * (a + c) - m_mean)
+                see += e * e
+    return n, m_mean, d_mean, smm, smd, see, s11, s22, s12
 
 
 def enough(sh: RamShare, ram_area: float) -> bool:

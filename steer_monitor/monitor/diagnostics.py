@@ -99,6 +99,17 @@ class DiagnosticsBuilder:
         self.smap = smap
         self.gear = gear
         self._onset_cache: dict[Gaps, float | None] = {}
+        # per input: its name, how long it may be silent [s], the window its rate is judged
+        # over [ns], its expected rate [Hz], its three keys and its expected rate as text
+        self._inputs = [(spec.name,
+                         # a slow signal is stale only after missing several of its own periods
+                         max(cfg.stale_after_s, 3.0 / spec.rate_hz),
+                         # over five of its periods at least: a 0.5 Hz input has two in 5 s, and one
+                         # late frame would read as rate 0
+                         min(ARRIVALS_KEPT_NS, max(RATE_WINDOW_NS, int(5e9 / spec.rate_hz))),
+                         spec.rate_hz,
+                         (f'{spec.name}_rate_hz', f'{spec.name}_expected_hz', f'{spec.name}_silent_s'),
+                         f'{spec.rate_hz:g}') for spec in smap.specs]
 
     def _status(self, item: str, level: int, message: str, values: list[tuple[str, str]]) -> Status:
         return Status(PREFIX + item, level, message, self.cfg.hardware_id, tuple(values))
@@ -128,21 +139,14 @@ class DiagnosticsBuilder:
     def can_input(self, mon: LiveMonitor, rejects: RejectSnapshot, now_ns: int) -> Status:
         values: list[tuple[str, str]] = []
         stale, slow = [], []
-        for spec in self.smap.specs:
-            silent = mon.silent_for(spec.name, now_ns)
-            # A slow signal is stale only after missing several of its own periods.
-            limit = max(self.cfg.stale_after_s, 3.0 / spec.rate_hz)
-            # over five of its periods at least: a 0.5 Hz input has two in 5 s, and one late frame
-            # would read as rate 0
-            window_ns = min(ARRIVALS_KEPT_NS, max(RATE_WINDOW_NS, int(5e9 / spec.rate_hz)))
-            rate = mon.rate_hz(spec.name, now_ns, window_ns)
-            values.append((f'{spec.name}_rate_hz', f'{rate:.2f}'))
-            values.append((f'{spec.name}_expected_hz', f'{spec.rate_hz:g}'))
-            values.append((f'{spec.name}_silent_s', _f(silent, '.2f')))
+        for name, limit, window_ns, expected_hz, keys, expected in self._inputs:
+            silent = mon.silent_for(name, now_ns)
+            rate = mon.rate_hz(name, now_ns, window_ns)
+            values += ((keys[0], f'{rate:.2f}'), (keys[1], expected), (keys[2], _f(silent, '.2f')))
             if silent is None or silent > limit:
-                stale.append(spec.name)
-            elif rate < 0.5 * spec.rate_hz and len(mon.signals[spec.name].arrivals) >= 3:
-                slow.append(spec.name)  # a rate is judged once it has a few arrivals
+                stale.append(name)
+            elif rate < 0.5 * expected_hz and len(mon.signals[name].arrivals) >= 3:
+                slow.append(name)  # a rate is judged once it has a few arrivals
         for reason, n in sorted(rejects.counts.items()):
             values.append((f'rejects_{reason}', str(n)))
         values.append(('rejects_total', str(rejects.total)))

@@ -204,8 +204,14 @@ class LiveMonitor:
         # seconds left 17 bar in the window)
         self._motion: deque[tuple[float, float | None, float, float, float, float, float]] = \
             deque(maxlen=RESIDUAL_SAMPLES // 2)
-        self._resid: deque[tuple[float, float] | None] = deque(maxlen=RESIDUAL_SAMPLES // 2)
-        self._resid_summary: tuple[list[float], int, float | None] | None = None   # of _resid, until it changes
+        # the residual pairs of the instants of _motion, a ring of its length: the pair [bar] and
+        # whether the instant was judged, the next row written at _resid_next (numpy reads it as
+        # it is: the minute's RMS is a correctly rounded sum, the same whatever the rows' order)
+        self._resid = np.zeros((RESIDUAL_SAMPLES // 2, 2))
+        self._resid_ok = np.zeros(RESIDUAL_SAMPLES // 2, bool)
+        self._resid_next = 0
+        self._resid_kept = 0
+        self._resid_summary: tuple[int, int, float | None] | None = None   # of _resid, until it changes
         # instants of _motion not judged yet: judged together when the residuals are read
         # (:meth:`_summary`, the diagnostics once a second), as one vectorized solve
         self._unjudged: deque[tuple[float, float | None, float, float, float, float, float]] = \
@@ -217,6 +223,7 @@ class LiveMonitor:
         self._ring = np.zeros((SHARE_INSTANTS, 4))
         self._ring_next = 0
         self._ring_kept = 0
+        self._share_rows: list[tuple[float, float, float, float]] = []   # taken, not yet in the ring
         self._share: RamShare | None = None
         self._share_stale = False
         #: the analysis the model in use comes from (None: the configured model); its effects
@@ -249,7 +256,8 @@ class LiveMonitor:
         if friction is not None:
             self.priors = friction
         self.torque = torque
-        self._resid = deque(self._residual_pairs(list(self._motion)), maxlen=self._resid.maxlen)
+        self._resid_next = self._resid_kept = 0
+        self._keep_residuals(*self._residual_pairs(list(self._motion)))
         self._unjudged.clear()
         self._resid_summary = None
 
@@ -281,30 +289,47 @@ class LiveMonitor:
         """Seconds of steady rudder motion counted since this monitor started."""
         return self.motion_ns / 1e9
 
-    def _summary(self) -> tuple[list[float], int, float | None]:
+    def _keep_residuals(self, pairs: np.ndarray, judged: np.ndarray) -> None:
+        """The residual pairs (n, 2) [bar] of the next instants, and whether each was judged
+        (n,), into the ring (the last ``RESIDUAL_SAMPLES // 2`` kept)."""
+        ring = self._resid.shape[0]
+        pairs, judged = pairs[-ring:], judged[-ring:]
+        k = pairs.shape[0]
+        start = self._resid_next
+        head = min(k, ring - start)
+        self._resid[start:start + head] = pairs[:head]
+        self._resid_ok[start:start + head] = judged[:head]
+        self._resid[:k - head] = pairs[head:]
+        self._resid_ok[:k - head] = judged[head:]
+        self._resid_next = (start + k) % ring
+        self._resid_kept = min(self._resid_kept + k, ring)
+
+    def _summary(self) -> tuple[int, int, float | None]:
         """(residuals, instants not judged, RMS [bar]) of the kept minute, worked out once
         per change of it (the diagnostics read them several times a second, and at rest the
         minute does not change for hours)."""
         if self._resid_summary is None:
             if self._unjudged:
-                self._resid.extend(self._residual_pairs(list(self._unjudged)))
+                self._keep_residuals(*self._residual_pairs(list(self._unjudged)))
                 self._unjudged.clear()
-            pairs = [pair for pair in self._resid if pair is not None]
-            arr = np.fromiter(chain.from_iterable(pairs), float, 2 * len(pairs))
-            res = arr.tolist()
+            kept = self._resid_kept
+            values = self._resid[:kept][self._resid_ok[:kept]].ravel()
             rms = None
-            if res:                   # correctly rounded, as math.fsum: see _slope
-                total = sum_of_squares(arr)
-                total = math.fsum(r * r for r in res) if total is None else total
-                rms = math.sqrt(total / len(res))
-            self._resid_summary = (res, len(self._resid) - len(pairs), rms)
+            if values.size:           # correctly rounded, as math.fsum: see _slope
+                total = sum_of_squares(values)
+                total = math.fsum(r * r for r in values.tolist()) if total is None else total
+                rms = math.sqrt(total / values.size)
+            self._resid_summary = (int(values.size), kept - values.size // 2, rms)
         return self._resid_summary
 
     @property
     def residuals(self) -> list[float]:
         """The model's pressure residuals [bar] over the last minute of steady motion, two per
-        judged instant (one per ram), under the model now in use."""
-        return list(self._summary()[0])
+        judged instant (one per ram), oldest first, under the model now in use."""
+        self._summary()
+        kept = self._resid_kept
+        order = (np.arange(kept) + (self._resid_next - kept)) % self._resid.shape[0]
+        return self._resid[order][self._resid_ok[order]].ravel().tolist()
 
     @property
     def residuals_skipped(self) -> int:
@@ -346,26 +371,34 @@ class LiveMonitor:
         return out[0], out[1]
 
     def _residual_pairs(self, instants: list[tuple[float, float | None, float, float, float, float, float]]
-                        ) -> list[tuple[float, float] | None]:
+                        ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`_residual_pair` of many instants at once (the minute a new estimate re-judges,
         up to 600 instants once a second of motion: one vectorized load-sharing solve instead
         of one per instant; every instant is judged here, the minute after a new estimate
-        and the instants taken since the residuals were last read). Equal to the one-instant
-        results to rounding (tested); with the effects of an analysis in use, instant by
-        instant. Element by element, so an instant's numbers do not depend on the others
-        judged with it."""
+        and the instants taken since the residuals were last read): the pairs (n, 2) [bar]
+        (NaN where not judged) and whether each instant was judged (n,). Equal to the
+        one-instant results to rounding (tested); with the effects of an analysis in use,
+        instant by instant. Element by element, so an instant's numbers do not depend on the
+        others judged with it."""
+        n = len(instants)
+        pairs = np.full((n, 2), math.nan)
+        judged = np.zeros(n, bool)
         if not instants:
-            return []
+            return pairs, judged
         if self._effects:
-            return [self._residual_pair(x) for x in instants]
+            for i, x in enumerate(instants):
+                pair = self._residual_pair(x)
+                if pair is not None:
+                    pairs[i] = pair
+                    judged[i] = True
+            return pairs, judged
         arr = np.array([(a, math.nan if s is None else s, d, f1, f2) for a, s, d, f1, f2, _, _ in instants])
         alpha, speed, direction, force_1, force_2 = arr.T
         gear, gaps = self.gear, self.gaps
         torque = (self.torque or gear.torque).scalars(alpha, speed)
         known = np.flatnonzero(np.isfinite(torque))   # beyond the angles the fitted torque was learned at: None
-        out: list[tuple[float, float] | None] = [None] * len(instants)
         if known.size == 0:
-            return out
+            return pairs, judged
         a = alpha[known]
         m = load_sharing(gear, a, torque[known], gaps.two_z, gaps.z_gb)
         iv = self.gaps_interval or {}
@@ -376,12 +409,11 @@ class LiveMonitor:
             guess |= m.lateral > m.f_z
         f_fr = friction_force(self.priors, m.r_a, m.r_e, m.m_a, m.guide_force, gear.bushing_length)
         predicted = np.copysign(m.axial, a) + direction[known] * f_fr
-        r1 = ((force_1[known] - predicted) / gear.ram_area / 1e5).tolist()
-        r2 = ((force_2[known] - predicted) / gear.ram_area / 1e5).tolist()
-        for k, i in enumerate(known.tolist()):
-            if not guess[k]:
-                out[i] = (r1[k], r2[k])
-        return out
+        rows = known[~guess]
+        pairs[rows, 0] = ((force_1[known] - predicted) / gear.ram_area / 1e5)[~guess]
+        pairs[rows, 1] = ((force_2[known] - predicted) / gear.ram_area / 1e5)[~guess]
+        judged[rows] = True
+        return pairs, judged
 
     # --- input ---------------------------------------------------------------------------
     def update(self, sample: Sample) -> None:
@@ -627,7 +659,8 @@ class LiveMonitor:
         speed = None if math.isnan(speed) else speed
         oil = self.signals['oil_temperature'].last_value
         delay = self._delay_ns
-        rows: list[tuple[float, float, float, float]] = []
+        rows = self._share_rows
+        taken = len(rows)
         pending = self._pending
         while pending and pending[0][0] <= t_end:
             t, c0, c1, c2, c3 = pending.popleft()
@@ -651,13 +684,19 @@ class LiveMonitor:
             self._motion.append(instant)
             self._unjudged.append(instant)
             rows.append((c0, c1, c2, c3))
-        if rows:
+        if len(rows) > taken:
             self._resid_summary = None
-            self._keep_share_rows(rows)
+            self._share_stale = True
+            if len(rows) >= SHARE_INSTANTS:
+                self._keep_share_rows()
 
-    def _keep_share_rows(self, rows: list[tuple[float, float, float, float]]) -> None:
-        """The four pressures of instants of steady motion into the ring :meth:`ram_share`
-        reads (the last :data:`SHARE_INSTANTS`, the next at ``_ring_next``)."""
+    def _keep_share_rows(self) -> None:
+        """The four pressures of the instants of steady motion taken since (``_share_rows``)
+        into the ring :meth:`ram_share` reads (the last :data:`SHARE_INSTANTS`, the next at
+        ``_ring_next``): when it is read, or when they are as many."""
+        rows = self._share_rows
+        if not rows:
+            return
         block = np.array(rows[-SHARE_INSTANTS:], float)
         start = (self._ring_next + len(rows) - block.shape[0]) % SHARE_INSTANTS
         head = min(block.shape[0], SHARE_INSTANTS - start)
@@ -665,7 +704,7 @@ class LiveMonitor:
         self._ring[:block.shape[0] - head] = block[head:]
         self._ring_next = (start + block.shape[0]) % SHARE_INSTANTS
         self._ring_kept = min(self._ring_kept + len(rows), SHARE_INSTANTS)
-        self._share_stale = True
+        rows.clear()
 
     def _track_hard_over(self, t_ns: int, alpha: float) -> None:
         deg = alpha / DEG
@@ -731,6 +770,7 @@ class LiveMonitor:
         """How the rams shared the driving force over the last :data:`SHARE_INSTANTS` instants
         of steady motion (None before there are any that say)."""
         if self._share_stale:     # the ring's rows in the order they lie: the same rows, the same bits
+            self._keep_share_rows()
             p = self.share_pressures()
             area = self.gear.ram_area    # the forces as _residuals_until() makes them, element by element
             self._share = ram_share(np.stack([area * (p[:, 0] - p[:, 1]), area * (p[:, 2] - p[:, 3])], axis=1))
@@ -739,6 +779,7 @@ class LiveMonitor:
 
     def share_pressures(self) -> np.ndarray:
         """The four pressures [Pa] (k, 4) at the instants :meth:`ram_share` is over (a view)."""
+        self._keep_share_rows()
         return self._ring[:self._ring_kept]
 
     def residual_rms_bar(self) -> float | None:
@@ -748,4 +789,4 @@ class LiveMonitor:
     @property
     def residual_count(self) -> int:
         """How many residuals :attr:`residuals` holds."""
-        return len(self._summary()[0])
+        return self._summary()[0]

@@ -246,13 +246,14 @@ def test_a_minute_rejudged_at_once_is_each_instant_judged_alone(r18_params, case
     interval = {'2z': (0.05e-3, None), 'zgb': (0.0, None)} if case == 'lower bounds only' else None
     mon.set_gaps(gaps, 'estimated' if case != 'configured' else 'configured', interval,
                  FrictionParams(9000.0, 0.13, 0.05), table)
-    many = mon._residual_pairs(instants)
+    many, judged = mon._residual_pairs(instants)
     one = [mon._residual_pair(i) for i in instants]
-    assert [p is None for p in many] == [p is None for p in one]
+    assert judged.tolist() == [p is not None for p in one]
+    assert np.isnan(many[~judged]).all()
     if case != 'configured':
         assert 0 < sum(p is None for p in one) < len(one)
-    for p, q in zip(many, one):
-        if p is not None:
+    for p, ok, q in zip(many.tolist(), judged, one):
+        if ok:
             assert p == pytest.approx(q, rel=1e-12, abs=1e-9)
 
 
@@ -288,7 +289,6 @@ def test_the_rate_and_the_residual_rms_are_correctly_rounded_sums():
     monitor gives the correctly rounded one (math.fsum), the same on every Python (the built-in
     sum is compensated from 3.12 on), so a node and a replay on different machines agree."""
     import math
-    from collections import deque
 
     from steer_monitor.params import gear_from_params, load_params_file
     from steer_monitor.resources import default_config
@@ -302,7 +302,7 @@ def test_the_rate_and_the_residual_rms_are_correctly_rounded_sums():
     assert LiveMonitor._slope(pts) == want
     # the residual's RMS over the kept minute
     mon = LiveMonitor(gear_from_params(load_params_file(default_config())), Gaps.from_mm(0.6, 0.25))
-    mon._resid = deque([(1e8, 1.0), (1.0, 1.0)])
+    mon._keep_residuals(np.array([[1e8, 1.0], [1.0, 1.0]]), np.array([True, True]))
     res = [1e8, 1.0, 1.0, 1.0]
     assert sum(r * r for r in res) != math.fsum(r * r for r in res)
     assert mon.residual_rms_bar() == math.sqrt(math.fsum(r * r for r in res) / 4)
