@@ -2,13 +2,15 @@
 about 330,000 frames), with python-can's candump reader on the same file in the same run.
 
 Each part of :func:`steer_monitor.ashore.replay.replay` is timed by wrapping its entry points with
-a clock (the wrappers' own cost, about a microsecond a call, is counted in the parts and
-shown apart as the difference between the timed and an untimed run):
+a clock, a timed call made inside another counted in its own part only (the wrappers' own
+cost, about a microsecond a call, is counted in the parts and shown apart as the difference
+between the timed and an untimed run):
 
 * decode: ``Decoder.decode_run`` over runs of up to 4,096 frames (``Decoder.decode`` for the
   frames it leaves to one at a time);
-* live model: ``LiveMonitor.update`` per angle and order sample (rate, residual, the
-  performance trackers), a run's other samples laid out and recorded and the slots' states
+* live model: ``LiveMonitor.update`` per angle and order sample (rate, the performance
+  trackers), ``LiveMonitor._take_instants`` (the held pressure samples judged for the
+  residual, where they are read), a run's other samples laid out and recorded and the slots' states
   worked out at once (``RunPlan``), ``LiveMonitor.slot_state`` where a slot's state is read
   one at a time (the states' load sharing is left to the packing, below);
 * diagnostics: ``DiagnosticsBuilder.build``, once per second of data;
@@ -57,16 +59,25 @@ def _make_log(path: Path) -> int:
     return len(fa)
 
 
+_inner: list[float] = []     # per timed call under way: the time its timed calls took
+
+
 def _timed(spent: dict[str, float], part: str, fn):
+    """``fn`` with its time added to ``part``, less that of the timed calls it makes (each
+    counted in its own part: the diagnostics judge the residual's instants when they read them)."""
     clock = time.perf_counter
 
     @functools.wraps(fn)
     def wrapper(*a, **k):
+        _inner.append(0.0)
         t0 = clock()
         try:
             return fn(*a, **k)
         finally:
-            spent[part] += clock() - t0
+            dt = clock() - t0
+            spent[part] += dt - _inner.pop()
+            if _inner:
+                _inner[-1] += dt
     return wrapper
 
 
@@ -82,6 +93,7 @@ def _instrument(spent: dict[str, float]) -> None:
     Decoder.decode = _timed(spent, 'decode', Decoder.decode)
     Decoder.decode_run = _timed(spent, 'decode', Decoder.decode_run)
     LiveMonitor.update = _timed(spent, 'live model', LiveMonitor.update)
+    LiveMonitor._take_instants = _timed(spent, 'live model', LiveMonitor._take_instants)
     LiveMonitor.slot_state = _timed(spent, 'live model', LiveMonitor.slot_state)
     for name in ('__init__', 'sync', 'before_sequential', 'skip', 'state_before', 'states'):
         setattr(RunPlan, name, _timed(spent, 'live model', getattr(RunPlan, name)))

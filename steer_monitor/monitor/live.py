@@ -48,6 +48,7 @@ from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
 from steer_monitor.model.inputs import INPUTS, Sample
 from steer_monitor.model.loadshare import ShareScalar, load_sharing, load_sharing_scalar
 from steer_monitor.model.torque import TorqueTable
+from steer_monitor.monitor.instants import OUT_FIELDS, take_instants
 from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope, sum_of_squares, window_slopes
 from steer_monitor.utc import utc_json
 
@@ -64,6 +65,9 @@ MOTION_STEP_NS = 250_000_000   # a steady bracket of angle samples counts at mos
 MOVING_RATE = 0.2 * DEG        # rad/s: below this the rudder is at rest
 RESIDUAL_SAMPLES = 1200        # about a minute of motion at 20 Hz
 SHARE_INSTANTS = 2400          # instants of steady motion the rams' shares are judged over
+#: an instant of steady motion's columns: angle [rad], ship speed [m/s] (NaN: not known),
+#: direction +-1, the rams' forces [N], rate [rad/s], oil temperature [K]
+_INSTANT = OUT_FIELDS[:7]
 HARD_OVER_DEG = HARD_OVER_FROM_DEG   # "at 35 deg", allowing for sensor noise and the valve dead band
 OTHER_SIDE_DEG = HARD_OVER_TO_DEG    # "at 30 deg" likewise: the valve stops within its dead band
 ORDER_STEP = 1.0 * DEG
@@ -154,21 +158,59 @@ class _Signal:
             arrivals.popleft()
 
 
+class _Ring:
+    """The last ``cap`` rows of a stream of rows of ``width`` floats, in one numpy array
+    written in place (numpy reads it as it is, where a deque of tuples took 0.4 ms a second
+    to convert): the next row at ``next``, ``kept`` rows held. Rows pushed together lie
+    where pushing them one by one would put them."""
+
+    def __init__(self, cap: int, width: int) -> None:
+        self.data = np.zeros((cap, width))
+        self.next = 0
+        self.kept = 0
+
+    def push(self, block: NDArray[np.float64]) -> None:
+        """Rows (n, width) after those held."""
+        cap, total = self.data.shape[0], block.shape[0]
+        block = block[-cap:]
+        k = block.shape[0]
+        start = (self.next + total - k) % cap
+        head = min(k, cap - start)
+        self.data[start:start + head] = block[:head]
+        self.data[:k - head] = block[head:]
+        self.next = (start + k) % cap
+        self.kept = min(self.kept + total, cap)
+
+    def clear(self) -> None:
+        self.next = self.kept = 0
+
+    def rows(self) -> NDArray[np.float64]:
+        """The rows held (kept, width), in the order they lie (a view)."""
+        return self.data[:self.kept]
+
+    def ordered(self) -> NDArray[np.float64]:
+        """The rows held (kept, width), oldest first (a copy)."""
+        return self.data[(np.arange(self.kept) + (self.next - self.kept)) % self.data.shape[0]]
+
+
 @dataclass(frozen=True)
 class _AnglePlan:
-    """The slopes of a run of angle samples (:meth:`LiveMonitor.plan_angles`): ``n`` samples
+    """The rates of a run of angle samples (:meth:`LiveMonitor.plan_angles`): ``n`` samples
     from global index ``base`` (counted from the monitor's first angle sample), their times,
-    the first global index of each one's rate and before-windows and the end of its
-    after-window, and per window (rate, before, after: ``w * n + k``) status and slope."""
+    the first global index of each one's rate window, and its status and slope."""
 
     base: int
     n: int
     t: list[int]
     rate_lo: list[int]
-    before_lo: list[int]
-    after_hi: list[int]
     status: list[int]
     slope: list[float]
+
+
+#: angle samples whose release of held pressure samples is judged later at most
+#: (:meth:`LiveMonitor._take_instants`): whatever reads the residual, the rams' share or the
+#: motion judges them first; this bounds the log between reads
+CALLS_KEPT = 1024
 
 
 class LiveMonitor:
@@ -191,7 +233,24 @@ class LiveMonitor:
         self._history: deque[tuple[int, float]] = deque()   # the last 0.9 s of angles
         self._hist_base = 0                                  # angle samples dropped from its front
         self._plan: _AnglePlan | None = None                 # a replay run's slopes (plan_angles)
-        self._pending: deque[tuple[int, float, float, float, float]] = deque()   # (t, the four pressures)
+        # pressure samples held for the residual (where all four pressures are known), in the
+        # order held, not yet released: blocks of their times (n,) and four pressures (n, 4),
+        # then those held one by one (times; pressures flat); how many were ever held
+        self._pend_blocks: list[tuple[NDArray[np.int64], NDArray[np.float64]]] = []
+        self._pend_t: list[int] = []
+        self._pend_p: list[float] = []
+        self._held_total = 0
+        # per angle sample since the held samples were last judged (:meth:`_take_instants`),
+        # flat: what it saw (instants.CALL_FIELDS) and the ship's speed and oil temperature
+        # then; the angle samples themselves from global index _angles_first on
+        self._calls: list[int] = []
+        self._call_env: list[float] = []
+        self._take_state = np.zeros(6, np.int64)
+        self._take_given = np.zeros(6)
+        self._angles_t: list[int] = []
+        self._angles_a: list[float] = []
+        self._angles_first = 0
+        self._speed, self._oil = self.signals['ship_speed'], self.signals['oil_temperature']
         self._pressures = [math.nan] * 4
         self._dirty = False
         self._state: LiveState | None = None
@@ -202,28 +261,22 @@ class LiveMonitor:
         # (None: not judged); a new estimate recomputes them all, so the residual judges the
         # model now in use, never a mix of models replaced since (an early fit used for
         # seconds left 17 bar in the window)
-        self._motion: deque[tuple[float, float | None, float, float, float, float, float]] = \
-            deque(maxlen=RESIDUAL_SAMPLES // 2)
+        # (speed NaN where not known: _INSTANT's columns)
+        self._motion = _Ring(RESIDUAL_SAMPLES // 2, len(_INSTANT))
         # the residual pairs of the instants of _motion, a ring of its length: the pair [bar] and
-        # whether the instant was judged, the next row written at _resid_next (numpy reads it as
-        # it is: the minute's RMS is a correctly rounded sum, the same whatever the rows' order)
-        self._resid = np.zeros((RESIDUAL_SAMPLES // 2, 2))
-        self._resid_ok = np.zeros(RESIDUAL_SAMPLES // 2, bool)
-        self._resid_next = 0
-        self._resid_kept = 0
+        # whether the instant was judged (1/0) (the minute's RMS is a correctly rounded sum, the
+        # same whatever the rows' order)
+        self._resid = _Ring(RESIDUAL_SAMPLES // 2, 3)
         self._resid_summary: tuple[int, int, float | None] | None = None   # of _resid, until it changes
         # instants of _motion not judged yet: judged together when the residuals are read
         # (:meth:`_summary`, the diagnostics once a second), as one vectorized solve
-        self._unjudged: deque[tuple[float, float | None, float, float, float, float, float]] = \
-            deque(maxlen=RESIDUAL_SAMPLES // 2)
+        self._unjudged = _Ring(RESIDUAL_SAMPLES // 2, len(_INSTANT))
         # the four pressures at the same instants, kept whatever the model in use (the rams'
-        # share does not depend on it): a ring of the last SHARE_INSTANTS rows (numpy reads it
-        # as it is, where a deque of tuples took 0.4 ms a second to convert), the next row
-        # written at _ring_next; the share worked out once per change
-        self._ring = np.zeros((SHARE_INSTANTS, 4))
-        self._ring_next = 0
-        self._ring_kept = 0
-        self._share_rows: list[tuple[float, float, float, float]] = []   # taken, not yet in the ring
+        # share does not depend on it): the last SHARE_INSTANTS, the share worked out once per
+        # change; those taken since it was last read, in blocks (n, 4)
+        self._share_ring = _Ring(SHARE_INSTANTS, 4)
+        self._share_rows: list[NDArray[np.float64]] = []
+        self._share_taken = 0      # their rows
         self._share: RamShare | None = None
         self._share_stale = False
         #: the analysis the model in use comes from (None: the configured model); its effects
@@ -233,8 +286,8 @@ class LiveMonitor:
         self._terms: dict[str, float] = {}
         self._shape: FrictionParams | None = None
         self._delay_ns = 0
-        #: seconds of steady motion counted (brackets of angle samples judged steady once each)
-        self.motion_ns = 0
+        # steady motion counted [ns] (brackets of angle samples judged steady once each)
+        self._motion_ns = 0
         self._counted_ns: int | None = None
         self._hard_over: tuple[float, int] | None = None  # (side, time last at hard over)
         self.hard_over_s: float | None = None
@@ -250,14 +303,15 @@ class LiveMonitor:
         them (the model's residual needs all three from the same fit: the fit's friction beside
         the configured torque is not the fit; torque and friction trade off on a few
         manoeuvres, and such a mix put the residual of a clean gear at 3-10 bar)."""
+        self._take_instants()
         if source != self.gaps_source:
             self._motion.clear()    # motion judged under other clearances says nothing of these
         self.gaps, self.gaps_source, self.gaps_interval = gaps, source, interval
         if friction is not None:
             self.priors = friction
         self.torque = torque
-        self._resid_next = self._resid_kept = 0
-        self._keep_residuals(*self._residual_pairs(list(self._motion)))
+        self._resid.clear()
+        self._keep_residuals(self._motion.ordered())
         self._unjudged.clear()
         self._resid_summary = None
 
@@ -266,6 +320,7 @@ class LiveMonitor:
         the torque and friction fitted with them, its effects (their terms in the residual; a
         delay reads the angle later) and what the diagnostics add (K_gl max, the verdict).
         A delay beyond :data:`MAX_DELAY_NS` is read as that."""
+        self._take_instants()
         self._effects = tuple(e for e in finding.model if e.name != 'angle_delay')
         self._terms = dict(finding.terms)
         temp = next((e for e in finding.model if e.name == 'temp_friction'), None)
@@ -285,35 +340,33 @@ class LiveMonitor:
                               'estimate_data_until_utc': utc_json(finding.t_ns)}
 
     @property
+    def motion_ns(self) -> int:
+        """Steady rudder motion counted since this monitor started [ns]."""
+        self._take_instants()
+        return self._motion_ns
+
+    @property
     def motion_s(self) -> float:
         """Seconds of steady rudder motion counted since this monitor started."""
         return self.motion_ns / 1e9
 
-    def _keep_residuals(self, pairs: np.ndarray, judged: np.ndarray) -> None:
-        """The residual pairs (n, 2) [bar] of the next instants, and whether each was judged
-        (n,), into the ring (the last ``RESIDUAL_SAMPLES // 2`` kept)."""
-        ring = self._resid.shape[0]
-        pairs, judged = pairs[-ring:], judged[-ring:]
-        k = pairs.shape[0]
-        start = self._resid_next
-        head = min(k, ring - start)
-        self._resid[start:start + head] = pairs[:head]
-        self._resid_ok[start:start + head] = judged[:head]
-        self._resid[:k - head] = pairs[head:]
-        self._resid_ok[:k - head] = judged[head:]
-        self._resid_next = (start + k) % ring
-        self._resid_kept = min(self._resid_kept + k, ring)
+    def _keep_residuals(self, instants: NDArray[np.float64]) -> None:
+        """The residual pairs of the next instants (n, len(_INSTANT)) into the ring."""
+        pairs, judged = self._residual_pairs(instants)
+        self._resid.push(np.column_stack([pairs, judged]))
 
     def _summary(self) -> tuple[int, int, float | None]:
         """(residuals, instants not judged, RMS [bar]) of the kept minute, worked out once
         per change of it (the diagnostics read them several times a second, and at rest the
         minute does not change for hours)."""
+        self._take_instants()
         if self._resid_summary is None:
-            if self._unjudged:
-                self._keep_residuals(*self._residual_pairs(list(self._unjudged)))
+            if self._unjudged.kept:
+                self._keep_residuals(self._unjudged.ordered())
                 self._unjudged.clear()
-            kept = self._resid_kept
-            values = self._resid[:kept][self._resid_ok[:kept]].ravel()
+            rows = self._resid.rows()
+            kept = rows.shape[0]
+            values = rows[rows[:, 2] != 0.0, :2].ravel()
             rms = None
             if values.size:           # correctly rounded, as math.fsum: see _slope
                 total = sum_of_squares(values)
@@ -327,9 +380,8 @@ class LiveMonitor:
         """The model's pressure residuals [bar] over the last minute of steady motion, two per
         judged instant (one per ram), oldest first, under the model now in use."""
         self._summary()
-        kept = self._resid_kept
-        order = (np.arange(kept) + (self._resid_next - kept)) % self._resid.shape[0]
-        return self._resid[order][self._resid_ok[order]].ravel().tolist()
+        rows = self._resid.ordered()
+        return rows[rows[:, 2] != 0.0, :2].ravel().tolist()
 
     @property
     def residuals_skipped(self) -> int:
@@ -338,14 +390,14 @@ class LiveMonitor:
         angles its fitted torque was learned at."""
         return self._summary()[1]
 
-    def _residual_pair(self, instant: tuple[float, float | None, float, float, float, float, float]
+    def _residual_pair(self, instant: tuple[float, float, float, float, float, float, float]
                        ) -> tuple[float, float] | None:
         """The residual [bar] of each ram at one instant of steady motion under the model in
         use: A_r (p_stbd - p_port) against sign(alpha) Fa + direction F_fr + the effects'
         terms; None where the model cannot judge it."""
         alpha, speed, direction, force_1, force_2, rate, oil = instant
         gear, gaps = self.gear, self.gaps
-        torque = (self.torque or gear.torque).scalar(alpha, speed)
+        torque = (self.torque or gear.torque).scalar(alpha, None if math.isnan(speed) else speed)
         if math.isnan(torque):           # beyond the angles the fitted torque was learned at
             return None
         m = load_sharing_scalar(gear, alpha, torque, gaps.two_z, gaps.z_gb)
@@ -370,8 +422,7 @@ class LiveMonitor:
             out.append((force - predicted - term) / area / 1e5)
         return out[0], out[1]
 
-    def _residual_pairs(self, instants: list[tuple[float, float | None, float, float, float, float, float]]
-                        ) -> tuple[np.ndarray, np.ndarray]:
+    def _residual_pairs(self, instants: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
         """:meth:`_residual_pair` of many instants at once (the minute a new estimate re-judges,
         up to 600 instants once a second of motion: one vectorized load-sharing solve instead
         of one per instant; every instant is judged here, the minute after a new estimate
@@ -380,20 +431,19 @@ class LiveMonitor:
         one-instant results to rounding (tested); with the effects of an analysis in use,
         instant by instant. Element by element, so an instant's numbers do not depend on the
         others judged with it."""
-        n = len(instants)
+        n = instants.shape[0]
         pairs = np.full((n, 2), math.nan)
         judged = np.zeros(n, bool)
-        if not instants:
+        if not n:
             return pairs, judged
         if self._effects:
-            for i, x in enumerate(instants):
+            for i, x in enumerate(instants.tolist()):
                 pair = self._residual_pair(x)
                 if pair is not None:
                     pairs[i] = pair
                     judged[i] = True
             return pairs, judged
-        arr = np.array([(a, math.nan if s is None else s, d, f1, f2) for a, s, d, f1, f2, _, _ in instants])
-        alpha, speed, direction, force_1, force_2 = arr.T
+        alpha, speed, direction, force_1, force_2 = instants[:, :5].T
         gear, gaps = self.gear, self.gaps
         torque = (self.torque or gear.torque).scalars(alpha, speed)
         known = np.flatnonzero(np.isfinite(torque))   # beyond the angles the fitted torque was learned at: None
@@ -432,7 +482,9 @@ class LiveMonitor:
             self._pressures[_PRESSURE_INDEX[name]] = sample.value
             p = self._pressures
             if not math.isnan(p[0] + p[1] + p[2] + p[3]):
-                self._pending.append((sample.t_ns, p[0], p[1], p[2], p[3]))
+                self._pend_t.append(sample.t_ns)
+                self._pend_p.extend(p)
+                self._held_total += 1
             self._dirty = True
 
     def record(self, name: str, times: list[int], values: list[float], ordered: bool) -> None:
@@ -454,12 +506,16 @@ class LiveMonitor:
                 sig.arrive(t)
         sig.last_t_ns, sig.last_value = times[-1], values[-1]
 
-    def hold_pressures(self, instants: list[tuple[int, float, float, float, float]],
+    def hold_pressures(self, times: NDArray[np.int64], pressures: NDArray[np.float64],
                        last: tuple[float, float, float, float] | None) -> None:
-        """What :meth:`update` of pressure samples holds for the residual: ``instants`` (t [ns],
-        the four pressures [Pa] after the sample) where all four are known, in order; ``last``
-        the four after the last of them (None: unchanged)."""
-        self._pending.extend(instants)
+        """What :meth:`update` of pressure samples holds for the residual: the samples at
+        ``times`` (n,) [ns] where all four pressures are known, in order, and the four after
+        each (``pressures`` (n, 4)) [Pa]; ``last`` the four after the last of them (None:
+        unchanged)."""
+        if times.shape[0]:
+            self._pend_loose()
+            self._pend_blocks.append((times, pressures))
+            self._held_total += times.shape[0]
         if last is not None:
             self._pressures = list(last)
 
@@ -559,11 +615,10 @@ class LiveMonitor:
         return math.fsum(d * (a - mean_a) for d, (_, a) in zip(dt, points)) / sxx
 
     def plan_angles(self, times: list[int] | None, values: list[float] | None = None) -> None:
-        """A replay's run of angle samples [ns, rad] about to be fed in this order: the slopes
-        they will need (the rate at each, and 0.3 s either side of each for the steady-motion
-        test) worked out at once by the same kernel, when the history and the run are in time
-        order. Each is used only where the window :meth:`update` takes is the one worked out
-        (else it is worked out then). None: forget the plan (the run's end)."""
+        """A replay's run of angle samples [ns, rad] about to be fed in this order: the rate
+        each will need worked out at once by the same kernel, when the history and the run are
+        in time order. Each is used only where the window :meth:`update` takes is the one
+        worked out (else it is worked out then). None: forget the plan (the run's end)."""
         self._plan = None
         if not times or values is None:
             return
@@ -572,139 +627,122 @@ class LiveMonitor:
             return
         a = np.fromiter(chain((p[1] for p in self._history), values), float, t.shape[0])
         n = t.shape[0]
-        k = np.arange(n)
-        lo = np.concatenate([np.searchsorted(t, t - SLOPE_WINDOW_NS, 'left'),
-                             np.searchsorted(t, t - HALF_WINDOW_NS, 'left'), k])
-        hi = np.concatenate([k + 1, k + 1, np.searchsorted(t, t + HALF_WINDOW_NS, 'right')])
-        status = np.empty(3 * n, np.int8)
-        out = np.empty(3 * n)
-        window_slopes(t, a, lo, hi, status, out)
-        self._plan = _AnglePlan(self._hist_base, n, t.tolist(), (lo[:n] + self._hist_base).tolist(),
-                                (lo[n:2 * n] + self._hist_base).tolist(), (hi[2 * n:] + self._hist_base).tolist(),
-                                status.tolist(), out.tolist())
-
-    def _planned(self, g: int, w: int) -> tuple[bool, float | None]:
-        """(known, slope) of window ``w`` (0 rate, 1 before, 2 after) of the history's sample
-        with global index ``g``, from the plan; not known where the plan has no such window."""
-        plan = self._plan
-        assert plan is not None
-        k = g - plan.base
-        st = plan.status[w * plan.n + k]
-        if st == SPECIAL:
-            return False, None
-        return True, (plan.slope[w * plan.n + k] if st == SLOPE else None)
+        lo = np.searchsorted(t, t - SLOPE_WINDOW_NS, 'left')
+        status = np.empty(n, np.int8)
+        out = np.empty(n)
+        window_slopes(t, a, lo, np.arange(1, n + 1), status, out)
+        self._plan = _AnglePlan(self._hist_base, n, t.tolist(), (lo + self._hist_base).tolist(), status.tolist(),
+                                out.tolist())
 
     def _on_angle(self, t_ns: int, alpha: float) -> None:
         hist = self._history
         hist.append((t_ns, alpha))
-        while hist and hist[0][0] < t_ns - 3 * HALF_WINDOW_NS - self._delay_ns:
+        delay = self._delay_ns
+        while hist and hist[0][0] < t_ns - 3 * HALF_WINDOW_NS - delay:
             hist.popleft()
             self._hist_base += 1
-        plan, known = self._plan, False
+        plan, slope, known = self._plan, None, False
         if plan is not None:
             k = self._hist_base + len(hist) - 1 - plan.base
             if 0 <= k < plan.n and plan.t[k] == t_ns:
-                if plan.rate_lo[k] >= self._hist_base:
-                    known, slope = self._planned(plan.base + k, 0)
+                if plan.rate_lo[k] >= self._hist_base and plan.status[k] != SPECIAL:
+                    known, slope = True, (plan.slope[k] if plan.status[k] == SLOPE else None)
             else:
                 self._plan = None      # not the samples planned: work each out
         if not known:
             slope = self._slope([p for p in hist if p[0] >= t_ns - SLOPE_WINDOW_NS])
         if slope is not None:
             self.rate = slope
-        if self._pending and self._pending[0][0] <= t_ns - HALF_WINDOW_NS - self._delay_ns:
-            self._residuals_until(t_ns - HALF_WINDOW_NS - self._delay_ns)
+        # what this sample releases of the held pressure samples, judged later (_take_instants)
+        self._angles_t.append(t_ns)
+        self._angles_a.append(alpha)
+        self._calls += (t_ns - HALF_WINDOW_NS - delay, delay, self._hist_base, self._hist_base + len(hist) - 1,
+                        self._held_total)
+        self._call_env += (self._speed.last_value, self._oil.last_value)
+        if len(self._calls) >= 5 * CALLS_KEPT:
+            self._take_instants()
         self._track_hard_over(t_ns, alpha)
         self._track_response(t_ns, alpha)
 
-    def _steady(self, hist: deque[tuple[int, float]], i: int) -> tuple[float, float]:
-        """(direction +1/-1, rate [rad/s]) if the rudder moves steadily through angle sample i,
-        else (0, 0): the slopes over 0.3 s before and after it both exceed the motion threshold,
-        same sign; the rate is their mean."""
-        plan, g = self._plan, self._hist_base + i
-        known = False
-        if plan is not None and 0 <= g - plan.base < plan.n and plan.before_lo[g - plan.base] >= self._hist_base \
-                and plan.after_hi[g - plan.base] <= self._hist_base + len(hist):
-            k1, s1 = self._planned(g, 1)
-            k2, s2 = self._planned(g, 2)
-            known = k1 and k2
-        if not known:
-            points = list(hist)
-            times = [p[0] for p in points]
-            t = times[i]
-            before = points[bisect.bisect_left(times, t - HALF_WINDOW_NS):i + 1]
-            after = points[i:bisect.bisect_right(times, t + HALF_WINDOW_NS)]
-            s1, s2 = self._slope(before), self._slope(after)
-        if s1 is None or s2 is None or min(abs(s1), abs(s2)) <= MOVING_RATE or (s1 > 0) != (s2 > 0):
-            return 0.0, 0.0
-        return (1.0 if s1 > 0 else -1.0), 0.5 * (s1 + s2)
+    def _pend_loose(self) -> None:
+        """The samples held one by one since, as a block after the others."""
+        if self._pend_t:
+            self._pend_blocks.append((np.array(self._pend_t, np.int64), np.array(self._pend_p, float).reshape(-1, 4)))
+            self._pend_t.clear()
+            self._pend_p.clear()
 
-    def _residuals_until(self, t_end: int) -> None:
-        """Residuals of the held pressure samples up to ``t_end``; motion is judged once per
-        pair of angle samples that brackets them (with the model's delay: the angle that
-        much later), the angle interpolated to each one's time (near midships the torque curve
-        is steep: an angle 0.1 s old is worth several bar). Each steady bracket counts its
-        time of motion once (:attr:`motion_s`)."""
-        history = self._history
-        plan = self._plan
-        if plan is not None and plan.base <= self._hist_base and \
-                self._hist_base + len(history) <= plan.base + plan.n:    # the plan's times are the history's
-            times, first = plan.t, self._hist_base - plan.base
-        else:
-            times, first = [t for t, _ in history], 0
-        last = first + len(history)          # the history is times[first:last]
-        area = self.gear.ram_area
-        judged: dict[int, tuple[float, float]] = {}
-        speed = self.signals['ship_speed'].last_value
-        speed = None if math.isnan(speed) else speed
-        oil = self.signals['oil_temperature'].last_value
-        delay = self._delay_ns
-        rows = self._share_rows
-        taken = len(rows)
-        pending = self._pending
-        while pending and pending[0][0] <= t_end:
-            t, c0, c1, c2, c3 = pending.popleft()
-            i = bisect.bisect_right(times, t + delay, first, last) - 1 - first
-            if i < 0 or i + 1 >= len(history):
-                continue
-            steady = judged.get(i)
-            if steady is None:
-                steady = judged[i] = self._steady(history, i)
-                t_i = times[first + i]
-                if steady[0] != 0.0 and (self._counted_ns is None or t_i > self._counted_ns):
-                    self.motion_ns += min(times[first + i + 1] - t_i, MOTION_STEP_NS)
-                    self._counted_ns = t_i
-            direction, rate = steady
-            if direction == 0.0:
-                continue
-            (t_a, a_a), (t_b, a_b) = history[i], history[i + 1]
-            alpha = a_a + (a_b - a_a) * (t + delay - t_a) / (t_b - t_a)
-            force_1, force_2 = area * (c0 - c1), area * (c2 - c3)
-            instant = (alpha, speed, direction, force_1, force_2, rate, oil)
-            self._motion.append(instant)
-            self._unjudged.append(instant)
-            rows.append((c0, c1, c2, c3))
-        if len(rows) > taken:
-            self._resid_summary = None
-            self._share_stale = True
-            if len(rows) >= SHARE_INSTANTS:
-                self._keep_share_rows()
+    def _take_instants(self) -> None:
+        """The held pressure samples the angle samples since the last call released, judged
+        as each of those angle samples saw them (:func:`~steer_monitor.monitor.instants.take_instants`):
+        motion is judged once per pair of angle samples that brackets a held sample (with the
+        model's delay: the angle that much later), the angle interpolated to its time (near
+        midships the torque curve is steep: an angle 0.1 s old is worth several bar); the
+        instants of steady motion kept for the residual and the rams' share. Each steady
+        bracket counts its time of motion once (:attr:`motion_s`)."""
+        calls = self._calls
+        if not calls:
+            return
+        first = self._angles_first
+        self._pend_loose()
+        if self._pend_blocks:
+            blocks = self._pend_blocks
+            pend_t, pend_p = blocks[0] if len(blocks) == 1 else (np.concatenate([b[0] for b in blocks]),
+                                                                np.concatenate([b[1] for b in blocks]))
+            angle_t = np.array(self._angles_t, np.int64)
+            angle_a = np.array(self._angles_a, float)
+            log = np.array(calls, np.int64).reshape(-1, 5)
+            env = np.array(self._call_env, float).reshape(-1, 2)
+            state, given = self._take_state, self._take_given
+            state[:] = (0, 0, self._counted_ns or 0, self._counted_ns is not None, 0, -1)
+            given[:2] = -1.0
+            out = np.empty((pend_t.shape[0], len(OUT_FIELDS)))
+            n = 0
+            while True:
+                n = take_instants(pend_t, pend_p, self._held_total - pend_t.shape[0], log, env, angle_t, angle_a,
+                                  first, HALF_WINDOW_NS, MOVING_RATE, MOTION_STEP_NS, self.gear.ram_area, state, given,
+                                  out, n)
+                if state[5] < 0:
+                    break
+                # a window holding a non-finite angle: its slopes summed by math.fsum (see _slope)
+                k, i = int(state[0]), int(state[5])
+                lo, hi = int(log[k, 2]) - first, int(log[k, 3]) - first + 1
+                points = list(zip(self._angles_t[lo:hi], self._angles_a[lo:hi]))
+                times, t_i = self._angles_t[lo:hi], self._angles_t[i]
+                s1 = self._slope(points[bisect.bisect_left(times, t_i - HALF_WINDOW_NS):i - lo + 1])
+                s2 = self._slope(points[i - lo:bisect.bisect_right(times, t_i + HALF_WINDOW_NS)])
+                given[:] = (k, i, s1 is not None, math.nan if s1 is None else s1, s2 is not None,
+                            math.nan if s2 is None else s2)
+            popped = int(state[1])
+            blocks.clear()
+            if popped < pend_t.shape[0]:
+                blocks.append((pend_t[popped:], pend_p[popped:]))
+            self._motion_ns += int(state[4])
+            self._counted_ns = int(state[2]) if state[3] else None
+            if n:
+                instants = out[:n, :len(_INSTANT)]
+                self._motion.push(instants)
+                self._unjudged.push(instants)
+                self._share_rows.append(out[:n, len(_INSTANT):])
+                self._share_taken += n
+                self._resid_summary = None
+                self._share_stale = True
+                if self._share_taken >= SHARE_INSTANTS:
+                    self._keep_share_rows()
+        calls.clear()
+        self._call_env.clear()
+        drop = self._hist_base - first          # the angles no history reaches back to any more
+        del self._angles_t[:drop]
+        del self._angles_a[:drop]
+        self._angles_first = self._hist_base
 
     def _keep_share_rows(self) -> None:
         """The four pressures of the instants of steady motion taken since (``_share_rows``)
-        into the ring :meth:`ram_share` reads (the last :data:`SHARE_INSTANTS`, the next at
-        ``_ring_next``): when it is read, or when they are as many."""
-        rows = self._share_rows
-        if not rows:
-            return
-        block = np.array(rows[-SHARE_INSTANTS:], float)
-        start = (self._ring_next + len(rows) - block.shape[0]) % SHARE_INSTANTS
-        head = min(block.shape[0], SHARE_INSTANTS - start)
-        self._ring[start:start + head] = block[:head]
-        self._ring[:block.shape[0] - head] = block[head:]
-        self._ring_next = (start + block.shape[0]) % SHARE_INSTANTS
-        self._ring_kept = min(self._ring_kept + len(rows), SHARE_INSTANTS)
-        rows.clear()
+        into the ring :meth:`ram_share` reads (the last :data:`SHARE_INSTANTS`): when it is
+        read, or when they are as many."""
+        if self._share_rows:
+            self._share_ring.push(np.concatenate(self._share_rows))
+            self._share_rows.clear()
+            self._share_taken = 0
 
     def _track_hard_over(self, t_ns: int, alpha: float) -> None:
         deg = alpha / DEG
@@ -780,7 +818,7 @@ class LiveMonitor:
     def share_pressures(self) -> np.ndarray:
         """The four pressures [Pa] (k, 4) at the instants :meth:`ram_share` is over (a view)."""
         self._keep_share_rows()
-        return self._ring[:self._ring_kept]
+        return self._share_ring.rows()
 
     def residual_rms_bar(self) -> float | None:
         """RMS of the declared model's pressure residual over the last minute of motion [bar]."""

@@ -100,7 +100,8 @@ class RunPlan:
         held = np.isin(code, _PRESSURE) & ~np.isnan(((p[:, 0] + p[:, 1]) + p[:, 2]) + p[:, 3])
         hp = np.flatnonzero(held)
         self.held_at = hp.tolist()
-        self.held = list(zip(stamp[hp].tolist(), *(p[hp, k].tolist() for k in range(4))))
+        self.held_t = stamp[hp]
+        self.held_p = p[hp]
         # rudder or pressure samples before each position (they make the live model's state change)
         self.changes = np.concatenate([[0], np.cumsum(np.isin(code, (ANGLE, *_PRESSURE)))])
         #: the rate after each angle sample (filled as they are taken); the last: what stood before
@@ -157,7 +158,7 @@ class RunPlan:
         held, the ship's speed and oil temperature) brought up to it."""
         k = bisect_left(self.held_at, s)
         if k > self._held:
-            mon.hold_pressures(self.held[self._held:k], None)
+            mon.hold_pressures(self.held_t[self._held:k], self.held_p[self._held:k], None)
             self._held = k
         for c in _SLOW:
             self._record_upto(mon, c, s)
@@ -170,7 +171,8 @@ class RunPlan:
         for c in _RECORDED:
             moved = self._record_upto(mon, c, upto) and c in _PRESSURE or moved
         if k > self._held or moved:
-            mon.hold_pressures(self.held[self._held:k], tuple(self.pressures[upto].tolist()) if moved else None)
+            mon.hold_pressures(self.held_t[self._held:k], self.held_p[self._held:k],
+                               tuple(self.pressures[upto].tolist()) if moved else None)
             self._held = k
         if analyst is not None:
             for c in _ANALYSED:

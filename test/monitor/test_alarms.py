@@ -215,9 +215,9 @@ def test_clearance_levels_on_the_interval(builder, mon, zgb, interval, level, te
 def _ring(mon, pressures):
     """Put the four pressures (k, 4) [Pa] into the live monitor's window of the rams' share,
     as its steady-motion instants would have."""
-    k = len(pressures)
-    mon._ring[:k] = pressures
-    mon._ring_kept, mon._ring_next, mon._share_stale = k, k % len(mon._ring), True
+    mon._share_ring.clear()
+    mon._share_ring.push(np.asarray(pressures, float))
+    mon._share_stale = True
 
 
 def _gear_pressures(n, ram1_carries=1.0, amplitude_bar=40.0, seed=5):

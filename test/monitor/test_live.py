@@ -235,8 +235,9 @@ def test_a_minute_rejudged_at_once_is_each_instant_judged_alone(r18_params, case
     gaps = Gaps.from_mm(0.1, 0.05)
     mon = LiveMonitor(gear, Gaps.from_mm(0.6, 0.25))
     rng = np.random.default_rng(7)
-    instants = [(float(a), None if rng.random() < 0.3 else float(rng.uniform(2.0, 9.0)), float(d), float(f1), float(f2),
-                 0.02, 310.0)
+    # (angle, speed (NaN: not known), direction, the rams' forces, rate, oil temperature)
+    instants = [(float(a), math.nan if rng.random() < 0.3 else float(rng.uniform(2.0, 9.0)), float(d), float(f1),
+                 float(f2), 0.02, 310.0)
                 for a, d, f1, f2 in zip(rng.uniform(-0.61, 0.61, 600), rng.choice([-1.0, 1.0], 600),
                                         rng.uniform(-3e5, 3e5, 600), rng.uniform(-3e5, 3e5, 600))]
     angles = np.radians(np.arange(0.0, 25.01, 0.5))
@@ -246,7 +247,7 @@ def test_a_minute_rejudged_at_once_is_each_instant_judged_alone(r18_params, case
     interval = {'2z': (0.05e-3, None), 'zgb': (0.0, None)} if case == 'lower bounds only' else None
     mon.set_gaps(gaps, 'estimated' if case != 'configured' else 'configured', interval,
                  FrictionParams(9000.0, 0.13, 0.05), table)
-    many, judged = mon._residual_pairs(instants)
+    many, judged = mon._residual_pairs(np.array(instants))
     one = [mon._residual_pair(i) for i in instants]
     assert judged.tolist() == [p is not None for p in one]
     assert np.isnan(many[~judged]).all()
@@ -302,7 +303,7 @@ def test_the_rate_and_the_residual_rms_are_correctly_rounded_sums():
     assert LiveMonitor._slope(pts) == want
     # the residual's RMS over the kept minute
     mon = LiveMonitor(gear_from_params(load_params_file(default_config())), Gaps.from_mm(0.6, 0.25))
-    mon._keep_residuals(np.array([[1e8, 1.0], [1.0, 1.0]]), np.array([True, True]))
+    mon._resid.push(np.array([[1e8, 1.0, 1.0], [1.0, 1.0, 1.0]]))    # two judged pairs
     res = [1e8, 1.0, 1.0, 1.0]
     assert sum(r * r for r in res) != math.fsum(r * r for r in res)
     assert mon.residual_rms_bar() == math.sqrt(math.fsum(r * r for r in res) / 4)
