@@ -264,8 +264,10 @@ class Pipeline:
                 a, b = lo_l[pos], hi_l[j - 1]
                 changed = mon.changed
                 for s in plan.seq[bisect_left(plan.seq, a):bisect_left(plan.seq, b)]:
-                    plan.before_sequential(mon, s)
-                    mon.update(Sample(plan.stamps[s], plan.names[s], plan.values[s]))
+                    name = plan.names[s]
+                    if name == 'rudder_angle':            # an order sample reads nothing recorded
+                        plan.before_sequential(mon, s)
+                    mon.update(Sample(plan.stamps[s], name, plan.values[s]))
                     plan.rate_after[s] = mon.rate
                 plan.sync(mon, analyst, b)
                 k0, k1 = int(np.searchsorted(opens_at, pos)), int(np.searchsorted(opens_at, j))

@@ -154,8 +154,8 @@ class RunPlan:
         return True
 
     def before_sequential(self, mon: LiveMonitor, s: int) -> None:
-        """Before the angle or order sample at ``s``: what its residual reads (the instants
-        held, the ship's speed and oil temperature) brought up to it."""
+        """Before the angle sample at ``s``: what it logs for the residual (the samples held,
+        the ship's speed and oil temperature) brought up to it."""
         k = bisect_left(self.held_at, s)
         if k > self._held:
             mon.hold_pressures(self.held_t[self._held:k], self.held_p[self._held:k], None)
