@@ -105,6 +105,7 @@ def _instrument(spent: dict[str, float]) -> None:
         setattr(McapWriter, name, _timed(spent, 'messages', getattr(McapWriter, name)))
     R.pack_states = _timed(spent, 'messages', R.pack_states)
     R.diag_messages = _timed(spent, 'messages', R.diag_messages)
+    R.write_messages = _timed(spent, 'messages', R.write_messages)   # the diagnostics' CDR encoding with the writing
 
 
 def main() -> int:
