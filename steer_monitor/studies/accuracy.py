@@ -96,6 +96,11 @@ PAIRS = (('viscous', 'pressure_offset'), ('angle_delay', 'temp_friction'),
          ('pressure_friction:k=0.006', 'viscous:c_ns_per_m=2e5'))
 SENSITIVITY_CLEARANCES_MM = ((0.4, 0.2), (0.3, 0.3), (0.6, 0.1))
 QUANTITIES = ('clearance_2z_mm', 'clearance_zgb_mm', 'k_gl_max', 'seal_friction_n', 'mu_bushing', 'mu_guide')
+#: decimals each quantity's errors are given to (docs/json.md: clearances to 0.1 um, K_gl to
+#: 1e-4; the seal friction to 0.1 N, the friction coefficients to 1e-4); shares to 1e-4
+DECIMALS = {'clearance_2z_mm': 4, 'clearance_zgb_mm': 4, 'k_gl_max': 4, 'seal_friction_n': 1, 'mu_bushing': 4,
+            'mu_guide': 4}
+SHARE_DECIMALS = 4
 
 
 @dataclass(frozen=True)
@@ -170,10 +175,14 @@ class CaseResult:
         truth and whether the interval holds it, and the residual loop's outcome."""
         c = self.case
 
+        def r(q: str, v: float | None) -> float | None:
+            return None if v is None else round(v, DECIMALS[q])
+
         def estimate(q: str) -> dict[str, Any]:
             lo, hi = self.ci95[q]
             bounded = lo is not None and hi is not None
-            return {'value': self.estimate[q] if bounded else None, 'ci95': [lo, hi], 'bounded': bounded}
+            return {'value': r(q, self.estimate[q]) if bounded else None, 'ci95': [r(q, lo), r(q, hi)],
+                    'bounded': bounded}
 
         def bar(v: float) -> float | None:
             return round(v, 4) if math.isfinite(v) else None
@@ -185,7 +194,7 @@ class CaseResult:
             'clamped_share': round(self.clamped_share, 4), 'max_angle_deg': round(self.max_angle_deg, 2),
             'inflation': round(self.inflation, 3),
             'estimates': {q: estimate(q) for q in QUANTITIES},
-            'truth': {q: self.truth[q] for q in QUANTITIES},
+            'truth': {q: r(q, self.truth[q]) for q in QUANTITIES},
             'covered': {q: self.covered(q) for q in QUANTITIES},
             'verdict': self.verdict, 'effect': self.effect, 'adopted': list(self.adopted),
             'unexplained': None if self.located is None else {
@@ -442,14 +451,15 @@ def _errors(results: Sequence[CaseResult], q: str) -> dict[str, Any]:
     err = np.array([r.estimate[q] - r.truth[q] for r in results])
     hits = sum(r.covered(q) for r in results)
     lo, hi = coverage_interval(hits, len(results))
+    d, sd = DECIMALS[q], SHARE_DECIMALS
     return {
         'cases': len(results),
-        'bias': float(err.mean()) if err.size else math.nan,
-        'rms_error': float(np.sqrt(np.mean(err ** 2))) if err.size else math.nan,
-        'max_abs_error': float(np.abs(err).max()) if err.size else math.nan,
-        'coverage': hits / len(results) if results else math.nan,
-        'coverage_ci95': [lo, hi],
-        'two_sided_share': (sum(r.two_sided(q) for r in results) / len(results)) if results else math.nan,
+        'bias': round(float(err.mean()), d) if err.size else math.nan,
+        'rms_error': round(float(np.sqrt(np.mean(err ** 2))), d) if err.size else math.nan,
+        'max_abs_error': round(float(np.abs(err).max()), d) if err.size else math.nan,
+        'coverage': round(hits / len(results), sd) if results else math.nan,
+        'coverage_ci95': [round(lo, sd), round(hi, sd)],
+        'two_sided_share': round(sum(r.two_sided(q) for r in results) / len(results), sd) if results else math.nan,
     }
 
 
@@ -466,20 +476,22 @@ def summarize(results: Sequence[CaseResult], clamp_threshold: float = 0.05) -> d
     groups['all'] = list(results)
     out: dict[str, Any] = {}
     for name, rs in groups.items():
-        g: dict[str, Any] = {'cases': len(rs), 'declared_share': sum(r.verdict == 'declared' for r in rs) / len(rs),
+        declared = sum(r.verdict == 'declared' for r in rs) / len(rs)
+        g: dict[str, Any] = {'cases': len(rs), 'declared_share': round(declared, SHARE_DECIMALS),
                              'effects_adopted': sorted({r.effect for r in rs if r.effect}),
-                             'median_inflation': float(np.median([r.inflation for r in rs])),
-                             'max_systematic_bar': float(np.max([r.systematic_bar for r in rs]))}
+                             'median_inflation': round(float(np.median([r.inflation for r in rs])), 3),
+                             'max_systematic_bar': round(float(np.max([r.systematic_bar for r in rs])), 3)}
         for q in QUANTITIES:
             g[q] = _errors(rs, q)
         clamped = [r for r in rs if r.clamped_share >= clamp_threshold]
         free = [r for r in rs if r.clamped_share < clamp_threshold]
         g['clearance_2z_mm_clamped'] = _errors(clamped, 'clearance_2z_mm')
         g['clearance_2z_mm_clamped']['within_0.05mm'] = (
-            sum(abs(r.estimate['clearance_2z_mm'] - r.truth['clearance_2z_mm']) <= 0.05 for r in clamped) / len(clamped)
-            if clamped else math.nan)
+            round(sum(abs(r.estimate['clearance_2z_mm'] - r.truth['clearance_2z_mm']) <= 0.05 for r in clamped)
+                  / len(clamped), SHARE_DECIMALS) if clamped else math.nan)
         g['clearance_2z_mm_not_clamped'] = _errors(free, 'clearance_2z_mm')
-        g['clearance_zgb_mm']['within_0.03mm'] = sum(
-            abs(r.estimate['clearance_zgb_mm'] - r.truth['clearance_zgb_mm']) <= 0.03 for r in rs) / len(rs)
+        g['clearance_zgb_mm']['within_0.03mm'] = round(sum(
+            abs(r.estimate['clearance_zgb_mm'] - r.truth['clearance_zgb_mm']) <= 0.03 for r in rs) / len(rs),
+            SHARE_DECIMALS)
         out[name] = g
     return out
