@@ -307,3 +307,24 @@ def test_the_rate_and_the_residual_rms_are_correctly_rounded_sums():
     res = [1e8, 1.0, 1.0, 1.0]
     assert sum(r * r for r in res) != math.fsum(r * r for r in res)
     assert mon.residual_rms_bar() == math.sqrt(math.fsum(r * r for r in res) / 4)
+
+
+@pytest.mark.parametrize('sizes', [[3, 4, 5], [7], [12], [25, 1, 9], [0, 2, 30]])
+def test_a_ring_puts_rows_pushed_together_where_one_by_one_would(sizes):
+    """The rams' share is summed over the ring's rows in the order they lie: a block of rows,
+    even one longer than the ring, lies as the same rows pushed one at a time."""
+    from steer_monitor.monitor.live import _Ring
+    rng = np.random.default_rng(len(sizes))
+    together, alone = _Ring(8, 3), _Ring(8, 3)
+    every = np.zeros((0, 3))
+    for n in sizes:
+        block = rng.normal(size=(n, 3))
+        every = np.concatenate([every, block])
+        together.push(block)
+        for row in block:
+            alone.push(row[None, :])
+        assert (together.next, together.kept) == (alone.next, alone.kept)
+        np.testing.assert_array_equal(together.rows(), alone.rows())
+        np.testing.assert_array_equal(together.ordered(), alone.ordered())
+        np.testing.assert_array_equal(together.ordered(), every[len(every) - together.kept:])   # oldest first
+    assert together.kept == min(sum(sizes), 8)
