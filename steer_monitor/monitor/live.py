@@ -207,6 +207,12 @@ class _AnglePlan:
     slope: list[float]
 
 
+#: pressure samples held and not yet released at most (51 s of them at 80 a second): with the
+#: rudder angle's input dead and the pressures still coming, the oldest are let go unjudged
+#: (counted in ``LiveMonitor.held_dropped``), so the node's memory stays bounded; with the
+#: angle live they are released within a second or two of being held and never reach it
+MAX_HELD = 4096
+
 #: angle samples whose release of held pressure samples is judged later at most
 #: (:meth:`LiveMonitor._take_instants`): whatever reads the residual, the rams' share or the
 #: motion judges them first; this bounds the log between reads
@@ -240,6 +246,9 @@ class LiveMonitor:
         self._pend_t: list[int] = []
         self._pend_p: list[float] = []
         self._held_total = 0
+        self._pending_n = 0
+        #: held pressure samples let go unjudged, the angle silent (:data:`MAX_HELD`)
+        self.held_dropped = 0
         # per angle sample since the held samples were last judged (:meth:`_take_instants`),
         # flat: what it saw (instants.CALL_FIELDS) and the ship's speed and oil temperature
         # then; the angle samples themselves from global index _angles_first on
@@ -485,6 +494,9 @@ class LiveMonitor:
                 self._pend_t.append(sample.t_ns)
                 self._pend_p.extend(p)
                 self._held_total += 1
+                self._pending_n += 1
+                if self._pending_n > MAX_HELD:
+                    self._bound_held()
             self._dirty = True
 
     def record(self, name: str, times: list[int], values: list[float], ordered: bool) -> None:
@@ -516,6 +528,9 @@ class LiveMonitor:
             self._pend_loose()
             self._pend_blocks.append((times, pressures))
             self._held_total += times.shape[0]
+            self._pending_n += times.shape[0]
+            if self._pending_n > MAX_HELD:
+                self._bound_held()
         if last is not None:
             self._pressures = list(last)
 
@@ -664,6 +679,20 @@ class LiveMonitor:
         self._track_hard_over(t_ns, alpha)
         self._track_response(t_ns, alpha)
 
+    def _bound_held(self) -> None:
+        """At most :data:`MAX_HELD` held samples waiting: those released judged first, then
+        the oldest of the rest let go."""
+        self._take_instants()
+        extra = self._pending_n - MAX_HELD
+        if extra <= 0:
+            return
+        self._pend_loose()
+        t = np.concatenate([b[0] for b in self._pend_blocks])
+        p = np.concatenate([b[1] for b in self._pend_blocks])
+        self._pend_blocks[:] = [(t[extra:], p[extra:])]
+        self._pending_n = MAX_HELD
+        self.held_dropped += extra
+
     def _pend_loose(self) -> None:
         """The samples held one by one since, as a block after the others."""
         if self._pend_t:
@@ -713,6 +742,7 @@ class LiveMonitor:
                 given[:] = (k, i, s1 is not None, math.nan if s1 is None else s1, s2 is not None,
                             math.nan if s2 is None else s2)
             popped = int(state[1])
+            self._pending_n -= popped
             blocks.clear()
             if popped < pend_t.shape[0]:
                 blocks.append((pend_t[popped:], pend_p[popped:]))

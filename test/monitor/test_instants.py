@@ -189,3 +189,30 @@ def test_a_sample_held_after_an_angle_sample_is_not_released_by_it(r18_params):
     assert mon.motion_ns == oracle.motion_ns > 0            # read: judged now
     assert oracle.instants[-1][1] == 6.0                   # judged at 6.1 s, with the new speed
     np.testing.assert_array_equal(mon._motion.ordered(), np.array(oracle.instants[-600:]))
+
+
+def test_with_the_angle_dead_the_held_samples_stay_bounded(r18_params):
+    """Ten minutes of pressures without a rudder angle: the held samples stop at MAX_HELD, the
+    oldest let go and counted; once the angle comes back the residual's instants come as on
+    a monitor that never waited."""
+    from steer_monitor.monitor.live import MAX_HELD
+    gear = gear_from_params(r18_params)
+    stream = _stream(11, 240.0, False, False, False)
+    t_back = stream[0].t_ns + 600 * 1_000_000_000
+    shift = 600 * 1_000_000_000
+    waited = LiveMonitor(gear, Gaps.from_mm(0.3, 0.2))
+    t0 = stream[0].t_ns
+    for k in range(600 * 20):                                    # the pressures alone, 20 Hz each
+        for j, name in enumerate(PRESSURES):
+            waited.update(Sample(t0 + k * 50_000_000 + j, name, 20e5 + 1e4 * j))
+        assert waited._pending_n <= MAX_HELD
+    assert waited.held_dropped == 600 * 20 * 4 - 3 - MAX_HELD    # the first three lack a pressure
+    assert waited.motion_ns == 0 and len(waited._pend_t) + sum(b[0].size for b in waited._pend_blocks) == MAX_HELD
+    fresh = LiveMonitor(gear, Gaps.from_mm(0.3, 0.2))
+    for s in stream:                                             # then the gear as before, ten minutes on
+        moved = Sample(s.t_ns + shift, s.signal, s.value)
+        assert moved.t_ns >= t_back
+        waited.update(moved)
+        fresh.update(moved)
+    assert waited.motion_ns == fresh.motion_ns > 0
+    np.testing.assert_array_equal(waited._motion.ordered(), fresh._motion.ordered())
