@@ -109,6 +109,7 @@ def take_instants(pend_t: NDArray[np.int64], pend_p: NDArray[np.float64], pend_f
             if given[0] == k and given[1] == i:
                 s1, v1 = (SLOPE if given[2] else NONE), given[3]
                 s2, v2 = (SLOPE if given[4] else NONE), given[5]
+                memo_i, memo_lo, memo_hi = i, lo, hi
             elif i != memo_i or lo != memo_lo or hi != memo_hi:
                 t_i = angle_t[i]
                 s1, v1 = _slope_of(angle_t, angle_a, _bisect_left(angle_t, t_i - half_ns, lo, hi), i + 1, p, ts)

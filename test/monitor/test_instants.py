@@ -216,3 +216,29 @@ def test_with_the_angle_dead_the_held_samples_stay_bounded(r18_params):
         fresh.update(moved)
     assert waited.motion_ns == fresh.motion_ns > 0
     np.testing.assert_array_equal(waited._motion.ordered(), fresh._motion.ordered())
+
+
+def test_a_bracket_judged_again_after_one_with_a_nan_angle_keeps_its_own_slopes(r18_params):
+    """One angle sample releases, in this order, samples in a bracket whose windows hold a NaN
+    angle (its slopes worked out by the caller's math.fsum) and in a bracket of steady motion,
+    twice: the second in the steady bracket is judged with that bracket's slopes."""
+    gear = gear_from_params(r18_params)
+    mon = LiveMonitor(gear, Gaps.from_mm(0.3, 0.2))
+    oracle = _Oracle(gear.ram_area)
+    t0 = 1_700_000_000_000_000_000
+    ms = 1_000_000
+    feed = [Sample(t0 + j, name, 20e5 + 1e5 * j) for j, name in enumerate(PRESSURES)]
+    for k in range(21):                                        # 10 deg/s, the sample at 1.7 s NaN
+        t = t0 + 100 * ms * k
+        if k == 20:                                            # held just before the angle at 2.0 s
+            feed += [Sample(t0 + 1700 * ms, PRESSURES[0], 21e5), Sample(t0 + 1310 * ms, PRESSURES[0], 22e5),
+                     Sample(t0 + 1700 * ms, PRESSURES[0], 23e5), Sample(t0 + 1320 * ms, PRESSURES[0], 24e5)]
+        feed.append(Sample(t, 'rudder_angle', math.nan if k == 17 else math.radians(-10.0 + k)))
+    for s in feed:
+        mon.update(s)
+        oracle.update(s, 0)
+    assert mon.motion_ns == oracle.motion_ns
+    got = mon._motion.ordered()
+    want = np.array(oracle.instants[-4:])
+    assert got.shape == (4, 7) and want[1, 2] == want[3, 2] == 1.0       # the steady bracket, twice
+    np.testing.assert_array_equal(got, want)
