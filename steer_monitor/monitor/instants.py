@@ -12,7 +12,7 @@ from a log of what each one saw (its release time, the delay then, the first and
 its history, how many pressure samples had been held) and the angles themselves: the same
 instants, in the same order, with the same numbers, as judging them as each angle sample
 came. The slopes are :mod:`~steer_monitor.monitor.slopes`' (correctly rounded sums); a window
-holding a non-finite angle is left to the caller (``need``).
+holding a non-finite angle is left to the caller (``state[5]``, then ``given``).
 
 Times are integer ns; values SI.
 """

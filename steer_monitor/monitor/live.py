@@ -48,7 +48,7 @@ from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
 from steer_monitor.model.inputs import INPUTS, Sample
 from steer_monitor.model.loadshare import ShareScalar, load_sharing, load_sharing_scalar
 from steer_monitor.model.torque import TorqueTable
-from steer_monitor.monitor.instants import OUT_FIELDS, take_instants
+from steer_monitor.monitor.instants import CALL_FIELDS, OUT_FIELDS, take_instants
 from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope, sum_of_squares, window_slopes
 from steer_monitor.utc import utc_json
 
@@ -285,7 +285,6 @@ class LiveMonitor:
         # change; those taken since it was last read, in blocks (n, 4)
         self._share_ring = _Ring(SHARE_INSTANTS, 4)
         self._share_rows: list[NDArray[np.float64]] = []
-        self._share_taken = 0      # their rows
         self._share: RamShare | None = None
         self._share_stale = False
         #: the analysis the model in use comes from (None: the configured model); its effects
@@ -674,7 +673,7 @@ class LiveMonitor:
         self._calls += (t_ns - HALF_WINDOW_NS - delay, delay, self._hist_base, self._hist_base + len(hist) - 1,
                         self._held_total)
         self._call_env += (self._speed.last_value, self._oil.last_value)
-        if len(self._calls) >= 5 * CALLS_KEPT:
+        if len(self._calls) >= len(CALL_FIELDS) * CALLS_KEPT:
             self._take_instants()
         self._track_hard_over(t_ns, alpha)
         self._track_response(t_ns, alpha)
@@ -686,9 +685,7 @@ class LiveMonitor:
         extra = self._pending_n - MAX_HELD
         if extra <= 0:
             return
-        self._pend_loose()
-        t = np.concatenate([b[0] for b in self._pend_blocks])
-        p = np.concatenate([b[1] for b in self._pend_blocks])
+        t, p = self._pend_joined()
         self._pend_blocks[:] = [(t[extra:], p[extra:])]
         self._pending_n = MAX_HELD
         self.held_dropped += extra
@@ -699,6 +696,16 @@ class LiveMonitor:
             self._pend_blocks.append((np.array(self._pend_t, np.int64), np.array(self._pend_p, float).reshape(-1, 4)))
             self._pend_t.clear()
             self._pend_p.clear()
+
+    def _pend_joined(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """The held samples not yet released as one block (times (n,), pressures (n, 4)), kept
+        as the only one."""
+        self._pend_loose()
+        blocks = self._pend_blocks
+        if len(blocks) != 1:
+            blocks[:] = [(np.concatenate([b[0] for b in blocks]) if blocks else np.zeros(0, np.int64),
+                          np.concatenate([b[1] for b in blocks]) if blocks else np.zeros((0, 4)))]
+        return blocks[0]
 
     def _take_instants(self) -> None:
         """The held pressure samples the angle samples since the last call released, judged
@@ -712,14 +719,11 @@ class LiveMonitor:
         if not calls:
             return
         first = self._angles_first
-        self._pend_loose()
-        if self._pend_blocks:
-            blocks = self._pend_blocks
-            pend_t, pend_p = blocks[0] if len(blocks) == 1 else (np.concatenate([b[0] for b in blocks]),
-                                                                np.concatenate([b[1] for b in blocks]))
+        pend_t, pend_p = self._pend_joined()
+        if pend_t.shape[0]:
             angle_t = np.array(self._angles_t, np.int64)
             angle_a = np.array(self._angles_a, float)
-            log = np.array(calls, np.int64).reshape(-1, 5)
+            log = np.array(calls, np.int64).reshape(-1, len(CALL_FIELDS))
             env = np.array(self._call_env, float).reshape(-1, 2)
             state, given = self._take_state, self._take_given
             state[:] = (0, 0, self._counted_ns or 0, self._counted_ns is not None, 0, -1)
@@ -743,9 +747,7 @@ class LiveMonitor:
                             math.nan if s2 is None else s2)
             popped = int(state[1])
             self._pending_n -= popped
-            blocks.clear()
-            if popped < pend_t.shape[0]:
-                blocks.append((pend_t[popped:], pend_p[popped:]))
+            self._pend_blocks[:] = [(pend_t[popped:], pend_p[popped:])]
             self._motion_ns += int(state[4])
             self._counted_ns = int(state[2]) if state[3] else None
             if n:
@@ -753,10 +755,9 @@ class LiveMonitor:
                 self._motion.push(instants)
                 self._unjudged.push(instants)
                 self._share_rows.append(out[:n, len(_INSTANT):])
-                self._share_taken += n
                 self._resid_summary = None
                 self._share_stale = True
-                if self._share_taken >= SHARE_INSTANTS:
+                if sum(b.shape[0] for b in self._share_rows) >= SHARE_INSTANTS:
                     self._keep_share_rows()
         calls.clear()
         self._call_env.clear()
@@ -772,7 +773,6 @@ class LiveMonitor:
         if self._share_rows:
             self._share_ring.push(np.concatenate(self._share_rows))
             self._share_rows.clear()
-            self._share_taken = 0
 
     def _track_hard_over(self, t_ns: int, alpha: float) -> None:
         deg = alpha / DEG
@@ -840,7 +840,7 @@ class LiveMonitor:
         if self._share_stale:     # the ring's rows in the order they lie: the same rows, the same bits
             self._keep_share_rows()
             p = self.share_pressures()
-            area = self.gear.ram_area    # the forces as _residuals_until() makes them, element by element
+            area = self.gear.ram_area    # the forces as take_instants makes them, element by element
             self._share = ram_share(np.stack([area * (p[:, 0] - p[:, 1]), area * (p[:, 2] - p[:, 3])], axis=1))
             self._share_stale = False
         return self._share
