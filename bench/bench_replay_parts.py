@@ -9,7 +9,8 @@ between the timed and an untimed run):
 * decode: ``Decoder.decode_run`` over runs of up to 4,096 frames (``Decoder.decode`` for the
   frames it leaves to one at a time);
 * live model: ``LiveMonitor.update`` per angle and order sample (rate, the performance
-  trackers), ``LiveMonitor._take_instants`` (the held pressure samples judged for the
+  trackers) where they are taken one by one, ``RunPlan.take_rudder`` where a span of them is
+  taken at once, ``LiveMonitor._take_instants`` (the held pressure samples judged for the
   residual, where they are read), a run's other samples laid out and recorded and the slots' states
   worked out at once (``RunPlan``), ``LiveMonitor.slot_state`` where a slot's state is read
   one at a time (the states' load sharing is left to the packing, below);
@@ -95,7 +96,7 @@ def _instrument(spent: dict[str, float]) -> None:
     LiveMonitor.update = _timed(spent, 'live model', LiveMonitor.update)
     LiveMonitor._take_instants = _timed(spent, 'live model', LiveMonitor._take_instants)
     LiveMonitor.slot_state = _timed(spent, 'live model', LiveMonitor.slot_state)
-    for name in ('__init__', 'sync', 'before_sequential', 'skip', 'state_before', 'states'):
+    for name in ('__init__', 'sync', 'before_sequential', 'take_rudder', 'skip', 'state_before', 'states'):
         setattr(RunPlan, name, _timed(spent, 'live model', getattr(RunPlan, name)))
     DiagnosticsBuilder.build = _timed(spent, 'diagnostics', DiagnosticsBuilder.build)
     SyncJobs.submit = _timed(spent, 'analyses', SyncJobs.submit)

@@ -187,7 +187,12 @@ def _checked_gaps(two_z: ArrayLike, z_gb: ArrayLike) -> tuple[Array, Array]:
     tz = np.asarray(two_z, dtype=float)
     zg = np.asarray(z_gb, dtype=float)
     for name, value in (('two_z', tz), ('z_gb', zg)):
-        if not np.all(np.isfinite(value)) or np.any(value < 0):
+        if value.ndim == 0:
+            x = float(value)
+            if not (math.isfinite(x) and x >= 0):
+                msg = f'clearance {name} must be finite and >= 0 m'
+                raise ModelError(msg)
+        elif not np.all(np.isfinite(value)) or np.any(value < 0):
             msg = f'clearance {name} must be finite and >= 0 m'
             raise ModelError(msg)
     return tz, zg
@@ -219,6 +224,15 @@ def _constants(gear: GearParams) -> NDArray[np.float64]:
     return np.array([gear.stock_to_ram, gear.bushing_span, gear.guide_beam_span, float(gear.rams),
                      gear.youngs_modulus, gear.ram_inertia, gear.guide_beam_inertia, gear.bushing_length,
                      1.0 if gear.euler_amplification else 0.0])
+
+
+def _gear_constants(gear: GearParams) -> NDArray[np.float64]:
+    """:func:`_constants` of the gear, worked out once per gear (it is frozen)."""
+    k = gear.__dict__.get('_share_constants')
+    if k is None:
+        k = _constants(gear)
+        object.__setattr__(gear, '_share_constants', k)
+    return k
 
 
 @_inline
@@ -367,19 +381,26 @@ def load_sharing(gear: GearParams, alpha: ArrayLike, torque: ArrayLike,
     Returns:
         :class:`LoadSharing` with arrays of the broadcast shape.
     """
-    tz, zg = _checked_gaps(two_z, z_gb)
-    arrays = np.broadcast_arrays(np.asarray(alpha, float), np.asarray(torque, float), tz, zg)
-    shape = arrays[0].shape
-    flat = [np.ascontiguousarray(x, dtype=float).reshape(-1) for x in arrays]
+    a, t = np.asarray(alpha, float), np.asarray(torque, float)
+    if a.ndim == 1 and t.shape == a.shape and np.ndim(two_z) == 0 and np.ndim(z_gb) == 0:
+        # samples (n,) at one clearance pair (the live monitor's batches): no broadcasting
+        tz, zg = _checked_gaps(two_z, z_gb)
+        n = a.shape[0]
+        shape: tuple[int, ...] = (n,)
+        flat = [np.ascontiguousarray(a), np.ascontiguousarray(t), np.full(n, float(tz)), np.full(n, float(zg))]
+    else:
+        tz, zg = _checked_gaps(two_z, z_gb)
+        arrays = np.broadcast_arrays(a, t, tz, zg)
+        shape = arrays[0].shape
+        flat = [np.ascontiguousarray(x, dtype=float).reshape(-1) for x in arrays]
     out = np.empty((_NF, flat[0].size))
-    k = _constants(gear)
-    bad = _solve(*flat, k, out)
+    bad = _solve(*flat, _gear_constants(gear), out)
     if bad >= 0:
         raise _buckled(gear, float(flat[0][bad]), float(flat[1][bad]))
-    fields = {name: out[i].reshape(shape) for i, name in enumerate(_FIELDS)}
-    fields['case'] = fields['case'].astype(np.int8)
-    fields['stages'] = fields['stages'].astype(np.uint8)
-    return LoadSharing(**fields)
+    rows = [out[i].reshape(shape) for i in range(_NF)]
+    rows[11] = rows[11].astype(np.int8)       # case
+    rows[12] = rows[12].astype(np.uint8)      # stages
+    return LoadSharing(*rows)
 
 
 def load_sharing_at(gear: GearParams, alpha: ArrayLike, gaps: Gaps,
@@ -399,11 +420,7 @@ def load_sharing_scalar(gear: GearParams, alpha: float, torque: float, two_z: fl
     if not (math.isfinite(two_z) and two_z >= 0 and math.isfinite(z_gb) and z_gb >= 0):
         msg = 'clearance two_z and z_gb must be finite and >= 0 m'
         raise ModelError(msg)
-    k = gear.__dict__.get('_share_constants')
-    if k is None:
-        k = _constants(gear)
-        object.__setattr__(gear, '_share_constants', k)
-    r = _solve_one(float(alpha), float(torque), float(two_z), float(z_gb), k)
+    r = _solve_one(float(alpha), float(torque), float(two_z), float(z_gb), _gear_constants(gear))
     if r[13]:
         raise _buckled(gear, alpha, torque)
     return ShareScalar(r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[9], r[10], int(r[11]), int(r[12]))

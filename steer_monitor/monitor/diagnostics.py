@@ -8,7 +8,7 @@ diagnostic_aggregator and rqt_robot_monitor show them as they are.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,6 +23,7 @@ from steer_monitor.estimate.rams import (
     MIN_SHARE_SPREAD_PA,
     OPPOSED,
     UNJUDGED,
+    RamShare,
     enough,
     judge,
     opposed_cause,
@@ -99,6 +100,8 @@ class DiagnosticsBuilder:
         self.smap = smap
         self.gear = gear
         self._onset_cache: dict[Gaps, float | None] = {}
+        # per status, the last one built with what it was built from (:meth:`_memo`)
+        self._memos: dict[str, tuple[tuple[Any, ...], tuple[object, ...], Status]] = {}
         # per input: its name, how long it may be silent [s], the window its rate is judged
         # over [ns], its expected rate [Hz], its three keys and its expected rate as text
         self._inputs = [(spec.name,
@@ -113,6 +116,20 @@ class DiagnosticsBuilder:
 
     def _status(self, item: str, level: int, message: str, values: list[tuple[str, str]]) -> Status:
         return Status(PREFIX + item, level, message, self.cfg.hardware_id, tuple(values))
+
+    def _memo(self, item: str, key: tuple[Any, ...], objects: tuple[object, ...], make: Callable[[], Status]
+              ) -> Status:
+        """The status ``make()`` builds, built again only when what it is built from changed:
+        ``key`` plain values (compared by value), ``objects`` immutable ones (compared by
+        identity; held here, so an identity is not reused while compared). Most seconds the
+        clearances, the performance, the model's health and the rams are what they were a
+        second before (at rest for hours), and their text costs tens of microseconds."""
+        hit = self._memos.get(item)
+        if hit is not None and hit[0] == key and all(a is b for a, b in zip(hit[1], objects, strict=True)):
+            return hit[2]
+        status = make()
+        self._memos[item] = (key, objects, status)
+        return status
 
     def guide_onset_deg(self, gaps: Gaps) -> float | None:
         """Angle from which the guide beam carries load at service speed (None: never)."""
@@ -163,6 +180,13 @@ class DiagnosticsBuilder:
         return self._status('CAN input', level, message, values)
 
     def clearances(self, mon: LiveMonitor) -> Status:
+        """The clearances in use, judged on their interval (:meth:`_clearances`)."""
+        interval = mon.gaps_interval
+        key = (mon.gaps, mon.gaps_source, None if interval is None else tuple(interval.items()),
+               tuple(mon.estimate_info.items()))
+        return self._memo('clearances', key, (mon.finding,), lambda: self._clearances(mon))
+
+    def _clearances(self, mon: LiveMonitor) -> Status:
         """Levels decided on the interval, not the point: ERROR when its lower end is past the
         limit, WARN when its lower end passes the warn share of it, or when the point passes
         the limit with an interval narrow enough to say so; an interval wider than the limit
@@ -258,6 +282,13 @@ class DiagnosticsBuilder:
         return hard_over_time(self.gear.stock_to_ram, self.cfg.ram_speed_per_pump)
 
     def performance(self, mon: LiveMonitor) -> Status:
+        """The hard-over time against SOLAS and the response to the last order step."""
+        r = mon.response
+        key = (mon.hard_over_s, None if r is None else (r.order, r.t_step_ns, r.direction_ok, r.delay_s, r.accuracy,
+                                                         r.stalled_s, r.stalled_at))
+        return self._memo('performance', key, (), lambda: self._performance(mon))
+
+    def _performance(self, mon: LiveMonitor) -> Status:
         values = [('hard_over_s', _f(mon.hard_over_s, '.1f')),
                   ('solas_limit_s', f'{self.cfg.solas_hard_over_s:g}')]
         level, parts = OK, []
@@ -303,6 +334,10 @@ class DiagnosticsBuilder:
         OK when the model explains the pressures, WARN when it does not (the message says what
         is left and where). The residual of the last minute of motion under that model is
         shown beside it, not judged. Before any analysis: not judged yet."""
+        key = (mon.residual_summary(), mon.motion_ns, why)
+        return self._memo('model health', key, (mon.finding,), lambda: self._model_health(mon, why))
+
+    def _model_health(self, mon: LiveMonitor, why: str | None) -> Status:
         rms = mon.residual_rms_bar()
         f = mon.finding
         values = [('residual_rms_bar', _f(rms, '.2f')), ('residual_samples', str(mon.residual_count)),
@@ -332,6 +367,9 @@ class DiagnosticsBuilder:
         work or the two push against each other (a ram's pressures swapped in the map), WARN
         when the share departs from an even half by more than ``ram_share_warn``."""
         sh = mon.ram_share()
+        return self._memo('rams', (), (sh,), lambda: self._rams(mon, sh))
+
+    def _rams(self, mon: LiveMonitor, sh: RamShare | None) -> Status:
         bar = self.gear.ram_area * 1e5
         warn = self.cfg.ram_share_warn
         values = [('ram_1_share_pct', 'n/a' if sh is None else f'{100 * sh.share[0]:.1f}'),

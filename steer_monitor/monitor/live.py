@@ -197,7 +197,12 @@ class _Ring:
 class _AnglePlan:
     """The rates of a run of angle samples (:meth:`LiveMonitor.plan_angles`): ``n`` samples
     from global index ``base`` (counted from the monitor's first angle sample), their times,
-    the first global index of each one's rate window, and its status and slope."""
+    the first global index of each one's rate window, and its status and slope; for a span of
+    them taken at once (:meth:`LiveMonitor.take_rudder`), with the model's angle delay
+    ``delay`` [ns] then: the history's front after each, and counts before each (n + 1,) of
+    those whose rate the plan does not give (a non-finite angle in the window, or a window
+    reaching past the front) and of those the hard-over tracker must see (past the smaller of
+    its angles)."""
 
     base: int
     n: int
@@ -205,6 +210,10 @@ class _AnglePlan:
     rate_lo: list[int]
     status: list[int]
     slope: list[float]
+    delay: int
+    front: list[int]
+    unplanned: list[int]
+    past: list[int]
 
 
 #: pressure samples held and not yet released at most (51 s of them at 80 a second): with the
@@ -645,8 +654,14 @@ class LiveMonitor:
         status = np.empty(n, np.int8)
         out = np.empty(n)
         window_slopes(t, a, lo, np.arange(1, n + 1), status, out)
-        self._plan = _AnglePlan(self._hist_base, n, t.tolist(), (lo + self._hist_base).tolist(), status.tolist(),
-                                out.tolist())
+        base = self._hist_base
+        lo += base
+        delay = self._delay_ns
+        front = base + np.searchsorted(t, t - (3 * HALF_WINDOW_NS + delay), 'left')
+        unplanned = np.concatenate([[0], np.cumsum((status == SPECIAL) | (lo < front))])
+        past = np.concatenate([[0], np.cumsum(np.abs(a / DEG) >= min(HARD_OVER_DEG, OTHER_SIDE_DEG))])
+        self._plan = _AnglePlan(base, n, t.tolist(), lo.tolist(), status.tolist(), out.tolist(), delay, front.tolist(),
+                                unplanned.tolist(), past.tolist())
 
     def _on_angle(self, t_ns: int, alpha: float) -> None:
         hist = self._history
@@ -677,6 +692,76 @@ class LiveMonitor:
             self._take_instants()
         self._track_hard_over(t_ns, alpha)
         self._track_response(t_ns, alpha)
+
+    def take_rudder(self, kinds: list[bool], angle_t: list[int], angle_a: list[float], held: list[int],
+                    env: list[float], hold_t: NDArray[np.int64], hold_p: NDArray[np.float64], order_t: list[int],
+                    order_v: list[float], orders_in_order: bool) -> list[float] | None:
+        """:meth:`update` of a replay's span of rudder samples at once, where :meth:`plan_angles`
+        planned the angle samples' rates: ``kinds`` the span's rudder samples in order (True: an
+        angle sample, False: an order sample); the angle samples' times (m,) [ns] and angles
+        (m,) [rad], with what each one logs beside it: how many of the pressure samples
+        ``hold_t`` (k,) [ns], ``hold_p`` (k, 4) [Pa] (those :meth:`update` holds before the last
+        angle sample, held here first) came before it (``held`` (m,)), and the ship's speed and
+        oil temperature then (``env``, flat (2 m,)); the order samples' times [ns] and orders
+        [rad] (``orders_in_order``: their times in order). The same state as taking them one by
+        one with the pressure samples between them (the held samples the angle samples release
+        judged later, as there); returns the rate [rad/s] after each angle sample, or None,
+        having changed nothing, where the plan does not give them or the held samples would
+        pass :data:`MAX_HELD` (then take them one by one)."""
+        m = len(angle_t)
+        rates: list[float] = []
+        if m:
+            plan = self._plan
+            if plan is None or plan.delay != self._delay_ns or self._pending_n + hold_t.shape[0] > MAX_HELD:
+                return None
+            k0 = self._hist_base + len(self._history) - plan.base    # the first one's place in the plan
+            k1 = k0 + m
+            if k0 < 0 or k1 > plan.n or plan.unplanned[k1] != plan.unplanned[k0] or plan.t[k0:k1] != angle_t \
+                    or plan.front[k0] < self._hist_base:
+                return None
+            total = self._held_total
+            self.hold_pressures(hold_t, hold_p, None)
+            rate = self.rate
+            for status, value in zip(plan.status[k0:k1], plan.slope[k0:k1]):
+                if status == SLOPE:
+                    rate = value
+                rates.append(rate)
+            front = plan.front[k0:k1]
+            hist = self._history
+            hist.extend(zip(angle_t, angle_a))
+            for _ in range(front[-1] - self._hist_base):
+                hist.popleft()
+            self._hist_base = front[-1]
+            self._angles_t += angle_t
+            self._angles_a += angle_a
+            delay = self._delay_ns
+            back = HALF_WINDOW_NS + delay
+            first = plan.base + k0
+            for j in range(m):
+                self._calls += (angle_t[j] - back, delay, front[j], first + j, total + held[j])
+            self._call_env += env
+            self.record('rudder_angle', angle_t, angle_a, True)
+            self._dirty = True
+            if len(self._calls) >= len(CALL_FIELDS) * CALLS_KEPT:
+                self._take_instants()
+            if plan.past[k1] != plan.past[k0]:           # the hard-over's tracker: past its smaller angle
+                for j in range(m):
+                    self._track_hard_over(angle_t[j], angle_a[j])
+        if order_t:
+            self.record('rudder_order', order_t, order_v, orders_in_order)
+        ia = io = 0
+        for is_angle in kinds:         # the response: angle and order samples in their order
+            if is_angle:
+                if self.response is not None:
+                    self.rate = rates[ia]
+                    self._track_response(angle_t[ia], angle_a[ia])
+                ia += 1
+            else:
+                self._on_order(order_t[io], order_v[io])
+                io += 1
+        if m:
+            self.rate = rates[-1]
+        return rates
 
     def _bound_held(self) -> None:
         """At most :data:`MAX_HELD` held samples waiting: those released judged first, then
@@ -849,6 +934,10 @@ class LiveMonitor:
         """The four pressures [Pa] (k, 4) at the instants :meth:`ram_share` is over (a view)."""
         self._keep_share_rows()
         return self._share_ring.rows()
+
+    def residual_summary(self) -> tuple[int, int, float | None]:
+        """(:attr:`residual_count`, :attr:`residuals_skipped`, :meth:`residual_rms_bar`) at once."""
+        return self._summary()
 
     def residual_rms_bar(self) -> float | None:
         """RMS of the declared model's pressure residual over the last minute of motion [bar]."""

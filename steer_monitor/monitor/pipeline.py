@@ -263,12 +263,13 @@ class Pipeline:
             if j > pos:                              # a span: no whole second in it
                 a, b = lo_l[pos], hi_l[j - 1]
                 changed = mon.changed
-                for s in plan.seq[bisect_left(plan.seq, a):bisect_left(plan.seq, b)]:
-                    name = plan.names[s]
-                    if name == 'rudder_angle':            # an order sample reads nothing recorded
-                        plan.before_sequential(mon, s)
-                    mon.update(Sample(plan.stamps[s], name, plan.values[s]))
-                    plan.rate_after[s] = mon.rate
+                if not plan.take_rudder(mon, a, b):
+                    for s in plan.seq[bisect_left(plan.seq, a):bisect_left(plan.seq, b)]:
+                        name = plan.names[s]
+                        if name == 'rudder_angle':        # an order sample reads nothing recorded
+                            plan.before_sequential(mon, s)
+                        mon.update(Sample(plan.stamps[s], name, plan.values[s]))
+                        plan.rate_after[s] = mon.rate
                 plan.sync(mon, analyst, b)
                 k0, k1 = int(np.searchsorted(opens_at, pos)), int(np.searchsorted(opens_at, j))
                 while c < len(counting) and counting[c] <= rows_l[j - 1]:

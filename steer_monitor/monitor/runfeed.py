@@ -38,6 +38,7 @@ _PRESSURE = tuple(_CODE[n] for n in PRESSURE_INPUTS)
 _RECORDED = tuple(k for k, n in enumerate(INPUTS) if k not in (ANGLE, ORDER))   # only recorded by update()
 _SLOW = tuple(k for k in _RECORDED if k not in _PRESSURE)                         # read by the residual
 _ANALYSED = tuple(_CODE[n] for n in ANALYSED)
+_ENV = (_CODE['ship_speed'], _CODE['oil_temperature'])    # what an angle sample logs beside it
 
 
 @dataclass(frozen=True)
@@ -73,13 +74,20 @@ class RunPlan:
         self.times: list[list[int]] = []
         self.vals: list[list[float]] = []
         self.in_order: list[bool] = []
+        self._where: list[NDArray[np.intp]] = []
         for c in range(len(INPUTS)):
             w = np.flatnonzero(code == c)
+            self._where.append(w)
             self.where.append(w.tolist())
             self.times.append(stamp[w].tolist())
             self.vals.append(value[w].tolist())
             self.in_order.append(bool(np.all(np.diff(stamp[w]) >= 0)))
-        self.seq = np.flatnonzero((code == ANGLE) | (code == ORDER)).tolist()
+        seq = np.flatnonzero((code == ANGLE) | (code == ORDER))
+        self.seq = seq.tolist()
+        self._seq_angle: list[bool] = (code[seq] == ANGLE).tolist()
+        # what each angle sample logs beside it (_angle_logs, worked out when first needed)
+        self._angle_held: list[int] | None = None
+        self._angle_env: list[float] | None = None
         # before each position 0..m: the newest sample of the angle and of each pressure (-1:
         # none in the run; read then from what stood before it, and -1 picks the NaN put last)
         newest = np.maximum.accumulate(np.where(code[:, None] == np.array((ANGLE, *_PRESSURE)), np.arange(m)[:, None],
@@ -99,6 +107,7 @@ class RunPlan:
         p = self.pressures[1:]
         held = np.isin(code, _PRESSURE) & ~np.isnan(((p[:, 0] + p[:, 1]) + p[:, 2]) + p[:, 3])
         hp = np.flatnonzero(held)
+        self._held_at = hp
         self.held_at = hp.tolist()
         self.held_t = stamp[hp]
         self.held_p = p[hp]
@@ -162,6 +171,58 @@ class RunPlan:
             self._held = k
         for c in _SLOW:
             self._record_upto(mon, c, s)
+
+    def take_rudder(self, mon: LiveMonitor, start: int, stop: int) -> bool:
+        """The angle and order samples at positions [start, stop) taken at once
+        (:meth:`~steer_monitor.monitor.live.LiveMonitor.take_rudder`), each angle sample with
+        what :meth:`before_sequential` would have brought up to it, and the rate after each
+        noted; False, having changed nothing, where the live model cannot take them so (take
+        them one by one)."""
+        seq = self.seq
+        s0, s1 = bisect_left(seq, start), bisect_left(seq, stop)
+        if s0 == s1:
+            return True
+        if self._angle_held is None:
+            self._angle_logs(mon)
+        assert self._angle_held is not None and self._angle_env is not None
+        where = self.where
+        a0, a1 = bisect_left(where[ANGLE], start), bisect_left(where[ANGLE], stop)
+        o0, o1 = bisect_left(where[ORDER], start), bisect_left(where[ORDER], stop)
+        done = self._held
+        last = max(self._angle_held[a1 - 1], done) if a1 > a0 else done
+        rate0 = mon.rate
+        rates = mon.take_rudder(self._seq_angle[s0:s1], self.times[ANGLE][a0:a1], self.vals[ANGLE][a0:a1],
+                                [max(k - done, 0) for k in self._angle_held[a0:a1]], self._angle_env[2 * a0:2 * a1],
+                                self.held_t[done:last], self.held_p[done:last], self.times[ORDER][o0:o1],
+                                self.vals[ORDER][o0:o1], self.in_order[ORDER])
+        if rates is None:
+            return False
+        self._held = last
+        rate, ia, after = rate0, 0, self.rate_after     # the rate after each: an order sample's, the one standing
+        for s, is_angle in zip(seq[s0:s1], self._seq_angle[s0:s1]):
+            if is_angle:
+                rate = rates[ia]
+                ia += 1
+            after[s] = rate
+        return True
+
+    def _angle_logs(self, mon: LiveMonitor) -> None:
+        """What each angle sample of the run logs beside it: the held samples before it (as
+        :attr:`held_at` counts them), and the ship's speed and oil temperature recorded before
+        it (flat, two per angle sample): the run's newest before it, else what stood before
+        the run (nothing of the run recorded yet)."""
+        pos = self._where[ANGLE]
+        self._angle_held = np.searchsorted(self._held_at, pos, 'left').tolist()
+        env = np.empty((pos.shape[0], 2))
+        for col, c in enumerate(_ENV):
+            w = self._where[c]
+            stood = mon.signals[INPUTS[c]].last_value
+            if w.size:
+                i = np.searchsorted(w, pos, 'left')
+                env[:, col] = np.where(i > 0, self._value[w[i - 1]], stood)
+            else:
+                env[:, col] = stood
+        self._angle_env = env.ravel().tolist()
 
     def sync(self, mon: LiveMonitor, analyst: Analyst | None, upto: int) -> None:
         """Everything before ``upto`` taken as update() and the analyst's add would have (the

@@ -82,6 +82,14 @@ def test_scalars_are_the_one_sample_lookup_over_arrays(curve):
     assert np.isnan(table.scalars(alpha, speed)[np.abs(alpha) > np.radians(20.0)]).all()
 
 
+@pytest.mark.parametrize('alpha, speed', [(np.zeros(3), np.zeros(2)), (np.zeros((2, 2)), np.zeros((2, 2))),
+                                          (np.zeros(3), np.zeros(()))])
+def test_scalars_need_one_shape(curve, alpha, speed):
+    """The array lookup takes (n,) angles and (n,) speeds, nothing broadcast."""
+    with pytest.raises(ValueError, match=r'torque lookup needs angles and speeds of one shape \(n,\)'):
+        curve.scalars(alpha, speed)
+
+
 @pytest.mark.parametrize('angles, torques', [([0.0], [0.0]), ([0.1, 0.2], [0.0, 1.0]), ([0.0, 0.2, 0.1], [0, 1, 2]),
                                              ([0.0, 0.1], [0.0, float('nan')])])
 def test_bad_tables(angles, torques):
