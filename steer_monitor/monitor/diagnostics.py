@@ -162,7 +162,7 @@ class DiagnosticsBuilder:
             values += ((keys[0], f'{rate:.2f}'), (keys[1], expected), (keys[2], _f(silent, '.2f')))
             if silent is None or silent > limit:
                 stale.append(name)
-            elif rate < 0.5 * expected_hz and len(mon.signals[name].arrivals) >= 3:
+            elif rate < 0.5 * expected_hz and mon.signals[name].kept() >= 3:
                 slow.append(name)  # a rate is judged once it has a few arrivals
         for reason, n in sorted(rejects.counts.items()):
             values.append((f'rejects_{reason}', str(n)))

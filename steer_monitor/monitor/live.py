@@ -143,19 +143,51 @@ class LiveState:
 
 @dataclass
 class _Signal:
+    """An input's newest sample and its arrival times: those of the last
+    :data:`ARRIVALS_KEPT_NS` kept, in the order they came (``times`` from ``start`` on; the
+    list is cut down as it grows, so dropping the oldest costs no per-sample work)."""
+
     last_t_ns: int | None = None
     last_value: float = math.nan
-    arrivals: deque = field(default_factory=deque)
+    times: list[int] = field(default_factory=list)
+    start: int = 0
     ordered: bool = True        # arrivals in time order (a clock step back can break it)
+
+    @property
+    def arrivals(self) -> list[int]:
+        """The arrival times kept [ns], as they came (a copy)."""
+        return self.times[self.start:]
+
+    def kept(self) -> int:
+        """How many arrival times are kept."""
+        return len(self.times) - self.start
 
     def arrive(self, t_ns: int) -> None:
         """One arrival at ``t_ns``: kept, those older than :data:`ARRIVALS_KEPT_NS` dropped."""
-        arrivals = self.arrivals
-        if arrivals and t_ns < arrivals[-1]:
+        times = self.times
+        if len(times) > self.start and t_ns < times[-1]:
             self.ordered = False
-        arrivals.append(t_ns)
-        while arrivals and arrivals[0] < t_ns - ARRIVALS_KEPT_NS:
-            arrivals.popleft()
+        times.append(t_ns)
+        self._drop(t_ns - ARRIVALS_KEPT_NS)
+
+    def arrive_many(self, t_ns: list[int]) -> None:
+        """Arrivals in time order, none before the last kept, :meth:`arrive` of each at once."""
+        self.times += t_ns
+        self._drop(t_ns[-1] - ARRIVALS_KEPT_NS)
+
+    def _drop(self, cut: int) -> None:
+        """The oldest dropped while the first kept is before ``cut`` [ns]."""
+        times, i = self.times, self.start
+        if self.ordered:
+            i = bisect.bisect_left(times, cut, i)
+        else:
+            n = len(times)
+            while i < n and times[i] < cut:
+                i += 1
+        if i > 1024 and 2 * i > len(times):
+            del times[:i]
+            i = 0
+        self.start = i
 
 
 class _Ring:
@@ -515,12 +547,8 @@ class LiveMonitor:
         if not times:
             return
         sig = self.signals[name]
-        arrivals = sig.arrivals
-        if ordered and sig.ordered and (not arrivals or times[0] >= arrivals[-1]):
-            arrivals.extend(times)
-            cut = times[-1] - ARRIVALS_KEPT_NS   # what update() leaves, arrivals being in order
-            while arrivals[0] < cut:
-                arrivals.popleft()
+        if ordered and sig.ordered and (not sig.kept() or times[0] >= sig.times[-1]):
+            sig.arrive_many(times)
         else:
             for t in times:
                 sig.arrive(t)
@@ -589,9 +617,10 @@ class LiveMonitor:
             raise ValueError(msg)
         sig = self.signals[name]
         if sig.ordered:
-            arrivals = sig.arrivals
-            i = bisect.bisect_left(arrivals, now_ns - window_ns)
-            n, first, last = len(arrivals) - i, arrivals[i] if i < len(arrivals) else 0, arrivals[-1] if arrivals else 0
+            times = sig.times
+            i = bisect.bisect_left(times, now_ns - window_ns, sig.start)
+            n = len(times) - i
+            first, last = (times[i], times[-1]) if n else (0, 0)
         else:
             recent = [t for t in sig.arrivals if t >= now_ns - window_ns]
             n, first, last = len(recent), recent[0] if recent else 0, recent[-1] if recent else 0

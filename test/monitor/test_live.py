@@ -455,3 +455,36 @@ def test_a_span_is_refused_unchanged_past_the_held_bound_or_under_another_delay(
     mon._delay_ns = 0
     assert mon.take_rudder(*args, np.zeros(0, np.int64), np.zeros((0, 4)), [], [], True) == [0.0, 0.0]
     assert [t for t, _ in mon._history] == [10, 20]
+
+
+@pytest.mark.parametrize('back_at', [None, 700, 5000])
+def test_arrivals_kept_are_those_a_deque_popped_from_the_front_keeps(back_at):
+    """An input's arrival times kept (the last 30 s, dropped from the front while the first is
+    older than the newest's window, as they came; a clock step back makes them unordered) over
+    a long stream, one by one and in ordered batches, against a deque doing just that."""
+    from collections import deque
+
+    from steer_monitor.monitor.live import ARRIVALS_KEPT_NS, _Signal
+    rng = np.random.default_rng(7)
+    times = np.cumsum(rng.integers(1, 200_000_000, 8000)).tolist()
+    if back_at is not None:
+        times = times[:back_at] + [t - 40_000_000_000 for t in times[back_at:]]
+    want: deque[int] = deque()
+    one, many = _Signal(), _Signal()
+    k = 0
+    while k < len(times):
+        batch = times[k:k + int(rng.integers(1, 40))]
+        for t in batch:
+            want.append(t)
+            while want and want[0] < t - ARRIVALS_KEPT_NS:
+                want.popleft()
+            one.arrive(t)
+        if many.ordered and (not many.kept() or batch[0] >= many.times[-1]) and batch == sorted(batch):
+            many.arrive_many(batch)
+        else:
+            for t in batch:
+                many.arrive(t)
+        assert one.arrivals == many.arrivals == list(want) and one.kept() == len(want)
+        k += len(batch)
+    assert len(one.times) < 2 * len(want) + 2048            # cut down as it goes
+    assert one.ordered == (back_at is None)
