@@ -607,8 +607,8 @@ class Decoder:
         self.frames_seen += n
         if t_ok.size:
             jumps.ref_ns = int(t_ok[-1])
-        return DecodedRun(t, ref_before, ref_after, row[order], [names[i] for i in spec_no[order].tolist()],
-                          value[order], events, self.rejects)
+        return DecodedRun(t, ref_before, ref_after, row[order], spec_no[order], tuple(names), value[order], events,
+                          self.rejects)
 
 
 @dataclass
@@ -616,13 +616,15 @@ class DecodedRun:
     """A run of frames decoded at once (:meth:`Decoder.decode_run`). Per frame ``i`` (shapes
     (n,)): ``t_ns`` its stamp, ``ref_before``/``ref_after`` the stream's established time
     before and after it was decoded [ns]. Samples in frame-by-frame order: ``sample_row``
-    (the frame each comes from, non-decreasing), ``sample_name``, ``sample_value`` [SI]."""
+    (the frame each comes from, non-decreasing), ``sample_spec`` (the number of its input in
+    ``spec_names``; :attr:`sample_name` names them), ``sample_value`` [SI]."""
 
     t_ns: NDArray[np.int64]
     ref_before: NDArray[np.int64]
     ref_after: NDArray[np.int64]
     sample_row: NDArray[np.intp]
-    sample_name: list[str]
+    sample_spec: NDArray[np.intp]
+    spec_names: tuple[str, ...]
     sample_value: NDArray[np.float64]
     events: list[tuple[NDArray[np.intp], str, str]]     # (frames, reason, input or '')
     rejects: RejectCounter
@@ -634,6 +636,12 @@ class DecodedRun:
         order = np.argsort(row, kind='stable')
         self._event_row, self._event_kind = row[order], kind[order]
         self._next = 0                                   # the first event not counted
+
+    @property
+    def sample_name(self) -> list[str]:
+        """Each sample's input."""
+        names = self.spec_names
+        return [names[i] for i in self.sample_spec.tolist()]
 
     def counting_rows(self, visited: NDArray[np.intp]) -> NDArray[np.intp]:
         """Of the frames ``visited`` (sorted) one by one with :meth:`count_rejects`, those at

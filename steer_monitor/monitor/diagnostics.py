@@ -156,13 +156,15 @@ class DiagnosticsBuilder:
     def can_input(self, mon: LiveMonitor, rejects: RejectSnapshot, now_ns: int) -> Status:
         values: list[tuple[str, str]] = []
         stale, slow = [], []
+        signals = mon.signals
         for name, limit, window_ns, expected_hz, keys, expected in self._inputs:
-            silent = mon.silent_for(name, now_ns)
-            rate = mon.rate_hz(name, now_ns, window_ns)
+            sig = signals[name]
+            rate = sig.rate_hz(now_ns, window_ns)      # the window within the time kept (__init__)
+            silent = sig.silent_for(now_ns)
             values += ((keys[0], f'{rate:.2f}'), (keys[1], expected), (keys[2], _f(silent, '.2f')))
             if silent is None or silent > limit:
                 stale.append(name)
-            elif rate < 0.5 * expected_hz and mon.signals[name].kept() >= 3:
+            elif rate < 0.5 * expected_hz and sig.kept() >= 3:
                 slow.append(name)  # a rate is judged once it has a few arrivals
         for reason, n in sorted(rejects.counts.items()):
             values.append((f'rejects_{reason}', str(n)))

@@ -175,6 +175,25 @@ class _Signal:
         self.times += t_ns
         self._drop(t_ns[-1] - ARRIVALS_KEPT_NS)
 
+    def silent_for(self, now_ns: int) -> float | None:
+        """Seconds since the input was last heard at ``now_ns`` (None: never)."""
+        t = self.last_t_ns
+        return None if t is None else (now_ns - t) / 1e9
+
+    def rate_hz(self, now_ns: int, window_ns: int) -> float:
+        """:meth:`LiveMonitor.rate_hz` of this input (``window_ns`` at most the time kept)."""
+        if self.ordered:
+            times = self.times
+            i = bisect.bisect_left(times, now_ns - window_ns, self.start)
+            n = len(times) - i
+            first, last = (times[i], times[-1]) if n else (0, 0)
+        else:
+            recent = [t for t in self.arrivals if t >= now_ns - window_ns]
+            n, first, last = len(recent), recent[0] if recent else 0, recent[-1] if recent else 0
+        if n < 2 or last == first:
+            return 0.0
+        return (n - 1) / ((last - first) / 1e9)
+
     def _drop(self, cut: int) -> None:
         """The oldest dropped while the first kept is before ``cut`` [ns]."""
         times, i = self.times, self.start
@@ -615,23 +634,11 @@ class LiveMonitor:
         if window_ns > ARRIVALS_KEPT_NS:
             msg = f'rate window {window_ns / 1e9:g} s is longer than the {ARRIVALS_KEPT_NS / 1e9:g} s of arrivals kept'
             raise ValueError(msg)
-        sig = self.signals[name]
-        if sig.ordered:
-            times = sig.times
-            i = bisect.bisect_left(times, now_ns - window_ns, sig.start)
-            n = len(times) - i
-            first, last = (times[i], times[-1]) if n else (0, 0)
-        else:
-            recent = [t for t in sig.arrivals if t >= now_ns - window_ns]
-            n, first, last = len(recent), recent[0] if recent else 0, recent[-1] if recent else 0
-        if n < 2 or last == first:
-            return 0.0
-        return (n - 1) / ((last - first) / 1e9)
+        return self.signals[name].rate_hz(now_ns, window_ns)
 
     def silent_for(self, name: str, now_ns: int) -> float | None:
         """Seconds since the input was last heard (None: never)."""
-        t = self.signals[name].last_t_ns
-        return None if t is None else (now_ns - t) / 1e9
+        return self.signals[name].silent_for(now_ns)
 
     # --- rudder --------------------------------------------------------------------------
     @staticmethod

@@ -43,7 +43,7 @@ from steer_monitor.can.frames import Frame
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.estimate.effects import Effect
 from steer_monitor.model.gear import Gaps, GearParams
-from steer_monitor.model.inputs import Sample
+from steer_monitor.model.inputs import INPUTS, Sample
 from steer_monitor.monitor.analyst import ANALYSED, Analyst, AnalystSettings, Job, JobRunner, Outcome, SyncJobs, run_job
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, Status
 from steer_monitor.monitor.live import LiveMonitor, LiveState
@@ -265,7 +265,7 @@ class Pipeline:
                 changed = mon.changed
                 if not plan.take_rudder(mon, a, b):
                     for s in plan.seq[bisect_left(plan.seq, a):bisect_left(plan.seq, b)]:
-                        name = plan.names[s]
+                        name = INPUTS[plan.codes[s]]
                         if name == 'rudder_angle':        # an order sample reads nothing recorded
                             plan.before_sequential(mon, s)
                         mon.update(Sample(plan.stamps[s], name, plan.values[s]))
@@ -301,7 +301,7 @@ class Pipeline:
             run.count_rejects(i)
             self._advance(clocks[i], out)
             ti = stamps[i]
-            self._take([Sample(ti, plan.names[k], plan.values[k]) for k in range(lo_l[j], hi_l[j])])
+            self._take([Sample(ti, INPUTS[plan.codes[k]], plan.values[k]) for k in range(lo_l[j], hi_l[j])])
             plan.skip(hi_l[j])
             for s in plan.seq[bisect_left(plan.seq, lo_l[j]):bisect_left(plan.seq, hi_l[j])]:
                 plan.rate_after[s] = mon.rate        # the rate after the row: all a later state reads

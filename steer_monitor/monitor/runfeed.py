@@ -63,25 +63,24 @@ class RunPlan:
     slot's state may be emitted (the first sample of each frame that opens a slot)."""
 
     def __init__(self, run: DecodedRun, mon: LiveMonitor, emit_at: NDArray[np.intp]) -> None:
-        m = len(run.sample_name)
+        m = run.sample_spec.shape[0]
         self.m = m
-        code = np.fromiter(map(_CODE.__getitem__, run.sample_name), np.int8, m)
+        code = np.array([_CODE[n] for n in run.spec_names], np.int8)[run.sample_spec] if m else np.zeros(0, np.int8)
         stamp = run.t_ns[run.sample_row]
         value = run.sample_value
-        self.names = run.sample_name
+        self.codes: list[int] = code.tolist()
         self.stamps, self.values = stamp.tolist(), value.tolist()
-        self.where: list[list[int]] = []
-        self.times: list[list[int]] = []
-        self.vals: list[list[float]] = []
-        self.in_order: list[bool] = []
-        self._where: list[NDArray[np.intp]] = []
-        for c in range(len(INPUTS)):
-            w = np.flatnonzero(code == c)
-            self._where.append(w)
-            self.where.append(w.tolist())
-            self.times.append(stamp[w].tolist())
-            self.vals.append(value[w].tolist())
-            self.in_order.append(bool(np.all(np.diff(stamp[w]) >= 0)))
+        # per input: its samples' positions, times and values (one stable sort by input)
+        order = np.argsort(code, kind='stable')
+        bounds = np.concatenate([[0], np.cumsum(np.bincount(code, minlength=len(INPUTS)))]).tolist()
+        by_t = stamp[order]
+        where_l, times_l, vals_l = order.tolist(), by_t.tolist(), value[order].tolist()
+        back = np.flatnonzero(np.diff(by_t) < 0).tolist()        # a time before the one before it
+        self._where = [order[bounds[c]:bounds[c + 1]] for c in range(len(INPUTS))]
+        self.where = [where_l[bounds[c]:bounds[c + 1]] for c in range(len(INPUTS))]
+        self.times = [times_l[bounds[c]:bounds[c + 1]] for c in range(len(INPUTS))]
+        self.vals = [vals_l[bounds[c]:bounds[c + 1]] for c in range(len(INPUTS))]
+        self.in_order = [not any(bounds[c] <= j < bounds[c + 1] - 1 for j in back) for c in range(len(INPUTS))]
         seq = np.flatnonzero((code == ANGLE) | (code == ORDER))
         self.seq = seq.tolist()
         self._seq_angle: list[bool] = (code[seq] == ANGLE).tolist()
@@ -143,9 +142,9 @@ class RunPlan:
         the run is taken frame by frame (the live model keeps its last state then)."""
         if at.size == 0:
             return True
-        alpha, _, _ = self._angle_before(at)
-        p, _ = self._pressures_before(at)
-        return bool(np.all(np.isfinite(alpha)) and np.all(np.isfinite(p)))
+        idx = self.newest[at, 0]
+        alpha = np.where(idx >= 0, self._value[idx], self.angle0[0])
+        return bool(np.isfinite(alpha).all() and np.isfinite(self.pressures[at]).all())
 
     def changed_between(self, start: int, stop: int) -> bool:
         """A rudder or pressure sample at a position in [start, stop)."""
