@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ['FrictionParams', 'friction_force', 'normal_forces']
+__all__ = ['FrictionParams', 'friction_force', 'friction_law', 'normal_forces']
 
 
 @dataclass(frozen=True)
@@ -31,8 +31,15 @@ def normal_forces(r_a: ArrayLike, r_e: ArrayLike, m_a: ArrayLike, bushing_length
     return np.maximum(np.abs(r_a), 2.0 * np.abs(m_a) / bushing_length), np.abs(r_e)
 
 
+def friction_law(seal: float, mu_bushing: float, mu_guide: float, n_a: ArrayLike, n_e: ArrayLike,
+                 guide_force: ArrayLike) -> ArrayLike:
+    """F_fr [N] from the seal friction, the coefficients and the normal loads (numba kernels
+    compile this same function)."""
+    return seal + mu_bushing * (n_a + n_e) + mu_guide * np.abs(guide_force)
+
+
 def friction_force(params: FrictionParams, r_a: ArrayLike, r_e: ArrayLike, m_a: ArrayLike,
                    guide_force: ArrayLike, bushing_length: float) -> ArrayLike:
     """F_fr [N] of the declared model from the bushing reactions and the guide force."""
     n_a, n_e = normal_forces(r_a, r_e, m_a, bushing_length)
-    return params.seal + params.mu_bushing * (n_a + n_e) + params.mu_guide * np.abs(guide_force)
+    return friction_law(params.seal, params.mu_bushing, params.mu_guide, n_a, n_e, guide_force)

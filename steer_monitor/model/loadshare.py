@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from steer_monitor.errors import ModelError
 from steer_monitor.model import beams
-from steer_monitor.model.friction import normal_forces
+from steer_monitor.model.friction import FrictionParams, friction_law, normal_forces
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.kinematics import RapsonState, rapson_state
 
@@ -58,6 +58,7 @@ __all__ = [
     'ShareScalar',
     'compliances',
     'critical_forces',
+    'declared_forces',
     'friction_normals',
     'load_sharing',
     'load_sharing_at',
@@ -96,6 +97,7 @@ _cp_reactions = _inline(beams.clamped_pinned_reactions)
 _cc_compliance = _inline(beams.clamped_clamped_compliance)
 _euler_force = _inline(beams.euler_force)
 _normal_forces = _inline(normal_forces)
+_friction_law = _inline(friction_law)
 
 
 @dataclass(frozen=True)
@@ -359,6 +361,48 @@ def _normals_grid(alpha: Array, torque: Array, two_z: Array, z_gb: Array, k: Arr
             n_b[c, g] = n_a + n_e
             f_gb[c, g] = abs(fg)
     return -1
+
+
+@_jit
+def _declared(alpha: Array, torque: Array, direction: Array, two_z: float, z_gb: float, k: Array,
+              friction: Array, out: Array) -> int:
+    """Per sample, the declared model's ram force sign(alpha) Fa + direction F_fr [N] and the
+    lateral force and the two critical forces it was solved with (Fl, F_theta, F_Z [N]) into
+    ``out`` (4, n); the index of the first sample whose ram buckles, or -1."""
+    for i in range(alpha.size):
+        r = _element(alpha[i], torque[i], two_z, z_gb, k)
+        if r[13]:
+            return i
+        n_a, n_e = _normal_forces(r[6], r[7], r[8], k[7])
+        f_fr = _friction_law(friction[0], friction[1], friction[2], n_a, n_e, r[3])
+        out[0, i] = math.copysign(r[1], alpha[i]) + direction[i] * f_fr
+        out[1, i], out[2, i], out[3, i] = r[0], r[9], r[10]
+    return -1
+
+
+def declared_forces(gear: GearParams, alpha: NDArray[np.float64], torque: NDArray[np.float64],
+                    direction: NDArray[np.float64], gaps: Gaps, friction: FrictionParams
+                    ) -> tuple[Array, Array, Array, Array]:
+    """The ram force the declared model predicts for samples (n,) moving in ``direction``
+    (+-1) at angle ``alpha`` [rad] under tiller torque ``torque`` [N m], with clearances
+    ``gaps`` and the friction law's ``friction``: sign(alpha) Fa + direction F_fr [N], and the
+    lateral force Fl, F_theta and F_Z [N] of the solution (where the ram clamps, the slipper
+    touches). The numbers of :func:`load_sharing` and
+    :func:`~steer_monitor.model.friction.friction_force` element by element, in one compiled
+    pass (the live monitor judges its residual with it once a second)."""
+    _checked_gaps(gaps.two_z, gaps.z_gb)
+    a = np.ascontiguousarray(alpha, dtype=float)
+    t = np.ascontiguousarray(torque, dtype=float)
+    d = np.ascontiguousarray(direction, dtype=float)
+    if a.ndim != 1 or t.shape != a.shape or d.shape != a.shape:
+        msg = f'declared forces need samples of one shape (n,), got {a.shape}, {t.shape} and {d.shape}'
+        raise ValueError(msg)
+    out = np.empty((4, a.shape[0]))
+    coef = np.array([friction.seal, friction.mu_bushing, friction.mu_guide], float)
+    bad = _declared(a, t, d, float(gaps.two_z), float(gaps.z_gb), _gear_constants(gear), coef, out)
+    if bad >= 0:
+        raise _buckled(gear, float(a[bad]), float(t[bad]))
+    return out[0], out[1], out[2], out[3]
 
 
 def _buckled(gear: GearParams, alpha: float, torque: float) -> ModelError:

@@ -46,7 +46,7 @@ from steer_monitor.model.friction import FrictionParams, friction_force
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
 from steer_monitor.model.inputs import INPUTS, Sample
-from steer_monitor.model.loadshare import ShareScalar, load_sharing, load_sharing_scalar
+from steer_monitor.model.loadshare import ShareScalar, declared_forces, load_sharing_scalar
 from steer_monitor.model.torque import TorqueTable
 from steer_monitor.monitor.instants import CALL_FIELDS, OUT_FIELDS, take_instants
 from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope, sum_of_squares, window_slopes
@@ -517,16 +517,14 @@ class LiveMonitor:
         known = np.flatnonzero(np.isfinite(torque))   # beyond the angles the fitted torque was learned at: None
         if known.size == 0:
             return pairs, judged
-        a = alpha[known]
-        m = load_sharing(gear, a, torque[known], gaps.two_z, gaps.z_gb)
+        predicted, lateral, f_theta, f_z = declared_forces(gear, alpha[known], torque[known], direction[known], gaps,
+                                                           self.priors)
         iv = self.gaps_interval or {}
         guess = np.zeros(known.size, bool)           # a clamp or contact the data never saw
         if '2z' in iv and iv['2z'][1] is None:
-            guess |= m.lateral > m.f_theta
+            guess |= lateral > f_theta
         if 'zgb' in iv and iv['zgb'][1] is None:
-            guess |= m.lateral > m.f_z
-        f_fr = friction_force(self.priors, m.r_a, m.r_e, m.m_a, m.guide_force, gear.bushing_length)
-        predicted = np.copysign(m.axial, a) + direction[known] * f_fr
+            guess |= lateral > f_z
         rows = known[~guess]
         pairs[rows, 0] = ((force_1[known] - predicted) / gear.ram_area / 1e5)[~guess]
         pairs[rows, 1] = ((force_2[known] - predicted) / gear.ram_area / 1e5)[~guess]

@@ -247,9 +247,14 @@ class Pipeline:
         mon, analyst = self.monitor, self.analyst
         rows_l, lo_l, hi_l = rows.tolist(), lo.tolist(), hi.tolist()
         clocks, stamps = clock.tolist(), run.t_ns.tolist()
-        reached = np.maximum.accumulate(clock[rows])
+        reached = np.maximum.accumulate(clock[rows]).tolist()
         counting = run.counting_rows(rows).tolist()
-        opens_at = np.flatnonzero(opens)             # indices into rows
+        opens_at_a = np.flatnonzero(opens)           # indices into rows
+        opens_at = opens_at_a.tolist()
+        at_all = lo[opens_at_a]                      # the positions before which each opening slot's state is due
+        # whether the live model changed between consecutive openings (the first of a span: worked out there)
+        fresh_all = np.empty(at_all.shape[0], bool)
+        fresh_all[1:] = plan.changes[at_all[1:]] > plan.changes[at_all[:-1]]
         emits: list[tuple[int, NDArray[np.intp], Gaps]] = []   # (place in out, state positions, clearances)
         mon.plan_angles(plan.times[ANGLE], plan.vals[ANGLE])
         c = 0                                        # counting rows passed
@@ -259,7 +264,7 @@ class Pipeline:
                 j = pos
             else:
                 assert self._next_second is not None
-                j = max(pos, int(np.searchsorted(reached, self._next_second, 'left')))
+                j = max(pos, bisect_left(reached, self._next_second))
             if j > pos:                              # a span: no whole second in it
                 a, b = lo_l[pos], hi_l[j - 1]
                 changed = mon.changed
@@ -271,20 +276,20 @@ class Pipeline:
                         mon.update(Sample(plan.stamps[s], name, plan.values[s]))
                         plan.rate_after[s] = mon.rate
                 plan.sync(mon, analyst, b)
-                k0, k1 = int(np.searchsorted(opens_at, pos)), int(np.searchsorted(opens_at, j))
+                k0, k1 = bisect_left(opens_at, pos), bisect_left(opens_at, j)
                 while c < len(counting) and counting[c] <= rows_l[j - 1]:
                     run.count_rejects(counting[c])
                     c += 1
                 state = None
                 if k1 > k0:
-                    at = lo[opens_at[k0:k1]]
-                    fresh = np.empty(k1 - k0, bool)      # the live model had changed since the last read
+                    at = at_all[k0:k1]
+                    fresh = fresh_all[k0:k1]             # the live model had changed since the last read
                     fresh[0] = changed or plan.changed_between(a, int(at[0]))
-                    fresh[1:] = plan.changes[at[1:]] > plan.changes[at[:-1]]
                     if fresh.any():
-                        emits.append((len(out), at[fresh], mon.gaps))
+                        due = at[fresh]
+                        emits.append((len(out), due, mon.gaps))
                         out.append(None)             # type: ignore[arg-type]  # filled below
-                        state = plan.state_before(mon, int(at[fresh][-1]))
+                        state = plan.state_before(mon, int(due[-1]))
                     changed = plan.changed_between(int(at[-1]), b)
                     self._slot = int(slot[rows_l[opens_at[k1 - 1]]])
                 else:

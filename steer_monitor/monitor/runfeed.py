@@ -119,6 +119,7 @@ class RunPlan:
         self._recorded = [0] * len(INPUTS)
         self._analysed = [0] * len(INPUTS)
         self._held = 0
+        self._synced = 0          # everything before this position brought (sync, skip)
         self.ok = self._finite_at(emit_at)
 
     # --- the values standing before a position -------------------------------------------
@@ -226,6 +227,9 @@ class RunPlan:
     def sync(self, mon: LiveMonitor, analyst: Analyst | None, upto: int) -> None:
         """Everything before ``upto`` taken as update() and the analyst's add would have (the
         angle and order samples themselves the caller has fed)."""
+        if upto <= self._synced:
+            return
+        self._synced = upto
         k = bisect_left(self.held_at, upto)
         moved = False
         for c in _RECORDED:
@@ -242,7 +246,9 @@ class RunPlan:
                     self._analysed[c] = i
 
     def skip(self, upto: int) -> None:
-        """The samples before ``upto`` were fed one by one (update and add): nothing to bring."""
+        """The samples before ``upto`` were fed one by one (update and add), those before them
+        brought (:meth:`sync`): nothing to bring."""
+        self._synced = max(self._synced, upto)
         for c in range(len(INPUTS)):
             self._recorded[c] = max(self._recorded[c], bisect_left(self.where[c], upto))
             self._analysed[c] = max(self._analysed[c], bisect_left(self.where[c], upto))
