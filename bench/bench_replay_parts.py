@@ -10,10 +10,11 @@ between the timed and an untimed run):
   frames it leaves to one at a time);
 * live model: ``LiveMonitor.update`` per angle and order sample (rate, the performance
   trackers) where they are taken one by one, ``RunPlan.take_rudder`` where a span of them is
-  taken at once, ``LiveMonitor._take_instants`` (the held pressure samples judged for the
-  residual, where they are read), a run's other samples laid out and recorded and the slots' states
-  worked out at once (``RunPlan``), ``LiveMonitor.slot_state`` where a slot's state is read
-  one at a time (the states' load sharing is left to the packing, below);
+  taken at once (their rates worked out per run, ``LiveMonitor.plan_angles``),
+  ``LiveMonitor._take_instants`` (the held pressure samples judged for the residual, where
+  they are read), a run's other samples laid out and recorded and the slots' states worked
+  out at once (``RunPlan``), ``LiveMonitor.slot_state`` where a slot's state is read one at
+  a time (the states' load sharing is left to the packing, below);
 * diagnostics: ``DiagnosticsBuilder.build``, once per second of data;
 * the analyst: the node's window of samples (``Analyst.add`` per sample, the compaction and
   the schedule in ``Analyst.due`` each second);
@@ -94,6 +95,7 @@ def _instrument(spent: dict[str, float]) -> None:
     Decoder.decode = _timed(spent, 'decode', Decoder.decode)
     Decoder.decode_run = _timed(spent, 'decode', Decoder.decode_run)
     LiveMonitor.update = _timed(spent, 'live model', LiveMonitor.update)
+    LiveMonitor.plan_angles = _timed(spent, 'live model', LiveMonitor.plan_angles)
     LiveMonitor._take_instants = _timed(spent, 'live model', LiveMonitor._take_instants)
     LiveMonitor.slot_state = _timed(spent, 'live model', LiveMonitor.slot_state)
     for name in ('__init__', 'sync', 'before_sequential', 'take_rudder', 'skip', 'state_before', 'states'):

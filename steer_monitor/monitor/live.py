@@ -604,7 +604,8 @@ class LiveMonitor:
         """The live model at the newest sample (None until angle and all four pressures)."""
         st = self.slot_state()
         if st is not None and st.share is None and st.torque_measured is not None:
-            st = self._state = replace(st, share=self.share_of(st))
+            st = self._state = LiveState(st.t_ns, st.alpha, st.rate, st.moving, st.torque_measured, self.share_of(st),
+                                         st.gaps)
         return st
 
     def slot_state(self) -> LiveState | None:

@@ -314,8 +314,10 @@ class Pipeline:
         plan.sync(mon, analyst, plan.m)
         mon.plan_angles(None)
         if emits:
+            sizes = [at.size for _, at, _ in emits]
             runs = plan.states(mon, np.concatenate([at for _, at, _ in emits]),
-                               [g for _, at, g in emits for _ in range(at.size)])
+                               np.repeat([g.two_z for _, _, g in emits], sizes),
+                               np.repeat([g.z_gb for _, _, g in emits], sizes))
             k = 0
             for place, at, _ in emits:
                 out[place] = StateRun(*(col[k:k + at.size] for col in (runs.t_ns, runs.alpha, runs.rate, runs.torque,

@@ -25,7 +25,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from steer_monitor.can.decoder import DecodedRun
-from steer_monitor.model.gear import Gaps
 from steer_monitor.model.inputs import INPUTS, PRESSURE_INPUTS
 from steer_monitor.monitor.analyst import ANALYSED, Analyst
 from steer_monitor.monitor.live import LiveMonitor, LiveState, states_at
@@ -268,11 +267,12 @@ class RunPlan:
             t = max(t, self.stamps[i] if i >= 0 else int(self.pressure_t0[k]))
         return mon.state_at(t, alpha, alpha_t, float(self.rate_after[ai]), tuple(self.pressures[s].tolist()))
 
-    def states(self, mon: LiveMonitor, at: NDArray[np.intp], gaps: list[Gaps]) -> StateRun:
-        """The states evaluated before positions ``at`` with the clearances ``gaps`` then in use."""
+    def states(self, mon: LiveMonitor, at: NDArray[np.intp], two_z: NDArray[np.float64],
+               z_gb: NDArray[np.float64]) -> StateRun:
+        """The states evaluated before positions ``at`` (n,) with the clearances then in use
+        (``two_z``, ``z_gb`` (n,) [m])."""
         alpha, alpha_t, rate = self._angle_before(at)
         p, pt = self._pressures_before(at)
         t = np.maximum(alpha_t, pt)
         alpha, torque = states_at(mon.gear, t, alpha, alpha_t, rate, p)
-        return StateRun(t, alpha, rate, torque, np.array([g.two_z for g in gaps], float),
-                        np.array([g.z_gb for g in gaps], float))
+        return StateRun(t, alpha, rate, torque, np.asarray(two_z, float), np.asarray(z_gb, float))
