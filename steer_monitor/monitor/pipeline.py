@@ -241,9 +241,11 @@ class Pipeline:
     def _feed_planned(self, run: DecodedRun, plan: RunPlan, rows: NDArray[np.intp], lo: NDArray[np.intp],
                       hi: NDArray[np.intp], opens: NDArray[np.bool_], clock: NDArray[np.int64],
                       slot: NDArray[np.int64], out: list[Output]) -> None:
-        """:meth:`feed_run` with the run laid out: rows (frames visited) one by one where a whole
-        second comes (and after it, until the state to emit is the one the live model would
-        evaluate), spans between them at once."""
+        """:meth:`feed_run` with the run laid out: spans of rows (frames visited) at once between
+        whole seconds; at the row where a whole second comes the schedule moves (the state due
+        emitted, the second's diagnostics built) and the row's samples go with the span after
+        it, or, where the state to emit is then not the one the live model would evaluate, are
+        taken one by one, as are the rows after it until it is."""
         mon, analyst = self.monitor, self.analyst
         rows_l, lo_l, hi_l = rows.tolist(), lo.tolist(), hi.tolist()
         clocks, stamps = clock.tolist(), run.t_ns.tolist()
@@ -258,6 +260,7 @@ class Pipeline:
         emits: list[tuple[int, NDArray[np.intp], Gaps]] = []   # (place in out, state positions, clearances)
         mon.plan_angles(plan.times[ANGLE], plan.vals[ANGLE])
         c = 0                                        # counting rows passed
+        advanced = -1                                # the row whose time the schedule last took
         pos, n_rows = 0, len(rows_l)
         while pos < n_rows:
             if self._state_pending != mon.changed:   # after diagnostics read the state: one by one
@@ -300,11 +303,17 @@ class Pipeline:
             if j >= n_rows:
                 break
             i = rows_l[j]                            # one by one, as feed_run's loop
-            plan.sync(mon, analyst, lo_l[j])
-            while c < len(counting) and counting[c] <= i:
-                c += 1
-            run.count_rejects(i)
-            self._advance(clocks[i], out)
+            if j != advanced:
+                plan.sync(mon, analyst, lo_l[j])
+                while c < len(counting) and counting[c] <= i:
+                    c += 1
+                run.count_rejects(i)
+                self._advance(clocks[i], out)
+                advanced = j
+                if self._state_pending == mon.changed:
+                    # the state before the row emitted as due: its samples with the span after it
+                    pos = j
+                    continue
             ti = stamps[i]
             self._take([Sample(ti, INPUTS[plan.codes[k]], plan.values[k]) for k in range(lo_l[j], hi_l[j])])
             plan.skip(hi_l[j])
