@@ -49,7 +49,16 @@ from steer_monitor.model.inputs import INPUTS, Sample
 from steer_monitor.model.loadshare import ShareScalar, declared_forces, load_sharing_scalar
 from steer_monitor.model.torque import TorqueTable
 from steer_monitor.monitor.instants import CALL_FIELDS, OUT_FIELDS, take_instants
-from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope, sum_of_squares, window_slopes
+from steer_monitor.monitor.slopes import (
+    MAX_PARTIALS,
+    NONE,
+    SLOPE,
+    SPECIAL,
+    add_squares,
+    partials_total,
+    slope,
+    window_slopes,
+)
 from steer_monitor.utc import utc_json
 
 __all__ = ['ARRIVALS_KEPT_NS', 'NO_RESPONSE_ERR', 'NO_RESPONSE_NS', 'RATE_WINDOW_NS', 'LiveMonitor', 'LiveState',
@@ -337,6 +346,13 @@ class LiveMonitor:
         # same whatever the rows' order)
         self._resid = _Ring(RESIDUAL_SAMPLES // 2, 3)
         self._resid_summary: tuple[int, int, float | None] | None = None   # of _resid, until it changes
+        # the exact sum of the squares of _resid's judged pairs, kept as rows come and go
+        # (:meth:`_keep_residuals`): its exact partials, their count, the judged values and
+        # those whose square is not finite (then the sum is worked out from the rows)
+        self._sq = np.zeros(MAX_PARTIALS)
+        self._sq_k = 0
+        self._sq_values = 0
+        self._sq_bad = 0
         # instants of _motion not judged yet: judged together when the residuals are read
         # (:meth:`_summary`, the diagnostics once a second), as one vectorized solve
         self._unjudged = _Ring(RESIDUAL_SAMPLES // 2, len(_INSTANT))
@@ -378,7 +394,7 @@ class LiveMonitor:
         if friction is not None:
             self.priors = friction
         self.torque = torque
-        self._resid.clear()
+        self._clear_residuals()
         self._keep_residuals(self._motion.ordered())
         self._unjudged.clear()
         self._resid_summary = None
@@ -421,7 +437,33 @@ class LiveMonitor:
     def _keep_residuals(self, instants: NDArray[np.float64]) -> None:
         """The residual pairs of the next instants (n, len(_INSTANT)) into the ring."""
         pairs, judged = self._residual_pairs(instants)
-        self._resid.push(np.column_stack([pairs, judged]))
+        self._push_residuals(np.column_stack([pairs, judged]))
+
+    def _push_residuals(self, rows: NDArray[np.float64]) -> None:
+        """Rows (n, 3) of residual pairs [bar] and whether judged (1/0) into the ring, the
+        kept sum of squares following the rows it takes and lets go."""
+        ring = self._resid
+        cap = ring.data.shape[0]
+        gone = ring.kept + rows.shape[0] - cap           # rows the push lets go, oldest first
+        if gone > 0:
+            old = ring.ordered()[:min(gone, ring.kept)]
+            self._count_squares(old[old[:, 2] != 0.0, :2].ravel(), -1.0)
+        new = rows[-cap:]
+        self._count_squares(new[new[:, 2] != 0.0, :2].ravel(), 1.0)
+        ring.push(rows)
+
+    def _clear_residuals(self) -> None:
+        """The ring of residual pairs emptied, and its sum of squares."""
+        self._resid.clear()
+        self._sq_k = self._sq_values = self._sq_bad = 0
+
+    def _count_squares(self, values: NDArray[np.float64], sign: float) -> None:
+        """Judged residuals [bar] into (sign +1) or out of (-1) the kept sum of squares."""
+        if values.size:
+            k, bad = add_squares(self._sq, self._sq_k, values, sign)
+            self._sq_k = k
+            self._sq_values += int(sign) * values.size
+            self._sq_bad += int(sign) * bad
 
     def _summary(self) -> tuple[int, int, float | None]:
         """(residuals, instants not judged, RMS [bar]) of the kept minute, worked out once
@@ -432,15 +474,15 @@ class LiveMonitor:
             if self._unjudged.kept:
                 self._keep_residuals(self._unjudged.ordered())
                 self._unjudged.clear()
-            rows = self._resid.rows()
-            kept = rows.shape[0]
-            values = rows[rows[:, 2] != 0.0, :2].ravel()
+            kept, size = self._resid.kept, self._sq_values
             rms = None
-            if values.size:           # correctly rounded, as math.fsum: see _slope
-                total = sum_of_squares(values)
-                total = math.fsum(r * r for r in values.tolist()) if total is None else total
-                rms = math.sqrt(total / values.size)
-            self._resid_summary = (int(values.size), kept - values.size // 2, rms)
+            if size:                  # correctly rounded, as math.fsum: see _slope
+                total = partials_total(self._sq, self._sq_k) if not self._sq_bad else math.nan
+                if not math.isfinite(total):       # a square or the sum not finite: as math.fsum says
+                    rows = self._resid.rows()
+                    total = math.fsum(r * r for r in rows[rows[:, 2] != 0.0, :2].ravel().tolist())
+                rms = math.sqrt(total / size)
+            self._resid_summary = (size, kept - size // 2, rms)
         return self._resid_summary
 
     @property

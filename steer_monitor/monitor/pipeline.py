@@ -276,7 +276,7 @@ class Pipeline:
                         name = INPUTS[plan.codes[s]]
                         if name == 'rudder_angle':        # an order sample reads nothing recorded
                             plan.before_sequential(mon, s)
-                        mon.update(Sample(plan.stamps[s], name, plan.values[s]))
+                        mon.update(Sample(plan.stamp(s), name, plan.value(s)))
                         plan.rate_after[s] = mon.rate
                 plan.sync(mon, analyst, b)
                 k0, k1 = bisect_left(opens_at, pos), bisect_left(opens_at, j)
@@ -315,7 +315,7 @@ class Pipeline:
                     pos = j
                     continue
             ti = stamps[i]
-            self._take([Sample(ti, INPUTS[plan.codes[k]], plan.values[k]) for k in range(lo_l[j], hi_l[j])])
+            self._take([Sample(ti, INPUTS[plan.codes[k]], plan.value(k)) for k in range(lo_l[j], hi_l[j])])
             plan.skip(hi_l[j])
             for s in plan.seq[bisect_left(plan.seq, lo_l[j]):bisect_left(plan.seq, hi_l[j])]:
                 plan.rate_after[s] = mon.rate        # the rate after the row: all a later state reads

@@ -68,7 +68,6 @@ class RunPlan:
         stamp = run.t_ns[run.sample_row]
         value = run.sample_value
         self.codes: list[int] = code.tolist()
-        self.stamps, self.values = stamp.tolist(), value.tolist()
         # per input: its samples' positions, times and values (one stable sort by input)
         order = np.argsort(code, kind='stable')
         bounds = np.concatenate([[0], np.cumsum(np.bincount(code, minlength=len(INPUTS)))]).tolist()
@@ -146,6 +145,14 @@ class RunPlan:
         alpha = np.where(idx >= 0, self._value[idx], self.angle0[0])
         return bool(np.isfinite(alpha).all() and np.isfinite(self.pressures[at]).all())
 
+    def stamp(self, k: int) -> int:
+        """The time of the sample at position ``k`` [ns]."""
+        return int(self._stamp[k])
+
+    def value(self, k: int) -> float:
+        """The value of the sample at position ``k`` [SI]."""
+        return float(self._value[k])
+
     def changed_between(self, start: int, stop: int) -> bool:
         """A rudder or pressure sample at a position in [start, stop)."""
         return bool(self.changes[stop] > self.changes[start])
@@ -189,7 +196,6 @@ class RunPlan:
         o0, o1 = bisect_left(where[ORDER], start), bisect_left(where[ORDER], stop)
         done = self._held
         last = max(self._angle_held[a1 - 1], done) if a1 > a0 else done
-        rate0 = mon.rate
         rates = mon.take_rudder(self._seq_angle[s0:s1], self.times[ANGLE][a0:a1], self.vals[ANGLE][a0:a1],
                                 [max(k - done, 0) for k in self._angle_held[a0:a1]], self._angle_env[2 * a0:2 * a1],
                                 self.held_t[done:last], self.held_p[done:last], self.times[ORDER][o0:o1],
@@ -197,12 +203,8 @@ class RunPlan:
         if rates is None:
             return False
         self._held = last
-        rate, ia, after = rate0, 0, self.rate_after     # the rate after each: an order sample's, the one standing
-        for s, is_angle in zip(seq[s0:s1], self._seq_angle[s0:s1]):
-            if is_angle:
-                rate = rates[ia]
-                ia += 1
-            after[s] = rate
+        if rates:                            # the rate after each angle sample: all a state reads
+            self.rate_after[self._where[ANGLE][a0:a1]] = rates
         return True
 
     def _angle_logs(self, mon: LiveMonitor) -> None:
@@ -259,12 +261,12 @@ class RunPlan:
         position ``s``, one (the same numbers as :meth:`states`, read without arrays)."""
         ai, *pi = self.newest[s].tolist()
         if ai >= 0:
-            alpha, alpha_t = self.values[ai], self.stamps[ai]
+            alpha, alpha_t = self.value(ai), self.stamp(ai)
         else:
             alpha, alpha_t = self.angle0
         t = alpha_t
         for k, i in enumerate(pi):
-            t = max(t, self.stamps[i] if i >= 0 else int(self.pressure_t0[k]))
+            t = max(t, self.stamp(i) if i >= 0 else int(self.pressure_t0[k]))
         return mon.state_at(t, alpha, alpha_t, float(self.rate_after[ai]), tuple(self.pressures[s].tolist()))
 
     def states(self, mon: LiveMonitor, at: NDArray[np.intp], two_z: NDArray[np.float64],

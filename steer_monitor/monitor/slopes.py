@@ -19,12 +19,14 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ['NONE', 'SLOPE', 'SPECIAL', 'slope', 'sum_of_squares', 'window_slopes']
+__all__ = ['MAX_PARTIALS', 'NONE', 'SLOPE', 'SPECIAL', 'add_squares', 'partials_total', 'slope', 'sum_of_squares',
+           'window_slopes']
 
 #: what a window gave: a slope; no slope (fewer than 3 points, or all at one time); a
 #: non-finite value among its points (the caller sums those with ``math.fsum`` itself)
 SLOPE, NONE, SPECIAL = 0, 1, 2
 _MAX_PARTIALS = 64      # exact partials of a sum of doubles: at most about 40 are ever needed
+MAX_PARTIALS = _MAX_PARTIALS
 
 
 @njit(cache=True, nogil=True)
@@ -145,6 +147,29 @@ def _sum_of_squares(x: NDArray[np.float64]) -> tuple[int, float]:
     if not np.isfinite(total):
         return SPECIAL, 0.0
     return SLOPE, total
+
+
+@njit(cache=True, nogil=True)
+def add_squares(partials: NDArray[np.float64], k: int, x: NDArray[np.float64], sign: float) -> tuple[int, int]:
+    """``sign`` (+1 or -1) times the square of each value of ``x`` (n,) added exactly to the
+    exact partials ``partials[:k]`` (:data:`MAX_PARTIALS` long): (the new count, how many
+    values' squares were not finite and left out). Adding a square and later taking the same
+    square away leaves the partials' exact sum as it was, so a sum kept this way as values come
+    and go is the exact sum of the values held, whatever came and went before."""
+    bad = 0
+    for j in range(x.shape[0]):
+        sq = x[j] * x[j]
+        if not np.isfinite(sq):
+            bad += 1
+        else:
+            k = _add(partials, k, sign * sq)
+    return k, bad
+
+
+@njit(cache=True, nogil=True)
+def partials_total(partials: NDArray[np.float64], k: int) -> float:
+    """The correctly rounded value of the exact partials ``partials[:k]``."""
+    return _total(partials, k)
 
 
 def sum_of_squares(x: NDArray[np.float64]) -> float | None:

@@ -303,10 +303,39 @@ def test_the_rate_and_the_residual_rms_are_correctly_rounded_sums():
     assert LiveMonitor._slope(pts) == want
     # the residual's RMS over the kept minute
     mon = LiveMonitor(gear_from_params(load_params_file(default_config())), Gaps.from_mm(0.6, 0.25))
-    mon._resid.push(np.array([[1e8, 1.0, 1.0], [1.0, 1.0, 1.0]]))    # two judged pairs
+    mon._push_residuals(np.array([[1e8, 1.0, 1.0], [1.0, 1.0, 1.0]]))    # two judged pairs
     res = [1e8, 1.0, 1.0, 1.0]
     assert sum(r * r for r in res) != math.fsum(r * r for r in res)
     assert mon.residual_rms_bar() == math.sqrt(math.fsum(r * r for r in res) / 4)
+
+
+@pytest.mark.parametrize('seed', [1, 2, 3])
+def test_the_residual_rms_kept_as_rows_come_and_go_is_the_minutes_fsum(r18_params, seed):
+    """The minute's residual RMS, its sum of squares kept exactly as rows enter and leave the
+    ring (blocks of any size, one longer than the ring, rows not judged, values from 1e-9 to
+    1e6 bar, the ring emptied for a new model, a NaN judged), is math.fsum's over the rows held,
+    to the bit, at every step."""
+    import math
+    rng = np.random.default_rng(seed)
+    mon = LiveMonitor(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25))
+    cap = mon._resid.data.shape[0]
+    for step in range(80):
+        n = int(rng.choice([1, 7, 40, 333, cap + 17]))
+        rows = np.column_stack([rng.normal(0, 1, (n, 2)) * 10.0 ** rng.integers(-9, 7, (n, 2)),
+                                rng.random(n) < 0.8])
+        rows[rows[:, 2] == 0.0, :2] = np.nan
+        if step == 50:
+            rows[0] = (math.nan, 1.0, 1.0)                 # a judged NaN: the RMS is NaN while it is held
+        if step == 30:
+            mon._clear_residuals()                         # as set_gaps does
+        mon._push_residuals(rows)
+        mon._resid_summary = None
+        held = mon._resid.rows()
+        values = held[held[:, 2] != 0.0, :2].ravel()
+        count, skipped, rms = mon._summary()
+        assert count == values.size and skipped == held.shape[0] - values.size // 2
+        want = math.sqrt(math.fsum(v * v for v in values.tolist()) / values.size)
+        assert rms == want or (math.isnan(rms) and math.isnan(want))
 
 
 @pytest.mark.parametrize('sizes', [[3, 4, 5], [7], [12], [25, 1, 9], [0, 2, 30]])
