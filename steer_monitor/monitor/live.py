@@ -250,7 +250,71 @@ class _Ring:
 
     def ordered(self) -> NDArray[np.float64]:
         """The rows held (kept, width), oldest first (a copy)."""
-        return self.data[(np.arange(self.kept) + (self.next - self.kept)) % self.data.shape[0]]
+        return self.oldest(self.kept)
+
+    def oldest(self, k: int) -> NDArray[np.float64]:
+        """The oldest ``k`` rows held (at most kept) (k, width), oldest first (a copy)."""
+        return self.data[(np.arange(min(k, self.kept)) + (self.next - self.kept)) % self.data.shape[0]]
+
+
+class _Held:
+    """Pressure samples held for the residual and not yet released, in the order held: their
+    times (n,) [ns] and four pressures (n, 4) [Pa] in one buffer (released from the front, the
+    rest moved down when the buffer is full, the buffer grown when that is not room enough),
+    those held one by one kept in lists until read."""
+
+    def __init__(self) -> None:
+        self.t = np.zeros(1024, np.int64)
+        self.p = np.zeros((1024, 4))
+        self.lo = self.hi = 0
+        self._one_t: list[int] = []
+        self._one_p: list[float] = []
+
+    def __len__(self) -> int:
+        return self.hi - self.lo + len(self._one_t)
+
+    def add_one(self, t_ns: int, pressures: list[float]) -> None:
+        """One sample held (four pressures [Pa])."""
+        self._one_t.append(t_ns)
+        self._one_p.extend(pressures)
+
+    def add(self, times: NDArray[np.int64], pressures: NDArray[np.float64]) -> None:
+        """Samples held after those held so far (times (n,), pressures (n, 4))."""
+        self._loose()
+        n = times.shape[0]
+        if self.hi + n > self.t.shape[0]:
+            live = self.hi - self.lo
+            cap = self.t.shape[0]
+            if live + n > cap:
+                cap = max(2 * cap, live + n)
+                t, p = np.zeros(cap, np.int64), np.zeros((cap, 4))
+            else:
+                t, p = self.t, self.p
+            t[:live] = self.t[self.lo:self.hi]
+            p[:live] = self.p[self.lo:self.hi]
+            self.t, self.p, self.lo, self.hi = t, p, 0, live
+        self.t[self.hi:self.hi + n] = times
+        self.p[self.hi:self.hi + n] = pressures
+        self.hi += n
+
+    def _loose(self) -> None:
+        if self._one_t:
+            t, p = np.array(self._one_t, np.int64), np.array(self._one_p, float).reshape(-1, 4)
+            self._one_t.clear()
+            self._one_p.clear()
+            self.add(t, p)
+
+    def view(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """The samples held (times (n,), pressures (n, 4)), views valid until the next change."""
+        self._loose()
+        return self.t[self.lo:self.hi], self.p[self.lo:self.hi]
+
+    def release(self, k: int) -> None:
+        """The oldest ``k`` samples let go."""
+        self._loose()
+        self.lo += k
+        if self.lo >= self.hi:
+            self.lo = self.hi = 0
 
 
 @dataclass(frozen=True)
@@ -311,11 +375,8 @@ class LiveMonitor:
         # pressure samples held for the residual (where all four pressures are known), in the
         # order held, not yet released: blocks of their times (n,) and four pressures (n, 4),
         # then those held one by one (times; pressures flat); how many were ever held
-        self._pend_blocks: list[tuple[NDArray[np.int64], NDArray[np.float64]]] = []
-        self._pend_t: list[int] = []
-        self._pend_p: list[float] = []
+        self._pending = _Held()
         self._held_total = 0
-        self._pending_n = 0
         #: held pressure samples let go unjudged, the angle silent (:data:`MAX_HELD`)
         self.held_dropped = 0
         # per angle sample since the held samples were last judged (:meth:`_take_instants`),
@@ -446,7 +507,7 @@ class LiveMonitor:
         cap = ring.data.shape[0]
         gone = ring.kept + rows.shape[0] - cap           # rows the push lets go, oldest first
         if gone > 0:
-            old = ring.ordered()[:min(gone, ring.kept)]
+            old = ring.oldest(gone)
             self._count_squares(old[old[:, 2] != 0.0, :2].ravel(), -1.0)
         new = rows[-cap:]
         self._count_squares(new[new[:, 2] != 0.0, :2].ravel(), 1.0)
@@ -590,11 +651,9 @@ class LiveMonitor:
             self._pressures[_PRESSURE_INDEX[name]] = sample.value
             p = self._pressures
             if not math.isnan(p[0] + p[1] + p[2] + p[3]):
-                self._pend_t.append(sample.t_ns)
-                self._pend_p.extend(p)
+                self._pending.add_one(sample.t_ns, p)
                 self._held_total += 1
-                self._pending_n += 1
-                if self._pending_n > MAX_HELD:
+                if len(self._pending) > MAX_HELD:
                     self._bound_held()
             self._dirty = True
 
@@ -620,11 +679,9 @@ class LiveMonitor:
         each (``pressures`` (n, 4)) [Pa]; ``last`` the four after the last of them (None:
         unchanged)."""
         if times.shape[0]:
-            self._pend_loose()
-            self._pend_blocks.append((times, pressures))
+            self._pending.add(times, pressures)
             self._held_total += times.shape[0]
-            self._pending_n += times.shape[0]
-            if self._pending_n > MAX_HELD:
+            if len(self._pending) > MAX_HELD:
                 self._bound_held()
         if last is not None:
             self._pressures = list(last)
@@ -789,7 +846,7 @@ class LiveMonitor:
         rates: list[float] = []
         if m:
             plan = self._plan
-            if plan is None or plan.delay != self._delay_ns or self._pending_n + hold_t.shape[0] > MAX_HELD:
+            if plan is None or plan.delay != self._delay_ns or len(self._pending) + hold_t.shape[0] > MAX_HELD:
                 return None
             k0 = self._hist_base + len(self._history) - plan.base    # the first one's place in the plan
             k1 = k0 + m
@@ -844,30 +901,11 @@ class LiveMonitor:
         """At most :data:`MAX_HELD` held samples waiting: those released judged first, then
         the oldest of the rest let go."""
         self._take_instants()
-        extra = self._pending_n - MAX_HELD
+        extra = len(self._pending) - MAX_HELD
         if extra <= 0:
             return
-        t, p = self._pend_joined()
-        self._pend_blocks[:] = [(t[extra:], p[extra:])]
-        self._pending_n = MAX_HELD
+        self._pending.release(extra)
         self.held_dropped += extra
-
-    def _pend_loose(self) -> None:
-        """The samples held one by one since, as a block after the others."""
-        if self._pend_t:
-            self._pend_blocks.append((np.array(self._pend_t, np.int64), np.array(self._pend_p, float).reshape(-1, 4)))
-            self._pend_t.clear()
-            self._pend_p.clear()
-
-    def _pend_joined(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-        """The held samples not yet released as one block (times (n,), pressures (n, 4)), kept
-        as the only one."""
-        self._pend_loose()
-        blocks = self._pend_blocks
-        if len(blocks) != 1:
-            blocks[:] = [(np.concatenate([b[0] for b in blocks]) if blocks else np.zeros(0, np.int64),
-                          np.concatenate([b[1] for b in blocks]) if blocks else np.zeros((0, 4)))]
-        return blocks[0]
 
     def _take_instants(self) -> None:
         """The held pressure samples the angle samples since the last call released, judged
@@ -881,7 +919,7 @@ class LiveMonitor:
         if not calls:
             return
         first = self._angles_first
-        pend_t, pend_p = self._pend_joined()
+        pend_t, pend_p = self._pending.view()
         if pend_t.shape[0]:
             angle_t = np.array(self._angles_t, np.int64)
             angle_a = np.array(self._angles_a, float)
@@ -907,9 +945,7 @@ class LiveMonitor:
                 s2 = self._slope(points[i - lo:bisect.bisect_right(times, t_i + HALF_WINDOW_NS)])
                 given[:] = (k, i, s1 is not None, math.nan if s1 is None else s1, s2 is not None,
                             math.nan if s2 is None else s2)
-            popped = int(state[1])
-            self._pending_n -= popped
-            self._pend_blocks[:] = [(pend_t[popped:], pend_p[popped:])]
+            self._pending.release(int(state[1]))
             self._motion_ns += int(state[4])
             self._counted_ns = int(state[2]) if state[3] else None
             if n:

@@ -205,9 +205,9 @@ def test_with_the_angle_dead_the_held_samples_stay_bounded(r18_params):
     for k in range(600 * 20):                                    # the pressures alone, 20 Hz each
         for j, name in enumerate(PRESSURES):
             waited.update(Sample(t0 + k * 50_000_000 + j, name, 20e5 + 1e4 * j))
-        assert waited._pending_n <= MAX_HELD
+        assert len(waited._pending) <= MAX_HELD
     assert waited.held_dropped == 600 * 20 * 4 - 3 - MAX_HELD    # the first three lack a pressure
-    assert waited.motion_ns == 0 and len(waited._pend_t) + sum(b[0].size for b in waited._pend_blocks) == MAX_HELD
+    assert waited.motion_ns == 0 and len(waited._pending) == MAX_HELD
     fresh = LiveMonitor(gear, Gaps.from_mm(0.3, 0.2))
     for s in stream:                                             # then the gear as before, ten minutes on
         moved = Sample(s.t_ns + shift, s.signal, s.value)

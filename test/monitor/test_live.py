@@ -517,3 +517,33 @@ def test_arrivals_kept_are_those_a_deque_popped_from_the_front_keeps(back_at):
         k += len(batch)
     assert len(one.times) < 2 * len(want) + 2048            # cut down as it goes
     assert one.ordered == (back_at is None)
+
+
+@pytest.mark.parametrize('seed', [4, 5])
+def test_held_samples_come_out_as_they_went_in(seed):
+    """The held pressure samples' buffer (blocks and single samples added, the oldest
+    released, the rest moved down or the buffer grown as it fills) holds what a list would."""
+    from steer_monitor.monitor.live import _Held
+    rng = np.random.default_rng(seed)
+    held, want = _Held(), []
+    k = 0
+    for _ in range(400):
+        what = rng.integers(0, 3)
+        if what == 0:                                   # a block, up to past the buffer's size
+            n = int(rng.choice([0, 3, 80, 700, 3000]))
+            t = np.arange(k, k + n, dtype=np.int64)
+            held.add(t, np.column_stack([t, -t, 2 * t, t + 0.5]).astype(float))
+            want += [(int(x), (float(x), float(-x), float(2 * x), x + 0.5)) for x in t]
+            k += n
+        elif what == 1:                                 # single samples
+            for _ in range(int(rng.integers(1, 30))):
+                held.add_one(k, [float(k), float(-k), float(2 * k), k + 0.5])
+                want.append((k, (float(k), float(-k), float(2 * k), k + 0.5)))
+                k += 1
+        else:
+            r = int(rng.integers(0, len(want) + 1))
+            held.release(r)
+            del want[:r]
+        assert len(held) == len(want)
+        t, p = held.view()
+        assert t.tolist() == [w[0] for w in want] and [tuple(row) for row in p.tolist()] == [w[1] for w in want]
