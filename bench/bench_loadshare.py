@@ -25,7 +25,7 @@ from steer_monitor.resources import default_config
 
 N = 1_000_000
 LOOP_N = 20_000
-SCALARS_BATCH = 4_500       # states in a replay's batch of 4,096 frames (about 45 s of data)
+SCALARS_BATCH = 4_500       # states in 4,096 frames of gear traffic (about 45 s of data)
 TARGET_S = 1.0
 
 

@@ -53,7 +53,11 @@ from steer_monitor.resources import default_config
 __all__ = ['FRAME_BATCH', 'ReplayError', 'ReplaySummary', 'Runner', 'SpanWatch', 'add_channels', 'note_overlap',
            'recorded_setup', 'replay', 'replay_with', 'summary_json', 'write_messages']
 
-FRAME_BATCH = 4096
+#: frames decoded and laid out at once, their outputs written together (about three minutes of
+#: gear traffic): a run's fixed costs (decoding's passes per PGN, the lay-out, the rates' plan)
+#: spread over that many (at 4,096 an hour's replay without analyses took 2.51 s of CPU
+#: against 2.37 s, six runs each; the peak memory is 13 MB higher at this size)
+FRAME_BATCH = 16384
 MIN_RUN = 64        # frames: below this, a run the decoder cannot take at once goes one by one
 
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import bisect
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import PchipInterpolator
@@ -161,11 +161,11 @@ def _lookup(grid: list[float], table: list[float], alpha: float, speed: float | 
     return m
 
 
-@numba.njit(cache=True, nogil=True, error_model='numpy')
 def _lookup_loop(g: NDArray[np.float64], tb: NDArray[np.float64], a: NDArray[np.float64], v: NDArray[np.float64],
                  service_speed: float, beyond: float, out: NDArray[np.float64]) -> None:
-    """:func:`_lookup_many`'s samples one by one, compiled (small batches cost microseconds,
-    where numpy's twenty array operations cost tens)."""
+    """:func:`_lookup_many`'s samples one by one, compiled when first used (small batches cost
+    microseconds, where numpy's twenty array operations cost tens; a command that never looks
+    up many does not load numba)."""
     last = g.size - 2
     top = g[g.size - 1]
     for j in range(a.size):
@@ -194,6 +194,17 @@ def _lookup_many(arrays: tuple[NDArray[np.float64], NDArray[np.float64]], alpha:
         msg = f'torque lookup needs angles and speeds of one shape (n,), got {a.shape} and {v.shape}'
         raise ValueError(msg)
     out = np.empty(a.shape[0])
-    _lookup_loop(arrays[0], arrays[1], a, v, float(service_speed), float(beyond), out)
+    _compiled_loop()(arrays[0], arrays[1], a, v, float(service_speed), float(beyond), out)
     return out
+
+
+_LOOP: list[Callable[..., None]] = []
+
+
+def _compiled_loop() -> Callable[..., None]:
+    """:func:`_lookup_loop` compiled by numba, once."""
+    if not _LOOP:
+        import numba
+        _LOOP.append(numba.njit(cache=True, nogil=True, error_model='numpy')(_lookup_loop))
+    return _LOOP[0]
 

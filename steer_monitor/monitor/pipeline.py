@@ -257,6 +257,8 @@ class Pipeline:
         # whether the live model changed between consecutive openings (the first of a span: worked out there)
         fresh_all = np.empty(at_all.shape[0], bool)
         fresh_all[1:] = plan.changes[at_all[1:]] > plan.changes[at_all[:-1]]
+        fresh_before = np.concatenate([[0, 0], np.cumsum(fresh_all[1:])]).tolist()   # of openings 1.. before each
+        at_l = at_all.tolist()
         emits: list[tuple[int, NDArray[np.intp], Gaps]] = []   # (place in out, state positions, clearances)
         mon.plan_angles(plan.times[ANGLE], plan.vals[ANGLE])
         c = 0                                        # counting rows passed
@@ -285,15 +287,16 @@ class Pipeline:
                     c += 1
                 state = None
                 if k1 > k0:
-                    at = at_all[k0:k1]
-                    fresh = fresh_all[k0:k1]             # the live model had changed since the last read
-                    fresh[0] = changed or plan.changed_between(a, int(at[0]))
-                    if fresh.any():
-                        due = at[fresh]
+                    # the openings whose state is due: the live model changed since the last read
+                    first = changed or plan.changed_between(a, at_l[k0])
+                    if first or fresh_before[k1] > fresh_before[k0 + 1]:
+                        fresh = fresh_all[k0:k1]
+                        fresh[0] = first
+                        due = at_all[k0:k1][fresh]
                         emits.append((len(out), due, mon.gaps))
                         out.append(None)             # type: ignore[arg-type]  # filled below
                         state = plan.state_before(mon, int(due[-1]))
-                    changed = plan.changed_between(int(at[-1]), b)
+                    changed = plan.changed_between(at_l[k1 - 1], b)
                     self._slot = int(slot[rows_l[opens_at[k1 - 1]]])
                 else:
                     changed = changed or plan.changed_between(a, b)

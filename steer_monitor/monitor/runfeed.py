@@ -110,6 +110,7 @@ class RunPlan:
         self.held_p = p[hp]
         # rudder or pressure samples before each position (they make the live model's state change)
         self.changes = np.concatenate([[0], np.cumsum(np.isin(code, (ANGLE, *_PRESSURE)))])
+        self._changes = self.changes.tolist()
         #: the rate after each angle sample (filled as they are taken); the last: what stood before
         self.rate_after = np.full(m + 1, math.nan)
         self.rate_after[m] = self.rate0
@@ -155,7 +156,7 @@ class RunPlan:
 
     def changed_between(self, start: int, stop: int) -> bool:
         """A rudder or pressure sample at a position in [start, stop)."""
-        return bool(self.changes[stop] > self.changes[start])
+        return self._changes[stop] > self._changes[start]
 
     # --- bringing the live model and the analyst up to a position ------------------------
     def _record_upto(self, mon: LiveMonitor, c: int, upto: int) -> bool:
