@@ -373,8 +373,7 @@ class LiveMonitor:
         self._hist_base = 0                                  # angle samples dropped from its front
         self._plan: _AnglePlan | None = None                 # a replay run's slopes (plan_angles)
         # pressure samples held for the residual (where all four pressures are known), in the
-        # order held, not yet released: blocks of their times (n,) and four pressures (n, 4),
-        # then those held one by one (times; pressures flat); how many were ever held
+        # order held, not yet released (_Held); how many were ever held
         self._pending = _Held()
         self._held_total = 0
         #: held pressure samples let go unjudged, the angle silent (:data:`MAX_HELD`)
