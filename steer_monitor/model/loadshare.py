@@ -425,15 +425,14 @@ def load_sharing(gear: GearParams, alpha: ArrayLike, torque: ArrayLike,
     Returns:
         :class:`LoadSharing` with arrays of the broadcast shape.
     """
+    tz, zg = _checked_gaps(two_z, z_gb)
     a, t = np.asarray(alpha, float), np.asarray(torque, float)
-    if a.ndim == 1 and t.shape == a.shape and np.ndim(two_z) == 0 and np.ndim(z_gb) == 0:
+    if a.ndim == 1 and t.shape == a.shape and tz.ndim == 0 and zg.ndim == 0:
         # samples (n,) at one clearance pair (the live monitor's batches): no broadcasting
-        tz, zg = _checked_gaps(two_z, z_gb)
         n = a.shape[0]
         shape: tuple[int, ...] = (n,)
         flat = [np.ascontiguousarray(a), np.ascontiguousarray(t), np.full(n, float(tz)), np.full(n, float(zg))]
     else:
-        tz, zg = _checked_gaps(two_z, z_gb)
         arrays = np.broadcast_arrays(a, t, tz, zg)
         shape = arrays[0].shape
         flat = [np.ascontiguousarray(x, dtype=float).reshape(-1) for x in arrays]

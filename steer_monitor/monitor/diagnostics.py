@@ -336,21 +336,25 @@ class DiagnosticsBuilder:
         OK when the model explains the pressures, WARN when it does not (the message says what
         is left and where). The residual of the last minute of motion under that model is
         shown beside it, not judged. Before any analysis: not judged yet."""
-        key = (mon.residual_summary(), mon.motion_ns, why)
-        return self._memo('model health', key, (mon.finding,), lambda: self._model_health(mon, why))
+        summary, motion_ns = mon.residual_summary(), mon.motion_ns
+        return self._memo('model health', (summary, motion_ns, why), (mon.finding,),
+                          lambda: self._model_health(mon, why, summary, motion_ns))
 
-    def _model_health(self, mon: LiveMonitor, why: str | None) -> Status:
-        rms = mon.residual_rms_bar()
+    def _model_health(self, mon: LiveMonitor, why: str | None, summary: tuple[int, int, float | None],
+                      motion_ns: int) -> Status:
+        """:meth:`model_health` from the residual's (count, instants not judged, RMS [bar]) and
+        the steady motion counted [ns]."""
+        count, skipped, rms = summary
         f = mon.finding
-        values = [('residual_rms_bar', _f(rms, '.2f')), ('residual_samples', str(mon.residual_count)),
-                  ('residual_instants_not_judged', str(mon.residuals_skipped)),
-                  ('motion_s', f'{mon.motion_s:.0f}')]
+        values = [('residual_rms_bar', _f(rms, '.2f')), ('residual_samples', str(count)),
+                  ('residual_instants_not_judged', str(skipped)),
+                  ('motion_s', f'{motion_ns / 1e9:.0f}')]
         live = '' if rms is None else f'; last minute of motion: residual {rms:.2f} bar RMS under that model'
         if f is None:
             head = ('not judged yet: no analysis of the data yet' if why is None else
                     f'not judged yet: the last analysis could not be made: {why}')
             if rms is not None:
-                head += f'; declared model residual {rms:.2f} bar RMS over the last {mon.residual_count} samples'
+                head += f'; declared model residual {rms:.2f} bar RMS over the last {count} samples'
             return self._status('model health', OK, head, values)
         effects = ', '.join(e.name for e in f.model)
         values += [('analysis_kind', f.kind), ('analysis_verdict', f.verdict),

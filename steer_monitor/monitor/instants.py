@@ -23,7 +23,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from steer_monitor.monitor.slopes import _MAX_PARTIALS, NONE, SLOPE, SPECIAL, _slope_of
+from steer_monitor.monitor.slopes import MAX_PARTIALS, NONE, SLOPE, SPECIAL, _slope_of
 
 __all__ = ['CALL_FIELDS', 'OUT_FIELDS', 'take_instants']
 
@@ -90,7 +90,7 @@ def take_instants(pend_t: NDArray[np.int64], pend_p: NDArray[np.float64], pend_f
     Returns: the rows of ``out`` filled. ``state[5]`` >= 0: stopped at a bracket holding a
     non-finite angle: work it out, put it in ``given`` and call again with this return.
     """
-    p = np.empty(_MAX_PARTIALS)
+    p = np.empty(MAX_PARTIALS)
     ts = np.empty(max(angle_t.shape[0], 1))
     k, j = state[0], state[1]
     memo_i, memo_lo, memo_hi = -1, -1, -1          # the last bracket judged, in the history it was judged in

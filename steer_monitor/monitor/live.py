@@ -818,13 +818,18 @@ class LiveMonitor:
         # what this sample releases of the held pressure samples, judged later (_take_instants)
         self._angles_t.append(t_ns)
         self._angles_a.append(alpha)
-        self._calls += (t_ns - HALF_WINDOW_NS - delay, delay, self._hist_base, self._hist_base + len(hist) - 1,
-                        self._held_total)
+        self._log_angle(t_ns, delay, self._hist_base, self._hist_base + len(hist) - 1, self._held_total)
         self._call_env += (self._speed.last_value, self._oil.last_value)
         if len(self._calls) >= len(CALL_FIELDS) * CALLS_KEPT:
             self._take_instants()
         self._track_hard_over(t_ns, alpha)
         self._track_response(t_ns, alpha)
+
+    def _log_angle(self, t_ns: int, delay: int, first: int, last: int, held: int) -> None:
+        """What an angle sample at ``t_ns`` saw, into the log judged later (instants.CALL_FIELDS):
+        the time up to which it releases held samples, the delay then [ns], the global indices
+        of its history's first and last angle, the pressure samples held so far."""
+        self._calls += (t_ns - HALF_WINDOW_NS - delay, delay, first, last, held)
 
     def take_rudder(self, kinds: list[bool], angle_t: list[int], angle_a: list[float], held: list[int],
                     env: list[float], hold_t: NDArray[np.int64], hold_p: NDArray[np.float64], order_t: list[int],
@@ -868,10 +873,9 @@ class LiveMonitor:
             self._angles_t += angle_t
             self._angles_a += angle_a
             delay = self._delay_ns
-            back = HALF_WINDOW_NS + delay
             first = plan.base + k0
             for j in range(m):
-                self._calls += (angle_t[j] - back, delay, front[j], first + j, total + held[j])
+                self._log_angle(angle_t[j], delay, front[j], first + j, total + held[j])
             self._call_env += env
             self.record('rudder_angle', angle_t, angle_a, True)
             self._dirty = True

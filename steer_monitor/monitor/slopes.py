@@ -15,6 +15,8 @@ windows in one call (:func:`window_slopes`).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
@@ -25,8 +27,7 @@ __all__ = ['MAX_PARTIALS', 'NONE', 'SLOPE', 'SPECIAL', 'add_squares', 'partials_
 #: what a window gave: a slope; no slope (fewer than 3 points, or all at one time); a
 #: non-finite value among its points (the caller sums those with ``math.fsum`` itself)
 SLOPE, NONE, SPECIAL = 0, 1, 2
-_MAX_PARTIALS = 64      # exact partials of a sum of doubles: at most about 40 are ever needed
-MAX_PARTIALS = _MAX_PARTIALS
+MAX_PARTIALS = 64       # exact partials of a sum of doubles: at most about 40 are ever needed
 
 
 @njit(cache=True, nogil=True)
@@ -124,7 +125,7 @@ def window_slopes(t_ns: NDArray[np.int64], a: NDArray[np.float64], lo: NDArray[n
                   status: NDArray[np.int8], out: NDArray[np.float64]) -> None:
     """The slope [per s] of each window ``lo[w]:hi[w]`` of points (``t_ns`` [ns], ``a``) into
     ``out[w]``, with ``status[w]`` (:data:`SLOPE`, :data:`NONE`, :data:`SPECIAL`)."""
-    p = np.empty(_MAX_PARTIALS)
+    p = np.empty(MAX_PARTIALS)
     width = 0
     for w in range(lo.shape[0]):
         width = max(width, hi[w] - lo[w])
@@ -133,20 +134,6 @@ def window_slopes(t_ns: NDArray[np.int64], a: NDArray[np.float64], lo: NDArray[n
         s, v = _slope_of(t_ns, a, lo[w], hi[w], p, ts)
         status[w] = s
         out[w] = v
-
-
-@njit(cache=True, nogil=True)
-def _sum_of_squares(x: NDArray[np.float64]) -> tuple[int, float]:
-    p = np.empty(_MAX_PARTIALS)
-    k = 0
-    for j in range(x.shape[0]):
-        if not np.isfinite(x[j]):
-            return SPECIAL, 0.0
-        k = _add(p, k, x[j] * x[j])
-    total = _total(p, k)
-    if not np.isfinite(total):
-        return SPECIAL, 0.0
-    return SLOPE, total
 
 
 @njit(cache=True, nogil=True)
@@ -175,8 +162,10 @@ def partials_total(partials: NDArray[np.float64], k: int) -> float:
 def sum_of_squares(x: NDArray[np.float64]) -> float | None:
     """The sum of the squares of ``x`` (n,), correctly rounded (``math.fsum(v * v for v in x)``
     to the bit); None where a value, or the sum, is not finite (left to ``math.fsum``)."""
-    status, total = _sum_of_squares(np.ascontiguousarray(x, np.float64))
-    return total if status == SLOPE else None
+    partials = np.empty(MAX_PARTIALS)
+    k, bad = add_squares(partials, 0, np.ascontiguousarray(x, np.float64), 1.0)
+    total = partials_total(partials, k)
+    return total if not bad and math.isfinite(total) else None
 
 
 def slope(t_ns: list[int] | NDArray[np.int64], a: list[float] | NDArray[np.float64]) -> tuple[int, float]:
