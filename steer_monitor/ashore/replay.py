@@ -49,6 +49,7 @@ from steer_monitor.record.msgdefs import msgdef
 from steer_monitor.record.provenance import PARAMETERS_RECORD, RUN_RECORD, run_metadata
 from steer_monitor.record.staterecords import pack_states
 from steer_monitor.resources import default_config
+from steer_monitor.threads import fewer_collections
 
 __all__ = ['FRAME_BATCH', 'ReplayError', 'ReplaySummary', 'Runner', 'SpanWatch', 'add_channels', 'note_overlap',
            'recorded_setup', 'replay', 'replay_with', 'summary_json', 'write_messages']
@@ -140,7 +141,9 @@ def replay_with(run: Runner, logs: Sequence[str | Path], output: str | Path, con
     pipeline = Pipeline(Decoder(db, smap, rejects), rejects, monitor, diag, analyst, jobs,
                         on_failed=summary.errors.append)
     try:
-        return _replay(run, paths, output, config_path, params, pipeline, summary, node_name, frames, progress, date)
+        with fewer_collections():
+            return _replay(run, paths, output, config_path, params, pipeline, summary, node_name, frames, progress,
+                           date)
     finally:
         pipeline.close()
 

@@ -29,8 +29,8 @@ from numpy.typing import NDArray
 
 __all__ = ['EVEN', 'IDLE', 'IDLE_RAM_SHARE', 'JOINED_SHARE', 'MIN_SHARE_INSTANTS', 'MIN_SHARE_SPREAD_PA', 'OPPOSED',
            'OPPOSED_CORRELATION', 'STUCK_SHARE', 'UNEVEN', 'UNEVEN_CAUSE', 'UNJUDGED', 'WINDOW_INSTANTS', 'RamShare',
-           'UnevenSpan', 'describe', 'enough', 'judge', 'opposed_cause', 'ram_share', 'uneven_spans', 'weak_ram_cause',
-           'within', 'working_against']
+           'UnevenSpan', 'describe', 'enough', 'judge', 'opposed_cause', 'ram_share', 'ram_share_of_pressures',
+           'uneven_spans', 'weak_ram_cause', 'within', 'working_against']
 
 #: a share is judged from this many instants of steady motion (seconds of it)...
 MIN_SHARE_INSTANTS = 300
@@ -107,7 +107,21 @@ def ram_share(force: NDArray[np.float64]) -> RamShare | None:
     moment is a difference of large sums (the live rams status works one out every second
     of motion over 2,400 instants, where numpy's dozen calls took 0.15 ms)."""
     f = np.ascontiguousarray(force, dtype=float).reshape(-1, 2)
-    n, m_mean, d_mean, smm, smd, see, s11, s22, s12 = _share_sums(f)
+    return _share(_share_sums(f, math.nan))
+
+
+def ram_share_of_pressures(pressures: NDArray[np.float64], ram_area: float) -> RamShare | None:
+    """:func:`ram_share` of the forces ``ram_area * (p0 - p1)`` and ``ram_area * (p2 - p3)``
+    of the four pressures ``pressures`` (n, 4) [Pa] (ram 1 starboard and port, ram 2 the same;
+    ``ram_area`` [m^2]), each force worked out as that expression, element by element, in
+    the compiled passes (the live rams status: no arrays of forces made every second)."""
+    p = np.ascontiguousarray(pressures, dtype=float).reshape(-1, 4)
+    return _share(_share_sums(p, float(ram_area)))
+
+
+def _share(sums: tuple[int, float, float, float, float, float, float, float, float]) -> RamShare | None:
+    """The share from :func:`_share_sums`' moments (None: fewer than three rows, or m does not vary)."""
+    n, m_mean, d_mean, smm, smd, see, s11, s22, s12 = sums
     if n < 3 or not smm > 0:
         return None
     b = smd / smm
@@ -117,15 +131,26 @@ def ram_share(force: NDArray[np.float64]) -> RamShare | None:
     return RamShare((s1, 1.0 - s1), 0.25 * se_b, math.sqrt(smm / n), d_mean - b * m_mean, int(n), corr)
 
 
+@njit(cache=True, nogil=True, inline='always')
+def _forces(x: NDArray[np.float64], i: int, area: float) -> tuple[float, float]:
+    """Row ``i``'s two forces: the row itself (``area`` NaN: ``x`` holds forces (n, 2)), or
+    ``area * (p0 - p1)``, ``area * (p2 - p3)`` of its four pressures (``x`` (n, 4))."""
+    if np.isnan(area):
+        return x[i, 0], x[i, 1]
+    return area * (x[i, 0] - x[i, 1]), area * (x[i, 2] - x[i, 3])
+
+
 @njit(cache=True, nogil=True)
-def _share_sums(f: NDArray[np.float64]) -> tuple[int, float, float, float, float, float, float, float, float]:
-    """Over the rows of ``f`` (n, 2) whose two values are finite, with m = (f1 + f2) / 2 and
-    d = f1 - f2: (rows, mean m, mean d, S_mm, S_md, the residual's sum of squares of d on m
-    about the slope S_md / S_mm, S_11, S_22, S_12), the S centred sums of products."""
+def _share_sums(x: NDArray[np.float64], area: float) -> tuple[int, float, float, float, float, float, float, float,
+                                                              float]:
+    """Over the rows whose two forces (:func:`_forces` of ``x`` and ``area``) are finite,
+    with m = (f1 + f2) / 2 and d = f1 - f2: (rows, mean m, mean d, S_mm, S_md, the
+    residual's sum of squares of d on m about the slope S_md / S_mm, S_11, S_22, S_12), the
+    S centred sums of products."""
     n = 0
     s_m = s_d = s_1 = s_2 = 0.0
-    for i in range(f.shape[0]):
-        a, c = f[i, 0], f[i, 1]
+    for i in range(x.shape[0]):
+        a, c = _forces(x, i, area)
         if np.isfinite(a) and np.isfinite(c):
             n += 1
             s_m += 0.5 * (a + c)
@@ -136,8 +161,8 @@ def _share_sums(f: NDArray[np.float64]) -> tuple[int, float, float, float, float
         return 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     m_mean, d_mean, f1_mean, f2_mean = s_m / n, s_d / n, s_1 / n, s_2 / n
     smm = smd = s11 = s22 = s12 = 0.0
-    for i in range(f.shape[0]):
-        a, c = f[i, 0], f[i, 1]
+    for i in range(x.shape[0]):
+        a, c = _forces(x, i, area)
         if np.isfinite(a) and np.isfinite(c):
             mc, dc = 0.5 * (a + c) - m_mean, (a - c) - d_mean
             smm += mc * mc
@@ -149,8 +174,8 @@ def _share_sums(f: NDArray[np.float64]) -> tuple[int, float, float, float, float
     see = 0.0
     if smm > 0:
         b = smd / smm
-        for i in range(f.shape[0]):
-            a, c = f[i, 0], f[i, 1]
+        for i in range(x.shape[0]):
+            a, c = _forces(x, i, area)
             if np.isfinite(a) and np.isfinite(c):
                 e = ((a - c) - d_mean) - b * (0.5 * (a + c) - m_mean)
                 see += e * e

@@ -58,7 +58,7 @@ __all__ = [
     'ShareScalar',
     'compliances',
     'critical_forces',
-    'declared_forces',
+    'declared_residuals',
     'friction_normals',
     'load_sharing',
     'load_sharing_at',
@@ -364,45 +364,62 @@ def _normals_grid(alpha: Array, torque: Array, two_z: Array, z_gb: Array, k: Arr
 
 
 @_jit
-def _declared(alpha: Array, torque: Array, direction: Array, two_z: float, z_gb: float, k: Array,
-              friction: Array, out: Array) -> int:
-    """Per sample, the declared model's ram force sign(alpha) Fa + direction F_fr [N] and the
-    lateral force and the two critical forces it was solved with (Fl, F_theta, F_Z [N]) into
-    ``out`` (4, n); the index of the first sample whose ram buckles, or -1."""
+def _declared(alpha: Array, torque: Array, direction: Array, forces: Array, two_z: float, z_gb: float, k: Array,
+              friction: Array, area: float, open_2z: bool, open_zgb: bool, out: Array) -> int:
+    """Per sample, each ram's pressure residual against the declared model [Pa] and whether
+    judged (:func:`declared_residuals`) into ``out`` (n, 3); the index of the first sample
+    whose ram buckles, or -1."""
     for i in range(alpha.size):
+        if not math.isfinite(torque[i]):
+            out[i, 0] = out[i, 1] = math.nan
+            out[i, 2] = 0.0
+            continue
         r = _element(alpha[i], torque[i], two_z, z_gb, k)
         if r[13]:
             return i
+        if (open_2z and r[0] > r[9]) or (open_zgb and r[0] > r[10]):
+            out[i, 0] = out[i, 1] = math.nan
+            out[i, 2] = 0.0
+            continue
         n_a, n_e = _normal_forces(r[6], r[7], r[8], k[7])
         f_fr = _friction_law(friction[0], friction[1], friction[2], n_a, n_e, r[3])
-        out[0, i] = math.copysign(r[1], alpha[i]) + direction[i] * f_fr
-        out[1, i], out[2, i], out[3, i] = r[0], r[9], r[10]
+        predicted = math.copysign(r[1], alpha[i]) + direction[i] * f_fr
+        out[i, 0] = (forces[i, 0] - predicted) / area
+        out[i, 1] = (forces[i, 1] - predicted) / area
+        out[i, 2] = 1.0
     return -1
 
 
-def declared_forces(gear: GearParams, alpha: NDArray[np.float64], torque: NDArray[np.float64],
-                    direction: NDArray[np.float64], gaps: Gaps, friction: FrictionParams
-                    ) -> tuple[Array, Array, Array, Array]:
-    """The ram force the declared model predicts for samples (n,) moving in ``direction``
-    (+-1) at angle ``alpha`` [rad] under tiller torque ``torque`` [N m], with clearances
-    ``gaps`` and the friction law's ``friction``: sign(alpha) Fa + direction F_fr [N], and the
-    lateral force Fl, F_theta and F_Z [N] of the solution (where the ram clamps, the slipper
-    touches). The numbers of :func:`load_sharing` and
-    :func:`~steer_monitor.model.friction.friction_force` element by element, in one compiled
-    pass (the live monitor judges its residual with it once a second)."""
+def declared_residuals(gear: GearParams, alpha: NDArray[np.float64], torque: NDArray[np.float64],
+                       direction: NDArray[np.float64], forces: NDArray[np.float64], gaps: Gaps,
+                       friction: FrictionParams, *, open_2z: bool = False, open_zgb: bool = False) -> Array:
+    """Each ram's pressure residual against the declared model [Pa] at samples (n,) moving in
+    ``direction`` (+-1) at angle ``alpha`` [rad] under tiller torque ``torque`` [N m], the
+    rams' forces ``forces`` (n, 2) [N], with clearances ``gaps`` and the friction law's
+    ``friction``: (force - (sign(alpha) Fa + direction F_fr)) / A_r, with Fa and F_fr the
+    numbers of :func:`load_sharing` and :func:`~steer_monitor.model.friction.friction_force`
+    element by element, in one compiled pass (the live monitor judges its residual with it
+    once a second). Returns (n, 3): the two residuals and whether the sample is judged (1.0 /
+    0.0; its residuals NaN where not): not where the torque is not finite (beyond the angles a
+    fitted torque was learned at), nor where the solution clamps the ram (Fl > F_theta) with
+    ``open_2z`` or has the slipper touch the beam (Fl > F_Z) with ``open_zgb`` (a clearance
+    the data bound from below only: they never saw that happen)."""
     _checked_gaps(gaps.two_z, gaps.z_gb)
     a = np.ascontiguousarray(alpha, dtype=float)
     t = np.ascontiguousarray(torque, dtype=float)
     d = np.ascontiguousarray(direction, dtype=float)
-    if a.ndim != 1 or t.shape != a.shape or d.shape != a.shape:
-        msg = f'declared forces need samples of one shape (n,), got {a.shape}, {t.shape} and {d.shape}'
+    f = np.ascontiguousarray(forces, dtype=float)
+    if a.ndim != 1 or t.shape != a.shape or d.shape != a.shape or f.shape != (a.shape[0], 2):
+        msg = (f'declared residuals need samples of one shape (n,) and forces (n, 2), got {a.shape}, {t.shape}, '
+               f'{d.shape} and {f.shape}')
         raise ValueError(msg)
-    out = np.empty((4, a.shape[0]))
+    out = np.empty((a.shape[0], 3))
     coef = np.array([friction.seal, friction.mu_bushing, friction.mu_guide], float)
-    bad = _declared(a, t, d, float(gaps.two_z), float(gaps.z_gb), _gear_constants(gear), coef, out)
+    bad = _declared(a, t, d, f, float(gaps.two_z), float(gaps.z_gb), _gear_constants(gear), coef,
+                    float(gear.ram_area), bool(open_2z), bool(open_zgb), out)
     if bad >= 0:
         raise _buckled(gear, float(a[bad]), float(t[bad]))
-    return out[0], out[1], out[2], out[3]
+    return out
 
 
 def _buckled(gear: GearParams, alpha: float, torque: float) -> ModelError:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from operator import is_
 from typing import Any
 
 import numpy as np
@@ -125,7 +126,7 @@ class DiagnosticsBuilder:
         clearances, the performance, the model's health and the rams are what they were a
         second before (at rest for hours), and their text costs tens of microseconds."""
         hit = self._memos.get(item)
-        if hit is not None and hit[0] == key and all(a is b for a, b in zip(hit[1], objects, strict=True)):
+        if hit is not None and hit[0] == key and all(map(is_, hit[1], objects)):
             return hit[2]
         status = make()
         self._memos[item] = (key, objects, status)

@@ -41,12 +41,12 @@ from numpy.typing import NDArray
 
 from steer_monitor.estimate.effects import Effect, live_term
 from steer_monitor.estimate.finding import Finding
-from steer_monitor.estimate.rams import RamShare, ram_share
+from steer_monitor.estimate.rams import RamShare, ram_share_of_pressures
 from steer_monitor.model.friction import FrictionParams, friction_force
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
 from steer_monitor.model.inputs import INPUTS, Sample
-from steer_monitor.model.loadshare import ShareScalar, declared_forces, load_sharing_scalar
+from steer_monitor.model.loadshare import ShareScalar, declared_residuals, load_sharing_scalar
 from steer_monitor.model.torque import TorqueTable
 from steer_monitor.monitor.instants import CALL_FIELDS, OUT_FIELDS, take_instants
 from steer_monitor.monitor.slopes import (
@@ -54,8 +54,8 @@ from steer_monitor.monitor.slopes import (
     NONE,
     SLOPE,
     SPECIAL,
-    add_squares,
     partials_total,
+    push_counting_squares,
     slope,
     window_slopes,
 )
@@ -496,34 +496,22 @@ class LiveMonitor:
 
     def _keep_residuals(self, instants: NDArray[np.float64]) -> None:
         """The residual pairs of the next instants (n, len(_INSTANT)) into the ring."""
-        pairs, judged = self._residual_pairs(instants)
-        self._push_residuals(np.column_stack([pairs, judged]))
+        self._push_residuals(self._residual_rows(instants))
 
     def _push_residuals(self, rows: NDArray[np.float64]) -> None:
         """Rows (n, 3) of residual pairs [bar] and whether judged (1/0) into the ring, the
-        kept sum of squares following the rows it takes and lets go."""
+        kept sum of squares following the rows it takes and lets go (one compiled pass:
+        :func:`~steer_monitor.monitor.slopes.push_counting_squares`)."""
         ring = self._resid
-        cap = ring.data.shape[0]
-        gone = ring.kept + rows.shape[0] - cap           # rows the push lets go, oldest first
-        if gone > 0:
-            old = ring.oldest(gone)
-            self._count_squares(old[old[:, 2] != 0.0, :2].ravel(), -1.0)
-        new = rows[-cap:]
-        self._count_squares(new[new[:, 2] != 0.0, :2].ravel(), 1.0)
-        ring.push(rows)
+        ring.next, ring.kept, self._sq_k, values, bad = push_counting_squares(
+            ring.data, ring.next, ring.kept, np.ascontiguousarray(rows, float), self._sq, self._sq_k)
+        self._sq_values += values
+        self._sq_bad += bad
 
     def _clear_residuals(self) -> None:
         """The ring of residual pairs emptied, and its sum of squares."""
         self._resid.clear()
         self._sq_k = self._sq_values = self._sq_bad = 0
-
-    def _count_squares(self, values: NDArray[np.float64], sign: float) -> None:
-        """Judged residuals [bar] into (sign +1) or out of (-1) the kept sum of squares."""
-        if values.size:
-            k, bad = add_squares(self._sq, self._sq_k, values, sign)
-            self._sq_k = k
-            self._sq_values += int(sign) * values.size
-            self._sq_bad += int(sign) * bad
 
     def _summary(self) -> tuple[int, int, float | None]:
         """(residuals, instants not judged, RMS [bar]) of the kept minute, worked out once
@@ -592,46 +580,33 @@ class LiveMonitor:
             out.append((force - predicted - term) / area / 1e5)
         return out[0], out[1]
 
-    def _residual_pairs(self, instants: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    def _residual_rows(self, instants: NDArray[np.float64]) -> NDArray[np.float64]:
         """:meth:`_residual_pair` of many instants at once (the minute a new estimate re-judges,
-        up to 600 instants once a second of motion: one vectorized load-sharing solve instead
-        of one per instant; every instant is judged here, the minute after a new estimate
-        and the instants taken since the residuals were last read): the pairs (n, 2) [bar]
-        (NaN where not judged) and whether each instant was judged (n,). Equal to the
+        up to 600 instants once a second of motion: one compiled pass of the declared model,
+        :func:`~steer_monitor.model.loadshare.declared_residuals`, instead of one solve per
+        instant; every instant is judged here, the minute after a new estimate and the
+        instants taken since the residuals were last read): rows (n, 3) of the pair [bar]
+        (NaN where not judged) and whether the instant was judged (1.0 / 0.0). Equal to the
         one-instant results to rounding (tested); with the effects of an analysis in use,
         instant by instant. Element by element, so an instant's numbers do not depend on the
         others judged with it."""
         n = instants.shape[0]
-        pairs = np.full((n, 2), math.nan)
-        judged = np.zeros(n, bool)
-        if not n:
-            return pairs, judged
-        if self._effects:
+        if self._effects or not n:
+            rows = np.full((n, 3), math.nan)
+            rows[:, 2] = 0.0
             for i, x in enumerate(instants.tolist()):
                 pair = self._residual_pair(x)
                 if pair is not None:
-                    pairs[i] = pair
-                    judged[i] = True
-            return pairs, judged
-        alpha, speed, direction, force_1, force_2 = instants[:, :5].T
-        gear, gaps = self.gear, self.gaps
-        torque = (self.torque or gear.torque).scalars(alpha, speed)
-        known = np.flatnonzero(np.isfinite(torque))   # beyond the angles the fitted torque was learned at: None
-        if known.size == 0:
-            return pairs, judged
-        predicted, lateral, f_theta, f_z = declared_forces(gear, alpha[known], torque[known], direction[known], gaps,
-                                                           self.priors)
+                    rows[i] = (pair[0], pair[1], 1.0)
+            return rows
+        gear = self.gear
+        torque = (self.torque or gear.torque).scalars(instants[:, 0], instants[:, 1])
         iv = self.gaps_interval or {}
-        guess = np.zeros(known.size, bool)           # a clamp or contact the data never saw
-        if '2z' in iv and iv['2z'][1] is None:
-            guess |= lateral > f_theta
-        if 'zgb' in iv and iv['zgb'][1] is None:
-            guess |= lateral > f_z
-        rows = known[~guess]
-        pairs[rows, 0] = ((force_1[known] - predicted) / gear.ram_area / 1e5)[~guess]
-        pairs[rows, 1] = ((force_2[known] - predicted) / gear.ram_area / 1e5)[~guess]
-        judged[rows] = True
-        return pairs, judged
+        rows = declared_residuals(gear, instants[:, 0], torque, instants[:, 2], instants[:, 3:5], self.gaps,
+                                  self.priors, open_2z='2z' in iv and iv['2z'][1] is None,
+                                  open_zgb='zgb' in iv and iv['zgb'][1] is None)
+        rows[:, :2] /= 1e5           # [Pa] to [bar], as _residual_pair divides
+        return rows
 
     # --- input ---------------------------------------------------------------------------
     def update(self, sample: Sample) -> None:
@@ -818,18 +793,19 @@ class LiveMonitor:
         # what this sample releases of the held pressure samples, judged later (_take_instants)
         self._angles_t.append(t_ns)
         self._angles_a.append(alpha)
-        self._log_angle(t_ns, delay, self._hist_base, self._hist_base + len(hist) - 1, self._held_total)
+        self._log_angles([t_ns], delay, [self._hist_base], [self._hist_base + len(hist) - 1], [self._held_total])
         self._call_env += (self._speed.last_value, self._oil.last_value)
         if len(self._calls) >= len(CALL_FIELDS) * CALLS_KEPT:
             self._take_instants()
         self._track_hard_over(t_ns, alpha)
         self._track_response(t_ns, alpha)
 
-    def _log_angle(self, t_ns: int, delay: int, first: int, last: int, held: int) -> None:
-        """What an angle sample at ``t_ns`` saw, into the log judged later (instants.CALL_FIELDS):
-        the time up to which it releases held samples, the delay then [ns], the global indices
-        of its history's first and last angle, the pressure samples held so far."""
-        self._calls += (t_ns - HALF_WINDOW_NS - delay, delay, first, last, held)
+    def _log_angles(self, t_ns: list[int], delay: int, first: list[int], last: list[int], held: list[int]) -> None:
+        """What angle samples at ``t_ns`` saw, into the log judged later (instants.CALL_FIELDS),
+        one row each: the time up to which it releases held samples, the delay then [ns], the
+        global indices of its history's first and last angle, the pressure samples held so far."""
+        cut = HALF_WINDOW_NS + delay
+        self._calls += chain.from_iterable(zip([t - cut for t in t_ns], [delay] * len(t_ns), first, last, held))
 
     def take_rudder(self, kinds: list[bool], angle_t: list[int], angle_a: list[float], held: list[int],
                     env: list[float], hold_t: NDArray[np.int64], hold_p: NDArray[np.float64], order_t: list[int],
@@ -874,8 +850,7 @@ class LiveMonitor:
             self._angles_a += angle_a
             delay = self._delay_ns
             first = plan.base + k0
-            for j in range(m):
-                self._log_angle(angle_t[j], delay, front[j], first + j, total + held[j])
+            self._log_angles(angle_t, delay, front, list(range(first, first + m)), [total + h for h in held])
             self._call_env += env
             self.record('rudder_angle', angle_t, angle_a, True)
             self._dirty = True
@@ -1040,9 +1015,8 @@ class LiveMonitor:
         of steady motion (None before there are any that say)."""
         if self._share_stale:     # the ring's rows in the order they lie: the same rows, the same bits
             self._keep_share_rows()
-            p = self.share_pressures()
-            area = self.gear.ram_area    # the forces as take_instants makes them, element by element
-            self._share = ram_share(np.stack([area * (p[:, 0] - p[:, 1]), area * (p[:, 2] - p[:, 3])], axis=1))
+            # the forces as take_instants makes them, element by element
+            self._share = ram_share_of_pressures(self.share_pressures(), self.gear.ram_area)
             self._share_stale = False
         return self._share
 

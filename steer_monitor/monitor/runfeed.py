@@ -87,9 +87,10 @@ class RunPlan:
         self._angle_env: list[float] | None = None
         # before each position 0..m: the newest sample of the angle and of each pressure (-1:
         # none in the run; read then from what stood before it, and -1 picks the NaN put last)
-        newest = np.maximum.accumulate(np.where(code[:, None] == np.array((ANGLE, *_PRESSURE)), np.arange(m)[:, None],
-                                                -1), axis=0) if m else np.zeros((0, 5), np.intp)
-        self.newest = np.vstack([np.full((1, 5), -1, np.intp), newest])
+        # (worked out along rows of (5, m), each input's positions contiguous: a third of the time)
+        newest = np.where(code[None, :] == np.array((ANGLE, *_PRESSURE))[:, None], np.arange(m)[None, :], -1)
+        np.maximum.accumulate(newest, axis=1, out=newest)
+        self.newest = np.vstack([np.full((1, 5), -1, np.intp), newest.T])
         self._stamp = np.append(stamp, 0)
         self._value = np.append(value, math.nan)
         # what stood before the run
@@ -161,10 +162,10 @@ class RunPlan:
     # --- bringing the live model and the analyst up to a position ------------------------
     def _record_upto(self, mon: LiveMonitor, c: int, upto: int) -> bool:
         """Input ``c``'s samples before ``upto`` not yet recorded, recorded; whether there were any."""
-        i = bisect_left(self.where[c], upto)
-        done = self._recorded[c]
-        if i <= done:
+        where, done = self.where[c], self._recorded[c]
+        if done >= len(where) or where[done] >= upto:      # the common case: nothing new since
             return False
+        i = bisect_left(where, upto, done)
         mon.record(INPUTS[c], self.times[c][done:i], self.vals[c][done:i], self.in_order[c])
         self._recorded[c] = i
         return True
@@ -242,9 +243,10 @@ class RunPlan:
             self._held = k
         if analyst is not None:
             for c in _ANALYSED:
-                i = bisect_left(self.where[c], upto)
-                if i > self._analysed[c]:
-                    analyst.add_many(INPUTS[c], self.times[c][self._analysed[c]:i], self.vals[c][self._analysed[c]:i])
+                where, done = self.where[c], self._analysed[c]
+                if done < len(where) and where[done] < upto:
+                    i = bisect_left(where, upto, done)
+                    analyst.add_many(INPUTS[c], self.times[c][done:i], self.vals[c][done:i])
                     self._analysed[c] = i
 
     def skip(self, upto: int) -> None:

@@ -21,8 +21,8 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ['MAX_PARTIALS', 'NONE', 'SLOPE', 'SPECIAL', 'add_squares', 'partials_total', 'slope', 'sum_of_squares',
-           'window_slopes']
+__all__ = ['MAX_PARTIALS', 'NONE', 'SLOPE', 'SPECIAL', 'add_squares', 'partials_total', 'push_counting_squares',
+           'slope', 'sum_of_squares', 'window_slopes']
 
 #: what a window gave: a slope; no slope (fewer than 3 points, or all at one time); a
 #: non-finite value among its points (the caller sums those with ``math.fsum`` itself)
@@ -151,6 +151,48 @@ def add_squares(partials: NDArray[np.float64], k: int, x: NDArray[np.float64], s
         else:
             k = _add(partials, k, sign * sq)
     return k, bad
+
+
+@njit(cache=True, nogil=True)
+def push_counting_squares(data: NDArray[np.float64], nxt: int, kept: int, rows: NDArray[np.float64],
+                          partials: NDArray[np.float64], k: int) -> tuple[int, int, int, int, int]:
+    """Rows (n, 3) of residual pairs and whether judged (1/0) pushed into a ring ``data``
+    (cap, 3) whose next row is ``nxt`` and which holds ``kept`` rows (the live monitor's
+    ``_Ring``: the last cap rows stay, where pushing them one by one would put them), the
+    squares of the judged pairs of the rows it lets go taken out of the exact partials
+    ``partials[:k]`` (oldest first) and those of the rows it takes added, as
+    :func:`add_squares` does: (next, kept, the partials' count, the change in values
+    counted, the change in values whose square was not finite and left out)."""
+    cap, total = data.shape[0], rows.shape[0]
+    values = bad = 0
+    gone = min(kept + total - cap, kept)         # rows let go, oldest first
+    oldest = (nxt - kept) % cap
+    for g in range(gone):
+        r = (oldest + g) % cap
+        if data[r, 2] != 0.0:
+            for c in range(2):
+                sq = data[r, c] * data[r, c]
+                if not np.isfinite(sq):
+                    bad -= 1
+                else:
+                    k = _add(partials, k, -sq)
+                values -= 1
+    skip = max(total - cap, 0)                   # rows of the push that never enter
+    for j in range(skip, total):
+        if rows[j, 2] != 0.0:
+            for c in range(2):
+                sq = rows[j, c] * rows[j, c]
+                if not np.isfinite(sq):
+                    bad += 1
+                else:
+                    k = _add(partials, k, sq)
+                values += 1
+    start = (nxt + skip) % cap
+    for j in range(total - skip):
+        r = (start + j) % cap
+        for c in range(3):
+            data[r, c] = rows[skip + j, c]
+    return (start + total - skip) % cap, min(kept + total, cap), k, values, bad
 
 
 @njit(cache=True, nogil=True)

@@ -216,46 +216,63 @@ def test_friction_normals_on_a_grid_are_the_solvers(r18):
         friction_normals(r18, alpha, torque, two_z, -z_gb)
 
 
+@pytest.mark.parametrize('open_2z, open_zgb', [(False, False), (True, False), (False, True), (True, True)])
 @pytest.mark.parametrize('two_z_mm, z_gb_mm', [(0.6, 0.25), (0.0, 0.0), (1.5, 0.05), (0.1, 0.6)])
-def test_declared_forces_are_the_solver_and_the_friction_law(r18, two_z_mm, z_gb_mm):
-    """The live residual's one compiled pass (declared_forces) gives, sample by sample, what
-    load_sharing and friction_force give: sign(alpha) Fa + direction F_fr, Fl, F_theta and
-    F_Z, bit for bit (the same element function and the same friction law, compiled; as the
-    grid kernel above)."""
+def test_declared_residuals_are_the_solver_and_the_friction_law(r18, two_z_mm, z_gb_mm, open_2z, open_zgb):
+    """The live residual's one compiled pass (declared_residuals) gives, sample by sample, what
+    load_sharing and friction_force give: (force - (sign(alpha) Fa + direction F_fr)) / A_r
+    for each ram, bit for bit (the same element function and the same friction law, compiled;
+    as the grid kernel above); not judged (NaN, 0) where the torque is not finite, or where
+    the ram clamps (Fl > F_theta) or the slipper touches (Fl > F_Z) at a clearance said open."""
     from steer_monitor.model.friction import FrictionParams, friction_force
-    from steer_monitor.model.loadshare import declared_forces
+    from steer_monitor.model.loadshare import declared_residuals
     rng = np.random.default_rng(11)
     alpha = rng.uniform(-0.61, 0.61, 300)
     alpha[:3] = (0.0, -0.0, 1e-9)
     torque = r18.torque(np.abs(alpha)) * rng.uniform(0.2, 1.5, alpha.size)
+    torque[[5, 77]] = (np.nan, np.inf)
     direction = rng.choice([-1.0, 1.0], alpha.size)
+    forces = rng.uniform(-3e5, 3e5, (alpha.size, 2))
     friction = FrictionParams(7.5e3, 0.11, 0.07)
     gaps = Gaps.from_mm(two_z_mm, z_gb_mm)
-    predicted, lateral, f_theta, f_z = declared_forces(r18, alpha, torque, direction, gaps, friction)
-    ls = load_sharing(r18, alpha, torque, gaps.two_z, gaps.z_gb)
+    rows = declared_residuals(r18, alpha, torque, direction, forces, gaps, friction, open_2z=open_2z,
+                              open_zgb=open_zgb)
+    known = np.isfinite(torque)
+    ls = load_sharing(r18, alpha[known], torque[known], gaps.two_z, gaps.z_gb)
     f_fr = friction_force(friction, ls.r_a, ls.r_e, ls.m_a, ls.guide_force, r18.bushing_length)
-    assert np.array_equal(predicted, np.copysign(ls.axial, alpha) + direction * f_fr)
-    assert np.array_equal(lateral, ls.lateral) and np.array_equal(f_theta, ls.f_theta)
-    assert np.array_equal(f_z, ls.f_z)
+    predicted = np.copysign(ls.axial, alpha[known]) + direction[known] * f_fr
+    judged = np.zeros(alpha.size, bool)
+    judged[known] = ~((open_2z & (ls.lateral > ls.f_theta)) | (open_zgb & (ls.lateral > ls.f_z)))
+    assert rows.shape == (alpha.size, 3)
+    assert np.array_equal(rows[:, 2], judged.astype(float))
+    want = (forces[known] - predicted[:, None]) / r18.ram_area
+    assert np.array_equal(rows[known][judged[known], :2], want[judged[known]])
+    assert np.isnan(rows[~judged, :2]).all()
+    if open_2z and (two_z_mm, z_gb_mm) == (0.1, 0.6):      # a small 2Z clamps at some loads, not all
+        assert 0 < judged[known].sum() < known.sum()
+    assert not judged[~known].any()
 
 
-def test_declared_forces_refuse_as_the_solver_does(r18):
+def test_declared_residuals_refuse_as_the_solver_does(r18):
     """Samples of several shapes, a ram that buckles, a clearance below 0 (Gaps refuses one;
     the solver checks what it is given): one line each."""
     from dataclasses import replace
     from types import SimpleNamespace
 
     from steer_monitor.model.friction import FrictionParams
-    from steer_monitor.model.loadshare import declared_forces
-    a, d = np.array([0.3, 0.5, 0.6]), np.ones(3)
-    with pytest.raises(ValueError, match=r'declared forces need samples of one shape \(n,\), got \(3,\), \(2,\)'):
-        declared_forces(r18, a, np.ones(2), d, Gaps.from_mm(0.6, 0.25), FrictionParams())
+    from steer_monitor.model.loadshare import declared_residuals
+    a, d, f = np.array([0.3, 0.5, 0.6]), np.ones(3), np.zeros((3, 2))
+    with pytest.raises(ValueError, match=r'declared residuals need samples of one shape \(n,\) and forces \(n, 2\), '
+                                         r'got \(3,\), \(2,\), \(3,\) and \(3, 2\)'):
+        declared_residuals(r18, a, np.ones(2), d, f, Gaps.from_mm(0.6, 0.25), FrictionParams())
+    with pytest.raises(ValueError, match=r'got \(3,\), \(3,\), \(3,\) and \(3,\)'):
+        declared_residuals(r18, a, np.ones(3), d, np.zeros(3), Gaps.from_mm(0.6, 0.25), FrictionParams())
     gear = replace(r18, euler_amplification=True)
     torque = np.array([1e6, 1e9, 1e10])
     with pytest.raises(ModelError, match=re.escape(_buckles(gear, a[1], torque[1]))):
-        declared_forces(gear, a, torque, d, Gaps.from_mm(0.6, 0.25), FrictionParams())
+        declared_residuals(gear, a, torque, d, f, Gaps.from_mm(0.6, 0.25), FrictionParams())
     with pytest.raises(ModelError, match='clearance z_gb must be finite and >= 0 m'):
-        declared_forces(r18, a, np.ones(3), d, SimpleNamespace(two_z=0.6e-3, z_gb=-1e-4), FrictionParams())
+        declared_residuals(r18, a, np.ones(3), d, f, SimpleNamespace(two_z=0.6e-3, z_gb=-1e-4), FrictionParams())
 
 
 def _buckles(gear, alpha, torque):

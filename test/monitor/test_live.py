@@ -247,9 +247,11 @@ def test_a_minute_rejudged_at_once_is_each_instant_judged_alone(r18_params, case
     interval = {'2z': (0.05e-3, None), 'zgb': (0.0, None)} if case == 'lower bounds only' else None
     mon.set_gaps(gaps, 'estimated' if case != 'configured' else 'configured', interval,
                  FrictionParams(9000.0, 0.13, 0.05), table)
-    many, judged = mon._residual_pairs(np.array(instants))
+    rows = mon._residual_rows(np.array(instants))
+    many, judged = rows[:, :2], rows[:, 2] == 1.0
     one = [mon._residual_pair(i) for i in instants]
     assert judged.tolist() == [p is not None for p in one]
+    assert set(rows[:, 2].tolist()) <= {0.0, 1.0}
     assert np.isnan(many[~judged]).all()
     if case != 'configured':
         assert 0 < sum(p is None for p in one) < len(one)
