@@ -9,7 +9,17 @@ import zlib
 import numpy as np
 import pytest
 
-from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope, sum_of_squares, window_slopes
+from steer_monitor.monitor.slopes import (
+    MAX_PARTIALS,
+    NONE,
+    SLOPE,
+    SPECIAL,
+    partials_total,
+    push_counting_squares,
+    slope,
+    sum_of_squares,
+    window_slopes,
+)
 
 
 def _fsum_slope(t_ns: list[int], a: list[float]) -> float | None:
@@ -83,3 +93,35 @@ def test_the_sum_of_squares_is_math_fsums_to_the_bit():
         assert sum_of_squares(x) == math.fsum(v * v for v in x.tolist())
     assert sum_of_squares(np.array([1e200, 1e200])) is None        # the sum overflows: math.fsum's to say
     assert sum_of_squares(np.array([1.0, math.nan])) is None
+
+
+@pytest.mark.parametrize('sizes', [[1] * 40, [3, 7, 2, 11, 5, 9, 1, 13], [25, 4, 30, 0, 2], [8, 8, 8, 8, 8, 8]])
+def test_pushing_rows_keeps_the_last_and_the_exact_sum_of_their_squares(sizes):
+    """push_counting_squares against a list that keeps the last cap rows: the ring's rows
+    (oldest first from next - kept) are the list's, and after every push the partials' total
+    is math.fsum of the squares of the judged pairs held, to the bit; the counts of values and
+    of non-finite squares follow the rows held. Pushes larger than the ring included; rows of
+    big and tiny magnitudes, a NaN and an overflowing value among them."""
+    cap = 10
+    rng = np.random.default_rng(len(sizes))
+    data = np.zeros((cap, 3))
+    partials = np.empty(MAX_PARTIALS)
+    nxt = kept = k = values = bad = 0
+    held: list[list[float]] = []
+    for size in sizes:
+        rows = np.column_stack([rng.normal(0, 1, (size, 2)) * 10.0 ** rng.integers(-8, 9, (size, 2)),
+                                rng.integers(0, 2, size).astype(float)])
+        if size > 3:
+            rows[1, 0], rows[2, 1], rows[2, 2], rows[3, 2] = math.nan, 1e200, 1.0, 1.0
+        nxt, kept, k, dv, db = push_counting_squares(data, nxt, kept, rows, partials, k)
+        values, bad = values + dv, bad + db
+        held = (held + rows.tolist())[-cap:]
+        assert kept == len(held)
+        ring = data[(np.arange(kept) + nxt - kept) % cap]
+        assert ring.tolist() == held or np.array_equal(ring, np.array(held), equal_nan=True)
+        judged = [v for r in held if r[2] != 0.0 for v in r[:2]]
+        squares = [v * v for v in judged]
+        assert values == len(judged)
+        assert bad == sum(not math.isfinite(q) for q in squares)
+        finite = [q for q in squares if math.isfinite(q)]
+        assert partials_total(partials, k) == math.fsum(finite)
