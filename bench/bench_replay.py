@@ -26,11 +26,21 @@ Measured, each case in a fresh process (so its peak resident memory is its own):
   own, made with the logs: replay streams, so its rate and memory do not depend on the log's
   length; the whole day would take several minutes, the reference a quarter of an hour).
 
+Item 5 of issue 35, in the same run: on the candump logs, replay's time split (in a process of
+its own, :func:`bench.bench_replay_parts.measure_split`: three rounds of python-can's reader then a
+replay with its messages and analyses clocked, back to back, the median round's ratio; and one
+replay with every part clocked: reading and decoding, the per-sample pipeline, messages,
+analyses); every replay made twice, in two processes, and the two files compared byte for byte
+and with the per-frame reference's; and the whole replay (``frames=False``, as above) against
+the round's start, commit :data:`BASELINE` (taken from git into ``BENCH_DIR``, its compiled
+kernels warmed by one replay first), on the hour log and the first ``PER_FRAME_LIMIT`` frames.
+
 Run: ``python -m bench.bench_replay`` (part of ``make bench``).
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import resource
@@ -45,6 +55,7 @@ HOUR_PROGRAM = 'voyage,autopilot:2100'
 PER_FRAME_LIMIT = 1_000_000     # frames of the 24-hour logs replayed
 TARGET_FPS = 1_000_000
 BATCH_RUNS = 3          # the batch path is timed this many times (each in a fresh process); the median is shown
+BASELINE = '739564a'    # the round's start (issue 35 item 5: the whole replay no slower than then)
 
 
 def _make_logs() -> dict[str, Path]:
@@ -125,14 +136,22 @@ def _case(kind: str, path: str) -> dict:
             import can
             frames = sum(1 for _ in can.CanutilsLogReader(path))
         extra = {}
+    elif kind == 'split':
+        from bench.bench_replay_parts import measure_split, split_lines
+        with tempfile.TemporaryDirectory() as tmp:
+            m = measure_split(Path(path), Path(tmp))
+        frames = m['frames']
+        extra = {'lines': split_lines(m), 'ratio': m['median']['ratio']}
     else:
         from steer_monitor.ashore.replay import replay
         from test.ashore.replay_reference import reference_replay
         with tempfile.TemporaryDirectory() as tmp:
             run = reference_replay if kind == 'reference' else replay
             summary = run([path], Path(tmp) / 'out.mcap', frames=False)
-        frames, extra = summary.frames, {}
-    elapsed = time.perf_counter() - t0
+            elapsed = time.perf_counter() - t0        # the file's hash not counted
+            digest = hashlib.sha256((Path(tmp) / 'out.mcap').read_bytes()).hexdigest()
+        frames, extra = summary.frames, {'sha256': digest, 'elapsed': elapsed}
+    elapsed = extra.pop('elapsed', time.perf_counter() - t0)
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     return {'kind': kind, 'log': Path(path).name, 'frames': frames, 'seconds': round(elapsed, 2),
             'frames_per_s': round(frames / elapsed), 'peak_rss_mb': round(peak_mb),
@@ -152,6 +171,49 @@ def _run_case(kind: str, path: Path) -> dict:
     return json.loads(out.strip().splitlines()[-1])
 
 
+_BASELINE_CASE = """
+import json, sys, tempfile, time
+from pathlib import Path
+from steer_monitor.threads import single_blas_thread
+single_blas_thread()
+from steer_monitor.ashore.replay import replay
+t0 = time.perf_counter()
+with tempfile.TemporaryDirectory() as tmp:
+    s = replay([sys.argv[1]], Path(tmp) / 'out.mcap', frames=False)
+print(json.dumps({'frames': s.frames, 'seconds': round(time.perf_counter() - t0, 2)}))
+"""
+
+
+def _baseline_tree() -> Path | None:
+    """The sources at :data:`BASELINE`, from git, under ``BENCH_DIR`` (made once); None where
+    git or the commit is not there."""
+    root = Path(__file__).resolve().parent.parent
+    tree = BENCH_DIR / f'baseline-{BASELINE}'
+    if (tree / 'steer_monitor').is_dir():
+        return tree
+    tmp = BENCH_DIR / f'partial-baseline-{BASELINE}'
+    try:
+        subprocess.run(['rm', '-rf', str(tmp)], check=True)
+        tmp.mkdir(parents=True)
+        archive = subprocess.run(['git', '-C', str(root), 'archive', BASELINE], capture_output=True, check=True).stdout
+        subprocess.run(['tar', '-x', '-C', str(tmp)], input=archive, check=True)
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    tmp.replace(tree)
+    return tree
+
+
+def _baseline_replay(tree: Path, path: Path) -> dict:
+    """The whole replay (frames=False) of ``path`` by the sources in ``tree``, in a fresh
+    process, after one untimed replay there (its compiled kernels cached)."""
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST', PYTHONPATH=str(tree))
+    out = ''
+    for _ in range(2):
+        out = subprocess.run([sys.executable, '-c', _BASELINE_CASE, str(path)], env=env, cwd=tree,
+                             capture_output=True, text=True, check=True).stdout
+    return json.loads(out.strip().splitlines()[-1])
+
+
 def main() -> int:
     if len(sys.argv) == 4 and sys.argv[1] == '--case':
         print(json.dumps(_case(sys.argv[2], sys.argv[3])))
@@ -165,11 +227,15 @@ def main() -> int:
     _child('--make-logs')
     paths = _make_logs()
     results = []
+    fronts: list[tuple[str, float]] = []          # (log, the median round's front end / reader)
+    against: list[tuple[str, float, float]] = []  # (log, baseline s, replay s)
+    same_bytes: list[tuple[str, bool, bool]] = []  # (log, two runs identical, equal to the reference)
+    tree = _baseline_tree()
     for name in ('1h.log', '1h.mcap', '24h.log', '24h.mcap'):
         runs = sorted((_run_case('batch', paths[name]) for _ in range(BATCH_RUNS)), key=lambda r: r['seconds'])
         batch = runs[len(runs) // 2]
         same = paths[name.replace('24h', '24h-first')]        # what replay, the reference and the reader read
-        reader, fast, ref = (_run_case(kind, same) for kind in ('reader', 'replay', 'reference'))
+        reader, fast, again, ref = (_run_case(kind, same) for kind in ('reader', 'replay', 'replay', 'reference'))
         results.append((name, batch, fast))
         size_mb = paths[name].stat().st_size / 2 ** 20
         print(f'{name:9s} {batch["frames"]:>9,d} frames ({size_mb:,.0f} MB)')
@@ -180,15 +246,41 @@ def main() -> int:
         print(f'            median of {len(runs)} runs; all: '
               + ', '.join(f'{r["frames_per_s"]:,d}' for r in runs[::-1]) + ' frames/s')
         scope = '' if fast['frames'] == batch['frames'] else f'  (first {fast["frames"]:,d} frames)'
-        for label, r in (('reader', reader), ('replay', fast), ('reference', ref)):
+        for label, r in (('reader', reader), ('replay', fast), ('again', again), ('reference', ref)):
             print(f'  {label:9s} {r["frames_per_s"]:>10,d} frames/s  {r["seconds"]:7.2f} s  '
                   f'peak {r["peak_rss_mb"]:5d} MB{scope}')
         print(f'  replay: {fast["frames_per_s"] / reader["frames_per_s"]:.3f} x the reader, '
               f'{fast["frames_per_s"] / ref["frames_per_s"]:.2f} x its reference; '
               f'batch {batch["frames_per_s"] / fast["frames_per_s"]:.0f} x replay')
+        twice, as_ref = fast['sha256'] == again['sha256'], fast['sha256'] == ref['sha256']
+        same_bytes.append((name, twice, as_ref))
+        print(f'  the two replays\' files {"identical" if twice else "DIFFER"}; '
+              f'{"equal to" if as_ref else "NOT equal to"} the per-frame reference\'s')
+        if name.endswith('.log'):
+            split = _run_case('split', same)
+            fronts.append((name, split['ratio']))
+            print('  split, in a process of its own:')
+            for line in split['lines']:
+                print('    ' + line)
+            if tree is not None:
+                base = _baseline_replay(tree, same)
+                against.append((name, base['seconds'], min(fast['seconds'], again['seconds'])))
+                print(f'  the round\'s start ({BASELINE}): {base["seconds"]:.2f} s for the same frames; this '
+                      f'replay {fast["seconds"]:.2f} and {again["seconds"]:.2f} s')
     ok = all(b['frames_per_s'] >= TARGET_FPS for name, b, _ in results if name.startswith('24h'))
     print(f'target: batch path >= {TARGET_FPS:,d} frames/s end to end (median of {BATCH_RUNS} runs): '
           + ('met on the 24-hour logs' if ok else 'NOT met on the 24-hour logs'))
+    print('item 5, reading, decoding and the per-sample pipeline >= python-can\'s reader (the median of three '
+          'rounds): ' + '; '.join(f'{n} {r:.2f} x ({"met" if r >= 1 else "NOT met"})' for n, r in fronts))
+    if tree is None:
+        print(f'item 5, the whole replay no slower than at {BASELINE}: not measured (git or the commit not here)')
+    else:
+        print(f'item 5, the whole replay no slower than at {BASELINE}: '
+              + '; '.join(f'{n} {now:.2f} s against {base:.2f} s ({"met" if now <= base else "NOT met"})'
+                          for n, base, now in against))
+    print('item 5, the same bytes between two runs and as the per-frame reference: '
+          + ('yes, on every log' if all(t and r for _, t, r in same_bytes) else
+             'NO: ' + ', '.join(n for n, t, r in same_bytes if not (t and r))))
     return 0
 
 

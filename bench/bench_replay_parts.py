@@ -18,15 +18,20 @@ cost, about a microsecond a call, is counted in the parts):
 * the analyst: the node's window of samples (``Analyst.add`` per sample, the compaction and
   the schedule in ``Analyst.due`` each second);
 * analyses: the jobs (``SyncJobs.submit``: ``analyze`` of the window on the node's schedule),
-  run at once here; a replay runs them in worker processes beside the pipeline;
+  run at once when due, as a replay runs them;
 * messages: the states' load sharing solved and the states packed into MCAP records, a
   batch of up to 16,384 frames' states at once, diagnostics into message fields and CDR, and
   writing them (with the frames) to the MCAP;
-* the rest: reading the log into blocks and the pipeline's schedule, by difference.
+* reading: the log read into blocks of frames (``iter_log_blocks``, each block's time);
+* the schedule (the rest): the pipeline's loop over runs, spans and seconds, by difference.
+
+Reading and decoding are the first two; the per-sample pipeline the live model, the
+diagnostics, the analyst and the schedule. :func:`measure_split` is the measurement,
+:mod:`bench.bench_replay` runs it on its candump logs.
 
 The machine's speed wanders by a third over tens of seconds, so the front end is compared
 with python-can's reader in rounds, the reader's pass and a replay back to back, three of
-them; each round's ratio is printed and the median taken. In those replays only the messages
+them, after an untimed replay; each round's ratio is printed and the median taken. In those replays only the messages
 and the analyses are clocked (the front end is the rest); the parts above come from one more
 replay with every part clocked, whose clocks (about a microsecond a call, some 40,000 calls an
 hour in the front end) are counted in the parts.
@@ -93,6 +98,29 @@ def _timed(spent: dict[str, float], part: str, fn):
 _ORIGINALS: dict[tuple[object, str], object] = {}
 
 
+def _timed_blocks(spent: dict[str, float], part: str, fn):
+    """The generator ``fn`` with the time each of its items takes to come added to ``part``."""
+    clock = time.perf_counter
+
+    @functools.wraps(fn)
+    def wrapper(*a, **k):
+        it = fn(*a, **k)
+        while True:
+            _inner.append(0.0)
+            t0 = clock()
+            try:
+                item = next(it)
+            except StopIteration:
+                return
+            finally:
+                dt = clock() - t0
+                spent[part] += dt - _inner.pop()
+                if _inner:
+                    _inner[-1] += dt
+            yield item
+    return wrapper
+
+
 def _clock(spent: dict[str, float], part: str, owner: object, name: str) -> None:
     """``owner.name`` timed into ``part`` (wrapping the original, however often asked)."""
     fn = _ORIGINALS.setdefault((owner, name), getattr(owner, name))
@@ -118,6 +146,8 @@ def _instrument(spent: dict[str, float], fine: bool) -> None:
         _clock(spent, 'messages', R, name)
     if not fine:
         return
+    fn = _ORIGINALS.setdefault((R, 'iter_log_blocks'), R.iter_log_blocks)
+    R.iter_log_blocks = _timed_blocks(spent, 'reading', fn)
     _clock(spent, 'decode', Decoder, 'decode')
     _clock(spent, 'decode', Decoder, 'decode_run')
     for name in ('update', 'plan_angles', '_take_instants', 'slot_state'):
@@ -127,6 +157,77 @@ def _instrument(spent: dict[str, float], fine: bool) -> None:
     _clock(spent, 'diagnostics', DiagnosticsBuilder, 'build')
     _clock(spent, 'analyst (window, schedule)', Analyst, 'add')
     _clock(spent, 'analyst (window, schedule)', Analyst, 'due')
+
+
+#: the front end's parts (the fully clocked replay), as reading and decoding and as the per-sample pipeline
+READING_AND_DECODING = ('reading', 'decode')
+PIPELINE = ('live model', 'diagnostics', 'analyst (window, schedule)', 'schedule (rest)')
+
+
+def measure_split(log: Path, out_dir: Path, rounds: int = ROUNDS) -> dict:
+    """Replay's time on the candump ``log`` split: ``rounds`` rounds of python-can's reader
+    then a replay with the messages and the analyses clocked (the front end, reading, decoding
+    and the per-sample pipeline, is the rest), and one more replay with every part clocked
+    (its parts: ``reading``, ``decode``, ``live model``, ``diagnostics``, ``analyst (window,
+    schedule)``, ``messages``, ``analyses`` and the rest, ``schedule (rest)``), all after one
+    untimed replay (a fresh process loads its compiled kernels in the first). Replays write
+    into ``out_dir``. Returns {'frames', 'rounds': [{'reader_s', 'replay_s', 'front_s',
+    'messages_s', 'analyses_s', 'ratio'}], 'median': the round of the median ratio, 'parts',
+    'timed_s', 'summary': the last replay's}. Patches the replay's classes with clocks: run
+    it in a process of its own, after any unclocked replay."""
+    import can
+
+    from steer_monitor.ashore.replay import replay
+
+    replay([log], out_dir / 'warm.mcap')     # untimed: the compiled kernels loaded, the file read once
+    spent: dict[str, float] = defaultdict(float)
+    _instrument(spent, fine=False)
+    rows = []
+    n = 0
+    for _ in range(rounds):    # each round: the reader, then the replay, back to back
+        t0 = time.perf_counter()
+        n = sum(1 for _ in can.CanutilsLogReader(str(log)))
+        t_reader = time.perf_counter() - t0
+        spent.clear()
+        t0 = time.perf_counter()
+        replay([log], out_dir / 'timed.mcap')
+        t_round = time.perf_counter() - t0
+        analyses, messages = spent.get('analyses', 0.0), spent.get('messages', 0.0)
+        front = t_round - analyses - messages
+        rows.append({'reader_s': t_reader, 'replay_s': t_round, 'front_s': front, 'messages_s': messages,
+                     'analyses_s': analyses, 'ratio': t_reader / front})
+    _instrument(spent, fine=True)
+    spent.clear()
+    t0 = time.perf_counter()
+    summary = replay([log], out_dir / 'timed.mcap')
+    t_timed = time.perf_counter() - t0
+    parts = dict(spent)
+    parts['schedule (rest)'] = t_timed - sum(spent.values())
+    return {'frames': n, 'rounds': rows, 'median': sorted(rows, key=lambda r: r['ratio'])[len(rows) // 2],
+            'parts': parts, 'timed_s': t_timed, 'summary': summary}
+
+
+def split_lines(m: dict) -> list[str]:
+    """What :func:`measure_split` measured, as lines to print."""
+    n, parts, t_timed = m['frames'], m['parts'], m['timed_s']
+    lines = [f'replay with every part clocked: {n / t_timed:12,.0f} frames/s ({t_timed:.2f} s)']
+    for part, sec in sorted(parts.items(), key=lambda kv: -kv[1]):
+        lines.append(f'  {part:28s} {sec:7.2f} s  {100 * sec / t_timed:5.1f} %  ({1e6 * sec / n:6.1f} us per frame)')
+    fine_front = t_timed - parts.get('analyses', 0.0) - parts.get('messages', 0.0)
+    rd, pl = sum(parts.get(p, 0.0) for p in READING_AND_DECODING), sum(parts.get(p, 0.0) for p in PIPELINE)
+    lines.append(f'  the front end {fine_front:.2f} s with its parts clocked, the clocks included: reading and '
+                 f'decoding {rd:.2f} s, the per-sample pipeline {pl:.2f} s')
+    for k, r in enumerate(m['rounds']):
+        lines.append(f"round {k + 1}: python-can's reader {r['reader_s']:.2f} s, then the replay {r['replay_s']:.2f} s "
+                     f"(messages {r['messages_s']:.2f} s and analyses {r['analyses_s']:.2f} s clocked): its front end "
+                     f"{r['front_s']:.2f} s, {r['ratio']:.2f} x the reader")
+    r = m['median']
+    s = m['summary']
+    lines.append(f"reading, decoding and the per-sample pipeline (the median round): {r['front_s']:.2f} s, "
+                 f"{n / r['front_s']:,.0f} frames/s, {r['ratio']:.2f} x python-can's reader (target >= 1: "
+                 f"{'met' if r['ratio'] >= 1 else 'NOT met'}); analyses {parts.get('analyses', 0.0):.2f} s of CPU "
+                 f'({parts.get("analyses", 0.0) / max(s.analyses, 1):.2f} s each)')
+    return lines
 
 
 def main() -> int:
@@ -154,24 +255,7 @@ def main() -> int:
         t_ref = time.perf_counter() - t0
         ref_bytes = (Path(tmp) / 'reference.mcap').read_bytes()
         same = (Path(tmp) / 'plain.mcap').read_bytes() == ref_bytes
-        spent: dict[str, float] = defaultdict(float)
-        _instrument(spent, fine=False)
-        rounds = []                # (front end / reader, reader [s], replay [s], front end [s])
-        for _ in range(ROUNDS):    # each round: the reader, then the replay, back to back
-            t0 = time.perf_counter()
-            sum(1 for _ in can.CanutilsLogReader(str(log)))
-            t_reader = time.perf_counter() - t0
-            spent.clear()
-            t0 = time.perf_counter()
-            replay([log], Path(tmp) / 'timed.mcap')
-            t_round = time.perf_counter() - t0
-            front_round = t_round - spent.get('analyses', 0.0) - spent.get('messages', 0.0)
-            rounds.append((t_reader / front_round, t_reader, t_round, front_round))
-        _instrument(spent, fine=True)
-        spent.clear()
-        t0 = time.perf_counter()
-        replay([log], Path(tmp) / 'timed.mcap')
-        t_timed = time.perf_counter() - t0
+        m = measure_split(log, Path(tmp))
     span_s = (s.last_ns - s.first_ns) / 1e9 if s.first_ns is not None and s.last_ns is not None else 0.0
     print(f'log: {n:,d} frames, {span_s:,.0f} s of data; {s.states:,d} states, {s.diagnostics:,d} diagnostics, '
           f'{s.motion_s:,.0f} s of rudder motion, {s.analyses} analyses')
@@ -182,21 +266,8 @@ def main() -> int:
         f'per-frame reference:          {n / t_ref:12,.0f} frames/s ({t_ref:.2f} s; replay is {t_ref / t_plain:.2f} x '
         f'faster; {"the same bytes" if same else "FILES DIFFER"})'
     )
-    print(f'replay with every part clocked: {n / t_timed:12,.0f} frames/s ({t_timed:.2f} s)')
-    parts = dict(spent)
-    parts['reading and schedule (rest)'] = t_timed - sum(spent.values())
-    for part, sec in sorted(parts.items(), key=lambda kv: -kv[1]):
-        print(f'  {part:28s} {sec:7.2f} s  {100 * sec / t_timed:5.1f} %  ({1e6 * sec / n:6.1f} us per frame)')
-    fine_front = t_timed - parts.get('analyses', 0.0) - parts.get('messages', 0.0)
-    print(f'  (the front end {fine_front:.2f} s with its parts clocked, the clocks included)')
-    for k, (ratio, t_reader, t_round, front_round) in enumerate(rounds):
-        print(f'round {k + 1}: python-can\'s reader {t_reader:.2f} s, then the replay {t_round:.2f} s (messages and '
-              f'analyses clocked): its front end {front_round:.2f} s, {ratio:.2f} x the reader')
-    ratio, t_can, _, front = sorted(rounds, key=lambda r: r[0])[len(rounds) // 2]
-    est = parts.get('analyses', 0.0)
-    print(f'reading, decoding and the per-sample pipeline (the median round): {front:.2f} s, '
-          f'{n / front:,.0f} frames/s, {ratio:.2f} x python-can\'s reader (target >= 1); analyses {est:.2f} s of CPU '
-          f'({est / max(s.analyses, 1):.2f} s each)')
+    for line in split_lines(m):
+        print(line)
     return 0 if same else 1
 
 

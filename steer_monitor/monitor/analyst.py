@@ -12,7 +12,7 @@ whether an analysis is due:
   last loop chose (its effects applied, no screening).
 
 A job is the window's samples at that second and what kind it is; :func:`run_job` runs it
-(a job runner: on the node's worker thread, at once in tests, in worker processes in a replay).
+(a job runner: on the node's worker thread, at once in a replay and in tests).
 Because a job's input is the data before its second, whatever runs it, and the schedule
 depends on the data alone, a replay of the same frames runs the same analyses on the same
 samples and gets the same :class:`~steer_monitor.estimate.finding.Finding` as the node did.
@@ -107,8 +107,8 @@ def run_job(gear: GearParams, settings: AnalystSettings, job: Job, model: tuple[
     loop's choice). An analysis the data cannot support gives no finding and says why; one
     that fails otherwise (a defect) says so too and the monitoring goes on; either way the
     model stays the last loop's. BLAS runs on one thread (:func:`~steer_monitor.threads.single_blas_thread`):
-    its sums in one order, so the node's thread, a replay's worker processes and a job run at
-    once give the same finding to the bit."""
+    its sums in one order, so the node's thread and a job run at once (a replay's) give the
+    same finding to the bit."""
     single_blas_thread()
     try:
         a = analyze(gear, job.signals, min_clearance_2z=settings.min_clearance_2z,
