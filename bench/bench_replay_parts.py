@@ -100,23 +100,16 @@ _ORIGINALS: dict[tuple[object, str], object] = {}
 
 def _timed_blocks(spent: dict[str, float], part: str, fn):
     """The generator ``fn`` with the time each of its items takes to come added to ``part``."""
-    clock = time.perf_counter
+    step = _timed(spent, part, next)       # each item's coming, accounted as a timed call
 
     @functools.wraps(fn)
     def wrapper(*a, **k):
         it = fn(*a, **k)
         while True:
-            _inner.append(0.0)
-            t0 = clock()
             try:
-                item = next(it)
+                item = step(it)
             except StopIteration:
                 return
-            finally:
-                dt = clock() - t0
-                spent[part] += dt - _inner.pop()
-                if _inner:
-                    _inner[-1] += dt
             yield item
     return wrapper
 
