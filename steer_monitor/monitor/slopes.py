@@ -15,14 +15,12 @@ windows in one call (:func:`window_slopes`).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-__all__ = ['MAX_PARTIALS', 'NONE', 'SLOPE', 'SPECIAL', 'add_squares', 'partials_total', 'push_counting_squares',
-           'slope', 'sum_of_squares', 'window_slopes']
+__all__ = ['MAX_PARTIALS', 'NONE', 'SLOPE', 'SPECIAL', 'partials_total', 'push_counting_squares', 'slope',
+           'window_slopes']
 
 #: what a window gave: a slope; no slope (fewer than 3 points, or all at one time); a
 #: non-finite value among its points (the caller sums those with ``math.fsum`` itself)
@@ -136,21 +134,17 @@ def window_slopes(t_ns: NDArray[np.int64], a: NDArray[np.float64], lo: NDArray[n
         out[w] = v
 
 
-@njit(cache=True, nogil=True)
-def add_squares(partials: NDArray[np.float64], k: int, x: NDArray[np.float64], sign: float) -> tuple[int, int]:
-    """``sign`` (+1 or -1) times the square of each value of ``x`` (n,) added exactly to the
-    exact partials ``partials[:k]`` (:data:`MAX_PARTIALS` long): (the new count, how many
-    values' squares were not finite and left out). Adding a square and later taking the same
-    square away leaves the partials' exact sum as it was, so a sum kept this way as values come
-    and go is the exact sum of the values held, whatever came and went before."""
-    bad = 0
-    for j in range(x.shape[0]):
-        sq = x[j] * x[j]
-        if not np.isfinite(sq):
-            bad += 1
-        else:
-            k = _add(partials, k, sign * sq)
-    return k, bad
+@njit(cache=True, nogil=True, inline='always')
+def _add_square(partials: NDArray[np.float64], k: int, x: float, sign: float) -> tuple[int, int]:
+    """``sign`` (+1 or -1) times the square of ``x`` added exactly to the exact partials
+    ``partials[:k]``: (the new count, 1 where the square is not finite and was left out, else
+    0). Adding a square and later taking the same square away leaves the partials' exact sum
+    as it was, so a sum kept this way as values come and go is the exact sum of the values
+    held, whatever came and went before."""
+    sq = x * x
+    if not np.isfinite(sq):
+        return k, 1
+    return _add(partials, k, sign * sq), 0
 
 
 @njit(cache=True, nogil=True)
@@ -160,8 +154,8 @@ def push_counting_squares(data: NDArray[np.float64], nxt: int, kept: int, rows: 
     (cap, 3) whose next row is ``nxt`` and which holds ``kept`` rows (the live monitor's
     ``_Ring``: the last cap rows stay, where pushing them one by one would put them), the
     squares of the judged pairs of the rows it lets go taken out of the exact partials
-    ``partials[:k]`` (oldest first) and those of the rows it takes added, as
-    :func:`add_squares` does: (next, kept, the partials' count, the change in values
+    ``partials[:k]`` (oldest first) and those of the rows it takes added, exactly
+    (:func:`_add_square`): (next, kept, the partials' count, the change in values
     counted, the change in values whose square was not finite and left out)."""
     cap, total = data.shape[0], rows.shape[0]
     values = bad = 0
@@ -171,22 +165,14 @@ def push_counting_squares(data: NDArray[np.float64], nxt: int, kept: int, rows: 
         r = (oldest + g) % cap
         if data[r, 2] != 0.0:
             for c in range(2):
-                sq = data[r, c] * data[r, c]
-                if not np.isfinite(sq):
-                    bad -= 1
-                else:
-                    k = _add(partials, k, -sq)
-                values -= 1
+                k, b = _add_square(partials, k, data[r, c], -1.0)
+                values, bad = values - 1, bad - b
     skip = max(total - cap, 0)                   # rows of the push that never enter
     for j in range(skip, total):
         if rows[j, 2] != 0.0:
             for c in range(2):
-                sq = rows[j, c] * rows[j, c]
-                if not np.isfinite(sq):
-                    bad += 1
-                else:
-                    k = _add(partials, k, sq)
-                values += 1
+                k, b = _add_square(partials, k, rows[j, c], 1.0)
+                values, bad = values + 1, bad + b
     start = (nxt + skip) % cap
     for j in range(total - skip):
         r = (start + j) % cap
@@ -199,15 +185,6 @@ def push_counting_squares(data: NDArray[np.float64], nxt: int, kept: int, rows: 
 def partials_total(partials: NDArray[np.float64], k: int) -> float:
     """The correctly rounded value of the exact partials ``partials[:k]``."""
     return _total(partials, k)
-
-
-def sum_of_squares(x: NDArray[np.float64]) -> float | None:
-    """The sum of the squares of ``x`` (n,), correctly rounded (``math.fsum(v * v for v in x)``
-    to the bit); None where a value, or the sum, is not finite (left to ``math.fsum``)."""
-    partials = np.empty(MAX_PARTIALS)
-    k, bad = add_squares(partials, 0, np.ascontiguousarray(x, np.float64), 1.0)
-    total = partials_total(partials, k)
-    return total if not bad and math.isfinite(total) else None
 
 
 def slope(t_ns: list[int] | NDArray[np.int64], a: list[float] | NDArray[np.float64]) -> tuple[int, float]:

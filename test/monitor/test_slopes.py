@@ -17,7 +17,6 @@ from steer_monitor.monitor.slopes import (
     partials_total,
     push_counting_squares,
     slope,
-    sum_of_squares,
     window_slopes,
 )
 
@@ -86,13 +85,23 @@ def test_many_windows_at_once_are_each_window_alone():
         assert status[w] == s and (s != SLOPE or out[w] == v)
 
 
-def test_the_sum_of_squares_is_math_fsums_to_the_bit():
+def test_the_kept_sum_of_squares_is_math_fsums_to_the_bit():
+    """Values of magnitudes from 1e-8 to 1e8 pushed as judged pairs into a ring that holds
+    them all: the partials' total is math.fsum of their squares, to the bit (a sum plain
+    addition gets wrong among them); an overflowing square is counted as not finite and left
+    out, as is a NaN's."""
     rng = np.random.default_rng(11)
-    for _ in range(2000):
-        x = rng.normal(0.0, 1.0, int(rng.integers(0, 1300))) * 10.0 ** rng.integers(-8, 8)
-        assert sum_of_squares(x) == math.fsum(v * v for v in x.tolist())
-    assert sum_of_squares(np.array([1e200, 1e200])) is None        # the sum overflows: math.fsum's to say
-    assert sum_of_squares(np.array([1.0, math.nan])) is None
+    for _ in range(500):
+        x = rng.normal(0.0, 1.0, 2 * int(rng.integers(0, 650))) * 10.0 ** rng.integers(-8, 8)
+        rows = np.column_stack([x.reshape(-1, 2), np.ones(x.size // 2)])
+        partials = np.empty(MAX_PARTIALS)
+        _, kept, k, values, bad = push_counting_squares(np.zeros((700, 3)), 0, 0, rows, partials, 0)
+        assert (kept, values, bad) == (x.size // 2, x.size, 0)
+        assert partials_total(partials, k) == math.fsum(v * v for v in x.tolist())
+    partials = np.empty(MAX_PARTIALS)
+    rows = np.array([[1e200, 3.0, 1.0], [math.nan, 4.0, 1.0], [5.0, 6.0, 0.0]])
+    _, _, k, values, bad = push_counting_squares(np.zeros((4, 3)), 0, 0, rows, partials, 0)
+    assert (values, bad) == (4, 2) and partials_total(partials, k) == 25.0
 
 
 @pytest.mark.parametrize('sizes', [[1] * 40, [3, 7, 2, 11, 5, 9, 1, 13], [25, 4, 30, 0, 2], [8, 8, 8, 8, 8, 8]])
