@@ -190,8 +190,11 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
           f'{sent:,} frames in {wall:.1f} s ({sent / wall:,.0f} frames/s)')
     print(f'  frames dropped       : {dropped} (received {received:,}; target 0)')
     print(f'  node CPU             : {100 * node_cpu:.1f} % of a core (target < 25 %)')
+    worst = int(lat.argmax())       # the states come evenly over the run: where in it the worst one fell
     print(f'  latency frame->state : p50 {np.percentile(lat, 50):.1f} ms, p99 {np.percentile(lat, 99):.1f} ms, '
-          f'max {lat.max():.1f} ms (target p99 < 20 ms)')
+          f'max {lat.max():.1f} ms (the {worst + 1:,d}th of {lat.size:,d} states, about '
+          f'{wall * worst / max(lat.size - 1, 1):.0f} s into the run; {int((lat > 100).sum())} over 100 ms) '
+          f'(target p99 < 20 ms)')
     print(f'  resident memory      : {rss_start:.0f} MB at start, {rss_end:.0f} MB at end '
           f'(process, simulator included); the frames to play (the simulated voyage, the other traffic) held '
           f'{sim_mb:.0f} MB when made, so the node about {rss_start - sim_mb:.0f} MB at start and '
