@@ -104,7 +104,8 @@ class DiagnosticsBuilder:
         # per status, the last one built with what it was built from (:meth:`_memo`)
         self._memos: dict[str, tuple[tuple[Any, ...], tuple[object, ...], Status]] = {}
         # per input: its name, how long it may be silent [s], the window its rate is judged
-        # over [ns], its expected rate [Hz], its three keys and its expected rate's value
+        # over [ns], its expected rate [Hz], the keys of its rate and silence, and its expected
+        # rate as a (key, text) value
         self._inputs = [(spec.name,
                          # a slow signal is stale only after missing several of its own periods
                          max(cfg.stale_after_s, 3.0 / spec.rate_hz),
@@ -112,7 +113,7 @@ class DiagnosticsBuilder:
                          # late frame would read as rate 0
                          min(ARRIVALS_KEPT_NS, max(RATE_WINDOW_NS, int(5e9 / spec.rate_hz))),
                          spec.rate_hz,
-                         (f'{spec.name}_rate_hz', f'{spec.name}_expected_hz', f'{spec.name}_silent_s'),
+                         (f'{spec.name}_rate_hz', f'{spec.name}_silent_s'),
                          (f'{spec.name}_expected_hz', f'{spec.rate_hz:g}')) for spec in smap.specs]
 
     def _status(self, item: str, level: int, message: str, values: list[tuple[str, str]]) -> Status:
@@ -162,7 +163,7 @@ class DiagnosticsBuilder:
             sig = signals[name]
             rate = sig.rate_hz(now_ns, window_ns)      # the window within the time kept (__init__)
             silent = sig.silent_for(now_ns)            # finite where heard: a difference of stamps
-            values += ((keys[0], f'{rate:.2f}'), expected, (keys[2], 'n/a' if silent is None else f'{silent:.2f}'))
+            values += ((keys[0], f'{rate:.2f}'), expected, (keys[1], 'n/a' if silent is None else f'{silent:.2f}'))
             if silent is None or silent > limit:
                 stale.append(name)
             elif rate < 0.5 * expected_hz and sig.kept() >= 3:

@@ -250,11 +250,7 @@ class _Ring:
 
     def ordered(self) -> NDArray[np.float64]:
         """The rows held (kept, width), oldest first (a copy)."""
-        return self.oldest(self.kept)
-
-    def oldest(self, k: int) -> NDArray[np.float64]:
-        """The oldest ``k`` rows held (at most kept) (k, width), oldest first (a copy)."""
-        return self.data[(np.arange(min(k, self.kept)) + (self.next - self.kept)) % self.data.shape[0]]
+        return self.data[(np.arange(self.kept) + (self.next - self.kept)) % self.data.shape[0]]
 
 
 class _Held:
