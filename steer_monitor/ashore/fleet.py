@@ -251,13 +251,14 @@ def _clearance(r: LogResult, attr: str, limit: float, warn_share: float) -> dict
     iv = _interval(r, attr)
     if iv is None:
         return {'value': None, 'ci95': [None, None], 'bounded': False, 'level': NOT_JUDGED}
-    level = (NOT_JUDGED if r.verdict == 'unexplained' else
-             clearance_verdict(iv.value, iv.lo, iv.hi, limit, warn_share).label)
+    label = clearance_verdict(iv.value, iv.lo, iv.hi, limit, warn_share).label
+    level = NOT_JUDGED if r.verdict == 'unexplained' else label
     return {**iv.scaled(1e3), 'level': level}
 
 
-#: levels from the least to the most serious (a log's level is its worst clearance's)
-_LEVELS = (NOT_JUDGED, 'OK', 'WARN', 'OVER LIMIT')
+#: levels from the least to the most serious (a log's level is its worst clearance's): a
+#: clearance not assessed is worse than one known fine, never worse than one known worn
+_LEVELS = ('OK', NOT_JUDGED, 'WARN', 'OVER LIMIT')
 
 
 def _worst(levels: Any) -> str:
@@ -291,13 +292,14 @@ def same_time_as(rs: Sequence[LogResult]) -> dict[int, int]:
 
 
 def _points(rs: list[LogResult], attr: str) -> tuple[list[TrendPoint], list[int]]:
-    """The trend's points of estimate ``attr`` and the index in ``rs`` of each (a log of
-    the same time as another left out)."""
+    """The trend's points of estimate ``attr`` and the index in ``rs`` of each: judged logs
+    only (a log whose model does not explain its pressures gives no clearance to trend), a
+    log of the same time as another left out."""
     pts, index = [], []
     twice = same_time_as(rs)
     for i, r in enumerate(rs):
         iv = _interval(r, attr)
-        if r.error or iv is None or not r.end_ns or i in twice:
+        if r.error or iv is None or not r.end_ns or i in twice or r.verdict == 'unexplained':
             continue
         pts.append(TrendPoint((r.start_ns + r.end_ns) / 2e9, iv.value, iv.lo, iv.hi))
         index.append(i)
@@ -324,10 +326,13 @@ def _trend_json(tr: Trend | None, limit: float, logs: list[str]) -> dict[str, An
     k = YEAR_S * 1e3
     return {'rate_mm_per_year': {'value': round(r.value * k, 5),
                                  'ci95': [round(r.lo * k, 5), round(r.hi * k, 5)]},  # type: ignore[operator]
+            'wear_seen': tr.wear_seen,
+            'message': tr.message(),
             'limit_mm': round(limit * 1e3, 4),
             'limit_date_utc': _utc(tr.limit_t),
             'limit_date_ci95': [_utc(tr.limit_t_lo), _utc(tr.limit_t_hi)] if tr.limit_t is not None else None,
             'estimates_used': tr.used, 'lower_bounds_used': tr.bounds,
+            'between_logs_mm': round(tr.between * 1e3, 5),
             'outliers': [logs[i] for i in tr.outliers]}
 
 

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from steer_monitor.ashore.fleet import FleetRun, fleet_json, vessel_trends
+from steer_monitor.ashore.modelcheck import NOT_JUDGED
 from steer_monitor.estimate.trend import Z95
 from steer_monitor.jsonvocab import estimate_text
 
@@ -80,11 +81,9 @@ def fleet_page(run: FleetRun) -> str:
             for lg in v['logs'])
         trend = '; '.join(
             f"{'2Z' if '2z' in key else 'Z_gb'}: " + (
-                'too few estimates for a trend' if t is None else
-                f"{t['rate_mm_per_year']['value']:+.3f} mm/year [{t['rate_mm_per_year']['ci95'][0]:+.3f} .. "
-                f"{t['rate_mm_per_year']['ci95'][1]:+.3f}], limit " +
-                (f"reached {t['limit_date_utc']} [{t['limit_date_ci95'][0]} .. {t['limit_date_ci95'][1]}]"
-                 if t['limit_date_utc'] else 'not reached: no wear detected'))
+                'too few judged estimates for a trend' if t is None else
+                t['message'] + (f", limit reached {t['limit_date_utc']} [{t['limit_date_ci95'][0]} .. "
+                                f"{t['limit_date_ci95'][1] or 'later'}]" if t['limit_date_utc'] else ''))
             for key, t in v['trend'].items())
         parts.append(
             f"<section><h2>{esc(v['name'])}</h2><p>{esc(trend)}</p>"
@@ -119,7 +118,7 @@ def _log_cell(lg: dict[str, Any]) -> str:
 
 
 def _css(level: str) -> str:
-    return 'NONE' if level == 'not judged' else level.split()[0]
+    return 'NONE' if level == NOT_JUDGED else level.split()[0]
 
 
 def _level_text(lg: dict[str, Any]) -> str:

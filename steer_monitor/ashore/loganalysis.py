@@ -7,7 +7,9 @@ docs/json.md.
 The JSON (units in the key names; intervals are 95 %; a clearance the data bound from below
 only is ``{"value": null, "ci95": [lo, null], "bounded": false}``)::
 
-    clearance_2z_mm, clearance_zgb_mm      {"value", "ci95": [lo, hi], "bounded"}   (final model)
+    clearance_2z_mm, clearance_zgb_mm      {"value", "ci95": [lo, hi], "bounded", "level", "note",
+                                           "limit_mm"} (final model; level OK | WARN | OVER LIMIT |
+                                           NOT ASSESSED, note: why, and what would assess it)
     k_gl_max                               {"value", "ci95": [lo, hi], "bounded"}
     seal_friction_n, mu_bushing, mu_guide  {"value", "ci95": [lo, hi], "bounded"}
     effects                                the adopted effects in order, each {"name", "params",
@@ -50,6 +52,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from steer_monitor.ashore.modelcheck import headlines
 from steer_monitor.can.busconfig import load_setup
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.estimate.analyze import Analysis, analyze
@@ -182,6 +185,12 @@ def analyze_log(path: str | Path, config: str | Path | None = None, progress: bo
             raise EstimateError(f'{exc} ({logs.errors[0]})') from exc
         raise
     out = analysis_json(a)
+    limit_2z, limit_zgb = params['clearances.limit_2z_mm'] * 1e-3, params['clearances.limit_zgb_mm'] * 1e-3
+    for h, key in zip(headlines(a, limit_2z, limit_zgb, params['diagnostics.clearance_warn_share']),
+                      ('clearance_2z_mm', 'clearance_zgb_mm')):
+        out[key]['level'] = h.level
+        out[key]['note'] = h.note
+        out[key]['limit_mm'] = round(h.limit * 1e3, 4)
     out['data'] = {'log': str(path), 'frames': logs.frames, 'span_s': logs.span_s,
                    'rejects': dict(sorted(rejects.snapshot().counts.items())),
                    'read_errors': list(logs.errors),

@@ -21,14 +21,15 @@ from typing import Any
 from steer_monitor.estimate.analyze import Analysis, analyze
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.observe import EstimateError
-from steer_monitor.monitor.verdict import clearance_verdict
+from steer_monitor.monitor.verdict import LABELS, NOT_ASSESSED, assess_hint, clearance_verdict
 
 __all__ = ['ANALYSIS_HOURS', 'NOT_JUDGED', 'Headline', 'headline_json', 'headlines', 'model_check']
 
 #: hours of data at a log's end the check looks at (``report --analysis-hours``)
 ANALYSIS_HOURS = 3.0
-#: the level of a clearance that has no estimate, or one from a model that does not explain the data
-NOT_JUDGED = 'not judged'
+#: the level of a clearance the data do not assess: no estimate, a lower bound below the warning,
+#: an interval too wide, or one from a model that does not explain the data (one word everywhere)
+NOT_JUDGED = LABELS[NOT_ASSESSED]
 
 
 def model_check(paths: Sequence[str | Path], params: Mapping[str, Any], config_path: str | Path,
@@ -56,7 +57,7 @@ def model_check(paths: Sequence[str | Path], params: Mapping[str, Any], config_p
 @dataclass(frozen=True)
 class Headline:
     """One clearance as the page shows it: its estimate (None: none), the level (``OK``,
-    ``WARN``, ``OVER LIMIT`` or ``not judged``), the limit [m] and a note ('' or why)."""
+    ``WARN``, ``OVER LIMIT`` or ``NOT ASSESSED``), the limit [m] and a note ('' or why)."""
 
     name: str
     estimate: Interval | None
@@ -74,14 +75,16 @@ def headlines(analysis: Analysis | None, limit_2z: float, limit_zgb: float, warn
     out = []
     for name, limit, attr in (('2Z', limit_2z, 'two_z'), ('Z_gb', limit_zgb, 'z_gb')):
         if analysis is None:
-            out.append(Headline(name, None, NOT_JUDGED, limit, 'not estimated: too little steady motion'))
+            out.append(Headline(name, None, NOT_JUDGED, limit,
+                                f'not estimated (too little steady motion); {assess_hint(name)}'))
             continue
         iv = getattr(analysis.final, attr)
+        why = analysis.final.bound_why[0 if attr == 'two_z' else 1]
+        v = clearance_verdict(iv.value, iv.lo, iv.hi, limit, warn_share, name, why)
         if analysis.verdict == 'unexplained':
-            out.append(Headline(name, iv, NOT_JUDGED, limit,
-                                'the model does not explain the pressures: the clearances rest on an incomplete model'))
+            out.append(Headline(name, iv, NOT_JUDGED, limit, 'the model does not explain the pressures, so the '
+                                                             'clearances rest on an incomplete model'))
             continue
-        v = clearance_verdict(iv.value, iv.lo, iv.hi, limit, warn_share)
         out.append(Headline(name, iv, v.label, limit, v.note))
     return out[0], out[1]
 

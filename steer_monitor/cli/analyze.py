@@ -71,15 +71,22 @@ def _fmt(d: dict[str, Any], unit: str) -> str:
     return estimate_text(d, unit)
 
 
+def _verdict(name: str, d: dict[str, Any]) -> str:
+    """One clearance's line: the estimate, its share of the limit, the level and why."""
+    lo, hi = d['ci95']
+    ref = d['value'] if d['value'] is not None else lo
+    share = f", {ref / d['limit_mm']:.0%} of the {d['limit_mm']:g} mm limit" if ref is not None else ''
+    note = f": {d['note']}" if d.get('note') else ''
+    return f"{name:<7} {_fmt(d, 'mm')}{share}  {d['level']}{note}\n"
+
+
 def _summary(r: dict[str, Any], out: TextIO) -> None:
-    out.write(f"2Z      {_fmt(r['clearance_2z_mm'], 'mm')}\n")
-    out.write(f"Z_gb    {_fmt(r['clearance_zgb_mm'], 'mm')}\n")
+    out.write(_verdict('2Z', r['clearance_2z_mm']))
+    out.write(_verdict('Z_gb', r['clearance_zgb_mm']))
     out.write(f"K_gl max {_fmt(r['k_gl_max'], '')}\n")
     out.write(f"F_s {_fmt(r['seal_friction_n'], 'N')};  mu_b {_fmt(r['mu_bushing'], '')};  "
               f"mu_g {_fmt(r['mu_guide'], '')}\n")
-    out.write(f"{r['message']}\n")
-    if r['clearance_2z_mm']['ci95'][1] is None:
-        out.write('2Z: the ram never clamped in its bushing at the loads seen; the data only bound it from below\n')
+    out.write(f"model check: {r['verdict']}: {r['message']}\n")
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -56,8 +56,10 @@ def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = N
             soon = min((d for d in dates.values() if d), default=None)
             twice = [log for log in v['logs'] if log['same_time_as']]
             out.write(f"{v['name']}: {len(v['logs'])} logs; " +
-                      (f'first limit reached {soon}' if soon else 'no limit date (no wear detected or too few logs)')
-                      + '\n')
+                      (f'first limit reached {soon}' if soon else 'no limit date') + '\n')
+            for key, t in v['trend'].items():
+                name = '2Z' if '2z' in key else 'Z_gb'
+                out.write(f"  {name}: {'too few judged estimates for a trend' if t is None else t['message']}\n")
             for log in twice:
                 out.write(f"  {log['log']} holds the time of {log['same_time_as']}: counted once in the trend\n")
         if data['earlier_version_results']:

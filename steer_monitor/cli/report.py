@@ -10,7 +10,7 @@ levels, are the model check's (:mod:`steer_monitor.ashore.modelcheck`: ``analyze
 
     page, frames, errors, notes, estimates (windows reviewed), hard_overs_s
     clearance_2z_mm, clearance_zgb_mm   {"value", "ci95": [lo, hi], "bounded",
-                                         "level": "OK" | "WARN" | "OVER LIMIT" | "not judged"}
+                                         "level": "OK" | "WARN" | "OVER LIMIT" | "NOT ASSESSED"}
     k_gl_max                            {"value", "ci95", "bounded"} or null
     model_check                         {"verdict", "effects", "message"} or null
     model_check_note                    why there is none, or null

@@ -72,6 +72,7 @@ from steer_monitor.estimate.rams import (
     within,
     working_against,
 )
+from steer_monitor.estimate.ranges import effect_range
 from steer_monitor.estimate.refine import refine_profile
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.inputs import PRESSURE_INPUTS, Series
@@ -97,6 +98,7 @@ __all__ = [
     'declared_fit',
     'grid_2z_from',
     'outlier_instants',
+    'rated_force',
     'refusal',
     'skew_equivalent_s',
 ]
@@ -424,7 +426,8 @@ def _screen(
         rss, n, cv, tz, zg, p, coef = _score(gear, basis, rows.moments, parts, coef_t, nuisance + cand.columns, grid_2z,
                                              at)
         values = {c.name: float(v) for c, v in zip(cand.columns, coef[coef.size - len(cand.columns):])}
-        screened.append((_screening(cand, rss, n, cv, tz, zg, p, rss0, n0, cv0, p0, n_eff, values), cand))
+        screened.append((_screening(cand, rss, n, cv, tz, zg, p, rss0, n0, cv0, p0, n_eff, values,
+                                    (seal, rated_force(gear))), cand))
     delay_obs: dict[float, tuple[Observations, NDArray[np.bool_]]] = {}
     if score:
         # The grid's steps are 50 ms: a delay between two of them leaves up to half a step,
@@ -689,17 +692,34 @@ SIGNS = {
 }
 
 
-def refusal(name: str, values: Mapping[str, float]) -> str | None:
-    """Why an effect with these fitted coefficients (SI) is unphysical, or None."""
+def refusal(name: str, values: Mapping[str, float], seal_friction: float = math.inf,
+            rated_force: float = math.inf) -> str | None:
+    """Why an effect with these fitted coefficients (SI) is unphysical, or None: a sign the
+    physics fixes, or a value outside its range (:mod:`~steer_monitor.estimate.ranges`, some
+    relative to the declared fit's seal friction ``seal_friction`` [N] and the rams' rated
+    axial force ``rated_force`` [N]): what the data then show is not that effect."""
     for (effect, coef), claim in SIGNS.items():
         if effect == name and values.get(coef, 0.0) < 0:
             return f'refused: its fit needs {claim}, {coef} = {values[coef]:.4g}'
+    for coef, value in values.items():
+        rng = effect_range(name, coef, seal_friction, rated_force)
+        if rng is not None and math.isfinite(rng.hi + rng.lo) and not rng.contains(value):
+            return (f'refused: its fit needs {coef} = {value:.4g}, outside the physical range {rng.text()} '
+                    f'({rng.reason})')
     return None
+
+
+def rated_force(gear: GearParams) -> float:
+    """The rams' rated axial force [N]: the tiller torque at the largest rudder angle and the
+    service speed through the Rapson slide, M cos^2(alpha) / (n H)."""
+    a = gear.max_rudder
+    return float(abs(gear.torque(a)) * math.cos(a) ** 2 / (gear.rams * gear.stock_to_ram))
 
 
 def _screening(cand: Candidate, rss: float, n: float, cv: float, tz: float, zg: float, p: int,
                rss0: float, n0: float, cv0: float, p0: int, n_eff: float,
-               values: Mapping[str, float] | None = None) -> Screening:
+               values: Mapping[str, float] | None = None, scale: tuple[float, float] = (math.inf, math.inf)
+               ) -> Screening:
     mse, mse0 = rss / n, rss0 / n0
     d_bic = n_eff * math.log(max(mse, 1e-300) / mse0) + (p - p0) * math.log(max(n_eff, 2.0))
     ok = math.isfinite(cv) and cv > 0 and cv0 > 0
@@ -707,7 +727,7 @@ def _screening(cand: Candidate, rss: float, n: float, cv: float, tz: float, zg: 
     dev = n_eff * math.log(cv0 / cv) if ok else 0.0
     values = dict(values or {})
     return Screening(cand.name, dict(cand.fixed or {}), gain, d_bic, math.sqrt(mse), tz, zg, values,
-                     refusal(cand.name, values), dev)
+                     refusal(cand.name, values, *scale), dev)
 
 
 def _best_per_name(scored: list[tuple[Screening, Candidate]]) -> list[tuple[Screening, Candidate]]:

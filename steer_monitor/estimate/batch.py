@@ -17,14 +17,24 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.stats import f as f_dist
 
 from steer_monitor.estimate import fit as F
-from steer_monitor.estimate.intervals import CHI2_1_95, CHI2_2_95, Interval, inflation, plateau_interval
+from steer_monitor.estimate.intervals import (
+    CHI2_1_95,
+    CHI2_2_95,
+    PLATEAU_THRESHOLD,
+    Interval,
+    inflation,
+    plateau_interval,
+)
 from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations
+from steer_monitor.estimate.ranges import DECLARED, at_edge
 from steer_monitor.estimate.refine import Marginal, Refined, refine_profile
+from steer_monitor.estimate.robust import CLEARANCES, MODEL_ERROR_FLOOR, RobustScale, block_seconds, robust_scales
 from steer_monitor.model.gear import GearParams
-from steer_monitor.model.loadshare import load_sharing
+from steer_monitor.model.loadshare import STAGE_CLAMPED, load_sharing
 
 __all__ = ['MIN_MOTION_SAMPLES', 'ClearanceEstimate', 'Rows', 'box_holds', 'coarse_profile', 'estimate_clearances',
            'estimate_from_moments', 'estimate_in_box', 'k_gl_max', 'lag_moments', 'make_rows', 'predict_rows',
@@ -118,13 +128,20 @@ class ClearanceEstimate:
     marginals: tuple[Marginal, Marginal] | None = field(default=None, repr=False)
     steps: tuple[float, float] = (0.0, 0.0)
     rss_floor: float = math.nan      # the least RSS of the profile [N^2]: deviance 0
+    scales: tuple[float, float] = (math.nan, math.nan)       # (2Z, Z_gb): the variance scale of each deviance
+    thresholds: tuple[float, float] = (CHI2_1_95, CHI2_1_95)  # ... and the 95 % point it was read against
+    robust: dict[str, RobustScale] = field(default_factory=dict, repr=False)   # every parameter's scale, by name
+    #: (2Z, Z_gb): why an interval the profile closed is given as a lower bound only ('' when it is not)
+    bound_why: tuple[str, str] = ('', '')
+    sigma2: float = math.nan         # the residual variance per row [N^2] the deviances are in units of
 
     def marginal_deviance(self, axis: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(values [m], deviance) of clearance ``axis`` (0: 2Z, 1: Z_gb): the profile its
-        interval was read from."""
+        interval was read from (against ``thresholds[axis]``)."""
         if self.marginals is None:
             return (self.profile.two_z if axis == 0 else self.profile.z_gb), self.deviance.min(axis=1 - axis)
-        unit = self.fit.rss / max(self.fit.n - self.fit.coef.size, 1.0) * self.inflation
+        scale = self.scales[axis] if math.isfinite(self.scales[axis]) else self.inflation
+        unit = self.fit.rss / max(self.fit.n - self.fit.coef.size, 1.0) * scale
         m = self.marginals[axis]
         return m.axis, (m.rss - self.rss_floor) / unit
 
@@ -212,17 +229,29 @@ def _profile_fit(gear: GearParams, basis: F.TorqueBasis, mom: Moments, extra: Se
 
 def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, ref: Refined, best: F.FitAt,
            tz: float, zg: float, load: NDArray[np.float64], extra: Sequence[F.Column], vif: float, max_seen: float,
-           resid: NDArray[np.float64], noise: float, smooth: float) -> ClearanceEstimate:
+           resid: NDArray[np.float64], noise: float, smooth: float,
+           scales: dict[str, RobustScale] | None = None) -> ClearanceEstimate:
+    """The intervals. With ``scales`` (:func:`_robust`) each parameter's deviance and standard
+    error are scaled by its own cluster-robust factor and read against Student's t at its
+    effective clusters; without (a moments-only estimate), by ``vif`` against the normal."""
     dof = max(best.n - best.coef.size, 1.0)
     sigma2 = best.rss / dof
     # relative to the profile's own minimum: the profile evaluates the friction features per
     # angle cell and ``best`` per bin, which differ by ~1e-4 of the RSS (a deviance of ~1)
     floor = float(ref.rss.min())
-    unit = sigma2 * vif
+    flat = RobustScale(vif, math.inf)
+    rs = [flat, flat] if scales is None else [scales.get(name, flat) for name in CLEARANCES]
+    units = [sigma2 * r.scale * (MODEL_ERROR_FLOOR if scales is not None else 1.0) for r in rs]
+    unit = max(units)
     delta = (pr.rss - floor) / unit
-    two_z = plateau_interval(ref.two_z.axis, (ref.two_z.rss - floor) / unit)
-    z_gb = plateau_interval(ref.z_gb.axis, (ref.z_gb.rss - floor) / unit)
-    region_all = np.unique(ref.pairs[(ref.rss - floor) / unit <= CHI2_2_95], axis=0)
+    two_z = plateau_interval(ref.two_z.axis, (ref.two_z.rss - floor) / units[0], rs[0].threshold_1,
+                             PLATEAU_THRESHOLD * rs[0].threshold_1 / CHI2_1_95)
+    z_gb = plateau_interval(ref.z_gb.axis, (ref.z_gb.rss - floor) / units[1], rs[1].threshold_1,
+                            PLATEAU_THRESHOLD * rs[1].threshold_1 / CHI2_1_95)
+    two_z, z_gb, why = _evidence(gear, mom, load, two_z, z_gb, pr)
+    joint_dof = min(r.dof for r in rs)
+    joint = CHI2_2_95 if not math.isfinite(joint_dof) else 2.0 * float(f_dist.ppf(0.95, 2, max(joint_dof, 2.0)))
+    region_all = np.unique(ref.pairs[(ref.rss - floor) / unit <= joint], axis=0)
     region = region_all
     if region.shape[0] > 60:
         region = region[np.linspace(0, region.shape[0] - 1, 60).round().astype(int)]
@@ -233,14 +262,14 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, 
     for name in best.names[basis.size:]:
         k = best.names.index(name)
         c = np.array([f.coef[k] for _, _, f in region_fits])
+        r = flat if scales is None else scales.get(name, flat)
+        z = math.sqrt(r.threshold_1)
         with np.errstate(over='ignore', invalid='ignore'):   # ill-posed fits in a wide region
-            se = np.sqrt(np.maximum(np.array([f.cov_unscaled[k, k] for _, _, f in region_fits]), 0.0) * sigma2 * vif)
+            se = np.sqrt(np.maximum(np.array([f.cov_unscaled[k, k] for _, _, f in region_fits]), 0.0) * sigma2
+                         * r.scale)
         ok = np.isfinite(c) & np.isfinite(se)
-        if ok.any():
-            coefs[name] = Interval(float(best.coef[k]), float(np.min((c - 1.96 * se)[ok])),
-                                   float(np.max((c + 1.96 * se)[ok])))
-        else:       # the data do not determine it anywhere in the region (a guide beam never loaded)
-            coefs[name] = Interval(float(best.coef[k]), None, None)
+        coefs[name] = _within_range(name, float(best.coef[k]), float(np.min((c - z * se)[ok])) if ok.any() else None,
+                                    float(np.max((c + z * se)[ok])) if ok.any() else None)
     angles = np.union1d(np.radians(np.arange(0.0, math.degrees(max_seen), 0.5)), [max_seen])
     bmat = basis(angles)
     tq = bmat @ best.coef[:basis.size]
@@ -261,7 +290,71 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, 
         torque_curve=(angles, tq, band), k_gl_max=Interval(k_best, min(kgl + [k_best]), max(kgl + [k_best])),
         rms=math.sqrt(best.rss / best.n), rows=int(best.n), inflation=vif, noise_rms=noise, smooth_rms=smooth,
         residual=resid, profile=pr, fit=best, max_angle_seen=max_seen, ram_area=gear.ram_area, deviance=delta,
-        marginals=(ref.two_z, ref.z_gb), steps=ref.steps, rss_floor=floor)
+        marginals=(ref.two_z, ref.z_gb), steps=ref.steps, rss_floor=floor,
+        scales=(units[0] / sigma2, units[1] / sigma2), thresholds=(rs[0].threshold_1, rs[1].threshold_1),
+        bound_why=why,
+        robust=dict(scales or {}), sigma2=sigma2)
+
+
+MIN_CONTACT_SHARE = 0.02    # of the steady-motion rows, where a clearance's contact must show to be assessed
+MIN_CONTACT_ROWS = 200
+
+
+def _evidence(gear: GearParams, mom: Moments, load: NDArray[np.float64], two_z: Interval, z_gb: Interval,
+              pr: F.Profile) -> tuple[Interval, Interval, tuple[str, str]]:
+    """Each clearance's interval, kept where its evidence lies where that clearance shows, else
+    a lower bound only, and why.
+
+    A clearance shows only past a contact: Z_gb where the guide beam carries, 2Z where the ram
+    clamps in its bushing. A contact the estimate puts in fewer than ``MIN_CONTACT_SHARE`` of the
+    rows (or ``MIN_CONTACT_ROWS``) is the data's edge, not a kink: any misfit at the highest
+    loads is taken up by a contact placed there (a clamped ram's gear read Z_gb 0.265 [0.258,
+    0.270] mm, a guide friction of 0.25-0.3 touching in 1 % of the rows, where the slipper
+    never touched: Z_gb 0.34 mm). As a change point needs data on both sides of it (the
+    trimming of Andrews' test), such an answer is a lower bound: the clearance is at least
+    the interval's low end. An estimate at the grid's first value (a contact from no load at
+    all, the model's edge) is likewise only a lower bound of that value."""
+    out = [two_z, z_gb]
+    why = ['', '']
+    if two_z.hi is None and z_gb.hi is None:
+        return two_z, z_gb, ('', '')
+    ls = load_sharing(gear, mom.abs_alpha, F.torque_of_load(gear, mom, load), two_z.value, z_gb.value)
+    total = float(mom.count.sum())
+    if total <= 0:
+        return two_z, z_gb, ('', '')
+    shows = ((ls.stages & STAGE_CLAMPED) != 0, ls.guide_force > 0)
+    grids = (pr.two_z, pr.z_gb)
+    what = ('the ram clamped in its bushing', 'the guide beam carried load')
+    for k in (0, 1):
+        iv = out[k]
+        if iv.hi is None or iv.lo is None:
+            continue
+        rows = float(mom.count[shows[k]].sum())
+        if iv.value <= float(grids[k][0]) + 1e-12 and grids[k].size > 1:
+            out[k] = Interval(iv.value, float(grids[k][0]), None)
+            why[k] = "at the model's edge (a contact from no load at all)"
+        elif rows < max(MIN_CONTACT_SHARE * total, MIN_CONTACT_ROWS):
+            out[k] = Interval(iv.value, iv.lo, None)
+            why[k] = (f'{what[k]} in {rows / total:.1%} of the steady motion at the estimate, too little to place '
+                      f'a contact')
+    return out[0], out[1], (why[0], why[1])
+
+
+def _within_range(name: str, value: float, lo: float | None, hi: float | None) -> Interval:
+    """A coefficient's interval held to its physical range (the declared friction's,
+    :data:`~steer_monitor.estimate.ranges.DECLARED`): clipped to it, with the end its fit
+    stopped on; not determined (both ends None) where the data do not narrow the range at all
+    (no row loads that friction: a guide beam never loaded leaves mu_g free) or the interval
+    is not finite."""
+    rng = DECLARED.get(name)
+    if lo is None or hi is None or not (math.isfinite(lo) and math.isfinite(hi)):
+        return Interval(value, None, None)
+    if rng is None:
+        return Interval(value, lo, hi)
+    if lo <= rng.lo and hi >= rng.hi:
+        return Interval(value, None, None)
+    lo, hi = max(lo, rng.lo), min(hi, rng.hi)
+    return Interval(value, min(lo, value), max(hi, value), at_edge(value, rng))
 
 
 def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: Sequence[F.Column] = (),
@@ -276,10 +369,29 @@ def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: 
     extra = tuple(extra) + F.speed_scale_columns(mom)
     pr, ref, best, tz, zg, load = _profile_fit(gear, basis, mom, extra, grid_2z, grid_zgb, load)
     resid, vif = residuals_and_inflation(gear, basis, rows, obs.t_ns, best.coef, tz, zg, load, extra)
-    vif *= max(model_inflation, 1.0)
     noise, smooth = residual_parts(resid, obs.t_ns)
     max_seen = float(np.nanmax(np.abs(obs.alpha[rows.obs_index])))
-    return _bound(gear, basis, mom, pr, ref, best, tz, zg, load, extra, vif, max_seen, resid, noise, smooth)
+    scales = _robust(gear, basis, obs, rows, resid, best, tz, zg, load, extra, ref, max(model_inflation, 1.0))
+    return _bound(gear, basis, mom, pr, ref, best, tz, zg, load, extra, vif, max_seen, resid, noise, smooth, scales)
+
+
+def _robust(gear: GearParams, basis: F.TorqueBasis, obs: Observations, rows: Rows, resid: NDArray[np.float64],
+            best: F.FitAt, tz: float, zg: float, load: NDArray[np.float64], extra: Sequence[F.Column], ref: Refined,
+            model_inflation: float) -> dict[str, RobustScale]:
+    """Each parameter's cluster-robust scale (:mod:`~steer_monitor.estimate.robust`) at the
+    best fit; a clearance is differentiated where its profile has a minimum inside the data
+    (not on a plateau). At least ``model_inflation`` each (a model known to be incomplete)."""
+    r = resid[rows.obs_index, rows.ram]
+    alpha = obs.alpha[rows.obs_index]
+    moving = [axis for axis, m in enumerate((ref.two_z, ref.z_gb))
+              if m.rss.size > 2 and float(np.ptp(m.rss)) > 0 and int(np.argmin(m.rss)) < m.rss.size - 1]
+    block = block_seconds(resid[rows.obs_index], obs.t_ns[rows.obs_index], GRID_NS)
+    scales = robust_scales(gear, basis, rows.moments, rows.bin_of_row, rows.u, r, obs.t_ns[rows.obs_index],
+                           np.abs(alpha), np.sign(alpha).astype(np.int8), obs.direction[rows.obs_index], best.coef,
+                           best.names, tz, zg, load, extra, moving, block)
+    if model_inflation > 1.0:
+        scales = {k: RobustScale(max(v.scale, model_inflation), v.dof, v.by) for k, v in scales.items()}
+    return scales
 
 
 def estimate_from_moments(gear: GearParams, mom: Moments, vif: float, grid_2z: NDArray = F.GRID_2Z,

@@ -49,6 +49,8 @@ class Finding:
         rms_bar, systematic_bar, noise_bar: the residual of the model judged (the adopted effects,
             before any located nuisance) and its two parts [bar]: what the verdict weighed.
         motion_s: the steady motion the window held [s]; rows: the rows fitted.
+        bound_why: (2Z, Z_gb) why a clearance is given as a lower bound only although its
+            profile closed ('' when it is not): the contact's evidence too thin to place it.
     """
 
     t_ns: int
@@ -68,6 +70,7 @@ class Finding:
     noise_bar: float = math.nan
     motion_s: float = 0.0
     rows: int = 0
+    bound_why: tuple[str, str] = ('', '')
 
     @property
     def explained(self) -> bool:
@@ -92,7 +95,7 @@ class Finding:
                 'max_angle': self.max_angle, 'model': [e.to_json() for e in self.model], 'terms': dict(self.terms),
                 'verdict': self.verdict, 'message': self.message, 'rms_bar': self.rms_bar,
                 'systematic_bar': self.systematic_bar, 'noise_bar': self.noise_bar, 'motion_s': self.motion_s,
-                'rows': self.rows}
+                'rows': self.rows, 'bound_why': list(self.bound_why)}
 
     @classmethod
     def from_json(cls, d: dict) -> Finding:
@@ -113,7 +116,7 @@ class Finding:
                    float(d['max_angle']), tuple(Effect.from_json(e) for e in d['model']),
                    {str(k): float(v) for k, v in dict(d['terms']).items()}, verdict, str(d['message']),
                    float(d['rms_bar']), float(d['systematic_bar']), float(d['noise_bar']), float(d['motion_s']),
-                   int(d['rows']))
+                   int(d['rows']), tuple(str(x) for x in d.get('bound_why', ('', ''))))  # type: ignore[arg-type]
 
 
 def finding_of(a: Analysis, t_ns: int, kind: str) -> Finding:
@@ -139,5 +142,6 @@ def finding_of(a: Analysis, t_ns: int, kind: str) -> Finding:
         friction=(f.seal_friction.value, f.mu_bushing.value, f.mu_guide.value),
         torque_coef=tuple(float(c) for c in f.fit.coef[:basis_size]), max_angle=float(f.max_angle_seen),
         model=a.adopted, terms=terms, verdict=a.verdict, message=a.message, rms_bar=judged.rms / bar,
-        systematic_bar=judged.smooth_rms / bar, noise_bar=judged.noise_rms / bar, motion_s=motion, rows=int(f.rows))
+        systematic_bar=judged.smooth_rms / bar, noise_bar=judged.noise_rms / bar, motion_s=motion, rows=int(f.rows),
+        bound_why=f.bound_why)
 

@@ -22,6 +22,7 @@ per-bin feature and one of the per-sample z columns of the moments.
 
 from __future__ import annotations
 
+import itertools
 import math
 import weakref
 from collections.abc import Callable, Sequence
@@ -32,6 +33,7 @@ from numpy.typing import NDArray
 from scipy.interpolate import BSpline
 
 from steer_monitor.estimate.moments import SPEED_Z, Moments
+from steer_monitor.estimate.ranges import DECLARED
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import friction_normals, load_sharing
 
@@ -44,6 +46,8 @@ __all__ = [
     'Profile',
     'TorqueBasis',
     'axial_load',
+    'bounded_quadratic',
+    'declared_bounds',
     'is_nuisance',
     'speed_scale_columns',
     'torque_z',
@@ -251,13 +255,71 @@ def _smoothing(k_torque: int, p: int, xtx: NDArray) -> NDArray[np.float64]:
     return r
 
 
-def _solve(xtx: NDArray, xty: NDArray, smooth: NDArray) -> tuple[NDArray, NDArray]:
+def _solve(xtx: NDArray, xty: NDArray, smooth: NDArray, names: Sequence[str] = ()) -> tuple[NDArray, NDArray]:
     """(coefficients, (X^T X + penalty)^-1) with the smoothing penalty and a relative ridge per
-    column, so an unexcited column stays solvable. No residual here: see
-    :func:`residual_sum_of_squares`."""
+    column, so an unexcited column stays solvable; the declared friction's coefficients among
+    ``names`` held to their physical ranges (:data:`~steer_monitor.estimate.ranges.DECLARED`,
+    :func:`bounded_quadratic`). No residual here: see :func:`residual_sum_of_squares`."""
     a = xtx + smooth + np.diag(RIDGE * np.diag(xtx) + 1e-300)
     inv = _inverses(a[None])[0]
-    return inv @ xty, inv
+    coef = inv @ xty
+    lo, hi = declared_bounds(names, coef.size)
+    if np.any(coef < lo) or np.any(coef > hi):
+        coef = bounded_quadratic(a[None], xty[None], lo, hi, coef[None])[0]
+    return coef, inv
+
+
+def declared_bounds(names: Sequence[str], p: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(lower, upper) bounds (p,) of coefficients ``names``: the declared friction's physical
+    ranges, infinite for the rest."""
+    lo, hi = np.full(p, -np.inf), np.full(p, np.inf)
+    for k, name in enumerate(names):
+        rng = DECLARED.get(name)
+        if rng is not None:
+            lo[k], hi[k] = rng.lo, rng.hi
+    return lo, hi
+
+
+def bounded_quadratic(a: NDArray[np.float64], b: NDArray[np.float64], lo: NDArray[np.float64],
+                      hi: NDArray[np.float64], start: NDArray[np.float64]) -> NDArray[np.float64]:
+    """argmin of x' a x - 2 b' x subject to lo <= x <= hi, for a stack of problems: ``a`` (g, n, n)
+    symmetric positive definite, ``b`` (g, n), bounds (n,) (infinite where there is none),
+    ``start`` (g, n) the unconstrained minima (kept where already inside).
+
+    Exact, by enumerating the active sets over the bounded coordinates (each free, at its
+    lower or at its upper bound; 3^k sets for k bounded coordinates, a handful here): for a
+    convex quadratic the constrained minimum is the unconstrained minimum over the free
+    coordinates of one of them, and every such point that is feasible is an upper bound of
+    it, so the least feasible one is the answer. The all-at-a-bound sets are always feasible."""
+    g, n = b.shape
+    out = np.array(start, float, copy=True)
+    tol = 1e-12 * np.maximum(np.abs(np.where(np.isfinite(lo), lo, 0.0)) + np.abs(np.where(np.isfinite(hi), hi, 0.0)),
+                             1e-12)
+    bad = np.any((out < lo - tol) | (out > hi + tol), axis=1)
+    if not bad.any():
+        return out
+    rows = np.nonzero(bad)[0]
+    a, b = a[rows], b[rows]
+    bounded = [k for k in range(n) if np.isfinite(lo[k]) or np.isfinite(hi[k])]
+    choices = [[s for s, v in ((0, 0.0), (1, lo[k]), (2, hi[k])) if s == 0 or np.isfinite(v)] for k in bounded]
+    best_obj = np.full(rows.size, np.inf)
+    best = np.zeros((rows.size, n))
+    for states in itertools.product(*choices):
+        fixed = [k for k, s in zip(bounded, states) if s]
+        value = np.array([lo[k] if s == 1 else hi[k] for k, s in zip(bounded, states) if s])
+        free = [k for k in range(n) if k not in fixed]
+        x = np.zeros((rows.size, n))
+        x[:, fixed] = value
+        if free:
+            a_ff = a[np.ix_(np.arange(rows.size), free, free)]
+            rhs = b[:, free] - (a[np.ix_(np.arange(rows.size), free, fixed)] @ value if fixed else 0.0)
+            x[:, free] = (_inverses(a_ff) @ rhs[:, :, None])[:, :, 0]
+        ok = np.all((x >= lo - tol) & (x <= hi + tol), axis=1)
+        obj = np.einsum('gi,gij,gj->g', x, a, x) - 2.0 * np.einsum('gi,gi->g', b, x)
+        take = ok & (obj < best_obj)
+        best_obj[take], best[take] = obj[take], x[take]
+    out[rows] = np.clip(best, lo, hi)
+    return out
 
 
 def _z_weights(cols: NDArray, zs: Sequence[int], coef: NDArray, used: Sequence[int] | None = None
@@ -322,13 +384,13 @@ def fit_at(gear: GearParams, basis: TorqueBasis, mom: Moments, two_z: float, z_g
     ``load``: |Fa| per bin [N] for the friction features."""
     cols, zs, names = design_at(gear, basis, mom, two_z, z_gb, load, extra)
     xtx, xty = _design(cols, zs, mom)
-    coef, inv = _solve(xtx, xty, _smoothing(basis.size, len(names), xtx))
+    coef, inv = _solve(xtx, xty, _smoothing(basis.size, len(names), xtx), names)
     return FitAt(coef, residual_sum_of_squares(mom, cols, zs, coef), mom.samples, tuple(names), inv)
 
 
 def solve_normal_equations(basis: TorqueBasis, xtx: NDArray, xty: NDArray, names: Sequence[str]) -> NDArray:
     """The coefficients from :func:`normal_equations`' X^T X and X^T y."""
-    return _solve(xtx, xty, _smoothing(basis.size, len(names), xtx))[0]
+    return _solve(xtx, xty, _smoothing(basis.size, len(names), xtx), names)[0]
 
 
 def normal_equations(gear: GearParams, basis: TorqueBasis, mom: Moments, two_z: float, z_gb: float,
@@ -496,6 +558,7 @@ class PointFitter:
         self.base_cols, self.zs, self.names = design_columns(gear, basis, mom, zero, extra)
         p = len(self.names)
         self.dep = _dependent_columns(basis, extra)
+        self.dep_lo, self.dep_hi = declared_bounds([self.names[a] for a in self.dep], len(self.dep))
         xtx0, xty0 = _design(self.base_cols, self.zs, mom)
         smooth = _smoothing(basis.size, p, xtx0)
         q = mom.m.shape[1]
@@ -626,6 +689,10 @@ class PointFitter:
             rhs = c2 - a21 @ self.beta1                                                   # X2' r0
             s_inv = _inverses(s_mat)
             b2 = (s_inv @ rhs[:, :, None])[:, :, 0]
+            # the bushing's and the slipper's friction held to their physical ranges: with b1
+            # profiled out the penalized objective is b2' S b2 - 2 b2' rhs, and b1 and the RSS
+            # below follow from any b2
+            b2 = bounded_quadratic(s_mat, rhs, self.dep_lo, self.dep_hi, b2)
             b1 = self.beta1[None, :] - (b2[:, None, :] @ kt)[:, 0, :]
             r2_r0 = rhs - kt @ self.p1_beta1
             r2_r2 = a22 - a21k - (kt @ self.p1) @ kt.transpose(0, 2, 1)

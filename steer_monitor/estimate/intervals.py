@@ -44,6 +44,7 @@ class Interval:
     value: float
     lo: float | None
     hi: float | None
+    edge: str | None = None     # 'low' / 'high': the constrained fit stopped on that end of its physical range
 
     @property
     def one_sided(self) -> bool:
@@ -59,8 +60,11 @@ class Interval:
         no point estimate (the profile's best point on a plateau is any of its points)."""
         def r(v: float | None) -> float | None:
             return None if v is None else round(v * k, digits)
-        return {'value': None if self.one_sided else r(self.value), 'ci95': [r(self.lo), r(self.hi)],
-                'bounded': not self.one_sided}
+        out: dict[str, object] = {'value': None if self.one_sided else r(self.value), 'ci95': [r(self.lo), r(self.hi)],
+                                  'bounded': not self.one_sided}
+        if self.edge is not None:
+            out['at_range_edge'] = self.edge
+        return out
 
 
 def inflation(resid: NDArray[np.float64], t_ns: NDArray[np.int64], step_ns: int) -> float:
@@ -121,7 +125,8 @@ def profile_interval(axis: NDArray[np.float64], delta: NDArray[np.float64], thre
     return Interval(float(axis[best]), lo, hi)
 
 
-def plateau_interval(axis: NDArray[np.float64], delta: NDArray[np.float64]) -> Interval:
+def plateau_interval(axis: NDArray[np.float64], delta: NDArray[np.float64], threshold: float = CHI2_1_95,
+                     plateau_threshold: float = PLATEAU_THRESHOLD) -> Interval:
     """:func:`profile_interval` for a clearance whose profile ends in a plateau.
 
     Beyond the clearance that the largest load seen would close (the guide slipper never
@@ -139,14 +144,14 @@ def plateau_interval(axis: NDArray[np.float64], delta: NDArray[np.float64]) -> I
     """
     axis = np.asarray(axis, float)
     delta = np.asarray(delta, float)
-    iv = profile_interval(axis, delta)
+    iv = profile_interval(axis, delta, threshold)
     if delta.size < 3 or iv.hi is None:
         return iv
     flat = np.abs(delta - delta[-1]) <= PLATEAU_TOL
     start = delta.size - 1
     while start > 0 and flat[start - 1]:
         start -= 1
-    if start >= delta.size - 1 or delta[-1] > PLATEAU_THRESHOLD:
+    if start >= delta.size - 1 or delta[-1] > plateau_threshold:
         return iv
     lo = float(axis[start]) if iv.lo is None else min(iv.lo, float(axis[start]))
     return Interval(iv.value, lo, None)

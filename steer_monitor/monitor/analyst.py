@@ -165,6 +165,9 @@ class Analyst:
         self.model: tuple[Effect, ...] = ()         # the last loop's choice, as the job runner has it
         self.why: str | None = None                 # why the last job gave no finding
         self.motion_base_s = 0.0                    # motion counted before this run (a restart)
+        #: per clearance ('2z', 'zgb'), the last finding that assessed it (two-sided, from a
+        #: model that explains the data): (value, lo, hi [m], data time [ns])
+        self.assessed: dict[str, tuple[float, float, float, int]] = {}
         self.jobs_made = 0
 
     def add(self, name: str, t_ns: int, value: float) -> None:
@@ -191,6 +194,11 @@ class Analyst:
             self.why = outcome.why
             return None
         self.finding, self.why = outcome.finding, None
+        f = outcome.finding
+        if f.explained:
+            for key, iv in (('2z', f.two_z), ('zgb', f.z_gb)):
+                if iv.lo is not None and iv.hi is not None:
+                    self.assessed[key] = (float(iv.value), float(iv.lo), float(iv.hi), int(f.t_ns))
         return outcome.finding
 
     def restart_stream(self, motion_s: float) -> None:
@@ -207,7 +215,8 @@ class Analyst:
         meta = {'version': STATE_VERSION, 'gear': _gear_signature(self.gear),
                 'window_motion_s': self.settings.window_motion_s, 'motion_s': self.motion_base_s + motion_s,
                 'schedule': self.schedule.to_dict(), 'model': [e.to_json() for e in self.model],
-                'finding': None if self.finding is None else self.finding.to_json()}
+                'finding': None if self.finding is None else self.finding.to_json(),
+                'assessed': {k: list(v) for k, v in self.assessed.items()}}
         arrays: dict[str, np.ndarray] = {}
         for name, ser in self.buffer.signals().items():
             arrays[f't_{name}'], arrays[f'v_{name}'] = ser.t_ns, ser.value
@@ -244,6 +253,8 @@ class Analyst:
             model = tuple(Effect.from_json(e) for e in meta['model'])
             finding = None if meta['finding'] is None else Finding.from_json(meta['finding'])
             motion = float(meta['motion_s'])
+            assessed = {str(k): (float(v[0]), float(v[1]), float(v[2]), int(v[3]))
+                        for k, v in dict(meta.get('assessed') or {}).items() if k in ('2z', 'zgb')}
             if not (math.isfinite(motion) and motion >= 0):
                 msg = f'motion counted {motion!r} s'
                 raise ValueError(msg)
@@ -255,6 +266,7 @@ class Analyst:
         self.buffer.clear()
         self.buffer.load(signals)
         self.schedule, self.model, self.finding, self.motion_base_s = schedule, model, finding, motion
+        self.assessed = assessed
         return motion
 
 

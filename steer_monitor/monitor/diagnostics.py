@@ -36,8 +36,9 @@ from steer_monitor.model.inputs import PRESSURE_INPUTS, REQUIRED
 from steer_monitor.model.loadshare import load_sharing_at
 from steer_monitor.model.study import landmarks
 from steer_monitor.monitor.live import ARRIVALS_KEPT_NS, RATE_WINDOW_NS, LiveMonitor
-from steer_monitor.monitor.verdict import ERROR, OK, WARN, clearance_verdict
+from steer_monitor.monitor.verdict import ERROR, NOT_ASSESSED, OK, WARN, Verdict, clearance_verdict, worst
 from steer_monitor.params import ram_share_warn_from_params
+from steer_monitor.utc import utc_json
 
 __all__ = ['ERROR', 'OK', 'STALE', 'WARN', 'DiagnosticsBuilder', 'DiagnosticsConfig', 'Status']
 
@@ -187,61 +188,64 @@ class DiagnosticsBuilder:
         """The clearances in use, judged on their interval (:meth:`_clearances`)."""
         interval = mon.gaps_interval
         key = (mon.gaps, mon.gaps_source, None if interval is None else tuple(interval.items()),
-               tuple(mon.estimate_info.items()))
+               tuple(mon.estimate_info.items()), tuple(sorted(mon.last_assessed.items())))
         return self._memo('clearances', key, (mon.finding,), lambda: self._clearances(mon))
 
     def _clearances(self, mon: LiveMonitor) -> Status:
-        """Levels decided on the interval, not the point: ERROR when its lower end is past the
-        limit, WARN when its lower end passes the warn share of it, or when the point passes
-        the limit with an interval narrow enough to say so; an interval wider than the limit
-        itself that reaches from below the warn share to past the limit is too wide to judge:
-        OK, and the message says so.
-        Clearances not yet estimated are OK: the configured values are shown, not judged; so
-        are clearances from an analysis whose model does not explain the pressures ('not
-        judged: ...'; model health carries the WARN)."""
+        """Each clearance judged on its interval (:func:`~steer_monitor.monitor.verdict.clearance_verdict`):
+        OVER LIMIT (ERROR) when its lower end is past the limit, WARN when past the warning share,
+        OK when assessed and within limits, and NOT ASSESSED (STALE) when the data cannot say:
+        not estimated yet, a lower bound below the warning, an interval too wide to judge, or an
+        analysis whose model does not explain the pressures (model health carries that WARN).
+        A clearance not assessed now shows the last value that was, with its date."""
         cfg = self.cfg
         gaps = mon.gaps
         interval = mon.gaps_interval or {}
+        f = mon.finding
         values = [('clearance_source', mon.gaps_source)]
-        worst = OK
+        levels = []
         parts = []
-        for key, value, limit in (('2z', gaps.two_z, cfg.limit_2z), ('zgb', gaps.z_gb, cfg.limit_zgb)):
+        unexplained = f is not None and not f.explained
+        for k, (key, value, limit) in enumerate((('2z', gaps.two_z, cfg.limit_2z), ('zgb', gaps.z_gb, cfg.limit_zgb))):
             lo, hi = interval.get(key, (None, None)) if interval else (None, None)
             values += [(f'clearance_{key}_mm', f'{value * 1e3:.3f}'),
                        (f'clearance_{key}_lo_mm', _f(None if lo is None else lo * 1e3)),
                        (f'clearance_{key}_hi_mm', _f(None if hi is None else hi * 1e3)),
                        (f'limit_{key}_mm', f'{limit * 1e3:.3f}')]
             name = '2Z' if key == '2z' else 'Z_gb'
-            if not interval or lo is None:
-                parts.append(f'{name} {value * 1e3:.3f} mm ({value / limit:.0%} of limit)')
-                continue
-            v = clearance_verdict(value, lo, hi, limit, cfg.clearance_warn_share)
-            level = v.level
-            if hi is None:       # the data only bound it from below: judge the bound, say so
-                text = (f'{name} >= {lo * 1e3:.3f} mm (lower bound only: not reached at the loads seen; '
-                        f'{lo / limit:.0%} of limit)')
+            why = f.bound_why[k] if f is not None else ''
+            v = clearance_verdict(value, lo, hi, limit, cfg.clearance_warn_share, name, why)
+            if unexplained:
+                v = Verdict(NOT_ASSESSED, v.share, 'the model in use does not explain the pressures '
+                                                   f'(systematic part {f.systematic_bar:.2f} bar against '
+                                                   f'{f.noise_bar:.2f} bar of sensor noise; see model health)')
+            if lo is None:
+                text = f'{name} {value * 1e3:.3f} mm configured'
+            elif hi is None:
+                text = f'{name} >= {lo * 1e3:.3f} mm ({lo / limit:.0%} of limit)'
             else:
-                text = (f'{name} {value * 1e3:.3f} mm [{lo * 1e3:.3f} .. {hi * 1e3:.3f}] '
-                        f'({value / limit:.0%} of limit)')
-                if v.note:
-                    text += f': {v.note}'
+                text = f'{name} {value * 1e3:.3f} mm [{lo * 1e3:.3f} .. {hi * 1e3:.3f}] ({value / limit:.0%} of limit)'
+            text += f' {v.label}'
+            if v.note:
+                text += f': {v.note}'
+            last = mon.last_assessed.get(key)
+            if not v.assessed and last is not None:
+                lv, llo, lhi, lt = last
+                text += (f'; last assessed {lv * 1e3:.3f} mm [{llo * 1e3:.3f} .. {lhi * 1e3:.3f}] '
+                         f'on the data of {utc_json(lt)}')
+                values.append((f'clearance_{key}_last_assessed', f'{lv * 1e3:.3f} [{llo * 1e3:.3f} .. {lhi * 1e3:.3f}] '
+                                                                 f'{utc_json(lt)}'))
+            values.append((f'clearance_{key}_level', v.label))
             parts.append(text)
-            worst = max(worst, level)
-        f = mon.finding
+            levels.append(v.level)
+        worst_level = worst(levels)
+        message = '; '.join(parts) + f' [{mon.gaps_source}]'
         if not mon.gaps_interval:
             values.append(('clearance_interval', 'none: configured values, not estimated'))
-            message = 'not yet estimated; configured ' + '; '.join(parts)
-        elif f is not None and not f.explained:
-            worst = OK
-            message = (f"not judged: the model in use does not explain the pressures (systematic part "
-                       f"{f.systematic_bar:.2f} bar against {f.noise_bar:.2f} bar of sensor noise; see model health); "
-                       f"{'; '.join(parts)} [{mon.gaps_source}]")
-        else:
-            message = f"{'; '.join(parts)} [{mon.gaps_source}]"
         if f is not None:
             values.append(('judged', 'yes' if f.explained else 'no: the model does not explain the pressures'))
         values += sorted(mon.estimate_info.items())
-        return self._status('clearances', worst, message, values)
+        return self._status('clearances', worst_level, message, values)
 
     def guide_beam(self, mon: LiveMonitor) -> Status:
         onset = self.guide_onset_deg(mon.gaps)

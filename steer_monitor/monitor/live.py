@@ -422,6 +422,9 @@ class LiveMonitor:
         #: the analysis the model in use comes from (None: the configured model); its effects
         #: and their coefficients, and how much later it reads the angle [ns]
         self.finding: Finding | None = None
+        #: per clearance ('2z', 'zgb'), the last estimate that assessed it: (value, lo, hi [m],
+        #: the data's time [ns]); kept by the analyses' state across restarts
+        self.last_assessed: dict[str, tuple[float, float, float, int]] = {}
         self._effects: tuple[Effect, ...] = ()
         self._terms: dict[str, float] = {}
         self._shape: FrictionParams | None = None

@@ -180,6 +180,7 @@ class Pipeline:
         self._pending: deque[tuple[int, object]] = deque()   # (due, job handle)
         if analyst is not None and analyst.finding is not None:
             monitor.set_finding(analyst.finding)
+            monitor.last_assessed = dict(analyst.assessed)
         self.frames = 0
         self.last_changed_state = False        # the last frame fed changed the live model's state
 
@@ -452,6 +453,7 @@ class Pipeline:
         finding = self.analyst.take(outcome)
         if finding is not None:
             self.monitor.set_finding(finding)
+            self.monitor.last_assessed = dict(self.analyst.assessed)
 
     def diagnostics_now(self, now_ns: int) -> DiagOut:
         """Diagnostics at ``now_ns`` with the clearances then in use. Each whole second takes

@@ -1,26 +1,61 @@
-"""A clearance's verdict from its estimate and interval, as the live diagnostics and the
-report both judge it. Pure.
+"""A clearance's verdict from its estimate and interval, as the live diagnostics, ``analyze``,
+the report and the fleet all judge it. Pure.
 
-ERROR (OVER LIMIT) when the interval's low end is past the limit; WARN when the low end
-passes ``warn_share`` of the limit, or the point passes the limit with an interval narrow
-enough to say so; OK otherwise. An interval wider than the limit itself that reaches from
-below the warning to past the limit is too wide to judge yet: OK, and the text says so.
+OK means *assessed and within limits*; nothing else reads OK:
+
+* OVER LIMIT (ERROR) when the interval's low end is past the limit (a lower bound past it too);
+* WARN when the low end passes ``warn_share`` of the limit (a lower bound too: the clearance is
+  at least that), or the point passes the limit with an interval narrow enough to say so;
+* NOT ASSESSED (REP-107's STALE: no current knowledge) when the data cannot say whether it is
+  within limits: no estimate yet, a lower bound below the warning (the contact never showed
+  at the loads seen), an interval wider than the limit reaching from below the warning to
+  past the limit, or a model that does not explain the pressures. The note says why and what
+  would assess it;
+* OK otherwise.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 
-__all__ = ['ERROR', 'OK', 'WARN', 'Verdict', 'clearance_verdict']
+__all__ = ['ERROR', 'LABELS', 'NOT_ASSESSED', 'OK', 'WARN', 'Verdict', 'assess_hint', 'clearance_verdict', 'worst']
 
 OK, WARN, ERROR = 0, 1, 2      # REP-107's levels (diagnostic_msgs/DiagnosticStatus); the diagnostics use them
-LABELS = {OK: 'OK', WARN: 'WARN', ERROR: 'OVER LIMIT'}
+NOT_ASSESSED = 3               # REP-107's STALE: the data do not tell
+LABELS = {OK: 'OK', WARN: 'WARN', ERROR: 'OVER LIMIT', NOT_ASSESSED: 'NOT ASSESSED'}
+#: from the least to the most serious: a clearance not assessed is worse than one known fine,
+#: never worse than one known worn
+SEVERITY = (OK, NOT_ASSESSED, WARN, ERROR)
+
+#: what a ship's crew can do to assess a clearance the data have not shown
+HINTS = {
+    '2Z': 'a hard-over at sea speed would clamp the ram in its bushing and show it',
+    'Z_gb': 'a hard-over at sea speed would load the guide beam and show it',
+}
+
+
+#: why a clearance is a lower bound only when the estimate gives no reason of its own
+NEVER = {
+    '2Z': 'the ram never clamped in its bushing at the loads seen',
+    'Z_gb': 'the guide beam never carried load at the loads seen',
+}
+
+
+def assess_hint(name: str) -> str:
+    """The manoeuvre that would assess clearance ``name`` ('2Z' or 'Z_gb')."""
+    return HINTS.get(name, 'a hard-over at sea speed would show it')
+
+
+def worst(levels: Iterable[int]) -> int:
+    """The most serious of ``levels`` (:data:`SEVERITY`); OK for none."""
+    return max(levels, key=SEVERITY.index, default=OK)
 
 
 @dataclass(frozen=True)
 class Verdict:
-    """``level`` (OK, WARN, ERROR), its ``label`` for people, the point's share of the limit
-    and a ``note`` ('' or why it is not judged further)."""
+    """``level`` (OK, WARN, ERROR, NOT_ASSESSED), its ``label`` for people, the point's share
+    of the limit (NaN without a point) and a ``note`` ('' or why it is not judged further)."""
 
     level: int
     share: float
@@ -30,23 +65,33 @@ class Verdict:
     def label(self) -> str:
         return LABELS[self.level]
 
+    @property
+    def assessed(self) -> bool:
+        return self.level != NOT_ASSESSED
+
 
 def clearance_verdict(value: float, lo: float | None, hi: float | None, limit: float,
-                      warn_share: float) -> Verdict:
+                      warn_share: float, name: str = '', why: str = '') -> Verdict:
     """The verdict on a clearance ``value`` [m] with interval [``lo``, ``hi``] (``hi`` None:
-    a lower bound only; ``lo`` None: not estimated, the value is configured, not judged)."""
+    a lower bound only; ``lo`` None: not estimated, the value is configured). ``name`` ('2Z'
+    or 'Z_gb') chooses the hint of what would assess it; ``why``: the estimate's own reason
+    for a lower bound, when it has one."""
     share = value / limit
+    hint = assess_hint(name)
     if lo is None:
-        return Verdict(OK, share, 'not estimated: configured value, not judged')
+        return Verdict(NOT_ASSESSED, share, f'not estimated yet (the configured value is shown); {hint}')
     warn = warn_share * limit
     too_wide = hi is not None and lo < warn and hi > limit and hi - lo > limit
     if lo > limit:
-        return Verdict(ERROR, share, '')
+        return Verdict(ERROR, share, '' if hi is not None else 'lower bound past the limit')
+    if hi is None:
+        if lo >= warn:
+            return Verdict(WARN, share, 'lower bound past the warning')
+        reason = why or NEVER.get(name, 'the contact did not show at the loads seen')
+        return Verdict(NOT_ASSESSED, share, f'lower bound only ({reason}); {hint}')
     if lo >= warn or (value > limit and not too_wide):
         return Verdict(WARN, share, '')
     if too_wide:
-        return Verdict(OK, share, 'the interval, wider than the limit, reaches from below the warning to past '
-                                  'it: too wide to judge yet')
-    if hi is None:
-        return Verdict(OK, share, 'lower bound only: not reached at the loads seen')
+        return Verdict(NOT_ASSESSED, share, 'the interval, wider than the limit, reaches from below the warning to '
+                                            f'past it; {hint}')
     return Verdict(OK, share, '')

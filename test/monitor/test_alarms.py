@@ -5,6 +5,7 @@ and the faults still found (a worn gear, an undeclared friction)."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -17,7 +18,7 @@ from steer_monitor.model import Gaps
 from steer_monitor.model.friction import FrictionParams
 from steer_monitor.model.inputs import Sample
 from steer_monitor.monitor import ERROR, OK, WARN, DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
-from steer_monitor.monitor.diagnostics import LEVEL_NAMES
+from steer_monitor.monitor.diagnostics import LEVEL_NAMES, STALE
 from steer_monitor.monitor.live import REVERSAL_NS
 from steer_monitor.monitor.pipeline import DiagOut, Pipeline, analyst_from_params
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
@@ -55,7 +56,8 @@ def test_no_alarm_on_a_clean_plant_in_any_programme(r18_params, can_db):
     statuses = _replay(r18_params, can_db, EVERY_PROGRAMME, (0.45, 0.12), 11)
     assert len(statuses) > 5 * 3600
     fresh = next(t for t, st in statuses if st.name.endswith('CAN input') and st.level == OK)
-    alarms = [(round(t), st.name, LEVEL_NAMES[st.level], st.message) for t, st in statuses if t >= fresh and st.level]
+    alarms = [(round(t), st.name, LEVEL_NAMES[st.level], st.message) for t, st in statuses
+              if t >= fresh and st.level in (WARN, ERROR)]
     assert alarms == []
     names = {st.name for _, st in statuses}
     assert names == {'steer_monitor: CAN input', 'steer_monitor: clearances', 'steer_monitor: guide beam',
@@ -69,15 +71,15 @@ def test_no_clearance_alarm_whatever_the_effect(r18_params, can_db, effect):
     one effect the declared model lacks, each of the library's and one outside it: no clearance
     WARN or ERROR once the inputs are fresh. With a library effect nothing alarms at all (the
     analysis names it); with one outside it, model health carries the WARN and the clearances
-    say they are not judged."""
+    say they are not assessed."""
     statuses = _replay(r18_params, can_db, 'realistic:1500', (0.33, 0.135), 29, effects=[effect])
     fresh = next(t for t, st in statuses if st.name.endswith('CAN input') and st.level == OK)
-    alarms = {(st.name, LEVEL_NAMES[st.level]) for t, st in statuses if t >= fresh and st.level}
+    alarms = {(st.name, LEVEL_NAMES[st.level]) for t, st in statuses if t >= fresh and st.level in (WARN, ERROR)}
     clearances = [st for _, st in statuses if st.name.endswith('clearances')]
     assert clearances[-1].value('clearance_source') == 'estimated'
     if effect in sim.OUTSIDE_LIBRARY:
         assert alarms == {('steer_monitor: model health', 'WARN')}
-        assert clearances[-1].message.startswith('not judged: the model in use does not explain the pressures')
+        assert 'NOT ASSESSED: the model in use does not explain the pressures' in clearances[-1].message
     else:
         assert alarms == set()
         health = [st for _, st in statuses if st.name.endswith('model health')]
@@ -198,11 +200,14 @@ MM = 1e-3
     (0.10, (0.05, 0.15), OK, 'Z_gb 0.100 mm [0.050 .. 0.150] (40% of limit)'),
     (0.22, (0.20, 0.24), WARN, 'Z_gb 0.220 mm [0.200 .. 0.240] (88% of limit)'),          # low end at 80 %
     (0.28, (0.26, 0.30), ERROR, 'Z_gb 0.280 mm [0.260 .. 0.300] (112% of limit)'),
-    (0.35, (0.113, 0.429), OK, 'too wide to judge yet'),                                  # the issue's case
+    (0.35, (0.113, 0.429), STALE, 'NOT ASSESSED: the interval, wider than the limit, reaches from below'),
     (0.35, (0.21, 0.43), WARN, 'Z_gb 0.350 mm [0.210 .. 0.430] (140% of limit)'),
     (0.30, (0.19, 0.31), WARN, '(120% of limit)'),                # the point past the limit, judgeable
-    (0.10, (0.10, None), OK, 'Z_gb >= 0.100 mm (lower bound only'),
-    (0.30, (0.26, None), ERROR, 'Z_gb >= 0.260 mm (lower bound only'),
+    (0.10, (0.10, None), STALE, 'Z_gb >= 0.100 mm (40% of limit) NOT ASSESSED: lower bound only (the guide beam '
+                                'never carried load at the loads seen); a hard-over at sea speed would load the guide '
+                                'beam and show it'),
+    (0.22, (0.21, None), WARN, 'Z_gb >= 0.210 mm (84% of limit) WARN: lower bound past the warning'),
+    (0.30, (0.26, None), ERROR, 'Z_gb >= 0.260 mm (104% of limit) OVER LIMIT'),
 ])
 def test_clearance_levels_on_the_interval(builder, mon, zgb, interval, level, text):
     lo, hi = interval
@@ -253,11 +258,34 @@ def test_rams_levels(builder, mon, n, carries, amplitude, level, text):
     assert st.value('ram_share_instants') == str(n)
 
 
-def test_configured_clearances_are_shown_not_judged(builder, mon):
+def test_configured_clearances_are_shown_not_assessed(builder, mon):
+    """Before any analysis the clearances are not assessed (STALE), never OK."""
     mon.set_gaps(Gaps(0.7 * MM, 0.3 * MM), 'configured')
     st = builder.clearances(mon)
-    assert st.level == OK
-    assert st.message == 'not yet estimated; configured 2Z 0.700 mm (117% of limit); Z_gb 0.300 mm (120% of limit)'
+    assert st.level == STALE
+    assert st.message.startswith('2Z 0.700 mm configured NOT ASSESSED: not estimated yet (the configured value is '
+                                 'shown); a hard-over at sea speed would clamp the ram in its bushing and show it; '
+                                 'Z_gb 0.300 mm configured NOT ASSESSED'), st.message
+    assert st.value('clearance_zgb_level') == 'NOT ASSESSED'
+
+
+def test_a_clearance_not_assessed_now_shows_the_last_one_assessed(builder, mon):
+    mon.set_finding(_finding(Interval(0.3 * MM, 0.2 * MM, None), Interval(0.1 * MM, 0.0, None)))
+    mon.last_assessed = {'zgb': (0.21 * MM, 0.2 * MM, 0.22 * MM, T0 - 86_400_000_000_000)}
+    st = builder.clearances(mon)
+    assert st.level == STALE
+    assert 'Z_gb >= 0.000 mm (0% of limit) NOT ASSESSED' in st.message
+    assert 'last assessed 0.210 mm [0.200 .. 0.220] on the data of ' in st.message
+    assert st.value('clearance_zgb_last_assessed').startswith('0.210 [0.200 .. 0.220]')
+    assert 'clearance_2z_last_assessed' not in dict(st.values)
+
+
+def test_a_lower_bound_for_want_of_evidence_says_why(builder, mon):
+    f = _finding(Interval(0.3 * MM, 0.25 * MM, 0.35 * MM), Interval(0.27 * MM, 0.15 * MM, None))
+    mon.set_finding(replace(f, bound_why=('', 'the guide beam carried load in 0.7% of the steady motion at the '
+                                              'estimate, too little to place a contact')))
+    st = builder.clearances(mon)
+    assert st.level == STALE and 'in 0.7% of the steady motion' in st.message
 
 
 def test_guide_idle_judged_on_the_estimate_and_its_interval(builder, mon):
@@ -430,13 +458,13 @@ def test_a_ram_read_the_wrong_way_round_is_an_error_naming_the_map(builder, mon)
         'or pressure_r2_stbd and pressure_r2_port swapped in the signals map'), st.message
 
 
-def test_clearances_of_a_model_that_does_not_explain_the_data_are_not_judged(builder, mon):
-    """Past the limit, but from a model the pressures do not fit: the clearances say 'not
-    judged' at OK, and model health carries the WARN with what is left."""
+def test_clearances_of_a_model_that_does_not_explain_the_data_are_not_assessed(builder, mon):
+    """Past the limit, but from a model the pressures do not fit: the clearances are not
+    assessed (STALE), and model health carries the WARN with what is left."""
     mon.set_finding(_finding(Interval(0.4 * MM, 0.3 * MM, 0.5 * MM), Interval(0.3 * MM, 0.28 * MM, 0.32 * MM),
                              'unexplained'))
     st = builder.clearances(mon)
-    assert st.level == OK and st.message.startswith('not judged: the model in use does not explain the pressures')
+    assert st.level == STALE and 'NOT ASSESSED: the model in use does not explain the pressures' in st.message
     assert 'Z_gb 0.300 mm [0.280 .. 0.320]' in st.message and st.value('judged').startswith('no')
     health = builder.model_health(mon)
     assert health.level == WARN and health.value('analysis_verdict') == 'unexplained'

@@ -87,10 +87,11 @@ def test_statuses_named_and_levelled(r18_params, can_db):
     assert all(s.hardware_id == 'R-18 steering gear' for s in statuses)
     assert by['steer_monitor: CAN input'].level == OK
     assert float(by['steer_monitor: CAN input'].value('pressure_r1_stbd_rate_hz')) == pytest.approx(20, abs=0.5)
-    # Configured clearances (at the wear limits here) are shown, not judged: not estimated yet.
+    # Configured clearances (at the wear limits here) are shown, not assessed: not estimated yet.
     cl = by['steer_monitor: clearances']
-    assert cl.level == OK and cl.value('clearance_zgb_mm') == '0.250' and cl.value('clearance_source') == 'configured'
-    assert cl.message.startswith('not yet estimated; configured 2Z 0.600 mm (100% of limit)')
+    assert cl.level == STALE and cl.value('clearance_zgb_mm') == '0.250'
+    assert cl.value('clearance_source') == 'configured'
+    assert cl.message.startswith('2Z 0.600 mm configured NOT ASSESSED: not estimated yet')
     assert cl.value('clearance_2z_lo_mm') == 'n/a'
     gb = by['steer_monitor: guide beam']
     assert gb.level == OK and float(gb.value('guide_onset_deg')) == pytest.approx(10.0, abs=0.1)

@@ -258,7 +258,7 @@ def _verdict_block(inp: ReportInput) -> str:
         name, iv, limit = h.name, h.estimate, h.limit
         if iv is None:
             boxes.append(f'<div class="box NONE" id="verdict-{name}"><h2>{name} ({what[name]})</h2>'
-                         f'<div class="big">NOT ESTIMATED</div><div>{esc(inp.analysis_note or h.note)}</div></div>')
+                         f'<div class="big">{NOT_JUDGED}</div><div>{esc(inp.analysis_note or h.note)}</div></div>')
             continue
         if iv.hi is None:
             point = f'at least {iv.lo * 1e3:.3f} mm ({iv.lo / limit:.0%} of the {limit * 1e3:.3f} mm limit)'
@@ -271,7 +271,7 @@ def _verdict_block(inp: ReportInput) -> str:
         css = 'NONE' if h.level == NOT_JUDGED else h.level.split()[0]
         boxes.append(f'<div class="box {css}" id="verdict-{name}"><h2>{name} ({what[name]})</h2>'
                      f'<div class="big">{h.level.upper()}</div><div>{esc(point)}</div><div>{esc(rng)}</div>'
-                     + (f'<div>{esc(h.note)}</div>' if h.note and iv.hi is not None else '') + '</div>')
+                     + (f'<div>{esc(h.note)}</div>' if h.note else '') + '</div>')
     span = (f'{_utc(int(r.t_ns[0]))} to {_utc(int(r.t_ns[-1]))}' if len(r.t_ns) else 'no rudder angle')
     prov = (f'{esc(inp.gear_name)} gear; data {esc(span)}; parameters {esc(inp.config or "(packaged)")} '
             f'(SHA-256 {esc(inp.parameters_sha256[:12])}); steer_monitor {esc(__version__)}. '
