@@ -25,7 +25,7 @@ from steer_monitor.atomic import check_target, write_text
 from steer_monitor.can.busconfig import can_setup
 from steer_monitor.cli.options import add_config_option, add_force_option, add_json_option
 from steer_monitor.cli.output import check_json_target, emit_json, json_to_stdout
-from steer_monitor.errors import ParameterError
+from steer_monitor.errors import ParameterError, SteerMonitorError
 from steer_monitor.params import load_params_file
 from steer_monitor.resources import default_config
 from steer_monitor.studies import accuracy as A
@@ -63,6 +63,17 @@ def _cov(g: dict[str, Any]) -> str:
         return '-'
     lo, hi = g['coverage_ci95']
     return f"{g['coverage']:.2f} ({g['cases']}; {lo:.2f}-{hi:.2f})"
+
+
+def _effects_of(results: Sequence[A.CaseResult]) -> list[str]:
+    return sorted({e for r in results for e in r.case.effects})
+
+
+def _coverage_row(q: str, g: dict[str, Any]) -> str:
+    lo, hi = g['two_sided_coverage_ci95']
+    held = f"{g['two_sided_coverage']:.3f} ({lo:.2f}-{hi:.2f})" if g['two_sided'] else '-'
+    return (f"| {q} | {g['two_sided']} | {held} | {g['lower_bounds']} | {g['lower_bounds_holding']} "
+            f"| {g['not_determined']} | {_num(g['median_width'], '.4g')} |")
 
 
 def _num(x: float, fmt: str) -> str:
@@ -168,12 +179,27 @@ def markdown(results: Sequence[A.CaseResult], summary: dict[str, Any], command: 
         '',
         'Helm programmes: ' + '; '.join(f'**{p}** = `{A.PROGRAMMES[p]}`' for p in progs) + '.',
         '',
+        *([f'Here each log carries one undeclared effect in turn ({", ".join(_effects_of(results))}), so '
+           '"declared" below is not the right answer: the effect should be named.', '']
+          if any(r.case.effects for r in results) else []),
         '*Coverage* is the share of logs whose 95 % interval holds the true value (honest intervals: '
         'about 0.95); in brackets the number of logs and the Wilson 95 % interval of that share. '
         '2Z is identifiable only where the ram clamps in its bushing at the loads of the log '
         '(the slope of the ram reaches 2Z / l_s); the "clamped" columns are the logs where the true ram '
         'was clamped during at least 5 % of the rudder\'s motion, and for the others the question is '
         'whether the reported lower bound stays at or below the truth.',
+        '',
+        '## Coverage per quantity',
+        '',
+        'Over all logs: how many 95 % intervals were two-sided and how many of them held the truth '
+        '(Wilson 95 % interval of the share), how many were a lower bound only and how many of those '
+        'were at or below the truth, how many quantities were not determined (a friction no row loads), '
+        'and the median width of the two-sided intervals.',
+        '',
+        '| quantity | two-sided intervals | holding the truth | lower bounds | at or below the truth '
+        '| not determined | median width |',
+        '|---|---:|---:|---:|---:|---:|---:|',
+        *(_coverage_row(q, summary['all'][q]) for q in A.QUANTITIES),
         '',
         '## Clearances',
         '',
@@ -244,7 +270,8 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
         grid_2z_mm: Sequence[float] = A.GRID_2Z_MM, grid_zgb_mm: Sequence[float] = A.GRID_ZGB_MM,
         seeds: int = 1, jobs: int | None = None, out_md: str | Path | None = 'docs/accuracy.md',
         json_out: str | Path | None = None, command: str = 'steer-monitor accuracy',
-        out: TextIO | None = None, sensitivity_seeds: int = 0, long_seeds: int = 0, off_grid: int = 0) -> int:
+        out: TextIO | None = None, sensitivity_seeds: int = 0, long_seeds: int = 0, off_grid: int = 0,
+        first_seed: int | None = None, effects: Sequence[str] = ()) -> int:
     out = out or sys.stdout
     if off_grid < 0:
         msg = f'--off-grid must be 0 or more, got {off_grid}'
@@ -262,13 +289,22 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
         msg = f'--jobs must be at least 1, got {jobs}'
         raise ParameterError(msg)
     try:
-        todo = (A.off_grid_cases(programmes, off_grid) if off_grid
-                else A.cases(programmes, grid_2z_mm, grid_zgb_mm, seeds))
+        if effects and not off_grid:
+            msg = '--effects needs --off-grid (the grid study is of the clean plant)'
+            raise ValueError(msg)
+        for e in effects:
+            A.sim.parse_effect(e)
+        todo = (A.off_grid_cases(programmes, off_grid, **({} if first_seed is None else {'first_seed': first_seed}),
+                                 effects=tuple(effects)) if off_grid
+                else A.cases(programmes, grid_2z_mm, grid_zgb_mm, seeds,
+                             **({} if first_seed is None else {'first_seed': first_seed})))
         n_clean = len(todo)
-        sens_todo = A.sensitivity_cases(sensitivity_seeds) if sensitivity_seeds else []
+        sens_todo = (A.sensitivity_cases(sensitivity_seeds, **({} if first_seed is None else
+                                                              {'first_seed': first_seed + 10_000}))
+                     if sensitivity_seeds else [])
         long_effects, long_clean = A.long_voyage_cases(long_seeds) if long_seeds else ([], [])
         todo += sens_todo + long_effects + long_clean
-    except ValueError as exc:
+    except (ValueError, SteerMonitorError) as exc:
         raise ParameterError(str(exc)) from None
     config_path = str(config or default_config())
     params = load_params_file(config_path)
@@ -361,6 +397,14 @@ def register(sub: argparse._SubParsersAction) -> None:
                    _parse_grid(a.grid_2z_mm, A.GRID_2Z_MM, '--grid-2z-mm'),
                    _parse_grid(a.grid_zgb_mm, A.GRID_ZGB_MM, '--grid-zgb-mm'),
                    a.seeds, a.jobs, a.out, a.json_out, command='steer-monitor accuracy ' + ' '.join(sys.argv[2:]),
-                   sensitivity_seeds=a.sensitivity_seeds, off_grid=a.off_grid, long_seeds=a.long_seeds)
+                   sensitivity_seeds=a.sensitivity_seeds, off_grid=a.off_grid, long_seeds=a.long_seeds,
+                   first_seed=a.first_seed, effects=[x.strip() for x in a.effects.split(',') if x.strip()])
+    p.add_argument('--first-seed', type=int, metavar='S',
+                   help='the first seed: of the grid (default 1), of the off-grid draws (default 9001); the '
+                        'sensitivity study from S + 10000 (default 5001). A study meant to prove something runs on '
+                        'seeds its author used for no choice')
+    p.add_argument('--effects', default='', metavar='NAME[:k=v],...',
+                   help='with --off-grid: each log carries one of these undeclared effects in turn (default: none, '
+                        'the clean plant)')
     add_force_option(p)
     p.set_defaults(handler=handler)

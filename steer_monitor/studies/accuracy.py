@@ -223,12 +223,13 @@ def cases(programmes: Iterable[str], grid_2z_mm: Sequence[float] = GRID_2Z_MM,
 
 def off_grid_cases(programmes: Iterable[str], n: int, first_seed: int = 9001,
                    range_2z_mm: tuple[float, float] = (0.1, 0.6),
-                   range_zgb_mm: tuple[float, float] = (0.05, 0.35)) -> list[Case]:
+                   range_zgb_mm: tuple[float, float] = (0.05, 0.35), effects: Sequence[str] = ()) -> list[Case]:
     """``n`` logs per programme whose true clearances are drawn uniformly over the study's
     ranges (to 0.1 um), so they fall between the estimator's grid points as real clearances
     do: the grid study's all lie on them (0.02 mm steps of 2Z, 0.005 mm of Z_gb). The draws
     come from ``first_seed``, 2Z then Z_gb for each log in turn, the log's seed counting on
-    from it; each programme draws the same clearances."""
+    from it; each programme draws the same clearances. ``effects`` (``--effect`` texts): log
+    k carries the k-th of them, in turn (none: the clean plant)."""
     out: list[Case] = []
     for p in programmes:
         programme_text(p)
@@ -236,7 +237,7 @@ def off_grid_cases(programmes: Iterable[str], n: int, first_seed: int = 9001,
         for k in range(n):
             tz = round(float(rng.uniform(*range_2z_mm)), 4)
             zg = round(float(rng.uniform(*range_zgb_mm)), 4)
-            out.append(Case(p, tz, zg, first_seed + k))
+            out.append(Case(p, tz, zg, first_seed + k, (effects[k % len(effects)],) if effects else ()))
     return out
 
 
@@ -452,7 +453,18 @@ def _errors(results: Sequence[CaseResult], q: str) -> dict[str, Any]:
     hits = sum(r.covered(q) for r in results)
     lo, hi = coverage_interval(hits, len(results))
     d, sd = DECIMALS[q], SHARE_DECIMALS
+    two = [r for r in results if r.two_sided(q)]
+    two_hits = sum(r.covered(q) for r in two)
+    bounds = [r for r in results if r.ci95[q][0] is not None and r.ci95[q][1] is None]
+    widths = [r.ci95[q][1] - r.ci95[q][0] for r in two]       # type: ignore[operator]
     return {
+        'two_sided': len(two),
+        'two_sided_coverage': round(two_hits / len(two), sd) if two else math.nan,
+        'two_sided_coverage_ci95': [round(x, sd) for x in coverage_interval(two_hits, len(two))],
+        'lower_bounds': len(bounds),
+        'lower_bounds_holding': sum(r.covered(q) for r in bounds),
+        'not_determined': sum(r.ci95[q][0] is None and r.ci95[q][1] is None for r in results),
+        'median_width': round(float(np.median(widths)), d) if widths else math.nan,
         'cases': len(results),
         'bias': round(float(err.mean()), d) if err.size else math.nan,
         'rms_error': round(float(np.sqrt(np.mean(err ** 2))), d) if err.size else math.nan,

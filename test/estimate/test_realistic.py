@@ -125,7 +125,7 @@ def test_unphysical_stribeck_is_refused_with_its_reason(r18, simulate_signals):
 
 @pytest.mark.parametrize('effect, coef', sorted(SIGNS))
 def test_refusal_names_each_unphysical_sign(effect, coef):
-    assert refusal(effect, {coef: 1.0}) is None
+    assert refusal(effect, {coef: 1e-3}) is None
     text = refusal(effect, {coef: -2.5})
     assert text is not None and text.startswith('refused: ') and f'{coef} = -2.5' in text
     assert refusal('pressure_offset', {'offset_ram1_n': -1e3}) is None      # a sign of no physics
