@@ -34,13 +34,14 @@ import errno
 import os
 import re
 import stat
+import subprocess
 import time
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import IO, Any
 
 from steer_monitor.errors import OutputError
-from steer_monitor.resources import config_dirs
+from steer_monitor.resources import config_dirs, source_dirs
 
 __all__ = [
     'STALE_AFTER_S',
@@ -138,6 +139,11 @@ def _protected(target: Path, inputs: Iterable[str | Path | None]) -> str | None:
     for source in [*inputs, *(scope.inputs if scope is not None else ())]:
         if source is not None and _same_file(target, Path(source)):
             return f'it is the input {source}'
+    if not is_stream(target):
+        with contextlib.suppress(OSError, ValueError):
+            why = _in_source(Path(os.path.realpath(target.parent)) / target.name)
+            if why is not None:
+                return why
     try:
         if not target.is_file():
             return None
@@ -149,6 +155,36 @@ def _protected(target: Path, inputs: Iterable[str | Path | None]) -> str | None:
             if real.is_relative_to(Path(os.path.realpath(directory))):
                 return f'it is a file of the installed package ({directory})'
     return None
+
+
+#: files of a source checkout a command never writes over unasked, where git cannot say what it tracks
+_SOURCE_PARTS = frozenset({'docs', 'config', 'test', 'bench', 'launch', 'resource', 'systemd', '.ci', 'steer_monitor'})
+_SOURCE_SUFFIXES = frozenset({'.md', '.py', '.txt', '.xml', '.cfg', '.toml', '.yaml', '.yml', '.json'})
+
+
+def _in_source(where: Path) -> str | None:
+    """Why ``where`` (resolved) is the package's or its source checkout's own (None: it is not):
+    anything inside the package, and in a checkout (an editable install) a file git tracks
+    there (without git: an existing file of its source folders or a top-level source file)."""
+    dirs = source_dirs()
+    pkg = Path(os.path.realpath(dirs[0]))
+    if where.is_relative_to(pkg):
+        return f'it is inside the installed steer_monitor package ({dirs[0]})'
+    if len(dirs) < 2:
+        return None
+    root = Path(os.path.realpath(dirs[1]))
+    if not where.is_relative_to(root) or not where.is_file():
+        return None
+    rel = where.relative_to(root)
+    tracked: bool | None = None
+    with contextlib.suppress(OSError, subprocess.SubprocessError):
+        done = subprocess.run(['git', '-C', str(root), 'ls-files', '--error-unmatch', '--', str(rel)],
+                              capture_output=True, timeout=10, check=False)
+        tracked = done.returncode == 0 if done.returncode in (0, 1) else None
+    if tracked is None:
+        tracked = rel.parts[0] in _SOURCE_PARTS or (len(rel.parts) == 1 and (
+            rel.suffix in _SOURCE_SUFFIXES or rel.name == 'Makefile'))
+    return f'it is a file of the steer_monitor source checkout ({root})' if tracked else None
 
 
 def _resolved(path: str | Path) -> Path:

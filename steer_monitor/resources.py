@@ -7,7 +7,7 @@ from pathlib import Path
 
 from steer_monitor.errors import ParameterError
 
-__all__ = ['config_dir', 'config_dirs', 'default_config']
+__all__ = ['config_dir', 'config_dirs', 'default_config', 'source_dirs']
 
 PACKAGE = 'steer_monitor'
 
@@ -25,6 +25,18 @@ def _candidates() -> list[Path]:
     found.append(Path(sys.prefix) / 'share' / PACKAGE / 'config')  # pip install
     found.append(Path(__file__).resolve().parent.parent / 'config')  # source tree / editable
     return found
+
+
+def source_dirs() -> list[Path]:
+    """The installed package's own directory and, when it runs from a source checkout (an
+    editable install: ``package.xml`` and ``setup.py`` beside it), the checkout: no command
+    writes into them unasked, whatever its default output."""
+    pkg = Path(__file__).resolve().parent
+    root = pkg.parent
+    out = [pkg]
+    if (root / 'package.xml').is_file() and (root / 'setup.py').is_file():
+        out.append(root)
+    return out
 
 
 def config_dirs() -> list[Path]:

@@ -278,3 +278,23 @@ def test_a_link_is_written_through_and_stays_a_link(tmp_path):
     write_files({dangling: b'made'})
     assert dangling.is_symlink() and (tmp_path / 'runs' / 'b.json').read_bytes() == b'made'
     assert sorted(p.name for p in (tmp_path / 'runs').iterdir()) == ['a.json', 'b.json']
+
+
+def test_no_command_writes_over_the_repository_or_into_the_package(capsys):
+    """A study's default output once replaced docs/accuracy.md (127 lines became 33): a file the
+    source checkout tracks, and anything inside the package, is written only with --force."""
+    from steer_monitor.atomic import check_target
+    from steer_monitor.cli.main import main
+    from steer_monitor.errors import OutputError
+    from steer_monitor.resources import source_dirs
+
+    root = source_dirs()[-1]
+    for target in (root / 'docs' / 'accuracy.md', root / 'README.md'):
+        if target.is_file():
+            with pytest.raises(OutputError, match='it is a file of the steer_monitor source checkout'):
+                check_target(target)
+    with pytest.raises(OutputError, match='it is inside the installed steer_monitor package'):
+        check_target(source_dirs()[0] / 'new_output.log')
+    before = (root / 'README.md').read_bytes()
+    assert main(['accuracy', '--off-grid', '1', '--programmes', 'manoeuvres', '--out', str(root / 'README.md')]) == 1
+    assert 'cannot write' in capsys.readouterr().err and (root / 'README.md').read_bytes() == before

@@ -67,11 +67,38 @@ class Voyage:
     by_motion: list = None           # each finding applied: (motion analysed [s], Z_gb held, within 0.03 mm)
     false_alarms: int = 0            # clearance WARN/ERROR seconds while the truth is under the warn share
     alarms: int = 0
+    not_assessed: int = 0            # estimated seconds the clearances status said NOT ASSESSED
     first_estimated_motion_s: float = math.nan
+    # per quantity, over the findings applied and for the last: [two-sided, two-sided holding the
+    # truth, lower bounds, lower bounds at or below the truth]
+    per_finding: dict = None
+    per_last: dict = None
 
 
 def _holds(lo: float | None, hi: float | None, truth: float) -> bool:
     return (lo is None or lo <= truth) and (hi is None or truth <= hi)
+
+
+QUANTITIES = ('Z_gb', '2Z', 'F_s', 'mu_b', 'mu_g')
+
+
+def _intervals(f) -> dict:   # noqa: ANN001 - a Finding
+    """Each quantity's (lo, hi) in a finding (friction: empty when the finding has none)."""
+    out = {'Z_gb': (f.z_gb.lo, f.z_gb.hi), '2Z': (f.two_z.lo, f.two_z.hi)}
+    for name, ci in zip(('F_s', 'mu_b', 'mu_g'), f.friction_ci):
+        out[name] = ci
+    return out
+
+
+def _count(tally: dict, f, truth: dict) -> None:   # noqa: ANN001 - a Finding
+    for q, (lo, hi) in _intervals(f).items():
+        t = tally.setdefault(q, [0, 0, 0, 0])
+        if lo is not None and hi is not None:
+            t[0] += 1
+            t[1] += lo <= truth[q] <= hi
+        elif lo is not None:
+            t[2] += 1
+            t[3] += lo <= truth[q]
 
 
 def run(v: Voyage) -> Voyage:
@@ -81,8 +108,9 @@ def run(v: Voyage) -> Voyage:
     from steer_monitor.can import Decoder, RejectCounter
     from steer_monitor.can.busconfig import can_setup
     from steer_monitor.model import Gaps
-    from steer_monitor.monitor import OK, DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
+    from steer_monitor.monitor import ERROR, WARN, DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
     from steer_monitor.monitor.pipeline import DiagOut, Pipeline, analyst_from_params
+    from steer_monitor.monitor.verdict import NOT_ASSESSED
     from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params, load_params_file
     from steer_monitor.resources import default_config
 
@@ -92,14 +120,15 @@ def run(v: Voyage) -> Voyage:
     gear = gear_from_params(params)
     cfg = DiagnosticsConfig.from_params(params)
     effects = (sim.parse_effect(v.effect),) if v.effect else ()
-    s = sim.run(params, sim.SimConfig(program=PROGRAM, gaps=Gaps.from_mm(v.two_z_mm, v.z_gb_mm), effects=effects),
-                db, smap, v.seed)
+    sim_cfg = sim.SimConfig(program=PROGRAM, gaps=Gaps.from_mm(v.two_z_mm, v.z_gb_mm), effects=effects)
+    s = sim.run(params, sim_cfg, db, smap, v.seed)
     rejects = RejectCounter()
     mon = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params))
     p = Pipeline(Decoder(db, smap, rejects), rejects, mon, DiagnosticsBuilder(cfg, smap, gear),
                  analyst_from_params(gear, params))
     tz, zg = v.two_z_mm * 1e-3, v.z_gb_mm * 1e-3
-    v.by_motion = []
+    truth = {'Z_gb': zg, '2Z': tz, 'F_s': sim_cfg.seal_friction, 'mu_b': sim_cfg.mu_bushing, 'mu_g': sim_cfg.mu_guide}
+    v.by_motion, v.per_finding, v.per_last = [], {}, {}
     quiet = tz < cfg.clearance_warn_share * cfg.limit_2z and zg < cfg.clearance_warn_share * cfg.limit_zgb
     seen = None
 
@@ -114,14 +143,16 @@ def run(v: Voyage) -> Voyage:
             v.by_motion.append((f.motion_s, _holds(f.z_gb.lo, f.z_gb.hi, zg), abs(f.z_gb.value - zg) <= 0.03e-3))
             v.zgb_findings_held += _holds(f.z_gb.lo, f.z_gb.hi, zg)
             v.tz_findings_held += _holds(f.two_z.lo, f.two_z.hi, tz)
+            _count(v.per_finding, f, truth)
             if math.isnan(v.first_estimated_motion_s):
                 v.first_estimated_motion_s = mon.motion_s
         v.seconds += 1
         v.zgb_held += _holds(f.z_gb.lo, f.z_gb.hi, zg)
         v.tz_held += _holds(f.two_z.lo, f.two_z.hi, tz)
         level = next(st.level for st in o.statuses if st.name.endswith('clearances'))
-        v.alarms += level != OK
-        v.false_alarms += level != OK and quiet
+        v.alarms += level in (WARN, ERROR)
+        v.false_alarms += level in (WARN, ERROR) and quiet
+        v.not_assessed += level == NOT_ASSESSED
 
     for frame in s.frames.frames():
         for o in p.feed(frame):
@@ -131,6 +162,7 @@ def run(v: Voyage) -> Voyage:
         if isinstance(o, DiagOut):
             second(o)
     if seen is not None:
+        _count(v.per_last, seen, truth)
         v.last_zgb_held = _holds(seen.z_gb.lo, seen.z_gb.hi, zg)
         v.last_tz_held = _holds(seen.two_z.lo, seen.two_z.hi, tz)
         hi = 'n/a' if seen.z_gb.hi is None else f'{seen.z_gb.hi * 1e3:.3f}'
@@ -146,6 +178,14 @@ def _share(hits: int, n: int) -> str:
         return '-'
     lo, hi = coverage_interval(hits, n)
     return f'{hits / n:.3f} ({hits}/{n}; {lo:.2f}-{hi:.2f})'
+
+
+def _quantity_row(q: str, rows: list) -> str:
+    def part(attr: str, two: bool) -> str:
+        t = [sum(getattr(v, attr).get(q, [0, 0, 0, 0])[k] for v in rows) for k in range(4)]
+        return _share(t[1], t[0]) if two else (f'{t[3]}/{t[2]}' if t[2] else '-')
+    return (f'| {q} | {part("per_finding", True)} | {part("per_finding", False)} | {part("per_last", True)} '
+            f'| {part("per_last", False)} |')
 
 
 def main(argv: list[str]) -> int:
@@ -191,9 +231,19 @@ def main(argv: list[str]) -> int:
             f'| last finding of each voyage | {_share(sum(v.last_zgb_held for v in rows), len(rows))} | '
             f'{_share(sum(v.last_tz_held for v in rows), len(rows))} |',
             '',
+            'Each quantity over the findings applied and the last finding of each voyage: two-sided 95 % '
+            'intervals holding the truth, and lower bounds at or below it (F_s, mu_b, mu_g: the simulator\'s '
+            '9000 N, 0.13, 0.05; a friction not determined counts in neither).',
+            '',
+            '| quantity | findings: two-sided holding the truth | findings: lower bounds at or below it '
+            '| last findings: two-sided holding the truth | last findings: lower bounds at or below it |',
+            '|---|---|---|---|---|',
+            *(_quantity_row(q, rows) for q in QUANTITIES),
+            '',
             f'Clearance WARN/ERROR seconds: {sum(v.alarms for v in rows)}, of which '
             f'{sum(v.false_alarms for v in rows)} on voyages whose true clearances are both under the warning '
-            'share of their limits (false alarms).',
+            f'share of their limits (false alarms). NOT ASSESSED seconds: {sum(v.not_assessed for v in rows)} of '
+            f'{sec} estimated.',
             '',
             '| seed | effect | true 2Z mm | true Z_gb mm | first estimate at s of motion | estimated seconds | '
             'Z_gb held (seconds) | findings | Z_gb held (findings) | last Z_gb mm | last verdict | alarm seconds |',

@@ -2,7 +2,7 @@
 
 Simulates a grid of true clearances (2Z x Z_gb) under several helm programmes, analyzes each
 log as ``steer-monitor analyze`` would, and writes a Markdown table of the error and the
-95 %-interval coverage of every estimate (``--out``, default ``docs/accuracy.md``) and the
+95 %-interval coverage of every estimate (``--out``, default ``accuracy.md``) and the
 per-case results as JSON (``--json``). With ``--sensitivity-seeds N`` (docs/accuracy.md: 2)
 it also runs the residual loop's sensitivity study (:func:`~steer_monitor.studies.accuracy.sensitivity_cases`)
 and tabulates detection against effect magnitude; with ``--long-seeds N`` (docs: 2) its
@@ -132,7 +132,9 @@ def _sensitivity_markdown(sens: dict[str, Any]) -> list[str]:
         lines.append(f"| `{' + '.join(r['effects'])}` | {frac} | {r['logs']} | {named} | {r['wrong_adoptions']} "
                      f"| {r['unexplained']}/{r['logs']} | {loc} | {r['clearances_covered']}/{r['logs']} "
                      f"| {r['systematic_before_bar']:.2f} -> {r['systematic_after_bar']:.2f} | {_misfit(r)} |")
-    lines += ['', f"False adoption on the clean logs above: {sens['clean_false_adoptions']} of {sens['clean_logs']}."]
+    if sens['clean_logs']:
+        lines += ['', f"False adoption on the clean logs above: {sens['clean_false_adoptions']} of "
+                      f"{sens['clean_logs']}."]
     return lines
 
 
@@ -268,7 +270,7 @@ def markdown(results: Sequence[A.CaseResult], summary: dict[str, Any], command: 
 
 def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PROGRAMMES),
         grid_2z_mm: Sequence[float] = A.GRID_2Z_MM, grid_zgb_mm: Sequence[float] = A.GRID_ZGB_MM,
-        seeds: int = 1, jobs: int | None = None, out_md: str | Path | None = 'docs/accuracy.md',
+        seeds: int = 1, jobs: int | None = None, out_md: str | Path | None = 'accuracy.md',
         json_out: str | Path | None = None, command: str = 'steer-monitor accuracy',
         out: TextIO | None = None, sensitivity_seeds: int = 0, long_seeds: int = 0, off_grid: int = 0,
         first_seed: int | None = None, effects: Sequence[str] = ()) -> int:
@@ -336,6 +338,8 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
     long_results, long_clean_results = rest[:len(long_effects)], rest[len(long_effects):]
     summary = A.summarize(results)
     sens = A.summarize_sensitivity(sens_results, results) if sens_results else None
+    if sens is None and effects:        # the off-grid logs with one effect each: what the loop named
+        sens = A.summarize_sensitivity(results)
     long = A.summarize_sensitivity(long_results, long_clean_results) if long_results else None
     doc = markdown(results, summary, command, str(params['gear.name']), sens, long)
     if out_md is not None:
@@ -389,7 +393,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         f'and {A.LONG_CLEAN_PER_SEED} clean hour-long logs per seed (default: 0, none; '
         'docs/accuracy.md is made with 2)',
     )
-    p.add_argument('--out', default='docs/accuracy.md', help='Markdown table, - for stdout (default: docs/accuracy.md)')
+    p.add_argument('--out', default='accuracy.md',
+                   help='Markdown table, - for stdout (default: accuracy.md in the working directory; the '
+                        "repository's docs/accuracy*.md are written with --out docs/... --force)")
     add_json_option(p, 'the per-case results and the summary')
 
     def handler(a: argparse.Namespace) -> int:

@@ -68,7 +68,8 @@ def run(path: str | Path, config: str | Path | None = None, json_out: str | Path
 def _fmt(d: dict[str, Any], unit: str) -> str:
     # a bound from below only is said as one: the profile's best point on its plateau is no
     # estimate, and printed first it read as one (2Z 0.3 mm for a true 0.7 mm)
-    return estimate_text(d, unit)
+    edge = d.get('at_range_edge')
+    return estimate_text(d, unit) + (f' (at the {edge} end of its physical range)' if edge else '')
 
 
 def _verdict(name: str, d: dict[str, Any]) -> str:

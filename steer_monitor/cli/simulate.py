@@ -20,6 +20,7 @@ from steer_monitor.errors import OutputError, ParameterError
 from steer_monitor.logfiles.logs import LogError, LogWriter
 from steer_monitor.model.gear import Gaps
 from steer_monitor.params import gaps_from_params
+from steer_monitor.utc import parse_utc, utc_json
 
 __all__ = ['parse_speed_profile', 'register', 'run', 'truth_path']
 
@@ -54,7 +55,7 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
         gap_2z_mm: float | None = None, gap_zgb_mm: float | None = None,
         speed_profile: str | None = None, effects: Sequence[str] = (), noise: bool = True,
         max_duration_s: float = 7200.0, json_out: str | Path | None = None, out: TextIO | None = None,
-        real_bus: bool = False) -> int:
+        real_bus: bool = False, start_ns: int | None = None) -> int:
     """Simulate into a file or onto a bus. Onto anything but python-can's ``virtual`` bus or
     a vcan link only with ``real_bus`` (``--i-know-this-is-a-real-bus``): a simulator's frames
     on a vessel's steering bus would be read as the rudder."""
@@ -93,7 +94,8 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
     profile = parse_speed_profile(speed_profile) if speed_profile else ((0.0, params['torque.service_speed_kn']),)
     cfg = sim.SimConfig(program=program, gaps=gaps, speed_profile=profile,
                         effects=tuple(sim.parse_effect(e) for e in effects), noise=noise,
-                        max_duration_s=max_duration_s)
+                        max_duration_s=max_duration_s,
+                        **({} if start_ns is None else {'start_ns': start_ns}))
     result = sim.run(params, cfg, db, smap, seed)
     truth = sim.truth(params, cfg, result, seed)
     if out_path is not None:
@@ -171,7 +173,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_json_option(p, 'the truth')
     p.add_argument('--i-know-this-is-a-real-bus', dest='real_bus', action='store_true',
                    help='allow --bus on a hardware interface (the frames are sent onto that bus)')
+    p.add_argument('--start', type=_utc_arg, metavar='UTC',
+                   help='the time the log starts, ISO 8601 (e.g. 2026-03-01T08:00:00Z; default '
+                        f'{utc_json(sim.DEFAULT_START_NS)}): logs of a simulated fleet at their own dates')
     add_force_option(p)
     p.set_defaults(handler=lambda a: run(a.config, a.program, a.out, a.bus, a.speed_factor, a.seed,
                                          a.gap_2z, a.gap_zgb, a.speed_profile, a.effect, not a.no_noise,
-                                         a.max_duration, a.json_out, real_bus=a.real_bus))
+                                         a.max_duration, a.json_out, real_bus=a.real_bus, start_ns=a.start))
+
+
+def _utc_arg(text: str) -> int:
+    try:
+        return parse_utc(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None

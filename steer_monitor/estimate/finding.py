@@ -49,6 +49,8 @@ class Finding:
         rms_bar, systematic_bar, noise_bar: the residual of the model judged (the adopted effects,
             before any located nuisance) and its two parts [bar]: what the verdict weighed.
         motion_s: the steady motion the window held [s]; rows: the rows fitted.
+        friction_ci: the 95 % intervals (lo, hi) of F_s, mu_b, mu_g (None: open; empty when not
+            known: a finding saved by an earlier version).
         bound_why: (2Z, Z_gb) why a clearance is given as a lower bound only although its
             profile closed ('' when it is not): the contact's evidence too thin to place it.
     """
@@ -71,6 +73,7 @@ class Finding:
     motion_s: float = 0.0
     rows: int = 0
     bound_why: tuple[str, str] = ('', '')
+    friction_ci: tuple[tuple[float | None, float | None], ...] = ()
 
     @property
     def explained(self) -> bool:
@@ -95,7 +98,8 @@ class Finding:
                 'max_angle': self.max_angle, 'model': [e.to_json() for e in self.model], 'terms': dict(self.terms),
                 'verdict': self.verdict, 'message': self.message, 'rms_bar': self.rms_bar,
                 'systematic_bar': self.systematic_bar, 'noise_bar': self.noise_bar, 'motion_s': self.motion_s,
-                'rows': self.rows, 'bound_why': list(self.bound_why)}
+                'rows': self.rows, 'bound_why': list(self.bound_why),
+                'friction_ci': [list(x) for x in self.friction_ci]}
 
     @classmethod
     def from_json(cls, d: dict) -> Finding:
@@ -116,7 +120,9 @@ class Finding:
                    float(d['max_angle']), tuple(Effect.from_json(e) for e in d['model']),
                    {str(k): float(v) for k, v in dict(d['terms']).items()}, verdict, str(d['message']),
                    float(d['rms_bar']), float(d['systematic_bar']), float(d['noise_bar']), float(d['motion_s']),
-                   int(d['rows']), tuple(str(x) for x in d.get('bound_why', ('', ''))))  # type: ignore[arg-type]
+                   int(d['rows']), tuple(str(x) for x in d.get('bound_why', ('', ''))),  # type: ignore[arg-type]
+                   tuple((None if lo is None else float(lo), None if hi is None else float(hi))
+                         for lo, hi in d.get('friction_ci', ())))
 
 
 def finding_of(a: Analysis, t_ns: int, kind: str) -> Finding:
@@ -143,5 +149,6 @@ def finding_of(a: Analysis, t_ns: int, kind: str) -> Finding:
         torque_coef=tuple(float(c) for c in f.fit.coef[:basis_size]), max_angle=float(f.max_angle_seen),
         model=a.adopted, terms=terms, verdict=a.verdict, message=a.message, rms_bar=judged.rms / bar,
         systematic_bar=judged.smooth_rms / bar, noise_bar=judged.noise_rms / bar, motion_s=motion, rows=int(f.rows),
-        bound_why=f.bound_why)
+        bound_why=f.bound_why,
+        friction_ci=tuple((iv.lo, iv.hi) for iv in (f.seal_friction, f.mu_bushing, f.mu_guide)))
 

@@ -60,3 +60,18 @@ def test_simulate_needs_one_target(capsys):
 def test_simulate_bad_bus(capsys):
     assert main(['simulate', '--bus', 'virtual']) == 1
     assert "--bus 'virtual': expected INTERFACE:CHANNEL" in capsys.readouterr().err
+
+
+def test_simulate_starts_at_the_time_given(tmp_path, capsys):
+    """A simulated fleet needs logs at their own dates: --start sets the log's clock."""
+    out = tmp_path / 'march.log'
+    assert main(['simulate', '--max-duration', '3', '--start', '2026-03-01T08:00:00Z', '--out', str(out)]) == 0
+    first = float(out.read_text().split()[0].strip('()'))
+    assert 1772352000.0 <= first < 1772352001.0
+    truth = json.loads((tmp_path / 'march.truth.json').read_text())
+    assert truth['start_utc'] == '2026-03-01T08:00:00.000Z'
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exc:
+        main(['simulate', '--max-duration', '3', '--start', 'yesterday', '--out', str(tmp_path / 'y.log')])
+    assert exc.value.code == 2
+    assert "argument --start: 'yesterday' is not an ISO 8601 time" in capsys.readouterr().err

@@ -122,19 +122,21 @@ def biased_monthly(rate_mm_year, c0_mm, sigma_mm, tau_mm, rng, months=12):
 
 
 def test_a_steady_vessel_whose_logs_scatter_beyond_their_intervals_gets_no_date():
-    """Each log biased by twice its own standard error: counted with its own interval alone, a
-    year of logs of a gear that does not wear gave a rate excluding zero about a third of the
-    time; with the scatter between logs as a random effect, no more than 1 in 20."""
+    """Each log biased by twice its own standard error: with the scatter between logs as a random
+    effect, a year of logs of a gear that does not wear gets a date 2-3 % of the time (each log
+    counted with its interval and a dispersion factor, 5 %)."""
     rng = np.random.default_rng(11)
     trends = [fit_trend(biased_monthly(0.0, 0.12, 0.004, 0.008, rng), 0.25 * MM) for _ in range(300)]
     dated = sum(tr.limit_t is not None for tr in trends)
-    assert dated <= 0.05 * 300
+    assert dated <= 0.04 * 300
     assert all(not tr.wear_seen and tr.message().startswith('no wear seen over 11 months') for tr in trends
                if tr.limit_t is None)
     assert np.median([tr.between for tr in trends]) / MM == pytest.approx(0.008, rel=0.3)
 
 
 def test_a_wearing_vessel_whose_logs_scatter_gets_its_date_within_its_interval():
+    """The rate's and the date's intervals hold the truth at their rate (each log counted with its
+    interval and a dispersion factor: 89-90 %)."""
     rng = np.random.default_rng(12)
     n, hit_rate, hit_date, dated = 300, 0, 0, 0
     for _ in range(n):
