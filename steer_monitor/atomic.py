@@ -50,6 +50,7 @@ __all__ = [
     'check_target',
     'command_scope',
     'ensure_dir',
+    'output_dir',
     'is_stream',
     'note_input',
     'os_reason',
@@ -85,6 +86,27 @@ def ensure_dir(path: str | Path) -> Path:
         msg = f'cannot create the output directory {p}: {os_reason(exc)}'
         raise OutputError(msg) from exc
     return p
+
+
+@contextlib.contextmanager
+def output_dir(path: str | Path) -> Iterator[Path]:
+    """:func:`ensure_dir` for a command's output directory, removed again (with the parents it
+    made) when the command fails before writing anything into it: a failed run leaves no empty
+    directory behind to pass for a result."""
+    p = Path(path)
+    made = []
+    for parent in [p, *p.parents]:
+        if parent.exists() or parent == parent.parent:
+            break
+        made.append(parent)
+    out = ensure_dir(p)
+    try:
+        yield out
+    except BaseException:
+        for d in made:
+            with contextlib.suppress(OSError):
+                d.rmdir()             # only if empty
+        raise
 
 
 def is_stream(path: str | Path) -> bool:

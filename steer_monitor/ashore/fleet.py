@@ -52,6 +52,7 @@ class Vessel:
     path: Path
     config: Path | None
     logs: tuple[Path, ...]
+    skipped: tuple[Path, ...] = ()       # files beside the logs that are not logs by their name
 
 
 @dataclass
@@ -84,10 +85,18 @@ def find_vessels(dirs: Sequence[str | Path], config: str | Path | None = None) -
         names[name] = path
         own = path / VESSEL_CONFIG
         # a link that leads nowhere is a log that cannot be read, said as such, not left out
-        logs = tuple(sorted(p for p in path.rglob('*') if (p.is_file() or p.is_symlink() and not p.is_dir())
-                            and plain_suffix(p) in LOG_SUFFIXES
-                            and not any(part.startswith('.') for part in p.relative_to(path).parts)))
-        out.append(Vessel(name, path, own if own.is_file() else (Path(config) if config else None), logs))
+        files = sorted(p for p in path.rglob('*') if (p.is_file() or p.is_symlink() and not p.is_dir())
+                       and not any(part.startswith('.') for part in p.relative_to(path).parts))
+        logs = tuple(p for p in files if plain_suffix(p) in LOG_SUFFIXES)
+        skipped = tuple(p for p in files if plain_suffix(p) not in LOG_SUFFIXES and p != own)
+        out.append(Vessel(name, path, own if own.is_file() else (Path(config) if config else None), logs, skipped))
+    if not any(v.logs for v in out):
+        others = [str(p) for v in out for p in v.skipped]
+        msg = (f'no logs in {", ".join(str(d) for d in dirs)} (a log is named *' + ', *'.join(LOG_SUFFIXES)
+               + ', each also compressed: .gz, .xz, .zst' + (f'; not logs by their name: {", ".join(others[:5])}'
+                                                             + (' ...' if len(others) > 5 else '') if others else '')
+               + ')')
+        raise InputError(msg)
     return out
 
 

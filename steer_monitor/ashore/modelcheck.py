@@ -23,7 +23,7 @@ from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.monitor.verdict import LABELS, NOT_ASSESSED, assess_hint, clearance_verdict
 
-__all__ = ['ANALYSIS_HOURS', 'NOT_JUDGED', 'Headline', 'headline_json', 'headlines', 'model_check']
+__all__ = ['ANALYSIS_HOURS', 'NOT_JUDGED', 'Headline', 'headline_json', 'headline_text', 'headlines', 'model_check']
 
 #: hours of data at a log's end the check looks at (``report --analysis-hours``)
 ANALYSIS_HOURS = 3.0
@@ -87,6 +87,20 @@ def headlines(analysis: Analysis | None, limit_2z: float, limit_zgb: float, warn
             continue
         out.append(Headline(name, iv, v.label, limit, v.note))
     return out[0], out[1]
+
+
+def headline_text(h: Headline) -> str:
+    """One clearance's line for a terminal: the estimate, its share of the limit, the level and
+    why (the words of ``analyze`` and the report's box)."""
+    iv = h.estimate
+    if iv is None:
+        est = 'not estimated'
+    elif iv.hi is None:
+        est = f'>= {iv.lo * 1e3:.3f} mm (lower bound only), {iv.lo / h.limit:.0%} of the {h.limit * 1e3:g} mm limit'
+    else:
+        est = (f'{iv.value * 1e3:.3f} mm [{iv.lo * 1e3:.3f} .. {iv.hi * 1e3:.3f}], {iv.value / h.limit:.0%} of the '
+               f'{h.limit * 1e3:g} mm limit')
+    return f'{h.name:<7} {est}  {h.level}' + (f': {h.note}' if h.note else '')
 
 
 def headline_json(h: Headline) -> dict[str, object]:

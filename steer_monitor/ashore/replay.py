@@ -19,6 +19,7 @@ the break; the replay goes on with the next one and reports the error.
 from __future__ import annotations
 
 import datetime
+import math
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -83,6 +84,9 @@ class ReplaySummary:
     finding: Finding | None = None
     motion_s: float = 0.0
     analyses: int = 0
+    #: the steady motion the first analysis waits for [s] and why the last one gave nothing ('')
+    first_motion_s: float = 0.0
+    why: str = ''
     #: what the user should know that is no error (a log within the time of the ones before it)
     notes: list[str] = field(default_factory=list)
 
@@ -198,6 +202,10 @@ def _replay(run: Runner, paths: list[Path], output: str | Path, config_path: Pat
         a = pipeline.analyst
         summary.finding, summary.motion_s, summary.analyses = a.finding, a.motion_base_s + pipeline.monitor.motion_s, \
             a.jobs_made
+        summary.first_motion_s, summary.why = a.settings.first_s, a.why or ''
+    else:
+        summary.why = 'the analyses were not asked for'
+        summary.first_motion_s = math.inf
     return summary
 
 

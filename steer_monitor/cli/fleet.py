@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TextIO
 
-from steer_monitor.atomic import ensure_dir, write_files
+from steer_monitor.atomic import output_dir, write_files
 from steer_monitor.cli.options import add_config_option, add_force_option, add_json_option
 from steer_monitor.cli.output import check_json_target, emit_json, json_to_stdout, report_read_errors, text_stream
 
@@ -22,13 +22,10 @@ def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = N
         config: str | Path | None = None, json_out: str | Path | None = None, out: TextIO | None = None,
         err: TextIO | None = None, reports: bool = True) -> int:
     """Run the fleet; 1 (one line per log on ``err``) when some log failed for good, whose
-    vessel's other logs are in the results. ``reports``: each log's report page too."""
-    import json
-
-    from tqdm import tqdm
-
-    from steer_monitor.ashore.fleet import fleet_json, run_fleet
-    from steer_monitor.ashore.fleetpage import fleet_page
+    vessel's other logs are in the results. ``reports``: each log's report page too. No logs
+    at all is an error (one line, no output directory made); files that are not logs by their
+    name are named on ``err``."""
+    from steer_monitor.ashore.fleet import LOG_SUFFIXES, find_vessels
 
     out = out or sys.stdout
     err = err or sys.stderr
@@ -37,7 +34,22 @@ def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = N
         raise ParameterError(f'--workers must be at least 1, got {workers}')
     out = text_stream([json_out], out, err)
     check_json_target(json_out, [*dirs, config])
-    out_dir = ensure_dir(out_dir)
+    for v in find_vessels(dirs, config):
+        for p in v.skipped:
+            err.write(f'steer-monitor fleet: note: {p}: not a log by its name (*{", *".join(LOG_SUFFIXES)}, each also '
+                      'compressed); left out\n')
+    with output_dir(out_dir) as made:
+        return _run(dirs, made, workers, scheduler, config, json_out, out, err, reports)
+
+
+def _run(dirs: Sequence[str | Path], out_dir: Path, workers: int | None, scheduler: str | None,
+         config: str | Path | None, json_out: str | Path | None, out: TextIO, err: TextIO, reports: bool) -> int:
+    import json
+
+    from tqdm import tqdm
+
+    from steer_monitor.ashore.fleet import fleet_json, run_fleet
+    from steer_monitor.ashore.fleetpage import fleet_page
     with tqdm(unit='log', disable=not sys.stderr.isatty(), file=sys.stderr, desc='fleet') as bar:
         def progress(done: int, total: int) -> None:
             bar.total = total

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import math
 import sys
 import time
 from pathlib import Path
@@ -61,6 +62,13 @@ def run(logs: list[str], out_path: str | Path, config: str | Path | None = None,
             from steer_monitor.monitor.analyst import describe
             out.write(f"the node's last analysis: {describe(summary.finding)}; {summary.analyses} analyses over "
                       f"{summary.motion_s:.0f} s of motion\n")
+        elif not math.isfinite(summary.first_motion_s):
+            out.write('no analysis ran: the analyses were not asked for\n')
+        else:
+            out.write(f"no analysis ran: {summary.motion_s:.0f} s of steady rudder motion seen, "
+                      f"{summary.first_motion_s:.0f} s needed for the first (estimator.first_motion_s)\n"
+                      if summary.analyses == 0 else
+                      f"{summary.analyses} analyses ran and none gave a finding: {summary.why}\n")
         if summary.rejects:
             out.write('rejected: ' + ', '.join(f'{k} {v}' for k, v in summary.rejects.items()) + '\n')
     return report_read_errors('replay', summary.errors, err)

@@ -50,7 +50,7 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
     from tqdm import tqdm
 
     from steer_monitor.ashore.batchpath import review_logs
-    from steer_monitor.ashore.modelcheck import headline_json, headlines, model_check
+    from steer_monitor.ashore.modelcheck import headline_json, headline_text, headlines, model_check
     from steer_monitor.ashore.report.logreport import report_input
     from steer_monitor.ashore.report.reviewpage import write_review_report
     from steer_monitor.atomic import ensure_dir
@@ -97,6 +97,10 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
                    'model_check_note': note or None, 'elapsed_s': round(elapsed, 2)}, json_out, out)
     if not json_to_stdout(json_out):
         out.write(f'report of {batch.frames} frames written to {page} ({elapsed:.1f} s)\n')
+        for h in headlines(analysis, inp.limit_2z, inp.limit_zgb, inp.warn_share):
+            out.write(headline_text(h) + '\n')
+        out.write(f"model check: {analysis.verdict}: {analysis.message}\n" if analysis is not None
+                  else f'model check: none ({note})\n')
     return report_read_errors('report', batch.errors, err)
 
 

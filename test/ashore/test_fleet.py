@@ -184,12 +184,15 @@ def test_cli_with_a_broken_log_and_a_vessel_of_its_own_parameters(tmp_path, flee
     (vessel / 'recordings' / 'moved.log').symlink_to(tmp_path / 'gone.log')    # a log that was moved away
     (vessel / 'recordings' / 'endless.log').symlink_to('/dev/zero')           # read, it would never end
     shutil.copy(R18_YAML, vessel / 'steer_monitor.yaml')
+    (vessel / 'voyage.txt').write_text('a note of the crew\n')                  # not a log by its name: said
     out = tmp_path / 'out'
     rc = main(['fleet', str(vessel), '--out', str(out), '--workers', '2', '--json', '-'])
     cap = capsys.readouterr()
     assert rc == 1
     assert 'steer-monitor fleet: error: mv_example:' in cap.err and 'broken.log' in cap.err
     lines = cap.err.splitlines()
+    assert (f'steer-monitor fleet: note: {vessel / "voyage.txt"}: not a log by its name (*.log, *.asc, *.blf, '
+            '*.mcap, *.raw, each also compressed); left out') in lines, lines
     assert (f'steer-monitor fleet: error: mv_example: log {vessel / "recordings" / "moved.log"} does not exist '
             '(a broken symbolic link)') in lines, lines
     assert (f'steer-monitor fleet: error: mv_example: log {vessel / "recordings" / "endless.log"} is not a regular '
@@ -212,10 +215,27 @@ def test_cli_with_a_broken_log_and_a_vessel_of_its_own_parameters(tmp_path, flee
 ])
 def test_bad_arguments_are_one_line(tmp_path, capsys, args, message):
     from steer_monitor.cli.main import main
-    args = [a.replace('{tmp}', str(tmp_path)) for a in args]
+    (tmp_path / 'mv').mkdir()
+    (tmp_path / 'mv' / 'a.log').write_text('')
+    args = [a.replace('{tmp}', str(tmp_path / 'mv')) for a in args]
     assert main(['fleet', *args, '--out', str(tmp_path / 'out')]) == 1
     err = capsys.readouterr().err
     assert message in err and err.count('\n') == 1
+    assert not (tmp_path / 'out').exists()
+
+
+def test_no_logs_is_an_error_naming_what_is_there_and_leaves_nothing(tmp_path, capsys):
+    """An empty directory, or one holding only a voyage.txt, once gave "0 logs" and exit 0."""
+    from steer_monitor.cli.main import main
+    (tmp_path / 'mv').mkdir()
+    assert main(['fleet', str(tmp_path / 'mv'), '--out', str(tmp_path / 'out' / 'fleet')]) == 1
+    err = capsys.readouterr().err
+    assert err == (f'steer-monitor fleet: error: no logs in {tmp_path / "mv"} (a log is named *.log, *.asc, *.blf, '
+                   '*.mcap, *.raw, each also compressed: .gz, .xz, .zst)\n')
+    (tmp_path / 'mv' / 'voyage.txt').write_text('(1.0) can0 123#00\n')
+    assert main(['fleet', str(tmp_path / 'mv'), '--out', str(tmp_path / 'out' / 'fleet')]) == 1
+    assert 'not logs by their name: ' + str(tmp_path / 'mv' / 'voyage.txt') in capsys.readouterr().err
+    assert not (tmp_path / 'out').exists()
 
 
 # --- the trend's logs, pure (no Dask) -----------------------------------------------------------

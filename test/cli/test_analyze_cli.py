@@ -22,9 +22,15 @@ def test_analyze_writes_the_documented_json_and_a_report(tmp_path, capsys):
     # best point on its plateau (it read as an estimate: 2Z 0.3 mm for a true 0.7 mm)
     text = capsys.readouterr().out
     first = text.splitlines()[0]
-    assert first == f"2Z      >= {d['clearance_2z_mm']['ci95'][0]} mm (lower bound only)", first
+    lo = d['clearance_2z_mm']['ci95'][0]
+    assert first.startswith(f"2Z      >= {lo} mm (lower bound only), {lo / 0.6:.0%} of the 0.6 mm limit  NOT ASSESSED: "
+                            'lower bound only (the ram never clamped in its bushing at the loads seen); a hard-over '
+                            'at sea speed would clamp the ram in its bushing and show it'), first
+    # the verdict on the terminal: one line per clearance with its level, and the model check
+    assert text.splitlines()[1].startswith('Z_gb    ') and ' of the 0.25 mm limit  ' in text.splitlines()[1]
+    assert any(line.startswith('model check: declared: ') for line in text.splitlines())
     for key in ('clearance_2z_mm', 'clearance_zgb_mm'):
-        assert set(d[key]) == {'value', 'ci95', 'bounded'} and len(d[key]['ci95']) == 2
+        assert set(d[key]) == {'value', 'ci95', 'bounded', 'level', 'note', 'limit_mm'} and len(d[key]['ci95']) == 2
         assert d[key]['bounded'] == (None not in d[key]['ci95'])
     assert d['clearance_2z_mm']['ci95'][1] is None          # the ram never clamps at 0.6 mm
     assert d['clearance_zgb_mm']['ci95'][0] <= 0.25 <= d['clearance_zgb_mm']['ci95'][1]

@@ -179,3 +179,20 @@ def test_every_json_option_takes_a_file_or_dash():
                 found[name] = (a.nargs, a.metavar, a.dest)
     assert len(found) >= 12, found
     assert set(found.values()) == {(None, 'OUT', 'json_out')}, found
+
+
+def test_replay_and_report_say_the_verdict_or_why_there_is_none(tmp_path, capsys):
+    """A replay of 70 s says no analysis ran and what motion it wanted; a report ends with one
+    line per clearance (value or bound, share of the limit, level) and the model check."""
+    from steer_monitor.cli.main import main
+    log = tmp_path / 'h.log'
+    assert main(['simulate', '--program', 'hard_over_2', '--max-duration', '80', '--out', str(log)]) == 0
+    capsys.readouterr()
+    assert main(['replay', str(log), '--out', str(tmp_path / 'r.mcap'), '--no-frames']) == 0
+    out = capsys.readouterr().out
+    assert 'no analysis ran: ' in out and 's of steady rudder motion seen, 240 s needed for the first' in out, out
+    assert main(['report', str(log), '--out', str(tmp_path / 'rep')]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith('report of ') and lines[1].startswith('2Z      >= ') and 'NOT ASSESSED' in lines[1]
+    assert lines[2].startswith('Z_gb    ') and '% of the 0.25 mm limit  ' in lines[2]
+    assert lines[3].startswith('model check: ')
