@@ -54,8 +54,6 @@ MOVES = 8                # ... moving on at most this many times while the least
 ZOOMS = 3                # ... then +-2 quarters of that step around the best, three times (to 1/64),
                          # and last at the vertex of the parabola through the best and its neighbours
 DECIMALS = 12            # m: values rounded to a picometre, so a grid value is found as itself
-VALLEYS = 3              # local minima of a grid marginal outside its 95 % set searched between grid points
-VALLEY_POINTS = 17       # values across the two grid steps around such a minimum (an eighth of a step apart)
 
 
 @dataclass(frozen=True)
@@ -246,17 +244,13 @@ def _refine_axis(ax: _Axis, grid: NDArray[np.float64], scale: float) -> float:
     finest spacing used [m]."""
     evaluate = ax.evaluate
     spacing = float(grid[1] - grid[0])
-    # the 95 % set as seen so far (the grid's, with any valley found between its points), and
-    # the least pair found so far (the other clearance's refinement may have moved it off
-    # that set: the profile is a tilted ridge)
+    # the grid's view of the 95 % set, and the least pair found so far (the other
+    # clearance's refinement may have moved it off that set: the profile is a tilted ridge)
+    inside = _accepted(ax.coarse.rss, float(ax.coarse.rss.min()), scale)
     best = evaluate.best[ax.axis]
     ax.fine.setdefault(float(np.round(best, DECIMALS)), (evaluate.least, evaluate.best[1 - ax.axis]))
-    lo, hi = max(best - spacing, float(grid[0])), min(best + spacing, float(grid[-1]))
-    for seen, floor in ((ax.coarse, float(ax.coarse.rss.min())), (ax.marginal(), evaluate.least)):
-        inside = _accepted(seen.rss, floor, scale)
-        if inside.size:
-            lo = min(lo, float(seen.axis[max(int(inside.min()) - 1, 0)]))
-            hi = max(hi, float(seen.axis[min(int(inside.max()) + 1, seen.axis.size - 1)]))
+    lo = min(float(grid[max(int(inside.min()) - 1, 0)]), max(best - spacing, float(grid[0])))
+    hi = max(float(grid[min(int(inside.max()) + 1, grid.size - 1)]), min(best + spacing, float(grid[-1])))
     for level in range(LEVELS):
         if hi <= lo:
             break
@@ -290,32 +284,6 @@ def _refine_axis(ax: _Axis, grid: NDArray[np.float64], scale: float) -> float:
         lo = float(xs[max(int(inside.min()) - 1, 0)])
         hi = float(xs[min(int(inside.max()) + 1, xs.size - 1)])
     return spacing
-
-
-def _probe_valleys(axes: Sequence[_Axis], grids: Sequence[NDArray[np.float64]], inside: Sequence[NDArray[np.intp]],
-                   floor: float) -> bool:
-    """Search between its neighbours each local minimum of a clearance's grid marginal outside
-    its 95 % set (the ``VALLEYS`` lowest): a ram that clamps pins 2Z to a valley a few
-    micrometres wide, which the grid's points on either side see only as a shallow local
-    minimum (a true 2Z of 0.114 mm read as a lower bound of 0.219 mm, a guide friction of
-    0.37 taking the clamp's place). True when one was deeper than the grid's best."""
-    found = False
-    for ax, grid, k in zip(axes, grids, inside):
-        r = ax.coarse.rss
-        if r.size < 3:
-            continue
-        interior = np.arange(1, r.size - 1)
-        local = interior[(r[interior] < r[interior - 1]) & (r[interior] <= r[interior + 1])]
-        if k.size:
-            local = local[(local < int(k.min()) - 1) | (local > int(k.max()) + 1)]
-        for i in local[np.argsort(r[local])][:VALLEYS].tolist():
-            xs = np.linspace(float(grid[i - 1]), float(grid[i + 1]), VALLEY_POINTS)[1:-1]
-            ax.run(xs)
-            ax.spans.append((float(grid[i - 1]), float(grid[i + 1])))
-    for ax in axes:
-        if ax.fine and min(v[0] for v in ax.fine.values()) < floor:
-            found = True
-    return found
 
 
 def _open_axis(ax: _Axis, scale: float) -> None:
@@ -357,22 +325,6 @@ def refine_profile(gear: GearParams, basis: F.TorqueBasis, mom: Moments, load: N
     i, j = pr.best
     evaluate.least, evaluate.best = floor, (float(pr.two_z[i]), float(pr.z_gb[j]))
     refined = [False, False]
-    opened = [bool(k.size) and int(k.max()) == g.size - 1 for g, k in zip(grids, inside)]
-    axes = [_Axis(evaluate, axis, grids[1 - axis], marginals[axis], opened[1 - axis]) for axis in (0, 1)]
-    if scale > 0 and _probe_valleys(axes, grids, inside, floor):
-        # a valley between grid points deeper than the grid's best: the profile's minimum is
-        # there, and every judgement of the grid's view (its 95 % sets, which clearance is
-        # sharp or open) is made again on the profile with the valley in it
-        floor = evaluate.least
-        marginals = [a.marginal() for a in axes]
-        inside = [_accepted(m.rss, floor, scale) for m in marginals]
-        sharp = [True if np.any(np.isin(np.round(m.axis[k], DECIMALS), list(a.fine))) else sh
-                 for m, k, a, sh in zip(marginals, inside, axes, sharp)]
-        opened = [bool(k.size) and abs(float(m.axis[int(k.max())]) - float(g[-1])) < 1e-15
-                  for m, g, k in zip(marginals, grids, inside)]
-        for axis in (0, 1):
-            axes[axis].other_open = opened[1 - axis]
-        inside = [_accepted(a.coarse.rss, floor, scale) for a in axes]
     if any(sharp):
         # Both are profiled again: the other clearance's marginal, taken over the grid alone,
         # would read high against a minimum found between grid points. A clearance the data
@@ -381,8 +333,10 @@ def refine_profile(gear: GearParams, basis: F.TorqueBasis, mom: Moments, load: N
         # a contact at the highest loads wherever the noise likes it best (a change point's
         # place is a free parameter), lowering the least RSS, and with it narrowing the other
         # clearance's interval, for no real evidence.
+        opened = [bool(k.size) and int(k.max()) == g.size - 1 for g, k in zip(grids, inside)]
+        axes = [_Axis(evaluate, axis, grids[1 - axis], marginals[axis], opened[1 - axis]) for axis in (0, 1)]
         for axis in (0, 1):
-            if grids[axis].size <= 2 or not (inside[axis].size or axes[axis].fine):
+            if grids[axis].size <= 2 or not inside[axis].size:
                 continue
             if opened[axis]:
                 _open_axis(axes[axis], scale)
