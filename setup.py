@@ -25,6 +25,7 @@ setup(
         'numba>=0.59',
         'scipy>=1.10',
         'PyYAML>=6',
+        'ruamel.yaml>=0.17',
         'matplotlib>=3.7',
         'tqdm>=4.60',
         'cantools>=39',

@@ -24,6 +24,7 @@ WORKSPACE = {'steer_monitor'}
 MANIFESTS = [PKG / 'package.xml']
 #: imported top-level module -> the rosdep key that installs it
 MODULE_KEYS = {'numpy': 'python3-numpy', 'numba': 'python3-numba', 'scipy': 'python3-scipy', 'yaml': 'python3-yaml',
+               'ruamel': 'python3-ruamel.yaml',
                'matplotlib': 'python3-matplotlib', 'can': 'python3-can', 'cantools': 'python3-cantools-pip',
                'tqdm': 'python3-tqdm', 'mcap': 'mcap-ros2-support', 'mcap_ros2': 'mcap-ros2-support',
                'zstandard': 'mcap-ros2-support', 'lz4': 'mcap-ros2-support',   # mcap's own requirements

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import datetime
+import io
 import json
 import sys
 import tempfile
@@ -19,10 +20,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-import yaml
-
 from steer_monitor.ashore.discovery import RULES, Discovery, propose
-from steer_monitor.atomic import atomic_path, check_target, is_stream
+from steer_monitor.atomic import atomic_path, check_target, is_stream, os_reason
 from steer_monitor.can.busconfig import Setup, dbc_path, load_setup
 from steer_monitor.can.rejects import REASONS, RejectCounter
 from steer_monitor.can.signals import INPUTS, REQUIRED
@@ -102,35 +101,40 @@ def discover(paths: Sequence[str | Path], setup: Setup, date: datetime.date | No
     }
 
 
-def _nest(flat: dict[str, Any]) -> dict[str, Any]:
-    tree: dict[str, Any] = {}
-    for key, value in flat.items():
-        node = tree
-        *parents, last = key.split('.')
-        for p in parents:
-            node = node.setdefault(p, {})
-        node[last] = value
-    return tree
-
-
 def write_config(out: str | Path, setup: Setup, proposed: dict[str, dict[str, Any]],
                  logs: Sequence[str], notes: Sequence[str]) -> None:
     """``setup``'s parameters file with its ``signals`` replaced by ``proposed``, written to
-    ``out`` (atomically; checked to load before it is renamed)."""
-    params = dict(setup.params)
+    ``out`` (atomically; checked to load before it is renamed). A round trip of the file it
+    adapts (ruamel.yaml): its comments ("# H", "# L, bushing A to bushing E", "# assumed": the
+    hints a user is told to check), its order and its numbers as written (2.1e+11 stays so)
+    are kept; only the signals' values (and the DBC's path, when it is a vessel's own) change,
+    and a header says where they came from."""
+    from ruamel.yaml import YAML
+    from ruamel.yaml.comments import CommentedMap
+
+    rt = YAML(typ='rt')
+    rt.width = 4096                 # a signal's flow mapping on one line, as the file writes it
+    rt.preserve_quotes = True
+    try:
+        doc = rt.load(Path(setup.config_path).read_text(encoding='utf-8'))
+    except OSError as exc:
+        raise ParameterError(f'cannot read {setup.config_path}: {os_reason(exc)}') from exc
+    params = _ros_parameters(doc, setup.config_path)
+    signals = params.setdefault('signals', CommentedMap())
     for name in INPUTS:
         if name in proposed:
+            node = signals.setdefault(name, CommentedMap())
             for key in _SIGNAL_KEYS:
-                params[f'signals.{name}.{key}'] = proposed[name][key]
-    dbc = dbc_path(params, setup.config_path)
+                node[key] = proposed[name][key]
+    dbc = dbc_path(setup.params, setup.config_path)
     if dbc.parent.resolve() != config_dir().resolve():     # a vessel's own DBC: where it is
-        params['can.dbc_file'] = str(dbc.resolve())
-    header = [f'# Written by steer-monitor discover from {", ".join(logs)}', f'# on {datetime.date.today()}, '
-              f'from {setup.config_path}. Check the signals map before running.', '#',
-              '# Rule: ' + RULES, '#'] + [f'# note: {n}' for n in notes]
-    body = yaml.safe_dump({NODE_NAME: {'ros__parameters': _nest(params)}}, sort_keys=False,
-                          default_flow_style=False, width=120)
-    text = '\n'.join(h.replace('\n', ' ') for h in header) + '\n' + body
+        params.setdefault('can', CommentedMap())['dbc_file'] = str(dbc.resolve())
+    header = [f'Written by steer-monitor discover from {", ".join(logs)}', f'on {datetime.date.today()}, '
+              f'from {setup.config_path}. Check the signals map before running.', '',
+              'Rule: ' + RULES, ''] + [f'note: {n}' for n in notes]
+    buf = io.StringIO()
+    rt.dump(doc, buf)
+    text = ''.join(f'# {h}'.rstrip().replace('\n', ' ') + '\n' for h in header) + buf.getvalue()
     with atomic_path(out) as tmp:
         if is_stream(tmp):          # /dev/stdout: checked in a file of its own, then written
             with tempfile.TemporaryDirectory() as d:
@@ -138,6 +142,17 @@ def write_config(out: str | Path, setup: Setup, proposed: dict[str, dict[str, An
             tmp.write_text(text, encoding='utf-8')
         else:
             _check_written(tmp, text)
+
+
+def _ros_parameters(doc: Any, path: str | Path) -> Any:
+    """The ``ros__parameters`` mapping of a parameters file's document (ParameterError naming
+    the file when it has none)."""
+    node = doc.get(NODE_NAME) if hasattr(doc, 'get') else None
+    params = node.get('ros__parameters') if hasattr(node, 'get') else None
+    if not hasattr(params, 'setdefault'):
+        msg = f'{path}: no {NODE_NAME}: ros__parameters mapping to adapt'
+        raise ParameterError(msg)
+    return params
 
 
 def _check_written(path: Path, text: str) -> None:

@@ -162,3 +162,25 @@ def test_a_bus_with_every_input_gives_a_whole_map(tmp_path, capsys):
     d = json.loads(cap.out)
     assert d['missing_required'] == [] and all(v['on_bus'] for v in d['proposed'].values()), d['proposed']
     assert f"then: steer-monitor inspect {log} --config {out}" in cap.err      # no placeholder
+
+
+def test_the_written_config_keeps_the_comments_order_and_numbers_of_the_one_adapted(tmp_path, capsys):
+    """--write-config once dropped every comment of the file it adapted (the "# H", "# L, bushing
+    A to bushing E", "# assumed" hints the README tells the user to check) and wrote 2.1e+11 as
+    210000000000.0. Everything but the signals' values is the original, line for line."""
+    from test.conftest import R18_YAML
+    log, out = tmp_path / 'sim.log', tmp_path / 'vessel.yaml'
+    assert main(['simulate', '--program', 'hard_over_2', '--max-duration', '20', '--out', str(log)]) == 0
+    assert main(['discover', str(log), '--write-config', str(out)]) == 0
+    capsys.readouterr()
+    original = R18_YAML.read_text().splitlines()
+    written = out.read_text().splitlines()
+    assert written[0].startswith('# Written by steer-monitor discover from ')
+    body = written[written.index(original[0]):]                   # the original's first line on
+    signals = next(k for k, line in enumerate(original) if line.strip() == 'signals:')
+    assert body[:signals] == original[:signals]                   # gear, torque, ... as they were
+    for hint in ('stock_to_ram_m: 0.600            # H', '# L, bushing A to bushing E', 'youngs_modulus_pa: 2.1e+11',
+                 '# assumed'):
+        assert any(hint in line for line in written), hint
+    from steer_monitor.params import load_params_file
+    assert load_params_file(out)['gear.youngs_modulus_pa'] == 2.1e11

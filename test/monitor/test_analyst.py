@@ -156,6 +156,26 @@ def test_the_state_survives_a_restart(r18, analyst, tmp_path):
     assert again.motion_base_s == 45.0
 
 
+def test_the_last_assessed_clearances_survive_a_restart(r18, analyst, tmp_path):
+    """A clearance assessed once (two-sided, from a model that explains the data) is kept when a
+    later finding can only bound it, and across a restart: the node says when it last knew."""
+    from dataclasses import replace
+
+    from steer_monitor.monitor.analyst import Outcome
+    first = _finding(T0)
+    analyst.take(Outcome(1, T0, 'loop', first, None, ()))
+    later = replace(_finding(T0 + 10**12), z_gb=Interval(0.2e-3, 0.0, None))
+    analyst.take(Outcome(2, T0 + 10**12, 'loop', later, None, ()))
+    assert analyst.assessed == {'zgb': (0.2e-3, 0.19e-3, 0.21e-3, T0)}          # 2Z was a bound both times
+    unexplained = replace(_finding(T0 + 2 * 10**12), verdict='unexplained', z_gb=Interval(0.3e-3, 0.29e-3, 0.31e-3))
+    analyst.take(Outcome(3, T0 + 2 * 10**12, 'loop', unexplained, None, ()))
+    assert analyst.assessed['zgb'][3] == T0                                     # not from an incomplete model
+    path = analyst.save(tmp_path / 'state.npz', motion_s=45.0)
+    again = Analyst(r18, AnalystSettings())
+    again.load(path)
+    assert again.assessed == analyst.assessed
+
+
 def _write(path, meta, **arrays):
     np.savez(path, meta=np.array(json.dumps(meta)), **arrays)
 
