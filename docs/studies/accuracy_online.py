@@ -90,7 +90,16 @@ def _intervals(f) -> dict:   # noqa: ANN001 - a Finding
     return out
 
 
-def _count(tally: dict, f, truth: dict) -> None:   # noqa: ANN001 - a Finding
+def _count(tally: dict, f, truth: dict, temp: dict | None = None) -> None:   # noqa: ANN001 - a Finding
+    """Tally each quantity's interval of ``f`` against ``truth``; with the plant's temp_friction
+    ``temp``, the friction's truth is the plant's at the oil temperature the finding's term is
+    relative to (``t_ref_k``), which is what its friction stands for."""
+    truth = dict(truth)
+    t_ref = f.terms.get('t_ref_k') if temp is not None else None
+    if t_ref is not None and math.isfinite(t_ref):
+        scale = 1.0 + float(temp['k_per_k']) * (t_ref - 273.15 - float(temp['t_ref_c']))
+        for q in ('F_s', 'mu_b', 'mu_g'):
+            truth[q] *= scale
     for q, (lo, hi) in _intervals(f).items():
         t = tally.setdefault(q, [0, 0, 0, 0])
         if lo is not None and hi is not None:
@@ -128,6 +137,7 @@ def run(v: Voyage) -> Voyage:
                  analyst_from_params(gear, params))
     tz, zg = v.two_z_mm * 1e-3, v.z_gb_mm * 1e-3
     truth = {'Z_gb': zg, '2Z': tz, 'F_s': sim_cfg.seal_friction, 'mu_b': sim_cfg.mu_bushing, 'mu_g': sim_cfg.mu_guide}
+    temp = sim_cfg.effect('temp_friction')
     v.by_motion, v.per_finding, v.per_last = [], {}, {}
     quiet = tz < cfg.clearance_warn_share * cfg.limit_2z and zg < cfg.clearance_warn_share * cfg.limit_zgb
     seen = None
@@ -143,7 +153,7 @@ def run(v: Voyage) -> Voyage:
             v.by_motion.append((f.motion_s, _holds(f.z_gb.lo, f.z_gb.hi, zg), abs(f.z_gb.value - zg) <= 0.03e-3))
             v.zgb_findings_held += _holds(f.z_gb.lo, f.z_gb.hi, zg)
             v.tz_findings_held += _holds(f.two_z.lo, f.two_z.hi, tz)
-            _count(v.per_finding, f, truth)
+            _count(v.per_finding, f, truth, temp)
             if math.isnan(v.first_estimated_motion_s):
                 v.first_estimated_motion_s = mon.motion_s
         v.seconds += 1
@@ -162,7 +172,7 @@ def run(v: Voyage) -> Voyage:
         if isinstance(o, DiagOut):
             second(o)
     if seen is not None:
-        _count(v.per_last, seen, truth)
+        _count(v.per_last, seen, truth, temp)
         v.last_zgb_held = _holds(seen.z_gb.lo, seen.z_gb.hi, zg)
         v.last_tz_held = _holds(seen.two_z.lo, seen.two_z.hi, tz)
         hi = 'n/a' if seen.z_gb.hi is None else f'{seen.z_gb.hi * 1e3:.3f}'

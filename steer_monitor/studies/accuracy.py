@@ -281,6 +281,14 @@ def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: 
                                    cfg.gaps.two_z, cfg.gaps.z_gb)[0]),
         'seal_friction_n': cfg.seal_friction, 'mu_bushing': cfg.mu_bushing, 'mu_guide': cfg.mu_guide,
     }
+    temp = cfg.effect('temp_friction')
+    if temp is not None:
+        # the friction the estimate stands for is the plant's at the oil temperature its temperature
+        # term is relative to (the log's mean, as analyze takes it), not at the simulator's t_ref_c
+        t_mean_c = float(np.nanmean(a.final_observations.oil_temp)) - 273.15
+        scale = 1.0 + float(temp['k_per_k']) * (t_mean_c - float(temp['t_ref_c']))
+        for q in ('seal_friction_n', 'mu_bushing', 'mu_guide'):
+            truth[q] *= scale
     est: dict[str, float] = {}
     ci: dict[str, tuple[float | None, float | None]] = {}
     for q, iv, k in (
