@@ -51,11 +51,18 @@ def run(config: str | Path | None = None, gap_2z_mm: float | None = None,
             f"{r['deflection_mm']:.4f}", r['case']] for r in s['rows']], out)
     lm = s['landmarks']
 
-    def fmt(v: float | None) -> str:
-        return 'not reached' if v is None else f'{v:.1f} deg'
-    out.write(f"\nguide beam carries load from {fmt(lm['guide_onset_deg'])}; F_r = F_gb at "
-              f"{fmt(lm['crossover_deg'])}; max K_gl {lm['k_gl_max']:.3f} at {lm['k_gl_max_deg']:.1f} deg; "
-              f"ram clamps from {fmt(lm['clamp_onset_deg'])}\n")
+    rows = s['rows']
+    onset = ('the guide beam never carries load' if lm['guide_onset_deg'] is None
+             else f"the guide beam carries load from {lm['guide_onset_deg']:.1f} deg")
+    if lm['crossover_deg'] is not None:
+        cross = f"F_r = F_gb at {lm['crossover_deg']:.1f} deg"
+    elif any(r['f_guide_n'] > r['f_ram_n'] for r in rows):
+        cross = 'the guide beam carries more than the rams wherever it carries'
+    else:
+        cross = 'the guide beam never carries as much as the rams'
+    clamp = ('the ram never clamps in its bushing' if lm['clamp_onset_deg'] is None
+             else f"the ram clamps in its bushing from {lm['clamp_onset_deg']:.1f} deg")
+    out.write(f"\n{onset}; {cross}; max K_gl {lm['k_gl_max']:.3f} at {lm['k_gl_max_deg']:.1f} deg; {clamp}\n")
     if plot is not None:
         out.write(f"plot: {s['plot']}\n")
     return 0

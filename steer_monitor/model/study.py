@@ -36,10 +36,11 @@ class Landmarks:
 def landmarks(alpha: NDArray[np.float64], res: LoadSharing) -> Landmarks:
     """Landmarks of a sweep; ``alpha`` increasing, shape (k,) [rad]."""
     alpha = np.asarray(alpha, dtype=float)
-    if np.any(res.k_gl[:1] > 0):
-        onset: float | None = float(alpha[0])
+    slack = res.f_z - res.lateral           # > 0 while the slipper has not touched
+    if np.any(res.k_gl[:1] > 0) or (slack.size and slack[0] <= 0):
+        onset: float | None = float(alpha[0])      # touching from the first angle (a slipper without clearance)
     else:
-        onset = _first_crossing(alpha, res.f_z - res.lateral)
+        onset = _first_crossing(alpha, slack)
     cross = _first_crossing(alpha, res.ram_force - res.guide_force)
     imax = int(np.argmax(res.k_gl))
     clamps = (res.stages & STAGE_CLAMPED) > 0

@@ -196,3 +196,14 @@ def test_replay_and_report_say_the_verdict_or_why_there_is_none(tmp_path, capsys
     assert lines[0].startswith('report of ') and lines[1].startswith('2Z      >= ') and 'NOT ASSESSED' in lines[1]
     assert lines[2].startswith('Z_gb    ') and '% of the 0.25 mm limit  ' in lines[2]
     assert lines[3].startswith('model check: ')
+
+
+def test_loadshare_words_agree_with_its_table(capsys):
+    """A slipper without clearance: K_gl > 0 from the first step, and the summary once said the
+    guide beam carried load "from not reached"."""
+    from steer_monitor.cli.main import main
+    assert main(['loadshare', '--gap-zgb', '0']) == 0
+    last = capsys.readouterr().out.splitlines()[-1]
+    assert last.startswith('the guide beam carries load from 0.0 deg; the guide beam carries more than the rams')
+    assert last.endswith('the ram never clamps in its bushing')
+    assert 'not reached' not in last
