@@ -45,6 +45,7 @@ __all__ = [
     'gear_from_params',
     'load_params_file',
     'recorded_params',
+    'unknown_parameter_message',
     'validate_params',
 ]
 
@@ -296,6 +297,17 @@ RETIRED = {
 }
 
 
+def unknown_parameter_message(unknown: list[str]) -> str:
+    """The line for parameters nobody declares (sorted): the first named, a retired one said
+    as such, the closest known name suggested ("did you mean can.channel?")."""
+    name = unknown[0]
+    if name in RETIRED:
+        return f'parameter {name} is no longer read: {RETIRED[name]}'
+    close = difflib.get_close_matches(name, list(_BY_NAME), n=1, cutoff=0.75)
+    return f'unknown parameter {name}' + (f' (did you mean {close[0]}?)' if close else '') + (
+        f' (and {len(unknown) - 1} more)' if len(unknown) > 1 else '')
+
+
 def validate_params(values: Mapping[str, Any]) -> dict[str, Any]:
     """Check flat dotted parameters against :data:`PARAMETERS`; fill defaults.
 
@@ -303,14 +315,7 @@ def validate_params(values: Mapping[str, Any]) -> dict[str, Any]:
     """
     unknown = sorted(set(values) - set(_BY_NAME))
     if unknown:
-        name = unknown[0]
-        if name in RETIRED:
-            msg = f'parameter {name} is no longer read: {RETIRED[name]}'
-            raise ParameterError(msg)
-        close = difflib.get_close_matches(name, list(_BY_NAME), n=1, cutoff=0.75)
-        msg = f'unknown parameter {name}' + (f' (did you mean {close[0]}?)' if close else '') + (
-            f' (and {len(unknown) - 1} more)' if len(unknown) > 1 else '')
-        raise ParameterError(msg)
+        raise ParameterError(unknown_parameter_message(unknown))
     out: dict[str, Any] = {}
     for spec in PARAMETERS:
         if spec.name in values:

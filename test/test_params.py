@@ -162,3 +162,10 @@ def test_wildcard_node_entry_is_merged(tmp_path):
 def test_gear_record_matches_params(r18_params):
     gear = gear_from_params(r18_params)
     assert gear.ram_area == pytest.approx(0.045239, rel=1e-4)
+
+
+def test_an_unknown_parameter_suggests_the_known_one():
+    """The node and every command say the same line: the name given, and the closest known."""
+    from steer_monitor.params import unknown_parameter_message
+    assert unknown_parameter_message(['can.chanel']) == 'unknown parameter can.chanel (did you mean can.channel?)'
+    assert unknown_parameter_message(['x.y', 'z']) == 'unknown parameter x.y (and 1 more)'

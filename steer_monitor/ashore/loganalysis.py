@@ -172,6 +172,8 @@ def analyze_log(path: str | Path, config: str | Path | None = None, progress: bo
     gear = gear_from_params(params)
     rejects = RejectCounter()
     logs = decode_logs([path], db, smap, rejects, date=date)
+    if logs.frames == 0 and not logs.errors:
+        raise EstimateError(f'{path} holds no CAN frames: nothing to analyse')
     signals = logs.signals if until_ns is None else before(logs.signals, until_ns)
     say = (lambda msg: print(f'  {msg} ...', file=sys.stderr)) if progress else None
     try:

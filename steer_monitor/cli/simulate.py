@@ -17,7 +17,7 @@ from steer_monitor.can.busconfig import load_setup
 from steer_monitor.cli.options import add_config_option, add_force_option, add_json_option
 from steer_monitor.cli.output import check_json_target, emit_json, json_to_stdout
 from steer_monitor.errors import OutputError, ParameterError
-from steer_monitor.logfiles.logs import LogError, LogWriter
+from steer_monitor.logfiles.logs import WRITE_SUFFIXES, LogError, LogWriter
 from steer_monitor.model.gear import Gaps
 from steer_monitor.params import gaps_from_params
 from steer_monitor.utc import parse_utc, utc_json
@@ -84,6 +84,11 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
         msg = f'--speed-factor must be >= 0 (0: as fast as possible), got {speed_factor!r}'
         raise ParameterError(msg)
     if out_path is not None:          # before the simulation, not after
+        suffix = Path(out_path).suffix.lower()
+        if suffix not in WRITE_SUFFIXES:
+            msg = (f'--out {out_path}: simulate writes a log ending in .log (candump), .blf or .mcap, '
+                   f'not {suffix or "a name without a suffix"!r}')
+            raise ParameterError(msg)
         for target in (Path(out_path), truth_path(Path(out_path))):
             check_target(target, [config])
     check_json_target(json_out, [config, out_path])

@@ -113,6 +113,7 @@ class MonitorNode(Node):
         self._stop = threading.Event()
         self._closed = False
         self._closing = False
+        self._bus_listening_told = False
         self.analyst: Analyst | None = None
         jobs = self._start_analyst() if p['estimator.enabled'] else None
         self.pipeline = self._new_pipeline(jobs)
@@ -126,7 +127,7 @@ class MonitorNode(Node):
         self.create_timer(1.0, self._silent_diagnostics)
         self._reader_thread.start()
         self.get_logger().info(
-            f'listening on {interface}:{channel} (listen-only); {len(smap.specs)} inputs mapped; '
+            f'opening {interface}:{channel} (listen-only); {len(smap.specs)} inputs mapped; '
             + (f'recording to {p["recording.directory"]}' if self.recorder else 'recording off'))
 
     def _recording_failed(self, text: str | None) -> None:
@@ -148,6 +149,9 @@ class MonitorNode(Node):
         self._bus_mode = (getattr(bus, 'silent', None), getattr(bus, 'silent_how', 'not reported'))
         self._bus_clock = getattr(bus, 'clock', None)
         self._clock_told = (None, 0)
+        if not self._bus_listening_told:      # said once it is true, not before the bus is open
+            self._bus_listening_told = True
+            self._log().info(f"listening on {self.params['can.interface']}:{self.params['can.channel']}")
 
     def _clock_text(self) -> str:
         """What the frames' times are, in words; said in the log when it changes (the first

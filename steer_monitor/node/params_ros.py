@@ -42,8 +42,8 @@ def declare_parameters(node: Any) -> dict[str, Any]:
     known = {s.name for s in PARAMETERS}
     unknown = sorted(set(overrides) - known - {'use_sim_time'})
     if unknown:
-        msg = f'unknown parameter {unknown[0]}' + (f' (and {len(unknown) - 1} more)' if len(unknown) > 1 else '')
-        raise ParameterError(msg)
+        from steer_monitor.params import unknown_parameter_message
+        raise ParameterError(unknown_parameter_message(unknown))
     # Without any gear parameter (no parameters file given), the packaged one is the default,
     # said in the log: a node started bare monitors the R-18 gear it describes rather than
     # failing on the first required parameter. Given some, a missing required one is an error:

@@ -72,6 +72,9 @@ def _chunk_records(chunk: Any) -> bytes:
     return decompress_chunk(chunk.compression, chunk.data, chunk.uncompressed_size, chunk.uncompressed_crc)
 
 
+MCAP_MAGIC = b'\x89MCAP0\r\n'
+
+
 def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult:
     """Copy what is readable of ``path`` into ``output`` (default ``<name>.recovered.mcap``)."""
     from mcap.exceptions import EndOfFile
@@ -84,9 +87,19 @@ def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult
     check_target(dst, [src])       # not over its input unless --force: the rule every command follows
     try:
         fin = open(src, 'rb')
+        head = fin.read(len(MCAP_MAGIC))
+        fin.seek(0)
     except OSError as exc:
         msg = f'cannot open {src}: {os_reason(exc)}'
         raise RecoverError(msg) from exc
+    if head != MCAP_MAGIC:
+        fin.close()
+        shown = head.decode('ascii', 'replace') if head.isascii() else head.hex(' ')
+        guess = ' (a candump log?)' if head.startswith(b'(') else ''
+        msg = (f'{src} is not an MCAP recording: it begins {shown!r}{guess}, not the MCAP magic; recover mends '
+               'MCAP files cut short (analyze, replay and report read a candump log as it is)' if head else
+               f'{src} is empty: there is nothing to recover')
+        raise RecoverError(msg)
     schemas: dict[int, int] = {}
     channels: dict[int, int] = {}
     metadata: set[str] = set()
@@ -147,8 +160,10 @@ def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult
                         footer = True
                     else:
                         copy(record)
-            except Exception as exc:  # the cut or broken framing: mcap raises its own errors
-                stopped = f'{type(exc).__name__}: {exc}'
+            except EndOfFile:         # the file ends inside a record: the crash's cut
+                stopped = 'it ends inside a record'
+            except Exception as exc:  # noqa: BLE001 - broken framing: mcap raises its own errors
+                stopped = f'{exc}' if str(exc).strip() else f'a record that does not parse ({type(exc).__name__})'
             if count == 0 and not schemas:
                 msg = f'{src} holds no readable MCAP records ({stopped or "; ".join(dropped) or "empty"})'
                 raise RecoverError(msg)

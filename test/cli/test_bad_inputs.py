@@ -609,3 +609,17 @@ def test_the_other_subcommands_fail_in_one_line_before_their_work(base, tmp_path
     rc, lines, _ = _run(capsys, [a.format(**fill) for a in argv])
     assert rc == 1 and len(lines) == 1, lines
     assert phrase.format(**fill) in lines[0] and 'internal error' not in lines[0], lines
+
+
+@pytest.mark.parametrize('argv, line', [
+    (['analyze', '{tmp}/empty.log'], '{tmp}/empty.log holds no CAN frames: nothing to analyse'),
+    (['simulate', '--max-duration', '2', '--out', '{tmp}/x.csv'],
+     "--out {tmp}/x.csv: simulate writes a log ending in .log (candump), .blf or .mcap, not '.csv'"),
+])
+def test_messages_say_what_the_user_gave_and_no_temporary_name(tmp_path, capsys, argv, line):
+    (tmp_path / 'empty.log').write_text('')
+    assert main([a.replace('{tmp}', str(tmp_path)) for a in argv]) == 1
+    err = capsys.readouterr().err
+    assert err == f"steer-monitor {argv[0]}: error: {line.replace('{tmp}', str(tmp_path))}\n"
+    assert '.tmp' not in err
+    assert not (tmp_path / 'x.csv').exists()

@@ -313,8 +313,16 @@ def test_recover_cli_and_errors(tmp_path, capsys):
     assert out['complete'] is True and out['messages'] == 100
     junk = tmp_path / 'junk.mcap'
     junk.write_bytes(b'not an mcap at all')
-    with pytest.raises(RecoverError, match='holds no readable MCAP records'):
+    with pytest.raises(RecoverError, match="junk.mcap is not an MCAP recording: it begins 'not an m', not the MCAP"):
         recover(junk)
+    log = tmp_path / 'can0.log'
+    log.write_text('(1772352000.008060) can0 09F10D10#00F80000FFFFFFFF\n')
+    with pytest.raises(RecoverError, match=r"it begins '\(1772352' \(a candump log\?\).*read a candump log as it is"):
+        recover(log)
+    cut = tmp_path / 'cut.mcap'
+    cut.write_bytes(rec.files[0].read_bytes()[:9])          # the magic, then the cut
+    with pytest.raises(RecoverError, match=r'holds no readable MCAP records \(it ends inside a record\)'):
+        recover(cut)
     assert main(['recover', str(tmp_path / 'missing.mcap')]) == 1
     assert 'cannot open' in capsys.readouterr().err
 
