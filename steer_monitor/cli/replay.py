@@ -25,6 +25,7 @@ from steer_monitor.cli.output import (
     report_read_errors,
     text_stream,
 )
+from steer_monitor.logfiles.same import distinct_logs
 
 __all__ = ['register', 'run']
 
@@ -41,6 +42,10 @@ def run(logs: list[str], out_path: str | Path, config: str | Path | None = None,
     out = out or sys.stdout
     err = err or sys.stderr
     out = text_stream([out_path, json_out], out, err)
+    kept, same = distinct_logs(logs)
+    for note in same:
+        err.write(f'steer-monitor replay: note: {note}\n')
+    logs = [str(p) for p in kept]
     check_json_target(json_out, [*logs, config, out_path])
     date_notes('replay', logs, date, err)
     t0 = time.perf_counter()

@@ -38,6 +38,7 @@ from steer_monitor.cli.output import (
     report_read_errors,
     text_stream,
 )
+from steer_monitor.logfiles.same import distinct_logs
 
 __all__ = ['register', 'run']
 
@@ -66,6 +67,9 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
     paths = [Path(p) for p in logs]
     out = text_stream([json_out], out, err)
     check_logs(paths)
+    paths, same = distinct_logs(paths)
+    for note in same:
+        err.write(f'steer-monitor report: note: {note}\n')
     check_json_target(json_out, [*paths, config])
     config_path, params = load_config(config)
     ensure_dir(out_dir)               # before the review, not after
