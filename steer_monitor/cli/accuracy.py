@@ -225,8 +225,11 @@ def markdown(results: Sequence[A.CaseResult], summary: dict[str, Any], command: 
         '',
         'K_gl max is the largest guide-beam share over the angles the log reached (truth: the plant\'s '
         'own K_gl over those angles, at the service speed where the estimated torque curve stands). '
-        'Verdict "declared" is the right answer on these clean logs; any other is a false alarm of the '
-        'residual loop. The systematic residual is the smooth part of the declared model\'s residual '
+        + ('With an effect in the plant, "effect" naming it is the right verdict (the sensitivity table '
+           'below says which were named). ' if any(r.case.effects for r in results) else
+           'Verdict "declared" is the right answer on these clean logs; any other is a false alarm of the '
+           'residual loop. ')
+        + 'The systematic residual is the smooth part of the declared model\'s residual '
         '(its autocovariance at 200 ms); the sensor noise alone leaves about 0.35 bar of noise and no '
         'systematic part.',
         '',
