@@ -132,15 +132,34 @@ def block_seconds(resid: NDArray[np.float64], t_ns: NDArray[np.int64], step_ns: 
     return float(np.clip(BLOCK_DECORRELATIONS * lag * step_ns / 1e9, BLOCK_MIN_S, BLOCK_MAX_S))
 
 
-def _row_design(gear: GearParams, basis: F.TorqueBasis, mom: Moments, bin_of_row: NDArray[np.intp],
-                u: NDArray[np.float64], coef: NDArray[np.float64], two_z: float, z_gb: float,
-                load: NDArray[np.float64], extra: Sequence[F.Column], clearances: Sequence[int]
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64], list[str]]:
-    """(per-bin columns (B, p + c), their z indices as an array of the per-row u, names): the
-    model's linear columns and, for each clearance index in ``clearances`` (0: 2Z, 1: Z_gb),
-    the derivative of the prediction with respect to it (a z of 1)."""
+@dataclass(frozen=True)
+class _Derivative:
+    """The derivative of the prediction with respect to one clearance, per bin: ``per_bin`` (B,)
+    where every column the clearance changes multiplies z = 1 (then a row's derivative is its
+    bin's), else ``columns`` (B, p) with their z indices ``zs``, worked out row by row."""
+
+    per_bin: NDArray[np.float64] | None
+    columns: NDArray[np.float64] | None = None
+    zs: NDArray[np.intp] | None = None
+
+    def rows(self, b: NDArray[np.intp], u: NDArray[np.float64], coef: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The derivative at rows of bins ``b`` with per-row ``u`` (r, q)."""
+        if self.per_bin is not None:
+            return self.per_bin[b]
+        assert self.columns is not None and self.zs is not None
+        return (self.columns[b] * u[:, self.zs]) @ coef
+
+
+def _row_design(gear: GearParams, basis: F.TorqueBasis, mom: Moments, coef: NDArray[np.float64], two_z: float,
+                z_gb: float, load: NDArray[np.float64], extra: Sequence[F.Column], clearances: Sequence[int]
+                ) -> tuple[NDArray[np.float64], NDArray[np.intp], list[str], list[_Derivative]]:
+    """(per-bin columns (B, p), the per-row u index each multiplies, names with the clearances'
+    appended, the clearances' derivatives): the model's linear columns and, for each clearance
+    index in ``clearances`` (0: 2Z, 1: Z_gb), the prediction's derivative with respect to it by
+    central differences of ``STEP_M`` (one-sided at 0)."""
     cols, zs, names = F.design_at(gear, basis, mom, two_z, z_gb, load, extra)
-    extra_cols, extra_names = [], []
+    zi = np.asarray(zs, dtype=np.intp)
+    derivatives: list[_Derivative] = []
     for axis in clearances:
         at = [two_z, z_gb]
         h = STEP_M if at[axis] >= STEP_M else max(at[axis], 0.0)
@@ -150,17 +169,13 @@ def _row_design(gear: GearParams, basis: F.TorqueBasis, mom: Moments, bin_of_row
         cp, _, _ = F.design_at(gear, basis, mom, plus[0], plus[1], load, extra)
         cm, _, _ = F.design_at(gear, basis, mom, minus[0], minus[1], load, extra)
         dcols = (cp - cm) / (STEP_M + h)
-        # a derivative column per bin that multiplies each row's z as its column does:
-        # collapse it per z into one column of z = 1 only where every changing column has z = 0
-        zi = np.asarray(zs)
         changing = np.any(dcols != 0.0, axis=0)
-        if np.any(zi[changing] != 0):
-            # a clearance-dependent column times a z other than 1 (temp_friction's): per row below
-            extra_cols.append(('rows', dcols, zi))
+        if np.any(zi[changing] != 0):       # a clearance-dependent column times a z other than 1 (temp_friction's)
+            derivatives.append(_Derivative(None, dcols, zi))
         else:
-            extra_cols.append(('bins', dcols @ coef, None))
-        extra_names.append(CLEARANCES[axis])
-    return cols, np.asarray(zs), names + extra_names, extra_cols  # type: ignore[return-value]
+            derivatives.append(_Derivative(dcols @ coef))
+        names = [*names, CLEARANCES[axis]]
+    return cols, zi, names, derivatives
 
 
 def robust_scales(gear: GearParams, basis: F.TorqueBasis, mom: Moments, bin_of_row: NDArray[np.intp],
@@ -176,9 +191,8 @@ def robust_scales(gear: GearParams, basis: F.TorqueBasis, mom: Moments, bin_of_r
     ``extra`` as fitted, the clearances to differentiate (``clearances``: 0 for 2Z, 1 for Z_gb)
     and the time block [s]. Names: ``names`` and 'two_z' / 'z_gb'. A parameter the data do not
     carry (an empty column) gets scale 1 and dof inf."""
-    cols, zs, all_names, dcols = _row_design(gear, basis, mom, bin_of_row, u, coef, two_z, z_gb, load, extra,
-                                             clearances)
-    p, c = cols.shape[1], len(dcols)
+    cols, zs, all_names, derivatives = _row_design(gear, basis, mom, coef, two_z, z_gb, load, extra, clearances)
+    p, c = cols.shape[1], len(derivatives)
     n = bin_of_row.size
     keys_time = ((t_ns - t_ns.min()) // int(block_s * 1e9)).astype(np.int64) if n else np.zeros(0, np.int64)
     cell = np.floor(abs_alpha / math.radians(CELL_DEG)).astype(np.int64)
@@ -193,8 +207,8 @@ def robust_scales(gear: GearParams, basis: F.TorqueBasis, mom: Moments, bin_of_r
         b = bin_of_row[sl]
         x = np.empty((b.size, p + c))
         x[:, :p] = cols[b] * u[sl][:, zs]
-        for k, (kind, d, zi) in enumerate(dcols):
-            x[:, p + k] = d[b] if kind == 'bins' else (d[b] * u[sl][:, zi]) @ coef
+        for k, d in enumerate(derivatives):
+            x[:, p + k] = d.rows(b, u[sl], coef)
         e = resid[sl]
         jmat += x.T @ x
         xe = x * e[:, None]
