@@ -81,3 +81,15 @@ def test_a_clean_voyage_adopts_no_effect(r18_params, can_db, seed, two_z, z_gb):
     a = _analysis(r18_params, can_db, 'realistic:1500', two_z, z_gb, seed)
     assert a.steps == () and a.verdict == 'declared', a.message
     _holds_or_is_a_bound(a.final.z_gb, z_gb * MM)
+
+
+def test_a_contact_placed_at_the_datas_edge_is_a_lower_bound(r18_params, can_db):
+    """A ram clamped early (2Z 0.12 mm) keeps the slipper (0.34 mm) from ever touching; the fit
+    placed a guide contact in 0.7 % of the rows with a friction of 0.25 to take up a misfit at
+    the highest loads: Z_gb 0.265 [0.258, 0.270] mm. Now a lower bound, saying why."""
+    a = _analysis(r18_params, can_db, 'realistic:1500', 0.1229, 0.3386, 20022)
+    iv = a.final.z_gb
+    assert iv.hi is None and iv.lo <= 0.3386 * MM
+    assert 'too little to place a contact' in a.final.bound_why[1]
+    _, z_gb = _levels(r18_params, a)
+    assert z_gb.level != 'OK'
