@@ -312,8 +312,10 @@ def _evidence(gear: GearParams, mom: Moments, load: NDArray[np.float64], two_z: 
     0.270] mm, a guide friction of 0.25-0.3 touching in 1 % of the rows, where the slipper
     never touched: Z_gb 0.34 mm). As a change point needs data on both sides of it (the
     trimming of Andrews' test), such an answer is a lower bound: the clearance is at least
-    the interval's low end. An estimate at the grid's first value (a contact from no load at
-    all, the model's edge) is likewise only a lower bound of that value."""
+    the interval's low end. A Z_gb estimate at the grid's first value, 0 (a slipper touching
+    from no load at all, the model's edge, where friction from elsewhere was read as the guide
+    beam's: 0.000 [0.000, 0.000] mm for 0.096), is likewise only a lower bound; a 2Z at its
+    grid's first value is the new fit's smallest clearance, a place a gear can be."""
     out = [two_z, z_gb]
     why = ['', '']
     if two_z.hi is None and z_gb.hi is None:
@@ -330,7 +332,7 @@ def _evidence(gear: GearParams, mom: Moments, load: NDArray[np.float64], two_z: 
         if iv.hi is None or iv.lo is None:
             continue
         rows = float(mom.count[shows[k]].sum())
-        if iv.value <= float(grids[k][0]) + 1e-12 and grids[k].size > 1:
+        if k == 1 and iv.value <= float(grids[k][0]) + 1e-12 and grids[k].size > 1:
             out[k] = Interval(iv.value, float(grids[k][0]), None)
             why[k] = "at the model's edge (a contact from no load at all)"
         elif rows < max(MIN_CONTACT_SHARE * total, MIN_CONTACT_ROWS):
