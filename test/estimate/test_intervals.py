@@ -76,7 +76,10 @@ def test_plateau_accepted_at_the_change_point_threshold(plateau, expect_open):
     plain = profile_interval(axis, delta)
     assert iv.value == pytest.approx(0.1e-3)
     if expect_open:
-        assert iv.hi is None and iv.lo == pytest.approx(plain.lo)
+        # a bound's end rounded outward to the last value the profile rejects
+        rejected = axis[(axis < plain.lo) & (delta > 3.841458820694124)]
+        low = rejected.max() if rejected.size else axis[0]
+        assert iv.hi is None and iv.lo == pytest.approx(low) and plain.lo - iv.lo < axis[1] - axis[0] + 1e-15
     else:
         assert iv == plain and iv.hi is not None
     assert PLATEAU_THRESHOLD == pytest.approx(chi2.ppf(0.95, 4))
@@ -86,3 +89,15 @@ def test_no_plateau_is_the_plain_interval():
     axis = np.linspace(0.0, 0.6e-3, 121)
     delta = ((axis - 0.2e-3) / 0.02e-3) ** 2
     assert plateau_interval(axis, delta) == profile_interval(axis, delta)
+
+
+def test_a_lower_bound_is_rounded_outward_not_interpolated():
+    """A ram that clamps in a few rows at 0.112 mm: the deviance is near zero from there to the
+    plateau and steep only below; on a 0.02 mm grid the interpolated crossing put the bound at
+    0.116 mm, above the truth. Rounded outward it is the last rejected grid value, 0.10 mm."""
+    axis = np.round(np.arange(0.06e-3, 1.5e-3, 0.02e-3), 9)
+    true = 0.112e-3
+    delta = np.where(axis < true, 300.0 * (true - axis) / 0.02e-3, 0.0)    # what the grid sees
+    iv = plateau_interval(axis, delta)
+    assert iv.hi is None and iv.lo == pytest.approx(0.10e-3) and iv.lo <= true
+    assert profile_interval(axis, delta).lo > true                          # interpolated: above the truth
