@@ -341,3 +341,21 @@ def test_a_script_without_the_main_guard_is_told_what_to_do(tmp_path):
                           check=False)
     assert done.returncode != 0
     assert "call the fleet under `if __name__ == '__main__':`" in done.stderr.splitlines()[-1], done.stderr[-2000:]
+
+
+def test_the_trend_uses_judged_logs_only_and_says_no_wear(r18_params):
+    """A year of a steady slipper (0.20 mm): no date, "no wear seen over 11 months". Logs whose
+    model did not explain their pressures, reading higher and higher, would have made a wear of
+    it: they are shown (NOT ASSESSED) and left out of the trend."""
+    from dataclasses import replace
+    rs = [_result(f'd{d:03d}.log', d, 24, 0.20 + 0.003 * (-1) ** (d // 30)) for d in range(0, 360, 30)]
+    v = _fleet(rs, r18_params)
+    tr = v['trend']['clearance_zgb_mm']
+    assert tr['limit_date_utc'] is None and tr['wear_seen'] is False
+    assert tr['message'].startswith('no wear seen over 11 months (12 logs; rate ')
+    bad = [replace(r, verdict='unexplained', z_gb=r.z_gb + 0.01e-3 * k, z_gb_lo=r.z_gb_lo + 0.01e-3 * k,
+                   z_gb_hi=r.z_gb_hi + 0.01e-3 * k) if k >= 8 else r for k, r in enumerate(rs)]
+    v = _fleet(bad, r18_params)
+    tr = v['trend']['clearance_zgb_mm']
+    assert tr['estimates_used'] == 8 and tr['limit_date_utc'] is None
+    assert [lg['clearance_zgb_mm']['level'] for lg in v['logs']][8:] == ['NOT ASSESSED'] * 4
