@@ -86,7 +86,7 @@ def test_a_year_of_a_fleet_with_a_worker_killed(tmp_path, fleet_dirs, client):
     d_lo, d_hi = wearing['limit_date_ci95']
     assert d_lo <= true_date <= d_hi, (wearing, true_date)
     assert by['steady']['trend']['clearance_zgb_mm']['limit_date_utc'] is None
-    assert all(lg['level'] in ('OK', 'WARN', 'OVER LIMIT', 'not judged') for v in data['vessels'] for lg in v['logs'])
+    assert all(lg['level'] in ('OK', 'WARN', 'OVER LIMIT', 'NOT ASSESSED') for v in data['vessels'] for lg in v['logs'])
     log0 = by['wearing']['logs'][0]
     assert log0['start_utc'].startswith('2026-01-01') and set(log0['clearance_zgb_mm']) == {
         'value',

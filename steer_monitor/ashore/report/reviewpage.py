@@ -232,10 +232,9 @@ def _hardover(r: ReviewResult, tx: _TimeAxis, inp: ReportInput) -> Any:
 
 
 def _iv_text(iv: Any, scale: float, unit: str) -> str:
-    v = f'{iv.value * scale:.3f}'
-    lo = '-' if iv.lo is None else f'{iv.lo * scale:.3f}'
-    hi = 'unbounded (lower bound only)' if iv.hi is None else f'{iv.hi * scale:.3f}'
-    return f'{v} {unit} [{lo} .. {hi}]'
+    """An estimate in the words every command uses (a bound said as one, no point beside it)."""
+    from steer_monitor.jsonvocab import estimate_text
+    return estimate_text(iv.scaled(scale, 4), unit, 3)
 
 
 def _utc(t_ns: int) -> str:
@@ -244,9 +243,9 @@ def _utc(t_ns: int) -> str:
 
 
 def _verdict_block(inp: ReportInput) -> str:
-    """One box per clearance: OK / WARN / OVER LIMIT (the live diagnostics' rule, on the model
-    check's estimate and its interval), or NOT JUDGED (no check, or its model does not explain
-    the pressures); % of limit, the interval; then where the page came from."""
+    """One box per clearance: OK / WARN / OVER LIMIT / NOT ASSESSED (the live diagnostics' rule,
+    on the model check's estimate and its interval); % of limit, the interval, why; then where
+    the page came from and what each level means."""
     from steer_monitor import __version__
     from steer_monitor.ashore.modelcheck import NOT_JUDGED, headlines
 
@@ -275,9 +274,10 @@ def _verdict_block(inp: ReportInput) -> str:
     span = (f'{_utc(int(r.t_ns[0]))} to {_utc(int(r.t_ns[-1]))}' if len(r.t_ns) else 'no rudder angle')
     prov = (f'{esc(inp.gear_name)} gear; data {esc(span)}; parameters {esc(inp.config or "(packaged)")} '
             f'(SHA-256 {esc(inp.parameters_sha256[:12])}); steer_monitor {esc(__version__)}. '
-            f'Clearances from the model check (analyze of the last hours of data); OK below '
-            f'{inp.warn_share:.0%} of a limit; WARN from it, OVER LIMIT when even the interval\'s low end is past '
-            f'the limit; NOT JUDGED when the model does not explain the pressures.')
+            f'Clearances from the model check (analyze of the last hours of data). OK: assessed and below '
+            f'{inp.warn_share:.0%} of its limit; WARN from it; OVER LIMIT when even the interval\'s low end is '
+            f'past the limit; NOT ASSESSED when the data cannot say (no estimate, a lower bound below the warning, '
+            f'an interval too wide, or a model that does not explain the pressures), with why.')
     return f'<div class="verdict">{"".join(boxes)}</div><p class="prov">{prov}</p>'
 
 
@@ -306,11 +306,14 @@ def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
         ('frames', f'{inp.frames:,d}'),
         ('data', f'{span_h:.2f} h, {r.motion_s / 60:.0f} min of steady rudder motion'),
     ]
-    if r.estimates:
-        e = r.estimates[-1].estimate
-        rows += [('2Z (ram bushing)', _iv_text(e.two_z, 1e3, 'mm') + f'; limit {inp.limit_2z * 1e3:.3f} mm'),
-                 ('Z_gb (guide slipper)', _iv_text(e.z_gb, 1e3, 'mm') + f'; limit {inp.limit_zgb * 1e3:.3f} mm'),
-                 ('K_gl max over the angles seen', _iv_text(e.k_gl_max, 1.0, ''))]
+    # one source for each figure: the model check's, as the boxes above give it; the review's
+    # windows (the plot of the clearances over time) only where there is no check
+    e = inp.analysis.final if inp.analysis is not None else (r.estimates[-1].estimate if r.estimates else None)
+    if e is not None:
+        src = '' if inp.analysis is not None else ' (the review\'s last window: no model check)'
+        rows += [('2Z (ram bushing)', _iv_text(e.two_z, 1e3, 'mm') + f'; limit {inp.limit_2z * 1e3:.3f} mm' + src),
+                 ('Z_gb (guide slipper)', _iv_text(e.z_gb, 1e3, 'mm') + f'; limit {inp.limit_zgb * 1e3:.3f} mm' + src),
+                 ('K_gl max over the angles seen', _iv_text(e.k_gl_max, 1.0, '') + src)]
     else:
         rows.append(('clearances', 'not estimated: ' + '; '.join(r.notes)))
     if r.hard_overs:

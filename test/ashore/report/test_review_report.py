@@ -67,12 +67,12 @@ def test_page_renders_every_plot_in_chromium(tmp_path, logs, which, capsys):
     assert '2Z (ram bushing)' in dom and 'hard-overs' in dom
     for name in ('2Z', 'Z_gb'):        # the verdict, first on the page
         box = re.search(rf'id="verdict-{name}">(.*?)</div></div>', dom)
-        assert box is not None and re.search(r'class="big">(OK|WARN|OVER LIMIT|NOT ESTIMATED|NOT JUDGED)<',
+        assert box is not None and re.search(r'class="big">(OK|WARN|OVER LIMIT|NOT ASSESSED)<',
                                              box.group(1)), name
     assert 'R-18 gear; data 20' in dom and 'SHA-256' in dom and 'steer_monitor 0.1.0' in dom
     for key in ('clearance_2z_mm', 'clearance_zgb_mm'):      # with the level the page's verdict box shows
         assert set(summary[key]) == {'value', 'ci95', 'bounded', 'level'}
-        assert summary[key]['level'] in ('OK', 'WARN', 'OVER LIMIT', 'not judged'), summary[key]
+        assert summary[key]['level'] in ('OK', 'WARN', 'OVER LIMIT', 'NOT ASSESSED'), summary[key]
     assert set(summary['k_gl_max']) >= {'value', 'ci95', 'bounded'}
     shot = tmp_path / 'shot.png'
     _chromium('--window-size=1200,5000', f'--screenshot={shot}', page.as_uri())
