@@ -618,6 +618,7 @@ def _conclude(gear: GearParams, obs: Observations, base: _Base, declared: Cleara
     if not nuisance:                    # the model's own fit, its intervals counting the misfit as noise
         final = estimate_clearances(gear, base.obs, base.rows, base.extra, grid_2z=grid_2z,
                                     model_inflation=unexplained_inflation(base.est))
+
     msg = _message('unexplained', declared, base.est, closest, steps, given)
     msg += f'; {located.message(gear.ram_area)}' if located is not None else '; no observed variable carries it'
     msg += ('; the clearances are fitted with that term as a nuisance and rest on an incomplete model' if nuisance
@@ -634,11 +635,11 @@ def _specification_check(gear: GearParams, base: _Base, grid_2z: NDArray, say: C
     deg of rudder read as the guide beam's: Z_gb 0.000 [0.000, 0.000] mm for 0.096). Where the
     locator finds a term (:func:`~steer_monitor.estimate.locate.locate`), the clearances are fitted
     again with it taken out as a nuisance; a clearance whose two answers do not overlap rests on
-    that misfit and is given as a lower bound (the lower of the two lows), saying why. ->
-    (the estimate, '' or what the message adds)."""
+    that misfit and is given as a lower bound (the lower of the two lows), saying why; a lower
+    bound the fit without the misfit puts lower is lowered to it (a band of friction masking the
+    guide beam's contact put Z_gb >= 0.175 mm for 0.151). -> (the estimate, '' or what the
+    message adds)."""
     est = base.est
-    if est.two_z.hi is None and est.z_gb.hi is None:
-        return est, ''
     located = locate(base.obs, est.residual, est.inflation)
     if located is None:
         return est, ''
@@ -654,9 +655,11 @@ def _specification_check(gear: GearParams, base: _Base, grid_2z: NDArray, say: C
     ivs, why, said = [est.two_z, est.z_gb], list(est.bound_why), []
     where = located.message(gear.ram_area)
     for k, (name, a, b) in enumerate((('2Z', est.two_z, alt.two_z), ('Z_gb', est.z_gb, alt.z_gb))):
-        if a.hi is None or a.lo is None or b.lo is None:
+        if a.lo is None or b.lo is None:
             continue
-        apart = (b.hi is not None and b.hi < a.lo) or b.lo > a.hi
+        apart = (b.hi is not None and b.hi < a.lo) or (a.hi is not None and b.lo > a.hi)
+        if a.hi is None and b.lo < a.lo:     # a bound the misfit holds up
+            apart = True
         if not apart:
             continue
         ivs[k] = Interval(a.value, min(a.lo, b.lo), None)
