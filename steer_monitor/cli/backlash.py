@@ -29,7 +29,7 @@ def run(chain_path: str | Path, angle_deg: float = 0.0, limit_arcmin: float | No
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser('backlash', help='backlash of a kinematic chain from its fits',
-                       description='Backlash of a kinematic chain (seed 000) at the ram and at the rudder.')
+                       description='Backlash of a kinematic chain (paper 000) at the ram and at the rudder.')
     p.add_argument('chain', help='chain YAML file, e.g. config/r18_chain.yaml')
     p.add_argument('--angle-deg', type=float, default=0.0, help='rudder angle to reduce to [deg]')
     p.add_argument('--limit-arcmin', type=float, help='find the coarsest IT grade within this backlash')

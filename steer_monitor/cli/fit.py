@@ -32,7 +32,7 @@ def run(designation: str, json_out: str | Path | None = None, out: TextIO | None
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser('fit', help='limits and probable clearance of an ISO 286 fit',
-                       description='Limits, mean and probable clearance of a hole-basis ISO 286 fit (seed 000).')
+                       description='Limits, mean and probable clearance of a hole-basis ISO 286 fit (paper 000).')
     p.add_argument('designation', help='e.g. "240 H9/f9" (nominal mm, H hole, shaft letter and grade)')
     add_json_option(p, 'the limits and clearances')
     add_force_option(p)

@@ -24,7 +24,7 @@ import math
 import sys
 import time
 from pathlib import Path
-from typing import TextIO
+from typing import Any, TextIO
 
 from steer_monitor.ashore.modelcheck import ANALYSIS_HOURS
 from steer_monitor.cli.options import LOG_FORMATS, add_config_option, add_force_option, add_json_option
@@ -47,16 +47,10 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
         json_out: str | Path | None = None, out: TextIO | None = None, err: TextIO | None = None,
         date: datetime.date | None = None) -> int:
     """Review ``logs`` into ``out_dir``; 1 (one line per log on ``err``) when a log broke off
-    or had corrupt parts (the page is made from what could be read and says so)."""
-    from tqdm import tqdm
-
-    from steer_monitor.ashore.batchpath import review_logs
-    from steer_monitor.ashore.modelcheck import headline_json, headline_text, headlines, model_check
-    from steer_monitor.ashore.report.logreport import report_input
-    from steer_monitor.ashore.report.reviewpage import write_review_report
-    from steer_monitor.atomic import ensure_dir
+    or had corrupt parts (the page is made from what could be read and says so). A report that
+    fails leaves no output directory it made."""
+    from steer_monitor.atomic import output_dir
     from steer_monitor.errors import ParameterError
-    from steer_monitor.logfiles.logs import LogError
     from steer_monitor.params import load_config
 
     out = out or sys.stdout
@@ -72,7 +66,23 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
         err.write(f'steer-monitor report: note: {note}\n')
     check_json_target(json_out, [*paths, config])
     config_path, params = load_config(config)
-    ensure_dir(out_dir)               # before the review, not after
+    # made before the review (a directory that cannot be made fails now, not after minutes of
+    # work), and removed again when the report fails before writing into it
+    with output_dir(out_dir):
+        return _run(paths, out_dir, config_path, params, analysis_hours, json_out, out, err, date)
+
+
+def _run(paths: list[Path], out_dir: str | Path, config_path: str | Path, params: dict[str, Any],
+         analysis_hours: float, json_out: str | Path | None, out: TextIO, err: TextIO,
+         date: datetime.date | None) -> int:
+    from tqdm import tqdm
+
+    from steer_monitor.ashore.batchpath import review_logs
+    from steer_monitor.ashore.modelcheck import headline_json, headline_text, headlines, model_check
+    from steer_monitor.ashore.report.logreport import report_input
+    from steer_monitor.ashore.report.reviewpage import write_review_report
+    from steer_monitor.logfiles.logs import LogError
+
     date_notes('report', paths, date, err)
     t0 = time.perf_counter()
     with tqdm(unit='frame', unit_scale=True, disable=not sys.stderr.isatty(), file=sys.stderr, desc='review') as bar:

@@ -623,3 +623,12 @@ def test_messages_say_what_the_user_gave_and_no_temporary_name(tmp_path, capsys,
     assert err == f"steer-monitor {argv[0]}: error: {line.replace('{tmp}', str(tmp_path))}\n"
     assert '.tmp' not in err
     assert not (tmp_path / 'x.csv').exists()
+
+
+def test_a_failed_report_leaves_no_output_directory(tmp_path, capsys):
+    """A report of a log without a frame once left an empty directory that passed for a result."""
+    bad = tmp_path / 'bad.log'
+    bad.write_text('garbage\n')
+    assert main(['report', str(bad), '--out', str(tmp_path / 'out' / 'report')]) == 1
+    assert capsys.readouterr().err == f'steer-monitor report: error: no frame in {bad}\n'
+    assert not (tmp_path / 'out').exists()
