@@ -27,6 +27,10 @@ def run(designation: str, json_out: str | Path | None = None, out: TextIO | None
               f"  clearance limits  {s['clearance_min_mm']:.3f} .. {s['clearance_max_mm']:.3f} mm (worst case)\n"
               f"  mean clearance    {s['clearance_mean_mm']:.3f} mm\n"
               f"  probable          {s['probable_min_mm']:.3f} .. {s['probable_max_mm']:.3f} mm (root-sum-square)\n")
+    if s['clearance_min_mm'] < 0:
+        kind = ('an interference fit' if s['clearance_max_mm'] <= 0 else
+                'a transition fit: from interference to clearance')
+        out.write(f"  a negative clearance is interference (the shaft larger than the hole): {kind}\n")
     return 0
 
 

@@ -207,3 +207,13 @@ def test_loadshare_words_agree_with_its_table(capsys):
     assert last.startswith('the guide beam carries load from 0.0 deg; the guide beam carries more than the rams')
     assert last.endswith('the ram never clamps in its bushing')
     assert 'not reached' not in last
+
+
+def test_fit_says_what_a_negative_clearance_is(capsys):
+    from steer_monitor.cli.main import main
+    assert main(['fit', '240 H7/k6']) == 0
+    assert capsys.readouterr().out.splitlines()[-1] == (
+        '  a negative clearance is interference (the shaft larger than the hole): a transition fit: from '
+        'interference to clearance')
+    assert main(['fit', '240 H9/f9']) == 0
+    assert 'interference' not in capsys.readouterr().out
