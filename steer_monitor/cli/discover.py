@@ -14,6 +14,7 @@ import argparse
 import datetime
 import io
 import json
+import math
 import sys
 import tempfile
 from collections.abc import Sequence
@@ -165,10 +166,17 @@ def _check_written(path: Path, text: str) -> None:
         raise ParameterError(msg) from exc
 
 
+#: the DBC's SI units as the other commands print them (inspect, analyze): (scale, offset, unit)
+_ENGINEERS = {'rad': (180.0 / math.pi, 0.0, 'deg'), 'Pa': (1e-5, 0.0, 'bar'), 'K': (1.0, -273.15, 'degC'),
+              'm/s': (3600.0 / 1852.0, 0.0, 'kn')}
+
+
 def _fmt_range(f: dict[str, Any]) -> str:
+    """A field's range in the units inspect and analyze print (the JSON keeps the DBC's)."""
     if f['min'] is None:
         return 'n/a'
-    return f"{f['min']:.4g}..{f['max']:.4g} {f['unit']}".strip()
+    scale, offset, unit = _ENGINEERS.get(f['unit'], (1.0, 0.0, f['unit']))
+    return f"{f['min'] * scale + offset:.4g}..{f['max'] * scale + offset:.4g} {unit}".strip()
 
 
 def run(paths: Sequence[str | Path], config: str | Path | None = None, date: datetime.date | None = None,

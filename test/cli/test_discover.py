@@ -184,3 +184,14 @@ def test_the_written_config_keeps_the_comments_order_and_numbers_of_the_one_adap
         assert any(hint in line for line in written), hint
     from steer_monitor.params import load_params_file
     assert load_params_file(out)['gear.youngs_modulus_pa'] == 2.1e11
+
+
+def test_the_text_gives_fields_in_the_units_inspect_uses(tmp_path, capsys):
+    """discover printed Pa and K where inspect prints bar and degC; the JSON keeps the DBC's units."""
+    log = tmp_path / 'sim.log'
+    assert main(['simulate', '--program', 'hard_over_2', '--max-duration', '5', '--out', str(log)]) == 0
+    capsys.readouterr()
+    assert main(['discover', str(log)]) == 0
+    text = capsys.readouterr().out
+    assert ' bar' in text and ' degC' in text and ' deg' in text and ' kn' in text
+    assert ' Pa' not in text and ' K;' not in text and ' rad' not in text and ' m/s' not in text
