@@ -161,11 +161,6 @@ def _protected(target: Path, inputs: Iterable[str | Path | None]) -> str | None:
     for source in [*inputs, *(scope.inputs if scope is not None else ())]:
         if source is not None and _same_file(target, Path(source)):
             return f'it is the input {source}'
-    if not is_stream(target):
-        with contextlib.suppress(OSError, ValueError):
-            why = _in_source(Path(os.path.realpath(target.parent)) / target.name)
-            if why is not None:
-                return why
     try:
         if not target.is_file():
             return None
@@ -176,6 +171,15 @@ def _protected(target: Path, inputs: Iterable[str | Path | None]) -> str | None:
         with contextlib.suppress(OSError, ValueError):
             if real.is_relative_to(Path(os.path.realpath(directory))):
                 return f'it is a file of the installed package ({directory})'
+    return None
+
+
+def _protected_source(target: Path) -> str | None:
+    """Why ``target`` is the package's or its source checkout's own (:func:`_in_source`)."""
+    if is_stream(target):
+        return None
+    with contextlib.suppress(OSError, ValueError):
+        return _in_source(Path(os.path.realpath(target.parent)) / target.name)
     return None
 
 
@@ -227,7 +231,7 @@ def check_target(path: str | Path, inputs: Iterable[str | Path | None] = ()) -> 
     file, unless the command was given ``--force``: commands that work for minutes before
     they write check their outputs first."""
     target = Path(path)
-    reason = None if _forced() else _protected(target, inputs)
+    reason = None if _forced() else (_protected(target, inputs) or _protected_source(target))
     if reason is not None:
         msg = f'cannot write {target}: {reason}; give another output, or --force to replace it'
         raise OutputError(msg)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import stat
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -39,10 +40,14 @@ def distinct_logs(paths: Sequence[str | Path]) -> tuple[list[Path], list[str]]:
     seen: dict[tuple[int, str], Path] = {}
     for p in map(Path, paths):
         try:
-            size = os.stat(p).st_size
-        except OSError:
+            st = os.stat(p)
+        except (OSError, ValueError):
             kept.append(p)
             continue
+        if not stat.S_ISREG(st.st_mode):      # a device or a pipe is never read here (/dev/zero has no end)
+            kept.append(p)
+            continue
+        size = st.st_size
         same = next((q for q in kept if _samefile(p, q)), None)
         digest = None if same is not None else _digest(p)
         if same is None and digest is not None:

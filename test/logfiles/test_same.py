@@ -12,8 +12,10 @@ def test_the_same_data_is_kept_once_and_said(tmp_path):
     c.write_text('(2.0) can0 123#00\n')                 # other data
     link = tmp_path / 'link.log'
     link.symlink_to(a)
-    kept, notes = distinct_logs([a, c, b, link, a, tmp_path / 'missing.log'])
-    assert kept == [a, c, tmp_path / 'missing.log']     # a missing one is the reader's to name
+    endless = tmp_path / 'endless.log'
+    endless.symlink_to('/dev/zero')                     # never read here: it has no end
+    kept, notes = distinct_logs([a, c, b, link, a, tmp_path / 'missing.log', endless])
+    assert kept == [a, c, tmp_path / 'missing.log', endless]     # the reader names what is not a log
     assert notes == [f'{b} holds the same data as {a}: read once', f'{link} holds the same data as {a}: read once',
                      f'{a} holds the same data as {a}: read once']
 
