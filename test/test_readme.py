@@ -85,3 +85,26 @@ def test_above_and_below_point_the_right_way():
         for name, direction in re.findall(r'see \*([^*]+)\* (above|below)', line):
             at = next(j for h, j in where.items() if h.startswith(name) or name in h)
             assert (at < i) == (direction == 'above'), (name, direction, i + 1)
+
+
+@pytest.mark.slow
+def test_the_simulated_fleet_example_runs_as_written(tmp_path):
+    """The README's small fleet from simulated logs, run by a shell as a user would paste it:
+    six logs two months apart, and the trend finds the wear it was given (0.12 mm/year)."""
+    import os
+    import shutil
+    import subprocess
+    import sys
+    block = README[README.index('mkdir -p vessels/mv_sim'):]
+    block = block[:block.index('```')]
+    env = dict(os.environ, PATH=f'{os.path.dirname(sys.executable)}{os.pathsep}{os.environ.get("PATH", "")}',
+               ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+    assert shutil.which('steer-monitor', path=env['PATH']) is not None
+    done = subprocess.run(['bash', '-e', '-c', block], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=900, check=False)
+    assert done.returncode == 0, done.stderr[-2000:]
+    line = next(ln for ln in done.stdout.splitlines() if ln.strip().startswith('Z_gb: '))
+    rate = re.search(r'wearing at ([\d.]+) \[([\d.]+) \.\. ([\d.]+)\] mm/year', line)
+    assert rate is not None, line
+    assert float(rate.group(2)) <= 0.12 <= float(rate.group(3)), line
+    assert (tmp_path / 'fleet_sim' / 'index.html').is_file()

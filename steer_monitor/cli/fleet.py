@@ -34,10 +34,11 @@ def run(dirs: Sequence[str | Path], out_dir: str | Path, workers: int | None = N
         raise ParameterError(f'--workers must be at least 1, got {workers}')
     out = text_stream([json_out], out, err)
     check_json_target(json_out, [*dirs, config])
-    for v in find_vessels(dirs, config):
-        for p in v.skipped:
-            err.write(f'steer-monitor fleet: note: {p}: not a log by its name (*{", *".join(LOG_SUFFIXES)}, each also '
-                      'compressed); left out\n')
+    skipped = [str(p) for v in find_vessels(dirs, config) for p in v.skipped]
+    if skipped:                 # one line, however many: a simulator's truth files sit beside each log
+        shown = ', '.join(skipped[:3]) + (f' and {len(skipped) - 3} more' if len(skipped) > 3 else '')
+        err.write(f'steer-monitor fleet: note: {len(skipped)} file(s) not logs by their name left out: {shown} '
+                  f'(a log is named *{", *".join(LOG_SUFFIXES)}, each also compressed)\n')
     with output_dir(out_dir) as made:
         return _run(dirs, made, workers, scheduler, config, json_out, out, err, reports)
 
