@@ -12,8 +12,9 @@ sign), and N_b = N_A + N_E, F_gb from the load-sharing solver at the clearances
 coefficients and in (F_s, mu_b, mu_g): :func:`fit_at` solves it by (lightly ridged)
 normal equations built from the bins' moment matrices, so its cost does not grow with the
 length of the log; the friction coefficients are held to their physical ranges
-(:mod:`~steer_monitor.estimate.ranges`, an exact bounded solve: :func:`bounded_quadratic`). The clearances enter through the kinks of N_b and F_gb (the angle
-where the guide beam takes load, the load where the ram clamps in its bushing) and are
+(:mod:`~steer_monitor.estimate.ranges`, an exact bounded solve: :func:`bounded_quadratic`).
+The clearances enter through the kinks of N_b and F_gb (the angle where the guide beam takes
+load, the load where the ram clamps in its bushing) and are
 profiled over a grid; :func:`profile` keeps the residual sum of squares at every grid
 point for the likelihood-ratio intervals of :mod:`steer_monitor.estimate.intervals`.
 
