@@ -268,8 +268,11 @@ def _verdict_block(inp: ReportInput) -> str:
         if iv.hi is None and name == 'Z_gb':
             rng = 'the guide beam never touched at the loads seen: no upper bound'
         css = 'NONE' if h.level == NOT_JUDGED else h.level.split()[0]
+        if iv.hi is None and h.note:      # the note says why it is a bound, and what would assess it
+            rng = ''
         boxes.append(f'<div class="box {css}" id="verdict-{name}"><h2>{name} ({what[name]})</h2>'
-                     f'<div class="big">{h.level.upper()}</div><div>{esc(point)}</div><div>{esc(rng)}</div>'
+                     f'<div class="big">{h.level.upper()}</div><div>{esc(point)}</div>'
+                     + (f'<div>{esc(rng)}</div>' if rng else '')
                      + (f'<div>{esc(h.note)}</div>' if h.note else '') + '</div>')
     span = (f'{_utc(int(r.t_ns[0]))} to {_utc(int(r.t_ns[-1]))}' if len(r.t_ns) else 'no rudder angle')
     prov = (f'{esc(inp.gear_name)} gear; data {esc(span)}; parameters {esc(inp.config or "(packaged)")} '
