@@ -29,6 +29,7 @@ from steer_monitor.can.signals import INPUTS, REQUIRED
 from steer_monitor.cli.options import add_config_option, add_force_option, add_json_option
 from steer_monitor.cli.output import (
     add_date_option,
+    any_text,
     check_json_target,
     date_notes,
     emit_json,
@@ -212,7 +213,8 @@ def run(paths: Sequence[str | Path], config: str | Path | None = None, date: dat
         out.write('\nproposed signals:\n')
         table(['input', 'on bus', 'PGN', 'field', 'inst', 'source', 'addr', 'device', 'Hz'],
               [[n, 'yes' if v['on_bus'] else ('NO (kept as given)' if n in REQUIRED else 'no (left out)'),
-                v['pgn'] or '-', v['field'], v['instance'], v['source'], v['address'], v['device_name'] or '-',
+                v['pgn'] or '-', v['field'], any_text(v['instance']), any_text(v['source']), any_text(v['address']),
+                v['device_name'] or '-',
                 v['rate_hz']] for n, v in d['proposed'].items()], out)
     for note in d['notes']:
         err.write(f'steer-monitor discover: note: {note}\n')

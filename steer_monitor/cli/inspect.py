@@ -13,6 +13,7 @@ from steer_monitor.ashore.inspection import inspect_log, range_text
 from steer_monitor.cli.options import add_config_option, add_force_option, add_json_option
 from steer_monitor.cli.output import (
     add_date_option,
+    any_text,
     check_json_target,
     check_logs,
     date_notes,
@@ -42,7 +43,7 @@ def run(path: str | Path, config: str | Path | None = None, json_out: str | Path
         out.write(f"{s['log']}: {s['frames']} frames, {s['span_s']:.1f} s"
                   + (f" ({s['start_utc']} .. {s['end_utc']})" if s['start_utc'] else '') + '\n')
         table(['signal', 'PGN', 'inst', 'addr', 'samples', 'rate Hz', 'expected', 'gaps>1s', 'range'],
-              [[name, v['pgn'], v['instance'], v['address'], v['samples'],
+              [[name, v['pgn'], any_text(v['instance']), any_text(v['address']), v['samples'],
                 '-' if v['rate_hz'] is None else f"{v['rate_hz']:.2f}", f"{v['expected_rate_hz']:g}",
                 v['gaps_over_1s'], range_text(name, v)] for name, v in s['signals'].items()], out)
         if s['rejects']:

@@ -12,6 +12,7 @@ from steer_monitor.cli.options import add_config_option, add_force_option, add_j
 from steer_monitor.cli.output import check_json_target, emit_json, json_to_stdout, table, text_stream
 from steer_monitor.errors import ParameterError
 from steer_monitor.model.gear import Gaps
+from steer_monitor.model.loadshare import case_words
 from steer_monitor.params import gaps_from_params, gear_from_params, load_params_file
 from steer_monitor.resources import default_config
 from steer_monitor.studies.tables import loadshare_rows
@@ -45,10 +46,10 @@ def run(config: str | Path | None = None, gap_2z_mm: float | None = None,
         return 0
     out.write(f"{params['gear.name']}: 2Z = {s['clearance_2z_mm']:.3f} mm, Z_gb = {s['clearance_zgb_mm']:.3f} mm, "
               f"speed {s['speed_kn']:.1f} kn\n")
-    table(['alpha deg', 'M kN m', 'Fl kN', 'Fr kN', 'Fgb kN', 'K_gl', 'defl mm', 'case'],
+    table(['alpha deg', 'M kN m', 'Fl kN', 'Fr kN', 'Fgb kN', 'K_gl', 'defl mm', 'carried by (paper 004)'],
           [[f"{r['alpha_deg']:.1f}", f"{r['torque_knm']:.1f}", f"{r['f_lateral_n'] / 1e3:.1f}",
             f"{r['f_ram_n'] / 1e3:.1f}", f"{r['f_guide_n'] / 1e3:.1f}", f"{r['k_gl']:.3f}",
-            f"{r['deflection_mm']:.4f}", r['case']] for r in s['rows']], out)
+            f"{r['deflection_mm']:.4f}", case_words(r['case'])] for r in s['rows']], out)
     lm = s['landmarks']
 
     rows = s['rows']

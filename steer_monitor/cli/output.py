@@ -14,8 +14,14 @@ from typing import Any, TextIO
 
 from steer_monitor.texttable import table
 
-__all__ = ['JSON_DIGITS', 'add_date_option', 'check_json_target', 'check_logs', 'date_notes', 'dump_json', 'emit_json',
-           'json_to_stdout', 'report_read_errors', 'table', 'text_stream']
+__all__ = ['JSON_DIGITS', 'add_date_option', 'any_text', 'check_json_target', 'check_logs', 'date_notes', 'dump_json',
+           'emit_json', 'json_to_stdout', 'report_read_errors', 'table', 'text_stream']
+
+
+def any_text(v: object) -> object:
+    """A source address or instance for a table: ``any`` where the parameters and JSON hold -1
+    (any address, any instance), else as it is."""
+    return 'any' if v == -1 else v
 
 
 #: significant digits a float keeps in JSON: a computation's last bits are no data (0.115, not

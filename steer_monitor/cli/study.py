@@ -21,6 +21,7 @@ from steer_monitor.atomic import ensure_dir, write_files
 from steer_monitor.cli.options import add_config_option, add_force_option
 from steer_monitor.cli.output import dump_json, table
 from steer_monitor.model.gear import Gaps
+from steer_monitor.model.loadshare import case_words
 from steer_monitor.model.study import gap_sensitivity
 from steer_monitor.params import gear_from_params, load_params_file
 from steer_monitor.resources import default_config
@@ -56,9 +57,9 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None,
     sweep, (alpha, res, marks) = loadshare_rows(gear, limits, None, 0.5)
     summary['loadshare_at_limits'] = sweep
     out.write('Load sharing at the wear limits (one ram, service speed):\n')
-    table(['alpha deg', 'M kN m', 'Fl kN', 'Fr kN', 'Fgb kN', 'K_gl', 'case'],
+    table(['alpha deg', 'M kN m', 'Fl kN', 'Fr kN', 'Fgb kN', 'K_gl', 'carried by (paper 004)'],
           [[f"{r['alpha_deg']:.1f}", f"{r['torque_knm']:.0f}", f"{r['f_lateral_n'] / 1e3:.1f}",
-            f"{r['f_ram_n'] / 1e3:.1f}", f"{r['f_guide_n'] / 1e3:.1f}", f"{r['k_gl']:.3f}", r['case']]
+            f"{r['f_ram_n'] / 1e3:.1f}", f"{r['f_guide_n'] / 1e3:.1f}", f"{r['k_gl']:.3f}", case_words(r['case'])]
            for r in sweep['rows'] if r['alpha_deg'] % 2.5 == 0], out)
     lm = sweep['landmarks']
     out.write('\nLandmarks, paper 004 against this model:\n')

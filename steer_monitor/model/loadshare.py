@@ -64,6 +64,8 @@ __all__ = [
     'load_sharing_at',
     'load_sharing_scalar',
     'paper_case',
+    'CASE_WORDS',
+    'case_words',
 ]
 
 STAGE_PINNED = 1   # I: ram pinned in both bushings
@@ -206,6 +208,18 @@ def critical_forces(gear: GearParams, state: RapsonState, two_z: ArrayLike,
     tz, zg = _checked_gaps(two_z, z_gb)
     c = compliances(gear, state)
     return tz / gear.bushing_length / c.slope, zg / c.pinned
+
+
+#: what carries one ram's lateral force in each of the paper's cases, in a table's words:
+#: pinned (1, 2: below both events), clamped at bushing A (3), the guide beam sharing (4), both
+#: (5: clamped first; 6: the guide first, the clamp only if the ram's share reaches F_theta)
+CASE_WORDS = {1: 'ram, pinned', 2: 'ram, pinned', 3: 'ram, clamped at A', 4: 'ram + guide beam',
+              5: 'ram clamped + guide beam', 6: 'ram + guide beam (clamps after)'}
+
+
+def case_words(case: int) -> str:
+    """A row's paper case in words, its number after them: ``'ram + guide beam (case 4)'``."""
+    return f'{CASE_WORDS.get(int(case), "?")} (case {int(case)})'
 
 
 def paper_case(lateral: ArrayLike, f_theta: ArrayLike, f_z: ArrayLike) -> NDArray[np.int8]:

@@ -75,3 +75,13 @@ def test_simulate_starts_at_the_time_given(tmp_path, capsys):
         main(['simulate', '--max-duration', '3', '--start', 'yesterday', '--out', str(tmp_path / 'y.log')])
     assert exc.value.code == 2
     assert "argument --start: 'yesterday' is not an ISO 8601 time" in capsys.readouterr().err
+
+
+def test_inspect_says_any_where_the_map_takes_any_address(tmp_path, capsys):
+    """The table printed "-1" for an address the signals map leaves open (the JSON's -1)."""
+    src = tmp_path / 'a.log'
+    simulate.run(None, 'hold:5', src, seed=1, out=io.StringIO())
+    assert main(['inspect', str(src)]) == 0
+    rows = capsys.readouterr().out.splitlines()
+    angle = next(r for r in rows if r.startswith('rudder_angle '))
+    assert angle.split()[3] == 'any' and ' -1 ' not in angle
