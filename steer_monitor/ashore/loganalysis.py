@@ -59,6 +59,7 @@ from steer_monitor.estimate.analyze import Analysis, analyze
 from steer_monitor.estimate.batch import ClearanceEstimate
 from steer_monitor.estimate.locate import UNITS
 from steer_monitor.estimate.observe import EstimateError
+from steer_monitor.estimate.rams import rams_verdict, uneven_json
 from steer_monitor.estimate.window import before
 from steer_monitor.logfiles.decodelog import clock_steps_json, decode_logs
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params, ram_share_warn_from_params
@@ -152,9 +153,8 @@ def analysis_json(a: Analysis) -> dict[str, Any]:
         'rams': {'shares': None if a.rams is None else [{'ram': k + 1, 'share_pct': round(100 * x, 2)}
                                                          for k, x in enumerate(a.rams.share)],
                  'instants': 0 if a.rams is None else a.rams.instants,
-                 'uneven': [{**time_json('start', sp.start_ns), **time_json('end', sp.end_ns), 'ram': sp.ram + 1,
-                             'share_pct': round(100 * sp.share, 2), 'instants': sp.instants, 'idle': sp.idle}
-                            for sp in a.uneven]},
+                 'uneven': [uneven_json(sp) for sp in a.uneven],
+                 'assessed': a.rams_assessed, 'verdict': rams_verdict(a.uneven, a.rams_assessed)},
         'torque_curve': [{'angle_deg': round(math.degrees(x), 2), 'torque_knm': round(t / 1e3, 2),
                           'band_knm': round(b / 1e3, 2)} for x, t, b in zip(angles, torque, band)],
         'max_angle_seen_deg': round(math.degrees(f.max_angle_seen), 2),

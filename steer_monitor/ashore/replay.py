@@ -44,7 +44,13 @@ from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.messages import TOPICS, diag_messages, topic_name
 from steer_monitor.monitor.pipeline import DiagOut, Output, Pipeline, StateOut, analyst_from_params
 from steer_monitor.monitor.runfeed import StateRun
-from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params, recorded_params
+from steer_monitor.params import (
+    friction_from_params,
+    gaps_from_params,
+    gear_from_params,
+    ram_share_warn_from_params,
+    recorded_params,
+)
 from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.record.msgdefs import msgdef
 from steer_monitor.record.provenance import PARAMETERS_RECORD, RUN_RECORD, run_metadata
@@ -132,7 +138,7 @@ def replay_with(run: Runner, logs: Sequence[str | Path], output: str | Path, con
     gear = gear_from_params(params)
     rejects = RejectCounter()
     monitor = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params),
-                          defer_share=defer_share)
+                          defer_share=defer_share, ram_share_warn=ram_share_warn_from_params(params))
     diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(params), smap, gear)
     summary = ReplaySummary(str(output), [str(p) for p in paths])
     if recorded is not None:

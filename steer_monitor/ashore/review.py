@@ -12,10 +12,10 @@ blocks gives the grid of the whole), and then, vectorized over the block:
   per time window;
 * hard-over times (leaving 35 deg, reaching 30 deg the other side), with the live monitor's
   thresholds and its logic, run over the few samples beyond 29.5 deg only;
-* stretches where the rams did not share the force evenly
-  (:func:`~steer_monitor.estimate.rams.uneven_spans` over whole windows of steady motion, a
-  block's last rows held for the next), left out of the moments and named in the notes, as
-  ``analyze`` leaves them out of its fit.
+* stretches where the rams did not share the force evenly (the one rams check,
+  :class:`~steer_monitor.estimate.rams.RamsCheck`, fed the steady-motion rows as they come;
+  the rows it may still put into or out of a stretch held until it has settled them), left
+  out of the moments and named in the notes, as ``analyze`` leaves them out of its fit.
 
 The clearances are estimated from the moments up to the end of each window (an estimate with
 its interval over time: up to ``MAX_WINDOWS`` windows of whole 10 minutes, and the whole log
@@ -56,18 +56,7 @@ from steer_monitor.estimate.batch import (
 )
 from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations, build_observations
-from steer_monitor.estimate.rams import (
-    OPPOSED,
-    WINDOW_INSTANTS,
-    UnevenSpan,
-    describe,
-    judge,
-    opposed_cause,
-    ram_share,
-    uneven_spans,
-    within,
-    working_against,
-)
+from steer_monitor.estimate.rams import RamsCheck, UnevenSpan, describe, opposed_cause, working_against
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.loadshare import LoadSharing, load_sharing
 from steer_monitor.monitor.live import HARD_OVER_DEG, OTHER_SIDE_DEG
@@ -124,6 +113,8 @@ class ReviewResult:
     uneven: list[UnevenSpan] = field(default_factory=list)
     #: why rows were left out for a ram read the wrong way round ('' when none were)
     opposed: str = ''
+    #: a window of the rams check said even or uneven
+    rams_assessed: bool = False
 
 
 def _cat(a: Series | None, b: Series | None) -> Series | None:
@@ -151,7 +142,8 @@ class Review:
         #: stretches where the rams did not share the force evenly, left out of the estimates
         self.uneven: list[UnevenSpan] = []
         self._opposed = ''          # the rams pushed against each other (a ram's pressures swapped): why
-        self._held: Observations | None = None     # steady-motion rows not yet judged (see _take)
+        self._held: Observations | None = None     # steady-motion rows not yet settled (see _take)
+        self._rams = RamsCheck(ram_share_warn, gear.ram_area)
         self.reuse_boxes = reuse_boxes
         self.gaps = gaps
         self.grid_2z = F.GRID_2Z[F.GRID_2Z >= min_clearance_2z - 1e-12]
@@ -277,6 +269,7 @@ class Review:
         whole = (obs.t_ns % SECOND_NS) == 0
         self._sec.append((obs.t_ns[whole], obs.alpha[whole], obs.direction[whole], obs.pressure[whole],
                           obs.force[whole]))
+        self._rams.feed(obs.t_ns[obs.moving], obs.force[obs.moving])    # as analyze feeds it: speed or not
         keep = obs.moving.copy()
         if self._speed_seen:
             keep &= np.isfinite(obs.speed)
@@ -286,34 +279,34 @@ class Review:
 
     def _take(self, sub: Observations | None, final: bool = False) -> None:
         """Fold steady-motion rows, those of stretches where the rams did not share the force
-        evenly left out. The rams are judged over whole windows of ``WINDOW_INSTANTS`` rows:
-        the rows after the last whole one are held until the next block (or the end)."""
+        evenly left out: rows the rams check may still put into or out of a stretch
+        (:meth:`~steer_monitor.estimate.rams.RamsCheck.unsettled_from`) are held until it has
+        settled them (or the end)."""
         parts = [p for p in (self._held, sub) if p is not None and len(p)]
         self._held = None
+        if final:
+            self._rams.finish()
+        for sp in self._rams.spans[len(self.uneven):]:
+            self.uneven.append(sp)
+            self._notes.append(f'{describe(sp)}: left out of the clearance estimates')
         if not parts:
             return
         sub = parts[0] if len(parts) == 1 else _concat_obs(parts)
-        ready = len(sub) if final else len(sub) // WINDOW_INSTANTS * WINDOW_INSTANTS
-        if ready < len(sub):
-            later = np.arange(len(sub)) >= ready
-            self._held, sub = sub.select(later), sub.select(~later)
+        cut = None if final else self._rams.unsettled_from()
+        if cut is not None:
+            later = sub.t_ns >= cut
+            if later.any():
+                self._held, sub = sub.select(later), sub.select(~later)
             if not len(sub):
                 return
+        if self._rams.opposed is not None and not self._opposed:   # the map reverses a ram: nothing here
+            self._opposed = opposed_cause(self._rams.opposed, working_against(sub.force, sub.rate), PRESSURE_INPUTS)
+            self._notes.append(self._opposed + ': those rows are left out of the clearance estimates')
         if self._opposed:           # a map does not turn round within a log: the rest too
             return
-        sh = ram_share(sub.force)
-        if sh is not None and judge(sh, self.ram_share_warn, self.gear.ram_area) == OPPOSED:
-            if not self._opposed:   # the map reverses a ram: nothing here estimates the gear
-                self._opposed = opposed_cause(sh, working_against(sub.force, sub.rate), PRESSURE_INPUTS)
-                self._notes.append(self._opposed + ': those rows are left out of the clearance estimates')
+        sub = sub.select(~self._rams.excluded(sub.t_ns))
+        if not len(sub):
             return
-        spans = uneven_spans(sub.t_ns, sub.force, self.ram_share_warn, self.gear.ram_area)
-        if spans:
-            self.uneven += spans
-            self._notes += [f'{describe(sp)}: left out of the clearance estimates' for sp in spans]
-            sub = sub.select(~within(sub.t_ns, spans))
-            if not len(sub):
-                return
         self.motion_s += float(len(sub)) * GRID_NS / 1e9
         slice_of = sub.t_ns // SLICE_NS
         for k in np.unique(slice_of).tolist():
@@ -356,7 +349,7 @@ class Review:
                                   for v in (getattr(share, f) for f in share.__dataclass_fields__)))
         return ReviewResult(t, alpha, direction, pressure, force, torque, share, gaps, source, list(self.hard_overs),
                             estimates, self.motion_s, self.samples, notes, estimating_s, list(self.uneven),
-                            self._opposed)
+                            self._opposed, self._rams.assessed)
 
     def _final_estimates(self, notes: list[str]) -> list[WindowEstimate]:
         if not self._slices:

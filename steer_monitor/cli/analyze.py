@@ -87,6 +87,7 @@ def _summary(r: dict[str, Any], out: TextIO) -> None:
     out.write(f"K_gl max {_fmt(r['k_gl_max'], '')}\n")
     out.write(f"F_s {_fmt(r['seal_friction_n'], 'N')};  mu_b {_fmt(r['mu_bushing'], '')};  "
               f"mu_g {_fmt(r['mu_guide'], '')}\n")
+    out.write(r['rams']['verdict'] + '\n')
     out.write(f"model check: {r['verdict']}: {r['message']}\n")
 
 

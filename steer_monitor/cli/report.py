@@ -81,6 +81,7 @@ def _run(paths: list[Path], out_dir: str | Path, config_path: str | Path, params
     from steer_monitor.ashore.modelcheck import headline_json, headline_text, headlines, model_check
     from steer_monitor.ashore.report.logreport import report_input
     from steer_monitor.ashore.report.reviewpage import write_review_report
+    from steer_monitor.estimate.rams import rams_verdict, uneven_json
     from steer_monitor.logfiles.logs import LogError
 
     date_notes('report', paths, date, err)
@@ -108,11 +109,15 @@ def _run(paths: list[Path], out_dir: str | Path, config_path: str | Path, params
                    'model_check': None if analysis is None else {
                        'verdict': analysis.verdict, 'effects': [s.name for s in analysis.steps],
                        'message': analysis.message},
-                   'model_check_note': note or None, 'elapsed_s': round(elapsed, 2)}, json_out, out)
+                   'model_check_note': note or None,
+                   'rams': {'uneven': [uneven_json(sp) for sp in r.uneven], 'assessed': r.rams_assessed,
+                            'verdict': rams_verdict(r.uneven, r.rams_assessed)},
+                   'elapsed_s': round(elapsed, 2)}, json_out, out)
     if not json_to_stdout(json_out):
         out.write(f'report of {batch.frames} frames written to {page} ({elapsed:.1f} s)\n')
         for h in headlines(analysis, inp.limit_2z, inp.limit_zgb, inp.warn_share):
             out.write(headline_text(h) + '\n')
+        out.write(rams_verdict(r.uneven, r.rams_assessed) + '\n')
         out.write(f"model check: {analysis.verdict}: {analysis.message}\n" if analysis is not None
                   else f'model check: none ({note})\n')
     return report_read_errors('report', batch.errors, err)

@@ -62,13 +62,13 @@ from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import EstimateError, Observations, build_observations, in_sorted
 from steer_monitor.estimate.rams import (
     OPPOSED,
+    RamsCheck,
     RamShare,
     UnevenSpan,
     describe,
     judge,
     opposed_cause,
     ram_share,
-    uneven_spans,
     within,
     working_against,
 )
@@ -189,6 +189,8 @@ class Analysis:
             residual is the one ``located`` describes).
         uneven: stretches where the rams did not share the force evenly, left out of it all.
         rams: how the rams shared the force over the instants of steady motion kept.
+        rams_assessed: a window of the rams check said even or uneven (False: it could judge
+            none: too little steady motion, or a load that hardly varied).
         given: True for a run under a given model (``analyze(..., model=...)``: no screening,
             ``screening`` empty, ``declared`` is that model's own fit).
         window: the data analysed (:func:`~steer_monitor.estimate.window.select`), when a
@@ -212,6 +214,7 @@ class Analysis:
     uneven: tuple[UnevenSpan, ...] = ()
     rams: RamShare | None = None
     given: bool = False
+    rams_assessed: bool = False
     window: W.Window | None = field(default=None, repr=False)
 
     @property
@@ -517,16 +520,24 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
     if whole is not None and judge(whole, ram_share_warn, gear.ram_area) == OPPOSED:   # a ram reversed: nothing holds
         ram = working_against(obs.force[obs.moving], obs.rate[obs.moving])
         raise EstimateError(opposed_cause(whole, ram, PRESSURE_INPUTS) + '; nothing estimated')
-    uneven = tuple(uneven_spans(obs.t_ns[obs.moving], obs.force[obs.moving], ram_share_warn, gear.ram_area))
-    if uneven:
-        say(f'{len(uneven)} stretch(es) where the rams did not share the force evenly: left out')
-        signals = _without_pressures(signals, uneven)
-        obs = build_observations(signals, gear.ram_area)
-    rams = ram_share(obs.force[obs.moving])
+    check = RamsCheck(ram_share_warn, gear.ram_area)        # the one rams check, as the node's
+    check.feed(obs.t_ns[obs.moving], obs.force[obs.moving])
+    uneven = tuple(check.finish())
     note = _uneven_note(uneven)
-    if model is not None:
-        return _given(gear, signals, obs, tuple(model), grid_2z, say, note, uneven, rams, win)
-    base, n_out = _declared(gear, obs, grid_2z, say)
+    try:
+        if uneven:
+            say(f'{len(uneven)} stretch(es) where the rams did not share the force evenly: left out')
+            signals = _without_pressures(signals, uneven)
+            obs = build_observations(signals, gear.ram_area)
+        rams = ram_share(obs.force[obs.moving])
+        if model is not None:
+            return replace(_given(gear, signals, obs, tuple(model), grid_2z, say, note, uneven, rams, win),
+                           rams_assessed=check.assessed)
+        base, n_out = _declared(gear, obs, grid_2z, say)
+    except EstimateError as exc:      # what was left out is why: the ram and its times said
+        if not uneven:
+            raise
+        raise EstimateError(f'{exc}{note}') from exc
     declared = base.est
     steps: list[Step] = []
     rounds: list[list[Screening]] = []
@@ -559,8 +570,8 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
         base = trial
     steps = [replace(s, params=_effect_params(s.candidate, base.est, base.obs)) for s in steps]
     closest = next((s for s in rounds[-1]), None)
-    return _conclude(gear, obs, base, declared, steps, rounds[0], closest, unkept, n_out, note, uneven, rams,
-                     grid_2z, say, False, win)
+    return replace(_conclude(gear, obs, base, declared, steps, rounds[0], closest, unkept, n_out, note, uneven,
+                             rams, grid_2z, say, False, win), rams_assessed=check.assessed)
 
 
 def _given(gear: GearParams, signals: Mapping[str, Series], obs: Observations, model: tuple[Effect, ...],

@@ -18,15 +18,20 @@ import numpy as np
 from steer_monitor.can.rejects import RejectSnapshot
 from steer_monitor.can.signals import SignalMap
 from steer_monitor.estimate.rams import (
+    AT_EDGE,
     EVEN,
     IDLE,
+    MARGIN_SE,
     MIN_SHARE_INSTANTS,
     MIN_SHARE_SPREAD_PA,
     OPPOSED,
+    UNEVEN,
+    UNEVEN_CAUSE,
     UNJUDGED,
+    RamsCheck,
     RamShare,
+    describe,
     enough,
-    judge,
     opposed_cause,
     weak_ram_cause,
 )
@@ -38,7 +43,7 @@ from steer_monitor.model.study import landmarks
 from steer_monitor.monitor.live import ARRIVALS_KEPT_NS, RATE_WINDOW_NS, LiveMonitor
 from steer_monitor.monitor.verdict import ERROR, NOT_ASSESSED, OK, WARN, Verdict, clearance_verdict, worst
 from steer_monitor.params import ram_share_warn_from_params
-from steer_monitor.utc import utc_json
+from steer_monitor.utc import utc_json, utc_text
 
 __all__ = ['ERROR', 'OK', 'STALE', 'WARN', 'DiagnosticsBuilder', 'DiagnosticsConfig', 'Status']
 
@@ -92,6 +97,17 @@ class DiagnosticsConfig:
 
 def _f(x: float | None, fmt: str = '.3f') -> str:
     return 'n/a' if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, fmt)
+
+
+def _share_words(sh: RamShare | None) -> str:
+    """A window's shares in words, ram 1's with its interval (``MARGIN_SE`` standard errors)."""
+    if sh is None:
+        return 'no share (fewer than three instants)'
+    def pct(x: float) -> str:           # whole percent, never '-0'
+        return f'{x:.0f}' if abs(x) >= 0.5 else '0'
+    m = 100 * MARGIN_SE * sh.se
+    p = 100 * sh.share[0]
+    return f'ram 1 {pct(p)} % [{pct(max(p - m, 0.0))} .. {pct(min(p + m, 100.0))}], ram 2 {pct(100 * sh.share[1])} %'
 
 
 class DiagnosticsBuilder:
@@ -374,58 +390,67 @@ class DiagnosticsBuilder:
         return self._status('model health', level, message, values)
 
     def rams(self, mon: LiveMonitor) -> Status:
-        """How the two rams share the driving force (:mod:`~steer_monitor.estimate.rams`, judged
-        by its :func:`~steer_monitor.estimate.rams.judge`): ERROR when one does next to no
-        work or the two push against each other (a ram's pressures swapped in the map), WARN
-        when the share departs from an even half by more than ``ram_share_warn``."""
-        sh = mon.ram_share()
-        return self._memo('rams', (), (sh,), lambda: self._rams(mon, sh))
+        """How the two rams share the driving force: the one rams check
+        (:class:`~steer_monitor.estimate.rams.RamsCheck`, the same ``analyze``, ``report`` and
+        ``fleet`` judge a log by) over the node's instants of steady motion, its level with
+        its hysteresis: ERROR when one ram does next to no work or the two push against each
+        other (a ram's pressures swapped in the map), WARN from the first window whose share's
+        interval lies wholly outside the band ``50 +- ram_share_warn`` % until one lies wholly
+        inside it, NOT ASSESSED (STALE) until a window has said either, OK after that."""
+        check = mon.rams
+        return self._memo('rams', (check.level, len(check.spans), check.pending if check.last is None else -1),
+                          (check.last,), lambda: self._rams(check))
 
-    def _rams(self, mon: LiveMonitor, sh: RamShare | None) -> Status:
+    def _rams(self, check: RamsCheck) -> Status:
         bar = self.gear.ram_area * 1e5
         warn = self.cfg.ram_share_warn
+        w = check.last
+        sh = None if w is None else w.share
+        band = f'{100 * (0.5 - warn):.0f}-{100 * (0.5 + warn):.0f} %'
         values = [('ram_1_share_pct', 'n/a' if sh is None else f'{100 * sh.share[0]:.1f}'),
                   ('ram_2_share_pct', 'n/a' if sh is None else f'{100 * sh.share[1]:.1f}'),
                   ('ram_share_se_pct', 'n/a' if sh is None else f'{100 * sh.se:.2f}'),
                   ('ram_share_instants', '0' if sh is None else str(sh.instants)),
                   ('ram_force_spread_bar', 'n/a' if sh is None else f'{sh.spread / bar:.2f}'),
                   ('ram_force_offset_bar', 'n/a' if sh is None else f'{sh.offset / bar:.2f}'),
-                  ('ram_share_warn_pct', f'{100 * warn:g}')]
-        verdict = judge(sh, warn, self.gear.ram_area)
-        if sh is None:
-            return self._status(
-                'rams',
-                OK,
-                'not judged yet: no instants of steady motion with both rams\' pressures '
-                f'yet (judged from {MIN_SHARE_INSTANTS} instants and {MIN_SHARE_SPREAD_PA / 1e5:g} bar)',
-                values,
-            )
-        if verdict == OPPOSED:      # no share means anything until the map is right
+                  ('ram_share_warn_pct', f'{100 * warn:g}'),
+                  ('ram_share_window_said', 'n/a' if w is None else w.said)]
+        rule = (f'WARN while the share\'s interval lies wholly outside {band}, OK again once it lies wholly inside; '
+                f'windows of {check.window} instants of steady motion')
+        opened = check.open_span()
+        if opened is not None:
+            values.append(('ram_uneven_since_utc', utc_json(opened.start_ns) or ''))
+        if check.spans:
+            last = check.spans[-1]
+            values += [('ram_uneven_last_start_utc', utc_json(last.start_ns) or ''),
+                       ('ram_uneven_last_end_utc', utc_json(last.end_ns) or '')]
+        if w is None:
+            return self._status('rams', STALE, f'NOT ASSESSED: not judged yet: {check.pending} of the '
+                                f'{check.window} instants of steady motion a window is judged over ({rule})', values)
+        window = _share_words(sh)
+        if check.level == OPPOSED:      # no share means anything until the map is right
+            assert sh is not None
             return self._status('rams', ERROR, opposed_cause(sh, None, PRESSURE_INPUTS) + '; no estimate is made from '
                                 'them', values)
-        shares = f'ram 1 {100 * sh.share[0]:.0f} %, ram 2 {100 * sh.share[1]:.0f} %'
-        if verdict == UNJUDGED:
-            have = (
-                f'{shares}, too uncertain'
-                if enough(sh, self.gear.ram_area)
-                else f'{sh.instants} instants of steady motion, the rams\' mean force varying by '
-                f'{sh.spread / bar:.2f} bar'
-            )
-            return self._status('rams', OK, f'not judged yet: {have} (judged from {MIN_SHARE_INSTANTS} instants '
-                                f'and {MIN_SHARE_SPREAD_PA / 1e5:g} bar)', values)
-        if verdict == EVEN:
-            return self._status('rams', OK, f'the rams share the driving force: {shares} over the last '
-                                f'{sh.instants} instants of motion', values)
-        weak = sh.weaker
-        cause = weak_ram_cause(mon.share_pressures(), weak, PRESSURE_INPUTS)
-        if verdict == IDLE:
-            return self._status(
-                'rams',
-                ERROR,
-                f'ram {weak + 1} does next to no work ({100 * sh.share[weak]:.0f} % of the '
-                f'driving force, ram {2 - weak} {100 * sh.share[1 - weak]:.0f} %): {cause}; on one ram '
-                'the gear has half its torque',
-                values,
-            )
-        return self._status('rams', WARN, f'uneven: {shares} of the driving force (warn beyond '
-                            f'{100 * (0.5 - warn):.0f}-{100 * (0.5 + warn):.0f} %): {cause}', values)
+        if check.level == UNJUDGED:
+            why = (f'{sh.instants} instants of steady motion, the rams\' mean force varying by {sh.spread / bar:.2f} '
+                   'bar' if sh is not None and not enough(sh, self.gear.ram_area) else f'{window}, too uncertain')
+            return self._status('rams', STALE, f'NOT ASSESSED: not judged yet: the last window {why} (judged from '
+                                f'{MIN_SHARE_INSTANTS} instants and {MIN_SHARE_SPREAD_PA / 1e5:g} bar; {rule})', values)
+        held = '' if w.said == check.level else (
+            f'; the last window {window}, ' + ('at the band\'s edge' if w.said == AT_EDGE else 'not judged')
+            + ': the level held')
+        if check.level == EVEN:
+            before = '; last uneven: ' + describe(check.spans[-1]) if check.spans else ''
+            return self._status('rams', OK, f'the rams share the driving force: {window} over the last window'
+                                f'{held} ({rule}){before}', values)
+        weak = opened.ram if opened is not None else (sh.weaker if sh is not None else 0)
+        since = '' if opened is None else f' since {utc_text(opened.start_ns)}'
+        aux = check.last_aux
+        cause = (weak_ram_cause(aux, weak, PRESSURE_INPUTS) if aux is not None and w.said in (UNEVEN, IDLE)
+                 else UNEVEN_CAUSE.format(ram=weak + 1))
+        if check.level == IDLE:
+            return self._status('rams', ERROR, f'ram {weak + 1} does next to no work{since}: {window} over the last '
+                                f'window{held}: {cause}; on one ram the gear has half its torque ({rule})', values)
+        return self._status('rams', WARN, f'uneven{since}: {window} over the last window{held}: {cause} ({rule})',
+                            values)

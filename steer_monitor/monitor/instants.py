@@ -33,7 +33,7 @@ __all__ = ['CALL_FIELDS', 'OUT_FIELDS', 'take_instants']
 CALL_FIELDS = ('t_end', 'delay', 'first', 'last', 'held')
 #: an instant's columns: the angle [rad], ship speed [m/s] (NaN: not known), direction
 #: (+1/-1), the rams' forces [N], rate [rad/s], oil temperature [K], the four pressures [Pa]
-OUT_FIELDS = ('alpha', 'speed', 'direction', 'force_1', 'force_2', 'rate', 'oil', 'p0', 'p1', 'p2', 'p3')
+OUT_FIELDS = ('alpha', 'speed', 'direction', 'force_1', 'force_2', 'rate', 'oil', 'p0', 'p1', 'p2', 'p3', 'held')
 
 
 @njit(cache=True, nogil=True)
@@ -85,7 +85,8 @@ def take_instants(pend_t: NDArray[np.int64], pend_p: NDArray[np.float64], pend_f
         given: (6,): a call, an index into ``angle_t``, and that bracket's slopes before and
             after worked out by the caller, each as (known 1/0, slope [rad/s]) (call -1: none).
         out, n: the instants of steady motion, written from row ``n`` (0, or the return of
-            the previous call of this batch) (J, 11): :data:`OUT_FIELDS`.
+            the previous call of this batch) (J, 12): :data:`OUT_FIELDS` (``held``: the
+            instant's index into ``pend_t``, exact in a float).
 
     Returns: the rows of ``out`` filled. ``state[5]`` >= 0: stopped at a bracket holding a
     non-finite angle: work it out, put it in ``given`` and call again with this return.
@@ -138,6 +139,7 @@ def take_instants(pend_t: NDArray[np.int64], pend_p: NDArray[np.float64], pend_f
             out[n, 3], out[n, 4] = area * (c0 - c1), area * (c2 - c3)
             out[n, 5], out[n, 6] = rate, env[k, 1]
             out[n, 7], out[n, 8], out[n, 9], out[n, 10] = c0, c1, c2, c3
+            out[n, 11] = j - 1
             n += 1
         k += 1
     state[0], state[1], state[2], state[3], state[4] = k, j, counted, has_counted, motion

@@ -20,9 +20,10 @@ pressure sample it evaluates:
   is counted (:attr:`LiveMonitor.motion_s`: what the node's analyses are scheduled on);
 * the steering performance: hard-over time from leaving 35 deg to reaching 30 deg the other
   side, and the response to order steps (direction, delay, settled accuracy);
-* how the two rams share the driving force over the last ``SHARE_INSTANTS`` pressure samples
-  of steady motion, about half a minute of it (:func:`~steer_monitor.estimate.rams.ram_share`,
-  from the pressures alone: whatever model is in use).
+* how the two rams share the driving force: the instants of steady motion go to the one rams
+  check (:class:`~steer_monitor.estimate.rams.RamsCheck`, windows of half a minute of steady
+  motion judged as ``analyze`` judges a log's, from the pressures alone: whatever model is
+  in use).
 
 Times are integer ns; values SI.
 """
@@ -41,7 +42,7 @@ from numpy.typing import NDArray
 
 from steer_monitor.estimate.effects import Effect, live_term
 from steer_monitor.estimate.finding import Finding
-from steer_monitor.estimate.rams import RamShare, ram_share_of_pressures
+from steer_monitor.estimate.rams import RamsCheck
 from steer_monitor.model.friction import FrictionParams, friction_force
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
@@ -73,10 +74,10 @@ MAX_DELAY_NS = 1_000_000_000   # the longest angle delay the model in use may re
 MOTION_STEP_NS = 250_000_000   # a steady bracket of angle samples counts at most this much motion
 MOVING_RATE = 0.2 * DEG        # rad/s: below this the rudder is at rest
 RESIDUAL_SAMPLES = 1200        # about a minute of motion at 20 Hz
-SHARE_INSTANTS = 2400          # instants of steady motion the rams' shares are judged over
 #: an instant of steady motion's columns: angle [rad], ship speed [m/s] (NaN: not known),
 #: direction +-1, the rams' forces [N], rate [rad/s], oil temperature [K]
 _INSTANT = OUT_FIELDS[:7]
+_HELD = OUT_FIELDS.index('held')     # out's column of the held sample's index
 HARD_OVER_DEG = HARD_OVER_FROM_DEG   # "at 35 deg", allowing for sensor noise and the valve dead band
 OTHER_SIDE_DEG = HARD_OVER_TO_DEG    # "at 30 deg" likewise: the valve stops within its dead band
 ORDER_STEP = 1.0 * DEG
@@ -352,7 +353,8 @@ class LiveMonitor:
     """Sample-by-sample state of the gear. Not thread-safe: feed it from one thread."""
 
     def __init__(self, gear: GearParams, gaps: Gaps, gaps_source: str = 'configured',
-                 priors: FrictionParams | None = None, *, defer_share: bool = False) -> None:
+                 priors: FrictionParams | None = None, *, defer_share: bool = False,
+                 ram_share_warn: float = 0.15) -> None:
         self.gear = gear
         #: :meth:`slot_state` leaves the load sharing to its caller (see there)
         self.defer_share = defer_share
@@ -412,13 +414,10 @@ class LiveMonitor:
         # instants of _motion not judged yet: judged together when the residuals are read
         # (:meth:`_summary`, the diagnostics once a second), as one vectorized solve
         self._unjudged = _Ring(RESIDUAL_SAMPLES // 2, len(_INSTANT))
-        # the four pressures at the same instants, kept whatever the model in use (the rams'
-        # share does not depend on it): the last SHARE_INSTANTS, the share worked out once per
-        # change; those taken since it was last read, in blocks (n, 4)
-        self._share_ring = _Ring(SHARE_INSTANTS, 4)
-        self._share_rows: list[NDArray[np.float64]] = []
-        self._share: RamShare | None = None
-        self._share_stale = False
+        #: the rams check, fed the same instants whatever the model in use (the rams' share
+        #: does not depend on it), the four pressures kept for its last window; ``ram_share_warn``
+        #: its band (``diagnostics.ram_share_warn_pct`` as a fraction)
+        self.rams = RamsCheck(ram_share_warn, gear.ram_area)
         #: the analysis the model in use comes from (None: the configured model); its effects
         #: and their coefficients, and how much later it reads the angle [ns]
         self.finding: Finding | None = None
@@ -929,25 +928,14 @@ class LiveMonitor:
                 instants = out[:n, :len(_INSTANT)]
                 self._motion.push(instants)
                 self._unjudged.push(instants)
-                self._share_rows.append(out[:n, len(_INSTANT):])
                 self._resid_summary = None
-                self._share_stale = True
-                if sum(b.shape[0] for b in self._share_rows) >= SHARE_INSTANTS:
-                    self._keep_share_rows()
+                self.rams.feed(pend_t[out[:n, _HELD].astype(np.int64)], out[:n, 3:5], out[:n, 7:11])
         calls.clear()
         self._call_env.clear()
         drop = self._hist_base - first          # the angles no history reaches back to any more
         del self._angles_t[:drop]
         del self._angles_a[:drop]
         self._angles_first = self._hist_base
-
-    def _keep_share_rows(self) -> None:
-        """The four pressures of the instants of steady motion taken since (``_share_rows``)
-        into the ring :meth:`ram_share` reads (the last :data:`SHARE_INSTANTS`): when it is
-        read, or when they are as many."""
-        if self._share_rows:
-            self._share_ring.push(np.concatenate(self._share_rows))
-            self._share_rows.clear()
 
     def _track_hard_over(self, t_ns: int, alpha: float) -> None:
         deg = alpha / DEG
@@ -1008,21 +996,6 @@ class LiveMonitor:
         a = _carried(alpha, rate, t_ns, alpha_t_ns) if t_ns > alpha_t_ns else alpha
         torque = _torque(self.gear, math.cos(a), *pressures)
         return LiveState(t_ns, a, rate, abs(rate) > MOVING_RATE, torque, None, self.gaps)
-
-    def ram_share(self) -> RamShare | None:
-        """How the rams shared the driving force over the last :data:`SHARE_INSTANTS` instants
-        of steady motion (None before there are any that say)."""
-        if self._share_stale:     # the ring's rows in the order they lie: the same rows, the same bits
-            self._keep_share_rows()
-            # the forces as take_instants makes them, element by element
-            self._share = ram_share_of_pressures(self.share_pressures(), self.gear.ram_area)
-            self._share_stale = False
-        return self._share
-
-    def share_pressures(self) -> np.ndarray:
-        """The four pressures [Pa] (k, 4) at the instants :meth:`ram_share` is over (a view)."""
-        self._keep_share_rows()
-        return self._share_ring.rows()
 
     def residual_summary(self) -> tuple[int, int, float | None]:
         """(:attr:`residual_count`, :attr:`residuals_skipped`, :meth:`residual_rms_bar`) at once."""

@@ -46,7 +46,7 @@ from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages
 from steer_monitor.monitor.pipeline import DiagOut, Output, Pipeline, StateOut, ThreadedJobs, analyst_from_params
 from steer_monitor.node.params_ros import declare_parameters
 from steer_monitor.node.rosmsg import message_class, to_ros
-from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
+from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params, ram_share_warn_from_params
 from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.record.msgdefs import msgdef
 from steer_monitor.record.provenance import run_metadata
@@ -243,7 +243,8 @@ class MonitorNode(Node):
     def _new_monitor(self) -> LiveMonitor:
         """A live model on the configured clearances and friction (until an analysis comes)."""
         p = self.params
-        return LiveMonitor(self.gear, gaps_from_params(p), 'configured', friction_from_params(p))
+        return LiveMonitor(self.gear, gaps_from_params(p), 'configured', friction_from_params(p),
+                           ram_share_warn=ram_share_warn_from_params(p))
 
     def _new_pipeline(self, jobs: ThreadedJobs | None) -> Pipeline:
         """The pipeline over a new decoder, on the live model, diagnostics and analyst in use."""

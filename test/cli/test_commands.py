@@ -183,7 +183,8 @@ def test_every_json_option_takes_a_file_or_dash():
 
 def test_replay_and_report_say_the_verdict_or_why_there_is_none(tmp_path, capsys):
     """A replay of 70 s says no analysis ran and what motion it wanted; a report ends with one
-    line per clearance (value or bound, share of the limit, level) and the model check."""
+    line per clearance (value or bound, share of the limit, level), the rams check and the model
+    check."""
     from steer_monitor.cli.main import main
     log = tmp_path / 'h.log'
     assert main(['simulate', '--program', 'hard_over_2', '--max-duration', '80', '--out', str(log)]) == 0
@@ -195,7 +196,8 @@ def test_replay_and_report_say_the_verdict_or_why_there_is_none(tmp_path, capsys
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].startswith('report of ') and lines[1].startswith('2Z      >= ') and 'NOT ASSESSED' in lines[1]
     assert lines[2].startswith('Z_gb    ') and '% of the 0.25 mm limit  ' in lines[2]
-    assert lines[3].startswith('model check: ')
+    assert lines[3] == 'rams    OK: the rams shared the driving force evenly wherever it was judged'
+    assert lines[4].startswith('model check: ')
 
 
 def test_loadshare_words_agree_with_its_table(capsys):
@@ -217,3 +219,13 @@ def test_fit_says_what_a_negative_clearance_is(capsys):
         'interference to clearance')
     assert main(['fit', '240 H9/f9']) == 0
     assert 'interference' not in capsys.readouterr().out
+
+
+def test_loadshare_says_what_carries_the_load_in_words(capsys):
+    """The table's last column once read "2" and "4": the paper's case numbers alone."""
+    from steer_monitor.cli.main import main
+    assert main(['loadshare']) == 0
+    rows = capsys.readouterr().out.splitlines()
+    assert 'carried by (paper 004)' in rows[1]
+    assert rows[3].endswith('ram, pinned (case 2)')
+    assert any(r.endswith('ram + guide beam (case 4)') for r in rows)

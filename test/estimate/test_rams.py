@@ -7,12 +7,15 @@ import numpy as np
 import pytest
 
 from steer_monitor.estimate.rams import (
+    AT_EDGE,
+    EDGE_STEP,
     EVEN,
     IDLE,
     MIN_SHARE_INSTANTS,
     OPPOSED,
     UNEVEN,
     UNJUDGED,
+    RamsCheck,
     RamShare,
     judge,
     opposed_cause,
@@ -20,6 +23,7 @@ from steer_monitor.estimate.rams import (
     ram_share_of_pressures,
     uneven_spans,
     weak_ram_cause,
+    within,
     working_against,
 )
 
@@ -27,11 +31,13 @@ AREA = 0.045239          # A_r of the R-18 [m^2]
 BAR = AREA * 1e5         # one bar of ram pressure as force [N]
 
 
-def _forces(share1: float, n: int = 2000, offset_bar: float = 0.0, noise_bar: float = 0.35, seed: int = 1):
-    """Ram forces (n, 2) [N] for a load sweeping +-40 bar, ram 1 carrying ``share1``; each
-    chamber's transducer with its own noise, ram 1's stbd one reading ``offset_bar`` high."""
+def _forces(share1: float, n: int = 2000, offset_bar: float = 0.0, noise_bar: float = 0.35, seed: int = 1,
+            sweep: float = 12.0):
+    """Ram forces (n, 2) [N] for a load sweeping +-40 bar (``sweep`` radians of a sine over the
+    n rows), ram 1 carrying ``share1``; each chamber's transducer with its own noise, ram 1's
+    stbd one reading ``offset_bar`` high."""
     rng = np.random.default_rng(seed)
-    load = 40 * BAR * np.sin(np.linspace(0, 12, n))          # what each ram carries on an even share
+    load = 40 * BAR * np.sin(np.linspace(0, sweep, n))       # what each ram carries on an even share
     p = rng.normal(0.0, noise_bar * 1e5, (n, 4))
     f1 = 2 * share1 * load + AREA * (p[:, 0] - p[:, 1] + offset_bar * 1e5)
     f2 = 2 * (1 - share1) * load + AREA * (p[:, 2] - p[:, 3])
@@ -104,7 +110,9 @@ def test_rows_with_a_missing_force_are_left_out():
     (0.05, MIN_SHARE_INSTANTS - 1, 10.0, 0.002, UNJUDGED),
     (0.05, 2000, 0.9, 0.002, UNJUDGED),    # the load hardly varied
     (0.05, 2000, 10.0, 0.02, UNJUDGED),    # +-8 points: wider than half the warning
-    (0.33, 2000, 10.0, 0.006, EVEN),       # 17 points off, but 2.4 of them uncertain: not past 15
+    (0.33, 2000, 10.0, 0.006, AT_EDGE),    # 17 points off, but 2.4 of them uncertain: straddles 15
+    (0.37, 2000, 10.0, 0.006, AT_EDGE),    # 13 points off, 2.4 uncertain: straddles it the other way
+    (0.38, 2000, 10.0, 0.006, EVEN),       # 12 points, 2.4 uncertain: wholly within 15
     (0.33, 2000, 10.0, 0.004, UNEVEN),     # 1.6 of them: past 15
 ])
 def test_judgement_on_the_interval(share1, n, spread_bar, se, verdict):
@@ -253,3 +261,93 @@ def test_the_share_of_pressures_is_the_share_of_their_forces_to_the_bit(case):
     assert got.offset == want.offset and got.instants == want.instants
     assert got.correlation == want.correlation or (np.isnan(got.correlation) and np.isnan(want.correlation))
     assert got.instants == n - (12 if case == 'non-finite rows' else 0)
+
+
+def _log_with_stretches(n=9000, seed=4):
+    """Instants 50 ms apart (n,) and the rams' forces (n, 2) [N]: even, ram 2 idle over
+    [2100, 3450), even, ram 1 carrying a quarter over [5230, 7390), even."""
+    t = np.arange(n, dtype=np.int64) * 50_000_000 + 1_700_000_000_000_000_000
+    sweep = 0.05 * n           # a load cycle every 6 s of steady motion (an autopilot's to and fro)
+    f = _forces(0.5, n=n, seed=seed, sweep=sweep)
+    f[2100:3450] = _forces(1.0, n=n, seed=seed + 1, sweep=sweep)[2100:3450]
+    f[5230:7390] = _forces(0.25, n=n, seed=seed + 2, sweep=sweep)[5230:7390]
+    return t, f
+
+
+def test_the_check_fed_in_pieces_is_the_check_fed_at_once():
+    """The node feeds a few instants a second, report a block at a time, analyze the whole log:
+    the same stretches, the same windows, to the bit."""
+    t, f = _log_with_stretches()
+    whole = RamsCheck(0.15, AREA)
+    whole.feed(t, f)
+    want = whole.finish()
+    assert [(sp.ram, sp.idle) for sp in want] == [(1, True), (0, False)]
+    rng = np.random.default_rng(8)
+    for _ in range(5):
+        check, k, seen = RamsCheck(0.15, AREA), 0, []
+        while k < t.size:
+            step = int(rng.integers(1, 1500))
+            check.feed(t[k:k + step], f[k:k + step])
+            seen.append(check.last)
+            k += step
+        assert check.finish() == want
+        assert check.last == whole.last
+
+
+def test_a_stretch_s_share_is_that_of_its_instants():
+    """The share of a stretch over many windows, merged window by window, against the share fitted
+    over its instants at once (the pairwise merge is exact in exact arithmetic: to 1e-12)."""
+    t, f = _log_with_stretches()
+    for sp in uneven_spans(t, f, 0.15, AREA):
+        inside = (t >= sp.start_ns) & (t <= sp.end_ns)
+        direct = ram_share(f[inside])
+        assert sp.instants == direct.instants
+        assert sp.share == pytest.approx(direct.share[sp.ram], abs=1e-12)
+
+
+def test_a_stretch_s_ends_are_found_to_a_step():
+    """Ends inside windows: each found within one EDGE_STEP of where the fault began and ended."""
+    t, f = _log_with_stretches()
+    got = [(int((sp.start_ns - t[0]) // 50_000_000), int((sp.end_ns - t[0]) // 50_000_000))
+           for sp in uneven_spans(t, f, 0.15, AREA)]
+    for (a, b), (a0, b0) in zip(got, [(2100, 3449), (5230, 7389)]):
+        assert abs(a - a0) <= EDGE_STEP and abs(b - b0) <= EDGE_STEP, got
+
+
+def test_rows_the_check_has_settled_never_change_side():
+    """What ``report`` relies on: rows before ``unsettled_from`` are in a stretch (or not) as the
+    finished check has them."""
+    t, f = _log_with_stretches()
+    final = within(t, uneven_spans(t, f, 0.15, AREA))
+    for step in (600, 700, 450):
+        check = RamsCheck(0.15, AREA)
+        for k in range(0, t.size, step):
+            check.feed(t[k:k + step], f[k:k + step])
+            cut = check.unsettled_from()
+            settled = t < cut if cut is not None else np.ones(t.size, bool)
+            settled[k + step:] = False
+            np.testing.assert_array_equal(check.excluded(t)[settled], final[settled])
+
+
+def test_a_bypass_for_the_whole_log_is_one_stretch():
+    t, _ = _log_with_stretches(3000)
+    f = _forces(1.0, n=3000)
+    spans = uneven_spans(t, f, 0.15, AREA)
+    assert [(sp.start_ns, sp.end_ns, sp.ram, sp.idle, sp.instants) for sp in spans] == [(t[0], t[-1], 1, True, 3000)]
+
+
+def test_the_check_says_how_it_stands():
+    t, f = _log_with_stretches()
+    check = RamsCheck(0.15, AREA)
+    assert (check.level, check.last, check.unsettled_from(), check.open_span()) == (UNJUDGED, None, None, None)
+    check.feed(t[:599], f[:599])
+    assert (check.level, check.pending, check.unsettled_from()) == (UNJUDGED, 599, t[0])
+    check.feed(t[599:2400], f[599:2400])
+    assert check.level == UNEVEN and check.open_span().start_ns == t[2100] and not check.spans   # half idle
+    check.feed(t[2400:3000], f[2400:3000])
+    assert check.level == IDLE and check.open_span().ram == 1
+    check.feed(t[3000:4800], f[3000:4800])
+    assert check.level == EVEN and check.open_span() is None and len(check.spans) == 1
+    check.finish()
+    with pytest.raises(ValueError, match='the rams check is finished: it takes no more instants'):
+        check.feed(t[:1], f[:1])

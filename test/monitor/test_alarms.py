@@ -22,6 +22,7 @@ from steer_monitor.monitor.diagnostics import LEVEL_NAMES, STALE
 from steer_monitor.monitor.live import REVERSAL_NS
 from steer_monitor.monitor.pipeline import DiagOut, Pipeline, analyst_from_params
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
+from steer_monitor.utc import parse_utc
 
 #: every helm programme, one after the other (about 70 minutes of data)
 EVERY_PROGRAMME = ('hard_over_2,hard_over_1,zigzag_10,zigzag_25,autopilot:300,autopilot_db:300,hold:60,'
@@ -127,7 +128,7 @@ def test_an_undeclared_friction_is_named(r18_params, can_db):
             120,
         ),
         # a valve left half open: ram 1 carries a quarter, ram 2 three quarters
-        ('realistic:1200', 'ram_bypass:ram=1,carries=0.5,start_s=300', WARN, 'uneven: ram 1 25 %, ram 2 75 %', 120),
+        ('realistic:1200', 'ram_bypass:ram=1,carries=0.5,start_s=300', WARN, 'ram 2 75 %', 120),
         # at berth, the steering gear test before departure: no ship speed, friction alone to go by
         ('speed:0,hold:10,hard_over_2,hard_over_1', 'ram_bypass:ram=1', ERROR, 'ram 1 does next to no work', 60),
     ],
@@ -138,9 +139,12 @@ def test_a_ram_that_does_not_carry_its_share_is_found(r18_params, can_db, progra
     start = float(effect.partition('start_s=')[2] or 0.0)
     statuses = _replay(r18_params, can_db, program, (0.45, 0.12), 17, effects=[effect])
     rams = [(t, st) for t, st in statuses if st.name.endswith('rams')]
-    assert all(st.level == OK for t, st in rams if t < start)
-    found = next(t for t, st in rams if st.level == level and text in st.message)
+    assert all(st.level in (OK, STALE) for t, st in rams if t < start)     # judged even, or not yet
+    found, st = next((t, st) for t, st in rams if st.level == level and text in st.message)
     assert start < found < start + within_s
+    since = st.value('ram_uneven_since_utc')                 # the stretch named from its start
+    assert since is not None and start - 30 <= (parse_utc(since) - T0) / 1e9 <= found, since
+    assert f'ram {1 + effect.count("ram=2")} ' in st.message
     assert rams[-1][1].level == level and text in rams[-1][1].message, rams[-1][1].message
     assert rams[-1][1].value('ram_share_warn_pct') == '15'
 
@@ -217,12 +221,15 @@ def test_clearance_levels_on_the_interval(builder, mon, zgb, interval, level, te
     assert (LEVEL_NAMES[st.level], text in st.message) == (LEVEL_NAMES[level], True), st.message
 
 
-def _ring(mon, pressures):
-    """Put the four pressures (k, 4) [Pa] into the live monitor's window of the rams' share,
-    as its steady-motion instants would have."""
-    mon._share_ring.clear()
-    mon._share_ring.push(np.asarray(pressures, float))
-    mon._share_stale = True
+def _feed(mon, pressures, t0_ns=0):
+    """Give the live monitor's rams check the four pressures (k, 4) [Pa] at instants of steady
+    motion 50 ms apart from ``t0_ns`` after T0, as its steady-motion instants would have; the
+    time after the last."""
+    p = np.asarray(pressures, float)
+    area = mon.gear.ram_area
+    t = T0 + t0_ns + np.arange(p.shape[0], dtype=np.int64) * 50_000_000
+    mon.rams.feed(t, np.stack([area * (p[:, 0] - p[:, 1]), area * (p[:, 2] - p[:, 3])], axis=1), p)
+    return t0_ns + p.shape[0] * 50_000_000
 
 
 def _gear_pressures(n, ram1_carries=1.0, amplitude_bar=40.0, seed=5):
@@ -236,26 +243,49 @@ def _gear_pressures(n, ram1_carries=1.0, amplitude_bar=40.0, seed=5):
     return p + rng.normal(0, 0.35e5, p.shape)
 
 
+RULE = ("WARN while the share's interval lies wholly outside 35-65 %, OK again once it lies wholly inside; windows "
+        'of 600 instants of steady motion')
+
+
 @pytest.mark.parametrize('n, carries, amplitude, level, text', [
-    (0, 1.0, 40.0, OK, "not judged yet: no instants of steady motion with both rams' pressures yet (judged from 300 "
-                       'instants and 1 bar)'),
-    (299, 0.0, 40.0, OK, "not judged yet: 299 instants of steady motion, the rams' mean force varying by"),
-    (2000, 0.0, 0.5, OK, "not judged yet: 2000 instants of steady motion, the rams' mean force varying by 0."),
-    (2000, 1.0, 40.0, OK, 'the rams share the driving force: ram 1 50 %, ram 2 50 % over the last 2000 instants'),
-    (2000, 0.76, 40.0, OK, 'the rams share the driving force: ram 1 38 %, ram 2 62 %'),       # within 15 points
-    (2000, 0.5, 40.0, WARN, 'uneven: ram 1 25 %, ram 2 75 % of the driving force (warn beyond 35-65 %): a bypass or '
-                            'isolating valve open on ram 1, or a pressure transducer of either ram not reading'),
-    (2000, 1.6, 40.0, WARN, 'uneven: ram 1 80 %, ram 2 20 %'),
-    (2000, 0.0, 40.0, ERROR, 'ram 1 does next to no work (0 % of the driving force, ram 2 100 %): its two chambers '
-                             'read the same pressure (2.0 and 2.0 bar): joined, a bypass or isolating valve open on '
-                             'ram 1; on one ram the gear has half its torque'),
+    (0, 1.0, 40.0, STALE, f'NOT ASSESSED: not judged yet: 0 of the 600 instants of steady motion a window is judged '
+                          f'over ({RULE})'),
+    (599, 0.0, 40.0, STALE, 'NOT ASSESSED: not judged yet: 599 of the 600 instants'),
+    (2000, 0.0, 0.5, STALE, "NOT ASSESSED: not judged yet: the last window 600 instants of steady motion, the rams' "
+                            'mean force varying by 0.'),
+    (2000, 1.0, 40.0, OK, 'the rams share the driving force: ram 1 50 % [50 .. 50], ram 2 50 % over the last window'),
+    (2000, 0.76, 40.0, OK, 'the rams share the driving force: ram 1 38 % ['),       # within 15 points
+    (2000, 0.5, 40.0, WARN, 'uneven since 2026-01-01T00:00:00Z: ram 1 25 % ['),
+    (2000, 1.6, 40.0, WARN, 'uneven since 2026-01-01T00:00:00Z: ram 1 80 % ['),
+    (2000, 0.0, 40.0, ERROR, 'ram 1 does next to no work since 2026-01-01T00:00:00Z: ram 1 0 % [0 .. 0], ram 2 '
+                             '100 % over the last window: its two chambers read the same pressure (2.0 and 2.0 bar): '
+                             'joined, a bypass or isolating valve open on ram 1; on one ram the gear has half its '
+                             'torque'),
 ])
 def test_rams_levels(builder, mon, n, carries, amplitude, level, text):
     if n:
-        _ring(mon, _gear_pressures(n, carries, amplitude))
+        _feed(mon, _gear_pressures(n, carries, amplitude))
     st = builder.rams(mon)
     assert (LEVEL_NAMES[st.level], st.message.startswith(text)) == (LEVEL_NAMES[level], True), st.message
-    assert st.value('ram_share_instants') == str(n)
+    assert st.value('ram_share_instants') == ('0' if n < 600 else '600')
+    assert RULE in st.message
+
+
+def test_the_rams_level_follows_its_band_with_hysteresis(builder, mon):
+    """WARN once a window's interval lies wholly outside the band, held through a window at the
+    band's edge, OK again only once one lies wholly inside; the stretch then named."""
+    t = _feed(mon, _gear_pressures(600, 1.0, 40.0, seed=1))
+    levels = [builder.rams(mon)]
+    for carries, seed in ((0.66, 2), (0.5, 3), (0.66, 4), (1.0, 5)):      # 33-35 % +-2: the edge; 25 %: uneven
+        t = _feed(mon, _gear_pressures(600, carries, 2.0, seed=seed), t)
+        levels.append(builder.rams(mon))
+    assert [LEVEL_NAMES[st.level] for st in levels] == ['OK', 'OK', 'WARN', 'WARN', 'OK']
+    assert [st.value('ram_share_window_said') for st in levels] == ['even', 'at the edge', 'uneven', 'at the edge',
+                                                                     'even']
+    assert "at the band's edge: the level held" in levels[1].message
+    assert "at the band's edge: the level held" in levels[3].message and 'uneven since ' in levels[3].message
+    assert 'last uneven: ram 1 carried 2' in levels[4].message
+    assert levels[4].value('ram_uneven_last_start_utc') is not None
 
 
 def test_configured_clearances_are_shown_not_assessed(builder, mon):
@@ -450,10 +480,10 @@ def _fed(params, can_db, interval, friction=None):
 
 def test_a_ram_read_the_wrong_way_round_is_an_error_naming_the_map(builder, mon):
     p = _gear_pressures(2000)
-    _ring(mon, p[:, [1, 0, 2, 3]])          # ram 1's starboard and port inputs swapped
+    _feed(mon, p[:, [1, 0, 2, 3]])          # ram 1's starboard and port inputs swapped
     st = builder.rams(mon)
     assert st.level == ERROR and st.message.startswith(
-        'the rams push against each other (their forces correlate at -1.00 over 2000 instants of motion): the '
+        'the rams push against each other (their forces correlate at -1.00 over 600 instants of motion): the '
         'starboard and port pressures of one ram are read the wrong way round: pressure_r1_stbd and pressure_r1_port '
         'or pressure_r2_stbd and pressure_r2_port swapped in the signals map'), st.message
 
