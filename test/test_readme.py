@@ -108,3 +108,71 @@ def test_the_simulated_fleet_example_runs_as_written(tmp_path):
     assert rate is not None, line
     assert float(rate.group(2)) <= 0.12 <= float(rate.group(3)), line
     assert (tmp_path / 'fleet_sim' / 'index.html').is_file()
+
+
+def _shell(block: str, cwd, timeout: float = 900):
+    """Run a README block with bash -e in ``cwd``, the venv's steer-monitor on PATH and
+    ``config`` reachable as from the repository's root."""
+    import os
+    import subprocess
+    import sys
+    env = dict(os.environ, PATH=f'{os.path.dirname(sys.executable)}{os.pathsep}{os.environ.get("PATH", "")}',
+               ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST')
+    if not (cwd / 'config').exists():
+        (cwd / 'config').symlink_to(PKG / 'config')
+    return subprocess.run(['bash', '-e', '-c', block], cwd=cwd, env=env, capture_output=True, text=True,
+                          timeout=timeout, check=False)
+
+
+def _block_from(start: str) -> str:
+    block = README[README.index(start):]
+    return block[:block.index('```')]
+
+
+#: what a synopsis line's placeholders stand for when it is run as written
+PLACEHOLDERS = {'LOG...': 'voyage.log', 'LOG_OR_MCAP...': 'voyage.log', 'OUT.mcap': 'replayed.mcap',
+                'DIR': 'out_dir', 'VESSEL_DIR...': 'vessels/mv_alpha', 'FILE.mcap': 'replayed.mcap'}
+#: synopsis lines not run, and why
+NOT_RUN = {'run': 'the node: it runs until stopped (test/node starts it)',
+           'demo': 'make demo, 70 s in real time (CI runs it)',
+           'accuracy': 'a study of minutes (its test runs a small one)'}
+
+
+@pytest.mark.slow
+def test_the_readme_examples_run_as_written(tmp_path):
+    """Every command line of the README run by a shell as written (the synopsis with its
+    optional parts left out and its placeholders given files): the ashore examples on two
+    recordings and two vessels' directories, then each synopsis line in order."""
+    prep = ('steer-monitor simulate --program hard_over_2 --max-duration 60 --seed 3 --out day1.mcap\n'
+            'steer-monitor simulate --program zigzag_10 --max-duration 60 --seed 4 --start 2026-01-02T08:00:00Z '
+            '--out day2.mcap\n'
+            'mkdir -p vessels/mv_alpha vessels/mv_beta\n'
+            'steer-monitor simulate --program realistic:300 --seed 5 --out vessels/mv_alpha/a.log\n'
+            'steer-monitor simulate --program realistic:300 --seed 6 --out vessels/mv_beta/b.log\n')
+    done = _shell(prep, tmp_path)
+    assert done.returncode == 0, done.stderr[-2000:]
+    ashore = _block_from('steer-monitor replay day1.mcap day2.mcap')
+    done = _shell(ashore, tmp_path)
+    assert done.returncode == 0, (ashore, done.stderr[-2000:])
+    assert (tmp_path / 'replayed.mcap').is_file() and (tmp_path / 'report' / 'index.html').is_file()
+    assert (tmp_path / 'out.json').is_file() and (tmp_path / 'out.html').is_file()
+    fleet = _block_from('steer-monitor fleet vessels/mv_alpha')
+    for variant in (re.sub(r'\s*\[[^\]]*\]', '', fleet), fleet.replace('[--workers 4 | --scheduler tcp://host:8786]',
+                                                                          '--workers 2 --force')):
+        done = _shell(variant, tmp_path)
+        assert done.returncode == 0, (variant, done.stderr[-2000:])
+        assert (tmp_path / 'fleet' / 'index.html').is_file()
+    ran = []
+    for line in _synopsis():
+        command = line.split()[1]
+        if command in NOT_RUN or '--bus' in line:
+            continue
+        code = re.sub(r'\s*\[[^\]]*\]', '', line.split(' # ')[0])
+        for name, value in PLACEHOLDERS.items():
+            code = re.sub(rf'(?<![\w/.-]){re.escape(name)}(?![\w/.-])', value, code)
+        if command == 'discover':
+            code = 'cp voyage.log bus.log && ' + code
+        done = _shell(code, tmp_path)
+        assert done.returncode == 0, (code, done.stderr[-2000:])
+        ran.append(command)
+    assert sorted(set(ran) | set(NOT_RUN)) == sorted(_subparsers()), ran
