@@ -59,7 +59,7 @@ from steer_monitor.estimate.analyze import Analysis, analyze
 from steer_monitor.estimate.batch import ClearanceEstimate
 from steer_monitor.estimate.locate import UNITS
 from steer_monitor.estimate.observe import EstimateError
-from steer_monitor.estimate.rams import rams_verdict, uneven_json
+from steer_monitor.estimate.ramscheck import rams_verdict, uneven_json
 from steer_monitor.estimate.window import before
 from steer_monitor.logfiles.decodelog import clock_steps_json, decode_logs
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params, ram_share_warn_from_params

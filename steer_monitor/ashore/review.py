@@ -13,7 +13,7 @@ blocks gives the grid of the whole), and then, vectorized over the block:
 * hard-over times (leaving 35 deg, reaching 30 deg the other side), with the live monitor's
   thresholds and its logic, run over the few samples beyond 29.5 deg only;
 * stretches where the rams did not share the force evenly (the one rams check,
-  :class:`~steer_monitor.estimate.rams.RamsCheck`, fed the steady-motion rows as they come;
+  :class:`~steer_monitor.estimate.ramscheck.RamsCheck`, fed the steady-motion rows as they come;
   the rows it may still put into or out of a stretch held until it has settled them), left
   out of the moments and named in the notes, as ``analyze`` leaves them out of its fit.
 
@@ -56,7 +56,8 @@ from steer_monitor.estimate.batch import (
 )
 from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations, build_observations
-from steer_monitor.estimate.rams import RamsCheck, UnevenSpan, describe, opposed_cause, working_against
+from steer_monitor.estimate.rams import opposed_cause, working_against
+from steer_monitor.estimate.ramscheck import RamsCheck, UnevenSpan, describe
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.loadshare import LoadSharing, load_sharing
 from steer_monitor.monitor.live import HARD_OVER_DEG, OTHER_SIDE_DEG
@@ -280,7 +281,7 @@ class Review:
     def _take(self, sub: Observations | None, final: bool = False) -> None:
         """Fold steady-motion rows, those of stretches where the rams did not share the force
         evenly left out: rows the rams check may still put into or out of a stretch
-        (:meth:`~steer_monitor.estimate.rams.RamsCheck.unsettled_from`) are held until it has
+        (:meth:`~steer_monitor.estimate.ramscheck.RamsCheck.unsettled_from`) are held until it has
         settled them (or the end)."""
         parts = [p for p in (self._held, sub) if p is not None and len(p)]
         self._held = None

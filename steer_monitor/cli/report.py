@@ -81,7 +81,7 @@ def _run(paths: list[Path], out_dir: str | Path, config_path: str | Path, params
     from steer_monitor.ashore.modelcheck import headline_json, headline_text, headlines, model_check
     from steer_monitor.ashore.report.logreport import report_input
     from steer_monitor.ashore.report.reviewpage import write_review_report
-    from steer_monitor.estimate.rams import rams_verdict, uneven_json
+    from steer_monitor.estimate.ramscheck import rams_verdict, uneven_json
     from steer_monitor.logfiles.logs import LogError
 
     date_notes('report', paths, date, err)

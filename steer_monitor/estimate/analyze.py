@@ -30,7 +30,7 @@ term as a nuisance (so they do not lean on the misfit), saying they rest on an i
 model.
 
 Before all that, stretches where the two rams did not share the force evenly
-(:func:`~steer_monitor.estimate.rams.uneven_spans`: a bypass or isolating valve open, a
+(:class:`~steer_monitor.estimate.ramscheck.RamsCheck`: a bypass or isolating valve open, a
 transducer not reading) are left out, and the message says when and which ram: the declared
 model has each ram carry half.
 """
@@ -60,18 +60,8 @@ from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.locate import Located, locate
 from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import EstimateError, Observations, build_observations, in_sorted
-from steer_monitor.estimate.rams import (
-    OPPOSED,
-    RamsCheck,
-    RamShare,
-    UnevenSpan,
-    describe,
-    judge,
-    opposed_cause,
-    ram_share,
-    within,
-    working_against,
-)
+from steer_monitor.estimate.rams import OPPOSED, RamShare, judge, opposed_cause, ram_share, working_against
+from steer_monitor.estimate.ramscheck import RamsCheck, UnevenSpan, describe, within
 from steer_monitor.estimate.ranges import effect_range
 from steer_monitor.estimate.refine import refine_profile
 from steer_monitor.model.gear import GearParams

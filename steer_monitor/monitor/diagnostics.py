@@ -28,13 +28,12 @@ from steer_monitor.estimate.rams import (
     UNEVEN,
     UNEVEN_CAUSE,
     UNJUDGED,
-    RamsCheck,
     RamShare,
-    describe,
     enough,
     opposed_cause,
     weak_ram_cause,
 )
+from steer_monitor.estimate.ramscheck import RamsCheck, describe
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.hardover import hard_over_time, pumps_running
 from steer_monitor.model.inputs import PRESSURE_INPUTS, REQUIRED
@@ -391,7 +390,7 @@ class DiagnosticsBuilder:
 
     def rams(self, mon: LiveMonitor) -> Status:
         """How the two rams share the driving force: the one rams check
-        (:class:`~steer_monitor.estimate.rams.RamsCheck`, the same ``analyze``, ``report`` and
+        (:class:`~steer_monitor.estimate.ramscheck.RamsCheck`, the same ``analyze``, ``report`` and
         ``fleet`` judge a log by) over the node's instants of steady motion, its level with
         its hysteresis: ERROR when one ram does next to no work or the two push against each
         other (a ram's pressures swapped in the map), WARN from the first window whose share's

@@ -21,7 +21,7 @@ pressure sample it evaluates:
 * the steering performance: hard-over time from leaving 35 deg to reaching 30 deg the other
   side, and the response to order steps (direction, delay, settled accuracy);
 * how the two rams share the driving force: the instants of steady motion go to the one rams
-  check (:class:`~steer_monitor.estimate.rams.RamsCheck`, windows of half a minute of steady
+  check (:class:`~steer_monitor.estimate.ramscheck.RamsCheck`, windows of half a minute of steady
   motion judged as ``analyze`` judges a log's, from the pressures alone: whatever model is
   in use).
 
@@ -42,7 +42,7 @@ from numpy.typing import NDArray
 
 from steer_monitor.estimate.effects import Effect, live_term
 from steer_monitor.estimate.finding import Finding
-from steer_monitor.estimate.rams import RamsCheck
+from steer_monitor.estimate.ramscheck import RamsCheck
 from steer_monitor.model.friction import FrictionParams, friction_force
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG

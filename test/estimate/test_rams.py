@@ -1,5 +1,5 @@
 """The rams' shares of the driving force: the closed form against a least-squares fit of
-each ram's force on the mean force, offsets and noise, the judgement, and stretches of a log."""
+each ram's force on the mean force, offsets and noise, moments merged, the judgement."""
 
 from __future__ import annotations
 
@@ -8,40 +8,24 @@ import pytest
 
 from steer_monitor.estimate.rams import (
     AT_EDGE,
-    EDGE_STEP,
     EVEN,
     IDLE,
     MIN_SHARE_INSTANTS,
     OPPOSED,
     UNEVEN,
     UNJUDGED,
-    RamsCheck,
     RamShare,
+    ShareMoments,
     judge,
     opposed_cause,
     ram_share,
     ram_share_of_pressures,
-    uneven_spans,
+    share_moments,
+    share_of_moments,
     weak_ram_cause,
-    within,
     working_against,
 )
-
-AREA = 0.045239          # A_r of the R-18 [m^2]
-BAR = AREA * 1e5         # one bar of ram pressure as force [N]
-
-
-def _forces(share1: float, n: int = 2000, offset_bar: float = 0.0, noise_bar: float = 0.35, seed: int = 1,
-            sweep: float = 12.0):
-    """Ram forces (n, 2) [N] for a load sweeping +-40 bar (``sweep`` radians of a sine over the
-    n rows), ram 1 carrying ``share1``; each chamber's transducer with its own noise, ram 1's
-    stbd one reading ``offset_bar`` high."""
-    rng = np.random.default_rng(seed)
-    load = 40 * BAR * np.sin(np.linspace(0, sweep, n))       # what each ram carries on an even share
-    p = rng.normal(0.0, noise_bar * 1e5, (n, 4))
-    f1 = 2 * share1 * load + AREA * (p[:, 0] - p[:, 1] + offset_bar * 1e5)
-    f2 = 2 * (1 - share1) * load + AREA * (p[:, 2] - p[:, 3])
-    return np.stack([f1, f2], axis=1)
+from test.support.rams import AREA, BAR, ram_forces
 
 
 @pytest.mark.parametrize('share1', [0.0, 0.1, 0.35, 0.5, 0.62, 1.0])
@@ -49,7 +33,7 @@ def _forces(share1: float, n: int = 2000, offset_bar: float = 0.0, noise_bar: fl
 def test_the_closed_form_is_the_least_squares_fit(share1, offset_bar):
     """Independently: f1 - f2 fitted on [1, (f1 + f2) / 2] by numpy's lstsq (SVD); the share is
     1/2 + slope/4, its standard error from the same fit."""
-    f = _forces(share1, offset_bar=offset_bar)
+    f = ram_forces(share1, offset_bar=offset_bar)
     sh = ram_share(f)
     m, d = f.mean(axis=1), f[:, 0] - f[:, 1]
     x = np.stack([np.ones_like(m), m], axis=1)
@@ -72,7 +56,7 @@ def test_the_noise_does_not_bias_the_share():
     is the scatter's."""
     shares = []
     for seed in range(200):
-        f = _forces(0.5, n=400, seed=seed) * (3 / 40)    # the load scaled; the noise too, so add it again
+        f = ram_forces(0.5, n=400, seed=seed) * (3 / 40)    # the load scaled; the noise too, so add it again
         rng = np.random.default_rng(1000 + seed)
         f += AREA * 0.35e5 * (rng.normal(size=(400, 2)) * np.sqrt(2))
         shares.append(ram_share(f))
@@ -92,7 +76,7 @@ def test_no_share_without_rows_that_say(force, why):
 
 
 def test_rows_with_a_missing_force_are_left_out():
-    f = _forces(0.3, n=500)
+    f = ram_forces(0.3, n=500)
     g = f.copy()
     g[::7, 1] = np.nan
     assert ram_share(g).share[0] == pytest.approx(ram_share(f[np.isfinite(g).all(axis=1)]).share[0], abs=1e-15)
@@ -119,26 +103,6 @@ def test_judgement_on_the_interval(share1, n, spread_bar, se, verdict):
     sh = RamShare((share1, 1 - share1), se, spread_bar * BAR, 0.0, n)
     assert judge(sh, 0.15, AREA) == verdict
     assert judge(None, 0.15, AREA) == UNJUDGED
-
-
-def test_a_stretch_of_a_log_where_one_ram_was_bypassed():
-    n = 6000
-    t = np.arange(n, dtype=np.int64) * 50_000_000 + 1_700_000_000_000_000_000
-    f = _forces(0.5, n=n)
-    bad = slice(2400, 3600)                      # 60 s of motion, ram 2 carrying nothing
-    f[bad] = _forces(1.0, n=n)[bad]
-    spans = uneven_spans(t, f, 0.15, AREA)
-    assert len(spans) == 1
-    sp = spans[0]
-    assert (sp.ram, sp.idle) == (1, True)
-    assert (sp.start_ns, sp.end_ns) == (t[2400], t[3599])
-    assert sp.share == pytest.approx(0.0, abs=0.01) and sp.instants == 1200
-    assert uneven_spans(t, _forces(0.5, n=n), 0.15, AREA) == []
-    assert uneven_spans(t[:100], f[:100], 0.15, AREA) == []         # too short to judge
-    exact = _forces(0.5, n=n, noise_bar=0.0)
-    exact[bad] = _forces(1.0, n=n, noise_bar=0.0)[bad]
-    spans = uneven_spans(t, exact, 0.15, AREA)                      # no noise: the windows' own ends
-    assert [(sp.start_ns, sp.end_ns, sp.ram, sp.share) for sp in spans] == [(t[2400], t[3599], 1, 0.0)]
 
 
 NAMES = ('pressure_r1_stbd', 'pressure_r1_port', 'pressure_r2_stbd', 'pressure_r2_port')
@@ -190,7 +154,7 @@ def test_no_cause_without_a_load_to_judge_by():
 @pytest.mark.parametrize('share1', [0.0, 0.35, 0.5, 1.0])
 @pytest.mark.parametrize('offset_bar', [0.0, 3.5])
 def test_the_correlation_is_numpy_s(share1, offset_bar):
-    f = _forces(share1, offset_bar=offset_bar)
+    f = ram_forces(share1, offset_bar=offset_bar)
     assert ram_share(f).correlation == pytest.approx(np.corrcoef(f[:, 0], f[:, 1])[0, 1], abs=1e-12)
 
 
@@ -199,7 +163,7 @@ def test_a_ram_read_the_wrong_way_round_is_opposed_not_a_share(share1):
     """One ram's starboard and port pressures swapped: its force is the negative of what it
     does; before, the shares read -79 % / 179 % of nothing in particular (the mean force
     hardly varies) and no judgement was made. Two sound rams, one idle, or uneven, never."""
-    f = _forces(share1)
+    f = ram_forces(share1)
     for ram in (0, 1):
         g = f.copy()
         g[:, ram] *= -1
@@ -207,7 +171,7 @@ def test_a_ram_read_the_wrong_way_round_is_opposed_not_a_share(share1):
         assert sh.correlation < -0.95 and judge(sh, 0.15, AREA) == OPPOSED
         assert judge(ram_share(g[:MIN_SHARE_INSTANTS - 1]), 0.15, AREA) == UNJUDGED
     for s in (0.0, 0.1, 0.35, 0.5, 1.0):
-        assert judge(ram_share(_forces(s)), 0.15, AREA) != OPPOSED
+        assert judge(ram_share(ram_forces(s)), 0.15, AREA) != OPPOSED
 
 
 def test_the_ram_working_against_the_motion_is_named():
@@ -263,91 +227,18 @@ def test_the_share_of_pressures_is_the_share_of_their_forces_to_the_bit(case):
     assert got.instants == n - (12 if case == 'non-finite rows' else 0)
 
 
-def _log_with_stretches(n=9000, seed=4):
-    """Instants 50 ms apart (n,) and the rams' forces (n, 2) [N]: even, ram 2 idle over
-    [2100, 3450), even, ram 1 carrying a quarter over [5230, 7390), even."""
-    t = np.arange(n, dtype=np.int64) * 50_000_000 + 1_700_000_000_000_000_000
-    sweep = 0.05 * n           # a load cycle every 6 s of steady motion (an autopilot's to and fro)
-    f = _forces(0.5, n=n, seed=seed, sweep=sweep)
-    f[2100:3450] = _forces(1.0, n=n, seed=seed + 1, sweep=sweep)[2100:3450]
-    f[5230:7390] = _forces(0.25, n=n, seed=seed + 2, sweep=sweep)[5230:7390]
-    return t, f
-
-
-def test_the_check_fed_in_pieces_is_the_check_fed_at_once():
-    """The node feeds a few instants a second, report a block at a time, analyze the whole log:
-    the same stretches, the same windows, to the bit."""
-    t, f = _log_with_stretches()
-    whole = RamsCheck(0.15, AREA)
-    whole.feed(t, f)
-    want = whole.finish()
-    assert [(sp.ram, sp.idle) for sp in want] == [(1, True), (0, False)]
-    rng = np.random.default_rng(8)
-    for _ in range(5):
-        check, k, seen = RamsCheck(0.15, AREA), 0, []
-        while k < t.size:
-            step = int(rng.integers(1, 1500))
-            check.feed(t[k:k + step], f[k:k + step])
-            seen.append(check.last)
-            k += step
-        assert check.finish() == want
-        assert check.last == whole.last
-
-
-def test_a_stretch_s_share_is_that_of_its_instants():
-    """The share of a stretch over many windows, merged window by window, against the share fitted
-    over its instants at once (the pairwise merge is exact in exact arithmetic: to 1e-12)."""
-    t, f = _log_with_stretches()
-    for sp in uneven_spans(t, f, 0.15, AREA):
-        inside = (t >= sp.start_ns) & (t <= sp.end_ns)
-        direct = ram_share(f[inside])
-        assert sp.instants == direct.instants
-        assert sp.share == pytest.approx(direct.share[sp.ram], abs=1e-12)
-
-
-def test_a_stretch_s_ends_are_found_to_a_step():
-    """Ends inside windows: each found within one EDGE_STEP of where the fault began and ended."""
-    t, f = _log_with_stretches()
-    got = [(int((sp.start_ns - t[0]) // 50_000_000), int((sp.end_ns - t[0]) // 50_000_000))
-           for sp in uneven_spans(t, f, 0.15, AREA)]
-    for (a, b), (a0, b0) in zip(got, [(2100, 3449), (5230, 7389)]):
-        assert abs(a - a0) <= EDGE_STEP and abs(b - b0) <= EDGE_STEP, got
-
-
-def test_rows_the_check_has_settled_never_change_side():
-    """What ``report`` relies on: rows before ``unsettled_from`` are in a stretch (or not) as the
-    finished check has them."""
-    t, f = _log_with_stretches()
-    final = within(t, uneven_spans(t, f, 0.15, AREA))
-    for step in (600, 700, 450):
-        check = RamsCheck(0.15, AREA)
-        for k in range(0, t.size, step):
-            check.feed(t[k:k + step], f[k:k + step])
-            cut = check.unsettled_from()
-            settled = t < cut if cut is not None else np.ones(t.size, bool)
-            settled[k + step:] = False
-            np.testing.assert_array_equal(check.excluded(t)[settled], final[settled])
-
-
-def test_a_bypass_for_the_whole_log_is_one_stretch():
-    t, _ = _log_with_stretches(3000)
-    f = _forces(1.0, n=3000)
-    spans = uneven_spans(t, f, 0.15, AREA)
-    assert [(sp.start_ns, sp.end_ns, sp.ram, sp.idle, sp.instants) for sp in spans] == [(t[0], t[-1], 1, True, 3000)]
-
-
-def test_the_check_says_how_it_stands():
-    t, f = _log_with_stretches()
-    check = RamsCheck(0.15, AREA)
-    assert (check.level, check.last, check.unsettled_from(), check.open_span()) == (UNJUDGED, None, None, None)
-    check.feed(t[:599], f[:599])
-    assert (check.level, check.pending, check.unsettled_from()) == (UNJUDGED, 599, t[0])
-    check.feed(t[599:2400], f[599:2400])
-    assert check.level == UNEVEN and check.open_span().start_ns == t[2100] and not check.spans   # half idle
-    check.feed(t[2400:3000], f[2400:3000])
-    assert check.level == IDLE and check.open_span().ram == 1
-    check.feed(t[3000:4800], f[3000:4800])
-    assert check.level == EVEN and check.open_span() is None and len(check.spans) == 1
-    check.finish()
-    with pytest.raises(ValueError, match='the rams check is finished: it takes no more instants'):
-        check.feed(t[:1], f[:1])
+def test_moments_merged_are_the_moments_of_the_whole():
+    """Chan, Golub and LeVeque's pairwise merge against the moments of all the rows at once
+    (each centred sum to about n epsilons of its terms: 1e-9 relative here)."""
+    f = ram_forces(0.3, n=5000, offset_bar=3.5)
+    whole = share_moments(f)
+    rng = np.random.default_rng(2)
+    cuts = np.sort(rng.choice(np.arange(1, 5000), 6, replace=False))
+    merged = ShareMoments.empty()
+    for part in np.split(f, cuts):
+        merged = merged + share_moments(part)
+    for name in ('m', 'd', 'f1', 'f2', 'smm', 'smd', 'sdd', 's11', 's22', 's12'):
+        want = getattr(whole, name)
+        assert getattr(merged, name) == pytest.approx(want, rel=1e-9, abs=1e-9 * abs(whole.smm) ** 0.5), name
+    assert merged.n == whole.n == 5000
+    assert share_of_moments(merged).share[0] == pytest.approx(ram_share(f).share[0], abs=1e-12)
