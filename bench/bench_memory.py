@@ -1,4 +1,4 @@
-"""Peak memory of ``inspect`` and ``analyze`` on a log of 1.5 M frames (the issue's size).
+"""Peak memory of ``inspect`` and ``analyze`` on a log of 1.5 M frames (a day of a busy bus's steering streams).
 
 The log is an hour of simulated voyage and autopilot (about 330,000 frames) written five
 times over, each copy an hour and a bit later, into one candump file (about 75 MB, 1.6 M

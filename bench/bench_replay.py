@@ -26,16 +26,17 @@ Measured, each case in a fresh process (so its peak resident memory is its own):
   own, made with the logs: replay streams, so its rate and memory do not depend on the log's
   length; the whole day would take several minutes, the reference a quarter of an hour).
 
-Item 5 of issue 35, in the same run: on the candump logs, replay's time split (in a process of
+In the same run: on the candump logs, replay's time split (in a process of
 its own, :func:`bench.bench_replay_parts.measure_split`: three rounds of python-can's reader then a
 replay with its messages and analyses clocked, back to back, the median round's ratio; and one
 replay with every part clocked: reading and decoding, the per-sample pipeline, messages,
 analyses); every replay made twice, in two processes, and the two files compared byte for byte
-and with the per-frame reference's; and the whole replay (``frames=False``, as above) against
-the round's start, commit :data:`BASELINE` (taken from git into ``BENCH_DIR``, its compiled
-kernels warmed by one replay first), on the hour log and the first ``PER_FRAME_LIMIT`` frames.
+and with the per-frame reference's; and, with ``--baseline COMMIT``, the whole replay
+(``frames=False``, as above) against that commit's (taken from git into ``BENCH_DIR``, its
+compiled kernels warmed by one replay first), on the hour log and the first
+``PER_FRAME_LIMIT`` frames: a before and after in one run.
 
-Run: ``python -m bench.bench_replay`` (part of ``make bench``).
+Run: ``python -m bench.bench_replay [--baseline COMMIT]`` (part of ``make bench``, without one).
 """
 
 from __future__ import annotations
@@ -55,7 +56,6 @@ HOUR_PROGRAM = 'voyage,autopilot:2100'
 PER_FRAME_LIMIT = 1_000_000     # frames of the 24-hour logs replayed
 TARGET_FPS = 1_000_000
 BATCH_RUNS = 3          # the batch path is timed this many times (each in a fresh process); the median is shown
-BASELINE = '739564a'    # the round's start (issue 35 item 5: the whole replay no slower than then)
 
 
 def _make_logs() -> dict[str, Path]:
@@ -184,18 +184,18 @@ print(json.dumps({'frames': s.frames, 'seconds': round(time.perf_counter() - t0,
 """
 
 
-def _baseline_tree() -> Path | None:
-    """The sources at :data:`BASELINE`, from git, under ``BENCH_DIR`` (made once); None where
-    git or the commit is not there."""
+def _baseline_tree(baseline: str) -> Path | None:
+    """The sources at commit ``baseline``, from git, under ``BENCH_DIR`` (made once); None
+    where git or the commit is not there."""
     root = Path(__file__).resolve().parent.parent
-    tree = BENCH_DIR / f'baseline-{BASELINE}'
+    tree = BENCH_DIR / f'baseline-{baseline}'
     if (tree / 'steer_monitor').is_dir():
         return tree
-    tmp = BENCH_DIR / f'partial-baseline-{BASELINE}'
+    tmp = BENCH_DIR / f'partial-baseline-{baseline}'
     try:
         subprocess.run(['rm', '-rf', str(tmp)], check=True)
         tmp.mkdir(parents=True)
-        archive = subprocess.run(['git', '-C', str(root), 'archive', BASELINE], capture_output=True, check=True).stdout
+        archive = subprocess.run(['git', '-C', str(root), 'archive', baseline], capture_output=True, check=True).stdout
         subprocess.run(['tar', '-x', '-C', str(tmp)], input=archive, check=True)
     except (OSError, subprocess.CalledProcessError):
         return None
@@ -221,6 +221,7 @@ def main() -> int:
     if sys.argv[1:] == ['--make-logs']:
         _make_logs()
         return 0
+    baseline = sys.argv[2] if len(sys.argv) == 3 and sys.argv[1] == '--baseline' else None
     print('== logs ashore: batch path, replay and its per-frame reference (simulated R-18 logs, ~91 frames/s) ==')
     # made in a process of their own: Linux keeps a process's peak memory across fork and exec,
     # so the cases, started from here, would report this process's peak as theirs
@@ -230,7 +231,7 @@ def main() -> int:
     fronts: list[tuple[str, float]] = []          # (log, the median round's front end / reader)
     against: list[tuple[str, float, float]] = []  # (log, baseline s, replay s)
     same_bytes: list[tuple[str, bool, bool]] = []  # (log, two runs identical, equal to the reference)
-    tree = _baseline_tree()
+    tree = _baseline_tree(baseline) if baseline is not None else None
     for name in ('1h.log', '1h.mcap', '24h.log', '24h.mcap'):
         runs = sorted((_run_case('batch', paths[name]) for _ in range(BATCH_RUNS)), key=lambda r: r['seconds'])
         batch = runs[len(runs) // 2]
@@ -265,20 +266,20 @@ def main() -> int:
             if tree is not None:
                 base = _baseline_replay(tree, same)
                 against.append((name, base['seconds'], min(fast['seconds'], again['seconds'])))
-                print(f'  the round\'s start ({BASELINE}): {base["seconds"]:.2f} s for the same frames; this '
+                print(f'  the baseline ({baseline}): {base["seconds"]:.2f} s for the same frames; this '
                       f'replay {fast["seconds"]:.2f} and {again["seconds"]:.2f} s')
     ok = all(b['frames_per_s'] >= TARGET_FPS for name, b, _ in results if name.startswith('24h'))
     print(f'target: batch path >= {TARGET_FPS:,d} frames/s end to end (median of {BATCH_RUNS} runs): '
           + ('met on the 24-hour logs' if ok else 'NOT met on the 24-hour logs'))
-    print('item 5, reading, decoding and the per-sample pipeline >= python-can\'s reader (the median of three '
+    print('reading, decoding and the per-sample pipeline >= python-can\'s reader (the median of three '
           'rounds): ' + '; '.join(f'{n} {r:.2f} x ({"met" if r >= 1 else "NOT met"})' for n, r in fronts))
-    if tree is None:
-        print(f'item 5, the whole replay no slower than at {BASELINE}: not measured (git or the commit not here)')
-    else:
-        print(f'item 5, the whole replay no slower than at {BASELINE}: '
+    if baseline is not None and tree is None:
+        print(f'the whole replay no slower than at {baseline}: not measured (git or the commit not here)')
+    elif baseline is not None:
+        print(f'the whole replay no slower than at {baseline}: '
               + '; '.join(f'{n} {now:.2f} s against {base:.2f} s ({"met" if now <= base else "NOT met"})'
                           for n, base, now in against))
-    print('item 5, the same bytes between two runs and as the per-frame reference: '
+    print('the same bytes between two runs and as the per-frame reference: '
           + ('yes, on every log' if all(t and r for _, t, r in same_bytes) else
              'NO: ' + ', '.join(n for n, t, r in same_bytes if not (t and r))))
     return 0

@@ -72,7 +72,7 @@ class ParamSpec:
 
 
 PARAMETERS: tuple[ParamSpec, ...] = (
-    # Gear geometry and material (design doc section 1).
+    # Gear geometry and material (docs/physics.md).
     ParamSpec('gear.name', 'string', 'R-18', 'gear model, for reports'),
     ParamSpec('gear.stock_to_ram_m', 'double', None, 'H: rudder-stock axis to ram axis [m]',
               0.0, 10.0, True),

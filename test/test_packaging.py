@@ -99,7 +99,7 @@ def test_every_published_message_package_is_declared():
 
 
 def test_the_card_layout_at_the_root():
-    """One ament_python package at the repository's root, as the design card fixes it, and
+    """One ament_python package at the repository's root, as ROS 2 lays out an ament_python package, and
     nothing that needs a compiler."""
     for name in ('package.xml', 'setup.py', 'setup.cfg', 'README.md', 'resource/steer_monitor', 'config/r18.yaml',
                  'launch/monitor.launch.py', 'systemd/steer-monitor.service', 'steer_monitor/__init__.py',

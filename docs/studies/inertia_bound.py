@@ -1,6 +1,6 @@
 """How much of a ram-inertia force can any linear filter of the rudder angle recover?
 
-An oracle for issue 14's "residual at least halved" with ``ram_inertia``: simulate a voyage
+An oracle for the target "residual at least halved" with ``ram_inertia``: simulate a voyage
 with a mass and its twin without (same seed: same helm, noise and lagging rate, so the
 difference of the plants' noise-free ram forces is the inertia force m a alone), take the
 instants the declared fit uses, and fit that true force by least squares on the angle

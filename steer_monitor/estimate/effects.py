@@ -1,4 +1,4 @@
-"""The library of candidate effects the declared model lacks (design doc section 6).
+"""The library of candidate effects the declared model lacks (docs/residual-loop.md).
 
 Each candidate adds one or a few regressors to the declared model, a per-bin feature times a
 per-sample column (see :class:`~steer_monitor.estimate.fit.Column`), or, for the sensor

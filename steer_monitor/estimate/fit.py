@@ -1,5 +1,5 @@
 """Least-squares fit of the declared observation model on binned statistics, with the
-clearances profiled on a grid (design doc section 4).
+clearances profiled on a grid (docs/physics.md, docs/estimation.md).
 
 Per ram, in steady motion (direction d = +-1):
 

@@ -1,4 +1,4 @@
-"""Decoded streams to aligned observations of the declared model (design doc section 4).
+"""Decoded streams to aligned observations of the declared model (docs/physics.md, docs/estimation.md).
 
 Real data brings sensors at different rates and phases, gaps, the rudder at rest and
 start/stop transients. This module puts everything on one clock and says, per instant,

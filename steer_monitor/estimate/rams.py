@@ -1,6 +1,6 @@
 """How the two rams share the driving force, from their pressures alone. Pure.
 
-The declared model (design doc section 4) has each ram carry the same axial force: the
+The declared model (docs/physics.md, docs/estimation.md) has each ram carry the same axial force: the
 gear's chambers are cross-connected, so both rams see the same pressure difference. A ram
 whose chambers are joined (a bypass or isolating valve open, a pipe broken) carries less and
 the other ram more; the tiller torque they make together is unchanged, which is why the

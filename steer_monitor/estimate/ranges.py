@@ -40,7 +40,7 @@ class Range:
         return f'{lo} .. {hi}{(" " + unit) if unit else ""}'
 
 
-#: The declared friction law's parameters (design doc section 4).
+#: The declared friction law's parameters (docs/physics.md, docs/estimation.md).
 DECLARED = {
     'seal_friction_n': Range(
         0.0, math.inf,

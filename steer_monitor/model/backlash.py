@@ -1,4 +1,4 @@
-"""Backlash of a kinematic chain from the fits of its joints (seed 000).
+"""Backlash of a kinematic chain from the fits of its joints (paper 000).
 
 Reduced to the actuator rod (the ram)::
 
@@ -101,7 +101,7 @@ class BacklashResult:
 
 def chain_backlash(joints: Sequence[ChainJoint], actuator_mean: float = 0.0,
                    actuator_dev: float = 0.0) -> BacklashResult:
-    """Backlash of the chain at the actuator rod [m], seed 000's L and dL."""
+    """Backlash of the chain at the actuator rod [m], paper 000's L and dL."""
     if not (math.isfinite(actuator_mean) and math.isfinite(actuator_dev) and actuator_dev >= 0):
         msg = (f'actuator backlash must be finite with a deviation >= 0, got mean '
                f'{actuator_mean!r} m, deviation {actuator_dev!r} m')

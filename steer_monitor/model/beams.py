@@ -1,4 +1,4 @@
-"""Closed forms of the three beams of the load-sharing model (design doc section 3).
+"""Closed forms of the three beams of the load-sharing model (docs/physics.md).
 
 All per unit load: compliances in m/N, slopes in rad/N, reactions as fractions of the load
 (moments in m). ``a`` is the load point's distance from support A (x = 0), ``b = L - a`` its

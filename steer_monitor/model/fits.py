@@ -1,6 +1,6 @@
-"""ISO 286 fits and the clearance of a joint (seed 000).
+"""ISO 286 fits and the clearance of a joint (paper 000).
 
-Seed 000 describes a hole or shaft by its mean size and half-tolerance::
+Paper 000 describes a hole or shaft by its mean size and half-tolerance::
 
     A  = A_nom + (dU + dL) / 2        mean size
     dA = (dU - dL) / 2                half-tolerance (limit deviation about the mean)
@@ -94,7 +94,7 @@ _FIT_RE = re.compile(
 class Tolerance:
     """Limits of one hole or shaft, in metres.
 
-    ``upper`` and ``lower`` are the limit deviations from ``nominal`` (dU, dL of seed 000).
+    ``upper`` and ``lower`` are the limit deviations from ``nominal`` (dU, dL of paper 000).
     """
 
     nominal: float
@@ -268,7 +268,7 @@ def shaft_tolerance(nominal_mm: float, letter: str, grade: int) -> Tolerance:
 
 
 def clearance_of(hole: Tolerance, shaft: Tolerance) -> Clearance:
-    """Clearance of a joint from its hole and shaft (seed 000) [m]."""
+    """Clearance of a joint from its hole and shaft (paper 000) [m]."""
     mean = hole.mean - shaft.mean
     probable = math.hypot(hole.half_tolerance, shaft.half_tolerance)
     worst = hole.half_tolerance + shaft.half_tolerance

@@ -1,4 +1,4 @@
-"""The declared friction law of the observation model (design doc section 4).
+"""The declared friction law of the observation model (docs/physics.md, docs/estimation.md).
 
     F_fr = F_s + mu_b (N_A + N_E) + mu_g |F_gb|
     N_E = |R_E|,  N_A = max(|R_A|, 2 |M_A| / l_s)

@@ -1,4 +1,4 @@
-"""Rapson-slide kinematics and forces of one ram (design doc section 3)."""
+"""Rapson-slide kinematics and forces of one ram (docs/physics.md)."""
 
 from __future__ import annotations
 

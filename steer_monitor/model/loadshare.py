@@ -1,4 +1,4 @@
-"""Load sharing between a ram and the guide beam (seed 004): one solver for every case.
+"""Load sharing between a ram and the guide beam (paper 004): one solver for every case.
 
 The lateral force Fl of one ram is applied incrementally from 0. The ram starts as a beam
 pinned in both bushings (stage I). Two events change the structure:
@@ -15,7 +15,7 @@ in closed form (:func:`_resolve`: at most two events, then the end), and the fin
 the sums over the stages. The paper's six cases (the orderings of Fl, F_theta and F_Z, see
 :func:`paper_case`) all fall out of this one function; ``stages`` records which stages carried
 load as bit flags (I = 1, II = 2, III = 4). ``test/model/loadshare_oracle.py`` loads the ram
-step by step as the design card words it, a test compares the two on every case, and the beams'
+step by step as paper 004 words it, a test compares the two on every case, and the beams'
 closed forms are checked against a finite-element solution.
 
 One difference from the paper: for cases 5-6 it assumes the clamp forms before the guide

@@ -8,7 +8,7 @@ pressure sample it evaluates:
   Fa = A_r |p_stbd - p_port| (mean of the two rams), the tiller torque it implies,
   M = Fa n H / cos^2(alpha), and the scalar load-sharing solver with the current clearances.
   While the rudder moves Fa includes friction (the estimator of the clearances separates it);
-* the residual of the model in use (design doc section 4): the declared model with the
+* the residual of the model in use (docs/physics.md, docs/estimation.md): the declared model with the
   configured torque and friction until an analysis gives its clearances with the torque,
   friction and effects fitted with them (:meth:`LiveMonitor.set_finding`; then the last
   minute of motion is judged again under that model):

@@ -1,5 +1,5 @@
 """From plant history to NMEA 2000 frames: sensor rates, noise, quantisation, effects on the
-sensors, and the frames' identifiers (design doc section 5).
+sensors, and the frames' identifiers (config/nmea2000_steering.dbc and the signals map).
 
 Streams (rate, priority, source address): Rudder 127245 at 10 Hz, priority 2, SA 0x10;
 Actual Pressure 130314 at 20 Hz per transducer, priority 5, SA 0x20 + k; Speed 128259 at

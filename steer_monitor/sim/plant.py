@@ -1,4 +1,4 @@
-"""The declared plant of the design doc (section 4) for a Rapson-slide gear, plus optional
+"""The declared plant (docs/physics.md) for a Rapson-slide gear, plus optional
 undeclared effects. Pure numpy: no CAN here (see :mod:`steer_monitor.sim.encode`).
 
 Per step of ``dt``: the helm programme gives an order; the rudder follows at a rate set by

@@ -1,4 +1,4 @@
-"""Undeclared effects the simulator can add on request (design doc section 6).
+"""Undeclared effects the simulator can add on request (docs/residual-loop.md).
 
 The declared model (section 4) is what the estimator assumes; these are what real gear adds
 and the analysis must find in the residual without being told. Each switches on by name

@@ -1,4 +1,4 @@
-"""Short, cut and odd logs (issue 37): ``analyze``, ``report`` and the fleet's per-log path
+"""Short, cut and odd logs: ``analyze``, ``report`` and the fleet's per-log path
 raise nothing but the one-line refusals a user reads, and agree on what the log can say.
 
 The cases are drawn from a seeded generator (a property test without a framework): a

@@ -155,7 +155,7 @@ def test_bad_candump_logs(base, tmp_path, capsys, case):
 
 
 def test_one_far_future_frame_costs_that_frame_only(base, tmp_path, capsys):
-    """The issue's case: a glitched rudder frame 75 years ahead poisoned its identifier
+    """A glitched rudder frame 75 years ahead poisoned its identifier
     (every later frame time_backwards) and made the grids span decades."""
     lines = base['long'].read_bytes().splitlines(keepends=True)
     rudder = next(line for line in lines[2000:] if b' 09F10D10#' in line)

@@ -1,5 +1,5 @@
 """Logs whose clock steps: the step is said in one line, the data after it kept as a new
-stretch, and the estimate made of nearly all the frames (issue 37)."""
+stretch, and the estimate made of nearly all the frames."""
 
 from __future__ import annotations
 

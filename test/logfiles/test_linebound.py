@@ -1,4 +1,4 @@
-"""Text logs with runs of bytes without a line end (issue 37): a fixed buffer each, the run
+"""Text logs with runs of bytes without a line end: a fixed buffer each, the run
 counted as ``long_line`` bytes with where it was, the good lines before and after kept."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The load-sharing solver as the design card words it, kept as a test oracle: the ram loaded
+"""The load-sharing solver as paper 004 words it, kept as a test oracle: the ram loaded
 step by step, vectorized over samples with numpy, the structure switched at each event (the
 slope at A reaches theta_max: clamp; the deflection at B reaches Z_gb: guide), three steps
 covering every case. ``steer_monitor.model.loadshare`` resolves the same events in closed form

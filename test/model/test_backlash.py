@@ -1,4 +1,4 @@
-"""Backlash of a kinematic chain (seed 000): sums, RSS, reduction to the rudder angle, and the
+"""Backlash of a kinematic chain (paper 000): sums, RSS, reduction to the rudder angle, and the
 inverse grade question, each against an independent computation."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""ISO 286 tables and seed 000's clearance arithmetic, pinned by published rows."""
+"""ISO 286 tables and paper 000's clearance arithmetic, pinned by published rows."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The load-sharing solver: against the FE contact solution, the paper's six cases, the
-stepwise solver the design card words (``loadshare_oracle``), and the R-18 landmarks of
+stepwise solver paper 004 words (``loadshare_oracle``), and the R-18 landmarks of
 paper 004."""
 
 from __future__ import annotations
@@ -172,7 +172,7 @@ def test_the_scalar_is_the_array_to_the_bit(r18, euler):
 
 @pytest.mark.parametrize('euler', [False, True])
 def test_the_closed_form_is_the_stepwise_loading(r18, euler):
-    """Each event resolved in closed form = the ram loaded step by step as the design card
+    """Each event resolved in closed form = the ram loaded step by step as paper 004
     words it (the oracle, a numpy loop over the events), to rounding: every field, every case,
     the stages that carried load, on the branches' edges and ties."""
     from dataclasses import replace
