@@ -15,7 +15,7 @@ from pathlib import Path
 from steer_monitor import sim
 from steer_monitor.can import Decoder, collect
 from steer_monitor.can.busconfig import can_setup
-from steer_monitor.logfiles.fastlogs import read_log_fast
+from steer_monitor.logfiles.blocks import read_log_fast
 from steer_monitor.logfiles.logs import LogWriter
 from steer_monitor.params import load_params_file
 from steer_monitor.resources import default_config
@@ -75,7 +75,7 @@ def main() -> dict:
     print(f'  candump file, per frame : {file_per_s:7.2f} s  {_rate(n, file_per_s)}')
     print(f'  candump file, lines parsed one by one, decoded as columns : {file_lines_s:7.2f} s  '
           f'{_rate(n, file_lines_s)}')
-    print(f'  candump file, column reader (can/fastlogs.py) + batch decode: {file_batch_s:7.2f} s  '
+    print(f'  candump file, column reader (logfiles/candumpcols.py) + batch decode: {file_batch_s:7.2f} s  '
           f'{_rate(n, file_batch_s)}')
     print(f'  candump file, column reader / per frame = {file_per_s / file_batch_s:,.0f}x')
     return {'frames': n, 'per_frame_s': per_s, 'batch_s': batch_s, 'file_per_frame_s': file_per_s,

@@ -43,7 +43,7 @@ def main() -> int:
     from steer_monitor.can.busconfig import can_setup
     from steer_monitor.can.decoder import Decoder
     from steer_monitor.estimate.analyze import analyze
-    from steer_monitor.logfiles.fastlogs import write_candump_arrays
+    from steer_monitor.logfiles.candumpcols import write_candump_arrays
     from steer_monitor.monitor.analyst import SyncJobs
     from steer_monitor.params import gear_from_params, load_params_file
     from steer_monitor.resources import default_config

@@ -23,7 +23,7 @@ from pathlib import Path
 
 from steer_monitor import sim
 from steer_monitor.can.busconfig import load_setup
-from steer_monitor.logfiles.fastlogs import write_candump_arrays
+from steer_monitor.logfiles.candumpcols import write_candump_arrays
 from steer_monitor.model import Gaps
 
 LOGS = 32

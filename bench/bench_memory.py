@@ -28,7 +28,7 @@ def make_log(path: Path) -> int:
     from steer_monitor import sim
     from steer_monitor.can.busconfig import can_setup
     from steer_monitor.can.frames import FrameArrays
-    from steer_monitor.logfiles.fastlogs import write_candump_arrays
+    from steer_monitor.logfiles.candumpcols import write_candump_arrays
     from steer_monitor.params import load_params_file
     from steer_monitor.resources import default_config
 

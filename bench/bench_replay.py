@@ -63,7 +63,7 @@ def _make_logs() -> dict[str, Path]:
     ``PER_FRAME_LIMIT`` frames of the last two, '24h-first.log' and '24h-first.mcap'."""
     from steer_monitor import sim
     from steer_monitor.can.busconfig import can_setup
-    from steer_monitor.logfiles.fastlogs import write_candump_arrays
+    from steer_monitor.logfiles.candumpcols import write_candump_arrays
     from steer_monitor.logfiles.mcapio import McapWriter
     from steer_monitor.params import load_params_file
     from steer_monitor.resources import default_config
@@ -102,7 +102,7 @@ def _make_logs() -> dict[str, Path]:
 
 def _first_frames(paths: dict[str, Path]) -> None:
     """The first ``PER_FRAME_LIMIT`` frames of the 24-hour logs, as files of their own."""
-    from steer_monitor.logfiles.fastlogs import iter_log
+    from steer_monitor.logfiles.blocks import iter_log
     from steer_monitor.logfiles.logs import LogWriter
     for name in ('24h.log', '24h.mcap'):
         src, dst = paths[name], paths[name.replace('24h', '24h-first')]

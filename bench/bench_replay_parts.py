@@ -60,7 +60,7 @@ ROUNDS = 3      # the reader and the timed replay back to back, this many times
 def _make_log(path: Path) -> int:
     from steer_monitor import sim
     from steer_monitor.can.busconfig import can_setup
-    from steer_monitor.logfiles.fastlogs import write_candump_arrays
+    from steer_monitor.logfiles.candumpcols import write_candump_arrays
     from steer_monitor.params import load_params_file
     from steer_monitor.resources import default_config
 

@@ -54,7 +54,7 @@ def test_a_replay_makes_no_reference_cycles(tmp_path):
     from steer_monitor import sim
     from steer_monitor.ashore.replay import replay
     from steer_monitor.can.busconfig import can_setup
-    from steer_monitor.logfiles.fastlogs import write_candump_arrays
+    from steer_monitor.logfiles.candumpcols import write_candump_arrays
     from steer_monitor.params import load_params_file
     from steer_monitor.resources import default_config
 

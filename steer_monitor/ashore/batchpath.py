@@ -1,4 +1,4 @@
-"""The batch path over logs: read in blocks of columns (:mod:`steer_monitor.logfiles.fastlogs`),
+"""The batch path over logs: read in blocks of columns (:mod:`steer_monitor.logfiles.blocks`),
 decode vectorized, review (:mod:`steer_monitor.ashore.review`). No Python object per frame.
 
 With ``jobs`` > 1 (default: 2 when the machine has 2 cores) reading and decoding run in a
@@ -21,7 +21,7 @@ from steer_monitor.can.busconfig import load_setup
 from steer_monitor.can.decoder import Decoder, clock_notes
 from steer_monitor.can.frames import FrameArrays
 from steer_monitor.can.rejects import RejectCounter
-from steer_monitor.logfiles.fastlogs import in_time_order, iter_log_blocks, log_end_ns
+from steer_monitor.logfiles.blocks import in_time_order, iter_log_blocks, log_end_ns
 from steer_monitor.logfiles.logs import LogError
 from steer_monitor.params import (
     gaps_from_params,

@@ -35,7 +35,7 @@ from steer_monitor.can.frames import FrameArrays
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import ParameterError, SteerMonitorError
 from steer_monitor.estimate.finding import Finding
-from steer_monitor.logfiles.fastlogs import in_time_order, iter_log_blocks
+from steer_monitor.logfiles.blocks import in_time_order, iter_log_blocks
 from steer_monitor.logfiles.logs import LogError, log_path_problem
 from steer_monitor.logfiles.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, McapWriter, leading_metadata
 from steer_monitor.monitor.analyst import Analyst, SyncJobs

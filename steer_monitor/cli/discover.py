@@ -39,7 +39,7 @@ from steer_monitor.cli.output import (
     text_stream,
 )
 from steer_monitor.errors import InputError, ParameterError
-from steer_monitor.logfiles.fastlogs import iter_log_blocks
+from steer_monitor.logfiles.blocks import iter_log_blocks
 from steer_monitor.logfiles.logs import LogError
 from steer_monitor.params import NODE_NAME, load_params_file
 from steer_monitor.resources import config_dir

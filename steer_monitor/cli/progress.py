@@ -2,7 +2,7 @@
 have got to, on a terminal only (or when asked).
 
 A log's length in frames is not known before it is read, but its span is, cheaply: the first
-frame and, for candump and MCAP, the last (:func:`~steer_monitor.logfiles.fastlogs.log_end_ns`).
+frame and, for candump and MCAP, the last (:func:`~steer_monitor.logfiles.blocks.log_end_ns`).
 Logs are read in time order, so the data time reached says how much is done. Where a log's
 end cannot be told (the gateways' text formats), the bar counts frames without a total.
 """
@@ -20,7 +20,7 @@ __all__ = ['DataTimeProgress', 'log_spans']
 
 def log_spans(paths: Sequence[str | Path], date: datetime.date | None = None) -> list[tuple[int, int]] | None:
     """(first, last) frame time [ns] of each log, or None when one of them cannot be told."""
-    from steer_monitor.logfiles.fastlogs import first_frame_ns, log_end_ns
+    from steer_monitor.logfiles.blocks import first_frame_ns, log_end_ns
 
     spans = []
     for p in paths:

@@ -1,7 +1,7 @@
 """Whole logs to decoded series, streamed a block of columns at a time.
 
 What ``inspect``, ``analyze`` and ``report`` read: every log in turn through the column
-readers (:func:`~steer_monitor.logfiles.fastlogs.iter_log_blocks`) and the array decoder, so
+readers (:func:`~steer_monitor.logfiles.blocks.iter_log_blocks`) and the array decoder, so
 memory holds one block of frames and the decoded samples, never an object per frame. A log
 that breaks off or holds corrupt parts gives what could be read; what was wrong is kept, one
 line per log, for the command to report.
@@ -21,7 +21,7 @@ from steer_monitor.can.decoder import ClockStep, Decoder, Series, SignalSet, clo
 from steer_monitor.can.frames import FrameArrays
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.signals import SignalMap
-from steer_monitor.logfiles.fastlogs import iter_log_blocks
+from steer_monitor.logfiles.blocks import iter_log_blocks
 from steer_monitor.logfiles.logs import LogError
 from steer_monitor.utc import time_json
 

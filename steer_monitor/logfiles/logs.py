@@ -186,11 +186,11 @@ def iter_log_as(path: Path, fmt: str, rejects: RejectCounter | None = None, date
                 ) -> Iterator[Frame]:
     """Frames, one at a time, of a log whose format (:func:`log_format`) is known already and
     has no column reader: ASC and BLF (python-can), CANboat plain and YDWG raw. Candump and
-    MCAP are read in columns (:func:`~steer_monitor.logfiles.fastlogs.iter_log_blocks`, the one
+    MCAP are read in columns (:func:`~steer_monitor.logfiles.blocks.iter_log_blocks`, the one
     reader of every format). Bad records are counted in ``rejects``; ``date``: the date of a YDWG
     log's first line (see :func:`~steer_monitor.logfiles.gateway.ydwg_date`)."""
     if fmt in ('candump', 'mcap'):
-        msg = f'{fmt} logs are read in columns (fastlogs.iter_log_blocks), not here'
+        msg = f'{fmt} logs are read in columns (blocks.iter_log_blocks), not here'
         raise ValueError(msg)
     if fmt == 'ydwg':
         try:

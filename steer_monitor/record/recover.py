@@ -17,7 +17,7 @@ from typing import Any
 
 from steer_monitor.atomic import atomic_path, check_target, os_reason
 from steer_monitor.errors import SteerMonitorError
-from steer_monitor.logfiles.fastlogs import decompress_chunk, summary_section
+from steer_monitor.logfiles.mcapcols import decompress_chunk, summary_section
 from steer_monitor.logfiles.mcapio import Counted
 
 __all__ = ['RecoverError', 'RecoverResult', 'recover']
@@ -46,7 +46,7 @@ class RecoverResult:
 
 def _summary_definitions(fin: Any) -> list[Any]:
     """The schemas, then the channels, of the MCAP ``fin``'s summary section when it checks
-    out (:func:`~steer_monitor.logfiles.fastlogs.summary_section`: footer, bounds, CRC, which
+    out (:func:`~steer_monitor.logfiles.mcapcols.summary_section`: footer, bounds, CRC, which
     mcap's reader does not check) and reads whole; none otherwise. Leaves ``fin`` at the start."""
     from mcap.exceptions import EndOfFile
     from mcap.records import Channel, Schema

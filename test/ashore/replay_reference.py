@@ -14,7 +14,7 @@ from typing import Any
 from steer_monitor.ashore import replay as R
 from steer_monitor.can.frames import Frame
 from steer_monitor.can.rejects import RejectCounter
-from steer_monitor.logfiles.fastlogs import iter_log_blocks
+from steer_monitor.logfiles.blocks import iter_log_blocks
 from steer_monitor.logfiles.logs import LogError
 from steer_monitor.logfiles.mcapio import McapWriter
 from steer_monitor.monitor.messages import diag_messages, state_messages

@@ -10,7 +10,7 @@ import pytest
 from steer_monitor.ashore.discovery import Discovery, propose
 from steer_monitor.can import Frame, FrameArrays
 from steer_monitor.can.signals import REQUIRED
-from steer_monitor.logfiles.fastlogs import iter_log_blocks
+from steer_monitor.logfiles.blocks import iter_log_blocks
 from test.can.test_decoder import T0, pressure, rudder
 from test.can.test_devices import AUTOPILOT, OTHER, claim
 from test.logfiles.test_gateway import MERRIMAC, SUSTERANNA, SUSTERANNA_2020, _canboat_rows, capture

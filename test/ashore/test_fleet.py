@@ -14,7 +14,7 @@ import pytest
 
 from steer_monitor import sim
 from steer_monitor.ashore.logresult import LogResult
-from steer_monitor.logfiles.fastlogs import write_candump_arrays
+from steer_monitor.logfiles.candumpcols import write_candump_arrays
 from steer_monitor.model import Gaps
 
 pytestmark = pytest.mark.slow

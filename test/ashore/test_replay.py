@@ -110,7 +110,7 @@ def test_the_fast_replay_writes_the_reference_bytes(tmp_path, logs, busy, case):
     paths = {'split': [logs['b.mcap'], logs['a.log']]}.get(case, [logs['all.log']])
     if case in ('hostile', 'two hours apart'):
         from steer_monitor.can.frames import Frame
-        from steer_monitor.logfiles.fastlogs import iter_log
+        from steer_monitor.logfiles.blocks import iter_log
         frames = list(iter_log(logs['all.log']))
         if case == 'hostile':
             frames = _hostile(frames)

@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 
 from steer_monitor.can import Decoder, Frame, FrameArrays, RejectCounter, collect
 from steer_monitor.can.timejump import CONFIRM_FRAMES
-from steer_monitor.logfiles.fastlogs import iter_candump_blocks
-from steer_monitor.logfiles.fastlogs import read_log_fast as read_log_arrays
+from steer_monitor.logfiles.blocks import read_log_fast as read_log_arrays
+from steer_monitor.logfiles.candumpcols import iter_candump_blocks
 from steer_monitor.logfiles.logs import candump_line
 from test.can.test_decoder import pressure, rudder
 

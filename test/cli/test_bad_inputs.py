@@ -41,7 +41,7 @@ def _uncompressed_mcap(log: Path, out: Path) -> None:
     byte inside one changes a frame silently unless the CRC is checked."""
     from mcap.writer import CompressionType, Writer
 
-    from steer_monitor.logfiles.fastlogs import read_log_fast
+    from steer_monitor.logfiles.blocks import read_log_fast
     from steer_monitor.logfiles.mcapio import DEFAULT_QOS, FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, frame_cdr
     fa = read_log_fast(log)
     with open(out, 'wb') as fh:
@@ -277,7 +277,7 @@ def test_cut_blf_and_asc_are_analysed_and_say_so(base, tmp_path, capsys, suffix)
     """A BLF or ASC log cut short: every command uses the frames before the cut and says the
     log breaks off (exit 1). The block readers once dropped a cut BLF's frames altogether."""
 
-    from steer_monitor.logfiles.fastlogs import read_log_fast
+    from steer_monitor.logfiles.blocks import read_log_fast
     from steer_monitor.logfiles.logs import LogWriter
     from test.logfiles.test_logs import _write_asc
     frames = read_log_fast(base['long'])

@@ -141,7 +141,7 @@ def test_replay_reads_a_gateway_log_with_its_date(tmp_path, capsys):
     r = json.loads(cap.out)
     assert r['frames'] == 914
     assert 'read as starting on 2020-08-22 UTC, the date given' in cap.err
-    from steer_monitor.logfiles.fastlogs import read_log_fast
+    from steer_monitor.logfiles.blocks import read_log_fast
     frames = read_log_fast(tmp_path / 'r.mcap')
     assert len(frames) == 914 and str(frames.t_ns[0]).startswith('15980')     # 2020-08-22
     from mcap.reader import make_reader

@@ -1,8 +1,9 @@
 """The plain log reader: the oracle the package's column readers
-(:mod:`steer_monitor.logfiles.fastlogs`) are checked against. Candump line by line with the
-package's line parser, MCAP with the mcap library's own reader and mcap-ros2's decoder (an
-implementation independent of the package's MCAP parser), the other formats as the package
-reads them (it has one reader of those)."""
+(:mod:`steer_monitor.logfiles.candumpcols`, :mod:`steer_monitor.logfiles.mcapcols`) are
+checked against. Candump line by line with the package's line parser, MCAP with the mcap
+library's own reader and mcap-ros2's decoder (an implementation independent of the
+package's MCAP parser), the other formats as the package reads them (it has one reader of
+those)."""
 
 from __future__ import annotations
 

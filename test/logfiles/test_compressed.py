@@ -16,8 +16,8 @@ import zstandard
 
 from steer_monitor.ashore.fleet import find_vessels
 from steer_monitor.can import FrameArrays, RejectCounter
+from steer_monitor.logfiles.blocks import iter_log, iter_log_blocks, log_end_ns, read_log_fast
 from steer_monitor.logfiles.compressed import PIECE_BYTES, compression, plain_suffix
-from steer_monitor.logfiles.fastlogs import iter_log, iter_log_blocks, log_end_ns, read_log_fast
 from steer_monitor.logfiles.logs import LogError, log_format
 from test.logfiles.test_gateway import MERRIMAC, SUSTERANNA, capture
 from test.logfiles.test_logs import _write, _write_asc

@@ -12,8 +12,8 @@ from steer_monitor import sim
 from steer_monitor.can.decoder import STITCH_GAP_NS, Decoder
 from steer_monitor.can.frames import FrameArrays
 from steer_monitor.can.rejects import RejectCounter
+from steer_monitor.logfiles.candumpcols import write_candump_arrays
 from steer_monitor.logfiles.decodelog import decode_logs
-from steer_monitor.logfiles.fastlogs import write_candump_arrays
 from steer_monitor.model import Gaps
 
 HOUR = 3600 * 10**9

@@ -12,7 +12,7 @@ import pytest
 
 from steer_monitor.can import Decoder, FrameArrays, RejectCounter, collect, make_id, pgn_of
 from steer_monitor.can.busconfig import load_setup
-from steer_monitor.logfiles.fastlogs import iter_log, iter_log_blocks, read_log_fast
+from steer_monitor.logfiles.blocks import iter_log, iter_log_blocks, read_log_fast
 from steer_monitor.logfiles.gateway import canboat_id, ydwg_date
 from steer_monitor.logfiles.logs import LogError, log_format
 from test.conftest import PKG, SHARED

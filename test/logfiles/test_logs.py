@@ -10,8 +10,8 @@ import pytest
 
 from steer_monitor import sim
 from steer_monitor.can import Decoder, FrameArrays, RejectCounter
-from steer_monitor.logfiles.fastlogs import iter_log
-from steer_monitor.logfiles.fastlogs import read_log_fast as read_log_arrays
+from steer_monitor.logfiles.blocks import iter_log
+from steer_monitor.logfiles.blocks import read_log_fast as read_log_arrays
 from steer_monitor.logfiles.logs import LogError, LogWriter
 from steer_monitor.logfiles.mcapio import FRAME_TOPIC
 

@@ -95,7 +95,7 @@ def test_write_frames_across_chunk_rollover_reads_back_with_crcs():
 def test_times_past_2038_are_kept_in_the_log_time(tmp_path, t_ns):
     """ROS time has int32 seconds: past 2038 the header stamp is left unset (0, 0) and the
     record's uint64 log time carries the time; both readers take it from there."""
-    from steer_monitor.logfiles.fastlogs import iter_mcap_blocks
+    from steer_monitor.logfiles.mcapcols import iter_mcap_blocks
     from steer_monitor.rostime import ros_time
     f = Frame(t_ns, 0x09F10D10, bytes(8))
     sec, nsec = ros_time(t_ns)

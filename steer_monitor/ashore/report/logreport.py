@@ -29,7 +29,7 @@ def published_track(paths: Sequence[Path]) -> Any:
     from mcap_ros2.decoder import DecoderFactory
 
     from steer_monitor.ashore.report.reviewpage import PublishedTrack
-    from steer_monitor.logfiles.fastlogs import mcap_chunks_within_limits
+    from steer_monitor.logfiles.mcapcols import mcap_chunks_within_limits
 
     rows: list[tuple[int, list[float]]] = []
     for path in paths:

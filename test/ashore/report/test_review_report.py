@@ -100,7 +100,7 @@ def test_a_recording_with_a_chunk_declaring_too_much_is_not_handed_to_mcaps_read
     import tracemalloc
 
     from steer_monitor.ashore.report.logreport import published_track
-    from steer_monitor.logfiles.fastlogs import MAX_CHUNK_BYTES, mcap_chunks_within_limits
+    from steer_monitor.logfiles.mcapcols import MAX_CHUNK_BYTES, mcap_chunks_within_limits
     data = bytearray(logs['replay'].read_bytes())
     pos = 8
     while data[pos] != 0x06:                                  # the first chunk record

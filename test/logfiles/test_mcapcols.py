@@ -1,104 +1,19 @@
-"""The column readers give what the reference reader (test/logfiles/reference_reader.py) gives:
-frames and rejects."""
+"""The MCAP column reader gives what the mcap library gives (test/logfiles/reference_reader.py):
+frames and rejects; chunks, channels and damaged files."""
 
 from __future__ import annotations
 
-import io
 import struct
 
 import numpy as np
 import pytest
 
-from steer_monitor import sim
-from steer_monitor.can import FrameArrays, RejectCounter
-from steer_monitor.logfiles.fastlogs import (
-    iter_candump_blocks,
-    iter_log_blocks,
-    iter_mcap_blocks,
-    log_end_ns,
-    read_log_fast,
-    write_candump_arrays,
-)
-from steer_monitor.logfiles.logs import LogError, LogWriter
+from steer_monitor.can import FrameArrays
+from steer_monitor.logfiles.blocks import read_log_fast
+from steer_monitor.logfiles.logs import LogError
+from steer_monitor.logfiles.mcapcols import iter_mcap_blocks
 from steer_monitor.logfiles.mcapio import McapWriter
-from test.logfiles.reference_reader import iter_log_reference as iter_log
-from test.logfiles.reference_reader import read_log_reference as read_log_arrays
-
-COLUMNS = ('t_ns', 'can_id', 'dlc', 'data', 'flags')
-
-
-@pytest.fixture(scope='module')
-def simulated(r18_params, can_db):
-    db, smap = can_db
-    return sim.run(r18_params, sim.SimConfig(program='hard_over_2', max_duration_s=20.0), db, smap, seed=12).frames
-
-
-def _same(a: FrameArrays, b: FrameArrays) -> None:
-    assert len(a) == len(b)
-    for c in COLUMNS:
-        np.testing.assert_array_equal(getattr(a, c), getattr(b, c), err_msg=c)
-
-
-def _both(path, **kw):
-    r1, r2 = RejectCounter(), RejectCounter()
-    ref = read_log_arrays(path, r1)
-    got = (
-        FrameArrays.concat(list(iter_candump_blocks(path, r2, **kw)))
-        if path.suffix == '.log'
-        else read_log_fast(path, r2)
-    )
-    return ref, got, r1.snapshot(), r2.snapshot()
-
-
-@pytest.mark.parametrize('suffix', ['.log', '.mcap'])
-def test_simulated_log_reads_the_same(tmp_path, simulated, suffix):
-    path = tmp_path / f'x{suffix}'
-    with LogWriter(path) as w:
-        for f in simulated.frames():
-            w.write(f)
-    ref, got, _, _ = _both(path)
-    _same(ref, got)
-
-
-MIXED = [
-    '(1767225600.000100) can0 09F10D10#00F80000FFFFFFFF',
-    'garbage line',
-    '(1767225600.000200) can0 09F10D10#00F8000',                 # odd payload
-    '(99999999999999999999.0) can0 09F10D10#00',                 # time out of range
-    '(1767225600.000300) can0 123#R',                            # remote, standard id
-    '(1767225600.000350) vcan12 123#DEADBEEF',                   # standard id, other channel
-    '(1767225600.5) can0 09F10D10#00f80000ffffffff',             # short fraction, lower case
-    '(1767225600.000400) can0 29F10D10#0011',                    # error frame flag
-    '(1767225600.000500) can0 09F10D10#',                        # empty payload
-    '(1767225600.000600) can0 09F10D10#00F80000FFFFFFFF00',      # 9 bytes
-    '(1767225600.000700)  can0 09F10D10#00',                     # two spaces
-    '(1767225600.000800) can0 09F10D10#0G',                      # not hex
-    '(1767225600.000900) can0 09F10D10#00F80000FFFFFFFF\r',      # CRLF
-]
-
-
-@pytest.mark.parametrize('repeat', [1, 40])
-def test_every_kind_of_line_as_the_line_parser_reads_it(tmp_path, repeat):
-    """Odd lines alone and among many usual ones (the column path takes a layout once it
-    has 16 lines of it)."""
-    usual = [f'(1767225601.{i:06d}) can0 09F10D10#00F80000FFFF{i % 256:02X}FF' for i in range(50)]
-    lines = (MIXED * repeat) + usual + MIXED
-    path = tmp_path / 'mixed.log'
-    path.write_bytes(('\n'.join(lines) + '\n').encode())
-    for block in (1 << 20, 97):   # one block, and blocks that cut lines anywhere
-        ref, got, r1, r2 = _both(path, block_bytes=block)
-        _same(ref, got)
-        assert r1.counts == r2.counts and r1.counts['malformed_record'] > 0
-
-
-def test_last_line_without_newline_and_empty_file(tmp_path):
-    path = tmp_path / 'n.log'
-    path.write_bytes(b'(1767225600.000100) can0 09F10D10#00F80000FFFFFFFF\n(1767225600.000200) can0 123#01')
-    ref, got, _, _ = _both(path)
-    _same(ref, got)
-    empty = tmp_path / 'e.log'
-    empty.write_bytes(b'')
-    assert len(read_log_fast(empty)) == 0
+from test.support.logcols import both, same
 
 
 def test_mcap_with_other_topics_and_small_chunks(tmp_path, simulated):
@@ -113,8 +28,8 @@ def test_mcap_with_other_topics_and_small_chunks(tmp_path, simulated):
             w.write_frames(frames[i:i + 37])
             w.write('/other', {'data': 'x' * (i % 13)}, frames[i].t_ns)
         w.write_frame(frames[0], '/steering_can/second')  # a second frame channel, one frame
-    ref, got, _, _ = _both(path)
-    _same(ref, got)
+    ref, got, _, _ = both(path)
+    same(ref, got)
 
 
 def test_cut_mcap_keeps_what_came_before(tmp_path, simulated):
@@ -137,29 +52,6 @@ def test_cut_mcap_keeps_what_came_before(tmp_path, simulated):
     bad.write_bytes(b'not an mcap at all')
     with pytest.raises(LogError, match='not an MCAP file'):
         list(iter_mcap_blocks(bad))
-
-
-def test_cut_blf_gives_its_frames_before_the_error(tmp_path, simulated):
-    """python-can's BLF reader stops quietly at a cut container and the reader raises after
-    the last frame: the block reader must hand over the frames it holds before the error
-    (it once dropped every frame of a cut BLF shorter than a block)."""
-    path = tmp_path / 'x.blf'
-    with LogWriter(path) as w:
-        for f in simulated.frames():
-            w.write(f)
-    cut = tmp_path / 'cut.blf'
-    cut.write_bytes(path.read_bytes()[: path.stat().st_size * 2 // 3])
-    ref = []
-    with pytest.raises(LogError, match='breaks off or is corrupt') as want:
-        for f in iter_log(cut):
-            ref.append(f)
-    got = []
-    with pytest.raises(LogError, match='breaks off or is corrupt') as err:
-        for block in iter_log_blocks(cut):
-            got.append(block)
-    assert str(err.value) == str(want.value)
-    assert 0 < len(ref) < len(simulated)
-    _same(FrameArrays.concat(got), FrameArrays.from_frames(ref))
 
 
 def _mcap_with(path, schema_name, schema_encoding, definition, message_encoding, frames, topic='/steering_can/rx'):
@@ -219,91 +111,12 @@ def test_frames_that_cannot_be_read_are_named(tmp_path, simulated, case, want):
     assert sum(len(b) for b in got) == 0
 
 
-def test_candump_writer_is_the_log_writer(tmp_path, simulated):
-    ref = tmp_path / 'ref.log'
-    with LogWriter(ref) as w:
-        for f in simulated.frames():
-            w.write(f)
-    buf = io.BytesIO()
-    write_candump_arrays(buf, simulated)
-    assert buf.getvalue() == ref.read_bytes()
-    odd = read_log_arrays(tmp_path / 'ref.log').take(np.arange(5))
-    odd = FrameArrays(odd.t_ns, odd.can_id, odd.dlc, odd.data, odd.flags & 0)   # standard ids: the slow path
-    buf2 = io.BytesIO()
-    write_candump_arrays(buf2, odd)
-    back = tmp_path / 'odd.log'
-    back.write_bytes(buf2.getvalue())
-    _same(read_log_arrays(back), read_log_fast(back))
-
-
-def test_log_end(tmp_path, simulated):
-    for suffix in ('.log', '.mcap'):
-        path = tmp_path / f'x{suffix}'
-        with LogWriter(path) as w:
-            for f in simulated.frames():
-                w.write(f)
-        assert log_end_ns(path) == int(simulated.t_ns[-1]) // 1000 * 1000
-    assert log_end_ns(tmp_path / 'missing.log') is None
-
-
-def test_same_as_iter_log_on_frames(tmp_path, simulated):
-    path = tmp_path / 'y.log'
-    with LogWriter(path) as w:
-        for f in simulated.frames():
-            w.write(f)
-    fast = read_log_fast(path).frames()
-    assert fast == [f.__class__(f.t_ns, f.can_id, f.data, f.is_extended, f.is_error, f.is_remote, '')
-                    for f in iter_log(path)]
-
-
-USUAL = b'(1767225600.008079) can0 09F10D10#00F800000100FFFF'
-SUBSTITUTES = b'0 9aFG.#(x\x00\x7f\xff\t\r\x0b'   # with whitespace the line parser splits on and the columns do not
-
-
-def _block(lines: list[bytes]):
-    from steer_monitor.logfiles import fastlogs
-    raw = b''.join(line + b'\n' for line in lines)
-    pb = fastlogs._PAD_BYTES + raw + fastlogs._PAD_BYTES
-    return pb, np.frombuffer(pb, np.uint8, count=len(raw), offset=fastlogs._PAD)
-
-
-def test_a_block_of_one_layout_is_read_by_strided_words():
-    from steer_monitor.logfiles.fastlogs import _uniform_frames
-    lines = [USUAL.replace(b'008079', f'{i:06d}'.encode()) for i in range(40)]
-    fa = _uniform_frames(*_block(lines))
-    assert fa is not None and len(fa) == 40
-    np.testing.assert_array_equal(fa.t_ns, 1767225600_000000000 + np.arange(40) * 1000)
-    assert set(fa.can_id.tolist()) == {0x09F10D10} and bytes(fa.data[0]) == bytes.fromhex('00F800000100FFFF')
-
-
-@pytest.mark.parametrize('pos', range(len(USUAL)))
-def test_one_changed_character_anywhere(tmp_path, pos):
-    """Each character of a usual line replaced by digits, letters, delimiters and control
-    bytes, among lines of its layout: what the line parser makes of it, whichever path reads
-    it; the one-layout path declines a block with a line it would reject."""
-    from steer_monitor.logfiles.fastlogs import _uniform_frames
-    good = [USUAL] * 20
-    for c in SUBSTITUTES:
-        line = USUAL[:pos] + bytes([c]) + USUAL[pos + 1:]
-        lines = good[:10] + [line] + good[10:]
-        path = tmp_path / f'{pos}_{c}.log'
-        path.write_bytes(b''.join(x + b'\n' for x in lines))
-        ref, got, r1, r2 = _both(path)
-        _same(ref, got)
-        assert r1.counts == r2.counts
-        fast = _uniform_frames(*_block(lines))
-        if len(ref) < len(lines):
-            assert fast is None, (pos, c)
-        elif fast is not None:
-            _same(ref, fast)
-
-
 def test_frame_records_as_columns():
     """Runs of frame records among other records: flags, DLC (above 8 read as 8) and the
     payload bytes past the DLC (not the frame's) dropped; a record too short for its frame_id
     is an error that says so."""
     from steer_monitor.can.frames import Frame
-    from steer_monitor.logfiles.fastlogs import _McapState, _walk_records
+    from steer_monitor.logfiles.mcapcols import _McapState, _walk_records
     from steer_monitor.logfiles.mcapio import FRAME_DATATYPE, _record_dtype, frame_records
     dlcs = [0, 3, 8, 15, 1]
     frames = [Frame(1_767_225_600_000_000_000 + i * 1000, 0x100 + i, bytes(8), i % 2 == 0, i == 2, i == 4, '')
@@ -336,17 +149,6 @@ def test_frame_records_as_columns():
         _walk_records(bad.tobytes(), state)
 
 
-def test_lines_longer_than_a_block(tmp_path):
-    """A line longer than the block read (the buffer grows to hold it) among usual lines."""
-    usual = [f'(1767225601.{i:06d}) can0 09F10D10#00F80000FFFF{i:02X}FF' for i in range(40)]
-    lines = usual[:20] + ['x' * 500, '(1767225601.5) can0 09F10D10#' + '0' * 300] + usual[20:]
-    path = tmp_path / 'long.log'
-    path.write_bytes(('\n'.join(lines) + '\n').encode())
-    ref, got, r1, r2 = _both(path, block_bytes=97)
-    _same(ref, got)
-    assert len(got) == 40 and r1.counts == r2.counts
-
-
 @pytest.mark.parametrize('compression', ['', 'zstd', 'lz4'])
 def test_a_chunk_is_decompressed_and_checked(compression):
     import zlib
@@ -354,7 +156,7 @@ def test_a_chunk_is_decompressed_and_checked(compression):
     import lz4.frame
     import zstandard
 
-    from steer_monitor.logfiles.fastlogs import CorruptChunk, decompress_chunk
+    from steer_monitor.logfiles.mcapcols import CorruptChunk, decompress_chunk
     raw = bytes(range(256)) * 64
     data = {'': raw, 'zstd': zstandard.ZstdCompressor().compress(raw), 'lz4': lz4.frame.compress(raw)}[compression]
     assert decompress_chunk(compression, data, len(raw), zlib.crc32(raw)) == raw
@@ -376,7 +178,7 @@ def test_a_chunk_that_inflates_past_its_declared_size_is_not_inflated(compressio
     import lz4.frame
     import zstandard
 
-    from steer_monitor.logfiles.fastlogs import CorruptChunk, decompress_chunk
+    from steer_monitor.logfiles.mcapcols import CorruptChunk, decompress_chunk
     zeros = bytes(64 << 20)
     data = (zstandard.ZstdCompressor(write_content_size=False).compress(zeros) if compression == 'zstd'
             else lz4.frame.compress(zeros))
@@ -397,7 +199,7 @@ def test_a_chunk_declaring_more_than_a_chunk_may_hold_is_refused_at_once():
     and a minute. Beyond MAX_CHUNK_BYTES the chunk is corrupt before anything is inflated."""
     import zstandard
 
-    from steer_monitor.logfiles.fastlogs import MAX_CHUNK_BYTES, CorruptChunk, decompress_chunk
+    from steer_monitor.logfiles.mcapcols import MAX_CHUNK_BYTES, CorruptChunk, decompress_chunk
     data = zstandard.ZstdCompressor(write_content_size=False).compress(b'x' * 1000)
     for size in (MAX_CHUNK_BYTES + 1, 1 << 44):
         with pytest.raises(CorruptChunk, match=f'declares {size} bytes uncompressed, more than the 256 MiB'):
@@ -409,7 +211,7 @@ def test_a_chunk_declaring_more_than_a_chunk_may_hold_is_refused_at_once():
 def test_channels_are_judged_whichever_comes_first_schema_or_channel():
     """A channel naming a schema given later, a channel given again with another schema, a
     schema given again: the frame channels follow, one channel judged at a time."""
-    from steer_monitor.logfiles.fastlogs import _McapState
+    from steer_monitor.logfiles.mcapcols import _McapState
     from steer_monitor.logfiles.mcapio import FRAME_DATATYPE, FRAME_MSGDEF
     st = _McapState()
     st.channel(1, 7, '/steering_can/rx', 'cdr')
