@@ -5,7 +5,7 @@ left, and where it lives.
 
 Selection guards against overfitting twice: a candidate must lower the *held-out* error
 (two-fold cross-validation over alternate minutes of the log, shorter blocks on a log of
-under eight minutes (:func:`block_ns`): fit on one half, score on the
+under eight minutes (:mod:`~steer_monitor.estimate.heldout`): fit on one half, score on the
 other, and back) and the Bayesian information criterion, both on the effective sample size
 n_eff (rows / variance inflation): the held-out deviance n_eff ln(MSE_cv before / after) must
 reach ``MIN_CV_DEVIANCE`` and the BIC fall by ``MIN_BIC_DROP`` ("very strong" evidence, 10,
@@ -33,6 +33,11 @@ Before all that, stretches where the two rams did not share the force evenly
 (:class:`~steer_monitor.estimate.ramscheck.RamsCheck`: a bypass or isolating valve open, a
 transducer not reading) are left out, and the message says when and which ram: the declared
 model has each ram carry half.
+
+The parts live beside it: the held-out scoring (:mod:`~steer_monitor.estimate.heldout`), what a
+screening records and the outliers set aside (:mod:`~steer_monitor.estimate.screening`), whether
+a fit is physical (:mod:`~steer_monitor.estimate.plausible`) and the verdict's words
+(:mod:`~steer_monitor.estimate.analysiswords`).
 """
 
 from __future__ import annotations
@@ -46,6 +51,7 @@ from numpy.typing import NDArray
 
 from steer_monitor.estimate import fit as F
 from steer_monitor.estimate import window as W
+from steer_monitor.estimate.analysiswords import message, uneven_note
 from steer_monitor.estimate.batch import ClearanceEstimate, Rows, estimate_clearances, lag_moments, make_rows
 from steer_monitor.estimate.effects import (
     Candidate,
@@ -56,14 +62,15 @@ from steer_monitor.estimate.effects import (
     low_side_offsets,
     z_columns,
 )
+from steer_monitor.estimate.heldout import candidate_score, halves
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.locate import Located, locate
 from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import EstimateError, Observations, build_observations, in_sorted
+from steer_monitor.estimate.plausible import rated_force
 from steer_monitor.estimate.rams import OPPOSED, RamShare, judge, opposed_cause, ram_share, working_against
-from steer_monitor.estimate.ramscheck import RamsCheck, UnevenSpan, describe, within
-from steer_monitor.estimate.ranges import effect_range
-from steer_monitor.estimate.refine import refine_profile
+from steer_monitor.estimate.ramscheck import RamsCheck, UnevenSpan, within
+from steer_monitor.estimate.screening import Screening, Step, best_per_name, outlier_instants, screening_record
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.inputs import PRESSURE_INPUTS, Series
 
@@ -73,84 +80,21 @@ __all__ = [
     'DELAY_VERTEX_S',
     'EXPLAINED_RATIO',
     'MAX_TRIED',
-    'MIN_BIC_DROP',
-    'MIN_CV_DEVIANCE',
     'MIN_SYSTEMATIC_SHARE',
-    'OUTLIER_SIGMAS',
-    'SIGNS',
     'SYSTEMATIC_LAG_STEPS',
-    'CAVEATS',
     'Analysis',
-    'Screening',
-    'Step',
     'analyze',
-    'block_ns',
     'declared_fit',
     'grid_2z_from',
-    'outlier_instants',
-    'rated_force',
-    'refusal',
-    'skew_equivalent_s',
 ]
 
-MIN_CV_DEVIANCE = 10.0   # held-out deviance on the effective sample size
-MIN_BIC_DROP = 15.0      # "very strong" (10) plus 2 ln 10 for the ~10 candidates a round tests
 EXPLAINED_RATIO = 0.5    # smooth residual RMS at most half the sensor-noise RMS
-OUTLIER_SIGMAS = 5.0     # instants set aside before screening (see outlier_instants)
 MIN_SYSTEMATIC_SHARE = 0.5  # of what an adopted effect takes from the mean square, the lag-1 part's share
 SYSTEMATIC_LAG_STEPS = 1
 MAX_TRIED = 3            # passing candidates refitted per round, best held-out gain first
 DELAY_STEP_S = 0.05      # the delay grid's step (effects.DELAYS_S)
 DELAY_KEEP_S = 0.01      # a grid point stands unless the parabola's vertex lies further off
 DELAY_VERTEX_S = 0.005   # the vertex, and its neighbours, to 5 ms
-BLOCK_NS = 60_000_000_000
-MIN_BLOCKS = 8           # cross-validation blocks a log is cut into at least (see block_ns)
-SHORT_BLOCKS_S = (30, 15, 10, 5)
-MIN_SEGMENT_SAMPLES = 20
-
-
-@dataclass(frozen=True)
-class Screening:
-    """One candidate's score: held-out gain (1 - MSE_cv / MSE_cv before) and deviance
-    (n_eff ln(MSE_cv before / MSE_cv)), BIC change, in-sample RMS [N], the clearances at its
-    optimum [m], its fitted coefficients (SI) and,
-    when its coefficients break the physics the effect stands for, why it is refused
-    (a refused candidate never passes, however well it fits)."""
-
-    name: str
-    fixed: dict[str, float]
-    cv_gain: float
-    delta_bic: float
-    rms: float
-    two_z: float
-    z_gb: float
-    values: dict[str, float] = field(default_factory=dict)
-    refused: str | None = None
-    cv_deviance: float = 0.0
-
-    @property
-    def passes(self) -> bool:
-        return self.refused is None and self.cv_deviance >= MIN_CV_DEVIANCE and self.delta_bic <= -MIN_BIC_DROP
-
-
-@dataclass(frozen=True)
-class Step:
-    """One adopted effect: its name, parameters (engineers' units, with intervals, from the
-    final model), its screening, and the estimates before and after it. In a run under a
-    given model (:func:`analyze` with ``model``) an effect is applied, not screened:
-    ``screening`` is None and ``before`` is ``after``."""
-
-    name: str
-    params: dict[str, Interval | str]
-    screening: Screening | None
-    before: ClearanceEstimate = field(repr=False)
-    after: ClearanceEstimate = field(repr=False)
-    candidate: Candidate = field(repr=False)
-
-    @property
-    def effect(self) -> Effect:
-        """The effect as a later run applies it (:attr:`Analysis.adopted`)."""
-        return Effect(self.name, tuple(sorted((self.candidate.fixed or {}).items())), self.candidate.shape)
 
 
 @dataclass(frozen=True)
@@ -172,7 +116,8 @@ class Analysis:
         closest: the candidate of the last round that came closest when 'unexplained'.
         observations: the aligned data (for reports); final_observations: those of the
             final model (the angle read later when a delay was adopted).
-        outliers: instants set aside as outliers before screening (:func:`outlier_instants`).
+        outliers: instants set aside as outliers before screening
+            (:func:`~steer_monitor.estimate.screening.outlier_instants`).
         steps: the adopted effects in order.
         located: where the unexplained residual lives (None unless 'unexplained' and found).
         model: the estimate with the adopted effects, before any located nuisance (its
@@ -219,94 +164,6 @@ def grid_2z_from(min_clearance: float) -> NDArray[np.float64]:
     return F.GRID_2Z[F.GRID_2Z >= min_clearance - 1e-12]
 
 
-def block_ns(t_ns: NDArray[np.int64]) -> int:
-    """The cross-validation block for data at times ``t_ns``: a minute, or on a log shorter
-    than ``MIN_BLOCKS`` minutes the longest of ``SHORT_BLOCKS_S`` that cuts it into at least
-    that many (on a 71 s log, minutes made halves of 60 s and 11 s: a fit on 11 s scored on
-    60 s put a column worth 1 % in-sample at 58 % held-out)."""
-    span = int(t_ns[-1] - t_ns[0]) if t_ns.size else 0
-    for block in (BLOCK_NS, *(s * 1_000_000_000 for s in SHORT_BLOCKS_S)):
-        if span >= MIN_BLOCKS * block:
-            return block
-    return SHORT_BLOCKS_S[-1] * 1_000_000_000
-
-
-def _halves(obs: Observations) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
-    block = (obs.t_ns // block_ns(obs.t_ns)) % 2 == 0
-    return block, ~block
-
-
-def _covered(train: Moments, score: Moments, basis: F.TorqueBasis) -> NDArray[np.bool_]:
-    """Bins of ``score`` whose torque-spline segment the training half has data in (at least
-    ``MIN_SEGMENT_SAMPLES``): held-out rows elsewhere would score the spline's extrapolation
-    (a hard-over sits in one minute, so in one half only), not the friction model."""
-    step = math.radians(F.KNOT_STEP_DEG)
-    seg_train = np.floor(train.abs_alpha / step).astype(np.int64)
-    counts = np.bincount(seg_train, train.count, minlength=int(seg_train.max(initial=0)) + 1)
-    seg = np.floor(score.abs_alpha / step).astype(np.int64)
-    ok = seg < counts.size
-    ok[ok] = counts[seg[ok]] >= MIN_SEGMENT_SAMPLES
-    return ok
-
-
-def _cv_mse(gear: GearParams, basis: F.TorqueBasis, parts: tuple[Moments, Moments], coef_torque: NDArray,
-            two_z: float, z_gb: float, extra: tuple[F.Column, ...]) -> float:
-    """Held-out mean square: fit on each half at the given clearances, score on the other
-    (the bins of the other half inside the angles the fitting half covers)."""
-    if min(part.samples for part in parts) < 50:
-        return math.nan
-    total, n = 0.0, 0.0
-    for fit_on, score_on in ((0, 1), (1, 0)):
-        fmom = parts[fit_on]
-        xtx, xty, names = F.normal_equations(gear, basis, fmom, two_z, z_gb,
-                                             F.axial_load(gear, basis, fmom, coef_torque), extra)
-        coef = F.solve_normal_equations(basis, xtx, xty, names)
-        mom = parts[score_on]
-        keep = _covered(fmom, mom, basis)
-        if not keep.any():          # the scoring half lies wholly outside the fitting half's angles
-            continue
-        if not keep.all():
-            mom = mom.subset(keep)
-        cols, zs, _ = F.design_at(gear, basis, mom, two_z, z_gb, F.axial_load(gear, basis, mom, coef_torque), extra)
-        total += F.residual_sum_of_squares(mom, cols, zs, coef)
-        n += mom.samples
-    return total / n if n > 0 else math.nan
-
-
-def _score(gear: GearParams, basis: F.TorqueBasis, mom: Moments, parts: tuple[Moments, Moments], coef_torque: NDArray,
-           extra: tuple[F.Column, ...], grid_2z: NDArray, declared_at: tuple[float, float]
-           ) -> tuple[float, float, float, float, float, int, NDArray[np.float64]]:
-    """(in-sample RSS, rows, held-out MSE, 2Z, Z_gb, parameters) at the candidate's optimum:
-    a coarse pass over the grid, then the full resolution around its best point and around
-    the declared model's estimate ``declared_at`` (2Z, Z_gb) [m] (a ram that clamps makes the
-    profile in 2Z narrower than the coarse step, so the coarse pass alone can miss it). ``mom``:
-    the rows' moments; ``parts``: those of the two halves."""
-    load = F.axial_load(gear, basis, mom, coef_torque)
-    pr = F.profile(gear, basis, mom, load, extra, grid_2z[::3], F.GRID_ZGB[::3])
-    best: tuple[float, float, float, int, NDArray[np.float64]] = (math.inf, 0.0, 0.0, 0, np.zeros(0))
-    centres = dict.fromkeys((int(np.argmin(np.abs(grid_2z - tz0))), int(np.argmin(np.abs(F.GRID_ZGB - zg0))))
-                            for tz0, zg0 in ((float(pr.two_z[pr.best[0]]), float(pr.z_gb[pr.best[1]])), declared_at))
-    window: F.Profile | None = None
-    for i0, j0 in centres:      # in order; one fine search when both centres are the same point
-        fine = F.profile(gear, basis, mom, load, extra, grid_2z[max(i0 - 3, 0):i0 + 4],
-                         F.GRID_ZGB[max(j0 - 3, 0):j0 + 4])
-        i, j = fine.best
-        if fine.rss[i, j] < best[0]:
-            best = (float(fine.rss[i, j]), float(fine.two_z[i]), float(fine.z_gb[j]), fine.p, fine.coef)
-            window = fine
-    if window is not None:
-        # between grid points where the grid cannot resolve the optimum, as the estimate
-        # does: a model scored at a grid point its clearances miss would carry that misfit
-        ref = refine_profile(gear, basis, mom, load, extra, window)
-        if float(ref.rss.min()) < best[0]:
-            tz, zg = ref.best
-            at = F.fit_points(gear, basis, mom, load, np.array([tz]), np.array([zg]), extra)
-            best = (float(at.rss[0]), tz, zg, best[3], at.coef[0].copy())
-    rss, tz, zg, p, coef = best
-    cv = _cv_mse(gear, basis, parts, coef_torque, tz, zg, extra)
-    return rss, mom.samples, cv, tz, zg, p, coef
-
-
 @dataclass(frozen=True)
 class _Base:
     """The model the next round screens against: its observations (the angle read later once
@@ -326,7 +183,7 @@ def _base(gear: GearParams, obs: Observations, keep: NDArray[np.bool_], extra: t
           grid_2z: NDArray, est: ClearanceEstimate | None = None) -> _Base:
     z = z_columns(obs, gear)
     rows = make_rows(obs, z, keep)
-    a_half, b_half = _halves(obs)
+    a_half, b_half = halves(obs)
     parts = (make_rows(obs, z, a_half & keep).moments, make_rows(obs, z, b_half & keep).moments)
     est = est or estimate_clearances(gear, obs, rows, extra, grid_2z=grid_2z)
     return _Base(obs, keep, rows, parts, extra, est)
@@ -377,7 +234,7 @@ def _screen(
     coef_t = est.fit.coef[:basis.size]
     at = (est.two_z.value, est.z_gb.value)
     nuisance = F.speed_scale_columns(rows.moments) + base.extra
-    rss0, n0, cv0, _, _, p0, _ = _score(gear, basis, rows.moments, parts, coef_t, nuisance, grid_2z, at)
+    rss0, n0, cv0, _, _, p0, _ = candidate_score(gear, basis, rows.moments, parts, coef_t, nuisance, grid_2z, at)
     n_eff = n0 / est.inflation
     seal, mu_b, mu_g = (est.fit.get(k) for k in ('seal_friction_n', 'mu_bushing', 'mu_guide'))
     screened: list[tuple[Screening, Candidate]] = []
@@ -385,7 +242,7 @@ def _screen(
     # trial's are tens of MB on a long log, and a dozen are tried)
     score: dict[float, float] = {}
     steady_t = obs.t_ns[obs.moving & keep]
-    a_half, b_half = _halves(obs)
+    a_half, b_half = halves(obs)
 
     def shifted(tau: float) -> tuple[Observations, NDArray[np.bool_], NDArray[np.bool_]]:
         # The shifted angle judges steady motion at other instants. Scored on its own
@@ -416,10 +273,10 @@ def _screen(
             delay_trial(cand)
             continue
         say(f'candidate {cand.name}')
-        rss, n, cv, tz, zg, p, coef = _score(gear, basis, rows.moments, parts, coef_t, nuisance + cand.columns, grid_2z,
-                                             at)
+        rss, n, cv, tz, zg, p, coef = candidate_score(gear, basis, rows.moments, parts, coef_t,
+                                                      nuisance + cand.columns, grid_2z, at)
         values = {c.name: float(v) for c, v in zip(cand.columns, coef[coef.size - len(cand.columns):])}
-        screened.append((_screening(cand, rss, n, cv, tz, zg, p, rss0, n0, cv0, p0, n_eff, values,
+        screened.append((screening_record(cand, rss, n, cv, tz, zg, p, rss0, n0, cv0, p0, n_eff, values,
                                     (seal, rated_force(gear))), cand))
     delay_obs: dict[float, tuple[Observations, NDArray[np.bool_]]] = {}
     if score:
@@ -448,23 +305,23 @@ def _screen(
         tau = min(score, key=score.__getitem__)
         cand = Candidate('angle_delay', fixed={'tau_s': tau}, angle_shift_s=tau)
         o, o_mask, base_mask = shifted(tau)
-        o_a, o_b = _halves(o)
+        o_a, o_b = halves(o)
         zc, o_valid, _ = _z_subset(o, gear, needed)
         o_keep = o_mask & o_valid
         m = make_rows(o, zc, o_keep).moments
-        halves = (make_rows(o, zc, o_a & o_keep).moments, make_rows(o, zc, o_b & o_keep).moments)
+        two = (make_rows(o, zc, o_a & o_keep).moments, make_rows(o, zc, o_b & o_keep).moments)
         del zc
-        rss, n, cv, tz, zg, p, _ = _score(gear, basis, m, halves, coef_t, F.speed_scale_columns(m) + base.extra,
-                                          grid_2z, at)
+        rss, n, cv, tz, zg, p, _ = candidate_score(gear, basis, m, two, coef_t,
+                                                   F.speed_scale_columns(m) + base.extra, grid_2z, at)
         b_keep = base_mask & z_valid
         mb = make_rows(obs, z, b_keep).moments
-        halves = (make_rows(obs, z, a_half & b_keep).moments, make_rows(obs, z, b_half & b_keep).moments)
-        rss_b, n_b, cv_b, _, _, p_b, _ = _score(gear, basis, mb, halves, coef_t, F.speed_scale_columns(mb) + base.extra,
-                                                grid_2z, at)
-        screened.append((_screening(cand, rss, n, cv, tz, zg, p + 1, rss_b, n_b, cv_b, p_b, n_b / est.inflation),
+        two = (make_rows(obs, z, a_half & b_keep).moments, make_rows(obs, z, b_half & b_keep).moments)
+        rss_b, n_b, cv_b, _, _, p_b, _ = candidate_score(gear, basis, mb, two, coef_t,
+                                                         F.speed_scale_columns(mb) + base.extra, grid_2z, at)
+        screened.append((screening_record(cand, rss, n, cv, tz, zg, p + 1, rss_b, n_b, cv_b, p_b, n_b / est.inflation),
                          cand))
         delay_obs[cand.angle_shift_s] = (o, o_mask)
-    screened = _best_per_name(screened)
+    screened = best_per_name(screened)
     screened.sort(key=lambda sc: -sc[0].cv_gain)
     return screened, delay_obs
 
@@ -513,7 +370,7 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
     check = RamsCheck(ram_share_warn, gear.ram_area)        # the one rams check, as the node's
     check.feed(obs.t_ns[obs.moving], obs.force[obs.moving])
     uneven = tuple(check.finish())
-    note = _uneven_note(uneven)
+    note = uneven_note(uneven)
     try:
         if uneven:
             say(f'{len(uneven)} stretch(es) where the rams did not share the force evenly: left out')
@@ -594,7 +451,7 @@ def _conclude(gear: GearParams, obs: Observations, base: _Base, declared: Cleara
     names = [s.name for s in steps]
     if explained:
         verdict = 'effect' if steps else 'declared'
-        msg = _message(verdict, declared, base.est, None, steps, given)
+        msg = message(verdict, declared, base.est, None, steps, given)
         if not steps and unkept:
             msg += f' ({"; ".join(unkept)})'
         est, said = _specification_check(gear, base, grid_2z, say)
@@ -620,7 +477,7 @@ def _conclude(gear: GearParams, obs: Observations, base: _Base, declared: Cleara
         final = estimate_clearances(gear, base.obs, base.rows, base.extra, grid_2z=grid_2z,
                                     model_inflation=unexplained_inflation(base.est))
 
-    msg = _message('unexplained', declared, base.est, closest, steps, given)
+    msg = message('unexplained', declared, base.est, closest, steps, given)
     msg += f'; {located.message(gear.ram_area)}' if located is not None else '; no observed variable carries it'
     msg += ('; the clearances are fitted with that term as a nuisance and rest on an incomplete model' if nuisance
             else '; the clearances rest on an incomplete model')
@@ -684,14 +541,6 @@ def _without_pressures(signals: Mapping[str, Series], spans: Sequence[UnevenSpan
     return out
 
 
-def _uneven_note(spans: Sequence[UnevenSpan]) -> str:
-    """What the message says of the stretches left out ('' when none)."""
-    if not spans:
-        return ''
-    return ('; the rams did not share the force evenly, and those stretches are left out of the fit: '
-            + '; '.join(describe(sp) for sp in spans))
-
-
 def _systematic(before: _Base, after: _Base) -> bool:
     """True when the residual's autocovariance at one grid step (``SYSTEMATIC_LAG_STEPS``,
     50 ms) falls from ``before`` to ``after`` by at least ``MIN_SYSTEMATIC_SHARE`` of the fall
@@ -703,88 +552,6 @@ def _systematic(before: _Base, after: _Base) -> bool:
     m1, c1 = lag_moments(after.est.residual, after.obs.t_ns, SYSTEMATIC_LAG_STEPS)
     d_lag, d_mse = c0 - c1, m0 - m1
     return d_lag > 0 and d_lag >= MIN_SYSTEMATIC_SHARE * d_mse
-
-
-def outlier_instants(resid: NDArray[np.float64], direction: NDArray[np.int8]) -> NDArray[np.bool_]:
-    """Instants (n,) where either ram's residual (n, 2) [N] lies more than ``OUTLIER_SIGMAS``
-    robust standard deviations (1.4826 x the median absolute residual) *against* the
-    direction of motion ``direction`` (n,): the pressure held less friction than the model
-    puts there.
-
-    They are instants the steadiness test passed while the rudder stood: 10 Hz angle
-    samples cannot resolve a pause of a few tens of ms between an autopilot's steps, and
-    there the pressure holds no friction (a residual of the whole friction, 2 to 4 bar,
-    against 0.35 bar of sensor noise). Left in, a few hundred of them bias the seal
-    friction low by more than its interval. Only that side is cut: friction *above* the
-    model (a Stribeck rise at low speed) is an effect to find, not an outlier. Gaussian
-    noise passes 5 sigma on one side once in 3.5 million rows."""
-    r = np.asarray(resid, float) * np.asarray(direction, float)[:, None]
-    fin = np.isfinite(r)
-    if fin.sum() < 50:
-        return np.zeros(r.shape[0], bool)
-    scale = 1.4826 * float(np.median(np.abs(r[fin])))
-    if not scale > 0:
-        return np.zeros(r.shape[0], bool)
-    with np.errstate(invalid='ignore'):
-        return np.any(fin & (r < -OUTLIER_SIGMAS * scale), axis=1)
-
-
-# Coefficients whose sign the physics fixes: (effect, coefficient) -> what a negative value
-# would claim. A fit may still find one negative: another misfit leaning on its column.
-SIGNS = {
-    ('viscous', 'c_ns_per_m'): 'a negative viscous coefficient (friction falling as the ram speeds up)',
-    ('stribeck', 'f_st_n'): 'friction below the declared law near zero speed (a negative Stribeck amplitude)',
-    ('pressure_friction', 'k'): 'a negative pressure-friction factor (friction falling as the pressure rises)',
-    ('ram_inertia', 'mass_kg'): 'a negative moving mass',
-}
-
-
-def refusal(name: str, values: Mapping[str, float], seal_friction: float = math.inf,
-            rated_force: float = math.inf) -> str | None:
-    """Why an effect with these fitted coefficients (SI) is unphysical, or None: a sign the
-    physics fixes, or a value outside its range (:mod:`~steer_monitor.estimate.ranges`, some
-    relative to the declared fit's seal friction ``seal_friction`` [N] and the rams' rated
-    axial force ``rated_force`` [N]): what the data then show is not that effect."""
-    for (effect, coef), claim in SIGNS.items():
-        if effect == name and values.get(coef, 0.0) < 0:
-            return f'refused: its fit needs {claim}, {coef} = {values[coef]:.4g}'
-    for coef, value in values.items():
-        rng = effect_range(name, coef, seal_friction, rated_force)
-        if rng is not None and math.isfinite(rng.hi + rng.lo) and not rng.contains(value):
-            return (f'refused: its fit needs {coef} = {value:.4g}, outside the physical range {rng.text()} '
-                    f'({rng.reason})')
-    return None
-
-
-def rated_force(gear: GearParams) -> float:
-    """The rams' rated axial force [N]: the tiller torque at the largest rudder angle and the
-    service speed through the Rapson slide, M cos^2(alpha) / (n H)."""
-    a = gear.max_rudder
-    return float(abs(gear.torque(a)) * math.cos(a) ** 2 / (gear.rams * gear.stock_to_ram))
-
-
-def _screening(cand: Candidate, rss: float, n: float, cv: float, tz: float, zg: float, p: int,
-               rss0: float, n0: float, cv0: float, p0: int, n_eff: float,
-               values: Mapping[str, float] | None = None, scale: tuple[float, float] = (math.inf, math.inf)
-               ) -> Screening:
-    mse, mse0 = rss / n, rss0 / n0
-    d_bic = n_eff * math.log(max(mse, 1e-300) / mse0) + (p - p0) * math.log(max(n_eff, 2.0))
-    ok = math.isfinite(cv) and cv > 0 and cv0 > 0
-    gain = 1.0 - cv / cv0 if ok else 0.0
-    dev = n_eff * math.log(cv0 / cv) if ok else 0.0
-    values = dict(values or {})
-    return Screening(cand.name, dict(cand.fixed or {}), gain, d_bic, math.sqrt(mse), tz, zg, values,
-                     refusal(cand.name, values, *scale), dev)
-
-
-def _best_per_name(scored: list[tuple[Screening, Candidate]]) -> list[tuple[Screening, Candidate]]:
-    """Stribeck comes with several v_s: keep each name's best."""
-    best: dict[str, tuple[Screening, Candidate]] = {}
-    for sc in scored:
-        cur = best.get(sc[0].name)
-        if cur is None or sc[0].cv_gain > cur[0].cv_gain:
-            best[sc[0].name] = sc
-    return list(best.values())
 
 
 def _effect_params(cand: Candidate, final: ClearanceEstimate, obs: Observations) -> dict[str, Interval | str]:
@@ -811,71 +578,3 @@ def _effect_params(cand: Candidate, final: ClearanceEstimate, obs: Observations)
     return out
 
 
-#: what an adopted effect's parameters cannot say, added to the message when it is adopted
-CAVEATS = {
-    'ram_inertia': 'the mass is an apparent one: it reads low where the rudder changes speed faster than '
-                   "the angle's samples show (27 t for 60 t on a simulated voyage, docs/residual-loop.md), and "
-                   'beside strong viscous friction a timing skew between angle and pressures looks like a mass',
-}
-
-
-def skew_equivalent_s(steps: Sequence[Step]) -> float | None:
-    """The timing skew [s] between angle and pressures that, with the viscous friction the
-    steps found, puts the adopted ram inertia's force into the residual: a viscous force read
-    at a rate tau late is c (v + tau a), so a mass m is also what a skew tau = m / c shows.
-    None unless both were adopted with positive values."""
-    params = {s.name: s.params for s in steps}
-    mass, visc = params.get('ram_inertia', {}).get('mass_kg'), params.get('viscous', {}).get('c_ns_per_m')
-    if not isinstance(mass, Interval) or not isinstance(visc, Interval):
-        return None
-    if not (mass.value > 0 and visc.value > 0 and math.isfinite(mass.value / visc.value)):
-        return None
-    return mass.value / visc.value
-
-
-def _message(verdict: str, declared: ClearanceEstimate, final: ClearanceEstimate | None,
-             best: Screening | None, steps: Sequence[Step] = (), given: bool = False) -> str:
-    names = [s.name for s in steps]
-    text = _given_text(verdict, final or declared, names) if given else _verdict_text(verdict, declared, final, best,
-                                                                                        names)
-    caveats = [f'{n}: {CAVEATS[n]}' for n in names if n in CAVEATS]
-    skew = skew_equivalent_s(steps)
-    if skew is not None:
-        caveats.append(f'with the viscous friction found, this mass is what a skew of {1e3 * skew:.0f} ms between '
-                       f'the angle and the pressures would show')
-    return text + (f' ({"; ".join(caveats)})' if caveats else '')
-
-
-def _given_text(verdict: str, est: ClearanceEstimate, names: list[str]) -> str:
-    """The sentence of a run under a given model (no screening)."""
-    bar = 1e5 * est.ram_area
-    model = 'the declared model' + (f' with {", ".join(names)}' if names else '')
-    figures = f'residual {est.rms / bar:.2f} bar RMS, of which {est.smooth_rms / bar:.2f} bar systematic'
-    if verdict == 'unexplained':
-        return (f'residual not explained: under the model the residual loop last chose ({model}), {figures}, '
-                f'more than half the sensor noise ({est.noise_rms / bar:.2f} bar)')
-    return f'{model} (the residual loop\'s last choice) explains the data to the sensor noise: {figures}'
-
-
-def _verdict_text(verdict: str, declared: ClearanceEstimate, final: ClearanceEstimate | None,
-                  best: Screening | None, names: list[str] | None) -> str:
-    bar = 1e5 * declared.ram_area
-    added = ', then '.join(names or [])
-    if verdict == 'declared':
-        return (f'the declared model explains the data to the sensor noise: residual {declared.rms / bar:.2f} bar '
-                f'RMS, of which {declared.smooth_rms / bar:.2f} bar systematic; no effect added')
-    if verdict == 'effect' and final is not None:
-        return (f'added {added}: residual {declared.rms / bar:.2f} -> {final.rms / bar:.2f} bar RMS '
-                f'(systematic part {declared.smooth_rms / bar:.2f} -> {final.smooth_rms / bar:.2f} bar)')
-    if names and final is not None:
-        text = (
-            f'residual not explained: added {added} (residual {declared.rms / bar:.2f} -> {final.rms / bar:.2f} bar '
-            f'RMS), and a systematic part of {final.smooth_rms / bar:.2f} bar remains that no effect in the '
-            f'library explains'
-        )
-    else:
-        text = (f'residual not explained: {declared.rms / bar:.2f} bar RMS with a systematic part of '
-                f'{declared.smooth_rms / bar:.2f} bar that no effect in the library explains')
-    if best is not None:
-        text += f' (closest: {best.name}, held-out error -{100 * best.cv_gain:.0f} %)'
-    return text

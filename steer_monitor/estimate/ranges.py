@@ -5,7 +5,7 @@ guide friction of 0.37, or -1.3, that lets a clearance sit where the data's misf
 a Stribeck excess of 3.6 MN where the rams' whole force is 200 kN. The declared model's
 friction coefficients are therefore *constrained* to their ranges (the fit is the best one
 inside them, :func:`~steer_monitor.estimate.fit.fit_at`), and an effect whose fit needs a
-value outside its range is refused (:func:`~steer_monitor.estimate.analyze.refusal`): what
+value outside its range is refused (:func:`~steer_monitor.estimate.plausible.refusal`): what
 the data then show is not that effect. A fit that ends on a range's edge says so
 (:func:`at_edge`).
 

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from steer_monitor.estimate.analyze import analyze, block_ns, declared_fit
+from steer_monitor.estimate.analyze import analyze, declared_fit
+from steer_monitor.estimate.heldout import block_ns
 
 pytestmark = pytest.mark.slow
 

@@ -10,7 +10,7 @@ import pytest
 from scipy.optimize import lsq_linear
 
 from steer_monitor.estimate import fit as F
-from steer_monitor.estimate.analyze import refusal
+from steer_monitor.estimate.plausible import refusal
 from steer_monitor.estimate.ranges import DECLARED, EFFECT_RANGES, Range, at_edge, effect_range
 
 

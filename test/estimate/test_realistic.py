@@ -11,10 +11,11 @@ import pytest
 
 from steer_monitor import sim
 from steer_monitor.estimate import fit as F
-from steer_monitor.estimate.analyze import SIGNS, analyze, refusal
+from steer_monitor.estimate.analyze import analyze
 from steer_monitor.estimate.batch import estimate_clearances, make_rows
 from steer_monitor.estimate.moments import SPEED_Z, Moments, bin_keys, speed_ratio
 from steer_monitor.estimate.observe import build_observations
+from steer_monitor.estimate.plausible import SIGNS, refusal
 from test.estimate.conftest import holds
 
 MIN_2Z = 0.05e-3

@@ -8,7 +8,8 @@ import pytest
 
 from steer_monitor import sim
 from steer_monitor.ashore.loganalysis import analysis_json
-from steer_monitor.estimate.analyze import analyze, skew_equivalent_s
+from steer_monitor.estimate.analysiswords import skew_equivalent_s
+from steer_monitor.estimate.analyze import analyze
 from steer_monitor.studies.accuracy import MAGNITUDE, scaled_effect
 from test.estimate.conftest import holds
 
@@ -122,20 +123,20 @@ def test_an_adopted_inertia_says_what_its_mass_cannot():
     ram_inertia is adopted, and says nothing of it otherwise."""
     from types import SimpleNamespace as NS
 
-    from steer_monitor.estimate.analyze import CAVEATS, _message, skew_equivalent_s
+    from steer_monitor.estimate.analysiswords import CAVEATS, message, skew_equivalent_s
     from steer_monitor.estimate.intervals import Interval
     est = NS(ram_area=0.05, rms=0.35 * 5e3, smooth_rms=0.05 * 5e3)
     visc, inertia = NS(name='viscous', params={}), NS(name='ram_inertia', params={})
-    with_it = _message('effect', est, est, None, [visc, inertia])
+    with_it = message('effect', est, est, None, [visc, inertia])
     assert with_it.startswith('added viscous, then ram_inertia: residual 0.35 -> 0.35 bar RMS')
     assert with_it.endswith(f'(ram_inertia: {CAVEATS["ram_inertia"]})') and 'reads low' in with_it
-    assert 'apparent' not in _message('effect', est, est, None, [visc])
-    assert 'apparent' in _message('unexplained', est, est, None, [inertia])
+    assert 'apparent' not in message('effect', est, est, None, [visc])
+    assert 'apparent' in message('unexplained', est, est, None, [inertia])
     # with both fitted: the skew that would show as that mass beside that viscous friction
     visc = NS(name='viscous', params={'c_ns_per_m': Interval(7.5e5, 7.0e5, 8.0e5)})
     for mass, skew in ((1.8e4, 0.024), (-1.8e4, None), (0.0, None)):
         inertia = NS(name='ram_inertia', params={'mass_kg': Interval(mass, None, None)})
         assert skew_equivalent_s([visc, inertia]) == (None if skew is None else pytest.approx(skew))
-        text = _message('effect', est, est, None, [visc, inertia])
+        text = message('effect', est, est, None, [visc, inertia])
         assert ('a skew of 24 ms between the angle and the pressures' in text) == (skew is not None), text
     assert skew_equivalent_s([inertia]) is None
