@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.stats import f as f_dist
 
 from steer_monitor.estimate import fit as F
+from steer_monitor.estimate import pointfit as PF
 from steer_monitor.estimate.intervals import (
     CHI2_1_95,
     CHI2_2_95,
@@ -120,7 +121,7 @@ class ClearanceEstimate:
     noise_rms: float
     smooth_rms: float
     residual: NDArray[np.float64] = field(repr=False)
-    profile: F.Profile = field(repr=False)
+    profile: PF.Profile = field(repr=False)
     fit: F.FitAt = field(repr=False)
     max_angle_seen: float = 0.0
     ram_area: float = 1.0
@@ -206,7 +207,7 @@ def residuals_and_inflation(gear: GearParams, basis: F.TorqueBasis, rows: Rows, 
 
 def _profile_fit(gear: GearParams, basis: F.TorqueBasis, mom: Moments, extra: Sequence[F.Column],
                  grid_2z: NDArray, grid_zgb: NDArray, load: NDArray[np.float64] | None
-                 ) -> tuple[F.Profile, Refined, F.FitAt, float, float, NDArray[np.float64]]:
+                 ) -> tuple[PF.Profile, Refined, F.FitAt, float, float, NDArray[np.float64]]:
     """The load (from a prefit and a coarse profile when not given), the profile over the
     whole grid and its refinement, the fit at the refined optimum. The whole grid: a ram that
     clamps pins 2Z in a valley narrower than a coarse profile's step, which a search box
@@ -217,17 +218,17 @@ def _profile_fit(gear: GearParams, basis: F.TorqueBasis, mom: Moments, extra: Se
         raise EstimateError(msg)
     if load is None:
         load = F.axial_load(gear, basis, mom, F.torque_prefit(gear, basis, mom))
-        pr = F.profile(gear, basis, mom, load, extra, grid_2z[::3], grid_zgb[::3])
+        pr = PF.profile(gear, basis, mom, load, extra, grid_2z[::3], grid_zgb[::3])
         i, j = pr.best
         first = F.fit_at(gear, basis, mom, pr.two_z[i], pr.z_gb[j], load, extra)
         load = F.axial_load(gear, basis, mom, first.coef)
-    pr = F.profile(gear, basis, mom, load, extra, grid_2z, grid_zgb)
+    pr = PF.profile(gear, basis, mom, load, extra, grid_2z, grid_zgb)
     ref = refine_profile(gear, basis, mom, load, extra, pr)
     tz, zg = ref.best
     return pr, ref, F.fit_at(gear, basis, mom, tz, zg, load, extra), tz, zg, load
 
 
-def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, ref: Refined, best: F.FitAt,
+def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: PF.Profile, ref: Refined, best: F.FitAt,
            tz: float, zg: float, load: NDArray[np.float64], extra: Sequence[F.Column], vif: float, max_seen: float,
            resid: NDArray[np.float64], noise: float, smooth: float,
            scales: dict[str, RobustScale] | None = None) -> ClearanceEstimate:
@@ -255,7 +256,7 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: F.Profile, 
     region = region_all
     if region.shape[0] > 60:
         region = region[np.linspace(0, region.shape[0] - 1, 60).round().astype(int)]
-    fits = F.fit_points(gear, basis, mom, load, region[:, 0], region[:, 1], extra, per_cell=False, covariance=True)
+    fits = PF.fit_points(gear, basis, mom, load, region[:, 0], region[:, 1], extra, per_cell=False, covariance=True)
     region_fits = [(float(a), float(b), fits.at(k, best.n)) for k, (a, b) in enumerate(region.tolist())]
     region_fits.append((tz, zg, best))
     coefs = {}
@@ -301,7 +302,7 @@ MIN_CONTACT_ROWS = 200
 
 
 def _evidence(gear: GearParams, mom: Moments, load: NDArray[np.float64], two_z: Interval, z_gb: Interval,
-              pr: F.Profile) -> tuple[Interval, Interval, tuple[str, str]]:
+              pr: PF.Profile) -> tuple[Interval, Interval, tuple[str, str]]:
     """Each clearance's interval, kept where its evidence lies where that clearance shows, else
     a lower bound only, and why.
 
@@ -433,18 +434,18 @@ def box_holds(est: ClearanceEstimate, grid_2z: NDArray, grid_zgb: NDArray) -> bo
 
 
 def coarse_profile(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: NDArray,
-                   coef: NDArray[np.float64] | None = None) -> tuple[F.Profile, NDArray, NDArray]:
+                   coef: NDArray[np.float64] | None = None) -> tuple[PF.Profile, NDArray, NDArray]:
     """The profile on every other grid point: (profile, its 2Z axis, its Z_gb axis)."""
     basis = F.TorqueBasis(gear.max_rudder)
     coef = F.torque_prefit(gear, basis, mom) if coef is None else coef
     load = F.axial_load(gear, basis, mom, coef)
     g2, gz = grid_2z[::2], grid_zgb[::2]
-    return F.profile(gear, basis, mom, load, (), g2, gz), g2, gz
+    return PF.profile(gear, basis, mom, load, (), g2, gz), g2, gz
 
 
 def search_box(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: NDArray, vif: float = 1.0,
                coef: NDArray[np.float64] | None = None,
-               coarse: tuple[F.Profile, NDArray, NDArray] | None = None) -> tuple[NDArray, NDArray]:
+               coarse: tuple[PF.Profile, NDArray, NDArray] | None = None) -> tuple[NDArray, NDArray]:
     """The part of the grid worth a fine profile: a profile on every other point first
     (:func:`coarse_profile`, or ``coarse`` when already made), then the box around the points
     within ten times the 95 % threshold of it (one coarse step wider on each side, so the

@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from steer_monitor.estimate import fit as F
+from steer_monitor.estimate import pointfit as PF
 from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import Observations
 from steer_monitor.estimate.refine import refine_profile
@@ -93,13 +94,13 @@ def candidate_score(gear: GearParams, basis: F.TorqueBasis, mom: Moments, parts:
     profile in 2Z narrower than the coarse step, so the coarse pass alone can miss it). ``mom``:
     the rows' moments; ``parts``: those of the two halves."""
     load = F.axial_load(gear, basis, mom, coef_torque)
-    pr = F.profile(gear, basis, mom, load, extra, grid_2z[::3], F.GRID_ZGB[::3])
+    pr = PF.profile(gear, basis, mom, load, extra, grid_2z[::3], F.GRID_ZGB[::3])
     best: tuple[float, float, float, int, NDArray[np.float64]] = (math.inf, 0.0, 0.0, 0, np.zeros(0))
     centres = dict.fromkeys((int(np.argmin(np.abs(grid_2z - tz0))), int(np.argmin(np.abs(F.GRID_ZGB - zg0))))
                             for tz0, zg0 in ((float(pr.two_z[pr.best[0]]), float(pr.z_gb[pr.best[1]])), declared_at))
-    window: F.Profile | None = None
+    window: PF.Profile | None = None
     for i0, j0 in centres:      # in order; one fine search when both centres are the same point
-        fine = F.profile(gear, basis, mom, load, extra, grid_2z[max(i0 - 3, 0):i0 + 4],
+        fine = PF.profile(gear, basis, mom, load, extra, grid_2z[max(i0 - 3, 0):i0 + 4],
                          F.GRID_ZGB[max(j0 - 3, 0):j0 + 4])
         i, j = fine.best
         if fine.rss[i, j] < best[0]:
@@ -111,7 +112,7 @@ def candidate_score(gear: GearParams, basis: F.TorqueBasis, mom: Moments, parts:
         ref = refine_profile(gear, basis, mom, load, extra, window)
         if float(ref.rss.min()) < best[0]:
             tz, zg = ref.best
-            at = F.fit_points(gear, basis, mom, load, np.array([tz]), np.array([zg]), extra)
+            at = PF.fit_points(gear, basis, mom, load, np.array([tz]), np.array([zg]), extra)
             best = (float(at.rss[0]), tz, zg, best[3], at.coef[0].copy())
     rss, tz, zg, p, coef = best
     cv = cv_mse(gear, basis, parts, coef_torque, tz, zg, extra)

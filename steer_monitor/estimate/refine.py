@@ -25,7 +25,7 @@ for nothing. The result is each clearance's marginal profile (least RSS over the
 clearance) on the merged axis, and every pair evaluated, from which the estimate takes its
 best point, intervals and joint region.
 
-RSS here is the profile's (friction features per angle cell, :func:`~steer_monitor.estimate.fit.fit_points`),
+RSS here is the profile's (friction features per angle cell, :func:`~steer_monitor.estimate.pointfit.fit_points`),
 so refined and grid points compare on the same footing.
 """
 
@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from steer_monitor.estimate import fit as F
+from steer_monitor.estimate import pointfit as PF
 from steer_monitor.estimate.intervals import CHI2_1_95
 from steer_monitor.estimate.moments import Moments
 from steer_monitor.model.gear import GearParams
@@ -94,7 +95,7 @@ class Refined:
         return float(self.pairs[k, 0]), float(self.pairs[k, 1])
 
 
-def marginal_of(pr: F.Profile, axis: int) -> Marginal:
+def marginal_of(pr: PF.Profile, axis: int) -> Marginal:
     """The grid profile's marginal along ``axis`` (0: 2Z, 1: Z_gb)."""
     values, others = (pr.two_z, pr.z_gb) if axis == 0 else (pr.z_gb, pr.two_z)
     rss = pr.rss if axis == 0 else pr.rss.T
@@ -108,7 +109,7 @@ class _Evaluator:
     def __init__(self, gear: GearParams, basis: F.TorqueBasis, mom: Moments, load: NDArray[np.float64],
                  extra: Sequence[F.Column]) -> None:
         self.problem = (gear, basis, mom, load, tuple(extra))
-        self.fitter: F.PointFitter | None = None     # built at the first pair: most profiles need none
+        self.fitter: PF.PointFitter | None = None     # built at the first pair: most profiles need none
         self.pairs: list[NDArray[np.float64]] = []
         self.rss: list[NDArray[np.float64]] = []
         self.least = np.inf     # the least RSS evaluated so far [N^2] ...
@@ -118,7 +119,7 @@ class _Evaluator:
         shape = two_z.shape
         tz, zg = two_z.ravel(), z_gb.ravel()
         if self.fitter is None:
-            self.fitter = F.PointFitter.of(*self.problem)
+            self.fitter = PF.PointFitter.of(*self.problem)
         rss = self.fitter.fit(tz, zg).rss
         self.pairs.append(np.stack([tz, zg], axis=1))
         self.rss.append(rss)
@@ -308,7 +309,7 @@ def _open_axis(ax: _Axis, scale: float) -> None:
 
 
 def refine_profile(gear: GearParams, basis: F.TorqueBasis, mom: Moments, load: NDArray[np.float64],
-                   extra: Sequence[F.Column], pr: F.Profile) -> Refined:
+                   extra: Sequence[F.Column], pr: PF.Profile) -> Refined:
     """The profile ``pr`` (on a part of the clearance grid) with each clearance the grid
     cannot resolve profiled between its points (see the module docstring); ``load`` and
     ``extra`` as the profile was made with. Sharpness is judged without the residuals'

@@ -216,7 +216,7 @@ def robust_scales(gear: GearParams, basis: F.TorqueBasis, mom: Moments, bin_of_r
         for g, sc in zip(groups, scores):
             np.add.at(sc, g[sl], xe)
     # the fit's own penalty (the torque curve's smoothing, a relative ridge) keeps J invertible
-    jmat[:p, :p] += F._smoothing(basis.size, p, jmat[:p, :p]) + np.diag(F.RIDGE * np.diag(jmat[:p, :p]))
+    jmat[:p, :p] += F.smoothing_penalty(basis.size, p, jmat[:p, :p]) + np.diag(F.RIDGE * np.diag(jmat[:p, :p]))
     live = np.diag(jmat) > 0
     jinv = np.zeros_like(jmat)
     jinv[np.ix_(live, live)] = np.linalg.pinv(jmat[np.ix_(live, live)], hermitian=True)

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from steer_monitor.estimate import fit as F
+from steer_monitor.estimate import pointfit as PF
 from steer_monitor.estimate.effects import Candidate
 from steer_monitor.estimate.fit import Column
 from steer_monitor.estimate.moments import Moments, bin_keys
@@ -71,7 +72,7 @@ def test_recovers_declared_friction_and_the_profile_minimum(r18):
                             np.stack([np.ones_like(y), y], axis=1), ())
     basis = F.TorqueBasis(r18.max_rudder)
     load = F.axial_load(r18, basis, mom, F.torque_prefit(r18, basis, mom))
-    pr = F.profile(r18, basis, mom, load)
+    pr = PF.profile(r18, basis, mom, load)
     i, j = pr.best
     assert pr.z_gb[j] == pytest.approx(0.25e-3, abs=0.01e-3)
     fit = F.fit_at(r18, basis, mom, pr.two_z[i], pr.z_gb[j], load)
@@ -111,7 +112,7 @@ def _rss_shift_bound(r18, basis, mom, load, two_z, z_gb, extra, ref, other):
     """|RSS(b') - RSS(b)| for b the penalized optimum: 2 |(P b) . db| + db^T X^T X db, plus the
     evaluation's bins x epsilon x RSS."""
     xtx, _, names = F.normal_equations(r18, basis, mom, two_z, z_gb, load, extra)
-    pen = F._smoothing(basis.size, len(names), xtx) + np.diag(F.RIDGE * np.diag(xtx))
+    pen = F.smoothing_penalty(basis.size, len(names), xtx) + np.diag(F.RIDGE * np.diag(xtx))
     db = other.coef - ref.coef
     return 2 * abs(float((pen @ ref.coef) @ db)) + float(db @ xtx @ db) + len(mom) * 2.3e-16 * ref.rss
 
@@ -125,8 +126,8 @@ def test_fits_at_many_pairs_are_single_fits(r18, extra):
     basis = F.TorqueBasis(r18.max_rudder)
     load = F.axial_load(r18, basis, mom, F.torque_prefit(r18, basis, mom))
     tz, zg = (np.array(x) for x in zip(*PAIRS))
-    fits = F.fit_points(r18, basis, mom, load, tz, zg, extra, per_cell=False, covariance=True)
-    cells = F.fit_points(r18, basis, mom, load, tz, zg, extra)
+    fits = PF.fit_points(r18, basis, mom, load, tz, zg, extra, per_cell=False, covariance=True)
+    cells = PF.fit_points(r18, basis, mom, load, tz, zg, extra)
     assert cells.cov_unscaled is None
     for k, (a, b) in enumerate(PAIRS):
         single = F.fit_at(r18, basis, mom, a, b, load, extra)
@@ -146,8 +147,8 @@ def test_fits_at_many_pairs_are_single_fits(r18, extra):
         np.testing.assert_allclose(got.cov_unscaled, single.cov_unscaled, rtol=1e-4,
                                    atol=1e-9 * np.abs(single.cov_unscaled).max())
         assert cells.rss[k] == pytest.approx(single.rss, rel=2e-4)
-    pr = F.profile(r18, basis, mom, load, extra, np.array([0.2e-3, 1.0e-3]), np.array([0.05e-3, 0.3e-3]))
-    on_grid = F.fit_points(r18, basis, mom, load, np.array([0.2e-3, 0.2e-3, 1.0e-3, 1.0e-3]),
+    pr = PF.profile(r18, basis, mom, load, extra, np.array([0.2e-3, 1.0e-3]), np.array([0.05e-3, 0.3e-3]))
+    on_grid = PF.fit_points(r18, basis, mom, load, np.array([0.2e-3, 0.2e-3, 1.0e-3, 1.0e-3]),
                            np.array([0.05e-3, 0.3e-3, 0.05e-3, 0.3e-3]), extra)
     np.testing.assert_array_equal(pr.rss.ravel(), on_grid.rss)
     with pytest.raises(ValueError, match='without their covariance'):
@@ -161,13 +162,13 @@ def test_pairs_beyond_any_contact_are_one_model(r18):
     mom = _moments(r18)
     basis = F.TorqueBasis(r18.max_rudder)
     load = F.axial_load(r18, basis, mom, F.torque_prefit(r18, basis, mom))
-    pr = F.profile(r18, basis, mom, load, (), F.GRID_2Z, F.GRID_ZGB[::4])
+    pr = PF.profile(r18, basis, mom, load, (), F.GRID_2Z, F.GRID_ZGB[::4])
     last = pr.rss[:, -1]                            # Z_gb 0.6 mm: the slipper never touches
     flat = pr.rss[-5:]                              # 2Z 1.42..1.5 mm
     assert (flat == flat[0]).all() and np.unique(last[-20:]).size == 1
     # the pairs' distinct feature columns: pairs 0 and 2 (both beyond contact) are one
     tz, zg = np.array([1.5e-3, 0.1e-3, 1.4e-3, 0.1e-3]), np.array([0.6e-3, 0.0, 0.6e-3, 0.05e-3])
-    nb, fg, first, inverse = F._point_features(r18, np.radians([5.0, 20.0]), np.array([1e5, 5e5]), tz, zg)
+    nb, fg, first, inverse = PF._point_features(r18, np.radians([5.0, 20.0]), np.array([1e5, 5e5]), tz, zg)
     np.testing.assert_array_equal(first, [0, 1, 3])
     np.testing.assert_array_equal(inverse, [0, 1, 0, 2])
     ref_nb, ref_fg = F.friction_features(r18, np.radians([5.0, 20.0]), np.array([1e5, 5e5]), tz[None], zg[None])
@@ -183,7 +184,7 @@ def test_pairs_taken_as_one_model_have_the_same_features_to_the_bit(r18, seed):
     alpha = rng.uniform(0.0, r18.max_rudder, 300)
     torque = r18.torque(alpha) * rng.uniform(0.2, 1.6, 300)
     tz, zg = np.repeat(F.GRID_2Z, F.GRID_ZGB.size), np.tile(F.GRID_ZGB, F.GRID_2Z.size)
-    nb, fg, first, inverse = F._point_features(r18, alpha, torque, tz, zg)
+    nb, fg, first, inverse = PF._point_features(r18, alpha, torque, tz, zg)
     assert first.size < 0.6 * tz.size
     each_nb, each_fg = F.friction_features(r18, alpha, torque, tz, zg)
     np.testing.assert_array_equal(each_nb, nb[:, inverse])
@@ -200,16 +201,16 @@ def test_plateau_is_flat_without_deduplication(r18):
     load = F.axial_load(r18, basis, mom, F.torque_prefit(r18, basis, mom))
     tz = np.repeat(F.GRID_2Z[-8:], 3)
     zg = np.tile([0.6e-3, 0.595e-3, 0.59e-3], 8)
-    fits = F.fit_points(r18, basis, mom, load, tz, zg, dedupe=False)
-    nb, fg, first, inverse = F._point_features(r18, mom.abs_alpha, F.torque_of_load(r18, mom, load), tz, zg,
+    fits = PF.fit_points(r18, basis, mom, load, tz, zg, dedupe=False)
+    nb, fg, first, inverse = PF._point_features(r18, mom.abs_alpha, F.torque_of_load(r18, mom, load), tz, zg,
                                                dedupe=False)
     assert first.size == tz.size                         # every pair solved on its own
-    model = F._point_features(r18, mom.abs_alpha, F.torque_of_load(r18, mom, load), tz, zg)[3]
+    model = PF._point_features(r18, mom.abs_alpha, F.torque_of_load(r18, mom, load), tz, zg)[3]
     assert np.unique(model).size < tz.size               # (yet many are one model)
     for k in np.unique(model):
         plateau = fits.rss[model == k]
         np.testing.assert_allclose(plateau, plateau[0], rtol=1e-12)
-    deduped = F.fit_points(r18, basis, mom, load, tz, zg)
+    deduped = PF.fit_points(r18, basis, mom, load, tz, zg)
     np.testing.assert_allclose(deduped.rss, fits.rss, rtol=1e-12)
 
 
@@ -243,8 +244,8 @@ def test_a_kept_fitter_does_not_keep_its_moments_alive(r18):
     mom = _moments(r18, n=3000)
     basis = F.TorqueBasis(r18.max_rudder)
     load = F.axial_load(r18, basis, mom, F.torque_prefit(r18, basis, mom))
-    fitter = F.PointFitter.of(r18, basis, mom, load)
-    assert F.PointFitter.of(r18, basis, mom, load) is fitter and fitter.mom is mom
+    fitter = PF.PointFitter.of(r18, basis, mom, load)
+    assert PF.PointFitter.of(r18, basis, mom, load) is fitter and fitter.mom is mom
     fitter.fit(np.array([0.6e-3]), np.array([0.25e-3]))
     gone_mom, gone_fitter = weakref.ref(mom), weakref.ref(fitter)
     gc.disable()

@@ -8,6 +8,7 @@ import pytest
 from scipy.optimize import minimize, minimize_scalar
 
 from steer_monitor.estimate import fit as F
+from steer_monitor.estimate import pointfit as PF
 from steer_monitor.estimate.batch import estimate_clearances, make_rows
 from steer_monitor.estimate.observe import build_observations
 from steer_monitor.estimate.refine import Marginal, marginal_of, refine_profile
@@ -30,7 +31,7 @@ def clamped(r18, simulate_signals):
     basis = F.TorqueBasis(r18.max_rudder)
     extra = F.speed_scale_columns(mom)
     load = F.axial_load(r18, basis, mom, F.torque_prefit(r18, basis, mom))
-    pr = F.profile(r18, basis, mom, load, extra, F.GRID_2Z[::3], F.GRID_ZGB[::3])
+    pr = PF.profile(r18, basis, mom, load, extra, F.GRID_2Z[::3], F.GRID_ZGB[::3])
     i, j = pr.best
     first = F.fit_at(r18, basis, mom, pr.two_z[i], pr.z_gb[j], load, extra)
     load = F.axial_load(r18, basis, mom, first.coef)
@@ -48,11 +49,11 @@ def test_refined_minimum_is_the_optimisers(r18, clamped):
     Nelder-Mead finds on the same RSS (an independent, derivative-free search started at
     the grid's best), and lies where it does to within the refined steps."""
     mom, load, extra, basis, *_ = clamped
-    pr = F.profile(r18, basis, mom, load, extra, _box(TRUE_2Z, F.GRID_2Z, 4), _box(TRUE_ZGB, F.GRID_ZGB, 6))
+    pr = PF.profile(r18, basis, mom, load, extra, _box(TRUE_2Z, F.GRID_2Z, 4), _box(TRUE_ZGB, F.GRID_ZGB, 6))
     ref = refine_profile(r18, basis, mom, load, extra, pr)
     assert any(ref.refined)
     scale = float(pr.rss.min()) / (pr.n - pr.p)          # sigma^2: an RSS difference / scale is a deviance
-    fitter = F.PointFitter(r18, basis, mom, load, extra)
+    fitter = PF.PointFitter(r18, basis, mom, load, extra)
 
     def rss(v):                                            # in micrometres, for the simplex's scale
         return float(fitter.fit(np.array([v[0] * 1e-6]), np.array([v[1] * 1e-6])).rss[0])
@@ -75,11 +76,11 @@ def test_marginal_is_the_conditional_minimum(r18, clamped, axis):
     """At values of each clearance near its estimate the refined marginal is the least RSS over
     the other clearance, as scipy's bounded scalar minimiser finds it, to 0.1 of a deviance."""
     mom, load, extra, basis, *_ = clamped
-    pr = F.profile(r18, basis, mom, load, extra, _box(TRUE_2Z, F.GRID_2Z, 4), _box(TRUE_ZGB, F.GRID_ZGB, 6))
+    pr = PF.profile(r18, basis, mom, load, extra, _box(TRUE_2Z, F.GRID_2Z, 4), _box(TRUE_ZGB, F.GRID_ZGB, 6))
     ref = refine_profile(r18, basis, mom, load, extra, pr)
     scale = float(pr.rss.min()) / (pr.n - pr.p)
     m: Marginal = ref.two_z if axis == 0 else ref.z_gb
-    fitter = F.PointFitter(r18, basis, mom, load, extra)
+    fitter = PF.PointFitter(r18, basis, mom, load, extra)
     floor = float(ref.rss.min())
     near = np.nonzero((m.rss - floor) / scale <= 8.0)[0]
     other_grid = pr.z_gb if axis == 0 else pr.two_z
@@ -122,7 +123,7 @@ def test_a_profile_the_grid_resolves_is_left_as_it_is(r18, simulate_signals):
     mom = make_rows(obs).moments
     basis = F.TorqueBasis(r18.max_rudder)
     load = F.axial_load(r18, basis, mom, F.torque_prefit(r18, basis, mom))
-    pr = F.profile(r18, basis, mom, load, (), F.GRID_2Z[::2], F.GRID_ZGB[::2])
+    pr = PF.profile(r18, basis, mom, load, (), F.GRID_2Z[::2], F.GRID_ZGB[::2])
     ref = refine_profile(r18, basis, mom, load, (), pr)
     assert ref.refined == (False, False)
     assert ref.pairs.shape[0] == pr.rss.size
@@ -142,7 +143,7 @@ def test_tiny_profiles_are_taken(r18, simulate_signals, shape):
     mom = make_rows(obs).moments
     basis = F.TorqueBasis(r18.max_rudder)
     load = F.axial_load(r18, basis, mom, F.torque_prefit(r18, basis, mom))
-    pr = F.profile(r18, basis, mom, load, (), F.GRID_2Z[:shape[0]], F.GRID_ZGB[50:50 + shape[1]])
+    pr = PF.profile(r18, basis, mom, load, (), F.GRID_2Z[:shape[0]], F.GRID_ZGB[50:50 + shape[1]])
     ref = refine_profile(r18, basis, mom, load, (), pr)
     for axis, size in enumerate(shape):
         if size <= 2:
@@ -162,11 +163,11 @@ def test_point_fitter_gives_fit_points_numbers(r18, simulate_signals):
     basis = F.TorqueBasis(r18.max_rudder)
     load = F.axial_load(r18, basis, mom, F.torque_prefit(r18, basis, mom))
     extra = F.speed_scale_columns(mom)
-    fitter = F.PointFitter(r18, basis, mom, load, extra)
+    fitter = PF.PointFitter(r18, basis, mom, load, extra)
     rng = np.random.default_rng(4)
     for _ in range(3):
         tz, zg = rng.uniform(0, 1.5e-3, 17), rng.uniform(0, 0.6e-3, 17)
-        a = F.fit_points(r18, basis, mom, load, tz, zg, extra, covariance=True)
+        a = PF.fit_points(r18, basis, mom, load, tz, zg, extra, covariance=True)
         b = fitter.fit(tz, zg, covariance=True)
         np.testing.assert_array_equal(a.rss, b.rss)
         np.testing.assert_array_equal(a.coef, b.coef)
