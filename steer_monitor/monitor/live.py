@@ -26,6 +26,15 @@ pressure sample it evaluates:
   in use).
 
 Times are integer ns; values SI.
+
+Why one module of some 1,000 lines: :class:`LiveMonitor` is updated sample by sample (the node)
+and run by run (replay's pipeline, :mod:`~steer_monitor.monitor.runfeed`), and both paths read
+and write the same state at every sample: the inputs' last values and arrival times, the
+rudder's history and rate, the held pressure samples, the ring of the last minute's instants
+and residuals and the hard-over and order-response tracking. Its compiled kernels live apart
+(:mod:`~steer_monitor.monitor.instants`, :mod:`~steer_monitor.monitor.slopes`); splitting the
+state into parts with interfaces of their own goes with one live path (the node feeding runs,
+as replay does), so that each part has one caller.
 """
 
 from __future__ import annotations

@@ -4,7 +4,10 @@ exit 1 (2 for usage), never a traceback, nothing half-written, nothing readable 
 The corpus is made from a short simulated log and recording: empty, junk, truncated at many
 offsets, flipped bytes, reversed lines, odd whitespace, a 5 MB line, non-UTF-8 bytes, one
 far-future frame, times past 2038, corrupt MCAP chunks (CRC and compression), cut BLF and
-ASC logs, bad output paths, bad YAML (non-UTF-8, deep nesting, an alias bomb, a list, junk)."""
+ASC logs, bad output paths, bad YAML (non-UTF-8, deep nesting, an alias bomb, a list, junk).
+
+One module of some 630 lines: one corpus, built once per session, and the one rule it is
+held to (``_check``) for every command."""
 
 from __future__ import annotations
 

@@ -1,4 +1,7 @@
-"""The node end to end: simulator -> virtual CAN -> node -> /diagnostics, recording, shutdown."""
+"""The node end to end: simulator -> virtual CAN -> node -> /diagnostics, recording, shutdown.
+
+One module of some 600 lines: the node started as a process, its bus and its recordings are
+the fixtures every test here shares."""
 
 from __future__ import annotations
 
