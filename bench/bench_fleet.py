@@ -47,10 +47,10 @@ def make_logs(root: Path) -> list[Path]:
 
 def _loop(paths: list[str]) -> float:
     """The task function over ``paths`` in a loop -> seconds (run in a worker by client.run)."""
-    from steer_monitor.ashore.logresult import analyse_log
+    from steer_monitor.ashore.logresult import log_result
     t0 = time.perf_counter()
     for p in paths:
-        analyse_log('bench_vessel', p, None, '', '')
+        log_result('bench_vessel', p, None, '', '')
     return time.perf_counter() - t0
 
 

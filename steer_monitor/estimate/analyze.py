@@ -124,12 +124,12 @@ class Analysis:
             residual is the one ``located`` describes).
         uneven: stretches where the rams did not share the force evenly, left out of it all.
         rams: how the rams shared the force over the instants of steady motion kept.
-        rams_assessed: a window of the rams check said even or uneven (False: it could judge
-            none: too little steady motion, or a load that hardly varied).
         given: True for a run under a given model (``analyze(..., model=...)``: no screening,
             ``screening`` empty, ``declared`` is that model's own fit).
         window: the data analysed (:func:`~steer_monitor.estimate.window.select`), when a
             window was asked for.
+        rams_assessed: a window of the rams check said even or uneven (False: it could judge
+            none: too little steady motion, or a load that hardly varied).
     """
 
     declared: ClearanceEstimate
@@ -149,8 +149,8 @@ class Analysis:
     uneven: tuple[UnevenSpan, ...] = ()
     rams: RamShare | None = None
     given: bool = False
-    rams_assessed: bool = False
     window: W.Window | None = field(default=None, repr=False)
+    rams_assessed: bool = False
 
     @property
     def adopted(self) -> tuple[Effect, ...]:
@@ -457,7 +457,7 @@ def _conclude(gear: GearParams, obs: Observations, base: _Base, declared: Cleara
         est, said = _specification_check(gear, base, grid_2z, say)
         return Analysis(declared, est, names[0] if names else None, steps[0].params if steps else {}, verdict,
                         msg + said + note, screening, None, obs, final_obs, n_out, tuple(steps), None, base.est,
-                        uneven, rams, given, win)
+                        uneven, rams, given=given, window=win)
     say('locating the unexplained residual')
     located = locate(base.obs, base.est.residual, base.est.inflation)
     final = base.est
@@ -483,7 +483,7 @@ def _conclude(gear: GearParams, obs: Observations, base: _Base, declared: Cleara
             else '; the clearances rest on an incomplete model')
     return Analysis(declared, final, names[0] if names else None, steps[0].params if steps else {}, 'unexplained',
                     msg + note, screening, closest, obs, final_obs, n_out, tuple(steps), located, base.est, uneven,
-                    rams, given, win)
+                    rams, given=given, window=win)
 
 
 def _specification_check(gear: GearParams, base: _Base, grid_2z: NDArray, say: Callable[[str], None]

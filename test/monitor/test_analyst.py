@@ -110,6 +110,7 @@ def test_the_nodes_findings_are_analyze_of_the_log_cut_at_their_time(r18_params,
         except EstimateError as exc:
             assert out.finding is None and out.why == str(exc)
             continue
+        assert a.window is not None and a.window.motion_s > 0 and isinstance(a.rams_assessed, bool)
         want = finding_of(a, job.t_ns, job.kind)
         assert out.finding is not None and _close(out.finding, want), (job.kind, job.t_ns, out.finding, want)
         if job.kind == 'loop':
