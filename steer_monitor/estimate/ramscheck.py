@@ -99,7 +99,8 @@ class RamsCheck:
     then move in while the ``EDGE_STEP`` instants at an end share evenly (within its first
     and last window) and out into the windows beside it while those share unevenly the
     stretch's way (a fault rarely starts or ends where a window does), and its share is that
-    of the instants it then holds (moments merged window by window: memory stays bounded
+    of the instants it then holds (``idle`` when a window of it was judged ``IDLE``, as the level
+    then was, or its own share is) (moments merged window by window: memory stays bounded
     however long it lasts). Rows with a non-finite force are left out. :meth:`finish` judges
     the instants after the last whole window as a window of their own and closes the stretch
     still open. Pure; not thread-safe."""
@@ -190,7 +191,7 @@ class RamsCheck:
         if sh is None:
             return None
         return UnevenSpan(o.start_ns, int(o.last[0][-1]) if o.last is not None else o.first_end_ns, sh.weaker,
-                          sh.share[sh.weaker], sh.instants, judge(sh, self.warn, self.ram_area) == IDLE)
+                          sh.share[sh.weaker], sh.instants, o.idle or judge(sh, self.warn, self.ram_area) == IDLE)
 
     def unsettled_from(self) -> int | None:
         """The time [ns] from which instants taken may still join or leave a stretch (None:
@@ -234,12 +235,14 @@ class RamsCheck:
         if o is None:
             if bad:
                 self._open = _OpenStretch.starting(self._prev, (t, f), self.warn)
+                self._open.idle = said == IDLE
                 self._prev = None
             else:
                 self._prev = (t, f)
             return
         if bad:
             o.extend((t, f), mo)
+            o.idle |= said == IDLE
         elif said == EVEN or twice:
             self._close((t, f))
             self._prev = (t, f)
@@ -267,6 +270,7 @@ class _OpenStretch:
         self.last: _Rows | None = None   # the last bad window after the first
         self.first_rows: _Rows | None = last_rows   # the first bad window's rows from the start
         self.waiting: list[tuple[_Rows, ShareMoments]] = []
+        self.idle = False                # a window of it was judged IDLE: the stretch is, as the level was
 
     @classmethod
     def starting(cls, before: _Rows | None, first: _Rows, warn: float) -> _OpenStretch:
@@ -317,7 +321,7 @@ class _OpenStretch:
         if sh is None:
             return None
         return UnevenSpan(self.start_ns, int(t[b - 1]), sh.weaker, sh.share[sh.weaker], sh.instants,
-                          judge(sh, warn, ram_area) == IDLE)
+                          self.idle or judge(sh, warn, ram_area) == IDLE)
 
 
 def _says(part: NDArray[np.float64], side: float, warn: float) -> str | None:

@@ -119,3 +119,22 @@ def test_the_check_says_how_it_stands():
     check.finish()
     with pytest.raises(ValueError, match='the rams check is finished: it takes no more instants'):
         check.feed(t[:1], f[:1])
+
+
+def test_a_stretch_with_a_window_judged_idle_is_idle_as_the_level_was():
+    """A ram idle for a window, then carrying a quarter: the level went to IDLE (the node's ERROR),
+    so the stretch says idle too, though its share over all of it is above a tenth."""
+    n = 3000
+    t = np.arange(n, dtype=np.int64) * 50_000_000 + 1_700_000_000_000_000_000
+    sweep = 0.05 * n
+    f = ram_forces(0.5, n=n, seed=7, sweep=sweep)
+    f[600:1200] = ram_forces(1.0, n=n, seed=8, sweep=sweep)[600:1200]      # ram 2 idle
+    f[1200:2400] = ram_forces(0.75, n=n, seed=9, sweep=sweep)[1200:2400]   # ram 2 carries a quarter
+    check = RamsCheck(0.15, AREA)
+    levels = []
+    for k in range(0, n, 600):
+        check.feed(t[k:k + 600], f[k:k + 600])
+        levels.append(check.level)
+    assert levels == [EVEN, IDLE, UNEVEN, UNEVEN, EVEN]
+    (sp,) = check.finish()
+    assert sp.ram == 1 and sp.share > 0.1 and sp.idle
