@@ -371,8 +371,10 @@ def _node_stderr(cmd: list[str], seconds: float, mcap_in: Path | None = None,
             time.sleep(0.1)
         time.sleep(seconds)
         proc.send_signal(signal.SIGINT)
-        assert proc.wait(15) == 0
-        return proc.stderr.read()
+        rc = proc.wait(15)
+        err = proc.stderr.read()
+        assert rc == 0, err[-2000:]
+        return err
     finally:
         if proc.poll() is None:
             proc.kill()
