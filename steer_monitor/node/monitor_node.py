@@ -19,6 +19,7 @@ Topics (standard message types only) are listed in
 
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 import threading
@@ -99,6 +100,16 @@ class MonitorNode(Node):
                                      max_total_bytes=int(p['recording.max_total_gb'] * 1e9),
                                      keep_free_bytes=int(p['recording.keep_free_gb'] * 1e9),
                                      on_removed=self._recording_removed)
+        try:
+            self._start(config_path, bus_opener)
+        except BaseException:       # a signal or an error while starting: what was opened is closed
+            self._abort_start()
+            raise
+
+    def _start(self, config_path: str | None, bus_opener: Callable[[], ListenOnlyBus] | None) -> None:
+        """The rest of the node's start, after its recorder opened (see :meth:`_abort_start`)."""
+        p = self.params
+        smap = self.smap
         self._make_publishers()
         self._lock = threading.Lock()          # guards the pipeline and the live model
         self._unpublished: list[int] = []      # bus timestamps of state-changing frames not yet published
@@ -129,6 +140,21 @@ class MonitorNode(Node):
         self.get_logger().info(
             f'opening {interface}:{channel} (listen-only); {len(smap.specs)} inputs mapped; '
             + (f'recording to {p["recording.directory"]}' if self.recorder else 'recording off'))
+
+    def _abort_start(self) -> None:
+        """Stopped while starting (Ctrl-C as it loads, an error after the recorder opened): stop
+        the threads started so far and finish the recording, so no file is left unfinished."""
+        stop = getattr(self, '_stop', None)
+        if stop is not None:
+            stop.set()
+        thread = getattr(self, '_reader_thread', None)
+        if thread is not None and thread.is_alive():
+            thread.join(5)
+        for part in ('pipeline', 'reader', 'recorder'):
+            obj = getattr(self, part, None)
+            if obj is not None:
+                with contextlib.suppress(Exception):
+                    obj.close()
 
     def _recording_failed(self, text: str | None) -> None:
         """The recorder stopped reaching the disk (or reaches it again): in the log once, the
@@ -484,6 +510,8 @@ def main(args: Sequence[str] | None = None) -> int:
         except (ParameterError, SteerMonitorError) as exc:
             print(f'steer_monitor: cannot start: {exc}', file=sys.stderr)
             return 2
+        except (KeyboardInterrupt, ExternalShutdownException):
+            return 0            # stopped while starting: what it had opened is closed
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         try:

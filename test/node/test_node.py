@@ -606,3 +606,36 @@ def test_the_analysis_state_is_not_saved_onto_the_disk_beneath_an_unmounted_one(
         if h is not None:
             h.close()
         subprocess.run(['umount', '-l', str(mnt)], check=False)
+
+
+def test_a_signal_while_starting_leaves_no_recording_unfinished(tmp_path, monkeypatch):
+    """Ctrl-C as the node loads (under load, seconds after its recorder opened) raised out of
+    its constructor and left the recording open: the threads started are stopped and the MCAP
+    is finished, readable by an independent reader."""
+    import rclpy
+    from rosbags.highlevel import AnyReader
+
+    from steer_monitor.can.frames import Frame
+    from steer_monitor.node.monitor_node import MonitorNode
+    from steer_monitor.node.params_ros import overrides_from_file
+
+    def interrupted(self):          # the recorder holds a frame by then: its file is open
+        self.recorder.write_frame(Frame(1_767_225_600_000_000_000, 0x09F10D10, bytes(8)))
+        time.sleep(0.5)
+        assert list(tmp_path.glob('*.mcap*')) or list(tmp_path.glob('.*')), 'the recorder opened no file'
+        raise KeyboardInterrupt
+    monkeypatch.setattr(MonitorNode, '_start_analyst', interrupted)
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        overrides = overrides_from_file(str(R18_YAML), {
+            'can.interface': 'virtual', 'can.channel': f'start-{uuid.uuid4().hex[:6]}',
+            'recording.directory': str(tmp_path), 'estimator.state_file': str(tmp_path / 'estimator.npz')})
+        with pytest.raises(KeyboardInterrupt):
+            MonitorNode(parameter_overrides=overrides, context=context)
+    finally:
+        rclpy.shutdown(context=context)
+    (rec,) = list(tmp_path.glob('*.mcap'))
+    with AnyReader([rec]) as reader:        # finished: its summary and footer are there
+        assert reader.connections is not None
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith('.')]
