@@ -190,8 +190,8 @@ class RamsCheck:
         sh = share_of_moments(o.moments())
         if sh is None:
             return None
-        return UnevenSpan(o.start_ns, int(o.last[0][-1]) if o.last is not None else o.first_end_ns, sh.weaker,
-                          sh.share[sh.weaker], sh.instants, o.idle or judge(sh, self.warn, self.ram_area) == IDLE)
+        return UnevenSpan(o.start_ns, int(o.tail[0][-1]), sh.weaker, sh.share[sh.weaker], sh.instants,
+                          o.idle or judge(sh, self.warn, self.ram_area) == IDLE)
 
     def unsettled_from(self) -> int | None:
         """The time [ns] from which instants taken may still join or leave a stretch (None:
@@ -199,8 +199,7 @@ class RamsCheck:
         uneven (its end may move in there); else the start of the last window judged (a stretch
         opening next may reach back into it); else the first instant not yet judged."""
         if self._open is not None:
-            o = self._open
-            return int(o.last[0][0]) if o.last is not None else o.start_ns
+            return int(self._open.tail[0][0])
         if self._prev is not None:
             return int(self._prev[0][0])
         if self._t:
@@ -234,7 +233,7 @@ class RamsCheck:
         o = self._open
         if o is None:
             if bad:
-                self._open = _OpenStretch.starting(self._prev, (t, f), self.warn)
+                self._open = _OpenStretch.starting(self._prev, (t, f), mo, sh, self.warn)
                 self._open.idle = said == IDLE
                 self._prev = None
             else:
@@ -260,40 +259,38 @@ class RamsCheck:
 
 class _OpenStretch:
     """A stretch of uneven sharing not yet closed (see :class:`RamsCheck`): its start, fixed
-    when it opens; the moments of its instants up to its last window judged uneven; that
-    window's instants, and the windows after it that could not say."""
+    when it opens; the moments of its instants before its last window judged uneven; that
+    window's instants (the first window's from the start) and moments, and the windows after
+    it that could not say."""
 
-    def __init__(self, start_ns: int, head: ShareMoments, first_end_ns: int, last_rows: _Rows) -> None:
+    def __init__(self, start_ns: int, tail: _Rows, tail_moments: ShareMoments) -> None:
         self.start_ns = start_ns
-        self.first_end_ns = first_end_ns
-        self.head = head                 # from the start to the last bad window, that one left out
-        self.last: _Rows | None = None   # the last bad window after the first
-        self.first_rows: _Rows | None = last_rows   # the first bad window's rows from the start
+        self.head = ShareMoments.empty()   # from the start to the last bad window, that one left out
+        self.tail = tail                   # the last bad window's rows
+        self.tail_moments = tail_moments
         self.waiting: list[tuple[_Rows, ShareMoments]] = []
-        self.idle = False                # a window of it was judged IDLE: the stretch is, as the level was
+        self.idle = False                  # a window of it was judged IDLE: the stretch is, as the level was
 
     @classmethod
-    def starting(cls, before: _Rows | None, first: _Rows, warn: float) -> _OpenStretch:
-        """Open on the window ``first``, its start moved in within it, or out into ``before``."""
+    def starting(cls, before: _Rows | None, first: _Rows, first_moments: ShareMoments, sh: RamShare | None,
+                 warn: float) -> _OpenStretch:
+        """Open on the window ``first`` (its moments, its share ``sh``), its start moved in
+        within it, or out into ``before``."""
         t = first[0] if before is None else np.concatenate([before[0], first[0]])
         f = first[1] if before is None else np.concatenate([before[1], first[1]])
         a0 = 0 if before is None else before[0].size
-        sh = ram_share(first[1])
         side = 1.0 if sh is None or sh.share[0] > 0.5 else -1.0
         a = _move_start(f, a0, f.shape[0], side, warn)
-        return cls(int(t[a]), ShareMoments.empty(), int(first[0][-1]), (t[a:], f[a:]))
+        return cls(int(t[a]), (t[a:], f[a:]), first_moments if a == a0 else share_moments(f[a:]))
 
     def extend(self, rows: _Rows, mo: ShareMoments) -> None:
-        """A further window judged uneven or idle: what waited joins the stretch."""
-        if self.first_rows is not None:
-            self.head = self.head + share_moments(self.first_rows[1])
-            self.first_rows = None
-        elif self.last is not None:
-            self.head = self.head + share_moments(self.last[1])
+        """A further window judged uneven or idle (its rows and moments): the last one and what
+        waited join the stretch's head."""
+        self.head = self.head + self.tail_moments
         for _, m in self.waiting:
             self.head = self.head + m
         self.waiting.clear()
-        self.last = rows
+        self.tail, self.tail_moments = rows, mo
 
     def wait(self, rows: _Rows, mo: ShareMoments) -> None:
         """A window that could not say: joins the stretch only if a later one is uneven."""
@@ -301,23 +298,21 @@ class _OpenStretch:
 
     def moments(self) -> ShareMoments:
         """The moments from the start to the end of the last bad window."""
-        tail = self.first_rows if self.first_rows is not None else self.last
-        return self.head + share_moments(tail[1]) if tail is not None else self.head
+        return self.head + self.tail_moments
 
     def closed(self, nxt: _Rows | None, warn: float, ram_area: float) -> UnevenSpan | None:
         """The stretch, its end moved in within its last bad window or out into the window
         after it (the first that waited, else ``nxt``)."""
-        tail = self.first_rows if self.first_rows is not None else self.last
-        assert tail is not None
         whole = share_of_moments(self.moments())
         if whole is None:
             return None
         side = 1.0 if whole.share[0] > 0.5 else -1.0
+        tail = self.tail
         after = self.waiting[0][0] if self.waiting else nxt
         t = tail[0] if after is None else np.concatenate([tail[0], after[0]])
         f = tail[1] if after is None else np.concatenate([tail[1], after[1]])
         b = _move_end(f, tail[0].size, f.shape[0], side, warn)
-        sh = share_of_moments(self.head + share_moments(f[:b]))
+        sh = share_of_moments(self.head + (self.tail_moments if b == tail[0].size else share_moments(f[:b])))
         if sh is None:
             return None
         return UnevenSpan(self.start_ns, int(t[b - 1]), sh.weaker, sh.share[sh.weaker], sh.instants,
