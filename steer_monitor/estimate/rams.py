@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 
 __all__ = ['AT_EDGE', 'EVEN', 'IDLE', 'IDLE_RAM_SHARE', 'JOINED_SHARE', 'MARGIN_SE', 'MIN_SHARE_INSTANTS',
            'MIN_SHARE_SPREAD_PA', 'OPPOSED', 'OPPOSED_CORRELATION', 'STUCK_SHARE', 'UNEVEN', 'UNEVEN_CAUSE',
-           'UNJUDGED', 'enough', 'judge', 'opposed_cause', 'ram_share', 'ram_share_of_pressures', 'RamShare',
+           'UNJUDGED', 'enough', 'judge', 'opposed_cause', 'ram_share', 'RamShare',
            'share_moments', 'share_of_moments', 'ShareMoments', 'weak_ram_cause', 'working_against']
 
 #: a share is judged from this many instants of steady motion (seconds of it)...
@@ -146,19 +146,10 @@ def ram_share(force: NDArray[np.float64]) -> RamShare | None:
     return share_of_moments(share_moments(force))
 
 
-def ram_share_of_pressures(pressures: NDArray[np.float64], ram_area: float) -> RamShare | None:
-    """:func:`ram_share` of the forces ``ram_area * (p0 - p1)`` and ``ram_area * (p2 - p3)``
-    of the four pressures ``pressures`` (n, 4) [Pa] (ram 1 starboard and port, ram 2 the same;
-    ``ram_area`` [m^2]), each force worked out as that expression, element by element, in
-    the compiled passes."""
-    p = np.ascontiguousarray(pressures, dtype=float).reshape(-1, 4)
-    return share_of_moments(ShareMoments(*_share_sums(p, float(ram_area))))
-
-
 def share_moments(force: NDArray[np.float64]) -> ShareMoments:
     """The moments of ``force`` (n, 2) [N] (rows with a non-finite force left out)."""
     f = np.ascontiguousarray(force, dtype=float).reshape(-1, 2)
-    return ShareMoments(*_share_sums(f, math.nan))
+    return ShareMoments(*_share_sums(f))
 
 
 def share_of_moments(mo: ShareMoments) -> RamShare | None:
@@ -173,25 +164,16 @@ def share_of_moments(mo: ShareMoments) -> RamShare | None:
     return RamShare((s1, 1.0 - s1), 0.25 * se_b, math.sqrt(mo.smm / mo.n), mo.d - b * mo.m, int(mo.n), corr)
 
 
-@njit(cache=True, nogil=True, inline='always')
-def _forces(x: NDArray[np.float64], i: int, area: float) -> tuple[float, float]:
-    """Row ``i``'s two forces: the row itself (``area`` NaN: ``x`` holds forces (n, 2)), or
-    ``area * (p0 - p1)``, ``area * (p2 - p3)`` of its four pressures (``x`` (n, 4))."""
-    if np.isnan(area):
-        return x[i, 0], x[i, 1]
-    return area * (x[i, 0] - x[i, 1]), area * (x[i, 2] - x[i, 3])
-
-
 @njit(cache=True, nogil=True)
-def _share_sums(x: NDArray[np.float64], area: float) -> tuple[int, float, float, float, float, float, float, float,
-                                                              float, float, float]:
-    """Over the rows whose two forces (:func:`_forces` of ``x`` and ``area``) are finite,
+def _share_sums(x: NDArray[np.float64]) -> tuple[int, float, float, float, float, float, float, float, float, float,
+                                                  float]:
+    """Over the rows of the forces ``x`` (n, 2) whose two forces are finite,
     with m = (f1 + f2) / 2 and d = f1 - f2: the fields of :class:`ShareMoments` (rows, means of
     m, d, f1, f2; centred S_mm, S_md, S_dd, S_11, S_22, S_12)."""
     n = 0
     s_m = s_d = s_1 = s_2 = 0.0
     for i in range(x.shape[0]):
-        a, c = _forces(x, i, area)
+        a, c = x[i, 0], x[i, 1]
         if np.isfinite(a) and np.isfinite(c):
             n += 1
             s_m += 0.5 * (a + c)
@@ -203,7 +185,7 @@ def _share_sums(x: NDArray[np.float64], area: float) -> tuple[int, float, float,
     m_mean, d_mean, f1_mean, f2_mean = s_m / n, s_d / n, s_1 / n, s_2 / n
     smm = smd = sdd = s11 = s22 = s12 = 0.0
     for i in range(x.shape[0]):
-        a, c = _forces(x, i, area)
+        a, c = x[i, 0], x[i, 1]
         if np.isfinite(a) and np.isfinite(c):
             mc, dc = 0.5 * (a + c) - m_mean, (a - c) - d_mean
             smm += mc * mc

@@ -19,7 +19,6 @@ from steer_monitor.estimate.rams import (
     judge,
     opposed_cause,
     ram_share,
-    ram_share_of_pressures,
     share_moments,
     share_of_moments,
     weak_ram_cause,
@@ -193,38 +192,6 @@ def test_the_ram_working_against_the_motion_is_named():
     assert 'of ram 1 are read the wrong way round: r1s and r1p swapped in the signals map' in words
     assert 'of one ram are read the wrong way round: r1s and r1p or r2s and r2p swapped' in \
         opposed_cause(ram_share(f * [1, -1]), None, ('r1s', 'r1p', 'r2s', 'r2p'))
-
-
-@pytest.mark.parametrize('case', ['even', 'idle ram 2', 'non-finite rows', 'too few', 'flat'])
-def test_the_share_of_pressures_is_the_share_of_their_forces_to_the_bit(case):
-    """ram_share_of_pressures (the live rams status: the forces worked out inside the compiled
-    passes) gives the RamShare ram_share gives of the forces A_r (p0 - p1), A_r (p2 - p3) made
-    with numpy, field for field to the bit, non-finite rows left out the same way."""
-    rng = np.random.default_rng(7)
-    n = {'too few': 2}.get(case, 2400)
-    load = 40e5 * np.sin(np.linspace(0, 9, n))
-    p = rng.normal(50e5, 0.35e5, (n, 4))
-    p[:, 0] += load / 2
-    p[:, 1] -= load / 2
-    if case != 'idle ram 2':
-        p[:, 2] += load / 2
-        p[:, 3] -= load / 2
-    if case == 'non-finite rows':
-        p[5, 0] = np.nan
-        p[17, 3] = np.inf
-        p[900:910, 2] = np.nan
-    if case == 'flat':
-        p[:] = 50e5
-    forces = np.stack([AREA * (p[:, 0] - p[:, 1]), AREA * (p[:, 2] - p[:, 3])], axis=1)
-    want, got = ram_share(forces), ram_share_of_pressures(p, AREA)
-    if case in ('too few', 'flat'):
-        assert want is None and got is None
-        return
-    assert want is not None and got is not None
-    assert got.share == want.share and got.se == want.se and got.spread == want.spread
-    assert got.offset == want.offset and got.instants == want.instants
-    assert got.correlation == want.correlation or (np.isnan(got.correlation) and np.isnan(want.correlation))
-    assert got.instants == n - (12 if case == 'non-finite rows' else 0)
 
 
 def test_moments_merged_are_the_moments_of_the_whole():
