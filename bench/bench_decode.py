@@ -3,7 +3,8 @@ live) and the batch path (numpy over arrays), side by side in one run. Each rate
 as a multiple of 1,908 frames/s, what a saturated 250 kbit/s NMEA 2000 bus carries.
 
 Two measurements each: decode alone (frames already in memory), and read + decode from a
-candump .log file.
+candump .log file: read frame by frame by python-can's reader (``can.CanutilsLogReader``, the
+library's candump parser) or by the package's column reader.
 """
 
 from __future__ import annotations
@@ -12,15 +13,17 @@ import tempfile
 import time
 from pathlib import Path
 
+import can
+
 from steer_monitor import sim
 from steer_monitor.can import Decoder, collect
+from steer_monitor.can.bus import frame_from_message
 from steer_monitor.can.busconfig import can_setup
+from steer_monitor.can.frames import FrameArrays
 from steer_monitor.logfiles.blocks import read_log_fast
 from steer_monitor.logfiles.logs import LogWriter
 from steer_monitor.params import load_params_file
 from steer_monitor.resources import default_config
-from test.logfiles.reference_reader import iter_log_reference as iter_log
-from test.logfiles.reference_reader import read_log_reference as read_log_arrays
 
 BUS_RATE = 1908.0
 PROGRAM = 'voyage,voyage,autopilot:610'  # about one hour
@@ -58,11 +61,12 @@ def main() -> dict:
                 w.write(f)
         t0 = time.perf_counter()
         d = Decoder(db, smap)
-        for f in iter_log(path):
-            d.decode(f)
+        for msg in can.CanutilsLogReader(str(path)):
+            d.decode(frame_from_message(msg))
         file_per_s = time.perf_counter() - t0
         t0 = time.perf_counter()
-        Decoder(db, smap).decode_arrays(read_log_arrays(path))
+        Decoder(db, smap).decode_arrays(FrameArrays.from_frames(map(frame_from_message,
+                                                                    can.CanutilsLogReader(str(path)))))
         file_lines_s = time.perf_counter() - t0
         t0 = time.perf_counter()
         Decoder(db, smap).decode_arrays(read_log_fast(path))
@@ -72,12 +76,12 @@ def main() -> dict:
     print(f'  in memory, per frame : {per_s:7.2f} s  {_rate(n, per_s)}')
     print(f'  in memory, batch     : {batch_s:7.2f} s  {_rate(n, batch_s)}')
     print(f'  in memory, batch / per-frame = {per_s / batch_s:,.0f}x')
-    print(f'  candump file, per frame : {file_per_s:7.2f} s  {_rate(n, file_per_s)}')
-    print(f'  candump file, lines parsed one by one, decoded as columns : {file_lines_s:7.2f} s  '
+    print(f'  candump file, python-can\'s reader, decoded per frame : {file_per_s:7.2f} s  {_rate(n, file_per_s)}')
+    print(f'  candump file, python-can\'s reader, decoded as columns : {file_lines_s:7.2f} s  '
           f'{_rate(n, file_lines_s)}')
     print(f'  candump file, column reader (logfiles/candumpcols.py) + batch decode: {file_batch_s:7.2f} s  '
           f'{_rate(n, file_batch_s)}')
-    print(f'  candump file, column reader / per frame = {file_per_s / file_batch_s:,.0f}x')
+    print(f'  candump file, column reader + batch / python-can + per frame = {file_per_s / file_batch_s:,.0f}x')
     return {'frames': n, 'per_frame_s': per_s, 'batch_s': batch_s, 'file_per_frame_s': file_per_s,
             'file_lines_s': file_lines_s, 'file_batch_s': file_batch_s}
 

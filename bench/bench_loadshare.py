@@ -1,10 +1,9 @@
 """Load sharing of 1,000,000 (angle, torque) samples: the solver on arrays (one compiled element
-function, :mod:`steer_monitor.model.loadshare`) against a per-sample loop of it and against the
-stepwise numpy solver it replaced (``test/model/loadshare_oracle.py``, now the tests' oracle),
-in the same run. Prints samples/s of each and the ratios. Then the live monitor's one-state
-call (``load_sharing_scalar``) against arrays of the size a replay solves at once (the same
-numbers to the bit), and a clearance profile's grid (``friction_normals``: every angle cell
-of a voyage at every clearance pair) against the stepwise solver on the same grid.
+function, :mod:`steer_monitor.model.loadshare`) against a per-sample loop of it, in the same
+run. Prints samples/s of each and the ratio. Then the live monitor's one-state call
+(``load_sharing_scalar``) against arrays of the size a replay solves at once (the same
+numbers to the bit), and the rate of a clearance profile's grid (``friction_normals``: every
+angle cell of a voyage at every clearance pair).
 
 The per-sample loop runs on a slice (its rate is what is measured; running it on all 10^6
 samples would only take longer, not tell more); both rates are measured, not assumed.
@@ -18,7 +17,6 @@ import time
 import numpy as np
 
 from steer_monitor.model import load_sharing, load_sharing_scalar
-from steer_monitor.model.friction import normal_forces
 from steer_monitor.model.loadshare import friction_normals
 from steer_monitor.params import gear_from_params, load_params_file
 from steer_monitor.resources import default_config
@@ -57,15 +55,6 @@ def main() -> dict:
           f"(target < {TARGET_S:g} s: {'met' if best < TARGET_S else 'NOT met'})")
     print(f'  per-sample : {loop_s:8.3f} s for {LOOP_N:,} samples   {loop_rate:14,.0f} samples/s')
     print(f'  ratio      : vectorized / per-sample = {vec_rate / loop_rate:,.0f}x')
-    from test.model.loadshare_oracle import load_sharing_stepwise
-    best_old = math.inf
-    for _ in range(3):
-        t0 = time.perf_counter()
-        old = load_sharing_stepwise(gear, alpha, torque, two_z, z_gb)
-        best_old = min(best_old, time.perf_counter() - t0)
-    assert np.allclose(old.k_gl, vec.k_gl, rtol=1e-12, atol=1e-15), 'the stepwise oracle disagrees'
-    print(f'  stepwise numpy solver (before, now the oracle): {N / best_old:14,.0f} samples/s; '
-          f'compiled {best_old / best:.1f}x faster')
 
     m = SCALARS_BATCH * 10
     t0 = time.perf_counter()
@@ -94,17 +83,11 @@ def main() -> dict:
     for g0 in range(0, pairs, 1000):
         friction_normals(gear, ca, ct, tz[g0:g0 + 1000], zg[g0:g0 + 1000])
     grid_s = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    for g0 in range(0, 300, 100):
-        ls = load_sharing_stepwise(gear, ca[:, None], ct[:, None], tz[None, g0:g0 + 100], zg[None, g0:g0 + 100])
-        normal_forces(ls.r_a, ls.r_e, ls.m_a, gear.bushing_length)
-    old_grid_rate = cells * 300 / (time.perf_counter() - t0)
     print(f'a profile grid, {cells:,} cells x {pairs:,} clearance pairs')
-    print(f'  friction_normals : {grid_s:8.3f} s  {cells * pairs / grid_s:14,.0f} states/s; the stepwise solver '
-          f'{old_grid_rate:,.0f} states/s ({cells * pairs / grid_s / old_grid_rate:.0f}x)')
+    print(f'  friction_normals : {grid_s:8.3f} s  {cells * pairs / grid_s:14,.0f} states/s')
     return {'vectorized_s': best, 'vectorized_rate': vec_rate, 'loop_rate': loop_rate,
             'ratio': vec_rate / loop_rate, 'scalar_rate': scalar_rate, 'scalars_rate': scalars_rate,
-            'stepwise_rate': N / best_old, 'grid_rate': cells * pairs / grid_s, 'stepwise_grid_rate': old_grid_rate}
+            'grid_rate': cells * pairs / grid_s}
 
 
 if __name__ == '__main__':

@@ -1,4 +1,4 @@
-"""Logs ashore: the batch path against the per-frame path, on a one-hour and a 24-hour
+"""Logs ashore: the batch path and replay against a plain reader, on a one-hour and a 24-hour
 simulated log, candump and MCAP.
 
 The logs: the simulated R-18 gear on the NMEA 2000 signal set of the design (rudder 10 Hz,
@@ -17,21 +17,19 @@ Measured, each case in a fresh process (so its peak resident memory is its own):
   up to half again slower than the others;
 * ``replay`` (:func:`steer_monitor.ashore.replay.replay`, the node's pipeline: the decoder, live
   model, diagnostics and the node's analyses on its schedule, topics written to MCAP, frames
-  left out), its per-frame reference (the tests' oracle, ``test/ashore/replay_reference.py``:
-  every frame through the pipeline one at a time, every message built and written alone; the
-  same file), and a plain reader of the same file
-  (python-can's ``CanutilsLogReader`` for candump; for MCAP, mcap-ros2's decoder through
-  :func:`test.logfiles.reference_reader.iter_mcap_frames`, python-can having no MCAP reader): on the
-  whole one-hour log; on the 24-hour log, its first ``PER_FRAME_LIMIT`` frames (a file of its
-  own, made with the logs: replay streams, so its rate and memory do not depend on the log's
-  length; the whole day would take several minutes, the reference a quarter of an hour).
+  left out) and a plain reader of the same file (python-can's ``CanutilsLogReader`` for
+  candump; for MCAP, the mcap library's reader with mcap-ros2's decoder, every frame message
+  decoded, python-can having no MCAP reader): on the whole one-hour log; on the 24-hour log,
+  its first ``PER_FRAME_LIMIT`` frames (a file of its own, made with the logs: replay streams,
+  so its rate and memory do not depend on the log's length). That replay writes the file the
+  per-frame reference writes is the tests' to hold (``test/ashore/test_replay.py``).
 
 In the same run: on the candump logs, replay's time split (in a process of
 its own, :func:`bench.bench_replay_parts.measure_split`: three rounds of python-can's reader then a
 replay with its messages and analyses clocked, back to back, the median round's ratio; and one
 replay with every part clocked: reading and decoding, the per-sample pipeline, messages,
-analyses); every replay made twice, in two processes, and the two files compared byte for byte
-and with the per-frame reference's; and, with ``--baseline COMMIT``, the whole replay
+analyses); every replay made twice, in two processes, and the two files compared byte for byte;
+and, with ``--baseline COMMIT``, the whole replay
 (``frames=False``, as above) against that commit's (taken from git into ``BENCH_DIR``, its
 compiled kernels warmed by one replay first), on the hour log and the first
 ``PER_FRAME_LIMIT`` frames: a before and after in one run.
@@ -129,9 +127,14 @@ def _case(kind: str, path: str) -> dict:
                                      'estimates': len(run.review.estimates)}
     elif kind == 'reader':
         if path.endswith('.mcap'):
-            from test.logfiles.reference_reader import iter_mcap_frames
+            from mcap.reader import make_reader
+            from mcap_ros2.decoder import DecoderFactory
+
+            from steer_monitor.logfiles.mcapio import FRAME_DATATYPE
             with open(path, 'rb') as fh:
-                frames = sum(1 for _ in iter_mcap_frames(fh))
+                reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+                frames = sum(1 for schema, _, _, _ in reader.iter_decoded_messages(log_time_order=False)
+                             if schema is not None and schema.name == FRAME_DATATYPE)
         else:
             import can
             frames = sum(1 for _ in can.CanutilsLogReader(path))
@@ -144,10 +147,8 @@ def _case(kind: str, path: str) -> dict:
         extra = {'lines': split_lines(m), 'ratio': m['median']['ratio']}
     else:
         from steer_monitor.ashore.replay import replay
-        from test.ashore.replay_reference import reference_replay
         with tempfile.TemporaryDirectory() as tmp:
-            run = reference_replay if kind == 'reference' else replay
-            summary = run([path], Path(tmp) / 'out.mcap', frames=False)
+            summary = replay([path], Path(tmp) / 'out.mcap', frames=False)
             elapsed = time.perf_counter() - t0        # the file's hash not counted
             digest = hashlib.sha256((Path(tmp) / 'out.mcap').read_bytes()).hexdigest()
         frames, extra = summary.frames, {'sha256': digest, 'elapsed': elapsed}
@@ -222,7 +223,7 @@ def main() -> int:
         _make_logs()
         return 0
     baseline = sys.argv[2] if len(sys.argv) == 3 and sys.argv[1] == '--baseline' else None
-    print('== logs ashore: batch path, replay and its per-frame reference (simulated R-18 logs, ~91 frames/s) ==')
+    print('== logs ashore: batch path, replay and a plain reader (simulated R-18 logs, ~91 frames/s) ==')
     # made in a process of their own: Linux keeps a process's peak memory across fork and exec,
     # so the cases, started from here, would report this process's peak as theirs
     _child('--make-logs')
@@ -230,13 +231,13 @@ def main() -> int:
     results = []
     fronts: list[tuple[str, float]] = []          # (log, the median round's front end / reader)
     against: list[tuple[str, float, float]] = []  # (log, baseline s, replay s)
-    same_bytes: list[tuple[str, bool, bool]] = []  # (log, two runs identical, equal to the reference)
+    same_bytes: list[tuple[str, bool]] = []        # (log, two runs identical)
     tree = _baseline_tree(baseline) if baseline is not None else None
     for name in ('1h.log', '1h.mcap', '24h.log', '24h.mcap'):
         runs = sorted((_run_case('batch', paths[name]) for _ in range(BATCH_RUNS)), key=lambda r: r['seconds'])
         batch = runs[len(runs) // 2]
-        same = paths[name.replace('24h', '24h-first')]        # what replay, the reference and the reader read
-        reader, fast, again, ref = (_run_case(kind, same) for kind in ('reader', 'replay', 'replay', 'reference'))
+        same = paths[name.replace('24h', '24h-first')]        # what replay and the reader read
+        reader, fast, again = (_run_case(kind, same) for kind in ('reader', 'replay', 'replay'))
         results.append((name, batch, fast))
         size_mb = paths[name].stat().st_size / 2 ** 20
         print(f'{name:9s} {batch["frames"]:>9,d} frames ({size_mb:,.0f} MB)')
@@ -247,16 +248,14 @@ def main() -> int:
         print(f'            median of {len(runs)} runs; all: '
               + ', '.join(f'{r["frames_per_s"]:,d}' for r in runs[::-1]) + ' frames/s')
         scope = '' if fast['frames'] == batch['frames'] else f'  (first {fast["frames"]:,d} frames)'
-        for label, r in (('reader', reader), ('replay', fast), ('again', again), ('reference', ref)):
+        for label, r in (('reader', reader), ('replay', fast), ('again', again)):
             print(f'  {label:9s} {r["frames_per_s"]:>10,d} frames/s  {r["seconds"]:7.2f} s  '
                   f'peak {r["peak_rss_mb"]:5d} MB{scope}')
-        print(f'  replay: {fast["frames_per_s"] / reader["frames_per_s"]:.3f} x the reader, '
-              f'{fast["frames_per_s"] / ref["frames_per_s"]:.2f} x its reference; '
+        print(f'  replay: {fast["frames_per_s"] / reader["frames_per_s"]:.3f} x the reader; '
               f'batch {batch["frames_per_s"] / fast["frames_per_s"]:.0f} x replay')
-        twice, as_ref = fast['sha256'] == again['sha256'], fast['sha256'] == ref['sha256']
-        same_bytes.append((name, twice, as_ref))
-        print(f'  the two replays\' files {"identical" if twice else "DIFFER"}; '
-              f'{"equal to" if as_ref else "NOT equal to"} the per-frame reference\'s')
+        twice = fast['sha256'] == again['sha256']
+        same_bytes.append((name, twice))
+        print(f'  the two replays\' files {"identical" if twice else "DIFFER"}')
         if name.endswith('.log'):
             split = _run_case('split', same)
             fronts.append((name, split['ratio']))
@@ -279,9 +278,9 @@ def main() -> int:
         print(f'the whole replay no slower than at {baseline}: '
               + '; '.join(f'{n} {now:.2f} s against {base:.2f} s ({"met" if now <= base else "NOT met"})'
                           for n, base, now in against))
-    print('the same bytes between two runs and as the per-frame reference: '
-          + ('yes, on every log' if all(t and r for _, t, r in same_bytes) else
-             'NO: ' + ', '.join(n for n, t, r in same_bytes if not (t and r))))
+    print('the same bytes between two runs: '
+          + ('yes, on every log' if all(t for _, t in same_bytes) else
+             'NO: ' + ', '.join(n for n, t in same_bytes if not t)))
     return 0
 
 

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import datetime
 import math
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -30,7 +30,7 @@ import numpy as np
 from steer_monitor.atomic import atomic_path, check_target, os_reason
 from steer_monitor.can.busconfig import Setup, can_setup, load_setup
 from steer_monitor.can.codec import DbcError
-from steer_monitor.can.decoder import DecodedRun, Decoder
+from steer_monitor.can.decoder import Decoder
 from steer_monitor.can.frames import FrameArrays
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import ParameterError, SteerMonitorError
@@ -66,7 +66,6 @@ __all__ = ['FRAME_BATCH', 'ReplayError', 'ReplaySummary', 'Runner', 'SpanWatch',
 #: spread over that many (at 4,096 an hour's replay without analyses took 2.51 s of CPU
 #: against 2.37 s, six runs each; the peak memory is 13 MB higher at this size)
 FRAME_BATCH = 16384
-MIN_RUN = 64        # frames: below this, a run the decoder cannot take at once goes one by one
 
 
 class ReplayError(SteerMonitorError):
@@ -324,7 +323,7 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
                     k = min(len(block) - pos, FRAME_BATCH - pending_n)
                     part = block.take(np.arange(pos, pos + k))
                     pos += k
-                    emit(feed_part(pipeline, part, span.see))
+                    emit(pipeline.feed_frames(part, span.see))
                     if frames:
                         pending.append(part)
                     pending_n += k
@@ -345,46 +344,6 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
         writer.write_frames(FrameArrays.concat(pending))
     emit(pipeline.finish())
     flush()
-
-
-def feed_part(pipeline: Pipeline, part: FrameArrays,
-              see: Callable[[int | None, int], None] | None = None) -> list[Output]:
-    """The frames of ``part`` into ``pipeline`` as :func:`runs_of` cuts them: what the pipeline
-    emits, in order. ``see`` hears the stream's time before a frame is taken, and its stamp
-    (of every frame fed one at a time; of a run's first and last)."""
-    out: list[Output] = []
-    for piece in runs_of(pipeline.decoder, part):
-        if isinstance(piece, FrameArrays):
-            for frame in piece.frames():
-                if see is not None:
-                    see(pipeline.clock(frame.t_ns), frame.t_ns)
-                out += pipeline.feed(frame)
-            continue
-        if see is not None:
-            jump = pipeline.decoder.jumps.max_jump_ns
-            for i in (0, len(piece.t_ns) - 1):
-                ti, ref = int(piece.t_ns[i]), int(piece.ref_before[i])
-                see(ti if abs(ti - ref) <= jump else ref, ti)
-        out += pipeline.feed_run(piece)
-    return out
-
-
-def runs_of(decoder: Decoder, part: FrameArrays) -> Iterator[DecodedRun | FrameArrays]:
-    """``part`` as runs the decoder has decoded at once, or, where it must decide across
-    frames (the stream's start, a time jump, an address claim), pieces of up to ``MIN_RUN``
-    frames to feed one at a time before the next is asked for; the largest run before such a
-    place is still taken at once (halving down to ``MIN_RUN``)."""
-    n, pos = len(part), 0
-    while pos < n:
-        size = n - pos
-        while True:
-            piece = part.take(np.arange(pos, pos + size))
-            run = decoder.decode_run(piece)
-            if run is not None or size <= MIN_RUN:
-                break
-            size //= 2
-        pos += size
-        yield piece if run is None else run
 
 
 def summary_json(s: ReplaySummary) -> dict[str, Any]:

@@ -33,7 +33,6 @@ Times integer ns, values SI.
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -60,9 +59,9 @@ from steer_monitor.estimate.rams import opposed_cause, working_against
 from steer_monitor.estimate.ramscheck import RamsCheck, UnevenSpan, describe
 from steer_monitor.model.gear import Gaps, GearParams
 from steer_monitor.model.loadshare import LoadSharing, load_sharing
-from steer_monitor.monitor.live import HARD_OVER_DEG, OTHER_SIDE_DEG
+from steer_monitor.monitor.performance import HardOver, HardOverTracker
 
-__all__ = ['HardOver', 'Review', 'ReviewResult', 'TAIL_NS', 'WindowEstimate']
+__all__ = ['Review', 'ReviewResult', 'TAIL_NS', 'WindowEstimate']
 
 SECOND_NS = 1_000_000_000
 LAG_NS = SECOND_NS          # the grid is processed up to this far behind the newest angle
@@ -70,16 +69,6 @@ KEEP_NS = 3 * SECOND_NS     # samples carried into the next block
 TAIL_NS = 600 * SECOND_NS   # steady-motion observations kept for the inflation factor
 MAX_WINDOWS = 4
 SLICE_NS = 600 * SECOND_NS
-
-
-@dataclass(frozen=True)
-class HardOver:
-    """One hard-over: left ``side`` x 35 deg at ``t_leave_ns``, reached 30 deg the other side
-    ``seconds`` later."""
-
-    t_leave_ns: int
-    seconds: float
-    side: float
 
 
 @dataclass(frozen=True)
@@ -165,7 +154,7 @@ class Review:
         self._notes: list[str] = []
         self._sec: list[tuple[NDArray, ...]] = []
         self._tail: list[Observations] = []
-        self._hard: tuple[float, int] | None = None
+        self._hard = HardOverTracker()
         self.hard_overs: list[HardOver] = []
         self.motion_s = 0.0
         self.samples = 0
@@ -252,15 +241,7 @@ class Review:
             return None
 
     def _hard_overs(self, angle: Series) -> None:
-        deg = np.degrees(angle.value)
-        beyond = np.nonzero(np.abs(deg) >= OTHER_SIDE_DEG)[0]
-        for t, d in zip(angle.t_ns[beyond].tolist(), deg[beyond].tolist()):   # as LiveMonitor does
-            if abs(d) >= HARD_OVER_DEG:
-                self._hard = (math.copysign(1.0, d), t)
-            elif self._hard is not None and self._hard[0] * d <= -OTHER_SIDE_DEG:
-                side, t_leave = self._hard
-                self.hard_overs.append(HardOver(t_leave, (t - t_leave) / 1e9, side))
-                self._hard = None
+        self.hard_overs += self._hard.angles(angle.t_ns.tolist(), angle.value)
 
     def _process(self, start: int, end: int) -> None:
         try:

@@ -20,8 +20,13 @@ from steer_monitor.can.frames import Frame
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
 
-__all__ = ['BusError', 'BusReader', 'ListenOnlyBus', 'ListenOnlyError', 'frame_from_message',
+__all__ = ['MAX_BATCH', 'BusError', 'BusReader', 'ListenOnlyBus', 'ListenOnlyError', 'frame_from_message',
            'message_from_frame', 'socketcan_listen_only', 'transmit_refusal']
+
+#: frames given as one list at most: a queue that filled while the reader was held up (a
+#: full bus at 2,000 frames/s for two seconds) comes in lists of this many, so the monitor's
+#: outputs are published as it goes, not after the whole backlog
+MAX_BATCH = 4096
 
 
 class BusError(SteerMonitorError):
@@ -197,12 +202,14 @@ class BusReader:
     (backoff doubling from ``backoff_initial`` to ``backoff_max`` seconds), reopens and counts
     ``bus_reopen``. Runs until ``stop`` is set.
 
-    With ``batch`` > 0 [s], a busy bus is read in batches: after a frame, whatever has
-    arrived is taken without waiting, then the reader pauses ``batch`` seconds and takes what
-    came meanwhile, until a pause brings nothing; then it blocks on the bus again. Frames wait
-    in the interface's receive queue (the kernel's socket buffer on socketcan) for at most
-    about ``batch``: on a bus at 2,000 frames/s the reader wakes ~1/``batch`` times a second
-    instead of once a frame, which is most of a frame's cost in Python. 0: wake for each frame.
+    Frames come in lists (:meth:`batches`): with ``batch`` > 0 [s], a busy bus is read every
+    ``batch`` seconds: after a frame, whatever has arrived is taken without waiting, then the
+    reader pauses ``batch`` seconds and takes what came meanwhile, until a pause brings nothing;
+    then it blocks on the bus again. Frames wait in the interface's receive queue (the kernel's
+    socket buffer on socketcan) for at most about ``batch``: on a bus at 2,000 frames/s the
+    reader wakes ~1/``batch`` times a second instead of once a frame, and the monitor takes
+    each list as one run (most of a frame's cost in Python is per call). 0: no pause, each
+    wake-up's frames a list.
     """
 
     def __init__(self, opener: Callable[[], ListenOnlyBus], rejects: RejectCounter,
@@ -244,13 +251,16 @@ class BusReader:
         else:
             stop.wait(seconds)
 
-    def frames(self, stop: threading.Event, idle: bool = False) -> Iterator[Frame | None]:
-        """Frames until ``stop`` is set. With ``idle``, also yields None after each ``poll``
-        seconds without a frame, so the caller can do time-based work while the bus is quiet."""
+    def batches(self, stop: threading.Event) -> Iterator[list[Frame]]:
+        """What the bus holds, as lists of frames in the order received, until ``stop`` is
+        set: after a frame, whatever has arrived is taken without waiting and given as one
+        list (at most :data:`MAX_BATCH` frames); then, with ``batch`` > 0, the reader pauses
+        ``batch`` seconds and takes what came meanwhile, until a pause brings nothing and it
+        blocks on the bus again. An empty list after each ``poll`` seconds without a frame,
+        so the caller can do time-based work while the bus is quiet."""
         backoff = self.backoff_initial
         failed = False
-        draining = False       # batched reading: take what is there without waiting
-        got = False            # ... and a frame came since the last pause
+        draining = False       # a pause came after frames: take what is there without waiting
         try:
             while not stop.is_set():
                 if self.bus is None:
@@ -269,26 +279,34 @@ class BusReader:
                         if self._on_error is not None:
                             self._on_error(None)
                     backoff = self.backoff_initial
+                got: list[Frame] = []
                 try:
                     frame = self.bus.recv(0.0 if draining else self.poll)
+                    while frame is not None:
+                        got.append(frame)
+                        if len(got) >= MAX_BATCH:
+                            break
+                        frame = self.bus.recv(0.0)
                 except BusError as exc:
                     self.bus.close()
                     self.bus = None
                     failed = True
                     draining = False
+                    if got:
+                        yield got          # what was read before the failure is not lost
+                        if stop.is_set():
+                            break
                     backoff = self._failed(exc, backoff, stop)
                     continue
-                if frame is not None:
-                    draining = got = self.batch > 0
-                    yield frame
-                elif draining:
-                    if got:                # the queue is empty: let the next batch gather
-                        got = False
-                        self._wait(self.batch, stop)
-                    else:                  # a pause brought nothing: wait on the bus again
-                        draining = False
-                elif idle:
-                    yield None
+                if got:
+                    yield got
+                    if len(got) < MAX_BATCH and self.batch > 0:
+                        self._wait(self.batch, stop)      # the queue is empty: let the next batch gather
+                    draining = self.batch > 0
+                elif draining:             # a pause brought nothing: wait on the bus again
+                    draining = False
+                else:
+                    yield got
         finally:
             self.close()
 

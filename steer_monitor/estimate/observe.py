@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 
 from steer_monitor.errors import SteerMonitorError
 from steer_monitor.model.inputs import PRESSURE_INPUTS, Series
+from steer_monitor.model.ramforce import ram_forces
 
 __all__ = ['GRID_NS', 'HALF_WINDOW_NS', 'MOVING_RATE', 'SEGMENT_NS', 'STEADY_FRACTION', 'EstimateError', 'Observations',
            'build_observations', 'data_grid', 'grid_times', 'in_sorted', 'sorted_positions']
@@ -338,8 +339,7 @@ def build_observations(signals: Mapping[str, Series], ram_area: float, *,
     inner = slice(1, -1) if t.size else slice(None)
     alpha, rate, direction = alpha_ext[inner], rate[inner], direction[inner]
     pressure = np.stack([_interp(signals.get(n), t, MAX_GAP_NS) for n in PRESSURE_INPUTS], axis=1)
-    force = np.stack([ram_area * (pressure[:, 0] - pressure[:, 1]),
-                      ram_area * (pressure[:, 2] - pressure[:, 3])], axis=1)
+    force = ram_forces(ram_area, pressure)
     speed = _interp(signals.get('ship_speed'), t, SLOW_GAP_NS)
     oil = _interp(signals.get('oil_temperature'), t, SLOW_GAP_NS)
     return Observations(t, alpha, rate, direction, force, pressure, speed, oil)

@@ -39,7 +39,8 @@ from steer_monitor.model.hardover import hard_over_time, pumps_running
 from steer_monitor.model.inputs import PRESSURE_INPUTS, REQUIRED
 from steer_monitor.model.loadshare import load_sharing_at
 from steer_monitor.model.study import landmarks
-from steer_monitor.monitor.live import ARRIVALS_KEPT_NS, RATE_WINDOW_NS, LiveMonitor
+from steer_monitor.monitor.arrivals import ARRIVALS_KEPT_NS, RATE_WINDOW_NS
+from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.verdict import ERROR, NOT_ASSESSED, OK, WARN, Verdict, clearance_verdict, worst
 from steer_monitor.params import ram_share_warn_from_params
 from steer_monitor.utc import utc_json, utc_text
@@ -174,7 +175,7 @@ class DiagnosticsBuilder:
     def can_input(self, mon: LiveMonitor, rejects: RejectSnapshot, now_ns: int) -> Status:
         values: list[tuple[str, str]] = []
         stale, slow = [], []
-        signals = mon.signals
+        signals = mon.inputs.signals
         for name, limit, window_ns, expected_hz, keys, expected in self._inputs:
             sig = signals[name]
             rate = sig.rate_hz(now_ns, window_ns)      # the window within the time kept (__init__)

@@ -23,6 +23,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from steer_monitor.model.ramforce import ram_force_compiled
 from steer_monitor.monitor.slopes import MAX_PARTIALS, NONE, SLOPE, SPECIAL, _slope_of
 
 __all__ = ['CALL_FIELDS', 'OUT_FIELDS', 'take_instants']
@@ -136,7 +137,7 @@ def take_instants(pend_t: NDArray[np.int64], pend_p: NDArray[np.float64], pend_f
             c0, c1, c2, c3 = pend_p[j - 1, 0], pend_p[j - 1, 1], pend_p[j - 1, 2], pend_p[j - 1, 3]
             out[n, 0] = a_a + (a_b - a_a) * float(t + delay - t_a) / float(t_b - t_a)
             out[n, 1], out[n, 2] = env[k, 0], direction
-            out[n, 3], out[n, 4] = area * (c0 - c1), area * (c2 - c3)
+            out[n, 3], out[n, 4] = ram_force_compiled(area, c0, c1), ram_force_compiled(area, c2, c3)
             out[n, 5], out[n, 6] = rate, env[k, 1]
             out[n, 7], out[n, 8], out[n, 9], out[n, 10] = c0, c1, c2, c3
             out[n, 11] = j - 1

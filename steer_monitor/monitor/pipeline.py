@@ -30,7 +30,7 @@ import threading
 import time
 from bisect import bisect_left
 from collections import deque
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
@@ -39,11 +39,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from steer_monitor.can.decoder import DecodedRun, Decoder
-from steer_monitor.can.frames import Frame
+from steer_monitor.can.frames import Frame, FrameArrays
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.estimate.effects import Effect
 from steer_monitor.model.gear import Gaps, GearParams
-from steer_monitor.model.inputs import INPUTS, Sample
+from steer_monitor.model.inputs import INPUTS, PRESSURE_INPUTS, Sample
 from steer_monitor.monitor.analyst import ANALYSED, Analyst, AnalystSettings, Job, JobRunner, Outcome, SyncJobs, run_job
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, Status
 from steer_monitor.monitor.live import LiveMonitor, LiveState
@@ -51,14 +51,22 @@ from steer_monitor.monitor.runfeed import ANGLE, RunPlan, StateRun
 from steer_monitor.params import min_clearance_2z_from_params, ram_share_warn_from_params
 from steer_monitor.threads import release_freed_memory
 
-__all__ = ['APPLY_DELAY_NS', 'APPLY_PER_MOTION', 'MAX_GAP_SECONDS', 'SECOND_NS', 'SLOT_NS', 'DiagOut', 'Pipeline',
-           'StateOut', 'ThreadedJobs', 'analyst_from_params', 'apply_delay_ns', 'settings_from_params']
+__all__ = ['APPLY_DELAY_NS', 'APPLY_PER_MOTION', 'MAX_GAP_SECONDS', 'MIN_RUN', 'SECOND_NS', 'SLOT_NS', 'DiagOut',
+           'Pipeline', 'StateOut', 'ThreadedJobs', 'analyst_from_params', 'apply_delay_ns', 'runs_of',
+           'settings_from_params']
 
 SLOT_NS = 10_000_000
 SECOND_NS = 1_000_000_000
 APPLY_DELAY_NS = 20 * SECOND_NS     # a finding is applied this long after its job started ...
 APPLY_PER_MOTION = 0.01             # ... and this share of the motion its window may hold
 MAX_GAP_SECONDS = 60
+#: frames: a part of fewer frames goes one by one, and so does a run the decoder cannot take
+#: at once once halved to this: a run's decoding and laying out cost some 0.3 ms whatever its
+#: length, so below about 500 frames of a full bus (a quarter of a second of it) frame by frame
+#: is cheaper (bench/bench_feed.py)
+MIN_RUN = 512
+#: the inputs whose samples change the live model's state (what a published state reflects)
+_STATE_INPUTS = frozenset(('rudder_angle', *PRESSURE_INPUTS))
 
 
 @dataclass(frozen=True)
@@ -182,17 +190,74 @@ class Pipeline:
             monitor.set_finding(analyst.finding)
             monitor.last_assessed = dict(analyst.assessed)
         self.frames = 0
-        self.last_changed_state = False        # the last frame fed changed the live model's state
+        #: after :meth:`feed_frames`: the stamps [ns] of its frames that changed the live model's
+        #: state, and how many of its frames it took
+        self.changed_stamps: list[int] = []
+        self.taken = 0
+        self._changed_by_last = False           # the last frame fed (feed) carried a rudder or pressure sample
 
     # --- input ---------------------------------------------------------------------------
+    def feed_frames(self, part: FrameArrays | Sequence[Frame], see: Callable[[int | None, int], None] | None = None,
+                    *, until_step_back: bool = False) -> list[Output]:
+        """Take frames in the order received: the one way frames enter the pipeline, for the
+        node (what each read of the bus holds, as frames) and for a replay (a log's blocks, as
+        columns). Runs the decoder can decode at once go through :meth:`feed_run`; a part of
+        fewer than :data:`MIN_RUN` frames, and where the decoder must decide across frames (the
+        stream's start, a time jump, an address claim) pieces of up to :data:`MIN_RUN` frames,
+        go one at a time (:meth:`feed`) (:func:`runs_of`). The outputs do not depend on how the
+        frames are cut into parts (tested: one part per frame and parts of any size give the
+        same). Returns what became due, in order; :attr:`changed_stamps` then holds the stamps
+        [ns] of the frames taken whose samples changed the live model's state (rudder angle,
+        pressures), in order, and :attr:`taken` how many of its frames it took. ``see`` hears
+        the stream's time before a frame is taken, and its stamp (of every frame fed one at a
+        time; of a run's first and last). ``until_step_back``: stop after the frame that
+        confirms the stream's time going back (the node starts a new monitor there)."""
+        out: list[Output] = []
+        stamps: list[int] = []
+        taken = 0
+        if isinstance(part, FrameArrays):
+            pieces: Iterable[DecodedRun | FrameArrays | Sequence[Frame]] = runs_of(self.decoder, part)
+        elif len(part) < MIN_RUN:
+            pieces = (part,)                 # as runs_of would: not worth making columns of
+        else:
+            pieces = runs_of(self.decoder, FrameArrays.from_frames(part))
+        for piece in pieces:
+            if not isinstance(piece, DecodedRun):
+                for frame in piece.frames() if isinstance(piece, FrameArrays) else piece:
+                    if see is not None:
+                        see(self.clock(frame.t_ns), frame.t_ns)
+                    out += self.feed(frame)
+                    taken += 1
+                    if self._changed_by_last:
+                        stamps.append(frame.t_ns)
+                    if until_step_back and self.decoder.jumps.steps_back:
+                        self.changed_stamps, self.taken = stamps, taken
+                        return out
+                continue
+            if see is not None:
+                jump = self.decoder.jumps.max_jump_ns
+                for i in (0, len(piece.t_ns) - 1):
+                    ti, ref = int(piece.t_ns[i]), int(piece.ref_before[i])
+                    see(ti if abs(ti - ref) <= jump else ref, ti)
+            out += self.feed_run(piece)             # a run holds no time jump (decode_run)
+            taken += len(piece.t_ns)
+            changing = [k for k, name in enumerate(piece.spec_names) if name in _STATE_INPUTS]
+            if changing:
+                rows = np.unique(piece.sample_row[np.isin(piece.sample_spec, changing)])
+                stamps += piece.t_ns[rows].tolist()
+        self.changed_stamps, self.taken = stamps, taken
+        return out
+
     def feed(self, frame: Frame) -> list[Output]:
         """Take one frame; returns what became due before it (the frame itself is in the
-        next output)."""
+        next output). The per-frame path :meth:`feed_frames` takes where the decoder must
+        decide across frames, and the reference the run path is tested against."""
         out: list[Output] = []
         self.frames += 1
         samples = self.decoder.decode(frame)
         self._advance(self.clock(frame.t_ns), out)
         self._take(samples)
+        self._changed_by_last = any(x.signal in _STATE_INPUTS for x in samples)
         return out
 
     def feed_run(self, run: DecodedRun) -> list[Output]:
@@ -217,7 +282,6 @@ class Pipeline:
         opens = slot > before
         visit = opens.copy()
         visit[run.sample_row] = True
-        visit[-1] = True                                # it sets last_changed_state
         if self._slot is None:
             visit[0] = True
         rows = np.flatnonzero(visit)
@@ -261,7 +325,7 @@ class Pipeline:
         fresh_before = np.concatenate([[0, 0], np.cumsum(fresh_all[1:])]).tolist()   # of openings 1.. before each
         at_l = at_all.tolist()
         emits: list[tuple[int, NDArray[np.intp], Gaps]] = []   # (place in out, state positions, clearances)
-        mon.plan_angles(plan.times[ANGLE], plan.vals[ANGLE])
+        mon.steady.plan(plan.times[ANGLE], plan.vals[ANGLE])
         c = 0                                        # counting rows passed
         advanced = -1                                # the row whose time the schedule last took
         pos, n_rows = 0, len(rows_l)
@@ -301,9 +365,10 @@ class Pipeline:
                     self._slot = int(slot[rows_l[opens_at[k1 - 1]]])
                 else:
                     changed = changed or plan.changed_between(a, b)
-                mon.mark_read(state, changed)
+                if state is not None:             # the state last read, as slot_state() would have
+                    mon.latest = state
+                mon.changed = changed
                 self._state_pending = changed
-                self.last_changed_state = changed and hi_l[j - 1] > lo_l[j - 1]
             if j >= n_rows:
                 break
             i = rows_l[j]                            # one by one, as feed_run's loop
@@ -325,7 +390,7 @@ class Pipeline:
                 plan.rate_after[s] = mon.rate        # the rate after the row: all a later state reads
             pos = j + 1
         plan.sync(mon, analyst, plan.m)
-        mon.plan_angles(None)
+        mon.steady.plan(None)
         if emits:
             sizes = [at.size for _, at, _ in emits]
             runs = plan.states(mon, np.concatenate([at for _, at, _ in emits]),
@@ -362,7 +427,6 @@ class Pipeline:
             self._seconds_until(t, out)
 
     def _take(self, samples: list[Sample]) -> None:
-        self.last_changed_state = False
         if samples:
             mon = self.monitor
             analyst = self.analyst
@@ -371,7 +435,6 @@ class Pipeline:
                 if analyst is not None and s.signal in ANALYSED:
                     analyst.add(s.signal, s.t_ns, s.value)
             self._state_pending = mon.changed
-            self.last_changed_state = mon.changed
 
     def idle(self, now_ns: int, margin_ns: int = 50 * 1_000_000) -> list[Output]:
         """Live only: the bus has been quiet; emit the state of a slot that ended more than
@@ -464,3 +527,26 @@ class Pipeline:
                                    why=None if self.analyst is None else self.analyst.why)
         interval = dict(mon.gaps_interval) if mon.gaps_interval else None
         return DiagOut(now_ns, tuple(statuses), mon.gaps, interval, mon.gaps_source)
+
+
+def runs_of(decoder: Decoder, part: FrameArrays) -> Iterator[DecodedRun | FrameArrays]:
+    """``part`` as runs the decoder has decoded at once, or, where it must decide across
+    frames (the stream's start, a time jump, an address claim), pieces of up to :data:`MIN_RUN`
+    frames to feed one at a time before the next is asked for; the largest run before such a
+    place is still taken at once (halving down to :data:`MIN_RUN`). A part of fewer than
+    :data:`MIN_RUN` frames is one piece, fed one at a time."""
+    n, pos = len(part), 0
+    if n < MIN_RUN:
+        if n:
+            yield part
+        return
+    while pos < n:
+        size = n - pos
+        while True:
+            piece = part if pos == 0 and size == n else part.take(np.arange(pos, pos + size))
+            run = decoder.decode_run(piece)
+            if run is not None or size <= MIN_RUN:
+                break
+            size //= 2
+        pos += size
+        yield piece if run is None else run

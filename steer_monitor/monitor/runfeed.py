@@ -29,7 +29,7 @@ from steer_monitor.model.inputs import INPUTS, PRESSURE_INPUTS
 from steer_monitor.monitor.analyst import ANALYSED, Analyst
 from steer_monitor.monitor.live import LiveMonitor, LiveState, states_at
 
-__all__ = ['ANGLE', 'ORDER', 'RunPlan', 'StateRun']
+__all__ = ['ANGLE', 'ORDER', 'RunPlan', 'StateRun', 'take_rudder']
 
 _CODE = {name: k for k, name in enumerate(INPUTS)}
 ANGLE, ORDER = _CODE['rudder_angle'], _CODE['rudder_order']
@@ -101,7 +101,7 @@ class RunPlan:
         # the four pressures standing before each position 0..m, and the instants update()
         # holds for the residual (each pressure sample's, where all four are known)
         idx = self.newest[:, 1:]
-        self.pressures = np.where(idx >= 0, self._value[idx], np.asarray(mon._pressures, float)[None, :])
+        self.pressures = np.where(idx >= 0, self._value[idx], np.asarray(mon.pressures, float)[None, :])
         p = self.pressures[1:]
         held = np.isin(code, _PRESSURE) & ~np.isnan(((p[:, 0] + p[:, 1]) + p[:, 2]) + p[:, 3])
         hp = np.flatnonzero(held)
@@ -166,7 +166,7 @@ class RunPlan:
         if done >= len(where) or where[done] >= upto:      # the common case: nothing new since
             return False
         i = bisect_left(where, upto, done)
-        mon.record(INPUTS[c], self.times[c][done:i], self.vals[c][done:i], self.in_order[c])
+        mon.inputs.record(INPUTS[c], self.times[c][done:i], self.vals[c][done:i], self.in_order[c])
         self._recorded[c] = i
         return True
 
@@ -175,14 +175,14 @@ class RunPlan:
         the ship's speed and oil temperature) brought up to it."""
         k = bisect_left(self.held_at, s)
         if k > self._held:
-            mon.hold_pressures(self.held_t[self._held:k], self.held_p[self._held:k], None)
+            mon.steady.hold_many(self.held_t[self._held:k], self.held_p[self._held:k])
             self._held = k
         for c in _SLOW:
             self._record_upto(mon, c, s)
 
     def take_rudder(self, mon: LiveMonitor, start: int, stop: int) -> bool:
         """The angle and order samples at positions [start, stop) taken at once
-        (:meth:`~steer_monitor.monitor.live.LiveMonitor.take_rudder`), each angle sample with
+        (:func:`take_rudder`), each angle sample with
         what :meth:`before_sequential` would have brought up to it, and the rate after each
         noted; False, having changed nothing, where the live model cannot take them so (take
         them one by one)."""
@@ -198,10 +198,10 @@ class RunPlan:
         o0, o1 = bisect_left(where[ORDER], start), bisect_left(where[ORDER], stop)
         done = self._held
         last = max(self._angle_held[a1 - 1], done) if a1 > a0 else done
-        rates = mon.take_rudder(self._seq_angle[s0:s1], self.times[ANGLE][a0:a1], self.vals[ANGLE][a0:a1],
-                                [max(k - done, 0) for k in self._angle_held[a0:a1]], self._angle_env[2 * a0:2 * a1],
-                                self.held_t[done:last], self.held_p[done:last], self.times[ORDER][o0:o1],
-                                self.vals[ORDER][o0:o1], self.in_order[ORDER])
+        rates = take_rudder(mon, self._seq_angle[s0:s1], self.times[ANGLE][a0:a1], self.vals[ANGLE][a0:a1],
+                            [max(k - done, 0) for k in self._angle_held[a0:a1]], self._angle_env[2 * a0:2 * a1],
+                            self.held_t[done:last], self.held_p[done:last], self.times[ORDER][o0:o1],
+                            self.vals[ORDER][o0:o1], self.in_order[ORDER])
         if rates is None:
             return False
         self._held = last
@@ -238,8 +238,9 @@ class RunPlan:
         for c in _RECORDED:
             moved = self._record_upto(mon, c, upto) and c in _PRESSURE or moved
         if k > self._held or moved:
-            mon.hold_pressures(self.held_t[self._held:k], self.held_p[self._held:k],
-                               tuple(self.pressures[upto].tolist()) if moved else None)
+            mon.steady.hold_many(self.held_t[self._held:k], self.held_p[self._held:k])
+            if moved:
+                mon.pressures = self.pressures[upto].tolist()
             self._held = k
         if analyst is not None:
             for c in _ANALYSED:
@@ -281,3 +282,41 @@ class RunPlan:
         t = np.maximum(alpha_t, pt)
         alpha, torque = states_at(mon.gear, t, alpha, alpha_t, rate, p)
         return StateRun(t, alpha, rate, torque, np.asarray(two_z, float), np.asarray(z_gb, float))
+
+
+def take_rudder(mon: LiveMonitor, kinds: list[bool], angle_t: list[int], angle_a: list[float], held: list[int],
+                env: list[float], hold_t: NDArray[np.int64], hold_p: NDArray[np.float64], order_t: list[int],
+                order_v: list[float], orders_in_order: bool) -> list[float] | None:
+    """:meth:`~steer_monitor.monitor.live.LiveMonitor.update` of a replay's span of rudder
+    samples at once, where the live model's rate part planned the angle samples' rates
+    (:meth:`~steer_monitor.monitor.steady.SteadyMotion.plan`): ``kinds`` the span's rudder
+    samples in order (True: an angle sample, False: an order sample); the angle samples'
+    times (m,) [ns] and angles (m,) [rad], with what each one logs beside it (``held``, ``env``,
+    ``hold_t``, ``hold_p``: :meth:`~steer_monitor.monitor.steady.SteadyMotion.take_span`); the
+    order samples' times [ns] and orders [rad] (``orders_in_order``: their times in order).
+    The same state as taking them one by one with the pressure samples between them; returns
+    the rate [rad/s] after each angle sample, or None, having changed nothing, where the plan
+    does not give them (then take them one by one)."""
+    rates: list[float] = []
+    if angle_t:
+        taken = mon.steady.take_span(angle_t, angle_a, held, env, hold_t, hold_p)
+        if taken is None:
+            return None
+        rates, tracked = taken
+        mon.inputs.record('rudder_angle', angle_t, angle_a, True)
+        mon.changed = True
+        if tracked:                      # the hard-over's tracker: only where it can change
+            mon.performance.hard_over.angles(angle_t, angle_a)
+    if order_t:
+        mon.inputs.record('rudder_order', order_t, order_v, orders_in_order)
+    responses = mon.performance.responses
+    ia = io = 0
+    for is_angle in kinds:               # the response: angle and order samples in their order
+        if is_angle:
+            if responses.response is not None:
+                responses.angle(angle_t[ia], angle_a[ia], rates[ia])
+            ia += 1
+        else:
+            responses.order(order_t[io], order_v[io])
+            io += 1
+    return rates

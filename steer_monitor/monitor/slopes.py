@@ -80,7 +80,7 @@ def _total(partials: NDArray[np.float64], n: int) -> float:
 def _slope_of(t_ns: NDArray[np.int64], a: NDArray[np.float64], lo: int, hi: int, p: NDArray[np.float64],
               ts: NDArray[np.float64]) -> tuple[int, float]:
     """(status, slope [per s]) of the points ``lo:hi``: centred moments, every sum correctly
-    rounded (``LiveMonitor._slope``'s formula)."""
+    rounded (``SteadyMotion.rate_of``'s formula)."""
     n = hi - lo
     if n < 3:
         return NONE, 0.0
@@ -152,7 +152,7 @@ def push_counting_squares(data: NDArray[np.float64], nxt: int, kept: int, rows: 
                           partials: NDArray[np.float64], k: int) -> tuple[int, int, int, int, int]:
     """Rows (n, 3) of residual pairs and whether judged (1/0) pushed into a ring ``data``
     (cap, 3) whose next row is ``nxt`` and which holds ``kept`` rows (the live monitor's
-    ``_Ring``: the last cap rows stay, where pushing them one by one would put them), the
+    ``RowRing``: the last cap rows stay, where pushing them one by one would put them), the
     squares of the judged pairs of the rows it lets go taken out of the exact partials
     ``partials[:k]`` (oldest first) and those of the rows it takes added, exactly
     (:func:`_add_square`): (next, kept, the partials' count, the change in values

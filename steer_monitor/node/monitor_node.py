@@ -112,7 +112,7 @@ class MonitorNode(Node):
         smap = self.smap
         self._make_publishers()
         self._lock = threading.Lock()          # guards the pipeline and the live model
-        self._unpublished: list[int] = []      # bus timestamps of state-changing frames not yet published
+        self._unpublished: deque[int] = deque()   # bus timestamps of state-changing frames not yet published
         self.latencies_ns: deque[int] = deque(maxlen=LATENCY_WINDOW)
         self.frames_received = 0
         self._last_diag = time.monotonic()
@@ -132,7 +132,8 @@ class MonitorNode(Node):
         interface, channel = p['can.interface'], p['can.channel']
         opener = bus_opener or (lambda: ListenOnlyBus(interface, channel, p['can.bitrate'], p['can.timestamps']))
         self.reader = BusReader(opener, self.rejects, p['can.reopen_backoff_initial_s'],
-                                p['can.reopen_backoff_max_s'], poll=POLL_S, batch=p['can.read_batch_ms'] * 1e-3,
+                                p['can.reopen_backoff_max_s'], poll=POLL_S + p['can.read_batch_ms'] * 1e-3,
+                                batch=p['can.read_batch_ms'] * 1e-3,
                                 on_open=self._bus_opened, on_error=self._bus_failed)
         self._reader_thread = threading.Thread(target=self._read, name='steer_monitor-can', daemon=True)
         self.create_timer(1.0, self._silent_diagnostics)
@@ -344,11 +345,14 @@ class MonitorNode(Node):
             if isinstance(o, StateOut):
                 for key, t_ns, fields in state_messages(o):
                     self._publish(key, fields, t_ns)
-                done = time.time_ns()
-                self.latencies_ns.extend(done - t for t in self._unpublished)
-                self._unpublished.clear()
-            else:
+                done, pending, upto = time.time_ns(), self._unpublished, o.state.t_ns
+                while pending and pending[0] <= upto:     # the frames this state reflects
+                    self.latencies_ns.append(done - pending.popleft())
+            elif isinstance(o, DiagOut):
                 self._publish_diag(o)
+            else:       # the node's live model solves each state's load sharing: no state columns come
+                msg = f'the pipeline gave the node an output it does not publish: {type(o).__name__}'
+                raise TypeError(msg)
 
     def _publish_diag(self, o: DiagOut) -> None:
         rec = self._recording_status()
@@ -389,6 +393,9 @@ class MonitorNode(Node):
 
     # --- reader thread -----------------------------------------------------------------------
     def _read(self) -> None:
+        """The reader thread: each read of the bus (what it held, :meth:`BusReader.batches`)
+        recorded and fed to the pipeline as one part (:meth:`Pipeline.feed_frames`, the path a
+        replay takes); while the bus is quiet, the pipeline told the wall time (:meth:`Pipeline.idle`)."""
         reader, recorder, lock = self.reader, self.recorder, self._lock
         stop = self._stop
         # frames go to the recorder in batches (one queue entry, packed at once): at most
@@ -397,41 +404,52 @@ class MonitorNode(Node):
         batch_start = 0
         try:
             while not stop.is_set():
-                for frame in reader.frames(stop, idle=True):
+                for frames in reader.batches(stop):
                     received = time.monotonic_ns()
-                    if frame is not None:
-                        self.frames_received += 1
+                    cut = len(batch)                 # where this read's frames begin in the recorder's batch
+                    if frames:
+                        self.frames_received += len(frames)
                         if recorder is not None:
                             if not batch:
                                 batch_start = received
-                            batch.append(frame)
-                    if batch and (
-                        frame is None or len(batch) >= RECORD_BATCH or received - batch_start >= RECORD_BATCH_NS
-                    ):
-                        recorder.write_frames(batch)  # type: ignore[union-attr]
-                        batch = []
+                            batch += frames
+                    taken, later = len(frames), []
                     try:
                         with lock:
                             pipeline = self.pipeline
-                            outs = pipeline.feed(frame) if frame is not None else pipeline.idle(time.time_ns())
+                            if frames:
+                                outs = pipeline.feed_frames(frames, until_step_back=True)
+                                # the frames the next states reflect: their latency runs from their bus
+                                # timestamps (the interface's receive time, wall clock), so the time
+                                # they waited in the receive queue counts
+                                self._unpublished += pipeline.changed_stamps
+                                taken = pipeline.taken
+                            else:
+                                outs = pipeline.idle(time.time_ns())
                             restarted = bool(pipeline.decoder.jumps.steps_back)
                             if restarted:
                                 outs += self._restart_monitor()
+                                self._unpublished.clear()    # stamps of the old time: no new state reflects them
+                                if taken < len(frames):      # the read's frames after the step: the new monitor's
+                                    later = self.pipeline.feed_frames(frames[taken:])
+                                    self._unpublished += self.pipeline.changed_stamps
                     except SteerMonitorError as exc:  # the decoder counts rejects; this guards a defect
-                        self.get_logger().error(f'frame not processed: {exc}', throttle_duration_sec=GUARD_LOG_S)
+                        self.get_logger().error(f'frames not processed: {exc}', throttle_duration_sec=GUARD_LOG_S)
                         outs, restarted = [], False
                     if outs:
                         self._publish_outputs(outs)
                     if restarted and recorder is not None:
-                        if batch:
-                            recorder.write_frames(batch)
-                            batch = []
+                        # each file holds one time: the old one's frames and outputs, then the new
+                        # one's in the next file
+                        recorder.write_frames(batch[:cut + taken])
                         recorder.split()
-                    if frame is not None and self.pipeline.last_changed_state:
-                        # a frame the next state reflects: its latency runs from its bus
-                        # timestamp (the interface's receive time, wall clock), so the time it
-                        # waited in the receive queue counts
-                        self._unpublished.append(frame.t_ns)
+                        batch, batch_start = batch[cut + taken:], received
+                    if later:
+                        self._publish_outputs(later)
+                    if batch and (not frames or len(batch) >= RECORD_BATCH
+                                  or received - batch_start >= RECORD_BATCH_NS):
+                        recorder.write_frames(batch)  # type: ignore[union-attr]
+                        batch = []
         finally:
             if batch and recorder is not None:
                 recorder.write_frames(batch)

@@ -46,6 +46,7 @@ from steer_monitor.estimate.locate import UNITS
 from steer_monitor.estimate.observe import Observations
 from steer_monitor.model.gear import Gaps
 from steer_monitor.model.loadshare import STAGE_CLAMPED, load_sharing
+from steer_monitor.model.ramforce import ram_forces
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
 
 __all__ = [
@@ -339,7 +340,7 @@ def true_forces(plant: sim.SimResult, cfg: sim.SimConfig, t_ns: NDArray[np.int64
         if offset is not None and offset['input'] == name:
             value = value + float(offset['offset_bar']) * 1e5
         p.append(value)
-    return np.stack([ram_area * (p[0] - p[1]), ram_area * (p[2] - p[3])], axis=1)
+    return ram_forces(ram_area, np.stack(p, axis=1))
 
 
 def model_misfit(est: ClearanceEstimate, obs: Observations, truth: NDArray[np.float64]) -> float:

@@ -46,7 +46,7 @@ def test_hard_overs_as_the_live_monitor_times_them(r18_params, can_db, voyage):
             before = mon.hard_over_s
             mon.update(s)
             if s.signal == 'rudder_angle' and mon.hard_over_s is not None and (
-                    before != mon.hard_over_s or mon._hard_over is None and not seen):
+                    before != mon.hard_over_s or not mon.performance.hard_over.at_hard_over and not seen):
                 seen.append(mon.hard_over_s)
     res = _review(r18_params, can_db, voyage, 5)
     assert [h.seconds for h in res.hard_overs] == pytest.approx(seen)

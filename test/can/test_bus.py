@@ -54,11 +54,12 @@ def _read_all(db, smap, channel, expected, rejects):
     ready = threading.Event()
 
     def run():
-        it = reader.frames(stop)
+        it = reader.batches(stop)
         ready.set()
-        for frame in it:
-            seen.append(frame)
-            samples.extend(decoder.decode(frame))
+        for frames in it:
+            for frame in frames:
+                seen.append(frame)
+                samples.extend(decoder.decode(frame))
             if len(seen) >= expected:
                 stop.set()
 
@@ -131,10 +132,11 @@ def _flaky_reader(frames_wanted: int, **kw) -> tuple[list, RejectCounter, list[f
     stop = threading.Event()
     reader = BusReader(opener, rejects, backoff_initial=0.5, backoff_max=4.0, sleep=waits.append, **kw)
     got = []
-    for frame in reader.frames(stop):
-        got.append(frame)
-        if len(got) == frames_wanted:
-            stop.set()
+    for frames in reader.batches(stop):
+        for frame in frames:
+            got.append(frame)
+            if len(got) == frames_wanted:
+                stop.set()
     return got, rejects, waits
 
 
@@ -195,20 +197,37 @@ def test_reader_takes_a_busy_bus_in_batches(batch):
     stop = threading.Event()
     reader = BusReader(lambda: bus, RejectCounter(), poll=0.01, sleep=sleep, batch=batch)
     got = []
-    for frame in reader.frames(stop, idle=True):
-        if frame is None:           # the bus went quiet: the reader waited on it, then said so
+    for frames in reader.batches(stop):
+        if not frames:              # the bus went quiet: the reader waited on it, then said so
             break
-        got.append(frame.t_ns)
+        got.append([f.t_ns for f in frames])
     if batch:
-        # after a frame it takes what is there without waiting, pauses while a batch gathers,
-        # and blocks on the bus again only when a pause brought nothing
-        assert got == [1, 2, 3, 4, 5, 6]
+        # after a frame it takes what is there without waiting, as one list, pauses while a
+        # batch gathers, and blocks on the bus again only when a pause brought nothing
+        assert got == [[1, 2, 3], [4, 5], [6]]
         assert waits == [batch] * 3
         # blocks for 1; 2, 3, empty; pause; 4, 5, empty; pause; 6, empty; pause; empty; blocks
         assert bus.timeouts == [0.01] + [0.0] * 3 + [0.0] * 3 + [0.0] * 2 + [0.0] + [0.01]
     else:
-        assert got == [1, 2, 3]     # each frame waited for; nothing arrives without a pause
-        assert waits == [] and bus.timeouts == [0.01] * 4
+        assert got == [[1, 2, 3]]   # what is there taken at once; nothing arrives without a pause
+        assert waits == [] and bus.timeouts == [0.01] + [0.0] * 3 + [0.01]
+
+
+def test_reader_gives_a_backlog_in_lists_of_at_most_max_batch():
+    """A queue that filled while the reader was held up comes in lists of at most MAX_BATCH
+    frames, none lost, in order."""
+    from steer_monitor.can.bus import MAX_BATCH
+    bus = QueueBus([list(range(2 * MAX_BATCH + 5))])
+    stop = threading.Event()
+    reader = BusReader(lambda: bus, RejectCounter(), poll=0.01, sleep=lambda s: None, batch=0.002)
+    sizes, times = [], []
+    for frames in reader.batches(stop):
+        if not frames:
+            break
+        sizes.append(len(frames))
+        times += [f.t_ns for f in frames]
+    assert sizes == [MAX_BATCH, MAX_BATCH, 5]
+    assert times == list(range(2 * MAX_BATCH + 5))
 
 
 @pytest.mark.parametrize('batch', [-0.001, 0.01, 0.5])

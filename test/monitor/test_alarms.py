@@ -19,7 +19,7 @@ from steer_monitor.model.friction import FrictionParams
 from steer_monitor.model.inputs import Sample
 from steer_monitor.monitor import ERROR, OK, WARN, DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
 from steer_monitor.monitor.diagnostics import LEVEL_NAMES, STALE
-from steer_monitor.monitor.live import REVERSAL_NS
+from steer_monitor.monitor.performance import REVERSAL_NS
 from steer_monitor.monitor.pipeline import DiagOut, Pipeline, analyst_from_params
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
 from steer_monitor.utc import parse_utc

@@ -16,14 +16,14 @@ from steer_monitor.model import Gaps
 from steer_monitor.model.inputs import PRESSURE_INPUTS as PRESSURES
 from steer_monitor.model.inputs import Sample
 from steer_monitor.monitor import LiveMonitor
-from steer_monitor.monitor.live import HALF_WINDOW_NS, MOTION_STEP_NS, MOVING_RATE
+from steer_monitor.monitor.steady import HALF_WINDOW_NS, MOTION_STEP_NS, MOVING_RATE, SteadyMotion
 from steer_monitor.params import gear_from_params
 
 
 class _Oracle:
     """The judging as it was written sample by sample: each angle sample releases the held
     samples 0.3 s (and the delay) older than it, judged against the 0.9 s of angles it keeps,
-    the slopes of a bracket over 0.3 s either side by ``LiveMonitor._slope``."""
+    the slopes of a bracket over 0.3 s either side by ``SteadyMotion.rate_of``."""
 
     def __init__(self, area: float) -> None:
         self.area = area
@@ -52,8 +52,8 @@ class _Oracle:
         points = list(self.history)
         times = [p[0] for p in points]
         t = times[i]
-        s1 = LiveMonitor._slope(points[bisect.bisect_left(times, t - HALF_WINDOW_NS):i + 1])
-        s2 = LiveMonitor._slope(points[i:bisect.bisect_right(times, t + HALF_WINDOW_NS)])
+        s1 = SteadyMotion.rate_of(points[bisect.bisect_left(times, t - HALF_WINDOW_NS):i + 1])
+        s2 = SteadyMotion.rate_of(points[i:bisect.bisect_right(times, t + HALF_WINDOW_NS)])
         if s1 is None or s2 is None or min(abs(s1), abs(s2)) <= MOVING_RATE or (s1 > 0) != (s2 > 0):
             return 0.0, 0.0
         return (1.0 if s1 > 0 else -1.0), 0.5 * (s1 + s2)
@@ -134,17 +134,17 @@ def test_instants_judged_later_are_those_judged_as_each_angle_came(r18_params, s
                                                                      delay_ms):
     gear = gear_from_params(r18_params)
     mon = LiveMonitor(gear, Gaps.from_mm(0.3, 0.2))
-    mon._delay_ns = delay_ms * 1_000_000      # as set_finding sets it from an adopted delay
+    mon.steady.delay_ns = delay_ms * 1_000_000      # as set_finding sets it from an adopted delay
     oracle = _Oracle(gear.ram_area)
     rng = np.random.default_rng(100 + seed)
     samples = _stream(seed, 240.0, disorder, gaps, nan_angles)
     for s in samples:
         mon.update(s)
-        oracle.update(s, mon._delay_ns)
+        oracle.update(s, mon.steady.delay_ns)
         if rng.random() < 0.002:                 # read at random times: judged then
             assert mon.motion_ns == oracle.motion_ns
     assert mon.motion_ns == oracle.motion_ns > 0
-    kept = mon._motion.ordered()
+    kept = mon.residual.instants
     want = np.array(oracle.instants[-kept.shape[0]:])
     assert kept.shape[0] == min(len(oracle.instants), kept.shape[0]) > 100
     np.testing.assert_array_equal(kept, want)                 # to the bit (NaN where NaN)
@@ -161,12 +161,13 @@ def test_instants_judged_later_are_those_judged_as_each_angle_came(r18_params, s
 def test_the_log_between_reads_is_bounded(r18_params):
     """Fed for long without being read, the monitor judges what its angle samples released
     once a thousand of them are waiting: the log stays bounded."""
-    from steer_monitor.monitor.live import CALLS_KEPT
+    from steer_monitor.monitor.steady import CALLS_KEPT
     mon = LiveMonitor(gear_from_params(r18_params), Gaps.from_mm(0.3, 0.2))
     for s in _stream(9, 300.0, False, False, False):
         mon.update(s)
-        assert len(mon._calls) < 5 * CALLS_KEPT
-        assert len(mon._angles_t) < CALLS_KEPT + 20
+        logged, kept = mon.steady.log_kept
+        assert logged < CALLS_KEPT
+        assert kept < CALLS_KEPT + 20
 
 
 def test_a_sample_held_after_an_angle_sample_is_not_released_by_it(r18_params):
@@ -192,14 +193,14 @@ def test_a_sample_held_after_an_angle_sample_is_not_released_by_it(r18_params):
         oracle.update(s, 0)
     assert mon.motion_ns == oracle.motion_ns > 0            # read: judged now
     assert oracle.instants[-1][1] == 6.0                   # judged at 6.1 s, with the new speed
-    np.testing.assert_array_equal(mon._motion.ordered(), np.array(oracle.instants[-600:]))
+    np.testing.assert_array_equal(mon.residual.instants, np.array(oracle.instants[-600:]))
 
 
 def test_with_the_angle_dead_the_held_samples_stay_bounded(r18_params):
     """Ten minutes of pressures without a rudder angle: the held samples stop at MAX_HELD, the
     oldest let go and counted; once the angle comes back the residual's instants come as on
     a monitor that never waited."""
-    from steer_monitor.monitor.live import MAX_HELD
+    from steer_monitor.monitor.steady import MAX_HELD
     gear = gear_from_params(r18_params)
     stream = _stream(11, 240.0, False, False, False)
     t_back = stream[0].t_ns + 600 * 1_000_000_000
@@ -209,9 +210,9 @@ def test_with_the_angle_dead_the_held_samples_stay_bounded(r18_params):
     for k in range(600 * 20):                                    # the pressures alone, 20 Hz each
         for j, name in enumerate(PRESSURES):
             waited.update(Sample(t0 + k * 50_000_000 + j, name, 20e5 + 1e4 * j))
-        assert len(waited._pending) <= MAX_HELD
-    assert waited.held_dropped == 600 * 20 * 4 - 3 - MAX_HELD    # the first three lack a pressure
-    assert waited.motion_ns == 0 and len(waited._pending) == MAX_HELD
+        assert waited.steady.held <= MAX_HELD
+    assert waited.steady.held_dropped == 600 * 20 * 4 - 3 - MAX_HELD    # the first three lack a pressure
+    assert waited.motion_ns == 0 and waited.steady.held == MAX_HELD
     fresh = LiveMonitor(gear, Gaps.from_mm(0.3, 0.2))
     for s in stream:                                             # then the gear as before, ten minutes on
         moved = Sample(s.t_ns + shift, s.signal, s.value)
@@ -219,7 +220,7 @@ def test_with_the_angle_dead_the_held_samples_stay_bounded(r18_params):
         waited.update(moved)
         fresh.update(moved)
     assert waited.motion_ns == fresh.motion_ns > 0
-    np.testing.assert_array_equal(waited._motion.ordered(), fresh._motion.ordered())
+    np.testing.assert_array_equal(waited.residual.instants, fresh.residual.instants)
 
 
 def test_a_bracket_judged_again_after_one_with_a_nan_angle_keeps_its_own_slopes(r18_params):
@@ -242,7 +243,7 @@ def test_a_bracket_judged_again_after_one_with_a_nan_angle_keeps_its_own_slopes(
         mon.update(s)
         oracle.update(s, 0)
     assert mon.motion_ns == oracle.motion_ns
-    got = mon._motion.ordered()
+    got = mon.residual.instants
     want = np.array(oracle.instants[-4:])
     assert got.shape == (4, 7) and want[1, 2] == want[3, 2] == 1.0       # the steady bracket, twice
     np.testing.assert_array_equal(got, want)

@@ -93,34 +93,36 @@ def _flat(out):
     for o in out:
         if isinstance(o, StateRun):
             flat += zip(o.t_ns.tolist(), o.alpha.tolist(), o.rate.tolist(), o.torque.tolist(), o.two_z.tolist(),
-                        o.z_gb.tolist())
+                        o.z_gb.tolist(), [None] * len(o))
         elif isinstance(o, StateOut):
             s = o.state
-            flat.append((s.t_ns, s.alpha, s.rate, s.torque_measured, s.gaps.two_z, s.gaps.z_gb))
+            flat.append((s.t_ns, s.alpha, s.rate, s.torque_measured, s.gaps.two_z, s.gaps.z_gb, s.share))
         else:
             flat.append(repr(o))
     return flat
 
 
-@pytest.mark.parametrize('batch', [4096, 97])
-def test_runs_taken_at_once_give_what_each_frame_gives(r18_params, can_db, batch):
-    """A replay's runs (samples laid out, states as columns) against feed() of each frame: the
-    same states, to the bit, and the same diagnostics, in the same order (the byte-for-byte
-    tests of whole replays, with analyses, are test_replay's)."""
+@pytest.mark.parametrize(('batch', 'defer_share'), [(4096, True), (700, True), (1500, False), (37, False)])
+def test_runs_taken_at_once_give_what_each_frame_gives(r18_params, can_db, batch, defer_share):
+    """Frames fed in parts (feed_frames: a replay's runs, samples laid out and states as
+    columns; the node's reads of a few dozen frames, states one by one with their load sharing;
+    parts of one frame) against feed() of each frame: the same states, to the bit, and the
+    same diagnostics, in the same order (the byte-for-byte tests of whole replays, with
+    analyses, are test_replay's)."""
     import numpy as np
 
-    from steer_monitor.ashore.replay import feed_part
     db, smap = can_db
     arrays = sim.run(r18_params, sim.SimConfig(program='zigzag_10,hard_over_1', max_duration_s=45.0), db, smap,
                      6).frames
-    one = _pipeline(r18_params, can_db, defer_share=True)
+    one = _pipeline(r18_params, can_db, defer_share=defer_share)
     a = [o for f in arrays.frames() for o in one.feed(f)] + one.finish()
-    many = _pipeline(r18_params, can_db, defer_share=True)
+    many = _pipeline(r18_params, can_db, defer_share=defer_share)
     b = []
     for k in range(0, len(arrays), batch):
-        b += feed_part(many, arrays.take(np.arange(k, min(k + batch, len(arrays)))))
+        b += many.feed_frames(arrays.take(np.arange(k, min(k + batch, len(arrays)))))
     b += many.finish()
-    assert any(isinstance(o, StateRun) for o in b)                    # the run path was taken
+    # the run path was taken: the replay's (states as columns) or the node's (states one by one)
+    assert any(isinstance(o, StateRun) for o in b) == defer_share
     fa, fb = _flat(a), _flat(b)
     assert len(fa) > 3000 and fa == fb
     assert many.monitor.motion_ns == one.monitor.motion_ns > 0
@@ -230,3 +232,42 @@ def test_nothing_fed_nothing_out(r18_params, can_db):
     assert p.finish() == [] and p.idle(10**18) == []
     d = p.diagnostics_now(10**18)
     assert d.statuses[0].level == 3 and math.isclose(d.gaps.two_z, 0.6e-3)
+
+
+@pytest.mark.parametrize('part', [1, 7, 600])
+def test_a_part_stops_where_the_time_goes_back_and_the_rest_goes_on_anew(r18_params, can_db, part):
+    """The stream's time set back an hour half-way: fed in parts that stop at the frame that
+    confirms the step (the node's reads), the rest of the part into a new pipeline, the
+    outputs are those of feeding each frame and starting anew right after that frame."""
+    import dataclasses
+    db, smap = can_db
+    frames = list(sim.run(r18_params, sim.SimConfig(program='hold:8'), db, smap, 6).frames.frames())
+    half, back = len(frames) // 2, 3600 * 10 ** 9
+    frames = [f if i < half else dataclasses.replace(f, t_ns=f.t_ns - back) for i, f in enumerate(frames)]
+
+    def one_by_one():
+        p, out = _pipeline(r18_params, can_db), []
+        for f in frames:
+            out += p.feed(f)
+            if p.decoder.jumps.steps_back:
+                out += p.finish()
+                p = _pipeline(r18_params, can_db)
+        return out + p.finish()
+
+    p, out, stopped = _pipeline(r18_params, can_db), [], 0
+    for k in range(0, len(frames), part):
+        chunk = frames[k:k + part]
+        out += p.feed_frames(chunk, until_step_back=True)
+        if p.decoder.jumps.steps_back:
+            stopped += 1
+            assert 0 < p.taken <= len(chunk)
+            rest = chunk[p.taken:]
+            out += p.finish()
+            p = _pipeline(r18_params, can_db)
+            out += p.feed_frames(rest)
+        else:
+            assert p.taken == len(chunk)
+    out += p.finish()
+    assert stopped == 1
+    want = one_by_one()
+    assert _flat(out) == _flat(want) and sum(isinstance(o, StateOut) for o in want) > 400

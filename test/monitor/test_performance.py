@@ -1,0 +1,110 @@
+"""Steering performance: the hard-over and order-response trackers, on angle sweeps whose
+answers are known in closed form."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from steer_monitor.monitor.performance import (
+    HARD_OVER_DEG,
+    NO_RESPONSE_NS,
+    OTHER_SIDE_DEG,
+    HardOverTracker,
+    ResponseTracker,
+    SteeringPerformance,
+)
+
+S = 1_000_000_000
+
+
+def _sweep(rate_deg_s: float, start_deg: float, end_deg: float, step_ns: int = 100_000_000):
+    """Angle samples of a rudder turning at a constant rate from ``start_deg`` to ``end_deg``."""
+    n = int(abs(end_deg - start_deg) / rate_deg_s * S / step_ns) + 1
+    t = [k * step_ns for k in range(n)]
+    a = [math.radians(start_deg + math.copysign(rate_deg_s, end_deg - start_deg) * k * step_ns / S) for k in range(n)]
+    return t, a
+
+
+@pytest.mark.parametrize('rate_deg_s', [2.5, 3.3, 5.0])
+def test_a_hard_over_is_timed_from_leaving_35_to_reaching_30_the_other_side(rate_deg_s):
+    """A sweep from 40 deg to -32 deg at a constant rate: the time from the last sample at or
+    beyond 34.5 deg to the first at or beyond -29.5 deg, to the sampling step."""
+    t, a = _sweep(rate_deg_s, 40.0, -32.0)
+    tracker = HardOverTracker()
+    done = tracker.angles(t, a)
+    assert len(done) == 1 and done[0].side == 1.0
+    want = (HARD_OVER_DEG + OTHER_SIDE_DEG) / rate_deg_s
+    assert done[0].seconds == pytest.approx(want, abs=0.2 + 1e-9)
+    assert tracker.last_s == done[0].seconds and not tracker.at_hard_over
+
+
+def test_the_tracker_over_many_angles_is_the_tracker_angle_by_angle():
+    """Hard-overs both ways, swings that stop short, noise at the thresholds: angles() (only
+    the angles off midships looked at) gives what angle() of each gives."""
+    rng = np.random.default_rng(3)
+    t = np.cumsum(rng.integers(50_000_000, 150_000_000, 6000)).tolist()
+    deg = 38.0 * np.sin(np.arange(6000) / 90.0) * rng.choice([1.0, 0.8], 6000) + rng.normal(0, 0.3, 6000)
+    a = np.radians(deg)
+    one, many = HardOverTracker(), HardOverTracker()
+    want = [h for h in (one.angle(ti, float(ai)) for ti, ai in zip(t, a.tolist())) if h is not None]
+    got = many.angles(t, a)
+    assert got == want and len(want) > 5
+    assert {h.side for h in want} == {1.0, -1.0}
+
+
+def test_a_swing_that_stops_short_of_the_other_side_times_nothing():
+    t, a = _sweep(5.0, 40.0, -25.0)
+    tracker = HardOverTracker()
+    assert tracker.angles(t, a) == [] and tracker.last_s is None and tracker.at_hard_over
+
+
+def test_an_order_step_is_answered_the_right_way_after_its_delay():
+    """An order step of 10 deg; the rudder starts 0.4 s later at 2.5 deg/s the right way and
+    settles: direction right, delay 0.4 s, the settled error read once it stands."""
+    perf = SteeringPerformance()
+    perf.order(0, 0.0)
+    perf.order(S, math.radians(10.0))
+    for k in range(100):
+        t = S + k * 100_000_000
+        moving = 4 <= k < 44
+        perf.angle(t, math.radians(min(max(k - 4, 0) * 0.25, 10.0) - 0.1 * (k >= 44)),
+                   math.radians(2.5) if moving else 0.0)
+    r = perf.response
+    assert r is not None and r.direction_ok is True
+    assert r.delay_s == pytest.approx(0.4)
+    assert r.accuracy == pytest.approx(math.radians(0.1))
+    assert r.stalled_s is None
+
+
+def test_a_rudder_that_moves_the_wrong_way_past_the_reversal_time_is_wrong():
+    responses = ResponseTracker()
+    responses.order(0, 0.0)
+    responses.order(S, math.radians(10.0))
+    responses.angle(S + 500_000_000, 0.0, math.radians(-2.0))      # still turning from before: not judged
+    assert responses.response.direction_ok is None
+    responses.angle(S + 1_500_000_000, 0.0, math.radians(-2.0))
+    assert responses.response.direction_ok is False and responses.response.delay_s == pytest.approx(1.5)
+
+
+def test_a_rudder_that_stands_while_the_order_is_away_did_not_respond():
+    """No motion for NO_RESPONSE_NS after a step, the order 10 deg away: stalled, and where;
+    it clears once the rudder moves."""
+    responses = ResponseTracker()
+    responses.order(0, 0.0)
+    responses.order(S, math.radians(10.0))
+    responses.angle(S + NO_RESPONSE_NS - 1, 0.0, 0.0)
+    assert responses.response.stalled_s is None
+    responses.angle(S + NO_RESPONSE_NS, 0.0, 0.0)
+    assert responses.response.stalled_s == pytest.approx(NO_RESPONSE_NS / 1e9) and responses.response.stalled_at == 0.0
+    responses.angle(S + NO_RESPONSE_NS + 100_000_000, 0.001, math.radians(3.0))
+    assert responses.response.stalled_s is None and responses.response.direction_ok is True
+
+
+def test_small_order_changes_are_not_steps():
+    responses = ResponseTracker()
+    responses.order(0, 0.0)
+    responses.order(S, math.radians(0.5))
+    assert responses.response is None
