@@ -11,9 +11,8 @@ from steer_monitor.ashore.discovery import Discovery, propose
 from steer_monitor.can import Frame, FrameArrays
 from steer_monitor.can.signals import REQUIRED
 from steer_monitor.logfiles.blocks import iter_log_blocks
-from test.can.test_decoder import T0, pressure, rudder
-from test.can.test_devices import AUTOPILOT, OTHER, claim
-from test.logfiles.test_gateway import MERRIMAC, SUSTERANNA, SUSTERANNA_2020, _canboat_rows, capture
+from test.support.canframes import AUTOPILOT, OTHER, T0, claim, pressure, rudder
+from test.support.captures import MERRIMAC, SUSTERANNA, SUSTERANNA_2020, canboat_rows, capture
 
 
 def discovered(db, path, date=None):
@@ -28,7 +27,7 @@ def test_streams_of_a_real_capture_count_its_lines(db):
     capture(SUSTERANNA)
     d = discovered(db, SUSTERANNA)
     want: dict[tuple[int, int], list[str]] = defaultdict(list)
-    for r in _canboat_rows(SUSTERANNA):
+    for r in canboat_rows(SUSTERANNA):
         if int(r[2]) <= 0x3FFFF and int(r[5]) <= 8:
             want[(int(r[2]), int(r[3]))].append(r[0])
     got: dict[tuple[int, int], int] = defaultdict(int)
@@ -44,7 +43,7 @@ def test_streams_of_a_real_capture_count_its_lines(db):
     assert rudder26.fields['Position'].min == pytest.approx(0.0972)
     assert d.streams[(127245, 14, 255)].fields['Position'].not_available == 138
     assert d.streams[(130314, 28, 0)].fields['Source'].max == 0
-    assert len(d.devices) == len({r[6:].__str__() for r in _canboat_rows(SUSTERANNA) if r[2] == '60928'})
+    assert len(d.devices) == len({r[6:].__str__() for r in canboat_rows(SUSTERANNA) if r[2] == '60928'})
 
 
 @pytest.mark.parametrize('path, rudder_address, date', [(SUSTERANNA, 26, None), (SUSTERANNA_2020, 32, None),

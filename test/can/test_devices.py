@@ -10,17 +10,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from steer_monitor.can import Frame, SignalMap, make_id
+from steer_monitor.can import SignalMap, make_id
 from steer_monitor.can.devices import CANNOT_CLAIM, DeviceName, DeviceTable, format_name, parse_name
-from test.can.test_decoder import T0, assert_same, both, rudder
-from test.logfiles.test_gateway import REALBUS, SUSTERANNA, _canboat_rows, capture
-
-AUTOPILOT = 0xC0508C002FB89064          # a NAME from the Suster Anna capture (address 13)
-OTHER = 0xC03282002221B0B1
-
-
-def claim(t, address, name, priority=6):
-    return Frame(t, (priority << 26) | (0xEEFF << 8) | address, name.to_bytes(8, 'little'))
+from test.support.canframes import AUTOPILOT, OTHER, T0, assert_same, both, claim, rudder
+from test.support.captures import REALBUS, SUSTERANNA, canboat_rows, capture
 
 
 @pytest.mark.parametrize('text, name', [('C0508C002FB89064', AUTOPILOT), ('0xc0508c002fb89064', AUTOPILOT),
@@ -42,7 +35,7 @@ def test_name_fields_match_canboat_layout():
     doc = json.loads((REALBUS / 'canboat.json').read_text())
     layout = next(p for p in doc['PGNs'] if p['PGN'] == 60928)['Fields']
     bits = {f['Id']: (f['BitOffset'], f['BitLength']) for f in layout}
-    rows = [r for r in _canboat_rows(SUSTERANNA) if r[2] == '60928']
+    rows = [r for r in canboat_rows(SUSTERANNA) if r[2] == '60928']
     assert len(rows) == 44
     for r in rows:
         data = bytes(int(b, 16) for b in r[6:])

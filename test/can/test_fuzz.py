@@ -13,7 +13,7 @@ from steer_monitor.can.timejump import CONFIRM_FRAMES
 from steer_monitor.logfiles.blocks import read_log_fast as read_log_arrays
 from steer_monitor.logfiles.candumpcols import iter_candump_blocks
 from steer_monitor.logfiles.logs import candump_line
-from test.can.test_decoder import pressure, rudder
+from test.support.canframes import pressure, rudder
 
 T0 = 1_767_225_600_000_000_000
 FUZZ = settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow,

@@ -282,7 +282,7 @@ def test_cut_blf_and_asc_are_analysed_and_say_so(base, tmp_path, capsys, suffix)
 
     from steer_monitor.logfiles.blocks import read_log_fast
     from steer_monitor.logfiles.logs import LogWriter
-    from test.logfiles.test_logs import _write_asc
+    from test.support.logwrite import write_asc
     frames = read_log_fast(base['long'])
     whole = tmp_path / f'whole{suffix}'
     if suffix == '.blf':
@@ -290,7 +290,7 @@ def test_cut_blf_and_asc_are_analysed_and_say_so(base, tmp_path, capsys, suffix)
             for f in frames.frames():
                 w.write(f)
     else:
-        _write_asc(whole, frames)
+        write_asc(whole, frames)
     path = tmp_path / f'cut{suffix}'
     path.write_bytes(whole.read_bytes()[: whole.stat().st_size * 3 // 4])
     said = {}

@@ -10,7 +10,7 @@ import pytest
 
 from steer_monitor.cli.main import main
 from steer_monitor.params import load_params_file
-from test.logfiles.test_gateway import MERRIMAC, REALBUS, SUSTERANNA, SUSTERANNA_2020, capture
+from test.support.captures import MERRIMAC, REALBUS, SUSTERANNA, SUSTERANNA_2020, capture
 
 
 @pytest.mark.parametrize('path, extra, address, samples', [

@@ -19,8 +19,8 @@ from steer_monitor.can import FrameArrays, RejectCounter
 from steer_monitor.logfiles.blocks import iter_log, iter_log_blocks, log_end_ns, read_log_fast
 from steer_monitor.logfiles.compressed import PIECE_BYTES, compression, plain_suffix
 from steer_monitor.logfiles.logs import LogError, log_format
-from test.logfiles.test_gateway import MERRIMAC, SUSTERANNA, capture
-from test.logfiles.test_logs import _write, _write_asc
+from test.support.captures import MERRIMAC, SUSTERANNA, capture
+from test.support.logwrite import write_asc, write_log
 
 PACK = {'.gz': gzip.compress, '.xz': lzma.compress, '.bz2': bz2.compress,
         '.zst': lambda b: zstandard.ZstdCompressor().compress(b)}
@@ -47,8 +47,8 @@ def _same(a: FrameArrays, b: FrameArrays) -> bool:
 @pytest.mark.parametrize('suffix', sorted(PACK))
 @pytest.mark.parametrize('fmt', ['.log', '.asc'])
 def test_a_compressed_log_gives_the_frames_of_the_plain_one(tmp_path, simulated, suffix, fmt):
-    plain = _write(tmp_path / 'x.log', simulated.frames) if fmt == '.log' else \
-        _write_asc(tmp_path / 'x.asc', simulated.frames)
+    plain = write_log(tmp_path / 'x.log', simulated.frames) if fmt == '.log' else \
+        write_asc(tmp_path / 'x.asc', simulated.frames)
     packed = _packed(plain, suffix)
     assert log_format(packed) == log_format(plain)
     assert _same(read_log_fast(packed), read_log_fast(plain))
@@ -74,7 +74,7 @@ def test_a_compressed_log_cut_short_keeps_what_came_before_it(tmp_path, r18_para
     from steer_monitor import sim
     db, smap = can_db
     s = sim.run(r18_params, sim.SimConfig(program='zigzag_10', max_duration_s=300.0), db, smap, seed=4)
-    plain = _write(tmp_path / 'x.log', s.frames)
+    plain = write_log(tmp_path / 'x.log', s.frames)
     packed = _packed(plain, suffix).read_bytes()
     cut = tmp_path / f'cut.log{suffix}'
     cut.write_bytes(packed[:len(packed) // 2])
@@ -94,7 +94,7 @@ def test_a_compressed_log_cut_short_keeps_what_came_before_it(tmp_path, r18_para
 
 @pytest.mark.parametrize('fmt', ['.mcap', '.blf'])
 def test_a_compressed_mcap_or_blf_is_named_as_such(tmp_path, simulated, fmt):
-    packed = _packed(_write(tmp_path / f'x{fmt}', simulated.frames), '.gz')
+    packed = _packed(write_log(tmp_path / f'x{fmt}', simulated.frames), '.gz')
     with pytest.raises(LogError, match=rf'x{fmt}\.gz: a compressed (MCAP|Vector BLF) file: decompress it first'):
         list(iter_log_blocks(packed))
 
@@ -137,7 +137,7 @@ def test_the_fleet_takes_compressed_logs(tmp_path):
 def test_a_log_compressed_in_parts_is_read_whole(tmp_path, simulated, suffix):
     """Parts compressed one after another into one file (``cat a.gz b.gz``, a logger that
     compresses as it goes): every part is read."""
-    plain = _write(tmp_path / 'x.log', simulated.frames).read_bytes()
+    plain = write_log(tmp_path / 'x.log', simulated.frames).read_bytes()
     half = plain.index(b'\n', len(plain) // 2) + 1
     packed = tmp_path / f'x.log{suffix}'
     packed.write_bytes(PACK[suffix](plain[:half]) + PACK[suffix](plain[half:]))

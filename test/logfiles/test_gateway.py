@@ -3,7 +3,6 @@ a frame counted; and the real captures of ``../shared/realbus`` through both dec
 
 from __future__ import annotations
 
-import csv
 import datetime
 import os
 
@@ -15,19 +14,10 @@ from steer_monitor.can.busconfig import load_setup
 from steer_monitor.logfiles.blocks import iter_log, iter_log_blocks, read_log_fast
 from steer_monitor.logfiles.gateway import canboat_id, ydwg_date
 from steer_monitor.logfiles.logs import LogError, log_format
-from test.conftest import PKG, SHARED
+from test.conftest import PKG
+from test.support.captures import MERRIMAC, SUSTERANNA, SUSTERANNA_2020, canboat_rows, capture
 
-REALBUS = SHARED / 'realbus'
-SUSTERANNA = REALBUS / 'susteranna-actisense-serial.raw'
-SUSTERANNA_2020 = REALBUS / 'susteranna2020.raw'
-MERRIMAC = REALBUS / 'merrimac-ydwg-2020.raw'
 DAY = datetime.date(2020, 8, 22)
-
-
-def capture(path):
-    if not path.is_file():
-        pytest.skip(f'{path} is not here (../shared beside the repository holds it in CI)')
-    return path
 
 
 # --- formats ------------------------------------------------------------------------------
@@ -124,18 +114,9 @@ def test_ydwg_date_given_then_file_name_then_modification_time(tmp_path):
 
 
 # --- the real captures --------------------------------------------------------------------
-def _canboat_rows(path):
-    rows = []
-    with open(path, newline='') as fh:
-        for row in csv.reader(fh):
-            if row and not row[0].startswith('#'):
-                rows.append(row)
-    return rows
-
-
 def test_a_real_canboat_capture_becomes_its_frames():
     path = capture(SUSTERANNA)
-    rows = _canboat_rows(path)
+    rows = canboat_rows(path)
     single = [r for r in rows if int(r[2]) <= 0x3FFFF and int(r[5]) <= 8]
     r = RejectCounter()
     frames = list(iter_log(path, r))

@@ -3,8 +3,6 @@ off keeps what came before."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -14,6 +12,7 @@ from steer_monitor.logfiles.blocks import iter_log
 from steer_monitor.logfiles.blocks import read_log_fast as read_log_arrays
 from steer_monitor.logfiles.logs import LogError, LogWriter
 from steer_monitor.logfiles.mcapio import FRAME_TOPIC
+from test.support.logwrite import write_asc, write_log
 
 FORMATS = ('.log', '.blf', '.mcap')
 
@@ -25,18 +24,11 @@ def simulated(r18_params, can_db):
     return sim.run(r18_params, cfg, db, smap, seed=11)
 
 
-def _write(path: Path, frames: FrameArrays) -> Path:
-    with LogWriter(path) as w:
-        for f in frames.frames():
-            w.write(f)
-    return path
-
-
 @pytest.mark.parametrize('suffix', FORMATS)
 def test_every_format_decodes_to_the_same_samples(tmp_path, can_db, simulated, suffix):
     db, smap = can_db
     reference = Decoder(db, smap).decode_arrays(simulated.frames)
-    path = _write(tmp_path / f'x{suffix}', simulated.frames)
+    path = write_log(tmp_path / f'x{suffix}', simulated.frames)
     rejects = RejectCounter()
     back = read_log_arrays(path, rejects)
     assert len(back) == len(simulated.frames)
@@ -50,29 +42,11 @@ def test_every_format_decodes_to_the_same_samples(tmp_path, can_db, simulated, s
         assert np.array_equal(got[name].value, reference[name].value)
 
 
-def _write_asc(path: Path, frames: FrameArrays) -> Path:
-    """An ASC file as python-can writes it, with the trigger block's milliseconds written as
-    Vector tools write them: python-can 4.6 writes them unpadded ("00:00:00.7" for 7 ms) and
-    then reads them as 700 ms."""
-    import re
-
-    import can
-
-    from steer_monitor.can.bus import message_from_frame
-    with can.ASCWriter(str(path)) as w:
-        for f in frames.frames():
-            w.on_message_received(message_from_frame(f))
-    text = re.sub(r'(Begin Triggerblock .* \d\d:\d\d:\d\d)\.(\d{1,3}) ',
-                  lambda m: f'{m.group(1)}.{m.group(2).zfill(3)} ', path.read_text())
-    path.write_text(text)
-    return path
-
-
 def test_asc_decodes_to_the_same_samples(tmp_path, can_db, simulated):
     """ASC (written by python-can, as Vector tools would) holds its start to the millisecond:
     values and relative times come back exactly, the absolute start within 1 ms."""
     db, smap = can_db
-    path = _write_asc(tmp_path / 'x.asc', simulated.frames)
+    path = write_asc(tmp_path / 'x.asc', simulated.frames)
     back = read_log_arrays(path)
     ref = simulated.frames
     assert len(back) == len(ref)
@@ -89,7 +63,7 @@ def test_noise_free_round_trip_within_one_quantisation_step(tmp_path, r18_params
     db, smap = can_db
     cfg = sim.SimConfig(program='zigzag_20', noise=False, max_duration_s=60.0)
     s = sim.run(r18_params, cfg, db, smap, seed=2)
-    path = _write(tmp_path / 'clean.log', s.frames)
+    path = write_log(tmp_path / 'clean.log', s.frames)
     got = Decoder(db, smap).decode_arrays(read_log_arrays(path))
     steps = {'rudder_angle': 1e-4, 'rudder_order': 1e-4, 'ship_speed': 0.01, 'oil_temperature': 0.001}
     stream = {'rudder_angle': 'rudder', 'rudder_order': 'rudder'}
@@ -103,7 +77,7 @@ def test_noise_free_round_trip_within_one_quantisation_step(tmp_path, r18_params
 def test_mcap_read_by_rosbags_and_with_crcs(tmp_path, simulated):
     from mcap.reader import make_reader
     from rosbags.highlevel import AnyReader
-    path = _write(tmp_path / 'x.mcap', simulated.frames)
+    path = write_log(tmp_path / 'x.mcap', simulated.frames)
     with open(path, 'rb') as fh:
         reader = make_reader(fh, validate_crcs=True)
         n = sum(1 for _ in reader.iter_messages())
@@ -120,7 +94,7 @@ def test_mcap_read_by_rosbags_and_with_crcs(tmp_path, simulated):
 
 def test_candump_is_read_independently_by_python_can(tmp_path, simulated):
     import can
-    path = _write(tmp_path / 'x.log', simulated.frames)
+    path = write_log(tmp_path / 'x.log', simulated.frames)
     msgs = list(can.CanutilsLogReader(str(path)))
     assert len(msgs) == len(simulated.frames)
     assert msgs[5].arbitration_id == int(simulated.frames.can_id[5])
@@ -153,7 +127,7 @@ def test_truncated_file_keeps_what_came_before(tmp_path, simulated, suffix):
             for f in simulated.frames.frames():
                 w.write_frame(f)
     else:
-        path = _write(tmp_path / f'x{suffix}', simulated.frames)
+        path = write_log(tmp_path / f'x{suffix}', simulated.frames)
     data = path.read_bytes()
     cut = tmp_path / f'cut{suffix}'
     cut.write_bytes(data[: len(data) * 2 // 3])
@@ -195,7 +169,7 @@ def test_asc_line_that_cannot_be_parsed_is_counted_and_the_rest_read(tmp_path, s
     """python-can's ASC reader ends the log at the first frame line it cannot parse; here that
     line is counted and the frames after it are read; so is a line still shaped like a frame
     that the reader would skip as an event it does not know (a sign in the id)."""
-    path = _write_asc(tmp_path / 'x.asc', simulated.frames)
+    path = write_asc(tmp_path / 'x.asc', simulated.frames)
     lines = path.read_bytes().splitlines(keepends=True)
     k = _frame_lines(path.read_text())[len(simulated.frames) // 2]
     tokens = lines[k].split()       # time, channel, id, Rx, d, dlc, payload bytes
@@ -222,7 +196,7 @@ def test_asc_line_that_cannot_be_parsed_is_counted_and_the_rest_read(tmp_path, s
 
 
 def test_cut_asc_keeps_what_came_before_and_says_so(tmp_path, simulated):
-    path = _write_asc(tmp_path / 'x.asc', simulated.frames)
+    path = write_asc(tmp_path / 'x.asc', simulated.frames)
     data = path.read_bytes()
     cut = tmp_path / 'cut.asc'
     cut.write_bytes(data[: len(data) * 2 // 3])
@@ -278,7 +252,7 @@ def longer(r18_params, can_db):
 def test_damaged_blf_container_is_skipped_and_the_rest_read(tmp_path, longer, damage):
     """python-can's BLF reader ends the log at a damaged container; here the container is
     skipped (counted, and named in the error after the frames) and the ones after it read."""
-    path = _write(tmp_path / 'x.blf', longer)
+    path = write_log(tmp_path / 'x.blf', longer)
     data = bytearray(path.read_bytes())
     containers = _blf_objects(bytes(data))
     assert len(containers) >= 3
@@ -318,7 +292,7 @@ def test_a_blf_container_that_would_inflate_past_its_size_is_skipped_uninflated(
     import struct
     import tracemalloc
     import zlib
-    path = _write(tmp_path / 'x.blf', longer)
+    path = write_log(tmp_path / 'x.blf', longer)
     data = bytes(path.read_bytes())
     at, size, kind = _blf_objects(data)[1]
     packed = zlib.compress(bytes(64 << 20), 9)
