@@ -28,7 +28,8 @@ from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.logfiles import digits
 from steer_monitor.logfiles.logs import CAN_ERR_FLAG, _candump_line, candump_line, open_text_log
 
-__all__ = ['BLOCK_BYTES', 'BLOCK_FRAMES', 'CANDUMP_LINE', 'iter_candump_blocks', 'write_candump_arrays']
+__all__ = ['BLOCK_BYTES', 'BLOCK_FRAMES', 'CANDUMP_LINE', 'iter_candump_blocks', 'uniform_frames',
+           'write_candump_arrays']
 
 
 BLOCK_BYTES = 16 << 20
@@ -172,7 +173,7 @@ def _layout(line: bytes) -> tuple[int, int, int, int] | None:
     return dot, cp, sp2, hs
 
 
-def _uniform_frames(pb: bytes | bytearray, a: NDArray[np.uint8]) -> FrameArrays | None:
+def uniform_frames(pb: bytes | bytearray, a: NDArray[np.uint8]) -> FrameArrays | None:
     """The frames of a block of lines all of one length and layout (the usual log: one
     writer, one DLC), read with strided words straight from the block; None when the
     block is not such, or any line is not valid (the general parse then takes it)."""
@@ -319,7 +320,7 @@ def iter_candump_blocks(path: str | Path, rejects: RejectCounter | None = None,
                 cut, carry = end, b''
             ba[cut:cut + _PAD] = _PAD_BYTES
             a = np.frombuffer(ba, np.uint8, count=cut - _PAD, offset=_PAD)
-            fa = _uniform_frames(ba, a)
+            fa = uniform_frames(ba, a)
             if fa is not None:
                 lineno += len(fa)
                 yield fa

@@ -31,8 +31,8 @@ from steer_monitor.logfiles.candumpcols import BLOCK_FRAMES
 from steer_monitor.logfiles.logs import LogError, open_log, skipped_parts
 from steer_monitor.logfiles.mcapio import FRAME_DATATYPE
 
-__all__ = ['MAX_CHUNK_BYTES', 'MAX_SUMMARY_BYTES', 'CorruptChunk', 'decompress_chunk', 'iter_mcap_blocks',
-           'mcap_chunks_within_limits', 'summary_section']
+__all__ = ['MAX_CHUNK_BYTES', 'MAX_SUMMARY_BYTES', 'CorruptChunk', 'McapState', 'decompress_chunk', 'iter_mcap_blocks',
+           'mcap_chunks_within_limits', 'summary_section', 'walk_records']
 
 
 _MSG = 0x05
@@ -77,7 +77,11 @@ def _frame_channel_problem(schema_encoding: str, schema_data: bytes, message_enc
     return None
 
 
-class _McapState:
+class McapState:
+    """What an MCAP file has declared so far: its schemas and channels, which channels carry CAN
+    frames this reader takes (``frame_channels``) and which it cannot (``refused``, with why),
+    judged again whichever of a channel and its schema comes first."""
+
     def __init__(self) -> None:
         self.schemas: dict[int, tuple[str, str, bytes]] = {}      # id -> name, encoding, data
         self.channels: dict[int, tuple[int, str, str]] = {}       # id -> schema id, topic, message encoding
@@ -157,7 +161,7 @@ def _frames_from_records(b: bytes, pos: int, stride: int, k: int) -> FrameArrays
     return FrameArrays(t_ns, col(p, '<u4').astype(np.uint32), dlc, data, flags)
 
 
-def _walk_records(b: bytes, state: _McapState) -> list[FrameArrays]:
+def walk_records(b: bytes, state: McapState) -> list[FrameArrays]:
     """Frames of the records in ``b`` (a chunk's records, decompressed)."""
     n = len(b)
     out: list[FrameArrays] = []
@@ -240,14 +244,14 @@ def summary_section(fh: IO[bytes]) -> bytes | None:
             fh.seek(0)
 
 
-def _seed_from_summary(fh: IO[bytes], state: _McapState) -> None:
+def _seed_from_summary(fh: IO[bytes], state: McapState) -> None:
     """The schemas and channels of a finished file's summary section, before its data is
     read: a corrupt chunk that held a channel's definition (the first chunk holds them all)
     does not then lose every later message of that channel. Only a summary that checks out is
     used (:func:`summary_section`); otherwise the definitions in the data count alone."""
     section = summary_section(fh)
     if section is not None:
-        _walk_records(section, state)
+        walk_records(section, state)
 
 
 def mcap_chunks_within_limits(path: str | Path) -> bool:
@@ -388,7 +392,7 @@ def iter_mcap_blocks(path: str | Path, rejects: RejectCounter | None = None) -> 
 
     path = Path(path)
     fh = open_log(path)
-    state = _McapState()
+    state = McapState()
     dctx = zstandard.ZstdDecompressor()
     pending: list[FrameArrays] = []
     held = 0
@@ -405,9 +409,9 @@ def iter_mcap_blocks(path: str | Path, rejects: RejectCounter | None = None) -> 
                         if rejects is not None:
                             rejects.add('corrupt_chunk', f'{path.name} chunk at byte {at}: {exc}')
                         continue
-                    parts = _walk_records(records, state)
+                    parts = walk_records(records, state)
                 else:   # a schema, channel or message outside chunks: walk it as a one-record chunk
-                    parts = _walk_records(struct.pack('<BQ', op, len(body)) + body, state)
+                    parts = walk_records(struct.pack('<BQ', op, len(body)) + body, state)
                 if parts:
                     pending += parts
                     held += sum(len(p) for p in parts)

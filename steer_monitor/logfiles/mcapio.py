@@ -17,7 +17,7 @@ from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX
 from steer_monitor.rostime import SEC_MAX, ros_time
 
 __all__ = ['DEFAULT_QOS', 'FRAME_DATATYPE', 'FRAME_MSGDEF', 'FRAME_TOPIC', 'Counted', 'McapWriter', 'frame_cdr',
-           'frame_message', 'frame_records', 'leading_metadata']
+           'frame_message', 'frame_records', 'leading_metadata', 'record_dtype']
 
 FRAME_TOPIC = '/steering_can/rx'
 FRAME_DATATYPE = 'can_msgs/msg/Frame'
@@ -62,7 +62,10 @@ def frame_cdr(frame: Frame, frame_id: str = 'steering_can') -> bytes:
                                  min(len(frame.data), 8)), data))
 
 
-def _record_dtype(frame_id: str) -> tuple[np.dtype, bytes]:
+def record_dtype(frame_id: str) -> tuple[np.dtype, bytes]:
+    """The numpy layout of a frame's MCAP message record (opcode, length, channel, sequence,
+    times, the CDR of a ``can_msgs/msg/Frame`` with ``frame_id``) and the frame_id's bytes
+    as written (NUL-terminated, padded to four)."""
     fid = frame_id.encode() + b'\x00'
     fid += b'\x00' * ((-len(fid)) % 4)
     dtype = np.dtype([('opcode', 'u1'), ('length', '<u8'), ('channel', '<u2'), ('sequence', '<u4'),
@@ -78,7 +81,7 @@ def frame_records(frames: Sequence[Frame] | FrameArrays, channel_id: int, frame_
     frame's time, then :func:`frame_cdr`'s bytes) of many frames at once, packed by numpy:
     (the records, their log times [ns], the size of one record [bytes])."""
     fa = frames if isinstance(frames, FrameArrays) else FrameArrays.from_frames(frames)
-    dtype, fid = _record_dtype(frame_id)
+    dtype, fid = record_dtype(frame_id)
     n = len(fa)
     rec = np.zeros(n, dtype)
     t = fa.t_ns

@@ -196,6 +196,11 @@ class Pipeline:
         self.taken = 0
         self._changed_by_last = False           # the last frame fed (feed) carried a rudder or pressure sample
 
+    @property
+    def next_second_ns(self) -> int | None:
+        """The next whole second of data the schedule acts on [ns] (None before the first frame)."""
+        return self._next_second
+
     # --- input ---------------------------------------------------------------------------
     def feed_frames(self, part: FrameArrays | Sequence[Frame], see: Callable[[int | None, int], None] | None = None,
                     *, until_step_back: bool = False) -> list[Output]:

@@ -119,7 +119,7 @@ class MonitorNode(Node):
         self._bus_mode: tuple[bool | None, str] = (None, 'bus not opened yet')
         self._bus_clock: BusClock | None = None
         self._clock_told: tuple[bool | None, int] = (None, 0)
-        self._save_error: str | None = None    # the analyses' state's last save failure, until one succeeds
+        self.save_error: str | None = None    # the analyses' state's last save failure, until one succeeds
         self._state_dir_made = False           # the state file's directory was made (or found) once
         self._stop = threading.Event()
         self._closed = False
@@ -240,7 +240,7 @@ class MonitorNode(Node):
                     + (describe(analyst.finding) if analyst.finding is not None else 'no finding yet'))
             except EstimateError as exc:
                 self.get_logger().warning(f'{exc}; starting the analyses afresh')
-        self.create_timer(p['estimator.save_every_s'], self._save_analyst)
+        self.create_timer(p['estimator.save_every_s'], self.save_analyses)
         return self._analysis_jobs(analyst)
 
     def _analysis_jobs(self, analyst: Analyst) -> ThreadedJobs:
@@ -295,7 +295,7 @@ class MonitorNode(Node):
         import rclpy.logging
         return rclpy.logging.get_logger(f'{self.get_name()}.closing')
 
-    def _save_analyst(self) -> None:
+    def save_analyses(self) -> None:
         """Save the analyses' state (the window, the schedule, the last finding): on the
         executor's timer and when closing, under the pipeline's lock (the reader thread feeds
         the window)."""
@@ -312,12 +312,12 @@ class MonitorNode(Node):
                 self.analyst.save(path, self.monitor.motion_s)
         except OutputError as exc:
             text = f'cannot save the analyses\' state: {exc}'
-            if text != self._save_error:       # once, not at every save while it lasts
+            if text != self.save_error:       # once, not at every save while it lasts
                 self._log().error(text)
-            self._save_error = text
+            self.save_error = text
             return
-        if self._save_error is not None:
-            self._save_error = None
+        if self.save_error is not None:
+            self.save_error = None
             self._log().info(f'analyses\' state saved to {path} again')
 
     # --- set-up ------------------------------------------------------------------------------
@@ -484,7 +484,7 @@ class MonitorNode(Node):
         if not self._reader_thread.is_alive():
             self._finish_outputs()
         self.pipeline.close()            # waits for the running analysis
-        self._save_analyst()
+        self.save_analyses()
         self.reader.close()
         if self.recorder is not None:
             self.recorder.close()

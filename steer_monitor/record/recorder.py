@@ -177,6 +177,11 @@ class Recorder:
         except queue.Full:
             self.dropped += 1
 
+    @property
+    def queued(self) -> int:
+        """Entries waiting for the writer thread (approximate while it runs)."""
+        return self._queue.qsize()
+
     def status(self) -> RecorderStatus:
         with self._lock:
             current = str(self.files[-1]) if self._writer is not None and self.files else None

@@ -87,9 +87,9 @@ def _block(lines: list[bytes]):
 
 
 def test_a_block_of_one_layout_is_read_by_strided_words():
-    from steer_monitor.logfiles.candumpcols import _uniform_frames
+    from steer_monitor.logfiles.candumpcols import uniform_frames
     lines = [USUAL.replace(b'008079', f'{i:06d}'.encode()) for i in range(40)]
-    fa = _uniform_frames(*_block(lines))
+    fa = uniform_frames(*_block(lines))
     assert fa is not None and len(fa) == 40
     np.testing.assert_array_equal(fa.t_ns, 1767225600_000000000 + np.arange(40) * 1000)
     assert set(fa.can_id.tolist()) == {0x09F10D10} and bytes(fa.data[0]) == bytes.fromhex('00F800000100FFFF')
@@ -100,7 +100,7 @@ def test_one_changed_character_anywhere(tmp_path, pos):
     """Each character of a usual line replaced by digits, letters, delimiters and control
     bytes, among lines of its layout: what the line parser makes of it, whichever path reads
     it; the one-layout path declines a block with a line it would reject."""
-    from steer_monitor.logfiles.candumpcols import _uniform_frames
+    from steer_monitor.logfiles.candumpcols import uniform_frames
     good = [USUAL] * 20
     for c in SUBSTITUTES:
         line = USUAL[:pos] + bytes([c]) + USUAL[pos + 1:]
@@ -110,7 +110,7 @@ def test_one_changed_character_anywhere(tmp_path, pos):
         ref, got, r1, r2 = both(path)
         same(ref, got)
         assert r1.counts == r2.counts
-        fast = _uniform_frames(*_block(lines))
+        fast = uniform_frames(*_block(lines))
         if len(ref) < len(lines):
             assert fast is None, (pos, c)
         elif fast is not None:

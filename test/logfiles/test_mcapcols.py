@@ -116,23 +116,23 @@ def test_frame_records_as_columns():
     payload bytes past the DLC (not the frame's) dropped; a record too short for its frame_id
     is an error that says so."""
     from steer_monitor.can.frames import Frame
-    from steer_monitor.logfiles.mcapcols import _McapState, _walk_records
-    from steer_monitor.logfiles.mcapio import FRAME_DATATYPE, _record_dtype, frame_records
+    from steer_monitor.logfiles.mcapcols import McapState, walk_records
+    from steer_monitor.logfiles.mcapio import FRAME_DATATYPE, frame_records, record_dtype
     dlcs = [0, 3, 8, 15, 1]
     frames = [Frame(1_767_225_600_000_000_000 + i * 1000, 0x100 + i, bytes(8), i % 2 == 0, i == 2, i == 4, '')
               for i in range(len(dlcs))]
     raw, _, size = frame_records(frames, 3)
-    dtype, _ = _record_dtype('steering_can')
+    dtype, _ = record_dtype('steering_can')
     rec = np.frombuffer(raw, dtype).copy()
     rec['dlc'] = dlcs
     rec['data'] = np.void(bytes(range(0xA1, 0xA9)))
-    state = _McapState()
+    state = McapState()
     state.schema(1, FRAME_DATATYPE)
     state.channel(3, 1)
     other = bytes([0x05]) + struct.pack('<QH', 30, 4) + bytes(28)          # a message on another channel
     alike = rec[:1].copy()
     alike['channel'] = 4                                                   # of a frame's size
-    got = FrameArrays.concat(_walk_records(rec[:2].tobytes() + other + rec[2:4].tobytes() + alike.tobytes()
+    got = FrameArrays.concat(walk_records(rec[:2].tobytes() + other + rec[2:4].tobytes() + alike.tobytes()
                                            + rec[4:].tobytes(), state))
     assert len(got) == len(dlcs)
     np.testing.assert_array_equal(got.t_ns, [f.t_ns for f in frames])
@@ -146,7 +146,7 @@ def test_frame_records_as_columns():
     bad = rec[:1].copy()
     bad['fid_len'] = 200
     with pytest.raises(ValueError, match='cannot hold a frame_id of 200 bytes'):
-        _walk_records(bad.tobytes(), state)
+        walk_records(bad.tobytes(), state)
 
 
 @pytest.mark.parametrize('compression', ['', 'zstd', 'lz4'])
@@ -211,9 +211,9 @@ def test_a_chunk_declaring_more_than_a_chunk_may_hold_is_refused_at_once():
 def test_channels_are_judged_whichever_comes_first_schema_or_channel():
     """A channel naming a schema given later, a channel given again with another schema, a
     schema given again: the frame channels follow, one channel judged at a time."""
-    from steer_monitor.logfiles.mcapcols import _McapState
+    from steer_monitor.logfiles.mcapcols import McapState
     from steer_monitor.logfiles.mcapio import FRAME_DATATYPE, FRAME_MSGDEF
-    st = _McapState()
+    st = McapState()
     st.channel(1, 7, '/steering_can/rx', 'cdr')
     assert st.frame_channels == set()
     st.schema(7, FRAME_DATATYPE, 'ros2msg', FRAME_MSGDEF.encode())

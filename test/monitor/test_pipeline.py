@@ -137,7 +137,7 @@ def test_a_gap_in_the_data(r18_params, can_db, frames, gap_s):
     p = _pipeline(r18_params, can_db)
     for f in frames[:cut]:
         p.feed(f)
-    before = p._next_second
+    before = p.next_second_ns
     # a gap longer than the time-jump limit (5 s) holds the frames after it until
     # CONFIRM_FRAMES of them confirm the new time; then the seconds of the gap come at once
     n = CONFIRM_FRAMES if gap_s > 5.0 else 1

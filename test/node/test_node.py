@@ -497,10 +497,10 @@ def test_an_analysis_state_that_cannot_be_saved_is_said_once_until_it_can(tmp_pa
                 {'estimator.state_file': str(tmp_path / 'plain' / 'sub' / 'estimator.npz')})
     try:
         for _ in range(3):
-            h.node._save_analyst()
+            h.node.save_analyses()
         (tmp_path / 'plain').unlink()           # the directory can be made now
-        h.node._save_analyst()
-        h.node._save_analyst()
+        h.node.save_analyses()
+        h.node.save_analyses()
     finally:
         h.close()
     err = capfd.readouterr().err.splitlines()
@@ -657,12 +657,12 @@ def test_the_analysis_state_is_not_saved_onto_the_disk_beneath_an_unmounted_one(
     try:
         h = Harness(mnt / 'rec', f'umount-{uuid.uuid4().hex[:6]}',
                     {'estimator.state_file': 'steer_monitor_estimator.npz', 'recording.enabled': False})
-        h.node._save_analyst()
+        h.node.save_analyses()
         assert (mnt / 'rec' / 'steer_monitor_estimator.npz').exists()
         subprocess.run(['umount', '-l', str(mnt)], check=True)
-        h.node._save_analyst()
+        h.node.save_analyses()
         assert not (mnt / 'rec').exists()
-        assert f'no directory {mnt / "rec"}' in (h.node._save_error or '')
+        assert f'no directory {mnt / "rec"}' in (h.node.save_error or '')
     finally:
         if h is not None:
             h.close()

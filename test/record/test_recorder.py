@@ -129,7 +129,7 @@ def test_disk_full_is_reported_and_recording_resumes(tmp_path, monkeypatch):
     try:
         for i in range(200):
             rec.write_frame(_frame(i))
-        _wait(lambda: rec.files and rec._queue.empty())
+        _wait(lambda: rec.files and rec.queued == 0)
         time.sleep(0.2)  # the last batch taken is written (messages count only once flushed)
         clock[0] = 1.5   # the first flush hits the full device
         rec.write_frame(_frame(200))
@@ -226,7 +226,7 @@ def test_a_disk_full_from_the_start_leaves_no_empty_file(full_tmpfs):
     try:
         for i in range(500):
             rec.write_frame(_frame(i))
-        _wait(lambda: rec.files and rec._queue.empty())
+        _wait(lambda: rec.files and rec.queued == 0)
         time.sleep(0.2)  # the last batch taken is written before the clock moves
         clock[0] = 1.5   # the first flush meets the full disk
         rec.write_frame(_frame(500))
@@ -481,7 +481,7 @@ def test_a_disk_unmounted_under_the_recorder_is_not_replaced_by_the_one_beneath(
     try:
         for i in range(100):
             rec.write_frame(_frame(i))
-        _wait(lambda: rec.files and rec._queue.empty())
+        _wait(lambda: rec.files and rec.queued == 0)
         time.sleep(0.2)      # the last batch taken is written before the clock moves
         clock[0] = 1.5
         rec.write_frame(_frame(100))
