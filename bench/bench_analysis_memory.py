@@ -40,7 +40,7 @@ def main() -> int:
     from steer_monitor.model.inputs import Series
     from steer_monitor.monitor.analyst import ANALYSED, AnalystSettings, Job, run_job
     from steer_monitor.params import gear_from_params
-    from steer_monitor.threads import release_freed_memory
+    from steer_monitor.runtime import release_freed_memory
 
     _, params, db, smap = load_setup(None)
     gear = gear_from_params(params)

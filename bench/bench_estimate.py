@@ -35,7 +35,7 @@ def _mm(x: float | None) -> str:
 
 def main() -> int:
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    from steer_monitor.threads import single_blas_thread
+    from steer_monitor.runtime import single_blas_thread
     single_blas_thread()
 
     from steer_monitor import sim

@@ -24,7 +24,7 @@ from pathlib import Path
 from steer_monitor import sim
 from steer_monitor.can.busconfig import load_setup
 from steer_monitor.logfiles.candumpcols import write_candump_arrays
-from steer_monitor.model import Gaps
+from steer_monitor.model import Clearances
 
 LOGS = 32
 T0_NS = 1_767_225_600_000_000_000
@@ -36,8 +36,9 @@ def make_logs(root: Path) -> list[Path]:
     vessel.mkdir()
     out = []
     for k in range(LOGS):
-        s = sim.run(params, sim.SimConfig(program='hard_over_2,zigzag_20,zigzag_10', gaps=Gaps.from_mm(0.35, 0.15),
-                                          start_ns=T0_NS + k * 86_400_000_000_000), db, smap, k)
+        cfg = sim.SimConfig(program='hard_over_2,zigzag_20,zigzag_10', gaps=Clearances.from_mm(0.35, 0.15),
+                            start_ns=T0_NS + k * 86_400_000_000_000)
+        s = sim.run(params, cfg, db, smap, k)
         path = vessel / f'day_{k:02d}.log'
         with open(path, 'wb') as fh:
             write_candump_arrays(fh, s.frames)
@@ -64,7 +65,7 @@ def _hwm_kb() -> int:
 
 def main() -> dict:
     from steer_monitor.ashore.fleet import make_client, run_fleet
-    from steer_monitor.threads import single_blas_thread
+    from steer_monitor.runtime import single_blas_thread
 
     single_blas_thread()     # as Dask's workers run (OPENBLAS_NUM_THREADS=1): the same work compared
 

@@ -117,7 +117,7 @@ def _first_frames(paths: dict[str, Path]) -> None:
 
 def _case(kind: str, path: str) -> dict:
     """One measurement, in this (fresh) process, set up as ``steer-monitor`` sets itself up."""
-    from steer_monitor.threads import single_blas_thread
+    from steer_monitor.runtime import single_blas_thread
     single_blas_thread()
     t0 = time.perf_counter()
     if kind == 'batch':
@@ -175,7 +175,7 @@ def _run_case(kind: str, path: Path) -> dict:
 _BASELINE_CASE = """
 import json, sys, tempfile, time
 from pathlib import Path
-from steer_monitor.threads import single_blas_thread
+from steer_monitor.runtime import single_blas_thread
 single_blas_thread()
 from steer_monitor.ashore.replay import replay
 t0 = time.perf_counter()

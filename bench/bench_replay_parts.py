@@ -228,7 +228,7 @@ def split_lines(m: dict) -> list[str]:
 
 def main() -> int:
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
-    from steer_monitor.threads import single_blas_thread
+    from steer_monitor.runtime import single_blas_thread
     single_blas_thread()
     import can
 

@@ -23,7 +23,7 @@ from typing import Any
 
 from steer_monitor.errors import ParameterError
 from steer_monitor.model.backlash import ChainJoint
-from steer_monitor.model.fits import parse_fit
+from steer_monitor.model.isofits import parse_fit
 from steer_monitor.yamlfile import load_yaml
 
 __all__ = ['Chain', 'load_chain']

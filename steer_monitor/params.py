@@ -25,9 +25,9 @@ from pathlib import Path
 from typing import Any
 
 from steer_monitor.errors import ParameterError
-from steer_monitor.model.fits import parse_fit
 from steer_monitor.model.friction import FrictionParams
-from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.gear import Clearances, GearParams
+from steer_monitor.model.isofits import parse_fit
 from steer_monitor.model.torque import TorqueCurve
 from steer_monitor.resources import default_config
 from steer_monitor.yamlfile import load_yaml
@@ -430,9 +430,9 @@ def gear_from_params(p: Mapping[str, Any]) -> GearParams:
     )
 
 
-def gaps_from_params(p: Mapping[str, Any]) -> Gaps:
+def gaps_from_params(p: Mapping[str, Any]) -> Clearances:
     """The configured clearances (SI) from validated parameters."""
-    return Gaps.from_mm(p['clearances.gap_2z_mm'], p['clearances.gap_zgb_mm'])
+    return Clearances.from_mm(p['clearances.gap_2z_mm'], p['clearances.gap_zgb_mm'])
 
 
 def friction_from_params(p: Mapping[str, Any]) -> FrictionParams:

@@ -128,13 +128,13 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.serialization import deserialize_message, serialize_message
 from sensor_msgs.msg import JointState
-from steer_monitor.model.gear import Gaps
+from steer_monitor.model.gear import Clearances
 from steer_monitor.monitor.messages import CLEARANCE_NAMES, TOPICS, diag_messages
 from steer_monitor.monitor.pipeline import DiagOut
 from steer_monitor.node.rosmsg import message_class, to_ros
 import steer_monitor
 assert all(message_class(t) for _, t in TOPICS.values())
-out = DiagOut(7_000_000_008, (), Gaps(6e-4, 2.5e-4), {'2z': (5e-4, None), 'zgb': (2.4e-4, 2.7e-4)}, 'estimated')
+out = DiagOut(7_000_000_008, (), Clearances(6e-4, 2.5e-4), {'2z': (5e-4, None), 'zgb': (2.4e-4, 2.7e-4)}, 'estimated')
 fields = next(f for k, _, f in diag_messages(out) if k == 'clearances')
 m = to_ros('sensor_msgs/msg/JointState', fields)
 assert deserialize_message(serialize_message(m), JointState).position[5] == 2.7e-4

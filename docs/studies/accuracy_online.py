@@ -111,12 +111,12 @@ def _count(tally: dict, f, truth: dict, temp: dict | None = None) -> None:   # n
 
 
 def run(v: Voyage) -> Voyage:
-    from steer_monitor.threads import single_blas_thread
+    from steer_monitor.runtime import single_blas_thread
     single_blas_thread()
     from steer_monitor import sim
     from steer_monitor.can import Decoder, RejectCounter
     from steer_monitor.can.busconfig import can_setup
-    from steer_monitor.model import Gaps
+    from steer_monitor.model import Clearances
     from steer_monitor.monitor import ERROR, WARN, DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
     from steer_monitor.monitor.pipeline import DiagOut, Pipeline, analyst_from_params
     from steer_monitor.monitor.verdict import NOT_ASSESSED
@@ -129,7 +129,7 @@ def run(v: Voyage) -> Voyage:
     gear = gear_from_params(params)
     cfg = DiagnosticsConfig.from_params(params)
     effects = (sim.parse_effect(v.effect),) if v.effect else ()
-    sim_cfg = sim.SimConfig(program=PROGRAM, gaps=Gaps.from_mm(v.two_z_mm, v.z_gb_mm), effects=effects)
+    sim_cfg = sim.SimConfig(program=PROGRAM, gaps=Clearances.from_mm(v.two_z_mm, v.z_gb_mm), effects=effects)
     s = sim.run(params, sim_cfg, db, smap, v.seed)
     rejects = RejectCounter()
     mon = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params))

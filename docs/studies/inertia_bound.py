@@ -31,7 +31,7 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
 
 def main(argv: list[str]) -> int:
-    from steer_monitor.threads import single_blas_thread
+    from steer_monitor.runtime import single_blas_thread
     single_blas_thread()
     import numpy as np
 

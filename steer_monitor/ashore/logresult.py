@@ -87,7 +87,7 @@ def log_result(vessel: str, log: str, config: str | None, log_sha256: str, confi
     from steer_monitor.ashore.modelcheck import model_check
     from steer_monitor.errors import SteerMonitorError
     from steer_monitor.params import load_config
-    from steer_monitor.threads import single_blas_thread
+    from steer_monitor.runtime import single_blas_thread
 
     single_blas_thread()
     analysis, note = None, ''

@@ -56,7 +56,7 @@ from steer_monitor.record.msgdefs import msgdef
 from steer_monitor.record.provenance import PARAMETERS_RECORD, RUN_RECORD, run_metadata
 from steer_monitor.record.staterecords import pack_states
 from steer_monitor.resources import default_config
-from steer_monitor.threads import fewer_collections
+from steer_monitor.runtime import fewer_collections
 
 __all__ = ['FRAME_BATCH', 'ReplayError', 'ReplaySummary', 'Runner', 'SpanWatch', 'add_channels', 'note_overlap',
            'recorded_setup', 'replay', 'replay_with', 'summary_json', 'write_messages']

@@ -57,7 +57,7 @@ from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observati
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations, build_observations
 from steer_monitor.estimate.rams import opposed_cause, working_against
 from steer_monitor.estimate.ramscheck import RamsCheck, UnevenSpan, describe
-from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.loadshare import LoadSharing, load_sharing
 from steer_monitor.monitor.performance import HardOver, HardOverTracker
 
@@ -91,7 +91,7 @@ class ReviewResult:
     force: NDArray[np.float64]
     torque: NDArray[np.float64]
     share: LoadSharing | None
-    gaps: Gaps
+    gaps: Clearances
     gaps_source: str
     hard_overs: list[HardOver]
     estimates: list[WindowEstimate]
@@ -125,7 +125,7 @@ class Review:
     cannot estimate them). ``window_ns``: the estimate's time step (default: the span in up
     to ``MAX_WINDOWS`` steps of whole 10 minutes, decided by :meth:`plan` or at the end)."""
 
-    def __init__(self, gear: GearParams, gaps: Gaps, *, min_clearance_2z: float = 0.0,
+    def __init__(self, gear: GearParams, gaps: Clearances, *, min_clearance_2z: float = 0.0,
                  window_ns: int | None = None, reuse_boxes: bool = True, ram_share_warn: float = 0.15) -> None:
         self.gear = gear
         self.ram_share_warn = ram_share_warn
@@ -318,7 +318,7 @@ class Review:
         gaps, source = self.gaps, 'configured'
         if estimates:
             e = estimates[-1].estimate
-            gaps, source = Gaps(e.two_z.value, e.z_gb.value), 'estimated'
+            gaps, source = Clearances(e.two_z.value, e.z_gb.value), 'estimated'
         g = self.gear
         fa = 0.5 * (np.abs(force[:, 0]) + np.abs(force[:, 1]))
         with np.errstate(invalid='ignore'):

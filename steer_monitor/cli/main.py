@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from steer_monitor import __version__
 from steer_monitor.atomic import command_scope
 from steer_monitor.errors import SteerMonitorError
-from steer_monitor.threads import single_blas_thread
+from steer_monitor.runtime import single_blas_thread
 
 __all__ = ['Terminated', 'build_parser', 'main']
 

@@ -20,9 +20,9 @@ import numpy as np
 from steer_monitor.atomic import ensure_dir, write_files
 from steer_monitor.cli.options import add_config_option, add_force_option
 from steer_monitor.cli.output import dump_json, table
-from steer_monitor.model.gear import Gaps
+from steer_monitor.model.gear import Clearances
+from steer_monitor.model.landmarks import gap_sensitivity
 from steer_monitor.model.loadshare import case_words
-from steer_monitor.model.study import gap_sensitivity
 from steer_monitor.params import gear_from_params, load_params_file
 from steer_monitor.resources import default_config
 from steer_monitor.studies.chain import backlash_summary, write_backlash
@@ -53,7 +53,7 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None,
         f"[2Z] = {params['clearances.limit_2z_mm']:.3f} mm, [Z_gb] = {params['clearances.limit_zgb_mm']:.3f} mm\n\n"
     )
 
-    limits = Gaps.from_mm(params['clearances.limit_2z_mm'], params['clearances.limit_zgb_mm'])
+    limits = Clearances.from_mm(params['clearances.limit_2z_mm'], params['clearances.limit_zgb_mm'])
     sweep, (alpha, res, marks) = loadshare_rows(gear, limits, None, 0.5)
     summary['loadshare_at_limits'] = sweep
     out.write('Load sharing at the wear limits (one ram, service speed):\n')

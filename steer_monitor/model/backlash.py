@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from steer_monitor.errors import ParameterError
-from steer_monitor.model.fits import GRADES, Clearance, Fit, Tolerance, clearance_of
+from steer_monitor.model.isofits import GRADES, Clearance, Fit, Tolerance, clearance_of
 
 __all__ = [
     'BacklashResult',

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from steer_monitor.errors import ParameterError
 from steer_monitor.model.torque import TorqueCurve
 
-__all__ = ['Gaps', 'GearParams', 'ram_inertia']
+__all__ = ['Clearances', 'GearParams', 'ram_inertia']
 
 
 def ram_inertia(d: float, d1: float) -> float:
@@ -88,7 +88,7 @@ class GearParams:
 
 
 @dataclass(frozen=True)
-class Gaps:
+class Clearances:
     """Wear clearances [m]: ``two_z`` ram/bushing diametral (2Z), ``z_gb`` slipper/guide beam."""
 
     two_z: float
@@ -102,6 +102,6 @@ class Gaps:
                 raise ParameterError(msg)
 
     @classmethod
-    def from_mm(cls, gap_2z_mm: float, gap_zgb_mm: float) -> Gaps:
+    def from_mm(cls, gap_2z_mm: float, gap_zgb_mm: float) -> Clearances:
         """Build from millimetres, as engineers give them."""
         return cls(two_z=gap_2z_mm * 1e-3, z_gb=gap_zgb_mm * 1e-3)

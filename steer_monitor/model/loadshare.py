@@ -45,7 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 from steer_monitor.errors import ModelError
 from steer_monitor.model import beams
 from steer_monitor.model.friction import FrictionParams, friction_law, normal_forces
-from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.kinematics import RapsonState, rapson_state
 
 __all__ = [
@@ -405,7 +405,7 @@ def _declared(alpha: Array, torque: Array, direction: Array, forces: Array, two_
 
 
 def declared_residuals(gear: GearParams, alpha: NDArray[np.float64], torque: NDArray[np.float64],
-                       direction: NDArray[np.float64], forces: NDArray[np.float64], gaps: Gaps,
+                       direction: NDArray[np.float64], forces: NDArray[np.float64], gaps: Clearances,
                        friction: FrictionParams, *, open_2z: bool = False, open_zgb: bool = False) -> Array:
     """Each ram's pressure residual against the declared model [Pa] at samples (n,) moving in
     ``direction`` (+-1) at angle ``alpha`` [rad] under tiller torque ``torque`` [N m], the
@@ -477,7 +477,7 @@ def load_sharing(gear: GearParams, alpha: ArrayLike, torque: ArrayLike,
     return LoadSharing(*rows)
 
 
-def load_sharing_at(gear: GearParams, alpha: ArrayLike, gaps: Gaps,
+def load_sharing_at(gear: GearParams, alpha: ArrayLike, gaps: Clearances,
                     speed: ArrayLike | None = None) -> LoadSharing:
     """Load sharing with the tiller torque taken from the gear's torque curve.
 

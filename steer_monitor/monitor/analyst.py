@@ -42,7 +42,7 @@ from steer_monitor.estimate.schedule import AnalysisSchedule
 from steer_monitor.estimate.window import WindowBuffer
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.inputs import INPUTS, Series
-from steer_monitor.threads import single_blas_thread
+from steer_monitor.runtime import single_blas_thread
 
 __all__ = [
     'ANALYSED',
@@ -106,7 +106,7 @@ def run_job(gear: GearParams, settings: AnalystSettings, job: Job, model: tuple[
     """Run ``job``: ``analyze`` of its samples (the whole loop, or under ``model``, the last
     loop's choice). An analysis the data cannot support gives no finding and says why; one
     that fails otherwise (a defect) says so too and the monitoring goes on; either way the
-    model stays the last loop's. BLAS runs on one thread (:func:`~steer_monitor.threads.single_blas_thread`):
+    model stays the last loop's. BLAS runs on one thread (:func:`~steer_monitor.runtime.single_blas_thread`):
     its sums in one order, so the node's thread and a job run at once (a replay's) give the
     same finding to the bit."""
     single_blas_thread()

@@ -34,11 +34,11 @@ from steer_monitor.estimate.rams import (
     weak_ram_cause,
 )
 from steer_monitor.estimate.ramscheck import RamsCheck, describe
-from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.hardover import hard_over_time, pumps_running
 from steer_monitor.model.inputs import PRESSURE_INPUTS, REQUIRED
+from steer_monitor.model.landmarks import landmarks
 from steer_monitor.model.loadshare import load_sharing_at
-from steer_monitor.model.study import landmarks
 from steer_monitor.monitor.arrivals import ARRIVALS_KEPT_NS, RATE_WINDOW_NS
 from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.verdict import ERROR, NOT_ASSESSED, OK, WARN, Verdict, clearance_verdict, worst
@@ -117,7 +117,7 @@ class DiagnosticsBuilder:
         self.cfg = cfg
         self.smap = smap
         self.gear = gear
-        self._onset_cache: dict[Gaps, float | None] = {}
+        self._onset_cache: dict[Clearances, float | None] = {}
         # per status, the last one built with what it was built from (:meth:`_memo`)
         self._memos: dict[str, tuple[tuple[Any, ...], tuple[object, ...], Status]] = {}
         # per input: its name, how long it may be silent [s], the window its rate is judged
@@ -150,7 +150,7 @@ class DiagnosticsBuilder:
         self._memos[item] = (key, objects, status)
         return status
 
-    def guide_onset_deg(self, gaps: Gaps) -> float | None:
+    def guide_onset_deg(self, gaps: Clearances) -> float | None:
         """Angle from which the guide beam carries load at service speed (None: never)."""
         if gaps.z_gb <= 0:
             return 0.0              # in contact from the start: carries load at any angle
@@ -287,7 +287,7 @@ class DiagnosticsBuilder:
             message += ' at the configured clearances (judged once they are estimated)'
         elif idle:
             lo = mon.gaps_interval.get('zgb', (None, None))[0]
-            onset_lo = onset if lo is None else self.guide_onset_deg(Gaps(mon.gaps.two_z, lo))
+            onset_lo = onset if lo is None else self.guide_onset_deg(Clearances(mon.gaps.two_z, lo))
             values.append(('guide_onset_lo_deg', _f(onset_lo, '.2f')))
             if onset_lo is None or onset_lo > self.cfg.guide_idle_warn_deg:
                 level = WARN

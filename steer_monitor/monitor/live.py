@@ -40,7 +40,7 @@ from numpy.typing import NDArray
 from steer_monitor.estimate.finding import Finding
 from steer_monitor.estimate.ramscheck import RamsCheck
 from steer_monitor.model.friction import FrictionParams
-from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.inputs import PRESSURE_INPUTS, Sample
 from steer_monitor.model.loadshare import ShareScalar, load_sharing_scalar
 from steer_monitor.model.ramforce import ram_force
@@ -95,7 +95,7 @@ class LiveState:
     moving: bool
     torque_measured: float | None
     share: ShareScalar | None
-    gaps: Gaps
+    gaps: Clearances
 
 
 def _to_residual_and_rams(residual: LiveResidual, rams: RamsCheck, instants: NDArray[np.float64],
@@ -109,7 +109,7 @@ def _to_residual_and_rams(residual: LiveResidual, rams: RamsCheck, instants: NDA
 class LiveMonitor:
     """Sample-by-sample state of the gear (see the module). Not thread-safe: feed it from one thread."""
 
-    def __init__(self, gear: GearParams, gaps: Gaps, gaps_source: str = 'configured',
+    def __init__(self, gear: GearParams, gaps: Clearances, gaps_source: str = 'configured',
                  priors: FrictionParams | None = None, *, defer_share: bool = False,
                  ram_share_warn: float = 0.15) -> None:
         self.gear = gear
@@ -154,7 +154,7 @@ class LiveMonitor:
         return self.steady.rate
 
     @property
-    def gaps(self) -> Gaps:
+    def gaps(self) -> Clearances:
         """The clearances in use [m]."""
         return self.residual.gaps
 
@@ -194,7 +194,7 @@ class LiveMonitor:
         return self.motion_ns / 1e9
 
     # --- clearances ----------------------------------------------------------------------
-    def set_gaps(self, gaps: Gaps, source: str,
+    def set_gaps(self, gaps: Clearances, source: str,
                  interval: dict[str, tuple[float, float | None]] | None = None,
                  friction: FrictionParams | None = None, torque: TorqueTable | None = None) -> None:
         """Use new clearance values (e.g. from the estimator) and say where they come from;
@@ -219,7 +219,7 @@ class LiveMonitor:
         self.steady.delay_ns = min(int(round(finding.terms.get('tau_s', 0.0) * 1e9)), MAX_DELAY_NS)
         self.finding = finding
         interval = {'2z': (finding.two_z.lo, finding.two_z.hi), 'zgb': (finding.z_gb.lo, finding.z_gb.hi)}
-        self.set_gaps(Gaps(finding.two_z.value, finding.z_gb.value), 'estimated', interval,   # type: ignore[arg-type]
+        self.set_gaps(Clearances(finding.two_z.value, finding.z_gb.value), 'estimated', interval,   # type: ignore[arg-type]
                       FrictionParams(*finding.friction), finding.torque_table(self.gear))
         k = finding.k_gl_max
         self.estimate_info = {'k_gl_max_estimated': f'{k.value:.3f}',

@@ -42,14 +42,14 @@ from steer_monitor.can.decoder import DecodedRun, Decoder
 from steer_monitor.can.frames import Frame, FrameArrays
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.estimate.effects import Effect
-from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.inputs import INPUTS, PRESSURE_INPUTS, Sample
 from steer_monitor.monitor.analyst import ANALYSED, Analyst, AnalystSettings, Job, JobRunner, Outcome, SyncJobs, run_job
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, Status
 from steer_monitor.monitor.live import LiveMonitor, LiveState
 from steer_monitor.monitor.runfeed import ANGLE, RunPlan, StateRun
 from steer_monitor.params import min_clearance_2z_from_params, ram_share_warn_from_params
-from steer_monitor.threads import release_freed_memory
+from steer_monitor.runtime import release_freed_memory
 
 __all__ = ['APPLY_DELAY_NS', 'APPLY_PER_MOTION', 'MAX_GAP_SECONDS', 'MIN_RUN', 'SECOND_NS', 'SLOT_NS', 'DiagOut',
            'Pipeline', 'StateOut', 'ThreadedJobs', 'analyst_from_params', 'apply_delay_ns', 'runs_of',
@@ -82,7 +82,7 @@ class DiagOut:
 
     t_ns: int
     statuses: tuple[Status, ...]
-    gaps: Gaps
+    gaps: Clearances
     interval: dict[str, tuple[float, float | None]] | None
     source: str
 
@@ -329,7 +329,7 @@ class Pipeline:
         fresh_all[1:] = plan.changes[at_all[1:]] > plan.changes[at_all[:-1]]
         fresh_before = np.concatenate([[0, 0], np.cumsum(fresh_all[1:])]).tolist()   # of openings 1.. before each
         at_l = at_all.tolist()
-        emits: list[tuple[int, NDArray[np.intp], Gaps]] = []   # (place in out, state positions, clearances)
+        emits: list[tuple[int, NDArray[np.intp], Clearances]] = []   # (place in out, state positions, clearances)
         mon.steady.plan(plan.times[ANGLE], plan.vals[ANGLE])
         c = 0                                        # counting rows passed
         advanced = -1                                # the row whose time the schedule last took

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from steer_monitor.estimate.effects import Effect, live_term
 from steer_monitor.model.friction import FrictionParams, friction_force
-from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.loadshare import declared_residuals, load_sharing_scalar
 from steer_monitor.model.torque import TorqueTable
 from steer_monitor.monitor.buffers import RowRing
@@ -40,7 +40,7 @@ INSTANT_FIELDS = OUT_FIELDS[:7]
 class LiveResidual:
     """The model in use and its residual over the last minute of steady motion."""
 
-    def __init__(self, gear: GearParams, gaps: Gaps, priors: FrictionParams) -> None:
+    def __init__(self, gear: GearParams, gaps: Clearances, priors: FrictionParams) -> None:
         self.gear = gear
         #: the clearances in use [m], with their intervals when estimated (2z/zgb: (lo, hi or
         #: None for a lower bound)), the friction and the tiller torque fitted with them (None:
@@ -72,7 +72,7 @@ class LiveResidual:
         self._unjudged = RowRing(RESIDUAL_SAMPLES // 2, len(INSTANT_FIELDS))
 
     # --- the model in use ----------------------------------------------------------------
-    def use(self, gaps: Gaps, interval: dict[str, tuple[float, float | None]] | None,
+    def use(self, gaps: Clearances, interval: dict[str, tuple[float, float | None]] | None,
             friction: FrictionParams | None, torque: TorqueTable | None, *, new_source: bool) -> None:
         """Use new clearances (and the friction and torque fitted with them; None friction:
         unchanged); ``new_source``: they come from elsewhere than the last (the minute judged

@@ -52,7 +52,7 @@ from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.record.msgdefs import msgdef
 from steer_monitor.record.provenance import run_metadata
 from steer_monitor.record.recorder import Recorder
-from steer_monitor.threads import single_blas_thread
+from steer_monitor.runtime import single_blas_thread
 from steer_monitor.utc import utc_text
 
 __all__ = ['MonitorNode', 'main']

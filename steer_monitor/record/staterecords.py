@@ -24,7 +24,7 @@ from functools import cache
 import numpy as np
 from numpy.typing import NDArray
 
-from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.loadshare import ShareScalar, load_sharing
 from steer_monitor.monitor.live import LiveState
 from steer_monitor.monitor.messages import state_messages
@@ -71,7 +71,7 @@ def _find(raw: bytes, packed: bytes) -> int:
 def _layouts() -> tuple[_Layout, _Layout]:
     """The rudder's and the load sharing's JointState records of the sentinel state, and their
     fields' places."""
-    state = LiveState(_T_NS, _ALPHA, _RATE, True, _TORQUE, _SHARE, Gaps(0.0, 0.0))
+    state = LiveState(_T_NS, _ALPHA, _RATE, True, _TORQUE, _SHARE, Clearances(0.0, 0.0))
     (_, _, rudder), (_, _, share) = state_messages(StateOut(state))
     out = []
     for datatype, fields, floats in (('sensor_msgs/msg/JointState', rudder, (_ALPHA, _RATE, _TORQUE)),

@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from steer_monitor.errors import ParameterError
 from steer_monitor.model.friction import FrictionParams, friction_force
-from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.loadshare import load_sharing
 from steer_monitor.sim.plant_effects import Effect
 from steer_monitor.sim.programs import SPEED_TAU_S, HelmProgram, parse_program
@@ -59,7 +59,7 @@ class SimConfig:
     """
 
     program: str = 'hard_over_2'
-    gaps: Gaps = field(default_factory=lambda: Gaps.from_mm(0.6, 0.25))
+    gaps: Clearances = field(default_factory=lambda: Clearances.from_mm(0.6, 0.25))
     seal_friction: float = 9e3
     mu_bushing: float = 0.13
     mu_guide: float = 0.05

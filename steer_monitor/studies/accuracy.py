@@ -44,7 +44,7 @@ from steer_monitor.estimate.batch import ClearanceEstimate, k_gl_max
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.locate import UNITS
 from steer_monitor.estimate.observe import Observations
-from steer_monitor.model.gear import Gaps
+from steer_monitor.model.gear import Clearances
 from steer_monitor.model.loadshare import STAGE_CLAMPED, load_sharing
 from steer_monitor.model.ramforce import ram_forces
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
@@ -260,7 +260,7 @@ def run_case(params: Mapping[str, Any], db: CanDatabase, smap: SignalMap, case: 
     any), run the analysis on the decoded frames and compare."""
     t0 = time.perf_counter()
     gear = gear_from_params(params)
-    cfg = sim.SimConfig(program=programme_text(case.programme), gaps=Gaps.from_mm(case.two_z_mm, case.z_gb_mm),
+    cfg = sim.SimConfig(program=programme_text(case.programme), gaps=Clearances.from_mm(case.two_z_mm, case.z_gb_mm),
                         max_duration_s=7200.0, effects=tuple(sim.parse_effect(e) for e in case.effects))
     s = sim.run(params, cfg, db, smap, case.seed)
     signals = Decoder(db, smap).decode_arrays(s.frames, final=True)

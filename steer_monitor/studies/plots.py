@@ -11,8 +11,8 @@ from numpy.typing import NDArray
 
 from steer_monitor.atomic import atomic_path, ensure_dir
 from steer_monitor.errors import OutputError
+from steer_monitor.model.landmarks import GapSensitivity, Landmarks
 from steer_monitor.model.loadshare import LoadSharing
-from steer_monitor.model.study import GapSensitivity, Landmarks
 
 __all__ = ['gap_sensitivity_png', 'load_sharing_png', 'plot_gap_sensitivity', 'plot_load_sharing']
 

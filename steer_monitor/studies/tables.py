@@ -10,10 +10,10 @@ from typing import Any
 import numpy as np
 
 from steer_monitor.errors import ParameterError
-from steer_monitor.model.fits import parse_fit
-from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.gear import Clearances, GearParams
+from steer_monitor.model.isofits import parse_fit
+from steer_monitor.model.landmarks import Landmarks, landmarks
 from steer_monitor.model.loadshare import LoadSharing, load_sharing_at
-from steer_monitor.model.study import Landmarks, landmarks
 
 __all__ = ['KNOT', 'MIN_STEP_DEG', 'ROW_KEYS', 'fit_summary', 'loadshare_rows']
 
@@ -27,7 +27,7 @@ def _deg_or_none(x: float | None) -> float | None:
     return None if x is None else round(math.degrees(x), 2)
 
 
-def loadshare_rows(gear: GearParams, gaps: Gaps, speed_kn: float | None = None,
+def loadshare_rows(gear: GearParams, gaps: Clearances, speed_kn: float | None = None,
                    step_deg: float = 0.5) -> tuple[dict[str, Any], tuple[Any, LoadSharing, Landmarks]]:
     """The sweep 0..max rudder angle as rows (engineers' units) plus its landmarks, and the
     sweep itself (angles [rad], load sharing, landmarks) for plotting."""

@@ -15,7 +15,7 @@ import pytest
 from steer_monitor import sim
 from steer_monitor.ashore.logresult import LogResult
 from steer_monitor.logfiles.candumpcols import write_candump_arrays
-from steer_monitor.model import Gaps
+from steer_monitor.model import Clearances
 
 pytestmark = pytest.mark.slow
 
@@ -34,7 +34,7 @@ def fleet_dirs(tmp_path_factory, r18_params, can_db):
         d.mkdir(parents=True)
         for k in range(12):
             zgb = ZGB0_MM + rate * k / 12
-            s = sim.run(r18_params, sim.SimConfig(program=PROGRAM, gaps=Gaps.from_mm(0.35, zgb),
+            s = sim.run(r18_params, sim.SimConfig(program=PROGRAM, gaps=Clearances.from_mm(0.35, zgb),
                                                   start_ns=T0_NS + k * MONTH_NS), db, smap, 100 + k)
             with open(d / f'{name}_{k:02d}.log', 'wb') as fh:
                 write_candump_arrays(fh, s.frames)

@@ -10,7 +10,7 @@ from steer_monitor import sim
 from steer_monitor.ashore.review import MAX_WINDOWS, Review
 from steer_monitor.can import Decoder, FrameArrays, RejectCounter
 from steer_monitor.logfiles.logs import LogWriter
-from steer_monitor.model import Gaps
+from steer_monitor.model import Clearances
 from steer_monitor.monitor import LiveMonitor
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
 
@@ -27,7 +27,7 @@ def _review(r18_params, can_db, frames: FrameArrays, blocks: int, plan: bool = F
             with_review: bool = False):
     db, smap = can_db
     dec = Decoder(db, smap, RejectCounter())
-    rv = Review(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25), reuse_boxes=reuse,
+    rv = Review(gear_from_params(r18_params), Clearances.from_mm(0.6, 0.25), reuse_boxes=reuse,
                 min_clearance_2z=min_clearance_2z_from_params(r18_params))   # as batchpath does
     for i, part in enumerate(np.array_split(np.arange(len(frames)), blocks)):
         rv.add(dec.decode_arrays(frames.take(part)))
@@ -39,7 +39,7 @@ def _review(r18_params, can_db, frames: FrameArrays, blocks: int, plan: bool = F
 def test_hard_overs_as_the_live_monitor_times_them(r18_params, can_db, voyage):
     db, smap = can_db
     dec = Decoder(db, smap, RejectCounter())
-    mon = LiveMonitor(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25))
+    mon = LiveMonitor(gear_from_params(r18_params), Clearances.from_mm(0.6, 0.25))
     seen = []
     for f in voyage.frames():
         for s in dec.decode(f):
@@ -183,7 +183,7 @@ def test_a_ram_read_the_wrong_way_round_is_named_and_nothing_estimated(r18_param
     estimates were made from it as from any log, 0.0 mm for Z_gb with no note."""
     db, smap = can_db
     dec = Decoder(db, smap, RejectCounter())
-    rv = Review(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25),
+    rv = Review(gear_from_params(r18_params), Clearances.from_mm(0.6, 0.25),
                 min_clearance_2z=min_clearance_2z_from_params(r18_params))
     for part in np.array_split(np.arange(len(voyage)), 3):
         signals = dec.decode_arrays(voyage.take(part))

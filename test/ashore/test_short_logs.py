@@ -15,7 +15,7 @@ import pytest
 
 from steer_monitor import sim
 from steer_monitor.logfiles.candumpcols import write_candump_arrays
-from steer_monitor.model import Gaps
+from steer_monitor.model import Clearances
 
 pytestmark = pytest.mark.slow
 
@@ -43,7 +43,7 @@ def test_a_short_log_gives_an_answer_or_a_one_line_refusal(r18_params, can_db, t
     c = _case(k)
     db, smap = can_db
     effects = (sim.parse_effect(c['effect']),) if c['effect'] else ()
-    s = sim.run(r18_params, sim.SimConfig(program=c['program'], gaps=Gaps.from_mm(*c['gaps']),
+    s = sim.run(r18_params, sim.SimConfig(program=c['program'], gaps=Clearances.from_mm(*c['gaps']),
                                           max_duration_s=c['seconds'], effects=effects), db, smap, c['seed'])
     path = tmp_path / 'short.log'
     with open(path, 'wb') as fh:

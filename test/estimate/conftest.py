@@ -8,7 +8,7 @@ import pytest
 
 from steer_monitor import sim
 from steer_monitor.can.decoder import Decoder
-from steer_monitor.model.gear import Gaps
+from steer_monitor.model.gear import Clearances
 
 
 @pytest.fixture(scope='session')
@@ -17,7 +17,7 @@ def simulate_signals(r18_params, db, smap):
     @functools.cache
     def make(program: str = 'voyage', two_z: float = 0.6, z_gb: float = 0.25, effects: tuple[str, ...] = (),
              seed: int = 1, max_s: float = 7200.0):
-        cfg = sim.SimConfig(program=program, gaps=Gaps.from_mm(two_z, z_gb),
+        cfg = sim.SimConfig(program=program, gaps=Clearances.from_mm(two_z, z_gb),
                             effects=tuple(sim.parse_effect(e) for e in effects), max_duration_s=max_s)
         s = sim.run(r18_params, cfg, db, smap, seed)
         return Decoder(db, smap).decode_arrays(s.frames), s

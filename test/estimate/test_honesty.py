@@ -12,7 +12,7 @@ from steer_monitor import sim
 from steer_monitor.ashore.modelcheck import NOT_JUDGED, headlines
 from steer_monitor.can import Decoder
 from steer_monitor.estimate.analyze import analyze
-from steer_monitor.model import Gaps
+from steer_monitor.model import Clearances
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params
 
 MM = 1e-3
@@ -20,7 +20,7 @@ MM = 1e-3
 
 def _analysis(params, can_db, program, two_z_mm, z_gb_mm, seed, effects=()):
     db, smap = can_db
-    cfg = sim.SimConfig(program=program, gaps=Gaps.from_mm(two_z_mm, z_gb_mm), max_duration_s=7200.0,
+    cfg = sim.SimConfig(program=program, gaps=Clearances.from_mm(two_z_mm, z_gb_mm), max_duration_s=7200.0,
                         effects=tuple(sim.parse_effect(e) for e in effects))
     s = sim.run(params, cfg, db, smap, seed)
     signals = Decoder(db, smap).decode_arrays(s.frames, final=True)

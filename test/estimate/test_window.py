@@ -9,7 +9,7 @@ from steer_monitor import sim
 from steer_monitor.can import Decoder
 from steer_monitor.estimate.observe import GRID_NS, build_observations
 from steer_monitor.estimate.window import FAST_MARGIN_NS, WindowBuffer, compact, select
-from steer_monitor.model import Gaps
+from steer_monitor.model import Clearances
 from steer_monitor.model.inputs import INPUTS, Series
 from steer_monitor.monitor.analyst import ANALYSED
 
@@ -20,7 +20,7 @@ def voyage(r18_params, can_db):
     samples per input and the frames."""
     db, smap = can_db
     s = sim.run(r18_params, sim.SimConfig(program='hard_over_2,hold:200,zigzag_10,hold:300,autopilot:400',
-                                          gaps=Gaps.from_mm(0.4, 0.2)), db, smap, 21)
+                                          gaps=Clearances.from_mm(0.4, 0.2)), db, smap, 21)
     dec = Decoder(db, smap)
     t: dict[str, list[int]] = {n: [] for n in INPUTS}
     v: dict[str, list[float]] = {n: [] for n in INPUTS}

@@ -14,7 +14,7 @@ from steer_monitor.can.frames import FrameArrays
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.logfiles.candumpcols import write_candump_arrays
 from steer_monitor.logfiles.decodelog import decode_logs
-from steer_monitor.model import Gaps
+from steer_monitor.model import Clearances
 
 HOUR = 3600 * 10**9
 
@@ -23,7 +23,7 @@ HOUR = 3600 * 10**9
 def voyage(r18_params, can_db):
     """A clean 25-minute realistic voyage (seed and clearances of no other test)."""
     db, smap = can_db
-    return sim.run(r18_params, sim.SimConfig(program='realistic:1500', gaps=Gaps.from_mm(0.33, 0.205)), db, smap,
+    return sim.run(r18_params, sim.SimConfig(program='realistic:1500', gaps=Clearances.from_mm(0.33, 0.205)), db, smap,
                    77).frames
 
 

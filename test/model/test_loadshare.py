@@ -15,7 +15,7 @@ from steer_monitor.model import (
     STAGE_CLAMPED,
     STAGE_GUIDE,
     STAGE_PINNED,
-    Gaps,
+    Clearances,
     load_sharing,
     load_sharing_at,
     load_sharing_scalar,
@@ -34,7 +34,7 @@ ANGLES_DEG = [2.5, 7.5, 10.0, 15.0, 21.0, 27.5, 35.0]
 def test_matches_fe_contact_solution(r18, alpha_deg, gap_2z_mm, gap_zgb_mm):
     """Final state of the incremental solver = the unique solution of the contact problem."""
     alpha = math.radians(alpha_deg)
-    gaps = Gaps.from_mm(gap_2z_mm, gap_zgb_mm)
+    gaps = Clearances.from_mm(gap_2z_mm, gap_zgb_mm)
     res = load_sharing_at(r18, alpha, gaps)
     st = rapson_state(r18, alpha, r18.torque(alpha))
     fe = contact_solution(
@@ -53,7 +53,7 @@ def test_matches_fe_contact_solution(r18, alpha_deg, gap_2z_mm, gap_zgb_mm):
 
 
 def _inputs_for(r18, alpha_deg, fl_kn, f_theta_kn, f_z_kn):
-    """Gaps and torque that put Fl, F_theta and F_Z where a case wants them."""
+    """Clearances and torque that put Fl, F_theta and F_Z where a case wants them."""
     alpha = math.radians(alpha_deg)
     st = rapson_state(r18, alpha, 1.0)
     c = compliances(r18, st)
@@ -234,7 +234,7 @@ def test_declared_residuals_are_the_solver_and_the_friction_law(r18, two_z_mm, z
     direction = rng.choice([-1.0, 1.0], alpha.size)
     forces = rng.uniform(-3e5, 3e5, (alpha.size, 2))
     friction = FrictionParams(7.5e3, 0.11, 0.07)
-    gaps = Gaps.from_mm(two_z_mm, z_gb_mm)
+    gaps = Clearances.from_mm(two_z_mm, z_gb_mm)
     rows = declared_residuals(r18, alpha, torque, direction, forces, gaps, friction, open_2z=open_2z,
                               open_zgb=open_zgb)
     known = np.isfinite(torque)
@@ -254,7 +254,7 @@ def test_declared_residuals_are_the_solver_and_the_friction_law(r18, two_z_mm, z
 
 
 def test_declared_residuals_refuse_as_the_solver_does(r18):
-    """Samples of several shapes, a ram that buckles, a clearance below 0 (Gaps refuses one;
+    """Samples of several shapes, a ram that buckles, a clearance below 0 (Clearances refuses one;
     the solver checks what it is given): one line each."""
     from dataclasses import replace
     from types import SimpleNamespace
@@ -264,13 +264,13 @@ def test_declared_residuals_refuse_as_the_solver_does(r18):
     a, d, f = np.array([0.3, 0.5, 0.6]), np.ones(3), np.zeros((3, 2))
     with pytest.raises(ValueError, match=r'declared residuals need samples of one shape \(n,\) and forces \(n, 2\), '
                                          r'got \(3,\), \(2,\), \(3,\) and \(3, 2\)'):
-        declared_residuals(r18, a, np.ones(2), d, f, Gaps.from_mm(0.6, 0.25), FrictionParams())
+        declared_residuals(r18, a, np.ones(2), d, f, Clearances.from_mm(0.6, 0.25), FrictionParams())
     with pytest.raises(ValueError, match=r'got \(3,\), \(3,\), \(3,\) and \(3,\)'):
-        declared_residuals(r18, a, np.ones(3), d, np.zeros(3), Gaps.from_mm(0.6, 0.25), FrictionParams())
+        declared_residuals(r18, a, np.ones(3), d, np.zeros(3), Clearances.from_mm(0.6, 0.25), FrictionParams())
     gear = replace(r18, euler_amplification=True)
     torque = np.array([1e6, 1e9, 1e10])
     with pytest.raises(ModelError, match=re.escape(_buckles(gear, a[1], torque[1]))):
-        declared_residuals(gear, a, torque, d, f, Gaps.from_mm(0.6, 0.25), FrictionParams())
+        declared_residuals(gear, a, torque, d, f, Clearances.from_mm(0.6, 0.25), FrictionParams())
     with pytest.raises(ModelError, match='clearance z_gb must be finite and >= 0 m'):
         declared_residuals(r18, a, np.ones(3), d, f, SimpleNamespace(two_z=0.6e-3, z_gb=-1e-4), FrictionParams())
 
@@ -301,7 +301,7 @@ def test_arrays_raise_as_the_scalar_does(r18):
 
 
 def test_sign_of_angle_and_torque_does_not_matter(r18):
-    gaps = Gaps.from_mm(0.6, 0.25)
+    gaps = Clearances.from_mm(0.6, 0.25)
     a = math.radians(25.0)
     pos = load_sharing_at(r18, a, gaps)
     neg = load_sharing_at(r18, -a, gaps)
@@ -330,7 +330,7 @@ def test_buckling_is_an_error_with_euler_amplification(r18):
 @pytest.fixture(scope='module')
 def sweep(r18):
     alpha_deg = np.round(np.arange(0.0, 35.0001, 0.1), 4)
-    return alpha_deg, load_sharing_at(r18, np.radians(alpha_deg), Gaps.from_mm(0.600, 0.250))
+    return alpha_deg, load_sharing_at(r18, np.radians(alpha_deg), Clearances.from_mm(0.600, 0.250))
 
 
 def test_ram_inertia_from_diameters():

@@ -14,7 +14,7 @@ from steer_monitor import sim
 from steer_monitor.can import Decoder, RejectCounter
 from steer_monitor.estimate.finding import Finding
 from steer_monitor.estimate.intervals import Interval
-from steer_monitor.model import Gaps
+from steer_monitor.model import Clearances
 from steer_monitor.model.friction import FrictionParams
 from steer_monitor.model.inputs import Sample
 from steer_monitor.monitor import ERROR, OK, WARN, DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
@@ -35,7 +35,7 @@ def _replay(params, can_db, program, gaps_mm, seed, effects=(), motion=False):
     ``motion``: [(t_s, motion_s, status)], the steady motion counted by then)."""
     db, smap = can_db
     gear = gear_from_params(params)
-    s = sim.run(params, sim.SimConfig(program=program, gaps=Gaps.from_mm(*gaps_mm),
+    s = sim.run(params, sim.SimConfig(program=program, gaps=Clearances.from_mm(*gaps_mm),
                                       effects=tuple(sim.parse_effect(e) for e in effects)), db, smap, seed)
     rejects = RejectCounter()
     mon = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params))
@@ -194,7 +194,7 @@ def builder(r18_params, can_db):
 
 @pytest.fixture
 def mon(r18_params):
-    return LiveMonitor(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25))
+    return LiveMonitor(gear_from_params(r18_params), Clearances.from_mm(0.6, 0.25))
 
 
 MM = 1e-3
@@ -215,7 +215,7 @@ MM = 1e-3
 ])
 def test_clearance_levels_on_the_interval(builder, mon, zgb, interval, level, text):
     lo, hi = interval
-    mon.set_gaps(Gaps(0.3 * MM, zgb * MM), 'estimated',
+    mon.set_gaps(Clearances(0.3 * MM, zgb * MM), 'estimated',
                  {'2z': (0.25 * MM, 0.35 * MM), 'zgb': (lo * MM, None if hi is None else hi * MM)})
     st = builder.clearances(mon)
     assert (LEVEL_NAMES[st.level], text in st.message) == (LEVEL_NAMES[level], True), st.message
@@ -290,7 +290,7 @@ def test_the_rams_level_follows_its_band_with_hysteresis(builder, mon):
 
 def test_configured_clearances_are_shown_not_assessed(builder, mon):
     """Before any analysis the clearances are not assessed (STALE), never OK."""
-    mon.set_gaps(Gaps(0.7 * MM, 0.3 * MM), 'configured')
+    mon.set_gaps(Clearances(0.7 * MM, 0.3 * MM), 'configured')
     st = builder.clearances(mon)
     assert st.level == STALE
     assert st.message.startswith('2Z 0.700 mm configured NOT ASSESSED: not estimated yet (the configured value is '
@@ -320,10 +320,12 @@ def test_a_lower_bound_for_want_of_evidence_says_why(builder, mon):
 
 def test_guide_idle_judged_on_the_estimate_and_its_interval(builder, mon):
     assert builder.guide_beam(mon).level == OK                    # configured: 10.01 deg, not judged
-    mon.set_gaps(Gaps(0.4 * MM, 0.26 * MM), 'estimated', {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.1 * MM, 0.4 * MM)})
+    mon.set_gaps(Clearances(0.4 * MM, 0.26 * MM), 'estimated',
+                 {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.1 * MM, 0.4 * MM)})
     st = builder.guide_beam(mon)
     assert st.level == OK and 'at the low end of the Z_gb interval: not judged' in st.message
-    mon.set_gaps(Gaps(0.4 * MM, 0.3 * MM), 'estimated', {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.27 * MM, 0.33 * MM)})
+    mon.set_gaps(Clearances(0.4 * MM, 0.3 * MM), 'estimated',
+                 {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.27 * MM, 0.33 * MM)})
     st = builder.guide_beam(mon)
     assert st.level == WARN and float(st.value('guide_onset_lo_deg')) > 10.0
 
@@ -369,12 +371,12 @@ def test_residuals_restart_when_the_clearances_become_estimated(r18_params, can_
     first, last = FrictionParams(20e3, 0.05, 0.02), FrictionParams(9e3, 0.13, 0.05)
     _, changed, _ = _fed(r18_params, can_db, iv, first)
     before = changed.residual_rms_bar()
-    changed.set_gaps(Gaps(0.06 * MM, 0.1 * MM), 'estimated', iv, last)
+    changed.set_gaps(Clearances(0.06 * MM, 0.1 * MM), 'estimated', iv, last)
     _, along, _ = _fed(r18_params, can_db, iv, last)
     assert len(changed.residuals) == len(along.residuals) == 1200
     assert changed.residuals == pytest.approx(along.residuals, rel=1e-12, abs=1e-12)
     assert changed.residual_rms_bar() != pytest.approx(before, rel=0.01)
-    changed.set_gaps(Gaps(0.6 * MM, 0.25 * MM), 'configured')
+    changed.set_gaps(Clearances(0.6 * MM, 0.25 * MM), 'configured')
     assert changed.residuals == [] and changed.residual_rms_bar() is None
 
 
@@ -425,7 +427,7 @@ def test_a_finding_is_used_with_its_own_friction(mon):
     """Clearances and the friction fitted at them go to the live model as a pair, a lower
     bound as it is: its residual is judged by one fit."""
     mon.set_finding(_finding(Interval(0.06 * MM, 0.06 * MM, None), Interval(0.1 * MM, 0.08 * MM, 0.12 * MM)))
-    assert mon.gaps == Gaps(0.06 * MM, 0.1 * MM) and mon.priors.mu_bushing == 0.13
+    assert mon.gaps == Clearances(0.06 * MM, 0.1 * MM) and mon.priors.mu_bushing == 0.13
     assert mon.gaps_interval == {'2z': (0.06 * MM, None), 'zgb': (0.08 * MM, 0.12 * MM)}
     assert mon.torque is None                  # no fitted torque in the finding: the configured one
 
@@ -468,9 +470,9 @@ def test_residual_not_judged_where_an_open_clearance_would_clamp(r18_params, can
 def _fed(params, can_db, interval, friction=None):
     db, smap = can_db
     gear = gear_from_params(params)
-    s = sim.run(params, sim.SimConfig(program='hard_over_2', gaps=Gaps.from_mm(0.06, 0.1)), db, smap, 3)
-    mon = LiveMonitor(gear, Gaps(0.06 * MM, 0.1 * MM))
-    mon.set_gaps(Gaps(0.06 * MM, 0.1 * MM), 'estimated', interval, friction)
+    s = sim.run(params, sim.SimConfig(program='hard_over_2', gaps=Clearances.from_mm(0.06, 0.1)), db, smap, 3)
+    mon = LiveMonitor(gear, Clearances(0.06 * MM, 0.1 * MM))
+    mon.set_gaps(Clearances(0.06 * MM, 0.1 * MM), 'estimated', interval, friction)
     dec = Decoder(db, smap)
     for f in s.frames.frames():
         for sample in dec.decode(f):

@@ -17,7 +17,7 @@ from steer_monitor.estimate.effects import Effect
 from steer_monitor.estimate.finding import Finding, finding_of
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.observe import EstimateError
-from steer_monitor.model import Gaps
+from steer_monitor.model import Clearances
 from steer_monitor.model.inputs import Series
 from steer_monitor.monitor import DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
 from steer_monitor.monitor.analyst import Analyst, AnalystSettings, SyncJobs
@@ -89,7 +89,7 @@ def test_the_nodes_findings_are_analyze_of_the_log_cut_at_their_time(r18_params,
     node's window (and, for an estimate, the model of the loop before it): the clearances with
     their intervals, K_gl max, friction, torque, effects, verdict and message."""
     db, smap = can_db
-    cfg = sim.SimConfig(program=program, gaps=Gaps.from_mm(0.33, 0.205), max_duration_s=1500.0,
+    cfg = sim.SimConfig(program=program, gaps=Clearances.from_mm(0.33, 0.205), max_duration_s=1500.0,
                         effects=tuple(sim.parse_effect(e) for e in effects))
     s = sim.run(r18_params, cfg, db, smap, seed)
     # loops from 60 s of motion and estimates between them: more analyses to compare
@@ -120,7 +120,7 @@ def test_the_nodes_findings_are_analyze_of_the_log_cut_at_their_time(r18_params,
     assert published
     findings = [out.finding for _, out in done if out.finding is not None]
     for _, gaps, interval in published:
-        assert any(gaps == Gaps(f.two_z.value, f.z_gb.value)
+        assert any(gaps == Clearances(f.two_z.value, f.z_gb.value)
                    and interval == {'2z': (f.two_z.lo, f.two_z.hi), 'zgb': (f.z_gb.lo, f.z_gb.hi)} for f in findings)
 
 
@@ -238,7 +238,7 @@ def test_analyze_of_the_log_until_a_findings_time_gives_what_the_node_published(
     from steer_monitor.logfiles.mcapio import McapWriter
 
     db, smap = can_db
-    s = sim.run(r18_params, sim.SimConfig(program='realistic:900', gaps=Gaps.from_mm(0.41, 0.1717)), db, smap, 47)
+    s = sim.run(r18_params, sim.SimConfig(program='realistic:900', gaps=Clearances.from_mm(0.41, 0.1717)), db, smap, 47)
     log = tmp_path / 'voyage.mcap'
     with McapWriter(log) as w:
         frames = list(s.frames.frames())

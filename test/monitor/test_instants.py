@@ -12,7 +12,7 @@ from collections import deque
 import numpy as np
 import pytest
 
-from steer_monitor.model import Gaps
+from steer_monitor.model import Clearances
 from steer_monitor.model.inputs import PRESSURE_INPUTS as PRESSURES
 from steer_monitor.model.inputs import Sample
 from steer_monitor.monitor import LiveMonitor
@@ -133,7 +133,7 @@ def _stream(seed: int, seconds: float, disorder: bool, gaps: bool, nan_angles: b
 def test_instants_judged_later_are_those_judged_as_each_angle_came(r18_params, seed, disorder, gaps, nan_angles,
                                                                      delay_ms):
     gear = gear_from_params(r18_params)
-    mon = LiveMonitor(gear, Gaps.from_mm(0.3, 0.2))
+    mon = LiveMonitor(gear, Clearances.from_mm(0.3, 0.2))
     mon.steady.delay_ns = delay_ms * 1_000_000      # as set_finding sets it from an adopted delay
     oracle = _Oracle(gear.ram_area)
     rng = np.random.default_rng(100 + seed)
@@ -162,7 +162,7 @@ def test_the_log_between_reads_is_bounded(r18_params):
     """Fed for long without being read, the monitor judges what its angle samples released
     once a thousand of them are waiting: the log stays bounded."""
     from steer_monitor.monitor.steady import CALLS_KEPT
-    mon = LiveMonitor(gear_from_params(r18_params), Gaps.from_mm(0.3, 0.2))
+    mon = LiveMonitor(gear_from_params(r18_params), Clearances.from_mm(0.3, 0.2))
     for s in _stream(9, 300.0, False, False, False):
         mon.update(s)
         logged, kept = mon.steady.log_kept
@@ -175,7 +175,7 @@ def test_a_sample_held_after_an_angle_sample_is_not_released_by_it(r18_params):
     else held) is released by the next angle sample, not by that one: it is judged with the
     ship's speed standing then."""
     gear = gear_from_params(r18_params)
-    mon = LiveMonitor(gear, Gaps.from_mm(0.3, 0.2))
+    mon = LiveMonitor(gear, Clearances.from_mm(0.3, 0.2))
     oracle = _Oracle(gear.ram_area)
     t0 = 1_700_000_000_000_000_000
     ms = 1_000_000
@@ -205,7 +205,7 @@ def test_with_the_angle_dead_the_held_samples_stay_bounded(r18_params):
     stream = _stream(11, 240.0, False, False, False)
     t_back = stream[0].t_ns + 600 * 1_000_000_000
     shift = 600 * 1_000_000_000
-    waited = LiveMonitor(gear, Gaps.from_mm(0.3, 0.2))
+    waited = LiveMonitor(gear, Clearances.from_mm(0.3, 0.2))
     t0 = stream[0].t_ns
     for k in range(600 * 20):                                    # the pressures alone, 20 Hz each
         for j, name in enumerate(PRESSURES):
@@ -213,7 +213,7 @@ def test_with_the_angle_dead_the_held_samples_stay_bounded(r18_params):
         assert waited.steady.held <= MAX_HELD
     assert waited.steady.held_dropped == 600 * 20 * 4 - 3 - MAX_HELD    # the first three lack a pressure
     assert waited.motion_ns == 0 and waited.steady.held == MAX_HELD
-    fresh = LiveMonitor(gear, Gaps.from_mm(0.3, 0.2))
+    fresh = LiveMonitor(gear, Clearances.from_mm(0.3, 0.2))
     for s in stream:                                             # then the gear as before, ten minutes on
         moved = Sample(s.t_ns + shift, s.signal, s.value)
         assert moved.t_ns >= t_back
@@ -228,7 +228,7 @@ def test_a_bracket_judged_again_after_one_with_a_nan_angle_keeps_its_own_slopes(
     angle (its slopes worked out by the caller's math.fsum) and in a bracket of steady motion,
     twice: the second in the steady bracket is judged with that bracket's slopes."""
     gear = gear_from_params(r18_params)
-    mon = LiveMonitor(gear, Gaps.from_mm(0.3, 0.2))
+    mon = LiveMonitor(gear, Clearances.from_mm(0.3, 0.2))
     oracle = _Oracle(gear.ram_area)
     t0 = 1_700_000_000_000_000_000
     ms = 1_000_000

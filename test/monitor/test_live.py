@@ -9,7 +9,7 @@ import pytest
 
 from steer_monitor import sim
 from steer_monitor.can import Decoder, RejectCounter
-from steer_monitor.model import Gaps
+from steer_monitor.model import Clearances
 from steer_monitor.monitor import ERROR, OK, STALE, WARN, DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
 from steer_monitor.params import gear_from_params
 
@@ -19,7 +19,7 @@ def _feed(r18_params, can_db, program, effects=(), seed=2, gaps=None, upto_s=Non
     cfg = sim.SimConfig(program=program, effects=tuple(sim.parse_effect(e) for e in effects))
     s = sim.run(r18_params, cfg, db, smap, seed)
     decoder = Decoder(db, smap, RejectCounter())
-    mon = LiveMonitor(gear_from_params(r18_params), gaps or Gaps.from_mm(0.6, 0.25))
+    mon = LiveMonitor(gear_from_params(r18_params), gaps or Clearances.from_mm(0.6, 0.25))
     last = None
     for frame in s.frames.frames():
         if upto_s is not None and frame.t_ns > s.plant.start_ns + upto_s * 1e9:
@@ -108,10 +108,10 @@ def test_stale_after_silence_and_error_beyond_limits(r18_params, can_db):
     later = b.build(mon, dec.rejects.snapshot(), t_last + int(2.5e9))
     can_status = later[0]
     assert can_status.level == STALE and 'rudder_angle' in can_status.message
-    mon.set_gaps(Gaps.from_mm(0.65, 0.1), 'test', {'2z': (0.62e-3, 0.68e-3), 'zgb': (0.08e-3, 0.12e-3)})
+    mon.set_gaps(Clearances.from_mm(0.65, 0.1), 'test', {'2z': (0.62e-3, 0.68e-3), 'zgb': (0.08e-3, 0.12e-3)})
     cl = b.clearances(mon)
     assert cl.level == ERROR and '2Z 0.650 mm [0.620 .. 0.680] (108% of limit)' in cl.message
-    mon.set_gaps(Gaps.from_mm(0.3, 0.1), 'test', {'2z': (0.25e-3, 0.35e-3), 'zgb': (0.08e-3, 0.12e-3)})
+    mon.set_gaps(Clearances.from_mm(0.3, 0.1), 'test', {'2z': (0.25e-3, 0.35e-3), 'zgb': (0.08e-3, 0.12e-3)})
     assert b.clearances(mon).level == OK
     assert b.guide_beam(mon).level == OK
 
@@ -142,7 +142,7 @@ def test_pump_count_from_the_hard_over_time_matches_a_simulation(r18_params, can
     gear = gear_from_params(params)
     prog = f'hard_over_{pumps}'
     s = sim.run(params, sim.SimConfig(program=prog), db, smap, 3)
-    mon = LiveMonitor(gear, Gaps.from_mm(0.6, 0.25))
+    mon = LiveMonitor(gear, Clearances.from_mm(0.6, 0.25))
     dec = Decoder(db, smap)
     for f in s.frames.frames():
         for sample in dec.decode(f):
@@ -172,7 +172,7 @@ def _steady_feed(r18_params, smap, seconds: float, skip: dict[str, set[int]] | N
         for i in range(int(seconds * rate)):
             if i not in (skip or {}).get(spec.name, set()):
                 samples.append(Sample(int(i * 1e9 / rate), spec.name, values.get(spec.name, 2e5)))
-    mon = LiveMonitor(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25))
+    mon = LiveMonitor(gear_from_params(r18_params), Clearances.from_mm(0.6, 0.25))
     for sample in sorted(samples, key=lambda s: s.t_ns):
         mon.update(sample)
     return mon
@@ -205,7 +205,7 @@ def test_a_monitor_that_defers_the_load_sharing_leaves_it_to_its_caller(r18_para
     db, smap = can_db
     s = sim.run(r18_params, sim.SimConfig(program='hard_over_2'), db, smap, 4)
     gear = gear_from_params(r18_params)
-    eager, lazy = (LiveMonitor(gear, Gaps.from_mm(0.6, 0.25), defer_share=d) for d in (False, True))
+    eager, lazy = (LiveMonitor(gear, Clearances.from_mm(0.6, 0.25), defer_share=d) for d in (False, True))
     decoder = Decoder(db, smap, RejectCounter())
     seen = 0
     for frame in s.frames.frames()[:3000]:

@@ -12,7 +12,7 @@ from steer_monitor.can import Decoder, Frame, RejectCounter
 from steer_monitor.can.timejump import CONFIRM_FRAMES
 from steer_monitor.estimate.finding import Finding
 from steer_monitor.estimate.intervals import Interval
-from steer_monitor.model import Gaps
+from steer_monitor.model import Clearances
 from steer_monitor.monitor import DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
 from steer_monitor.monitor.analyst import Analyst, AnalystSettings, Job, Outcome
 from steer_monitor.monitor.pipeline import (
@@ -47,7 +47,7 @@ def _pipeline(r18_params, can_db, analyst=None, jobs=None, defer_share=False):
     db, smap = can_db
     gear = gear_from_params(r18_params)
     rejects = RejectCounter()
-    mon = LiveMonitor(gear, Gaps.from_mm(0.6, 0.25), defer_share=defer_share)
+    mon = LiveMonitor(gear, Clearances.from_mm(0.6, 0.25), defer_share=defer_share)
     diag = DiagnosticsBuilder(DiagnosticsConfig(hardware_id='test'), smap, gear)
     return Pipeline(Decoder(db, smap, rejects), rejects, mon, diag, analyst, jobs)
 
@@ -194,10 +194,10 @@ def test_a_finding_is_applied_a_fixed_data_time_after_its_job(r18_params, can_db
     started = diags[1].t_ns                       # the second second's job gives the finding
     for d in diags:
         if d.t_ns < started + apply_delay_ns(analyst.settings, 0.0):
-            assert d.source == 'configured' and d.gaps == Gaps.from_mm(0.6, 0.25)
+            assert d.source == 'configured' and d.gaps == Clearances.from_mm(0.6, 0.25)
         else:
             assert d.source == 'estimated'
-            assert d.gaps == Gaps(0.3e-3, 0.1e-3)
+            assert d.gaps == Clearances(0.3e-3, 0.1e-3)
             assert d.interval == {'2z': (0.2e-3, 0.4e-3), 'zgb': (0.05e-3, 0.15e-3)}
             clear = dict(d.statuses[1].values)
             assert clear['k_gl_max_lo'] == '0.300' and clear['estimate_motion_s'] == '42'

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from steer_monitor.model import Gaps
+from steer_monitor.model import Clearances
 from steer_monitor.model.friction import FrictionParams
 from steer_monitor.monitor.residual import LiveResidual
 from steer_monitor.params import gear_from_params
@@ -16,7 +16,7 @@ from steer_monitor.params import gear_from_params
 def test_the_residual_rms_is_a_correctly_rounded_sum(r18_params):
     """Squares whose plain sum differs from the exact one in the last bit: the RMS is the
     correctly rounded one (math.fsum)."""
-    residual = LiveResidual(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25), FrictionParams())
+    residual = LiveResidual(gear_from_params(r18_params), Clearances.from_mm(0.6, 0.25), FrictionParams())
     residual.push_rows(np.array([[1e8, 1.0, 1.0], [1.0, 1.0, 1.0]]))    # two judged pairs
     res = [1e8, 1.0, 1.0, 1.0]
     assert sum(r * r for r in res) != math.fsum(r * r for r in res)
@@ -30,8 +30,8 @@ def test_a_minute_rejudged_at_once_is_each_instant_judged_alone(r18_params, case
     torque) is the one-instant result, to rounding."""
     from steer_monitor.model.torque import TorqueTable
     gear = gear_from_params(r18_params)
-    gaps = Gaps.from_mm(0.1, 0.05)
-    residual = LiveResidual(gear, Gaps.from_mm(0.6, 0.25), FrictionParams())
+    gaps = Clearances.from_mm(0.1, 0.05)
+    residual = LiveResidual(gear, Clearances.from_mm(0.6, 0.25), FrictionParams())
     rng = np.random.default_rng(7)
     # (angle, speed (NaN: not known), direction, the rams' forces, rate, oil temperature)
     instants = [(float(a), math.nan if rng.random() < 0.3 else float(rng.uniform(2.0, 9.0)), float(d), float(f1),
@@ -65,7 +65,7 @@ def test_the_residual_rms_kept_as_rows_come_and_go_is_the_minutes_fsum(r18_param
     to the bit, at every step."""
     import math
     rng = np.random.default_rng(seed)
-    residual = LiveResidual(gear_from_params(r18_params), Gaps.from_mm(0.6, 0.25), FrictionParams())
+    residual = LiveResidual(gear_from_params(r18_params), Clearances.from_mm(0.6, 0.25), FrictionParams())
     cap = residual.capacity
     for step in range(80):
         n = int(rng.choice([1, 7, 40, 333, cap + 17]))

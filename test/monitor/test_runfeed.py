@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from steer_monitor.model import Gaps
+from steer_monitor.model import Clearances
 from steer_monitor.monitor import LiveMonitor
 from steer_monitor.monitor.runfeed import take_rudder
 from steer_monitor.params import gear_from_params
@@ -108,10 +108,10 @@ def test_a_span_of_rudder_samples_taken_at_once_is_each_taken_alone(r18_params, 
     from steer_monitor.model.inputs import Sample
     gear = gear_from_params(r18_params)
     stream = _rudder_stream(3, 65.0, nan_at_s)
-    one = LiveMonitor(gear, Gaps.from_mm(0.6, 0.25))
+    one = LiveMonitor(gear, Clearances.from_mm(0.6, 0.25))
     for t, name, value in stream:
         one.update(Sample(t, name, value))
-    spans = LiveMonitor(gear, Gaps.from_mm(0.6, 0.25))
+    spans = LiveMonitor(gear, Clearances.from_mm(0.6, 0.25))
     taken = _take_in_spans(spans, stream, read)
     assert [i for i, ok in enumerate(taken) if not ok] == refused
     assert one.hard_over_s is not None and spans.hard_over_s == one.hard_over_s
@@ -127,7 +127,7 @@ def test_a_span_is_refused_unchanged_past_the_held_bound_or_under_another_delay(
     cut under a delay the plan was not made with, take_rudder takes nothing."""
     from steer_monitor.monitor.steady import MAX_HELD
     gear = gear_from_params(r18_params)
-    mon = LiveMonitor(gear, Gaps.from_mm(0.6, 0.25))
+    mon = LiveMonitor(gear, Clearances.from_mm(0.6, 0.25))
     mon.steady.plan([10, 20], [0.1, 0.2])
     args = ([True, True], [10, 20], [0.1, 0.2], [0, 0], [math.nan] * 4)
     many = np.arange(MAX_HELD + 1, dtype=np.int64)

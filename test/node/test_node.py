@@ -155,7 +155,7 @@ def test_the_node_publishes_its_statuses_named_and_levelled(fast_run, r18_params
     """After the hard-overs: every status there, in order; the inputs at rate; the hard-over
     timed as the simulated gear takes it (25.5 s with two pumps); the guide beam's onset the
     model's for the clearances in use; the residual small; the recording OK."""
-    from steer_monitor.model.gear import Gaps
+    from steer_monitor.model.gear import Clearances
     from steer_monitor.params import gear_from_params
     from steer_monitor.studies.tables import loadshare_rows
     diags = _diagnostics(fast_run.recording)
@@ -170,7 +170,7 @@ def test_the_node_publishes_its_statuses_named_and_levelled(fast_run, r18_params
     perf = last['steer_monitor: steering performance']
     assert _level(perf) == OK and float(_values(perf)['hard_over_s']) == pytest.approx(25.5, abs=0.6)
     cl = _values(last['steer_monitor: clearances'])
-    in_use = Gaps.from_mm(float(cl['clearance_2z_mm']), float(cl['clearance_zgb_mm']))
+    in_use = Clearances.from_mm(float(cl['clearance_2z_mm']), float(cl['clearance_zgb_mm']))
     sweep, _ = loadshare_rows(gear_from_params(r18_params), in_use, None, 0.1)
     assert float(_values(last['steer_monitor: guide beam'])['guide_onset_deg']) == pytest.approx(
         sweep['landmarks']['guide_onset_deg'], abs=0.6)

@@ -96,12 +96,12 @@ def test_string_matches_the_generic_encoder(text):
 
 def _typed_fields(key: str) -> tuple[str, dict]:
     """(datatype, fields) of the monitor's own message ``key``, built as the node builds it."""
-    from steer_monitor.model.gear import Gaps
+    from steer_monitor.model.gear import Clearances
     from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages
     from steer_monitor.monitor.pipeline import DiagOut
     if key == 'clearances':
         interval = {'2z': (0.2e-3, None), 'zgb': (0.24e-3, 0.27e-3)}
-        out = DiagOut(1_700_000_000_250_000_000, (), Gaps(0.6e-3, 0.25e-3), interval, 'estimated')
+        out = DiagOut(1_700_000_000_250_000_000, (), Clearances(0.6e-3, 0.25e-3), interval, 'estimated')
         fields = next(f for k, _, f in diag_messages(out) if k == key)
     else:
         from steer_monitor.model.loadshare import ShareScalar
@@ -109,7 +109,7 @@ def _typed_fields(key: str) -> tuple[str, dict]:
         from steer_monitor.monitor.pipeline import StateOut
         share = ShareScalar(lateral=1e5, axial=3e5, ram_force=6e4, guide_force=4e4, k_gl=0.4, deflection=1e-4,
                             r_a=5e4, r_e=1e4, m_a=2e3, f_theta=7e4, f_z=9e4, case=-3, stages=5)
-        st = LiveState(1_700_000_000_250_000_000, 0.3, 0.01, True, 1e6, share, Gaps(0.6e-3, 0.25e-3))
+        st = LiveState(1_700_000_000_250_000_000, 0.3, 0.01, True, 1e6, share, Clearances(0.6e-3, 0.25e-3))
         fields = next(f for k, _, f in state_messages(StateOut(st)) if k == key)
     return TOPICS[key][1], fields
 

@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from steer_monitor.logfiles.mcapio import McapWriter
-from steer_monitor.model.gear import Gaps
+from steer_monitor.model.gear import Clearances
 from steer_monitor.model.loadshare import ShareScalar, load_sharing_scalar
 from steer_monitor.monitor.live import LiveState
 from steer_monitor.monitor.messages import TOPICS, state_messages
@@ -26,7 +26,7 @@ FLOATS = st.floats(allow_nan=True, allow_infinity=True, width=64)
 SHARES = st.builds(ShareScalar, FLOATS, FLOATS, FLOATS, FLOATS, FLOATS, FLOATS, FLOATS, FLOATS, FLOATS,
                    FLOATS, FLOATS, st.integers(-128, 127), st.integers(0, 255))
 STATES = st.builds(LiveState, st.integers(0, 2**63 - 1), FLOATS, FLOATS, st.booleans(),
-                   st.none() | FLOATS, st.none() | SHARES, st.just(Gaps(0.0005, 0.0003)))
+                   st.none() | FLOATS, st.none() | SHARES, st.just(Clearances(0.0005, 0.0003)))
 
 
 def _writer(buf: io.BytesIO, chunk_size: int) -> McapWriter:
@@ -67,7 +67,7 @@ def test_packed_states_are_the_one_by_one_bytes(states, cut, chunk_size):
 def _state(i: int, share: bool) -> LiveState:
     sh = ShareScalar(*(float(i + k) for k in range(11)), case=-(i % 3), stages=i % 4) if share else None
     return LiveState(1_767_225_600_000_000_000 + i * 10_000_000, 0.01 * i - 0.3, -0.02, True,
-                     None if i % 5 == 0 else 1e5 * i, sh, Gaps(0.0005, 0.0003))
+                     None if i % 5 == 0 else 1e5 * i, sh, Clearances(0.0005, 0.0003))
 
 
 @pytest.mark.parametrize('chunk_size', [1000, 4096, 1 << 20])
@@ -87,7 +87,7 @@ def test_an_empty_batch_writes_nothing():
 
 
 def test_effort_keeps_the_angles_sign_with_no_torque():
-    s = LiveState(1_767_225_600_000_000_000, -0.2, 0.0, False, None, None, Gaps(0.0, 0.0))
+    s = LiveState(1_767_225_600_000_000_000, -0.2, 0.0, False, None, None, Clearances(0.0, 0.0))
     (_, _, fields), = state_messages(StateOut(s))
     assert math.copysign(1.0, fields['effort'][0]) == -1.0
     assert _packed([[s]], 4096) == _one_by_one([s], 4096)
@@ -120,7 +120,7 @@ def test_states_left_to_solve_are_solved_as_the_live_monitor_solves_them(r18):
     for i in range(400):
         alpha = float(rng.uniform(-0.62, 0.62))
         torque = None if i % 9 == 0 else float(r18.torque(alpha) * rng.uniform(0.0, 2.0))
-        gaps = Gaps(float(rng.choice([0.0, 0.2e-3, 0.6e-3])), float(rng.choice([0.0, 0.25e-3])))
+        gaps = Clearances(float(rng.choice([0.0, 0.2e-3, 0.6e-3])), float(rng.choice([0.0, 0.25e-3])))
         share = None if torque is None else load_sharing_scalar(r18, alpha, torque, gaps.two_z, gaps.z_gb)
         s = LiveState(1_767_225_600_000_000_000 + i * 10_000_000, alpha, 0.01, True, torque, share, gaps)
         full.append(s)

@@ -171,10 +171,10 @@ def _noise_free(r18_params, db, smap, effects=()):
     from steer_monitor import sim
     from steer_monitor.can.decoder import Decoder
     from steer_monitor.estimate.observe import build_observations
-    from steer_monitor.model.gear import Gaps
+    from steer_monitor.model.gear import Clearances
     from steer_monitor.params import gear_from_params
     gear = gear_from_params(r18_params)
-    cfg = sim.SimConfig(program='hard_over_2', gaps=Gaps.from_mm(0.3, 0.2), noise=False,
+    cfg = sim.SimConfig(program='hard_over_2', gaps=Clearances.from_mm(0.3, 0.2), noise=False,
                         effects=tuple(sim.parse_effect(e) for e in effects))
     s = sim.run(r18_params, cfg, db, smap, 4)
     obs = build_observations(Decoder(db, smap).decode_arrays(s.frames, final=True), gear.ram_area)

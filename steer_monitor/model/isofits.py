@@ -13,7 +13,7 @@ Tolerance tables: ISO 286-1:2010 table 1 (standard tolerance grades IT5..IT11) a
 tables 2-3 (fundamental deviations of shafts c, d, e, f, g, h, js, k, m, n, p), nominal
 sizes above 0 up to and including 500 mm, hole basis (H holes). No maintained Python
 package carries these tables, so they are written out here and pinned by published rows in
-``test/model/test_fits.py``. Values in the tables are micrometres; everything returned is SI
+``test/model/test_isofits.py``. Values in the tables are micrometres; everything returned is SI
 (metres).
 """
 

@@ -1,4 +1,4 @@
-"""One BLAS thread per process (steer_monitor.threads)."""
+"""One BLAS thread per process (steer_monitor.runtime)."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ def test_single_blas_thread_limits_every_blas_library_and_is_idempotent(first):
     when the estimator loads it later (the limit holds for the libraries loaded when it is
     set; called first, it once limited none)."""
     code = (first + 'from threadpoolctl import threadpool_info\n'
-            'from steer_monitor.threads import single_blas_thread\n'
+            'from steer_monitor.runtime import single_blas_thread\n'
             'single_blas_thread(); single_blas_thread()\n'
             'import steer_monitor.estimate.fit, scipy.linalg\n'
             'blas = [i for i in threadpool_info() if i["user_api"] == "blas"]\n'
@@ -30,7 +30,7 @@ def test_fewer_collections_raises_the_young_threshold_and_puts_it_back():
     objects; after it, on a normal exit or an exception, the thresholds are those before."""
     import gc
 
-    from steer_monitor.threads import COLLECT_EVERY, fewer_collections
+    from steer_monitor.runtime import COLLECT_EVERY, fewer_collections
 
     before = gc.get_threshold()
     try:

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from steer_monitor.model.gear import Gaps, GearParams
+from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.loadshare import STAGE_CLAMPED, LoadSharing, load_sharing_at
 
 __all__ = ['GapSensitivity', 'Landmarks', 'gap_sensitivity', 'landmarks']
@@ -87,7 +87,7 @@ def gap_sensitivity(gear: GearParams, two_z: ArrayLike, z_gb: ArrayLike,
     high = alpha >= high_from
     for i, t in enumerate(tz):
         for j, z in enumerate(zg):
-            res = load_sharing_at(gear, alpha, Gaps(float(t), float(z)))
+            res = load_sharing_at(gear, alpha, Clearances(float(t), float(z)))
             kmax[i, j] = res.k_gl.max()
             kmean[i, j] = res.k_gl[high].mean() if np.any(high) else np.nan
             clamps[i, j] = bool(np.any(res.stages & STAGE_CLAMPED))
