@@ -28,7 +28,8 @@ import numpy as np
 
 from bench.bench_node import BUS_RATE, _other_traffic
 
-PERIODS_MS = (2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 250.0, 1000.0)
+#: read periods [ms]: the node's (a few ms) up to replay's blocks (16,384 frames: 8.6 s of a full bus)
+PERIODS_MS = (2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 250.0, 1000.0, 8590.0)
 
 
 def _frames(seconds: float):
