@@ -31,22 +31,23 @@ from typing import Any
 
 from rclpy.node import Node
 
-from steer_monitor.atomic import ensure_dir
 from steer_monitor.can.bus import BusReader, ListenOnlyBus
 from steer_monitor.can.busclock import BusClock
 from steer_monitor.can.busconfig import can_setup
 from steer_monitor.can.decoder import Decoder
 from steer_monitor.can.frames import Frame
 from steer_monitor.can.rejects import RejectCounter
-from steer_monitor.errors import OutputError, ParameterError, SteerMonitorError
+from steer_monitor.errors import ParameterError, SteerMonitorError
 from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.monitor.analyst import Analyst, Outcome, describe
-from steer_monitor.monitor.diagnostics import ERROR, OK, WARN, DiagnosticsBuilder, DiagnosticsConfig, Status
+from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig, Status
 from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages
 from steer_monitor.monitor.pipeline import DiagOut, Output, Pipeline, StateOut, ThreadedJobs, analyst_from_params
 from steer_monitor.node.params_ros import declare_parameters
 from steer_monitor.node.rosmsg import message_class, to_ros
+from steer_monitor.node.statefile import StateFile
+from steer_monitor.node.statuses import bus_status, clock_words, recording_status
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params, ram_share_warn_from_params
 from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.record.msgdefs import msgdef
@@ -119,8 +120,9 @@ class MonitorNode(Node):
         self._bus_mode: tuple[bool | None, str] = (None, 'bus not opened yet')
         self._bus_clock: BusClock | None = None
         self._clock_told: tuple[bool | None, int] = (None, 0)
-        self.save_error: str | None = None    # the analyses' state's last save failure, until one succeeds
-        self._state_dir_made = False           # the state file's directory was made (or found) once
+        self.state_file = StateFile.from_params(p['estimator.state_file'], p['recording.directory'],
+                                                lambda text: self._log().error(text),
+                                                lambda text: self._log().info(text))
         self._stop = threading.Event()
         self._closed = False
         self._closing = False
@@ -184,22 +186,12 @@ class MonitorNode(Node):
         """What the frames' times are, in words; said in the log when it changes (the first
         frame shows whether the interface keeps UTC; an adapter's clock may step later)."""
         clock = self._bus_clock
-        if clock is None or clock.relative is None:
-            return 'no frame yet' if clock is not None else 'not reported'
-        if clock.mode != 'auto':
-            text = {'bus': "the interface's (can.timestamps: bus)", 'host': 'the host clock when read '
-                    '(can.timestamps: host)'}[clock.mode]
-        elif clock.relative:
-            text = (f"the interface's clock is not UTC ({clock.offset_ns / 1e9:+.3f} s from the host's): its "
-                    "intervals are kept, put on the host clock")
-        else:
-            text = "the interface's (UTC, as the host clock)"
-        if clock.steps:
-            text += f'; it stepped {clock.steps} time(s)'
-        told = (clock.relative, clock.steps)
-        if told != self._clock_told and (clock.relative or clock.steps):
-            self._clock_told = told
-            self._log().warning(f'CAN frame times: {text}')
+        text = clock_words(clock)
+        if clock is not None and clock.relative is not None:
+            told = (clock.relative, clock.steps)
+            if told != self._clock_told and (clock.relative or clock.steps):
+                self._clock_told = told
+                self._log().warning(f'CAN frame times: {text}')
         return text
 
     def _bus_failed(self, text: str | None) -> None:
@@ -212,18 +204,11 @@ class MonitorNode(Node):
             self._log().warning(f"{text}; trying again every {p['can.reopen_backoff_max_s']:g} s at most")
 
     def _bus_status(self) -> Status:
-        """The node's own status of its bus: whether the controller is silent (listen-only),
-        and the last bus error. WARN when the controller is known to acknowledge frames."""
+        """The node's own status of its bus (:func:`~steer_monitor.node.statuses.bus_status`)."""
         silent, how = self._bus_mode
         p = self.params
-        values = (('interface', f"{p['can.interface']}:{p['can.channel']}"),
-                  ('controller_silent', {True: 'yes', False: 'no', None: 'unknown'}[silent]),
-                  ('controller_mode', how), ('frame_times', self._clock_text()),
-                  ('frame_time_went_back', str(self.restarts)),
-                  ('last_bus_error', self.reader.last_error or 'none'))
-        level = WARN if silent is False else OK
-        message = how if silent is not None else f'listen-only cannot be confirmed: {how}'
-        return Status('steer_monitor: CAN bus', level, message, p['node.hardware_id'], values)
+        return bus_status(f"{p['can.interface']}:{p['can.channel']}", silent, how, self._clock_text(), self.restarts,
+                          self.reader.last_error, p['node.hardware_id'])
 
     # --- analyses ----------------------------------------------------------------------------
     def _start_analyst(self) -> ThreadedJobs:
@@ -231,7 +216,7 @@ class MonitorNode(Node):
         state every ``estimator.save_every_s``."""
         p = self.params
         self.analyst = analyst = analyst_from_params(self.gear, p)
-        path = self._state_path()
+        path = self.state_file.path
         if path is not None and path.exists():
             try:
                 motion = analyst.load(path)
@@ -278,12 +263,6 @@ class MonitorNode(Node):
         return Pipeline(Decoder(self._db, self.smap, self.rejects), self.rejects, self.monitor, self.diag,
                         self.analyst if jobs is not None else None, jobs)
 
-    def _state_path(self) -> Path | None:
-        """The estimator's state file (None: not kept): a relative name lives in the recording
-        directory (not in whatever directory the node was started from)."""
-        name = self.params['estimator.state_file']
-        return Path(self.params['recording.directory'], name) if name else None
-
     def _log(self) -> Any:
         """The node's logger while ROS runs; once a signal has shut the context down (the node
         is closing), a child logger that does not publish to /rosout, so a last line is not
@@ -296,29 +275,18 @@ class MonitorNode(Node):
         return rclpy.logging.get_logger(f'{self.get_name()}.closing')
 
     def save_analyses(self) -> None:
-        """Save the analyses' state (the window, the schedule, the last finding): on the
-        executor's timer and when closing, under the pipeline's lock (the reader thread feeds
-        the window)."""
-        path = self._state_path()
-        if self.analyst is None or path is None:
+        """Save the analyses' state (the window, the schedule, the last finding:
+        :class:`~steer_monitor.node.statefile.StateFile`): on the executor's timer and when
+        closing, under the pipeline's lock (the reader thread feeds the window)."""
+        if self.analyst is None:
             return
-        try:
-            if not self._state_dir_made:
-                # once: made again later, a directory on a disk since unmounted would be made on
-                # the disk beneath its mount point (the recorder refuses that too)
-                ensure_dir(path.parent)
-                self._state_dir_made = True
-            with self._lock:
-                self.analyst.save(path, self.monitor.motion_s)
-        except OutputError as exc:
-            text = f'cannot save the analyses\' state: {exc}'
-            if text != self.save_error:       # once, not at every save while it lasts
-                self._log().error(text)
-            self.save_error = text
-            return
-        if self.save_error is not None:
-            self.save_error = None
-            self._log().info(f'analyses\' state saved to {path} again')
+        with self._lock:
+            self.state_file.save(self.analyst, self.monitor.motion_s)
+
+    @property
+    def save_error(self) -> str | None:
+        """The analyses' state's last save failure, until a save succeeds."""
+        return self.state_file.error
 
     # --- set-up ------------------------------------------------------------------------------
     def _make_publishers(self) -> None:
@@ -457,12 +425,7 @@ class MonitorNode(Node):
     def _recording_status(self) -> Status | None:
         if self.recorder is None:
             return None
-        st = self.recorder.status()
-        values = (('recording_file', st.current_file or 'n/a'), ('recording_files', str(st.files)),
-                  ('recording_messages', str(st.messages)), ('recording_failed', str(st.failed)),
-                  ('recording_dropped', str(st.dropped)), ('recording_removed', str(st.removed)))
-        return Status('steer_monitor: recording', OK if st.ok else ERROR, st.message,
-                      self.params['node.hardware_id'], values)
+        return recording_status(self.recorder.status(), self.params['node.hardware_id'])
 
     def _silent_diagnostics(self) -> None:
         """1 Hz on wall time: publish diagnostics only when the data clock has stopped (no

@@ -5,7 +5,7 @@ frames keeping their stamps, and the node takes it as fast as it reads (:class:`
 what it published and recorded is then read by data time. Only the silence the node judges on
 the wall clock (STALE) has a short real-time test.
 
-One module of some 650 lines: the node started in-process or as a process, its bus and its
+One module of some 700 lines: the node started in-process or as a process, its bus and its
 recordings are the fixtures every test here shares."""
 
 from __future__ import annotations
