@@ -24,7 +24,8 @@ from numba import njit
 from numpy.typing import NDArray
 
 from steer_monitor.model.ramforce import ram_force_compiled
-from steer_monitor.monitor.slopes import MAX_PARTIALS, NONE, SLOPE, SPECIAL, _slope_of
+from steer_monitor.monitor.exactsum import MAX_PARTIALS
+from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope_of
 
 __all__ = ['CALL_FIELDS', 'OUT_FIELDS', 'take_instants']
 
@@ -114,8 +115,8 @@ def take_instants(pend_t: NDArray[np.int64], pend_p: NDArray[np.float64], pend_f
                 memo_i, memo_lo, memo_hi = i, lo, hi
             elif i != memo_i or lo != memo_lo or hi != memo_hi:
                 t_i = angle_t[i]
-                s1, v1 = _slope_of(angle_t, angle_a, _bisect_left(angle_t, t_i - half_ns, lo, hi), i + 1, p, ts)
-                s2, v2 = _slope_of(angle_t, angle_a, i, _bisect_right(angle_t, t_i + half_ns, lo, hi), p, ts)
+                s1, v1 = slope_of(angle_t, angle_a, _bisect_left(angle_t, t_i - half_ns, lo, hi), i + 1, p, ts)
+                s2, v2 = slope_of(angle_t, angle_a, i, _bisect_right(angle_t, t_i + half_ns, lo, hi), p, ts)
                 if s1 == SPECIAL or s2 == SPECIAL:
                     state[0], state[1], state[2], state[3], state[4], state[5] = k, j, counted, has_counted, motion, i
                     return n

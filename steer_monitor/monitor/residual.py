@@ -26,8 +26,8 @@ from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.loadshare import declared_residuals, load_sharing_scalar
 from steer_monitor.model.torque import TorqueTable
 from steer_monitor.monitor.buffers import RowRing
+from steer_monitor.monitor.exactsum import MAX_PARTIALS, partials_total, push_counting_squares
 from steer_monitor.monitor.instants import OUT_FIELDS
-from steer_monitor.monitor.slopes import MAX_PARTIALS, partials_total, push_counting_squares
 
 __all__ = ['INSTANT_FIELDS', 'RESIDUAL_SAMPLES', 'LiveResidual']
 
@@ -108,7 +108,7 @@ class LiveResidual:
     def push_rows(self, rows: NDArray[np.float64]) -> None:
         """Rows (n, 3) of residual pairs [bar] and whether judged (1/0) into the ring, the
         kept sum of squares following the rows it takes and lets go (one compiled pass:
-        :func:`~steer_monitor.monitor.slopes.push_counting_squares`)."""
+        :func:`~steer_monitor.monitor.exactsum.push_counting_squares`)."""
         ring = self._resid
         ring.next, ring.kept, self._sq_k, values, bad = push_counting_squares(
             ring.data, ring.next, ring.kept, np.ascontiguousarray(rows, float), self._sq, self._sq_k)
