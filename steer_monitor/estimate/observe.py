@@ -41,7 +41,8 @@ from steer_monitor.model.inputs import PRESSURE_INPUTS, Series
 from steer_monitor.model.ramforce import ram_forces
 
 __all__ = ['GRID_NS', 'HALF_WINDOW_NS', 'MOVING_RATE', 'SEGMENT_NS', 'STEADY_FRACTION', 'EstimateError', 'Observations',
-           'build_observations', 'data_grid', 'grid_times', 'in_sorted', 'sorted_positions']
+           'angle_slopes', 'build_observations', 'data_grid', 'grid_times', 'in_sorted', 'interp_held',
+           'sorted_positions']
 
 GRID_NS = 50_000_000
 HALF_WINDOW_NS = 300_000_000
@@ -123,7 +124,7 @@ def data_grid(sample_ns: NDArray[np.int64], start_ns: int, end_ns: int) -> NDArr
     return np.concatenate(parts) if parts else np.zeros(0, np.int64)
 
 
-def _interp(series: Series | None, t: NDArray[np.int64], max_gap: int, shift_ns: int = 0) -> NDArray[np.float64]:
+def interp_held(series: Series | None, t: NDArray[np.int64], max_gap: int, shift_ns: int = 0) -> NDArray[np.float64]:
     """Linear interpolation to ``t`` where the bracketing samples are at most ``max_gap``
     apart (and exact hits: the last sample at that time); NaN elsewhere. ``t`` in any order."""
     out = np.full(t.shape, np.nan)
@@ -163,7 +164,7 @@ def _next_position(ts: NDArray[np.int64], ti: np.int64, j: int, in_order: bool, 
 @numba.njit(cache=True, nogil=True, error_model='numpy')
 def _interp_into(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.int64], max_gap: np.int64,
                  out: NDArray[np.float64]) -> None:   # pragma: no cover - compiled
-    """:func:`_interp`'s loop, compiled: per point the first sample after it (walking on from
+    """:func:`interp_held`'s loop, compiled: per point the first sample after it (walking on from
     the point before when the points are in order, else a binary search), then the value. The
     arithmetic is numpy's (int64 differences divided as float64, ``v0 + (v1 - v0) * w``, no
     fused multiply-add), so the values are the same to the bit as the vectorized form this
@@ -249,7 +250,7 @@ def _slope(sums: NDArray[np.float64]) -> NDArray[np.float64]:
     return out
 
 
-def _angle_slopes(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.int64]
+def angle_slopes(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.int64]
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Least-squares slopes of the angle samples over ``HALF_WINDOW_NS`` before each grid
     point, after it, and over both (each window with its ends): shapes (n,). The whole
@@ -275,7 +276,7 @@ def _steady_through(angle: Series, t: NDArray[np.int64], shift_ns: int, need: ND
     """True where the angle's slope over each of the five ``SEGMENT_NS`` segments centred on
     ``t`` (+-250 ms) has the sign of ``need`` [rad/s] and at least its size."""
     offsets = np.array([k * SEGMENT_NS // 2 for k in (-5, -3, -1, 1, 3, 5)], np.int64)
-    ends = _interp(angle, (t[None, :] + offsets[:, None]).ravel(), MAX_GAP_NS, shift_ns).reshape(offsets.size, -1)
+    ends = interp_held(angle, (t[None, :] + offsets[:, None]).ravel(), MAX_GAP_NS, shift_ns).reshape(offsets.size, -1)
     ok = np.ones(t.shape, bool)
     with np.errstate(invalid='ignore'):
         for a, b in zip(ends[:-1], ends[1:]):
@@ -328,8 +329,8 @@ def build_observations(signals: Mapping[str, Series], ram_area: float, *,
     # the motion is judged on the grid and one point either side of it, so that the
     # erosion at a span's ends does not depend on where a log or a fold is cut
     t_ext = np.concatenate([t[:1] - GRID_NS, t, t[-1:] + GRID_NS]) if t.size else t
-    alpha_ext = _interp(angle, t_ext, MAX_GAP_NS, shift_ns)
-    before, after, rate = _angle_slopes(a_t, angle.value, t_ext)
+    alpha_ext = interp_held(angle, t_ext, MAX_GAP_NS, shift_ns)
+    before, after, rate = angle_slopes(a_t, angle.value, t_ext)
     with np.errstate(invalid='ignore'):
         steady = (np.abs(before) > MOVING_RATE) & (np.abs(after) > MOVING_RATE) & \
             (np.sign(before) == np.sign(after)) & np.isfinite(alpha_ext)
@@ -338,8 +339,8 @@ def build_observations(signals: Mapping[str, Series], ram_area: float, *,
     direction = _eroded(np.where(steady, np.sign(before), 0).astype(np.int8))
     inner = slice(1, -1) if t.size else slice(None)
     alpha, rate, direction = alpha_ext[inner], rate[inner], direction[inner]
-    pressure = np.stack([_interp(signals.get(n), t, MAX_GAP_NS) for n in PRESSURE_INPUTS], axis=1)
+    pressure = np.stack([interp_held(signals.get(n), t, MAX_GAP_NS) for n in PRESSURE_INPUTS], axis=1)
     force = ram_forces(ram_area, pressure)
-    speed = _interp(signals.get('ship_speed'), t, SLOW_GAP_NS)
-    oil = _interp(signals.get('oil_temperature'), t, SLOW_GAP_NS)
+    speed = interp_held(signals.get('ship_speed'), t, SLOW_GAP_NS)
+    oil = interp_held(signals.get('oil_temperature'), t, SLOW_GAP_NS)
     return Observations(t, alpha, rate, direction, force, pressure, speed, oil)

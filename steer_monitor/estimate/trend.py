@@ -37,7 +37,7 @@ import numpy as np
 
 from steer_monitor.estimate.intervals import Interval
 
-__all__ = ['HUBER_SIGMAS', 'OUTLIER_SIGMAS', 'Trend', 'TrendPoint', 'fit_trend']
+__all__ = ['HUBER_SIGMAS', 'OUTLIER_SIGMAS', 'Trend', 'TrendPoint', 'band_crossing', 'fit_trend']
 
 Z95 = 1.959963984540054
 HUBER_SIGMAS = 2.0
@@ -176,7 +176,7 @@ def fit_trend(points: Sequence[TrendPoint], limit: float) -> Trend | None:
     if rate.lo is not None and rate.lo > 0:
         tau = (limit - a) / b
         limit_t = t_ref + tau
-        lo_t, hi_t = _band_crossing(a - limit, b, vaa, vbb, vab, z)
+        lo_t, hi_t = band_crossing(a - limit, b, vaa, vbb, vab, z)
         lo_t = None if lo_t is None else t_ref + lo_t
         hi_t = None if hi_t is None else t_ref + hi_t
     return Trend(rate, a, t_ref, limit, limit_t, lo_t, hi_t, len(two), len(one), outliers, scale,
@@ -205,7 +205,7 @@ def _between_logs(design: np.ndarray, v: np.ndarray, s: np.ndarray, robust: bool
     return max(0.0, (q - (k - 2)) / den) if den > 0 else 0.0
 
 
-def _band_crossing(d: float, b: float, vaa: float, vbb: float, vab: float,
+def band_crossing(d: float, b: float, vaa: float, vbb: float, vab: float,
                    z: float = Z95) -> tuple[float | None, float | None]:
     """Where the line's 95 % band (``z`` standard errors) meets the limit: the roots tau of
     (d + b tau)^2 = z^2 (vaa + tau^2 vbb + 2 tau vab), d = a - limit. With the rate's

@@ -8,7 +8,7 @@ from typing import Any
 from steer_monitor.errors import ParameterError
 from steer_monitor.params import PARAMETERS, ParamSpec, validate_params
 
-__all__ = ['declare_parameters', 'overrides_from_file']
+__all__ = ['declare_parameters', 'overrides_from_file', 'why_refused']
 
 
 def _descriptor(spec: ParamSpec) -> Any:
@@ -67,7 +67,7 @@ def declare_parameters(node: Any) -> dict[str, Any]:
             given = overrides.get(spec.name)
             shown = given.value if given is not None else '?'
             msg = (f'parameter {spec.name}: expected {spec.kind.replace("_", " ")}, got {shown!r} '
-                   f'({_why(spec.kind, shown, exc)})')
+                   f'({why_refused(spec.kind, shown, exc)})')
             raise ParameterError(msg) from exc
         except InvalidParameterValueException as exc:
             msg = f'parameter {spec.name}: {exc}'
@@ -80,7 +80,7 @@ def declare_parameters(node: Any) -> dict[str, Any]:
     return validate_params(values)
 
 
-def _why(kind: str, given: Any, exc: Exception) -> str:
+def why_refused(kind: str, given: Any, exc: Exception) -> str:
     """Why a value was refused: for whole numbers given to a double (ROS types ``0`` as an
     integer and does not convert it), how to write them; else rclpy's words."""
     whole = (isinstance(given, int) and not isinstance(given, bool)) or \

@@ -20,7 +20,7 @@ from steer_monitor.errors import SteerMonitorError
 from steer_monitor.logfiles.mcapcols import decompress_chunk, summary_section
 from steer_monitor.logfiles.mcapio import Counted
 
-__all__ = ['RecoverError', 'RecoverResult', 'recover']
+__all__ = ['RecoverError', 'RecoverResult', 'recover', 'summary_definitions']
 
 
 class RecoverError(SteerMonitorError):
@@ -44,7 +44,7 @@ class RecoverResult:
     dropped: list[str] = field(default_factory=list)
 
 
-def _summary_definitions(fin: Any) -> list[Any]:
+def summary_definitions(fin: Any) -> list[Any]:
     """The schemas, then the channels, of the MCAP ``fin``'s summary section when it checks
     out (:func:`~steer_monitor.logfiles.mcapcols.summary_section`: footer, bounds, CRC, which
     mcap's reader does not check) and reads whole; none otherwise. Leaves ``fin`` at the start."""
@@ -140,7 +140,7 @@ def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult
             # a finished file repeats its schemas and channels in its summary: taken first, so
             # a dropped chunk that defined them (the first one defines them all) does not take
             # every later message of theirs with it
-            for record in _summary_definitions(fin):
+            for record in summary_definitions(fin):
                 copy(record)
             try:
                 for record in StreamReader(fin, record_size_limit=1 << 30, emit_chunks=True).records:

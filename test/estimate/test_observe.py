@@ -76,7 +76,7 @@ def test_window_slopes_match_polyfit(seed):
     # irregular 10 Hz samples with gaps, samples exactly on grid points (some twice, with
     # another value), a slope that changes and noise; angles around 0.6 rad (the sums are
     # taken relative to a sample near the grid point, so a large angle costs no precision)
-    from steer_monitor.estimate.observe import HALF_WINDOW_NS, _angle_slopes
+    from steer_monitor.estimate.observe import HALF_WINDOW_NS, angle_slopes
     rng = np.random.default_rng(seed)
     ts = np.cumsum(rng.integers(20_000_000, 180_000_000, 400)).astype(np.int64) + 1_700_000_000 * 10 ** 9
     ts[::37] = (ts[::37] // 50_000_000) * 50_000_000                 # some exactly on the grid
@@ -87,7 +87,7 @@ def test_window_slopes_match_polyfit(seed):
     ts = np.insert(ts, on_grid + 1, ts[on_grid])
     v = np.insert(v, on_grid + 1, v[on_grid] + 1e-3)
     t = np.arange(ts[0] // 50_000_000 * 50_000_000, ts[-1], 50_000_000, dtype=np.int64)
-    before, after, whole = _angle_slopes(ts, v, t)
+    before, after, whole = angle_slopes(ts, v, t)
     for got, lo, hi in ((before, -HALF_WINDOW_NS, 0), (after, 0, HALF_WINDOW_NS),
                         (whole, -HALF_WINDOW_NS, HALF_WINDOW_NS)):
         ref = _polyfit_slope(ts, v, t, lo, hi)
@@ -150,7 +150,7 @@ def _interp_numpy(series, t, max_gap, shift_ns=0):
 def test_the_compiled_interpolation_is_the_vectorized_one_to_the_bit(seed):
     """Irregular samples with gaps, repeated times and exact hits; points in order, out of
     order (the segments' ends), before, between and after the samples; shifted."""
-    from steer_monitor.estimate.observe import _interp
+    from steer_monitor.estimate.observe import interp_held
     rng = np.random.default_rng(seed)
     n = int(rng.integers(1, 3000))
     steps = rng.choice([0, 50_000_000, 100_000_000, 400_000_000], size=n, p=[0.05, 0.45, 0.45, 0.05])
@@ -160,12 +160,12 @@ def test_the_compiled_interpolation_is_the_vectorized_one_to_the_bit(seed):
     t = ts[0] - 1_000_000_000 + np.sort(rng.integers(0, span, 4000)).astype(np.int64)
     t = np.concatenate([t, ts[rng.integers(0, n, 500)], rng.permutation(t)[:1000]])
     for shift in (0, 250_000_000, -37_000_000):
-        got = _interp(series, t, 250_000_000, shift)
+        got = interp_held(series, t, 250_000_000, shift)
         ref = _interp_numpy(series, t, 250_000_000, shift)
         assert np.array_equal(np.isnan(got), np.isnan(ref))
         assert np.array_equal(got.view(np.int64)[~np.isnan(ref)], ref.view(np.int64)[~np.isnan(ref)])
-    assert np.isnan(_interp(Series(ts[:0], series.value[:0]), t, 250_000_000)).all()
-    assert np.isnan(_interp(None, t, 250_000_000)).all()
+    assert np.isnan(interp_held(Series(ts[:0], series.value[:0]), t, 250_000_000)).all()
+    assert np.isnan(interp_held(None, t, 250_000_000)).all()
 
 
 @pytest.mark.parametrize('seed', range(4))

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from steer_monitor.estimate.trend import YEAR_S, Z95, TrendPoint, _band_crossing, fit_trend
+from steer_monitor.estimate.trend import YEAR_S, Z95, TrendPoint, band_crossing, fit_trend
 
 T0 = 1_767_225_600.0          # 2026-01-01
 MM = 1e-3
@@ -44,7 +44,7 @@ def test_band_crossing_against_a_root_finder():
         vab = rng.uniform(-0.5, 0.5) * math.sqrt(vaa * vbb)
         if b * b <= Z95 ** 2 * vbb:
             continue
-        lo, hi = _band_crossing(d, b, vaa, vbb, vab)
+        lo, hi = band_crossing(d, b, vaa, vbb, vab)
 
         def g(tau, d=d, b=b, vaa=vaa, vbb=vbb, vab=vab):
             return (d + b * tau) ** 2 - Z95 ** 2 * (vaa + tau * tau * vbb + 2 * tau * vab)

@@ -373,8 +373,8 @@ def test_bad_parameter_stops_the_node_naming_it(tmp_path, override, name):
     ('integer', 2.5, 'rclpy says'),
 ])
 def test_why_a_value_of_the_wrong_type_was_refused(kind, given, why):
-    from steer_monitor.node.params_ros import _why
-    assert _why(kind, given, ValueError('rclpy says')) == why
+    from steer_monitor.node.params_ros import why_refused
+    assert why_refused(kind, given, ValueError('rclpy says')) == why
 
 
 def test_without_ros_messages_the_node_says_so(tmp_path):

@@ -529,17 +529,17 @@ def test_recover_takes_a_summary_only_when_its_crc_holds(tmp_path):
     import struct
     import zlib as _zlib
 
-    from steer_monitor.record.recover import _summary_definitions
+    from steer_monitor.record.recover import summary_definitions
     with Recorder(tmp_path, chunk_size=4096, flush_interval_s=0.0) as rec:
         for i in range(300):
             rec.write_frame(_frame(i))
     data = bytearray(rec.files[0].read_bytes())
     with open(rec.files[0], 'rb') as fh:
-        assert [type(r).__name__ for r in _summary_definitions(fh)] == ['Schema', 'Channel']
+        assert [type(r).__name__ for r in summary_definitions(fh)] == ['Schema', 'Channel']
     start, _, crc = struct.unpack_from('<QQI', data, len(data) - 8 - 29 + 9)
     assert crc and _zlib.crc32(bytes(data[start:len(data) - 12])) == crc
     data[start + 20] ^= 0xFF                         # inside the summary's first record
     bad = tmp_path / 'bad_summary.mcap'
     bad.write_bytes(bytes(data))
     with open(bad, 'rb') as fh:
-        assert _summary_definitions(fh) == [] and fh.tell() == 0
+        assert summary_definitions(fh) == [] and fh.tell() == 0
