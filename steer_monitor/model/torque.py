@@ -1,5 +1,6 @@
 """Tiller torque against rudder angle: a monotone PCHIP curve, odd in angle, scaled with
-the square of ship speed."""
+the square of ship speed (the configured curve, evaluated the same way by the live model and
+the analyses), and the table an analysis fitted (linear between its points, unknown beyond)."""
 
 from __future__ import annotations
 
@@ -60,12 +61,6 @@ class TorqueCurve:
         object.__setattr__(self, 'angles', angles)
         object.__setattr__(self, 'torques', torques)
         object.__setattr__(self, '_pchip', PchipInterpolator(angles, torques, extrapolate=False))
-        # A dense table for one-sample live use: linear between 0.005 deg steps of the PCHIP
-        # curve (off by well under 1 N m; test_torque checks it).
-        grid = np.linspace(0.0, angles[-1], int(math.ceil(math.degrees(angles[-1]) / 0.005)) + 1)
-        object.__setattr__(self, '_grid', grid.tolist())
-        object.__setattr__(self, '_table', self._pchip(grid).tolist())
-        object.__setattr__(self, '_arrays', (np.asarray(self._grid), np.asarray(self._table)))  # type: ignore[attr-defined]
 
     @classmethod
     def from_degrees_knm(cls, angles_deg: ArrayLike, torques_knm: ArrayLike,
@@ -76,14 +71,15 @@ class TorqueCurve:
                    float(service_speed_kn) * 1852.0 / 3600.0)
 
     def scalar(self, alpha: float, speed: float | None = None) -> float:
-        """Torque [N m] of one sample, without numpy (for the live path)."""
-        table = self._table  # type: ignore[attr-defined]
-        return _lookup(self._grid, table, alpha, speed, self.service_speed, table[-1])  # type: ignore[attr-defined]
+        """Torque [N m] of one sample: the curve itself (one evaluation for the live model and
+        the analyses)."""
+        return float(self(alpha, speed))
 
     def scalars(self, alpha: NDArray[np.float64], speed: NDArray[np.float64]) -> NDArray[np.float64]:
-        """:meth:`scalar` over arrays (n,): the same table, ``speed`` NaN where not known."""
-        table = self._table  # type: ignore[attr-defined]
-        return _lookup_many(self._arrays, alpha, speed, self.service_speed, table[-1])  # type: ignore[attr-defined]
+        """:meth:`scalar` over arrays (n,), ``speed`` NaN where not known (no scaling there)."""
+        a, v = _one_shape(alpha, speed)
+        m = self(a)
+        return np.where(np.isnan(v), m, m * (v / self.service_speed) ** 2)
 
     def __call__(self, alpha: ArrayLike, speed: ArrayLike | None = None) -> NDArray[np.float64]:
         """Torque [N m] at rudder angle ``alpha`` [rad], optionally at ship speed [m/s].
@@ -188,14 +184,21 @@ def _lookup_many(arrays: tuple[NDArray[np.float64], NDArray[np.float64]], alpha:
     """:func:`_lookup` of many samples, shapes (n,), from the table as arrays (grid, values):
     the same interpolation (each value equal to the one-sample lookup to rounding), ``speed``
     NaN where not known (no scaling there)."""
+    a, v = _one_shape(alpha, speed)
+    out = np.empty(a.shape[0])
+    _compiled_loop()(arrays[0], arrays[1], a, v, float(service_speed), float(beyond), out)
+    return out
+
+
+def _one_shape(alpha: NDArray[np.float64], speed: NDArray[np.float64]) -> tuple[NDArray[np.float64],
+                                                                                NDArray[np.float64]]:
+    """Angles and speeds as contiguous float arrays of one shape (n,), or the error saying not."""
     a = np.ascontiguousarray(alpha, dtype=float)
     v = np.ascontiguousarray(speed, dtype=float)
     if a.ndim != 1 or v.shape != a.shape:
         msg = f'torque lookup needs angles and speeds of one shape (n,), got {a.shape} and {v.shape}'
         raise ValueError(msg)
-    out = np.empty(a.shape[0])
-    _compiled_loop()(arrays[0], arrays[1], a, v, float(service_speed), float(beyond), out)
-    return out
+    return a, v
 
 
 _LOOP: list[Callable[..., None]] = []

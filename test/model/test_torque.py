@@ -42,11 +42,12 @@ def test_bad_curves(angles, torques, msg):
         TorqueCurve.from_degrees_knm(angles, torques, 16.0)
 
 
-def test_scalar_table_matches_pchip(curve):
+def test_one_sample_is_the_curve_itself(curve):
+    """The live model's one-sample torque is the PCHIP curve's value, exactly (one evaluation)."""
     rng = np.random.default_rng(0)
     for a in np.concatenate([rng.uniform(-0.7, 0.7, 2000), [0.0, 1e-9, np.radians(35.0), np.radians(40.0)]]):
-        assert curve.scalar(float(a)) == pytest.approx(float(curve(a)), abs=1.0)
-        assert curve.scalar(float(a), 5.0) == pytest.approx(float(curve(a, 5.0)), abs=1.0)
+        assert curve.scalar(float(a)) == float(curve(a))
+        assert curve.scalar(float(a), 5.0) == float(curve(a, 5.0))
 
 
 def test_table_interpolates_is_odd_and_unknown_beyond_its_last_angle():
@@ -65,8 +66,8 @@ def test_table_interpolates_is_odd_and_unknown_beyond_its_last_angle():
 
 def test_scalars_are_the_one_sample_lookup_over_arrays(curve):
     """The array lookup (the live monitor re-judging a minute at once) gives each sample's
-    one-sample value, to rounding: the curve's table held beyond its end, the learned table
-    NaN beyond its end; speed scaling where the speed is known (NaN: not)."""
+    one-sample value, to rounding: the curve held beyond its end, the learned table NaN
+    beyond its end; speed scaling where the speed is known (NaN: not)."""
     import math
 
     from steer_monitor.model.torque import TorqueTable
