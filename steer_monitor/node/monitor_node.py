@@ -499,6 +499,12 @@ def main(args: Sequence[str] | None = None) -> int:
             executor.spin()
         except (KeyboardInterrupt, ExternalShutdownException):
             pass
+        except Exception:
+            # SIGINT/SIGTERM shut the context down from rclpy's signal handler; when that comes
+            # while the executor builds its wait set, rclpy raises its RCLError ("the given
+            # context is not valid") instead of ExternalShutdownException: the same stop
+            if node.context.ok():
+                raise
         return 0
     finally:
         if node is not None:

@@ -700,3 +700,21 @@ def test_a_signal_while_starting_leaves_no_recording_unfinished(tmp_path, monkey
     with AnyReader([rec]) as reader:        # finished: its summary and footer are there
         assert reader.connections is not None
     assert not [p for p in tmp_path.iterdir() if p.name.startswith('.')]
+
+
+def test_a_signal_that_races_the_executors_wait_set_is_a_clean_stop(tmp_path, monkeypatch):
+    """SIGINT's shutdown arriving while the executor builds its wait set makes rclpy raise its
+    RCLError ("the given context is not valid") rather than ExternalShutdownException: the node
+    stops as on any signal: exit 0, closed."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+
+    from steer_monitor.node.monitor_node import main
+
+    def spin(self) -> None:
+        rclpy.shutdown()                   # what rclpy's signal handler does
+        raise RuntimeError('failed to initialize wait set: the given context is not valid, either rcl_init() '
+                           'was not called or rcl_shutdown() was called.')
+    monkeypatch.setattr(SingleThreadedExecutor, 'spin', spin)
+    assert main(['monitor', *_node_cmd(tmp_path)[3:]]) == 0
+    assert not rclpy.ok()
