@@ -35,7 +35,6 @@ from steer_monitor.can.bus import BusReader, ListenOnlyBus
 from steer_monitor.can.busclock import BusClock
 from steer_monitor.can.busconfig import can_setup
 from steer_monitor.can.decoder import Decoder
-from steer_monitor.can.frames import Frame
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import ParameterError, SteerMonitorError
 from steer_monitor.estimate.observe import EstimateError
@@ -45,6 +44,7 @@ from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages
 from steer_monitor.monitor.pipeline import DiagOut, Output, Pipeline, StateOut, ThreadedJobs, analyst_from_params
 from steer_monitor.node.params_ros import declare_parameters
+from steer_monitor.node.recordbatch import RecordBatches
 from steer_monitor.node.rosmsg import message_class, to_ros
 from steer_monitor.node.statefile import StateFile
 from steer_monitor.node.statuses import bus_status, clock_words, recording_status
@@ -63,8 +63,6 @@ POLL_S = 0.01
 SWITCH_INTERVAL_S = 0.001
 SILENT_DIAG_S = 1.5
 GUARD_LOG_S = 10.0      # a defect the node survives is logged at most this often (it may recur every frame)
-RECORD_BATCH = 256
-RECORD_BATCH_NS = 50_000_000
 
 
 class MonitorNode(Node):
@@ -364,23 +362,14 @@ class MonitorNode(Node):
         """The reader thread: each read of the bus (what it held, :meth:`BusReader.batches`)
         recorded and fed to the pipeline as one part (:meth:`Pipeline.feed_frames`, the path a
         replay takes); while the bus is quiet, the pipeline told the wall time (:meth:`Pipeline.idle`)."""
-        reader, recorder, lock = self.reader, self.recorder, self._lock
-        stop = self._stop
-        # frames go to the recorder in batches (one queue entry, packed at once): at most
-        # RECORD_BATCH frames or RECORD_BATCH_NS old, and whatever is held when the bus idles
-        batch: list[Frame] = []
-        batch_start = 0
+        reader, lock, stop = self.reader, self._lock, self._stop
+        batches = RecordBatches(self.recorder) if self.recorder is not None else None
         try:
             while not stop.is_set():
                 for frames in reader.batches(stop):
                     received = time.monotonic_ns()
-                    cut = len(batch)                 # where this read's frames begin in the recorder's batch
-                    if frames:
-                        self.frames_received += len(frames)
-                        if recorder is not None:
-                            if not batch:
-                                batch_start = received
-                            batch += frames
+                    self.frames_received += len(frames)
+                    cut = batches.add(frames, received) if batches is not None else 0
                     taken, later = len(frames), []
                     try:
                         with lock:
@@ -406,21 +395,16 @@ class MonitorNode(Node):
                         outs, restarted = [], False
                     if outs:
                         self._publish_outputs(outs)
-                    if restarted and recorder is not None:
-                        # each file holds one time: the old one's frames and outputs, then the new
-                        # one's in the next file
-                        recorder.write_frames(batch[:cut + taken])
-                        recorder.split()
-                        batch, batch_start = batch[cut + taken:], received
+                    if restarted and batches is not None:
+                        # each file holds one time: the old one's frames and outputs, then the new one's
+                        batches.split(cut + taken, received)
                     if later:
                         self._publish_outputs(later)
-                    if batch and (not frames or len(batch) >= RECORD_BATCH
-                                  or received - batch_start >= RECORD_BATCH_NS):
-                        recorder.write_frames(batch)  # type: ignore[union-attr]
-                        batch = []
+                    if batches is not None:
+                        batches.hand_over_if_due(not frames, received)
         finally:
-            if batch and recorder is not None:
-                recorder.write_frames(batch)
+            if batches is not None:
+                batches.close()
 
     def _recording_status(self) -> Status | None:
         if self.recorder is None:
