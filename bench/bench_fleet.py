@@ -48,7 +48,7 @@ def make_logs(root: Path) -> list[Path]:
 
 def _loop(paths: list[str]) -> float:
     """The task function over ``paths`` in a loop -> seconds (run in a worker by client.run)."""
-    from steer_monitor.ashore.logresult import log_result
+    from steer_monitor.ashore.store import log_result
     t0 = time.perf_counter()
     for p in paths:
         log_result('bench_vessel', p, None, '', '')
@@ -81,7 +81,7 @@ def main() -> dict:
             t0 = time.perf_counter()
             client, cluster = make_client(workers, None)     # the LocalCluster run_fleet makes
             with cluster, client:
-                client.run(lambda: __import__('steer_monitor.ashore.batchpath'))     # what a warm worker has
+                client.run(lambda: __import__('steer_monitor.ashore.review'))     # what a warm worker has
                 started = time.perf_counter() - t0
                 if workers == 1:     # the worker's process alone: the same loop inside it, no scheduling
                     (inside,) = client.run(_loop, [str(p) for p in logs]).values()

@@ -3,7 +3,7 @@ kept, trends and limit dates out.
 
 A vessel is a directory (its name is the vessel's): its logs in any format the tool reads,
 found recursively, and optionally its own parameters file ``steer_monitor.yaml`` at its top.
-Each log is one task, :func:`~steer_monitor.ashore.logresult.log_result`, on an in-process
+Each log is one task, :func:`~steer_monitor.ashore.store.log_result`, on an in-process
 ``LocalCluster`` (worker processes on this machine, scheduler on the loopback address) or an
 existing cluster (``scheduler``). A task whose worker dies is run again by Dask; a log that
 fails for good is reported with its error, never fatal for the fleet.
@@ -20,9 +20,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from steer_monitor.ashore.logresult import LogResult, file_digest, log_result
-from steer_monitor.ashore.modelcheck import NOT_JUDGED
-from steer_monitor.ashore.store import load_results, save_results
+from steer_monitor.ashore.loganalysis import NOT_JUDGED
+from steer_monitor.ashore.store import LogResult, file_digest, load_results, log_result, save_results
 from steer_monitor.atomic import os_reason
 from steer_monitor.errors import InputError, SteerMonitorError
 from steer_monitor.estimate.intervals import Interval
@@ -208,7 +207,7 @@ def run_fleet(dirs: Sequence[str | Path], out: str | Path, *, workers: int | Non
                 if progress is not None:
                     progress(done, len(futures))
             if reports:        # every task has ended: what a killed worker left half-written goes
-                from steer_monitor.ashore.report.logreport import remove_report_debris
+                from steer_monitor.ashore.report.reviewpage import remove_report_debris
                 for v, _log, sha, cfg_sha in todo:
                     remove_report_debris((out / report_path(v.name, sha, cfg_sha)).parent)
         finally:

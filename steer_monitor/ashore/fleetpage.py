@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from steer_monitor.ashore.fleet import FleetRun, fleet_json, vessel_trends
-from steer_monitor.ashore.modelcheck import NOT_JUDGED
+from steer_monitor.ashore.loganalysis import NOT_JUDGED
 from steer_monitor.estimate.trend import Z95
 from steer_monitor.jsonvocab import estimate_text
 

@@ -58,7 +58,7 @@ def run(path: str | Path, config: str | Path | None = None, json_out: str | Path
         err.write(f'steer-monitor analyze: note: {path}: {note}\n')
     emit_json(result, json_out, out)
     if report is not None:
-        from steer_monitor.ashore.report.analysis import write_analysis_report
+        from steer_monitor.ashore.report.analysispage import write_analysis_report
         write_analysis_report(a, result, report)
     if not json_to_stdout(json_out):
         _summary(result, out)

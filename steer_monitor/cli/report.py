@@ -1,9 +1,9 @@
 """``steer-monitor report LOG_OR_MCAP... --out DIR``: a page engineers read (``DIR/index.html``,
 self-contained, with its PNG plots beside it) from a CAN log, a node recording or a replay.
 
-The review runs on the batch path over the whole log (:mod:`steer_monitor.ashore.batchpath`): the
+The review runs on the batch path over the whole log (:mod:`steer_monitor.ashore.review`): the
 plots and the clearances over time. The clearances the page and ``--json`` give, with their
-levels, are the model check's (:mod:`steer_monitor.ashore.modelcheck`: ``analyze`` of the last
+levels, are the model check's (:mod:`steer_monitor.ashore.loganalysis`: ``analyze`` of the last
 ``--analysis-hours`` of data, default 3, which is ``steer-monitor analyze`` of a shorter log).
 
 ``--json`` prints::
@@ -26,7 +26,7 @@ import time
 from pathlib import Path
 from typing import Any, TextIO
 
-from steer_monitor.ashore.modelcheck import ANALYSIS_HOURS
+from steer_monitor.ashore.loganalysis import ANALYSIS_HOURS
 from steer_monitor.cli.options import LOG_FORMATS, add_config_option, add_force_option, add_json_option
 from steer_monitor.cli.output import (
     add_date_option,
@@ -77,10 +77,9 @@ def _run(paths: list[Path], out_dir: str | Path, config_path: str | Path, params
          date: datetime.date | None) -> int:
     from tqdm import tqdm
 
-    from steer_monitor.ashore.batchpath import review_logs
-    from steer_monitor.ashore.modelcheck import headline_json, headline_text, headlines, model_check
-    from steer_monitor.ashore.report.logreport import report_input
-    from steer_monitor.ashore.report.reviewpage import write_review_report
+    from steer_monitor.ashore.loganalysis import headline_json, headline_text, headlines, model_check
+    from steer_monitor.ashore.report.reviewpage import report_input, write_review_report
+    from steer_monitor.ashore.review import review_logs
     from steer_monitor.estimate.ramscheck import rams_verdict, uneven_json
     from steer_monitor.logfiles.logs import LogError
 

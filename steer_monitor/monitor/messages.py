@@ -29,7 +29,7 @@ Foxglove by its place in the fixed order (``/steer_monitor/clearances.position[3
 Recordings made by earlier releases carried the load sharing and clearances as
 ``steer_monitor_msgs`` types (their schemas are in the MCAP) or a labelled
 ``std_msgs/Float64MultiArray``; the report reads them all
-(:func:`steer_monitor.ashore.report.logreport.published_track`).
+(:func:`steer_monitor.ashore.report.reviewpage.published_track`).
 """
 
 from __future__ import annotations

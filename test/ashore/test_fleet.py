@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from steer_monitor import sim
-from steer_monitor.ashore.logresult import LogResult
+from steer_monitor.ashore.store import LogResult
 from steer_monitor.logfiles.candumpcols import write_candump_arrays
 from steer_monitor.model import Clearances
 
@@ -309,7 +309,7 @@ def test_the_page_says_which_log_was_left_out_of_the_trend(r18_params):
 
 def test_a_vessel_whose_map_reverses_a_ram_has_its_logs_failed_with_the_reason(tmp_path, r18_params, can_db):
     """Its logs gave no estimate and no word of why (the review's note was not kept)."""
-    from steer_monitor.ashore.logresult import log_result
+    from steer_monitor.ashore.store import log_result
     from test.conftest import PKG
     db, smap = can_db
     s = sim.run(r18_params, sim.SimConfig(program='autopilot:600'), db, smap, seed=8)

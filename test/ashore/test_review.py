@@ -112,7 +112,7 @@ def test_a_log_at_rest_says_why_there_is_no_estimate(r18_params, can_db):
 
 
 def test_batch_path_one_or_two_processes(tmp_path, r18_params, can_db, voyage):
-    from steer_monitor.ashore.batchpath import review_logs
+    from steer_monitor.ashore.review import review_logs
     path = tmp_path / 'v.mcap'
     with LogWriter(path) as w:
         for f in voyage.frames():

@@ -36,7 +36,7 @@ def _case(k: int) -> dict:
 @pytest.mark.parametrize('k', range(CASES))
 def test_a_short_log_gives_an_answer_or_a_one_line_refusal(r18_params, can_db, tmp_path, k):
     from steer_monitor.ashore import loganalysis as A
-    from steer_monitor.ashore.logresult import log_result
+    from steer_monitor.ashore.store import log_result
     from steer_monitor.cli import report as R
     from steer_monitor.errors import SteerMonitorError
 

@@ -6,8 +6,7 @@ import math
 
 import pytest
 
-from steer_monitor.ashore.logresult import LogResult
-from steer_monitor.ashore.store import LATER_COLUMNS, RESULTS_FILE, load_results, save_results
+from steer_monitor.ashore.store import LATER_COLUMNS, RESULTS_FILE, LogResult, load_results, save_results
 from steer_monitor.errors import InputError, OutputError
 
 

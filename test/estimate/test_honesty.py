@@ -2,14 +2,14 @@
 
 Each case simulates a voyage (seeds and clearances chosen for these tests, none used to set the
 estimator's constants) and runs ``analyze``'s path; the levels are those the report, the fleet and
-``analyze`` print (:func:`~steer_monitor.ashore.modelcheck.headlines`, the node's own rule)."""
+``analyze`` print (:func:`~steer_monitor.ashore.loganalysis.headlines`, the node's own rule)."""
 
 from __future__ import annotations
 
 import pytest
 
 from steer_monitor import sim
-from steer_monitor.ashore.modelcheck import NOT_JUDGED, headlines
+from steer_monitor.ashore.loganalysis import NOT_JUDGED, headlines
 from steer_monitor.can import Decoder
 from steer_monitor.estimate.analyze import analyze
 from steer_monitor.model import Clearances

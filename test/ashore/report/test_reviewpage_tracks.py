@@ -39,7 +39,7 @@ def test_the_fixture_is_what_it_says():
 def test_the_old_clearances_are_read_for_the_report():
     """The node's published clearances from the old ``Clearances`` messages: configured until the
     estimate came (no interval), then the estimate with its interval (2Z from below only)."""
-    from steer_monitor.ashore.report.logreport import published_track
+    from steer_monitor.ashore.report.reviewpage import published_track
     track = published_track([OLD])
     assert track is not None and len(track.t_ns) == 76
     assert (np.diff(track.t_ns) > 0).all()

@@ -85,7 +85,7 @@ def test_page_renders_every_plot_in_chromium(tmp_path, logs, which, capsys):
 
 
 def test_the_estimates_a_replay_published_are_read(logs):
-    from steer_monitor.ashore.report.logreport import published_track
+    from steer_monitor.ashore.report.reviewpage import published_track
     track = published_track([logs['replay']])
     assert track is not None and len(track.t_ns) > 100
     assert (track.t_ns[1:] > track.t_ns[:-1]).all()
@@ -99,7 +99,7 @@ def test_a_recording_with_a_chunk_declaring_too_much_is_not_handed_to_mcaps_read
     import struct
     import tracemalloc
 
-    from steer_monitor.ashore.report.logreport import published_track
+    from steer_monitor.ashore.report.reviewpage import published_track
     from steer_monitor.logfiles.mcapcols import MAX_CHUNK_BYTES, mcap_chunks_within_limits
     data = bytearray(logs['replay'].read_bytes())
     pos = 8
@@ -140,7 +140,7 @@ def test_clearances_of_older_recordings_are_read(tmp_path):
     Float64MultiArray; the report reads those too (and leaves other arrays alone)."""
     import math
 
-    from steer_monitor.ashore.report.logreport import published_track
+    from steer_monitor.ashore.report.reviewpage import published_track
     from steer_monitor.logfiles.mcapio import McapWriter
     from steer_monitor.monitor.messages import CLEARANCE_NAMES
     from steer_monitor.record import msgdef
@@ -164,7 +164,7 @@ def test_clearances_of_jointstate_recordings_are_read(tmp_path):
     flag per clearance) are read by name; a JointState without those names is left alone."""
     import math
 
-    from steer_monitor.ashore.report.logreport import published_track
+    from steer_monitor.ashore.report.reviewpage import published_track
     from steer_monitor.logfiles.mcapio import McapWriter
     from steer_monitor.record import msgdef
     dt = 'sensor_msgs/msg/JointState'
