@@ -72,6 +72,7 @@ class MonitorNode(Node):
                  context: Any = None, bus_opener: Callable[[], ListenOnlyBus] | None = None,
                  config_path: str | None = None) -> None:
         super().__init__(node_name, context=context, parameter_overrides=list(parameter_overrides or []))
+        self._node_name_kept = self.get_name()
         if not single_blas_thread():   # the analyses' profiles: a second BLAS thread only spins
             self.get_logger().info('threadpoolctl is not installed: BLAS keeps its own threads '
                                    '(same answers, more CPU; pip install threadpoolctl)')
@@ -270,7 +271,9 @@ class MonitorNode(Node):
         if self.context.ok():
             return self.get_logger()
         import rclpy.logging
-        return rclpy.logging.get_logger(f'{self.get_name()}.closing')
+        # the name kept from the start: a callback of the reader thread that comes after the
+        # node was destroyed (it outlived close's wait) cannot ask the node for it
+        return rclpy.logging.get_logger(f'{self._node_name_kept}.closing')
 
     def save_analyses(self) -> None:
         """Save the analyses' state (the window, the schedule, the last finding:
