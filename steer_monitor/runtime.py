@@ -3,7 +3,7 @@
 The estimator's linear algebra is many small systems: per row of the clearance grid a batch
 of normal equations of ~40 unknowns. OpenBLAS's second thread gives no speed there and
 doubles the CPU it takes (its threads spin between calls). Measured on a full profile of the
-estimator of the time (2026-11-21) after 300 s of the voyage programme, three runs each:
+estimator after 300 s of the voyage programme, three runs each:
 0.84-0.93 s wall and 1.53-1.68 s CPU with two threads, 0.85-0.96 s wall and 0.85-0.96 s CPU
 with one. One thread also makes an analysis's sums come in one order, so the node's worker
 and a replay give the same finding to the bit. The node,
@@ -89,8 +89,8 @@ def fewer_collections(every: int = COLLECT_EVERY) -> Iterator[None]:
 
     A replay makes short-lived tuples and lists by the million and no reference cycles (none
     found by a full collection after an hour's replay), so the collections only cost: with
-    the default, 161 young and 14 older ones took 0.09 s of an hour's replay (collector
-    callbacks, 2026-11-27), each walking the long lists of numbers a run of frames is laid
+    the default, 161 young and 14 older ones took 0.09 s of an hour's replay (counted by
+    collector callbacks), each walking the long lists of numbers a run of frames is laid
     out in; with 100,000, none in the hour. Cycles are still collected, a hundred times
     less often."""
     before = gc.get_threshold()
