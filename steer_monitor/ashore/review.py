@@ -260,7 +260,7 @@ class Review:
             return None
 
     def _hard_overs(self, angle: Series) -> None:
-        self.hard_overs += self._hard.angles(angle.t_ns.tolist(), angle.value)
+        self.hard_overs += self._hard.angles(angle.t_ns.tolist(), angle.value.tolist())
 
     def _process(self, start: int, end: int) -> None:
         try:

@@ -138,7 +138,6 @@ class LiveMonitor:
         self.changed = False
         #: the state last read (None: none yet)
         self.latest: LiveState | None = None
-        self._angle: Arrivals = self.inputs.signals['rudder_angle']
         self._model_signals = tuple(self.inputs.signals[n] for n in ('rudder_angle', *PRESSURE_INPUTS))
         self._speed, self._oil = self.inputs.signals['ship_speed'], self.inputs.signals['oil_temperature']
 
@@ -302,7 +301,7 @@ class LiveMonitor:
 
     # --- model ---------------------------------------------------------------------------
     def _evaluate(self, t_ns: int) -> LiveState | None:
-        angle = self._angle
+        angle = self._model_signals[0]
         a = angle.last_value
         p = self.pressures
         if math.isnan(a) or math.isnan(p[0] + p[1] + p[2] + p[3]):

@@ -14,13 +14,12 @@ Times are integer ns; angles [rad], rates [rad/s].
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
-
-import numpy as np
-from numpy.typing import NDArray
 
 from steer_monitor.estimate.observe import MOVING_RATE
 from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
+from steer_monitor.monitor.steady import SLOPE_WINDOW_NS
 
 __all__ = ['HARD_OVER_DEG', 'MOVING_RATE', 'NO_RESPONSE_ERR', 'NO_RESPONSE_NS', 'ORDER_STEP', 'OTHER_SIDE_DEG',
            'REVERSAL_NS', 'TRACKED_FROM_DEG', 'HardOver', 'HardOverTracker', 'Response', 'ResponseTracker',
@@ -35,7 +34,7 @@ ORDER_STEP = 1.0 * DEG
 #: after an order step, how long the rudder may still move the old way: the rate read here
 #: is a slope over half a second, so a turn shows a quarter of a second late, and the pump's
 #: valve takes a moment to reverse the flow (the simulated gear stops in one 10 ms step)
-REVERSAL_NS = 1_000_000_000
+REVERSAL_NS = SLOPE_WINDOW_NS + 500_000_000
 #: a rudder that has not moved this long after an order step, the order still this far from
 #: it, did not respond (the simulated gear starts in 0.1 s, a real one within a second or two;
 #: one pump or cold oil make it slower to move, not slower to start)
@@ -80,16 +79,15 @@ class HardOverTracker:
                 return HardOver(t_leave, self.last_s, side)
         return None
 
-    def angles(self, t_ns: list[int], alpha: list[float] | NDArray[np.float64]) -> list[HardOver]:
+    def angles(self, t_ns: Iterable[int], alpha: Iterable[float]) -> list[HardOver]:
         """Angle samples [ns, rad] in order, as :meth:`angle` of each: only those at least
         :data:`TRACKED_FROM_DEG` off midships are looked at (the rest change nothing)."""
-        a = np.asarray(alpha, float)
-        beyond = np.flatnonzero(np.abs(a / DEG) >= TRACKED_FROM_DEG).tolist()
         done = []
-        for i in beyond:
-            h = self.angle(t_ns[i], float(a[i]))
-            if h is not None:
-                done.append(h)
+        for t, a in zip(t_ns, alpha):
+            if abs(a / DEG) >= TRACKED_FROM_DEG:
+                h = self.angle(t, a)
+                if h is not None:
+                    done.append(h)
         return done
 
 

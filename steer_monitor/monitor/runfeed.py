@@ -302,11 +302,10 @@ def take_rudder(mon: LiveMonitor, kinds: list[bool], angle_t: list[int], angle_a
         taken = mon.steady.take_span(angle_t, angle_a, held, env, hold_t, hold_p)
         if taken is None:
             return None
-        rates, tracked = taken
+        rates = taken
         mon.inputs.record('rudder_angle', angle_t, angle_a, True)
         mon.changed = True
-        if tracked:                      # the hard-over's tracker: only where it can change
-            mon.performance.hard_over.angles(angle_t, angle_a)
+        mon.performance.hard_over.angles(angle_t, angle_a)
     if order_t:
         mon.inputs.record('rudder_order', order_t, order_v, orders_in_order)
     responses = mon.performance.responses

@@ -30,7 +30,6 @@ from numpy.typing import NDArray
 from steer_monitor.estimate.observe import HALF_WINDOW_NS, MOVING_RATE
 from steer_monitor.monitor.buffers import HeldSamples
 from steer_monitor.monitor.instants import CALL_FIELDS, OUT_FIELDS, take_instants
-from steer_monitor.monitor.performance import DEG, TRACKED_FROM_DEG
 from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope, window_slopes
 
 __all__ = ['CALLS_KEPT', 'HALF_WINDOW_NS', 'MAX_DELAY_NS', 'MAX_HELD', 'MOTION_STEP_NS', 'MOVING_RATE',
@@ -55,8 +54,7 @@ class _AnglePlan:
     them taken at once (:meth:`SteadyMotion.take_span`), with the model's angle delay
     ``delay`` [ns] then: the history's front after each, and counts before each (n + 1,) of
     those whose rate the plan does not give (a non-finite angle in the window, or a window
-    reaching past the front) and of the angles at least
-    :data:`~steer_monitor.monitor.performance.TRACKED_FROM_DEG` off midships."""
+    reaching past the front)."""
 
     base: int
     n: int
@@ -67,7 +65,6 @@ class _AnglePlan:
     delay: int
     front: list[int]
     unplanned: list[int]
-    past: list[int]
 
 
 #: pressure samples held and not yet released at most (51 s of them at 80 a second): with the
@@ -175,9 +172,8 @@ class SteadyMotion:
         delay = self.delay_ns
         front = base + np.searchsorted(t, t - (3 * HALF_WINDOW_NS + delay), 'left')
         unplanned = np.concatenate([[0], np.cumsum((status == SPECIAL) | (lo < front))])
-        past = np.concatenate([[0], np.cumsum(np.abs(a / DEG) >= TRACKED_FROM_DEG)])
         self._plan = _AnglePlan(base, n, t.tolist(), lo.tolist(), status.tolist(), out.tolist(), delay, front.tolist(),
-                                unplanned.tolist(), past.tolist())
+                                unplanned.tolist())
 
     def angle(self, t_ns: int, alpha: float, speed: float, oil: float) -> float:
         """One angle sample [ns, rad], the ship's speed [m/s] and oil temperature [K] standing
@@ -217,17 +213,16 @@ class SteadyMotion:
         self._calls += chain.from_iterable(zip([t - cut for t in t_ns], [delay] * len(t_ns), first, last, held))
 
     def take_span(self, angle_t: list[int], angle_a: list[float], held: list[int], env: list[float],
-                  hold_t: NDArray[np.int64], hold_p: NDArray[np.float64]) -> tuple[list[float], bool] | None:
+                  hold_t: NDArray[np.int64], hold_p: NDArray[np.float64]) -> list[float] | None:
         """:meth:`angle` of a replay's span of angle samples at once, where :meth:`plan`
         planned their rates: the times (m,) [ns] and angles (m,) [rad], with what each one logs
         beside it: how many of the pressure samples ``hold_t`` (k,) [ns], ``hold_p`` (k, 4) [Pa]
         (those :meth:`hold` takes before the last angle sample, held here first) came before it
         (``held`` (m,)), and the ship's speed and oil temperature then (``env``, flat (2 m,)).
         The same state as taking them one by one with the pressure samples between them.
-        Returns the rate [rad/s] after each angle sample and whether any of them is at least
-        :data:`~steer_monitor.monitor.performance.TRACKED_FROM_DEG` off midships (the
-        hard-over tracker must see them), or None, having changed nothing, where the plan does
-        not give them or the held samples would pass :data:`MAX_HELD` (then take them one by one)."""
+        Returns the rate [rad/s] after each angle sample, or None, having changed nothing, where
+        the plan does not give them or the held samples would pass :data:`MAX_HELD` (then take
+        them one by one)."""
         m = len(angle_t)
         plan = self._plan
         if plan is None or plan.delay != self.delay_ns or len(self._pending) + hold_t.shape[0] > MAX_HELD:
@@ -260,7 +255,7 @@ class SteadyMotion:
         if len(self._calls) >= len(CALL_FIELDS) * CALLS_KEPT:
             self.take()
         self.rate = rates[-1]
-        return rates, plan.past[k1] != plan.past[k0]
+        return rates
 
     def _bound_held(self) -> None:
         """At most :data:`MAX_HELD` held samples waiting: those released judged first, then
