@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.stats import f as f_dist
+from scipy.special import fdtri
 
 from steer_monitor.estimate import fit as F
 from steer_monitor.estimate import pointfit as PF
@@ -251,7 +251,7 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: PF.Profile,
                             PLATEAU_THRESHOLD * rs[1].threshold_1 / CHI2_1_95)
     two_z, z_gb, why = _evidence(gear, mom, load, two_z, z_gb, pr)
     joint_dof = min(r.dof for r in rs)
-    joint = CHI2_2_95 if not math.isfinite(joint_dof) else 2.0 * float(f_dist.ppf(0.95, 2, max(joint_dof, 2.0)))
+    joint = CHI2_2_95 if not math.isfinite(joint_dof) else 2.0 * float(fdtri(2.0, max(joint_dof, 2.0), 0.95))
     region_all = np.unique(ref.pairs[(ref.rss - floor) / unit <= joint], axis=0)
     region = region_all
     if region.shape[0] > 60:

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy import stats
+from scipy import special
 
 from steer_monitor.estimate import fit as F
 from steer_monitor.estimate.moments import Moments
@@ -95,8 +95,8 @@ def t2_threshold(dof: float) -> float:
     """The 95 % two-sided point of Student's t at ``dof``, squared (chi-square(1)'s 3.84 as
     dof grows)."""
     if not math.isfinite(dof) or dof > 1e6:
-        return float(stats.chi2.ppf(0.95, 1))
-    return float(stats.t.ppf(0.975, max(dof, MIN_CLUSTERS - 1.0)) ** 2)
+        return float(special.chdtri(1.0, 0.05))
+    return float(special.stdtrit(max(dof, MIN_CLUSTERS - 1.0), 0.975) ** 2)
 
 
 def block_seconds(resid: NDArray[np.float64], t_ns: NDArray[np.int64], step_ns: int) -> float:

@@ -111,7 +111,7 @@ def fit_trend(points: Sequence[TrendPoint], limit: float) -> Trend | None:
     """The wear trend of ``points`` against ``limit``; None with fewer than three two-sided
     estimates spanning some time (a line through two says nothing of its own error)."""
     from scipy.optimize import least_squares
-    from scipy.stats import t as student
+    from scipy.special import stdtrit
 
     two = [i for i, p in enumerate(points) if p.lo is not None and p.hi is not None and p.hi > p.lo]
     one = [i for i, p in enumerate(points) if p.hi is None and p.lo is not None]
@@ -166,7 +166,7 @@ def fit_trend(points: Sequence[TrendPoint], limit: float) -> Trend | None:
         cov = np.linalg.inv(jac.T @ jac) * scale
     except np.linalg.LinAlgError:
         return None
-    z = float(student.ppf(0.975, dof))
+    z = float(stdtrit(dof, 0.975))
     a, b = float(p[0]), float(p[1]) / scale_t
     vaa, vbb, vab = float(cov[0, 0]), float(cov[1, 1]) / scale_t ** 2, float(cov[0, 1]) / scale_t
     se_b = math.sqrt(max(vbb, 0.0))
