@@ -30,17 +30,18 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from steer_monitor.estimate.fit import Column
 from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import GRID_NS, Observations
 from steer_monitor.model.gear import GearParams
 
-__all__ = ['DELAYS_S', 'NAMES', 'STRIBECK_SPEEDS_MM_S', 'Candidate', 'Effect', 'candidate_of', 'candidates',
-           'iter_z_columns', 'live_term', 'low_side_offsets', 'z_columns']
+__all__ = ['DELAYS_S', 'NAMES', 'STRIBECK_SPEEDS_MM_S', 'Candidate', 'Effect', 'InstantTerms', 'candidate_of',
+           'candidates', 'iter_z_columns', 'live_term', 'low_side_offsets', 'ram_speed', 'stribeck_z', 'z_columns']
 
 STRIBECK_SPEEDS_MM_S = (1.0, 2.0, 3.0, 5.0, 8.0)
 DELAYS_S = tuple(round(0.05 * k, 2) for k in range(1, 21))   # 0.05 .. 1.0 s
@@ -114,12 +115,30 @@ def _direction(mom: Moments, feats: dict) -> NDArray[np.float64]:
     return mom.direction
 
 
+# each feature's value at one instant (direction +-1, the friction law temp_friction scales [N])
+_ones.at_instant = lambda direction, shape_friction: 1.0              # type: ignore[attr-defined]
+_direction.at_instant = lambda direction, shape_friction: direction   # type: ignore[attr-defined]
+
+
 def _friction_feature(seal: float, mu_b: float, mu_g: float) -> Callable[[Moments, dict], NDArray[np.float64]]:
     def feature(mom: Moments, feats: dict) -> NDArray[np.float64]:
         d = mom.direction.reshape((-1,) + (1,) * (np.ndim(feats['n_b']) - 1))
         return d * (seal + mu_b * feats['n_b'] + mu_g * feats['f_gb'])
     feature.uses_clearances = True  # type: ignore[attr-defined]
+    feature.at_instant = lambda direction, shape_friction: direction * shape_friction  # type: ignore[attr-defined]
     return feature
+
+
+def ram_speed(stock_to_ram: float, alpha: ArrayLike, rate: ArrayLike) -> Any:
+    """|Ram speed| [m/s] at the rudder angle ``alpha`` [rad] turning at ``rate`` [rad/s]: the
+    Rapson slide's reduced arm H / cos^2(alpha) times |rate| (floats or arrays)."""
+    cos_a = np.cos(alpha)
+    return stock_to_ram / (cos_a * cos_a) * np.abs(rate)
+
+
+def stribeck_z(v_ram: Any, v_s_mm_s: float) -> Any:
+    """The Stribeck column's shape exp(-(|v_ram| / v_s)^2) (``v_ram`` [m/s], floats or arrays)."""
+    return np.exp(-(v_ram / (v_s_mm_s * 1e-3)) ** 2)
 
 
 def z_columns(obs: Observations, gear: GearParams) -> dict[str, NDArray[np.float64]]:
@@ -132,13 +151,13 @@ def iter_z_columns(obs: Observations, gear: GearParams) -> Iterator[tuple[str, N
     keeps a few of them (or only their validity) does not hold all of them at once."""
     n = len(obs)
     cos2 = np.cos(obs.alpha) ** 2
-    v_ram = gear.stock_to_ram / cos2 * np.abs(obs.rate)
+    v_ram = ram_speed(gear.stock_to_ram, obs.alpha, obs.rate)
     yield 'ram1', np.tile([1.0, 0.0], (n, 1))
     yield 'ram2', np.tile([0.0, 1.0], (n, 1))
     yield 'v_ram', v_ram
     yield 'abs_y', np.abs(obs.force)
     for vs in STRIBECK_SPEEDS_MM_S:
-        yield f'stribeck_{vs:g}', np.exp(-(v_ram / (vs * 1e-3)) ** 2)
+        yield f'stribeck_{vs:g}', stribeck_z(v_ram, vs)
     # ram acceleration along its axis: d/dt (H tan alpha)'' ~ H / cos^2 alpha * alpha''
     rate = np.where(np.isfinite(obs.rate), obs.rate, np.nan)
     acc = np.full(n, np.nan)
@@ -189,28 +208,51 @@ def low_side_offsets(obs: Observations, names: tuple[str, ...], margin: float = 
     return {k: v - ref for k, v in med.items()}
 
 
+class InstantTerms:
+    """What the adopted effects ``model`` add to a ram's force [N] at one instant, from the
+    same columns the fits use (:func:`candidate_of`): each column's coefficient (``terms``,
+    :attr:`Finding.terms`) times its per-bin feature and its per-sample ``z`` taken at the
+    instant, for a residual worked out sample by sample (the live monitor's). A delay is not a
+    term (the caller reads the angle later) and a ram's moving mass is left out (its
+    acceleration is not followed sample by sample); temp_friction counts once ``terms`` hold
+    its reference temperature ``t_ref_k``."""
+
+    def __init__(self, model: tuple[Effect, ...], terms: dict[str, float]) -> None:
+        self.columns = tuple((terms[col.name], col) for e in model for col in candidate_of(e).columns
+                             if col.z != 'accel')
+        self.t_ref_k = float(terms.get('t_ref_k', math.nan))
+
+    def __call__(self, direction: float, v_ram: float, abs_y: float, oil_temp: float, shape_friction: float,
+                 ram: int) -> float:
+        """``direction`` +-1, ram speed ``v_ram`` [m/s], the ram's |force| ``abs_y`` [N], the oil
+        temperature [K], ``shape_friction`` the friction law temp_friction scales, at this
+        instant [N] (F_s + mu_b N_b + mu_g |F_gb| of its shape), ``ram`` 0 or 1."""
+        out = 0.0
+        for coef, col in self.columns:
+            z = _z_at(col.z, v_ram, abs_y, oil_temp - self.t_ref_k, ram)
+            if math.isfinite(z):
+                out += col.feature.at_instant(direction, shape_friction) * coef * z  # type: ignore[attr-defined]
+        return out
+
+
+def _z_at(name: str, v_ram: float, abs_y: float, dtemp: float, ram: int) -> float:
+    """A column's per-sample ``z`` at one instant (:func:`iter_z_columns` of one sample)."""
+    if name == 'v_ram':
+        return v_ram
+    if name == 'abs_y':
+        return abs_y
+    if name in ('ram1', 'ram2'):
+        return 1.0 if ram == int(name[-1]) - 1 else 0.0
+    if name == 'dtemp':
+        return dtemp
+    if name.startswith('stribeck_'):
+        return stribeck_z(v_ram, float(name[len('stribeck_'):]))
+    msg = f'no per-instant value of the column {name!r}'
+    raise ValueError(msg)
+
+
 def live_term(model: tuple[Effect, ...], terms: dict[str, float], direction: float, v_ram: float, abs_y: float,
               oil_temp: float, shape_friction: float, ram: int) -> float:
-    """What the adopted effects add to one ram's force [N] at one instant, as their columns
-    predict it (:func:`candidates`), for a residual worked out sample by sample (the live
-    monitor's): ``direction`` +-1, ram speed ``v_ram`` [m/s], the ram's |force| ``abs_y`` [N],
-    the oil temperature [K], ``shape_friction`` the friction law temp_friction scales, at this
-    instant [N] (F_s + mu_b N_b + mu_g |F_gb| of its shape), ``ram`` 0 or 1. A delay is not a
-    term (the caller reads the angle later) and a ram's moving mass is left out (its
-    acceleration is not followed sample by sample); ``terms``: :attr:`Finding.terms`."""
-    out = 0.0
-    for e in model:
-        name = e.name
-        if name == 'viscous':
-            out += direction * terms['c_ns_per_m'] * v_ram
-        elif name == 'stribeck':
-            vs = dict(e.fixed)['v_s_mm_s'] * 1e-3
-            out += direction * terms['f_st_n'] * math.exp(-(v_ram / vs) ** 2)
-        elif name == 'pressure_friction':
-            out += direction * terms['k'] * abs_y
-        elif name == 'temp_friction':
-            if math.isfinite(oil_temp) and math.isfinite(terms.get('t_ref_k', math.nan)):
-                out += direction * terms['k_per_k'] * (oil_temp - terms['t_ref_k']) * shape_friction
-        elif name == 'pressure_offset':
-            out += terms['offset_ram1_n' if ram == 0 else 'offset_ram2_n']
-    return out
+    """:class:`InstantTerms` of ``model`` and ``terms`` at one instant (a caller judging many
+    instants with the same model keeps the :class:`InstantTerms`)."""
+    return InstantTerms(model, terms)(direction, v_ram, abs_y, oil_temp, shape_friction, ram)

@@ -20,7 +20,7 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from steer_monitor.estimate.effects import Effect, live_term
+from steer_monitor.estimate.effects import Effect, InstantTerms, ram_speed
 from steer_monitor.model.friction import FrictionParams, friction_force
 from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.loadshare import declared_residuals, load_sharing_scalar
@@ -50,7 +50,7 @@ class LiveResidual:
         self.priors = priors
         self.torque: TorqueTable | None = None
         self._effects: tuple[Effect, ...] = ()
-        self._terms: dict[str, float] = {}
+        self._terms = InstantTerms((), {})
         self._shape: FrictionParams | None = None
         # the last minute of steady motion since the clearances' source last changed, per
         # instant (INSTANT_FIELDS), and its residual pair [bar] under the model in use
@@ -91,7 +91,7 @@ class LiveResidual:
 
     def use_effects(self, effects: tuple[Effect, ...], terms: dict[str, float], shape: FrictionParams | None) -> None:
         """The effects an analysis adopted, their coefficients and the temperature friction's shape."""
-        self._effects, self._terms, self._shape = effects, dict(terms), shape
+        self._effects, self._terms, self._shape = effects, InstantTerms(effects, terms), shape
 
     # --- instants in, residuals out ------------------------------------------------------
     def add(self, instants: NDArray[np.float64]) -> None:
@@ -182,11 +182,10 @@ class LiveResidual:
             return (force_1 - predicted) / area / 1e5, (force_2 - predicted) / area / 1e5
         shape = 0.0 if self._shape is None else float(friction_force(self._shape, m.r_a, m.r_e, m.m_a, m.guide_force,
                                                                      gear.bushing_length))
-        cos_a = math.cos(alpha)
-        v_ram = gear.stock_to_ram / (cos_a * cos_a) * abs(rate)
+        v_ram = float(ram_speed(gear.stock_to_ram, alpha, rate))
         out = []
         for ram, force in enumerate((force_1, force_2)):
-            term = live_term(self._effects, self._terms, direction, v_ram, abs(force), oil, shape, ram)
+            term = self._terms(direction, v_ram, abs(force), oil, shape, ram)
             out.append((force - predicted - term) / area / 1e5)
         return out[0], out[1]
 

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from steer_monitor.estimate.effects import NAMES, Effect, candidate_of, candidates, live_term, z_columns
+from steer_monitor.estimate.effects import NAMES, Effect, InstantTerms, candidate_of, candidates, live_term, z_columns
 from steer_monitor.estimate.moments import Moments, rows_from_observations
 from steer_monitor.estimate.observe import build_observations
 from steer_monitor.model.friction import FrictionParams, friction_force
@@ -82,3 +82,16 @@ def test_a_delay_and_a_mass_are_no_terms():
         assert live_term((Effect(name, (('tau_s', 0.2),) if name == 'angle_delay' else ()),),
                          {'tau_s': 0.2, 'mass_kg': 5e4}, 1.0, 0.01, 1e5, 300.0, 1e4, 0) == 0.0
     assert math.isfinite(live_term((), {}, 1.0, 0.0, 0.0, math.nan, 0.0, 1))
+
+
+def test_every_column_of_the_library_has_its_value_at_an_instant():
+    """The live residual evaluates the fits' own columns: each candidate's, bar the ram's
+    acceleration, has a per-instant value (a new column without one fails here, not at sea)."""
+    for c in candidates({'dtemp': np.zeros(1)}, (9e3, 0.13, 0.05)):
+        effect = Effect(c.name, tuple(sorted((c.fixed or {}).items())), c.shape)
+        terms = {col.name: 1.0 for col in c.columns} | {'t_ref_k': 300.0}
+        term = InstantTerms((effect,), terms)
+        assert [col.name for _, col in term.columns] == [col.name for col in c.columns if col.z != 'accel']
+        assert math.isfinite(term(1.0, 0.01, 1e5, 301.0, 1e4, 0))
+    with pytest.raises(KeyError, match='c_ns_per_m'):
+        InstantTerms((Effect('viscous'),), {})
