@@ -70,6 +70,7 @@ from steer_monitor.estimate.ramscheck import RamsCheck, UnevenSpan, describe
 from steer_monitor.logfiles.blocks import in_time_order, iter_log_blocks, log_end_ns
 from steer_monitor.logfiles.logs import LogError
 from steer_monitor.model.gear import Clearances, GearParams
+from steer_monitor.model.kinematics import torque_of_axial
 from steer_monitor.model.loadshare import LoadSharing, load_sharing
 from steer_monitor.monitor.performance import HardOver, HardOverTracker
 from steer_monitor.params import (
@@ -341,7 +342,7 @@ class Review:
         g = self.gear
         fa = 0.5 * (np.abs(force[:, 0]) + np.abs(force[:, 1]))
         with np.errstate(invalid='ignore'):
-            torque = fa * g.rams * g.stock_to_ram / np.cos(alpha) ** 2
+            torque = torque_of_axial(g, fa, np.cos(alpha))
         ok = np.isfinite(alpha) & np.isfinite(torque)
         share = None
         if ok.any():

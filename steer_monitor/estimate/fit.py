@@ -37,6 +37,7 @@ from scipy.interpolate import BSpline
 from steer_monitor.estimate.moments import SPEED_Z, Moments
 from steer_monitor.estimate.ranges import DECLARED
 from steer_monitor.model.gear import GearParams
+from steer_monitor.model.kinematics import axial_of_torque, torque_of_axial
 from steer_monitor.model.loadshare import friction_normals
 
 __all__ = [
@@ -176,9 +177,7 @@ def torque_columns(gear: GearParams, basis: TorqueBasis, mom: Moments) -> NDArra
     cache = mom.__dict__.setdefault('_torque_columns', {})
     if key not in cache:
         a = mom.abs_alpha
-        scale = (
-            mom.side * _speed_factor(mom, gear.torque.service_speed) * np.cos(a) ** 2 / (gear.rams * gear.stock_to_ram)
-        )
+        scale = axial_of_torque(gear, mom.side * _speed_factor(mom, gear.torque.service_speed), np.cos(a))
         cache.clear()
         cache[key] = basis(a) * scale[:, None]
     return cache[key]
@@ -415,7 +414,7 @@ def design_at(gear: GearParams, basis: TorqueBasis, mom: Moments, two_z: float, 
 def torque_of_load(gear: GearParams, mom: Moments, load: NDArray[np.float64]) -> NDArray[np.float64]:
     """Tiller torque [N m] that gives the axial load ``load`` at each bin's angle (load sharing
     takes the torque)."""
-    return load * gear.rams * gear.stock_to_ram / np.cos(mom.abs_alpha) ** 2
+    return torque_of_axial(gear, load, np.cos(mom.abs_alpha))
 
 
 def design_columns(gear: GearParams, basis: TorqueBasis, mom: Moments, feats: dict[str, NDArray],

@@ -8,6 +8,7 @@ from collections.abc import Mapping
 
 from steer_monitor.estimate.ranges import effect_range
 from steer_monitor.model.gear import GearParams
+from steer_monitor.model.kinematics import axial_of_torque
 
 __all__ = ['SIGNS', 'rated_force', 'refusal']
 
@@ -42,4 +43,4 @@ def rated_force(gear: GearParams) -> float:
     """The rams' rated axial force [N]: the tiller torque at the largest rudder angle and the
     service speed through the Rapson slide, M cos^2(alpha) / (n H)."""
     a = gear.max_rudder
-    return float(abs(gear.torque(a)) * math.cos(a) ** 2 / (gear.rams * gear.stock_to_ram))
+    return float(axial_of_torque(gear, abs(gear.torque(a)), math.cos(a)))

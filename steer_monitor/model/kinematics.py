@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from steer_monitor.model.gear import GearParams
 
-__all__ = ['RapsonState', 'rapson_state']
+__all__ = ['RapsonState', 'axial_of_torque', 'rapson_state', 'torque_of_axial']
 
 
 @dataclass(frozen=True)
@@ -44,6 +45,19 @@ class RapsonState:
         return 1.0 / (1.0 - self.axial / self.euler)
 
 
+def axial_of_torque(gear: GearParams, torque: Any, cos_a: Any) -> Any:
+    """The axial force on each ram [N] the tiller torque ``torque`` [N m] needs where
+    cos(alpha) is ``cos_a``: Fa = M cos^2(alpha) / (n H); floats or arrays (the one definition
+    of the slide's lever, :func:`torque_of_axial` its inverse)."""
+    return torque * (cos_a * cos_a) / (gear.rams * gear.stock_to_ram)
+
+
+def torque_of_axial(gear: GearParams, axial: Any, cos_a: Any) -> Any:
+    """The tiller torque [N m] an axial force ``axial`` on each ram [N] gives where cos(alpha)
+    is ``cos_a``: M = Fa n H / cos^2(alpha); floats or arrays."""
+    return axial * gear.rams * gear.stock_to_ram / (cos_a * cos_a)
+
+
 def rapson_state(gear: GearParams, alpha: ArrayLike, torque: ArrayLike) -> RapsonState:
     """Kinematics and forces of one ram at rudder angle ``alpha`` [rad], tiller torque [N m]."""
     a_abs = np.abs(np.asarray(alpha, dtype=float))
@@ -54,8 +68,7 @@ def rapson_state(gear: GearParams, alpha: ArrayLike, torque: ArrayLike) -> Rapso
     near = gear.bushing_span - far
     guide_a = gear.guide_beam_span / 2.0 - travel
     guide_b = gear.guide_beam_span - guide_a
-    cos2 = np.cos(a_abs) ** 2
-    axial = m_abs * cos2 / (gear.rams * gear.stock_to_ram)
+    axial = axial_of_torque(gear, m_abs, np.cos(a_abs))
     lateral = axial * np.tan(a_abs)
     euler = np.pi**2 * gear.youngs_modulus * gear.ram_inertia / far**2
     return RapsonState(travel, near, far, guide_a, guide_b, axial, lateral, euler)

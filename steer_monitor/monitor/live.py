@@ -42,6 +42,7 @@ from steer_monitor.estimate.ramscheck import RamsCheck
 from steer_monitor.model.friction import FrictionParams
 from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.inputs import PRESSURE_INPUTS, Sample
+from steer_monitor.model.kinematics import torque_of_axial
 from steer_monitor.model.loadshare import ShareScalar, load_sharing_scalar
 from steer_monitor.model.ramforce import ram_force
 from steer_monitor.model.torque import TorqueTable
@@ -68,7 +69,7 @@ def _torque(gear: GearParams, cos_a: Any, p0: Any, p1: Any, p2: Any, p3: Any) ->
     arrays, the same operations in the same order."""
     area = gear.ram_area
     fa = 0.5 * (abs(ram_force(area, p0, p1)) + abs(ram_force(area, p2, p3)))
-    return fa * gear.rams * gear.stock_to_ram / (cos_a * cos_a)
+    return torque_of_axial(gear, fa, cos_a)
 
 
 def states_at(gear: GearParams, t_ns: NDArray[np.int64], alpha: NDArray[np.float64], alpha_t_ns: NDArray[np.int64],
