@@ -43,7 +43,7 @@ def main() -> int:
     from steer_monitor.can.busconfig import can_setup
     from steer_monitor.can.decoder import Decoder
     from steer_monitor.estimate.analyze import analyze
-    from steer_monitor.logfiles.candumpcols import write_candump_arrays
+    from steer_monitor.logfiles.logs import write_candump
     from steer_monitor.monitor.analyst import SyncJobs
     from steer_monitor.params import gear_from_params, load_params_file
     from steer_monitor.resources import default_config
@@ -79,7 +79,7 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp:
         log = Path(tmp) / 'hour.log'
         with open(log, 'wb') as fh:
-            write_candump_arrays(fh, s.frames)
+            write_candump(fh, s.frames)
         summary = replay([log], Path(tmp) / 'replay.mcap')
     f = summary.finding
     by_kind: dict[str, list[float]] = defaultdict(list)

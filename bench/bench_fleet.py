@@ -23,7 +23,7 @@ from pathlib import Path
 
 from steer_monitor import sim
 from steer_monitor.can.busconfig import load_setup
-from steer_monitor.logfiles.candumpcols import write_candump_arrays
+from steer_monitor.logfiles.logs import write_candump
 from steer_monitor.model import Clearances
 
 LOGS = 32
@@ -41,7 +41,7 @@ def make_logs(root: Path) -> list[Path]:
         s = sim.run(params, cfg, db, smap, k)
         path = vessel / f'day_{k:02d}.log'
         with open(path, 'wb') as fh:
-            write_candump_arrays(fh, s.frames)
+            write_candump(fh, s.frames)
         out.append(path)
     return out
 

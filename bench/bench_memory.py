@@ -28,7 +28,7 @@ def make_log(path: Path) -> int:
     from steer_monitor import sim
     from steer_monitor.can.busconfig import can_setup
     from steer_monitor.can.frames import FrameArrays
-    from steer_monitor.logfiles.candumpcols import write_candump_arrays
+    from steer_monitor.logfiles.logs import write_candump
     from steer_monitor.params import load_params_file
     from steer_monitor.resources import default_config
 
@@ -40,7 +40,7 @@ def make_log(path: Path) -> int:
     with open(path, 'wb') as fh:
         for k in range(COPIES):
             shifted = FrameArrays(fa.t_ns + np.int64(k * span), fa.can_id, fa.dlc, fa.data, fa.flags)
-            write_candump_arrays(fh, shifted)
+            write_candump(fh, shifted)
     return COPIES * len(fa)
 
 

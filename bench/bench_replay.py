@@ -61,7 +61,7 @@ def _make_logs() -> dict[str, Path]:
     ``PER_FRAME_LIMIT`` frames of the last two, '24h-first.log' and '24h-first.mcap'."""
     from steer_monitor import sim
     from steer_monitor.can.busconfig import can_setup
-    from steer_monitor.logfiles.candumpcols import write_candump_arrays
+    from steer_monitor.logfiles.logs import write_candump
     from steer_monitor.logfiles.mcapio import McapWriter
     from steer_monitor.params import load_params_file
     from steer_monitor.resources import default_config
@@ -83,13 +83,13 @@ def _make_logs() -> dict[str, Path]:
             cfg = sim.SimConfig(program=HOUR_PROGRAM, max_duration_s=3600.0, start_ns=start + hour * 3_600_000_000_000)
             fa = sim.run(params, cfg, db, smap, seed=100 + hour).frames
             fa = fa.take(fa.t_ns < start + (hour + 1) * 3_600_000_000_000)
-            write_candump_arrays(log24, fa)
+            write_candump(log24, fa)
             frames = fa.frames()
             for i in range(0, len(frames), 8192):
                 mcap24.write_frames(frames[i:i + 8192])
             if hour == 0:
                 with open(paths['1h.log'], 'wb') as fh:
-                    write_candump_arrays(fh, fa)
+                    write_candump(fh, fa)
                 with McapWriter(paths['1h.mcap']) as w:
                     for i in range(0, len(frames), 8192):
                         w.write_frames(frames[i:i + 8192])

@@ -60,7 +60,7 @@ ROUNDS = 3      # the reader and the timed replay back to back, this many times
 def _make_log(path: Path) -> int:
     from steer_monitor import sim
     from steer_monitor.can.busconfig import can_setup
-    from steer_monitor.logfiles.candumpcols import write_candump_arrays
+    from steer_monitor.logfiles.logs import write_candump
     from steer_monitor.params import load_params_file
     from steer_monitor.resources import default_config
 
@@ -69,7 +69,7 @@ def _make_log(path: Path) -> int:
     db, smap = can_setup(params, config)
     fa = sim.run(params, sim.SimConfig(program=HOUR_PROGRAM), db, smap, seed=100).frames
     with open(path, 'wb') as fh:
-        write_candump_arrays(fh, fa)
+        write_candump(fh, fa)
     return len(fa)
 
 

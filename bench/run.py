@@ -10,8 +10,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 BENCHMARKS = ('bench.bench_loadshare', 'bench.bench_decode', 'bench.bench_estimate', 'bench.bench_replay',
-              'bench.bench_replay_parts', 'bench.bench_feed', 'bench.bench_node', 'bench.bench_memory',
-              'bench.bench_analysis_memory', 'bench.bench_fleet')
+              'bench.bench_replay_parts', 'bench.bench_feed', 'bench.bench_twins', 'bench.bench_node',
+              'bench.bench_memory', 'bench.bench_analysis_memory', 'bench.bench_fleet')
 
 
 def main() -> int:

@@ -54,7 +54,7 @@ def test_a_replay_makes_no_reference_cycles(tmp_path):
     from steer_monitor import sim
     from steer_monitor.ashore.replay import replay
     from steer_monitor.can.busconfig import can_setup
-    from steer_monitor.logfiles.candumpcols import write_candump_arrays
+    from steer_monitor.logfiles.logs import write_candump
     from steer_monitor.params import load_params_file
     from steer_monitor.resources import default_config
 
@@ -64,7 +64,7 @@ def test_a_replay_makes_no_reference_cycles(tmp_path):
     fa = sim.run(params, sim.SimConfig(program='voyage', max_duration_s=90.0), db, smap, seed=3).frames
     log = tmp_path / 'voyage.log'
     with open(log, 'wb') as fh:
-        write_candump_arrays(fh, fa)
+        write_candump(fh, fa)
     replay([log], tmp_path / 'warm.mcap', estimator=False)      # first use: imports, compiled kernels
     gc.collect()
     was = gc.isenabled()

@@ -18,18 +18,17 @@ from __future__ import annotations
 import re
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, Frame, FrameArrays
+from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, MAX_DLC, Frame, FrameArrays
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.logfiles import digits
-from steer_monitor.logfiles.logs import CAN_ERR_FLAG, _candump_line, candump_line, open_text_log
+from steer_monitor.logfiles.logs import CAN_ERR_FLAG, _candump_line, open_text_log
 
-__all__ = ['BLOCK_BYTES', 'BLOCK_FRAMES', 'CANDUMP_LINE', 'iter_candump_blocks', 'uniform_frames',
-           'write_candump_arrays']
+__all__ = ['BLOCK_BYTES', 'BLOCK_FRAMES', 'CANDUMP_LINE', 'iter_candump_blocks', 'uniform_frames']
 
 
 BLOCK_BYTES = 16 << 20
@@ -362,58 +361,3 @@ def _merge_slow(fa: FrameArrays, mask: NDArray[np.bool_], slow: NDArray[np.intp]
 
 
 # --- MCAP ---------------------------------------------------------------------------------
-
-
-def write_candump_arrays(fh: IO[bytes], fa: FrameArrays, channel: str = 'can0') -> None:
-    """Write frames as candump ``-L`` lines (what :class:`~steer_monitor.logfiles.logs.LogWriter`
-    writes, byte for byte) with numpy: for making long logs quickly."""
-    n = len(fa)
-    if n == 0:
-        return
-    ext = (fa.flags & FLAG_EXTENDED) != 0
-    err = (fa.flags & FLAG_ERROR) != 0
-    rtr = (fa.flags & FLAG_REMOTE) != 0
-    sec, ns = np.divmod(fa.t_ns, 1_000_000_000)
-    sec_txt = sec.astype('U20').astype('S20')
-    width_sec = np.char.str_len(sec_txt)
-    if (~ext).any() or err.any() or rtr.any() or (fa.dlc > MAX_DLC).any() or (width_sec != width_sec[0]).any():
-        # not one fixed layout: line by line
-        fh.write(''.join(candump_line(f, channel) for f in fa.frames()).encode('ascii'))
-        return
-    usec = ns // 1000
-    hexd = np.frombuffer(b'0123456789ABCDEF', np.uint8)
-    chan = channel.encode()
-    ws = int(width_sec[0])
-    max_d = int(fa.dlc.max())
-    line_w = 1 + ws + 1 + 6 + 2 + len(chan) + 1 + 8 + 1 + 2 * max_d + 1
-    m = np.full((n, line_w), ord(' '), np.uint8)
-    c = 0
-    m[:, c] = ord('(')
-    c += 1
-    m[:, c:c + ws] = np.frombuffer(sec_txt.tobytes(), np.uint8).reshape(n, 20)[:, :ws]
-    c += ws
-    m[:, c] = ord('.')
-    c += 1
-    for k in range(6):
-        m[:, c + k] = 48 + (usec // 10 ** (5 - k)) % 10
-    c += 6
-    m[:, c] = ord(')')
-    c += 2
-    m[:, c:c + len(chan)] = np.frombuffer(chan, np.uint8)
-    c += len(chan) + 1
-    ids = fa.can_id.astype(np.int64)
-    for k in range(8):
-        m[:, c + k] = hexd[(ids >> (4 * (7 - k))) & 0xF]
-    c += 8
-    m[:, c] = ord('#')
-    c += 1
-    for k in range(max_d):
-        m[:, c + 2 * k] = hexd[fa.data[:, k] >> 4]
-        m[:, c + 2 * k + 1] = hexd[fa.data[:, k] & 0xF]
-    ends = c + 2 * fa.dlc.astype(np.intp)
-    m[np.arange(n), ends] = 10
-    if (fa.dlc == max_d).all():
-        fh.write(m[:, :line_w].tobytes())
-        return
-    keep = np.arange(line_w) <= ends[:, None]
-    fh.write(m[keep].tobytes())

@@ -23,16 +23,17 @@ from __future__ import annotations
 
 import datetime
 import io
+import itertools
 import os
 import re
 import stat
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import IO, Any, BinaryIO
 
 from steer_monitor.atomic import note_input
 from steer_monitor.can.bus import frame_from_message, message_from_frame
-from steer_monitor.can.frames import Frame
+from steer_monitor.can.frames import Frame, FrameArrays
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import SteerMonitorError
 from steer_monitor.logfiles.compressed import COMPRESSED_SUFFIXES, compression, open_decompressed, plain_suffix
@@ -43,7 +44,7 @@ from steer_monitor.logfiles.mcapio import McapWriter
 
 __all__ = ['BINARY_FORMATS', 'FORMATS', 'READ_SUFFIXES', 'WRITE_SUFFIXES', 'LogError', 'LogWriter', 'candump_line',
            'is_compressed', 'iter_log_as', 'log_format', 'log_path_problem', 'open_log', 'open_text_log',
-           'skipped_parts']
+           'skipped_parts', 'write_candump']
 
 READ_SUFFIXES = ('.log', '.asc', '.blf', '.mcap')
 #: the formats of records, not lines (the rest are text, read a line at a time)
@@ -53,6 +54,8 @@ _SNIFF_BYTES = 4096
 #: the most a BLF log container may declare uncompressed [bytes]; writers use 128 KiB
 MAX_CONTAINER_BYTES = 64 << 20
 WRITE_SUFFIXES = ('.log', '.blf', '.mcap')
+#: lines :func:`write_candump` writes at a time
+WRITE_BLOCK = 65_536
 
 CAN_ERR_FLAG = 0x20000000
 _CANDUMP = re.compile(r'^\((\d+)\.(\d{1,9})\)\s+(\S+)\s+([0-9A-Fa-f]{1,8})#(R?)([0-9A-Fa-f]*)\s*$')
@@ -449,6 +452,14 @@ def candump_line(frame: Frame, channel: str) -> str:
     body = 'R' if frame.is_remote else frame.data.hex().upper()
     sec, ns = divmod(frame.t_ns, 1_000_000_000)
     return f'({sec}.{ns // 1000:06d}) {channel} {ident}#{body}\n'
+
+
+def write_candump(fh: IO[bytes], frames: Iterable[Frame] | FrameArrays, channel: str = 'can0') -> None:
+    """Frames as candump ``-L`` lines (:func:`candump_line`, what :class:`LogWriter` writes) to
+    a binary file, a block of lines a write: for making long logs."""
+    it = iter(frames.frames() if isinstance(frames, FrameArrays) else frames)
+    while block := [candump_line(f, channel) for f in itertools.islice(it, WRITE_BLOCK)]:
+        fh.write(''.join(block).encode('ascii'))
 
 
 class LogWriter:

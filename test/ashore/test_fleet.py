@@ -14,7 +14,7 @@ import pytest
 
 from steer_monitor import sim
 from steer_monitor.ashore.store import LogResult
-from steer_monitor.logfiles.candumpcols import write_candump_arrays
+from steer_monitor.logfiles.logs import write_candump
 from steer_monitor.model import Clearances
 
 pytestmark = pytest.mark.slow
@@ -37,7 +37,7 @@ def fleet_dirs(tmp_path_factory, r18_params, can_db):
             s = sim.run(r18_params, sim.SimConfig(program=PROGRAM, gaps=Clearances.from_mm(0.35, zgb),
                                                   start_ns=T0_NS + k * MONTH_NS), db, smap, 100 + k)
             with open(d / f'{name}_{k:02d}.log', 'wb') as fh:
-                write_candump_arrays(fh, s.frames)
+                write_candump(fh, s.frames)
     return root
 
 
@@ -142,7 +142,7 @@ def test_a_ram_that_did_not_carry_its_share_and_results_of_an_earlier_version(tm
         s = sim.run(r18_params, sim.SimConfig(program='realistic:900', effects=effects, start_ns=T0_NS + k * MONTH_NS),
                     db, smap, 31 + k)
         with open(d / f'tanker_{k}.log', 'wb') as fh:
-            write_candump_arrays(fh, s.frames)
+            write_candump(fh, s.frames)
     out = tmp_path / 'out'
     out.mkdir()
     run = run_fleet([tmp_path / 'tanker'], out, client=client, reports=False)
@@ -315,7 +315,7 @@ def test_a_vessel_whose_map_reverses_a_ram_has_its_logs_failed_with_the_reason(t
     s = sim.run(r18_params, sim.SimConfig(program='autopilot:600'), db, smap, seed=8)
     log = tmp_path / 'a.log'
     with open(log, 'wb') as fh:
-        write_candump_arrays(fh, s.frames)
+        write_candump(fh, s.frames)
     text = (PKG / 'config' / 'r18.yaml').read_text()
     swapped = text.replace('pressure_r2_stbd: {pgn: 130314, field: Pressure, instance: 2',
                            'pressure_r2_stbd: {pgn: 130314, field: Pressure, instance: 9').replace(

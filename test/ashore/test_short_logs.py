@@ -14,7 +14,7 @@ import random
 import pytest
 
 from steer_monitor import sim
-from steer_monitor.logfiles.candumpcols import write_candump_arrays
+from steer_monitor.logfiles.logs import write_candump
 from steer_monitor.model import Clearances
 
 pytestmark = pytest.mark.slow
@@ -47,7 +47,7 @@ def test_a_short_log_gives_an_answer_or_a_one_line_refusal(r18_params, can_db, t
                                           max_duration_s=c['seconds'], effects=effects), db, smap, c['seed'])
     path = tmp_path / 'short.log'
     with open(path, 'wb') as fh:
-        write_candump_arrays(fh, s.frames)
+        write_candump(fh, s.frames)
     data = path.read_bytes()
     path.write_bytes(data[:int(len(data) * c['cut'])])          # cut anywhere, mid-line too
 

@@ -10,8 +10,7 @@ import pytest
 
 from steer_monitor.can import FrameArrays
 from steer_monitor.logfiles.blocks import read_log_fast
-from steer_monitor.logfiles.candumpcols import write_candump_arrays
-from steer_monitor.logfiles.logs import LogWriter
+from steer_monitor.logfiles.logs import LogWriter, write_candump
 from test.logfiles.reference_reader import read_log_reference as read_log_arrays
 from test.support.logcols import both, same
 
@@ -56,18 +55,18 @@ def test_last_line_without_newline_and_empty_file(tmp_path):
     assert len(read_log_fast(empty)) == 0
 
 
-def test_candump_writer_is_the_log_writer(tmp_path, simulated):
+def test_writing_a_log_at_once_is_the_log_writer(tmp_path, simulated):
     ref = tmp_path / 'ref.log'
     with LogWriter(ref) as w:
         for f in simulated.frames():
             w.write(f)
     buf = io.BytesIO()
-    write_candump_arrays(buf, simulated)
+    write_candump(buf, simulated)
     assert buf.getvalue() == ref.read_bytes()
     odd = read_log_arrays(tmp_path / 'ref.log').take(np.arange(5))
     odd = FrameArrays(odd.t_ns, odd.can_id, odd.dlc, odd.data, odd.flags & 0)   # standard ids: the slow path
     buf2 = io.BytesIO()
-    write_candump_arrays(buf2, odd)
+    write_candump(buf2, odd)
     back = tmp_path / 'odd.log'
     back.write_bytes(buf2.getvalue())
     same(read_log_arrays(back), read_log_fast(back))

@@ -12,8 +12,8 @@ from steer_monitor import sim
 from steer_monitor.can.decoder import STITCH_GAP_NS, Decoder
 from steer_monitor.can.frames import FrameArrays
 from steer_monitor.can.rejects import RejectCounter
-from steer_monitor.logfiles.candumpcols import write_candump_arrays
 from steer_monitor.logfiles.decodelog import decode_logs
+from steer_monitor.logfiles.logs import write_candump
 from steer_monitor.model import Clearances
 
 HOUR = 3600 * 10**9
@@ -35,7 +35,7 @@ def _stepped(frames: FrameArrays, step_ns: int) -> FrameArrays:
 
 def _write(path, frames):
     with open(path, 'wb') as fh:
-        write_candump_arrays(fh, frames)
+        write_candump(fh, frames)
     return path
 
 

@@ -128,12 +128,12 @@ def test_the_other_readers_stay_bounded_on_a_zstd_bomb(tmp_path, r18_params, can
     """A voyage's minute of frames, 1 GiB of zeros in one zstd frame (33 KB on disk), the rest
     of the voyage: analyze, replay and report read through it under 400 MB."""
     from steer_monitor import sim
-    from steer_monitor.logfiles.candumpcols import write_candump_arrays
+    from steer_monitor.logfiles.logs import write_candump
 
     db, smap = can_db
     s = sim.run(r18_params, sim.SimConfig(program='hard_over_2,zigzag_10', max_duration_s=120.0), db, smap, 9)
     buf = io.BytesIO()
-    write_candump_arrays(buf, s.frames)
+    write_candump(buf, s.frames)
     text = buf.getvalue()
     half = text.index(b'\n', len(text) // 2) + 1
     c = zstandard.ZstdCompressor(level=3)
