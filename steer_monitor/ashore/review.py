@@ -80,7 +80,7 @@ from steer_monitor.params import (
     ram_share_warn_from_params,
 )
 
-__all__ = ['TAIL_NS', 'BatchRun', 'Review', 'ReviewResult', 'WindowEstimate', 'review_logs']
+__all__ = ['TAIL_NS', 'BatchRun', 'Review', 'ReviewResult', 'WindowEstimate', 'review_logs', 'share_at']
 
 
 SECOND_NS = 1_000_000_000
@@ -343,12 +343,7 @@ class Review:
         fa = 0.5 * (np.abs(force[:, 0]) + np.abs(force[:, 1]))
         with np.errstate(invalid='ignore'):
             torque = torque_of_axial(g, fa, np.cos(alpha))
-        ok = np.isfinite(alpha) & np.isfinite(torque)
-        share = None
-        if ok.any():
-            share = load_sharing(g, np.where(ok, alpha, 0.0), np.where(ok, torque, 0.0), gaps.two_z, gaps.z_gb)
-            share = LoadSharing(*(np.where(ok, v, np.nan) if v.dtype.kind == 'f' else v
-                                  for v in (getattr(share, f) for f in share.__dataclass_fields__)))
+        share = share_at(g, alpha, torque, gaps)
         return ReviewResult(t, alpha, direction, pressure, force, torque, share, gaps, source, list(self.hard_overs),
                             estimates, self.motion_s, self.samples, notes, estimating_s, list(self.uneven),
                             self._opposed, self._rams.assessed)
@@ -382,6 +377,18 @@ class Review:
         basis = F.TorqueBasis(self.gear.max_rudder)
         load = F.axial_load(self.gear, basis, rows.moments, coef)
         return residuals_and_inflation(self.gear, basis, rows, tail.t_ns, coef, two_z, z_gb, load)[1]
+
+
+def share_at(gear: GearParams, alpha: NDArray[np.float64], torque: NDArray[np.float64],
+             gaps: Clearances) -> LoadSharing | None:
+    """The load sharing at ``gaps`` of each second's angle and measured torque (NaN where either
+    is unknown); None when none is known."""
+    ok = np.isfinite(alpha) & np.isfinite(torque)
+    if not ok.any():
+        return None
+    share = load_sharing(gear, np.where(ok, alpha, 0.0), np.where(ok, torque, 0.0), gaps.two_z, gaps.z_gb)
+    return LoadSharing(*(np.where(ok, v, np.nan) if v.dtype.kind == 'f' else v
+                         for v in (getattr(share, f) for f in share.__dataclass_fields__)))
 
 
 def _concat_obs(parts: list[Observations]) -> Observations:

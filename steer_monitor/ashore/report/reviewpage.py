@@ -29,17 +29,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 from steer_monitor.ashore.report.analysispage import residual_figure
-from steer_monitor.ashore.review import ReviewResult
+from steer_monitor.ashore.review import ReviewResult, share_at
 from steer_monitor.atomic import ensure_dir, os_reason, write_files
 from steer_monitor.errors import OutputError
 from steer_monitor.estimate.analyze import Analysis
-from steer_monitor.model.gear import GearParams
+from steer_monitor.estimate.batch import ClearanceEstimate
+from steer_monitor.estimate.intervals import Interval
+from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.hardover import pumps_running
 from steer_monitor.model.loadshare import load_sharing_at
 from steer_monitor.monitor.messages import CLEARANCE_NAMES
 
-__all__ = ['PLOTS', 'PublishedTrack', 'ReportInput', 'published_track', 'remove_report_debris', 'report_input',
-           'write_report_dir', 'write_review_report']
+__all__ = ['PLOTS', 'PublishedTrack', 'ReportInput', 'clearances_words', 'page_estimate', 'published_track',
+           'remove_report_debris', 'report_input', 'write_report_dir', 'write_review_report']
 
 
 #: file stem -> heading, in page order
@@ -145,13 +147,16 @@ def _timeseries(r: ReviewResult, tx: _TimeAxis) -> Any:
     return fig
 
 
-def _loadsharing(r: ReviewResult, gear: GearParams) -> Any:
+def _loadsharing(r: ReviewResult, gear: GearParams, est: ClearanceEstimate | None) -> Any:
+    """The load sharing measured and modelled, at the page's estimate ``est`` (the model
+    check's, else the review's last window; None: the configured clearances)."""
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.0))
-    sh = r.share
+    gaps = r.gaps if est is None else Clearances(est.two_z.value, est.z_gb.value)
+    sh = r.share if gaps == r.gaps else share_at(gear, r.alpha, r.torque, gaps)
     deg = np.degrees(r.alpha)
     curve = np.radians(np.linspace(-math.degrees(gear.max_rudder), math.degrees(gear.max_rudder), 281))
-    model = load_sharing_at(gear, curve, r.gaps)
+    model = load_sharing_at(gear, curve, gaps)
     cdeg = np.degrees(curve)
     if sh is not None:
         ok = np.isfinite(sh.k_gl) & (r.direction != 0)
@@ -171,10 +176,38 @@ def _loadsharing(r: ReviewResult, gear: GearParams) -> Any:
     ax[1].set_xlabel('rudder angle [deg]')
     ax[1].set_ylabel('lateral force [kN]')
     ax[1].legend(fontsize=8, loc='lower center', bbox_to_anchor=(0.5, 1.02), ncol=2, frameon=False)
-    src = 'estimated' if r.gaps_source == 'estimated' else 'configured'
-    fig.suptitle(f'at the {src} clearances 2Z {r.gaps.two_z * 1e3:.3f} mm, Z_gb {r.gaps.z_gb * 1e3:.3f} mm',
-                 fontsize=10, y=1.1)
+    fig.suptitle(clearances_words(gaps, None if est is None else (est.two_z, est.z_gb)), fontsize=10, y=1.1)
     return fig
+
+
+def page_estimate(inp: ReportInput) -> ClearanceEstimate | None:
+    """The clearance estimate the page rests on, one source for its boxes and figures: the
+    model check's (``analyze``), else the review's last window (the plot of the clearances over
+    time is the review's windows); None when the log gave none."""
+    if inp.analysis is not None:
+        return inp.analysis.final
+    r = inp.review
+    return r.estimates[-1].estimate if r.estimates else None
+
+
+def clearances_words(gaps: Clearances, intervals: tuple[Interval, Interval] | None) -> str:
+    """What the load-sharing figure's model was drawn at: the configured clearances
+    (``intervals`` None), or each estimate with its interval; a clearance the data bound only
+    from below is said to be a bound, with the value the model was drawn at (one of those the
+    data allow), never as a point."""
+    if intervals is None:
+        return f'at the configured clearances 2Z {gaps.two_z * 1e3:.3f} mm, Z_gb {gaps.z_gb * 1e3:.3f} mm'
+    parts = []
+    for name, iv, drawn in (('2Z', intervals[0], gaps.two_z), ('Z_gb', intervals[1], gaps.z_gb)):
+        if iv.lo is not None and iv.hi is not None:
+            parts.append(f'{name} {drawn * 1e3:.3f} mm [{iv.lo * 1e3:.3f} .. {iv.hi * 1e3:.3f}]')
+        elif iv.lo is not None:
+            parts.append(f'{name} >= {iv.lo * 1e3:.3f} mm, a lower bound (drawn at {drawn * 1e3:.3f} mm)')
+        elif iv.hi is not None:
+            parts.append(f'{name} <= {iv.hi * 1e3:.3f} mm, an upper bound (drawn at {drawn * 1e3:.3f} mm)')
+        else:
+            parts.append(f'{name} not determined (drawn at {drawn * 1e3:.3f} mm)')
+    return 'at the estimated clearances: ' + '; '.join(parts)
 
 
 def _clearances(inp: ReportInput, tx: _TimeAxis) -> Any:
@@ -305,7 +338,7 @@ def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
     tx = _TimeAxis.of(t0, int(r.t_ns[-1]) if len(r.t_ns) else 0)
     figs = {
         'timeseries': _timeseries(r, tx) if len(r.t_ns) else _message_fig('no rudder angle in the log'),
-        'loadsharing': _loadsharing(r, inp.gear),
+        'loadsharing': _loadsharing(r, inp.gear, page_estimate(inp)),
         'clearances': _clearances(inp, tx),
         'residual': residual_figure(inp.analysis) if inp.analysis is not None else _message_fig(inp.analysis_note),
         'hardover': _hardover(r, tx, inp),
@@ -319,9 +352,7 @@ def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
         ('frames', f'{inp.frames:,d}'),
         ('data', f'{span_h:.2f} h, {r.motion_s / 60:.0f} min of steady rudder motion'),
     ]
-    # one source for each figure: the model check's, as the boxes above give it; the review's
-    # windows (the plot of the clearances over time) only where there is no check
-    e = inp.analysis.final if inp.analysis is not None else (r.estimates[-1].estimate if r.estimates else None)
+    e = page_estimate(inp)
     if e is not None:
         src = '' if inp.analysis is not None else ' (the review\'s last window: no model check)'
         rows += [('2Z (ram bushing)', _iv_text(e.two_z, 1e3, 'mm') + f'; limit {inp.limit_2z * 1e3:.3f} mm' + src),

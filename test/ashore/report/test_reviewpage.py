@@ -211,3 +211,15 @@ def test_a_page_that_cannot_be_written_whole_leaves_the_earlier_one(tmp_path, lo
     assert len(err) == 1 and re.fullmatch(r'steer-monitor report: error: cannot write .*\.png: No space left on '
                                           r'device', err[0]), err
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+
+
+def test_the_load_sharing_figure_says_a_bound_is_a_bound():
+    from steer_monitor.ashore.report.reviewpage import clearances_words
+    from steer_monitor.estimate.intervals import Interval
+    from steer_monitor.model.gear import Clearances
+    gaps = Clearances.from_mm(0.9, 0.25)
+    assert clearances_words(gaps, None) == 'at the configured clearances 2Z 0.900 mm, Z_gb 0.250 mm'
+    words = clearances_words(gaps, (Interval(0.9e-3, 0.41e-3, None), Interval(0.25e-3, 0.22e-3, 0.28e-3)))
+    assert words == ('at the estimated clearances: 2Z >= 0.410 mm, a lower bound (drawn at 0.900 mm); '
+                     'Z_gb 0.250 mm [0.220 .. 0.280]')
+    assert '0.900 mm [' not in words and 'not determined' in clearances_words(gaps, (Interval(0.9e-3, None, None),) * 2)
