@@ -30,8 +30,17 @@ and the other traffic, measured before the node starts, in the same process: the
 memory is the process's less that).
 Targets: 0 dropped, < 25 % of a core, p99 < 20 ms, < 250 MB and no growth.
 
-Run: ``python -m bench.bench_node [bus] [speedup] [voyage] [--seconds=S] [--no-record]`` (part
-of ``make bench``: bus and speedup for 60 s, the voyage for ``VOYAGE_SECONDS``).
+With ``--parts``, where the reader thread's CPU goes: its calls clocked on the thread's own
+CPU clock (``time.thread_time``; a call inside another counted in its own part only; the clocks
+cost about a microsecond a call, counted in the parts): reading the bus (python-can's ``recv``
+and the frame made of its message), the pause between reads, the pipeline
+(``Pipeline.feed_frames``, ``Pipeline.idle``), the messages made for rclpy (``to_ros``) and
+published (rclpy's ``publish``), their CDR for the recording and the hand-over to the
+recorder's thread, the states' and diagnostics' fields, and the rest of the loop by difference.
+
+Run: ``python -m bench.bench_node [bus] [speedup] [voyage] [--seconds=S] [--no-record]
+[--batch-ms=B] [--parts]`` (part of ``make bench``: bus and speedup for 60 s, the voyage for
+``VOYAGE_SECONDS``).
 """
 
 from __future__ import annotations
@@ -71,6 +80,71 @@ def _thread_cpu_s() -> dict[str, float]:
     return out
 
 
+READER = 'steer_monitor-can'
+
+
+class ReaderParts:
+    """The reader thread's CPU by part (see the module): :meth:`install` wraps the entry points,
+    :meth:`restore` puts the originals back."""
+
+    def __init__(self) -> None:
+        self.spent: dict[str, float] = {}
+        self.calls: dict[str, int] = {}
+        self._inner: list[float] = []
+        self._originals: list[tuple[object, str, object]] = []
+
+    def _wrap(self, owner: object, name: str, part: str, container: bool = False) -> None:
+        fn = owner[name] if container else getattr(owner, name)     # type: ignore[index]
+        self._originals.append((owner, name, fn))
+        spent, calls, inner, clock = self.spent, self.calls, self._inner, time.thread_time
+
+        def wrapper(*a, **k):
+            if threading.current_thread().name != READER:
+                return fn(*a, **k)
+            inner.append(0.0)
+            t0 = clock()
+            try:
+                return fn(*a, **k)
+            finally:
+                dt = clock() - t0
+                spent[part] = spent.get(part, 0.0) + dt - inner.pop()
+                calls[part] = calls.get(part, 0) + 1
+                if inner:
+                    inner[-1] += dt
+        if container:
+            owner[name] = wrapper                                      # type: ignore[index]
+        else:
+            setattr(owner, name, wrapper)
+
+    def install(self) -> None:
+        from rclpy.publisher import Publisher
+
+        import steer_monitor.node.monitor_node as mn
+        from steer_monitor.can.bus import BusReader, ListenOnlyBus
+        from steer_monitor.monitor.pipeline import Pipeline
+        from steer_monitor.record.recorder import Recorder
+        self._wrap(ListenOnlyBus, 'recv', 'reading the bus (recv, the frame)')
+        self._wrap(BusReader, '_wait', 'the pause between reads')
+        self._wrap(Pipeline, 'feed_frames', 'the pipeline')
+        self._wrap(Pipeline, 'idle', 'the pipeline')
+        self._wrap(mn, 'to_ros', 'messages for rclpy (to_ros)')
+        self._wrap(Publisher, 'publish', "rclpy's publish")
+        self._wrap(mn, 'state_messages', "states' and diagnostics' fields")
+        self._wrap(mn, 'diag_messages', "states' and diagnostics' fields")
+        for key in list(mn.FAST_ENCODERS):
+            self._wrap(mn.FAST_ENCODERS, key, 'CDR for the recording', container=True)
+        self._wrap(Recorder, 'write', 'to the recorder')
+        self._wrap(Recorder, 'write_frames', 'to the recorder')
+
+    def restore(self) -> None:
+        for owner, name, fn in reversed(self._originals):
+            if isinstance(owner, dict):
+                owner[name] = fn
+            else:
+                setattr(owner, name, fn)
+        self._originals.clear()
+
+
 def rss_mb() -> float:
     """This process's resident memory [MB] (VmRSS)."""
     with open('/proc/self/status') as fh:
@@ -95,7 +169,8 @@ def _other_traffic(t0_ns: int, seconds: float, rate: float, seed: int = 0):
     return FrameArrays(t, ids, np.full(n, 8, np.uint8), data, np.full(n, FLAG_EXTENDED, np.uint8))
 
 
-def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch_ms: float | None = None) -> dict:
+def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch_ms: float | None = None,
+         parts: bool = False) -> dict:
     import can
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
@@ -128,6 +203,9 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
         factor = 1.0
     sim_mb = rss_mb() - rss_before_sim     # the simulator's voyage and the other traffic, made before the node
     channel = f'bench-{uuid.uuid4().hex[:6]}'
+    clocks = ReaderParts() if parts else None
+    if clocks is not None:
+        clocks.install()
     with tempfile.TemporaryDirectory() as tmp:
         context = rclpy.Context()
         rclpy.init(context=context)
@@ -159,6 +237,9 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
         sampler = threading.Thread(target=sample_rss, daemon=True)
         sampler.start()
         threads0 = _thread_cpu_s()
+        if clocks is not None:      # from here, as the threads' CPU
+            clocks.spent.clear()
+            clocks.calls.clear()
         cpu0, main0, wall0 = sum(os.times()[:2]), time.thread_time(), time.monotonic()
         sent = play(frames, bus, factor)
         if mode == 'voyage':      # the analyses started by then run to their end: counted
@@ -180,6 +261,8 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
         node.close()
         context.try_shutdown()
         recorded = sum(p.stat().st_size for p in Path(tmp).glob('*.mcap'))
+    if clocks is not None:
+        clocks.restore()
     node_cpu = (cpu - sim_cpu) / (wall + 1.0)
     dropped = sent - received
     how = (f'the simulated gear sped up {factor:.1f}x' if mode == 'speedup' else
@@ -214,6 +297,14 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
         '  CPU by thread        : '
         + ', '.join(f'{k} {100 * v / (wall + 1.0):.1f} %' for v, k in by_thread if v > 0.005 * wall)
     )
+    if clocks is not None:
+        reader = threads1.get(READER, 0.0) - threads0.get(READER, 0.0)
+        rest = reader - sum(clocks.spent.values())
+        print(f'  the reader thread    : {100 * reader / (wall + 1.0):.2f} % of a core, by part (per call):')
+        for part, s in sorted(clocks.spent.items(), key=lambda kv: -kv[1]):
+            print(f'    {part:34s} {100 * s / (wall + 1.0):5.2f} %  ({1e6 * s / clocks.calls[part]:.1f} us, '
+                  f'{clocks.calls[part]:,} calls)')
+        print(f'    {"the rest of the loop":34s} {100 * rest / (wall + 1.0):5.2f} %')
     return {'sent': sent, 'dropped': dropped, 'cpu_share': node_cpu, 'p99_ms': float(np.percentile(lat, 99)),
             'rss_start_mb': rss_start, 'rss_end_mb': rss_end, 'recorded_bytes': recorded if record else 0}
 
@@ -226,4 +317,4 @@ if __name__ == '__main__':
     for m in modes:
         main(seconds=secs[0] if secs else VOYAGE_SECONDS if m == 'voyage' else SECONDS, mode=m,
              record='--no-record' not in sys.argv,
-             batch_ms=batches[0] if batches else None)
+             batch_ms=batches[0] if batches else None, parts='--parts' in sys.argv)
