@@ -55,18 +55,20 @@ from steer_monitor.estimate import fit as F
 from steer_monitor.estimate.batch import (
     MIN_MOTION_SAMPLES,
     ClearanceEstimate,
+    Spread,
     box_holds,
     coarse_profile,
-    estimate_from_moments,
     estimate_in_box,
     make_rows,
     residuals_and_inflation,
+    sample_spread,
     search_box,
 )
 from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations, build_observations
 from steer_monitor.estimate.rams import opposed_cause, working_against
 from steer_monitor.estimate.ramscheck import RamsCheck, UnevenSpan, describe
+from steer_monitor.estimate.refine import Refined
 from steer_monitor.logfiles.blocks import in_time_order, iter_log_blocks, log_end_ns
 from steer_monitor.logfiles.logs import LogError
 from steer_monitor.model.gear import Clearances, GearParams
@@ -171,6 +173,7 @@ class Review:
         self._windows_tried = 0
         self._box: tuple[NDArray, NDArray] | None = None   # the last coarse profile's search box
         self.boxes_reused = 0
+        self.boxes_missed = 0          # search boxes an interval ran past: the whole grid profiled
         self._notes: list[str] = []
         self._sec: list[tuple[NDArray, ...]] = []
         self._tail: list[Observations] = []
@@ -245,8 +248,7 @@ class Review:
             return None
         try:
             if reuse and self.reuse_boxes and self._box is not None:
-                est = estimate_in_box(self.gear, mom, *self._box,
-                                      lambda tz, zg, coef, load: self._inflation(tail, tz, zg, coef))
+                est = estimate_in_box(self.gear, mom, *self._box, self._spread(tail))
                 if box_holds(est, self.grid_2z, F.GRID_ZGB):
                     self.boxes_reused += 1
                     return est
@@ -255,7 +257,14 @@ class Review:
             bi, bj = pr.best
             vif = self._inflation(tail, float(g2[bi]), float(gz[bj]), pr.coef)
             self._box = search_box(self.gear, mom, self.grid_2z, F.GRID_ZGB, vif, coarse=coarse)
-            return estimate_from_moments(self.gear, mom, vif, *self._box)
+            est = estimate_in_box(self.gear, mom, *self._box, self._spread(tail))
+            if box_holds(est, self.grid_2z, F.GRID_ZGB):
+                return est
+            # the box was drawn with the residuals' correlation alone; their cluster-robust spread
+            # can widen an interval past it (its end would be the box's edge): the whole grid
+            self.boxes_missed += 1
+            self._box = (self.grid_2z, F.GRID_ZGB)
+            return estimate_in_box(self.gear, mom, self.grid_2z, F.GRID_ZGB, self._spread(tail))
         except EstimateError as exc:
             self._notes.append(f'an estimate failed: {exc}')
             return None
@@ -365,6 +374,20 @@ class Review:
             notes.append(f'only {self._acc.samples:.0f} rows of steady motion (at least {MIN_MOTION_SAMPLES} '
                          'needed): the clearances are not estimated')
         return done
+
+    def _spread(self, parts: list[Observations]) -> Spread:
+        """What a window's estimate is told of its residuals: their spread over ``parts`` (the
+        last ``TAIL_NS`` of motion read) at its best fit (:func:`sample_spread`)."""
+        tail = parts[0] if len(parts) == 1 else _concat_obs(parts)
+
+        def spread(two_z: float, z_gb: float, best: F.FitAt, ref: Refined,
+                   extra: Sequence[F.Column]) -> tuple[float, dict | None]:
+            vif, scales = sample_spread(self.gear, tail, two_z, z_gb, best, ref, extra)
+            if scales is None:
+                self._notes.append("too little recent motion to measure the residuals' spread: intervals assume "
+                                   'independent residuals')
+            return vif, scales
+        return spread
 
     def _inflation(self, parts: list[Observations], two_z: float, z_gb: float, coef: NDArray[np.float64]) -> float:
         """The residuals' variance inflation over ``parts`` (the last ``TAIL_NS`` of motion

@@ -37,10 +37,9 @@ from steer_monitor.estimate.robust import CLEARANCES, MODEL_ERROR_FLOOR, RobustS
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import STAGE_CLAMPED, load_sharing
 
-__all__ = ['MIN_MOTION_SAMPLES', 'ClearanceEstimate', 'Rows', 'box_holds', 'coarse_profile', 'estimate_clearances',
-           'estimate_from_moments', 'estimate_in_box', 'k_gl_max', 'lag_moments', 'make_rows', 'predict_rows',
-           'residual_parts',
-           'residuals_and_inflation', 'search_box']
+__all__ = ['MIN_MOTION_SAMPLES', 'ClearanceEstimate', 'Rows', 'Spread', 'box_holds', 'coarse_profile',
+           'estimate_clearances', 'estimate_from_moments', 'estimate_in_box', 'k_gl_max', 'lag_moments', 'make_rows',
+           'predict_rows', 'residual_parts', 'residuals_and_inflation', 'sample_spread', 'search_box']
 
 MIN_MOTION_SAMPLES = 200     # rows (ram x instant) of steady motion: 5 s of moving rudder
 SMOOTH_LAG_STEPS = 4         # 200 ms: sensor noise is uncorrelated this far apart
@@ -397,27 +396,52 @@ def _robust(gear: GearParams, basis: F.TorqueBasis, obs: Observations, rows: Row
     return scales
 
 
+#: what an estimate from the binned statistics is told of its residuals at its best fit
+#: (``two_z``, ``z_gb``, the fit, the refined profile, the fit's extra columns): (the variance
+#: inflation, each parameter's cluster-robust scale or None)
+Spread = Callable[[float, float, F.FitAt, Refined, Sequence[F.Column]], tuple[float, 'dict[str, RobustScale] | None']]
+
+
 def estimate_from_moments(gear: GearParams, mom: Moments, vif: float, grid_2z: NDArray = F.GRID_2Z,
                           grid_zgb: NDArray = F.GRID_ZGB) -> ClearanceEstimate:
-    """The same estimate from the binned statistics alone (the batch path's windows), with the
-    inflation factor supplied; no per-sample residuals (``residual`` empty, noise/smooth NaN)."""
-    return estimate_in_box(gear, mom, grid_2z, grid_zgb, lambda *_: vif)
+    """The same estimate from the binned statistics alone, with the inflation factor supplied
+    and no cluster-robust scales; no per-sample residuals (``residual`` empty, noise/smooth NaN)."""
+    return estimate_in_box(gear, mom, grid_2z, grid_zgb, lambda *_: (vif, None))
 
 
 def estimate_in_box(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: NDArray,
-                    vif_at: Callable[[float, float, NDArray[np.float64], NDArray[np.float64]], float]
-                    ) -> ClearanceEstimate:
+                    spread_at: Spread) -> ClearanceEstimate:
     """The estimate from the binned statistics on a part of the grid (a box an earlier
-    estimate found, instead of a coarse profile of the whole grid), with the inflation factor
-    measured at the box's best fit: ``vif_at(two_z, z_gb, coef, load)``; no per-sample
-    residuals (``residual`` empty, noise/smooth NaN). Whether the box served is
-    :func:`box_holds`'s to say."""
+    estimate found, or the whole grid): the declared model with the load scale per speed group
+    (:func:`~steer_monitor.estimate.fit.speed_scale_columns`), as :func:`estimate_clearances`
+    fits it, its intervals scaled by what ``spread_at`` measures of the residuals at the box's
+    best fit (:func:`sample_spread`: the cluster-robust scales of a sample of the rows, as the
+    whole log's estimate is scaled by all of its rows); no per-sample residuals (``residual``
+    empty, noise/smooth NaN). Whether the box served is :func:`box_holds`'s to say."""
     basis = F.TorqueBasis(gear.max_rudder)
-    pr, ref, best, tz, zg, load = _profile_fit(gear, basis, mom, (), grid_2z, grid_zgb, None)
-    vif = vif_at(tz, zg, best.coef, load)
+    extra = F.speed_scale_columns(mom)
+    pr, ref, best, tz, zg, load = _profile_fit(gear, basis, mom, extra, grid_2z, grid_zgb, None)
+    vif, scales = spread_at(tz, zg, best, ref, extra)
     max_seen = float(np.max(mom.abs_alpha)) if len(mom) else 0.0
-    return _bound(gear, basis, mom, pr, ref, best, tz, zg, load, (), vif, max_seen, np.zeros((0, 2)), math.nan,
-                  math.nan)
+    return _bound(gear, basis, mom, pr, ref, best, tz, zg, load, extra, vif, max_seen, np.zeros((0, 2)), math.nan,
+                  math.nan, scales)
+
+
+def sample_spread(gear: GearParams, obs: Observations, two_z: float, z_gb: float, best: F.FitAt,
+                  ref: Refined, extra: Sequence[F.Column] = ()) -> tuple[float, dict[str, RobustScale] | None]:
+    """The residuals' spread at the fit ``best`` (clearances ``two_z``, ``z_gb`` [m], profile
+    ``ref``, with its ``extra`` columns) over the steady-motion observations ``obs``
+    (a sample of the estimate's rows: the review keeps its last minutes of motion): the
+    variance inflation of their correlation in time and each parameter's cluster-robust scale
+    (:func:`~steer_monitor.estimate.robust.robust_scales`, as :func:`estimate_clearances` has
+    them of all its rows). (1.0, None) with fewer than :data:`MIN_MOTION_SAMPLES` rows."""
+    rows = make_rows(obs)
+    if rows.u.shape[0] < MIN_MOTION_SAMPLES:
+        return 1.0, None
+    basis = F.TorqueBasis(gear.max_rudder)
+    load = F.axial_load(gear, basis, rows.moments, best.coef)
+    resid, vif = residuals_and_inflation(gear, basis, rows, obs.t_ns, best.coef, two_z, z_gb, load, extra)
+    return vif, _robust(gear, basis, obs, rows, resid, best, two_z, z_gb, load, extra, ref, 1.0)
 
 
 def box_holds(est: ClearanceEstimate, grid_2z: NDArray, grid_zgb: NDArray) -> bool:

@@ -161,7 +161,7 @@ def test_a_box_that_cuts_the_answer_off_does_not_hold(r18_params, can_db, voyage
     final = res.estimates[-1].estimate
 
     def vif(*_):
-        return final.inflation
+        return final.inflation, None
 
     # the whole grid: its edges are the grid's, so it holds whatever the answer
     whole = estimate_in_box(gear, mom, rv.grid_2z, F.GRID_ZGB, vif)
@@ -197,3 +197,20 @@ def test_a_ram_read_the_wrong_way_round_is_named_and_nothing_estimated(r18_param
     assert len(res.notes) == 1 and res.notes[0].startswith('the rams push against each other'), res.notes
     assert 'pressures of ram 2 are read the wrong way round: pressure_r2_stbd and pressure_r2_port swapped' \
         in res.notes[0] and res.notes[0].endswith('those rows are left out of the clearance estimates')
+
+
+def test_an_interval_that_runs_past_its_search_box_is_profiled_on_the_whole_grid(r18_params, can_db):
+    """The search box is drawn from a coarse profile with the residuals' correlation alone; the
+    windows' intervals are scaled by the rows' cluster-robust spread, which can carry an interval
+    past the box, whose edge would then read as its end (this voyage's Z_gb of 0.2488 mm was
+    given as at least 0.260). Such a window is profiled on the whole grid: every window's
+    interval holds the truth."""
+    db, smap = can_db
+    truth = Clearances.from_mm(0.1647, 0.2488)
+    frames = sim.run(r18_params, sim.SimConfig(program='realistic:1500', gaps=truth), db, smap, seed=36057).frames
+    res, rv = _review(r18_params, can_db, frames, 5, plan=True, with_review=True)
+    assert rv.boxes_missed >= 1 and len(res.estimates) >= 2
+    for w in res.estimates:
+        e = w.estimate
+        assert e.z_gb.contains(truth.z_gb), (w.t_end_ns, e.z_gb)
+        assert e.two_z.contains(truth.two_z), (w.t_end_ns, e.two_z)

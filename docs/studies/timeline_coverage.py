@@ -1,0 +1,106 @@
+"""How often the report's timeline intervals hold the truth, beside the model check's.
+
+``report`` shows two kinds of clearance estimate: the model check's (``analyze`` of the whole
+log: the page's boxes and its load-sharing figure) and, over time, the review's windows (the
+plot of the clearances over time: an estimate from the binned statistics of the data up to each
+window's end, its intervals inflated by the recent residuals' correlation). This study runs the
+report's two paths (:func:`steer_monitor.ashore.review.review_logs` and
+:func:`steer_monitor.ashore.loganalysis.model_check`) over
+simulated realistic voyages (``realistic:1500``, the clean plant, true clearances drawn
+uniformly off the estimator's grid by :func:`steer_monitor.studies.accuracy.off_grid_cases`
+from ``FIRST_SEED``, seeds used for no choice) and counts, for Z_gb and 2Z, the two-sided
+intervals that hold the truth and the lower bounds at or below it: per window, per voyage's
+last window, and for the model check, with Wilson 95 % intervals. Windows of one voyage are
+not independent (each holds the one before): the last-window column is the per-voyage one.
+
+Run from the repository: ``.venv/bin/python docs/studies/timeline_coverage.py [N] [FIRST_SEED]``
+(prints a Markdown table).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+
+PROGRAM = 'realistic:1500'
+N = 40
+FIRST_SEED = 36001
+
+
+def _holds(lo: float | None, hi: float | None, truth: float) -> bool:
+    return (lo is None or lo <= truth + 1e-12) and (hi is None or truth <= hi + 1e-12)
+
+
+def _count(out: dict, key: str, iv, truth: float) -> None:
+    two = iv.lo is not None and iv.hi is not None
+    kind = 'two' if two else 'bound'
+    n, held = out.setdefault((key, kind), [0, 0])
+    out[(key, kind)] = [n + 1, held + int(_holds(iv.lo, iv.hi, truth))]
+
+
+def run(case) -> dict:
+    from steer_monitor import sim
+    from steer_monitor.ashore.loganalysis import model_check
+    from steer_monitor.ashore.review import review_logs
+    from steer_monitor.can.busconfig import load_setup
+    from steer_monitor.logfiles.logs import write_candump
+    from steer_monitor.model.gear import Clearances
+    from steer_monitor.runtime import single_blas_thread
+    single_blas_thread()
+    path, params, db, smap = load_setup(None)
+    s = sim.run(params, sim.SimConfig(program=PROGRAM, gaps=Clearances.from_mm(case.two_z_mm, case.z_gb_mm)), db,
+                smap, case.seed)
+    truth = {'2Z': case.two_z_mm * 1e-3, 'Z_gb': case.z_gb_mm * 1e-3}
+    out: dict = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        log = Path(tmp) / 'voyage.log'
+        with open(log, 'wb') as fh:
+            write_candump(fh, s.frames)
+        batch = review_logs([log], jobs=1)
+        windows = batch.review.estimates
+        a, why = model_check([log], params, path, int(batch.review.t_ns[-1]))
+    for k, w in enumerate(windows):
+        for name, iv in (('2Z', w.estimate.two_z), ('Z_gb', w.estimate.z_gb)):
+            _count(out, f'window {name}', iv, truth[name])
+            if k == len(windows) - 1:
+                _count(out, f'last window {name}', iv, truth[name])
+    if a is None:
+        raise SystemExit(f'seed {case.seed}: {why}')
+    for name, iv in (('2Z', a.final.two_z), ('Z_gb', a.final.z_gb)):
+        _count(out, f'model check {name}', iv, truth[name])
+    return out
+
+
+def main(n: int = N, first_seed: int = FIRST_SEED) -> None:
+    from steer_monitor.studies.accuracy import coverage_interval, off_grid_cases
+    cases = off_grid_cases(['realistic'], n, first_seed=first_seed)
+    total: dict = {}
+    with ProcessPoolExecutor(2) as pool:
+        for out in pool.map(run, cases):
+            for key, (k, held) in out.items():
+                a, b = total.get(key, (0, 0))
+                total[key] = (a + k, b + held)
+    print(f'{n} clean realistic voyages ({PROGRAM}), seeds {first_seed}-{first_seed + n - 1}\n')
+    print('| estimate | two-sided holding the truth | lower bounds at or below it |')
+    print('|---|---|---|')
+    for what in ('window', 'last window', 'model check'):
+        for name in ('Z_gb', '2Z'):
+            cells = []
+            for kind in ('two', 'bound'):
+                k, held = total.get((f'{what} {name}', kind), (0, 0))
+                if k == 0:
+                    cells.append('-')
+                    continue
+                lo, hi = coverage_interval(held, k)
+                cells.append(f'{held / k:.3f} ({held}/{k}; {lo:.2f}-{hi:.2f})')
+            print(f'| {what} {name} | {cells[0]} | {cells[1]} |')
+
+
+if __name__ == '__main__':
+    args = [int(a) for a in sys.argv[1:3]]
+    main(*args)
