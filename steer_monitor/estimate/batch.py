@@ -38,7 +38,7 @@ from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import STAGE_CLAMPED, load_sharing
 
 __all__ = ['MIN_MOTION_SAMPLES', 'ClearanceEstimate', 'Rows', 'Spread', 'box_holds', 'coarse_profile',
-           'estimate_clearances', 'estimate_from_moments', 'estimate_in_box', 'k_gl_max', 'lag_moments', 'make_rows',
+           'estimate_clearances', 'estimate_in_box', 'k_gl_max', 'lag_moments', 'make_rows',
            'predict_rows', 'residual_parts', 'residuals_and_inflation', 'sample_spread', 'search_box']
 
 MIN_MOTION_SAMPLES = 200     # rows (ram x instant) of steady motion: 5 s of moving rudder
@@ -400,13 +400,6 @@ def _robust(gear: GearParams, basis: F.TorqueBasis, obs: Observations, rows: Row
 #: (``two_z``, ``z_gb``, the fit, the refined profile, the fit's extra columns): (the variance
 #: inflation, each parameter's cluster-robust scale or None)
 Spread = Callable[[float, float, F.FitAt, Refined, Sequence[F.Column]], tuple[float, 'dict[str, RobustScale] | None']]
-
-
-def estimate_from_moments(gear: GearParams, mom: Moments, vif: float, grid_2z: NDArray = F.GRID_2Z,
-                          grid_zgb: NDArray = F.GRID_ZGB) -> ClearanceEstimate:
-    """The same estimate from the binned statistics alone, with the inflation factor supplied
-    and no cluster-robust scales; no per-sample residuals (``residual`` empty, noise/smooth NaN)."""
-    return estimate_in_box(gear, mom, grid_2z, grid_zgb, lambda *_: (vif, None))
 
 
 def estimate_in_box(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: NDArray,
