@@ -13,8 +13,10 @@ intervals that hold the truth and the lower bounds at or below it: per window, p
 last window, and for the model check, with Wilson 95 % intervals. Windows of one voyage are
 not independent (each holds the one before): the last-window column is the per-voyage one.
 
-Run from the repository: ``.venv/bin/python docs/studies/timeline_coverage.py [N] [FIRST_SEED]``
-(prints a Markdown table).
+With ``effects``, voyage k carries the k-th effect of :data:`EFFECTS` in turn.
+
+Run from the repository: ``.venv/bin/python docs/studies/timeline_coverage.py [N] [FIRST_SEED]
+[effects]`` (prints a Markdown table).
 """
 
 from __future__ import annotations
@@ -30,6 +32,9 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 PROGRAM = 'realistic:1500'
 N = 40
 FIRST_SEED = 36001
+#: with ``effects``: voyage k carries the k-th of these in turn (the library's seven and one outside it)
+EFFECTS = ('viscous', 'angle_delay', 'pressure_offset', 'temp_friction', 'pressure_friction', 'stribeck',
+           'ram_inertia', 'band_friction')
 
 
 def _holds(lo: float | None, hi: float | None, truth: float) -> bool:
@@ -53,8 +58,9 @@ def run(case) -> dict:
     from steer_monitor.runtime import single_blas_thread
     single_blas_thread()
     path, params, db, smap = load_setup(None)
-    s = sim.run(params, sim.SimConfig(program=PROGRAM, gaps=Clearances.from_mm(case.two_z_mm, case.z_gb_mm)), db,
-                smap, case.seed)
+    cfg = sim.SimConfig(program=PROGRAM, gaps=Clearances.from_mm(case.two_z_mm, case.z_gb_mm),
+                        effects=tuple(sim.parse_effect(e) for e in case.effects))
+    s = sim.run(params, cfg, db, smap, case.seed)
     truth = {'2Z': case.two_z_mm * 1e-3, 'Z_gb': case.z_gb_mm * 1e-3}
     out: dict = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -76,16 +82,17 @@ def run(case) -> dict:
     return out
 
 
-def main(n: int = N, first_seed: int = FIRST_SEED) -> None:
+def main(n: int = N, first_seed: int = FIRST_SEED, effects: bool = False) -> None:
     from steer_monitor.studies.accuracy import coverage_interval, off_grid_cases
-    cases = off_grid_cases(['realistic'], n, first_seed=first_seed)
+    cases = off_grid_cases(['realistic'], n, first_seed=first_seed, effects=EFFECTS if effects else ())
     total: dict = {}
     with ProcessPoolExecutor(2) as pool:
         for out in pool.map(run, cases):
             for key, (k, held) in out.items():
                 a, b = total.get(key, (0, 0))
                 total[key] = (a + k, b + held)
-    print(f'{n} clean realistic voyages ({PROGRAM}), seeds {first_seed}-{first_seed + n - 1}\n')
+    kind = 'realistic voyages, each with one effect the declared model lacks,' if effects else 'clean realistic voyages'
+    print(f'{n} {kind} ({PROGRAM}), seeds {first_seed}-{first_seed + n - 1}\n')
     print('| estimate | two-sided holding the truth | lower bounds at or below it |')
     print('|---|---|---|')
     for what in ('window', 'last window', 'model check'):
@@ -102,5 +109,5 @@ def main(n: int = N, first_seed: int = FIRST_SEED) -> None:
 
 
 if __name__ == '__main__':
-    args = [int(a) for a in sys.argv[1:3]]
-    main(*args)
+    args = [int(a) for a in sys.argv[1:3] if a.isdigit()]
+    main(*args, effects='effects' in sys.argv[1:])

@@ -41,7 +41,7 @@ from steer_monitor.model.loadshare import load_sharing_at
 from steer_monitor.monitor.messages import CLEARANCE_NAMES
 
 __all__ = ['PLOTS', 'PublishedTrack', 'ReportInput', 'clearances_words', 'page_estimate', 'published_track',
-           'remove_report_debris', 'report_input', 'write_report_dir', 'write_review_report']
+           'remove_report_debris', 'report_input', 'timeline_caveat', 'write_report_dir', 'write_review_report']
 
 
 #: file stem -> heading, in page order
@@ -188,6 +188,18 @@ def page_estimate(inp: ReportInput) -> ClearanceEstimate | None:
         return inp.analysis.final
     r = inp.review
     return r.estimates[-1].estimate if r.estimates else None
+
+
+def timeline_caveat(analysis: Analysis | None) -> str:
+    """What the plot of the clearances over time adds to its caption: its windows fit the
+    declared model alone, so where the model check found the declared model short (an effect
+    adopted, or a residual left unexplained) their intervals can be too narrow (docs/accuracy-timeline.md)."""
+    if analysis is None or analysis.verdict == 'declared':
+        return ''
+    found = 'adopted ' + ', '.join(s.name for s in analysis.steps) if analysis.verdict == 'effect' else \
+        'left a residual the declared model and its effects do not explain'
+    return (f' The model check {found}: these intervals, of the declared model alone, can be too narrow '
+            '(the clearances at the top of the page account for it).')
 
 
 def clearances_words(gaps: Clearances, intervals: tuple[Interval, Interval] | None) -> str:
@@ -387,9 +399,10 @@ def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
         'loadsharing': 'The measured pressures give the tiller torque; the load-sharing model splits the '
                        'lateral force between ram (F_r) and guide beam (F_gb) at the clearances in the '
                        'title (paper 004, Fig. 7). Grey: rudder at rest (the pressure holds friction too).',
-        'clearances': 'Each point uses all the data up to its time. An arrow marks a lower bound only: '
-                      'the ram never clamped in its bushing at the loads seen, so the data cannot say how '
-                      'large 2Z is, only that it is at least this.',
+        'clearances': 'Each point uses all the data up to its time, fitted with the declared model. An arrow '
+                      'marks a lower bound only: the ram never clamped in its bushing at the loads seen, so '
+                      'the data cannot say how large 2Z is, only that it is at least this.'
+                      + timeline_caveat(inp.analysis),
         'residual': 'Ram-force residual of the fitted model, in bar of cylinder pressure: what the '
                     'declared model leaves, and what is left after the effect the data support.',
         'hardover': 'From leaving 35 deg to reaching 30 deg the other side, as SOLAS II-1/29 asks, with the '
