@@ -13,7 +13,7 @@ intervals that hold the truth and the lower bounds at or below it: per window, p
 last window, and for the model check, with Wilson 95 % intervals. Windows of one voyage are
 not independent (each holds the one before): the last-window column is the per-voyage one.
 
-With ``effects``, voyage k carries the k-th effect of :data:`EFFECTS` in turn.
+With ``effects``, voyage k carries the k-th effect of ``accuracy_online.EFFECTS`` in turn.
 
 Run from the repository: ``.venv/bin/python docs/studies/timeline_coverage.py [N] [FIRST_SEED]
 [effects]`` (prints a Markdown table).
@@ -29,23 +29,18 @@ from pathlib import Path
 
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
-PROGRAM = 'realistic:1500'
+# the node's study's voyages and effects (with ``effects``, voyage k carries the k-th in turn)
+from accuracy_online import EFFECTS, PROGRAM  # noqa: E402  (a sibling script: docs/studies is sys.path[0])
+
 N = 40
 FIRST_SEED = 36001
-#: with ``effects``: voyage k carries the k-th of these in turn (the library's seven and one outside it)
-EFFECTS = ('viscous', 'angle_delay', 'pressure_offset', 'temp_friction', 'pressure_friction', 'stribeck',
-           'ram_inertia', 'band_friction')
-
-
-def _holds(lo: float | None, hi: float | None, truth: float) -> bool:
-    return (lo is None or lo <= truth + 1e-12) and (hi is None or truth <= hi + 1e-12)
 
 
 def _count(out: dict, key: str, iv, truth: float) -> None:
     two = iv.lo is not None and iv.hi is not None
     kind = 'two' if two else 'bound'
     n, held = out.setdefault((key, kind), [0, 0])
-    out[(key, kind)] = [n + 1, held + int(_holds(iv.lo, iv.hi, truth))]
+    out[(key, kind)] = [n + 1, held + int(iv.contains(truth))]
 
 
 def run(case) -> dict:
