@@ -19,7 +19,9 @@ blocks gives the grid of the whole), and then, vectorized over the block:
 
 The clearances are estimated from the moments up to the end of each window (an estimate with
 its interval over time: up to ``MAX_WINDOWS`` windows of whole 10 minutes, and the whole log
-at the end). With :meth:`Review.plan` (where the data will end) a window is estimated as
+at the end), under the declared model or, given ``model``, with the effects a model check of
+the log adopted (:func:`refit_windows`: the report's windows fit the model its clearances rest
+on). With :meth:`Review.plan` (where the data will end) a window is estimated as
 soon as the data pass its end, while the log is still being read; otherwise all at
 :meth:`Review.finish`. Each: the coarse profile, the inflation factor of the residuals at its
 best point over the last ``TAIL_NS`` of motion read,
@@ -39,7 +41,7 @@ from __future__ import annotations
 import datetime
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -64,6 +66,7 @@ from steer_monitor.estimate.batch import (
     sample_spread,
     search_box,
 )
+from steer_monitor.estimate.effects import Effect, candidate_of, iter_z_columns
 from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations, build_observations
 from steer_monitor.estimate.rams import opposed_cause, working_against
@@ -82,7 +85,8 @@ from steer_monitor.params import (
     ram_share_warn_from_params,
 )
 
-__all__ = ['TAIL_NS', 'BatchRun', 'Review', 'ReviewResult', 'WindowEstimate', 'review_logs', 'share_at']
+__all__ = ['TAIL_NS', 'BatchRun', 'Review', 'ReviewResult', 'WindowEstimate', 'refit_windows', 'review_logs',
+           'share_at']
 
 
 SECOND_NS = 1_000_000_000
@@ -145,11 +149,24 @@ def _tail(s: Series, from_ns: int) -> Series:
 class Review:
     """See the module docstring. ``gaps``: the configured clearances (used when the log
     cannot estimate them). ``window_ns``: the estimate's time step (default: the span in up
-    to ``MAX_WINDOWS`` steps of whole 10 minutes, decided by :meth:`plan` or at the end)."""
+    to ``MAX_WINDOWS`` steps of whole 10 minutes, decided by :meth:`plan` or at the end).
+    ``model``: effects the estimates fit with the declared model (those a model check of the
+    log adopted, :attr:`~steer_monitor.estimate.analyze.Analysis.adopted`): a delay read into
+    the angle, the others' columns beside the declared model's, as ``analyze`` under that
+    model fits them."""
 
     def __init__(self, gear: GearParams, gaps: Clearances, *, min_clearance_2z: float = 0.0,
-                 window_ns: int | None = None, reuse_boxes: bool = True, ram_share_warn: float = 0.15) -> None:
+                 window_ns: int | None = None, reuse_boxes: bool = True, ram_share_warn: float = 0.15,
+                 model: Sequence[Effect] = ()) -> None:
         self.gear = gear
+        self.model = tuple(model)
+        cands = [candidate_of(e) for e in self.model]
+        self._extra = tuple(col for c in cands for col in c.columns)
+        self._z_names = tuple(dict.fromkeys(col.z for col in self._extra if col.z))
+        self._shift_s = sum(c.angle_shift_s for c in cands)
+        # the grid waits for the angle read later too
+        self._lag_ns = LAG_NS + round(self._shift_s * 1e9)
+        self._temp_ref: float | None = None     # the oil temperature dtemp is taken from [K]
         self.ram_share_warn = ram_share_warn
         #: stretches where the rams did not share the force evenly, left out of the estimates
         self.uneven: list[UnevenSpan] = []
@@ -166,7 +183,7 @@ class Review:
         self._speed_seen = False
         # per 10-minute slice: moments; merged in time order into the running total
         self._slices: dict[int, Moments] = {}
-        self._acc = Moments()
+        self._acc = Moments((SPEED_Z, *self._z_names))
         self._merged_below: int | None = None      # slices below this key are in _acc
         self._step: int | None = None if window_ns is None else max(window_ns // SLICE_NS, 1)
         self._windows: list[tuple[int, ClearanceEstimate | None]] = []
@@ -200,7 +217,7 @@ class Review:
                 self._first = int(angle.t_ns[0])
                 self._done = -(-self._first // GRID_NS) * GRID_NS
         if self._latest is not None and self._done is not None:
-            end = (self._latest - LAG_NS) // GRID_NS * GRID_NS
+            end = (self._latest - self._lag_ns) // GRID_NS * GRID_NS
             if end > self._done:
                 self._process(self._done, end)
                 self._done = end
@@ -248,23 +265,23 @@ class Review:
             return None
         try:
             if reuse and self.reuse_boxes and self._box is not None:
-                est = estimate_in_box(self.gear, mom, *self._box, self._spread(tail))
+                est = estimate_in_box(self.gear, mom, *self._box, self._spread(tail), self._extra)
                 if box_holds(est, self.grid_2z, F.GRID_ZGB):
                     self.boxes_reused += 1
                     return est
-            coarse = coarse_profile(self.gear, mom, self.grid_2z, F.GRID_ZGB)
+            coarse = coarse_profile(self.gear, mom, self.grid_2z, F.GRID_ZGB, extra=self._extra)
             pr, g2, gz = coarse
             bi, bj = pr.best
             vif = self._inflation(tail, float(g2[bi]), float(gz[bj]), pr.coef)
             self._box = search_box(self.gear, mom, self.grid_2z, F.GRID_ZGB, vif, coarse=coarse)
-            est = estimate_in_box(self.gear, mom, *self._box, self._spread(tail))
+            est = estimate_in_box(self.gear, mom, *self._box, self._spread(tail), self._extra)
             if box_holds(est, self.grid_2z, F.GRID_ZGB):
                 return est
             # the box was drawn with the residuals' correlation alone; their cluster-robust spread
             # can widen an interval past it (its end would be the box's edge): the whole grid
             self.boxes_missed += 1
             self._box = (self.grid_2z, F.GRID_ZGB)
-            return estimate_in_box(self.gear, mom, self.grid_2z, F.GRID_ZGB, self._spread(tail))
+            return estimate_in_box(self.gear, mom, self.grid_2z, F.GRID_ZGB, self._spread(tail), self._extra)
         except EstimateError as exc:
             self._notes.append(f'an estimate failed: {exc}')
             return None
@@ -274,7 +291,8 @@ class Review:
 
     def _process(self, start: int, end: int) -> None:
         try:
-            obs = build_observations(self._buf, self.gear.ram_area, start_ns=start, end_ns=end)
+            obs = build_observations(self._buf, self.gear.ram_area, start_ns=start, end_ns=end,
+                                     angle_shift_s=self._shift_s)
         except EstimateError:
             return
         whole = (obs.t_ns % SECOND_NS) == 0
@@ -284,6 +302,8 @@ class Review:
         keep = obs.moving.copy()
         if self._speed_seen:
             keep &= np.isfinite(obs.speed)
+        for arr in self._z(obs).values():           # as make_rows: an effect's column unknown, no row
+            keep &= np.all(np.isfinite(arr), axis=1) if arr.ndim == 2 else np.isfinite(arr)
         if not keep.any():
             return
         self._take(obs.select(keep))
@@ -322,9 +342,10 @@ class Review:
         slice_of = sub.t_ns // SLICE_NS
         for k in np.unique(slice_of).tolist():
             part = sub.select(slice_of == k)
-            keys, aa, v2, u, _, _ = rows_from_observations(part)
+            z = self._z(part)
+            keys, aa, v2, u, _, _ = rows_from_observations(part, z)
             if keys.size:
-                mom = Moments.from_rows(keys, aa, v2, u, (SPEED_Z,))
+                mom = Moments.from_rows(keys, aa, v2, u, (SPEED_Z, *z))
                 self._slices[k] = self._slices[k].merge(mom) if k in self._slices else mom
         self._tail.append(sub)
         while len(self._tail) > 1 and sub.t_ns[-1] - self._tail[0].t_ns[-1] > TAIL_NS:
@@ -382,7 +403,7 @@ class Review:
 
         def spread(two_z: float, z_gb: float, best: F.FitAt, ref: Refined,
                    extra: Sequence[F.Column]) -> tuple[float, dict | None]:
-            vif, scales = sample_spread(self.gear, tail, two_z, z_gb, best, ref, extra)
+            vif, scales = sample_spread(self.gear, tail, two_z, z_gb, best, ref, extra, self._z(tail))
             if scales is None:
                 self._notes.append("too little recent motion to measure the residuals' spread: intervals assume "
                                    'independent residuals')
@@ -393,13 +414,28 @@ class Review:
         """The residuals' variance inflation over ``parts`` (the last ``TAIL_NS`` of motion
         read), at the fit ``coef`` with the clearances (``two_z``, ``z_gb``) [m]."""
         tail = parts[0] if len(parts) == 1 else _concat_obs(parts)
-        rows = make_rows(tail)
+        rows = make_rows(tail, self._z(tail))
         if rows.u.shape[0] < MIN_MOTION_SAMPLES:
             self._notes.append("too little recent motion to measure the residuals' correlation: intervals assume none")
             return 1.0
         basis = F.TorqueBasis(self.gear.max_rudder)
         load = F.axial_load(self.gear, basis, rows.moments, coef)
-        return residuals_and_inflation(self.gear, basis, rows, tail.t_ns, coef, two_z, z_gb, load)[1]
+        return residuals_and_inflation(self.gear, basis, rows, tail.t_ns, coef, two_z, z_gb, load, self._extra)[1]
+
+    def _z(self, obs: Observations) -> dict[str, NDArray[np.float64]]:
+        """The per-observation columns the model's effects read (none for the declared model),
+        NaN where unknown. The oil temperature's is taken from the first one read, kept for the
+        whole log: any constant gives the same clearances (the declared friction's columns
+        absorb a constant times temp_friction's), a window's own mean would not fold."""
+        if not self._z_names:
+            return {}
+        got = {name: arr for name, arr in iter_z_columns(obs, self.gear) if name in self._z_names}
+        if 'dtemp' in self._z_names:
+            oil = obs.oil_temp
+            if self._temp_ref is None and np.isfinite(oil).any():
+                self._temp_ref = float(oil[np.isfinite(oil)][0])
+            got['dtemp'] = oil - (self._temp_ref if self._temp_ref is not None else np.nan)
+        return {name: got.get(name, np.full(len(obs), np.nan)) for name in self._z_names}
 
 
 def share_at(gear: GearParams, alpha: NDArray[np.float64], torque: NDArray[np.float64],
@@ -461,9 +497,11 @@ def _produce(paths: list[Path], db: object, smap: object, out: object, date: dat
 
 
 def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *, jobs: int | None = None,
-                progress: Callable[[int], None] | None = None, date: datetime.date | None = None) -> BatchRun:
+                progress: Callable[[int], None] | None = None, date: datetime.date | None = None,
+                model: Sequence[Effect] = ()) -> BatchRun:
     """Review ``logs`` (taken in order of their first frame) with the configuration's gear and
-    signal map. A log that breaks off gives what came before; the error is reported."""
+    signal map, its estimates under ``model`` (:class:`Review`). A log that breaks off gives
+    what came before; the error is reported."""
     import multiprocessing as mp
     import os
 
@@ -472,7 +510,7 @@ def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *,
     gear = gear_from_params(params)
     jobs = min(jobs or os.cpu_count() or 1, 2)
     review = Review(gear, gaps_from_params(params), min_clearance_2z=min_clearance_2z_from_params(params),
-                    ram_share_warn=ram_share_warn_from_params(params))
+                    ram_share_warn=ram_share_warn_from_params(params), model=model)
     ends = [log_end_ns(p) for p in paths]
     end = None if not ends or None in ends else max(e for e in ends if e is not None)
     frames = 0
@@ -512,3 +550,17 @@ def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *,
     result = review.finish()
     result.notes[:0] = notes
     return BatchRun(result, [str(p) for p in paths], frames, dict(sorted(counts.items())), errors)
+
+
+def refit_windows(batch: BatchRun, model: Sequence[Effect], config: str | Path | None = None, *,
+                  progress: Callable[[int], None] | None = None, date: datetime.date | None = None) -> BatchRun:
+    """``batch`` with its clearance windows estimated again under ``model`` (the effects a model
+    check of the logs adopted; the logs read again), so that they fit the model the clearances
+    the page gives rest on; the rest of the review as it was, the new pass's notes added.
+    ``batch`` itself when ``model`` is empty."""
+    if not model:
+        return batch
+    again = review_logs(batch.logs, config, progress=progress, date=date, model=model).review
+    r = batch.review
+    return replace(batch, review=replace(r, estimates=again.estimates,
+                                         notes=r.notes + [n for n in again.notes if n not in r.notes]))

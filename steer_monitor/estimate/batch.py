@@ -403,16 +403,17 @@ Spread = Callable[[float, float, F.FitAt, Refined, Sequence[F.Column]], tuple[fl
 
 
 def estimate_in_box(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: NDArray,
-                    spread_at: Spread) -> ClearanceEstimate:
+                    spread_at: Spread, extra: Sequence[F.Column] = ()) -> ClearanceEstimate:
     """The estimate from the binned statistics on a part of the grid (a box an earlier
     estimate found, or the whole grid): the declared model with the load scale per speed group
-    (:func:`~steer_monitor.estimate.fit.speed_scale_columns`), as :func:`estimate_clearances`
-    fits it, its intervals scaled by what ``spread_at`` measures of the residuals at the box's
-    best fit (:func:`sample_spread`: the cluster-robust scales of a sample of the rows, as the
-    whole log's estimate is scaled by all of its rows); no per-sample residuals (``residual``
-    empty, noise/smooth NaN). Whether the box served is :func:`box_holds`'s to say."""
+    (:func:`~steer_monitor.estimate.fit.speed_scale_columns`) and ``extra`` columns (an
+    adopted effect's, their z in ``mom``), as :func:`estimate_clearances` fits it, its
+    intervals scaled by what ``spread_at`` measures of the residuals at the box's best fit
+    (:func:`sample_spread`: the cluster-robust scales of a sample of the rows, as the whole
+    log's estimate is scaled by all of its rows); no per-sample residuals (``residual`` empty,
+    noise/smooth NaN). Whether the box served is :func:`box_holds`'s to say."""
     basis = F.TorqueBasis(gear.max_rudder)
-    extra = F.speed_scale_columns(mom)
+    extra = F.speed_scale_columns(mom) + tuple(extra)
     pr, ref, best, tz, zg, load = _profile_fit(gear, basis, mom, extra, grid_2z, grid_zgb, None)
     vif, scales = spread_at(tz, zg, best, ref, extra)
     max_seen = float(np.max(mom.abs_alpha)) if len(mom) else 0.0
@@ -421,14 +422,16 @@ def estimate_in_box(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: 
 
 
 def sample_spread(gear: GearParams, obs: Observations, two_z: float, z_gb: float, best: F.FitAt,
-                  ref: Refined, extra: Sequence[F.Column] = ()) -> tuple[float, dict[str, RobustScale] | None]:
+                  ref: Refined, extra: Sequence[F.Column] = (),
+                  z: Mapping[str, NDArray[np.float64]] | None = None) -> tuple[float, dict[str, RobustScale] | None]:
     """The residuals' spread at the fit ``best`` (clearances ``two_z``, ``z_gb`` [m], profile
     ``ref``, with its ``extra`` columns) over the steady-motion observations ``obs``
     (a sample of the estimate's rows: the review keeps its last minutes of motion): the
     variance inflation of their correlation in time and each parameter's cluster-robust scale
     (:func:`~steer_monitor.estimate.robust.robust_scales`, as :func:`estimate_clearances` has
-    them of all its rows). (1.0, None) with fewer than :data:`MIN_MOTION_SAMPLES` rows."""
-    rows = make_rows(obs)
+    them of all its rows). ``z``: the per-observation columns the ``extra`` columns read, as
+    the fit had them. (1.0, None) with fewer than :data:`MIN_MOTION_SAMPLES` rows."""
+    rows = make_rows(obs, z)
     if rows.u.shape[0] < MIN_MOTION_SAMPLES:
         return 1.0, None
     basis = F.TorqueBasis(gear.max_rudder)
@@ -451,13 +454,15 @@ def box_holds(est: ClearanceEstimate, grid_2z: NDArray, grid_zgb: NDArray) -> bo
 
 
 def coarse_profile(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: NDArray,
-                   coef: NDArray[np.float64] | None = None) -> tuple[PF.Profile, NDArray, NDArray]:
-    """The profile on every other grid point: (profile, its 2Z axis, its Z_gb axis)."""
+                   coef: NDArray[np.float64] | None = None, extra: Sequence[F.Column] = ()
+                   ) -> tuple[PF.Profile, NDArray, NDArray]:
+    """The profile on every other grid point, the declared model with ``extra`` columns:
+    (profile, its 2Z axis, its Z_gb axis)."""
     basis = F.TorqueBasis(gear.max_rudder)
     coef = F.torque_prefit(gear, basis, mom) if coef is None else coef
     load = F.axial_load(gear, basis, mom, coef)
     g2, gz = grid_2z[::2], grid_zgb[::2]
-    return PF.profile(gear, basis, mom, load, (), g2, gz), g2, gz
+    return PF.profile(gear, basis, mom, load, tuple(extra), g2, gz), g2, gz
 
 
 def search_box(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: NDArray, vif: float = 1.0,

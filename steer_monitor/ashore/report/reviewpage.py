@@ -191,15 +191,20 @@ def page_estimate(inp: ReportInput) -> ClearanceEstimate | None:
 
 
 def timeline_caveat(analysis: Analysis | None) -> str:
-    """What the plot of the clearances over time adds to its caption: its windows fit the
-    declared model alone, so where the model check found the declared model short (an effect
-    adopted, or a residual left unexplained) their intervals can be too narrow (docs/accuracy-timeline.md)."""
+    """What the plot of the clearances over time adds to its caption: the model its windows fit
+    (the declared model with the effects the model check adopted, :func:`~steer_monitor.ashore.review.refit_windows`),
+    and where the model check left a residual unexplained, that their intervals, without the
+    term the check located in the whole log, can be too narrow (docs/accuracy-timeline.md)."""
     if analysis is None or analysis.verdict == 'declared':
         return ''
-    found = 'adopted ' + ', '.join(s.name for s in analysis.steps) if analysis.verdict == 'effect' else \
-        'left a residual the declared model and its effects do not explain'
-    return (f' The model check {found}: these intervals, of the declared model alone, can be too narrow '
-            '(the clearances at the top of the page account for it).')
+    said = ''
+    if analysis.steps:
+        said = (' The windows also fit the effects the model check adopted ('
+                + ', '.join(s.name for s in analysis.steps) + ').')
+    if analysis.verdict == 'unexplained':
+        said += (' The model check left a residual its model does not explain: these intervals, without it, '
+                 'can be too narrow (the clearances at the top of the page account for it).')
+    return said
 
 
 def clearances_words(gaps: Clearances, intervals: tuple[Interval, Interval] | None) -> str:

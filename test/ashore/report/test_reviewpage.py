@@ -225,12 +225,14 @@ def test_the_load_sharing_figure_says_a_bound_is_a_bound():
     assert '0.900 mm [' not in words and 'not determined' in clearances_words(gaps, (Interval(0.9e-3, None, None),) * 2)
 
 
-def test_the_timeline_says_its_intervals_are_the_declared_models():
+def test_the_timeline_says_which_model_its_windows_fit():
     from types import SimpleNamespace
 
     from steer_monitor.ashore.report.reviewpage import timeline_caveat
     assert timeline_caveat(None) == ''
     assert timeline_caveat(SimpleNamespace(verdict='declared', steps=())) == ''
     said = timeline_caveat(SimpleNamespace(verdict='effect', steps=(SimpleNamespace(name='viscous'),)))
-    assert 'adopted viscous' in said and 'can be too narrow' in said
-    assert 'do not explain' in timeline_caveat(SimpleNamespace(verdict='unexplained', steps=()))
+    assert said == ' The windows also fit the effects the model check adopted (viscous).'
+    said = timeline_caveat(SimpleNamespace(verdict='unexplained', steps=(SimpleNamespace(name='stribeck'),)))
+    assert '(stribeck)' in said and 'does not explain' in said and 'can be too narrow' in said
+    assert 'adopted' not in timeline_caveat(SimpleNamespace(verdict='unexplained', steps=()))
