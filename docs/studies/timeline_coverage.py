@@ -47,7 +47,7 @@ def _count(out: dict, key: str, iv, truth: float) -> None:
 def run(case) -> dict:
     from steer_monitor import sim
     from steer_monitor.ashore.loganalysis import model_check
-    from steer_monitor.ashore.review import refit_windows, review_logs
+    from steer_monitor.ashore.review import refit_windows, review_logs, window_model
     from steer_monitor.can.busconfig import load_setup
     from steer_monitor.logfiles.logs import write_candump
     from steer_monitor.model.gear import Clearances
@@ -65,8 +65,9 @@ def run(case) -> dict:
             write_candump(fh, s.frames)
         batch = review_logs([log], jobs=1)
         a, why = model_check([log], params, path, int(batch.review.t_ns[-1]))
-        if a is not None:           # as the report: the windows under the model check's effects
-            batch = refit_windows(batch, a.adopted, path)
+        if a is not None:           # as the report: the windows under the model check's model
+            model, nuisance = window_model(a)
+            batch = refit_windows(batch, model, path, nuisance=nuisance)
         windows = batch.review.estimates
     for k, w in enumerate(windows):
         for name, iv in (('2Z', w.estimate.two_z), ('Z_gb', w.estimate.z_gb)):

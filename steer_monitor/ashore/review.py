@@ -54,6 +54,7 @@ from steer_monitor.can.frames import FrameArrays
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.signals import PRESSURE_INPUTS
 from steer_monitor.estimate import fit as F
+from steer_monitor.estimate.analyze import Analysis, unexplained_inflation
 from steer_monitor.estimate.batch import (
     MIN_MOTION_SAMPLES,
     ClearanceEstimate,
@@ -67,6 +68,7 @@ from steer_monitor.estimate.batch import (
     search_box,
 )
 from steer_monitor.estimate.effects import Effect, candidate_of, iter_z_columns
+from steer_monitor.estimate.locate import Located, piece_columns
 from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations, build_observations
 from steer_monitor.estimate.rams import opposed_cause, working_against
@@ -85,8 +87,8 @@ from steer_monitor.params import (
     ram_share_warn_from_params,
 )
 
-__all__ = ['TAIL_NS', 'BatchRun', 'Review', 'ReviewResult', 'WindowEstimate', 'refit_windows', 'review_logs',
-           'share_at']
+__all__ = ['TAIL_NS', 'BatchRun', 'Nuisance', 'Review', 'ReviewResult', 'WindowEstimate', 'refit_windows',
+           'review_logs', 'share_at', 'window_model']
 
 
 SECOND_NS = 1_000_000_000
@@ -95,6 +97,29 @@ KEEP_NS = 3 * SECOND_NS     # samples carried into the next block
 TAIL_NS = 600 * SECOND_NS   # steady-motion observations kept for the inflation factor
 MAX_WINDOWS = 4
 SLICE_NS = 600 * SECOND_NS
+
+
+@dataclass(frozen=True)
+class Nuisance:
+    """Where a model check left the residual unexplained, what its clearances were fitted with:
+    the term it located (None: none found) and the pieces of it the fit kept (a free level
+    each, :meth:`~steer_monitor.estimate.locate.Located.columns`), and the factor its intervals
+    count the misfit with (:func:`~steer_monitor.estimate.analyze.unexplained_inflation`)."""
+
+    located: Located | None
+    pieces: tuple[str, ...]
+    model_inflation: float
+
+
+def window_model(analysis: Analysis) -> tuple[tuple[Effect, ...], Nuisance | None]:
+    """What the windows fit to follow the model check ``analysis``: the effects it adopted and,
+    where it left a residual unexplained, the nuisance its clearances were fitted with."""
+    if analysis.verdict != 'unexplained':
+        return analysis.adopted, None
+    located, pieces = analysis.located, ()
+    if located is not None:
+        pieces = tuple(c.name for c in located.columns(analysis.final_observations)[1])
+    return analysis.adopted, Nuisance(located if pieces else None, pieces, unexplained_inflation(analysis.model))
 
 
 @dataclass(frozen=True)
@@ -153,15 +178,21 @@ class Review:
     ``model``: effects the estimates fit with the declared model (those a model check of the
     log adopted, :attr:`~steer_monitor.estimate.analyze.Analysis.adopted`): a delay read into
     the angle, the others' columns beside the declared model's, as ``analyze`` under that
-    model fits them."""
+    model fits them; ``nuisance``: where that check left a residual unexplained, the term it
+    located, fitted as it fitted it (the rows near the term's ends left out, the intervals
+    counting the misfit) (:func:`window_model`)."""
 
     def __init__(self, gear: GearParams, gaps: Clearances, *, min_clearance_2z: float = 0.0,
                  window_ns: int | None = None, reuse_boxes: bool = True, ram_share_warn: float = 0.15,
-                 model: Sequence[Effect] = ()) -> None:
+                 model: Sequence[Effect] = (), nuisance: Nuisance | None = None) -> None:
         self.gear = gear
         self.model = tuple(model)
+        self.nuisance = nuisance
         cands = [candidate_of(e) for e in self.model]
-        self._extra = tuple(col for c in cands for col in c.columns)
+        self._located = nuisance.located if nuisance is not None and nuisance.pieces else None
+        self._pieces = nuisance.pieces if self._located is not None else ()
+        self._model_inflation = nuisance.model_inflation if nuisance is not None else 1.0
+        self._extra = tuple(col for c in cands for col in c.columns) + piece_columns(self._pieces)
         self._z_names = tuple(dict.fromkeys(col.z for col in self._extra if col.z))
         self._shift_s = sum(c.angle_shift_s for c in cands)
         # the grid waits for the angle read later too
@@ -304,6 +335,8 @@ class Review:
             keep &= np.isfinite(obs.speed)
         for arr in self._z(obs).values():           # as make_rows: an effect's column unknown, no row
             keep &= np.all(np.isfinite(arr), axis=1) if arr.ndim == 2 else np.isfinite(arr)
+        if self._located is not None:               # as analyze: a row near the term's ends carries a step
+            keep &= ~self._located.near_ends(obs)
         if not keep.any():
             return
         self._take(obs.select(keep))
@@ -403,7 +436,8 @@ class Review:
 
         def spread(two_z: float, z_gb: float, best: F.FitAt, ref: Refined,
                    extra: Sequence[F.Column]) -> tuple[float, dict | None]:
-            vif, scales = sample_spread(self.gear, tail, two_z, z_gb, best, ref, extra, self._z(tail))
+            vif, scales = sample_spread(self.gear, tail, two_z, z_gb, best, ref, extra, self._z(tail),
+                                        self._model_inflation)
             if scales is None:
                 self._notes.append("too little recent motion to measure the residuals' spread: intervals assume "
                                    'independent residuals')
@@ -430,6 +464,8 @@ class Review:
         if not self._z_names:
             return {}
         got = {name: arr for name, arr in iter_z_columns(obs, self.gear) if name in self._z_names}
+        if self._located is not None:
+            got.update(self._located.columns(obs, self._pieces)[0])
         if 'dtemp' in self._z_names:
             oil = obs.oil_temp
             if self._temp_ref is None and np.isfinite(oil).any():
@@ -498,9 +534,9 @@ def _produce(paths: list[Path], db: object, smap: object, out: object, date: dat
 
 def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *, jobs: int | None = None,
                 progress: Callable[[int], None] | None = None, date: datetime.date | None = None,
-                model: Sequence[Effect] = ()) -> BatchRun:
+                model: Sequence[Effect] = (), nuisance: Nuisance | None = None) -> BatchRun:
     """Review ``logs`` (taken in order of their first frame) with the configuration's gear and
-    signal map, its estimates under ``model`` (:class:`Review`). A log that breaks off gives
+    signal map, its estimates under ``model`` and ``nuisance`` (:class:`Review`). A log that breaks off gives
     what came before; the error is reported."""
     import multiprocessing as mp
     import os
@@ -510,7 +546,7 @@ def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *,
     gear = gear_from_params(params)
     jobs = min(jobs or os.cpu_count() or 1, 2)
     review = Review(gear, gaps_from_params(params), min_clearance_2z=min_clearance_2z_from_params(params),
-                    ram_share_warn=ram_share_warn_from_params(params), model=model)
+                    ram_share_warn=ram_share_warn_from_params(params), model=model, nuisance=nuisance)
     ends = [log_end_ns(p) for p in paths]
     end = None if not ends or None in ends else max(e for e in ends if e is not None)
     frames = 0
@@ -553,14 +589,15 @@ def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *,
 
 
 def refit_windows(batch: BatchRun, model: Sequence[Effect], config: str | Path | None = None, *,
-                  progress: Callable[[int], None] | None = None, date: datetime.date | None = None) -> BatchRun:
-    """``batch`` with its clearance windows estimated again under ``model`` (the effects a model
-    check of the logs adopted; the logs read again), so that they fit the model the clearances
-    the page gives rest on; the rest of the review as it was, the new pass's notes added.
-    ``batch`` itself when ``model`` is empty."""
-    if not model:
+                  nuisance: Nuisance | None = None, progress: Callable[[int], None] | None = None,
+                  date: datetime.date | None = None) -> BatchRun:
+    """``batch`` with its clearance windows estimated again under ``model`` and ``nuisance``
+    (what a model check of the logs fitted, :func:`window_model`; the logs read again), so that
+    they fit the model the clearances the page gives rest on; the rest of the review as it was,
+    the new pass's notes added. ``batch`` itself when the check fitted the declared model alone."""
+    if not model and nuisance is None:
         return batch
-    again = review_logs(batch.logs, config, progress=progress, date=date, model=model).review
+    again = review_logs(batch.logs, config, progress=progress, date=date, model=model, nuisance=nuisance).review
     r = batch.review
     return replace(batch, review=replace(r, estimates=again.estimates,
                                          notes=r.notes + [n for n in again.notes if n not in r.notes]))

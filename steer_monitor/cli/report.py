@@ -79,7 +79,7 @@ def _run(paths: list[Path], out_dir: str | Path, config_path: str | Path, params
 
     from steer_monitor.ashore.loganalysis import headline_json, headline_text, headlines, model_check
     from steer_monitor.ashore.report.reviewpage import report_input, write_review_report
-    from steer_monitor.ashore.review import refit_windows, review_logs
+    from steer_monitor.ashore.review import refit_windows, review_logs, window_model
     from steer_monitor.estimate.ramscheck import rams_verdict, uneven_json
     from steer_monitor.logfiles.logs import LogError
 
@@ -96,10 +96,11 @@ def _run(paths: list[Path], out_dir: str | Path, config_path: str | Path, params
         analysis, note = model_check(paths, params, config_path, int(r.t_ns[-1]), analysis_hours, date)
     elif analysis_hours == 0:
         note = 'model check not asked for (--analysis-hours 0)'
-    if analysis is not None and analysis.adopted:     # the windows under the model the page's clearances rest on
+    model, nuisance = window_model(analysis) if analysis is not None else ((), None)
+    if model or nuisance is not None:     # the windows under the model the page's clearances rest on
         with tqdm(unit='frame', unit_scale=True, disable=not sys.stderr.isatty(), file=sys.stderr,
-                  desc='windows with ' + ', '.join(e.name for e in analysis.adopted)) as bar:
-            batch = refit_windows(batch, analysis.adopted, config_path, progress=bar.update, date=date)
+                  desc='windows refitted') as bar:
+            batch = refit_windows(batch, model, config_path, nuisance=nuisance, progress=bar.update, date=date)
         r = batch.review
     inp = report_input(paths, batch, params, config_path, analysis, note)
     page = write_review_report(inp, out_dir)

@@ -422,22 +422,23 @@ def estimate_in_box(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: 
 
 
 def sample_spread(gear: GearParams, obs: Observations, two_z: float, z_gb: float, best: F.FitAt,
-                  ref: Refined, extra: Sequence[F.Column] = (),
-                  z: Mapping[str, NDArray[np.float64]] | None = None) -> tuple[float, dict[str, RobustScale] | None]:
+                  ref: Refined, extra: Sequence[F.Column] = (), z: Mapping[str, NDArray[np.float64]] | None = None,
+                  model_inflation: float = 1.0) -> tuple[float, dict[str, RobustScale] | None]:
     """The residuals' spread at the fit ``best`` (clearances ``two_z``, ``z_gb`` [m], profile
     ``ref``, with its ``extra`` columns) over the steady-motion observations ``obs``
     (a sample of the estimate's rows: the review keeps its last minutes of motion): the
     variance inflation of their correlation in time and each parameter's cluster-robust scale
     (:func:`~steer_monitor.estimate.robust.robust_scales`, as :func:`estimate_clearances` has
     them of all its rows). ``z``: the per-observation columns the ``extra`` columns read, as
-    the fit had them. (1.0, None) with fewer than :data:`MIN_MOTION_SAMPLES` rows."""
+    the fit had them; ``model_inflation`` as :func:`estimate_clearances` takes it. (1.0, None)
+    with fewer than :data:`MIN_MOTION_SAMPLES` rows."""
     rows = make_rows(obs, z)
     if rows.u.shape[0] < MIN_MOTION_SAMPLES:
         return 1.0, None
     basis = F.TorqueBasis(gear.max_rudder)
     load = F.axial_load(gear, basis, rows.moments, best.coef)
     resid, vif = residuals_and_inflation(gear, basis, rows, obs.t_ns, best.coef, two_z, z_gb, load, extra)
-    return vif, _robust(gear, basis, obs, rows, resid, best, two_z, z_gb, load, extra, ref, 1.0)
+    return vif, _robust(gear, basis, obs, rows, resid, best, two_z, z_gb, load, extra, ref, max(model_inflation, 1.0))
 
 
 def box_holds(est: ClearanceEstimate, grid_2z: NDArray, grid_zgb: NDArray) -> bool:

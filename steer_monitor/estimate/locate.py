@@ -29,6 +29,7 @@ variable's unit (the name says which).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -49,6 +50,7 @@ __all__ = [
     'Located',
     'Shape',
     'locate',
+    'piece_columns',
     'variable_values',
 ]
 
@@ -155,10 +157,13 @@ class Located:
         v = variable_values(obs, self.variable)
         return np.abs(v) if self.either_side else v
 
-    def columns(self, obs: Observations) -> tuple[dict[str, NDArray[np.float64]], tuple[Column, ...]]:
+    def columns(self, obs: Observations, names: Sequence[str] | None = None
+                ) -> tuple[dict[str, NDArray[np.float64]], tuple[Column, ...]]:
         """Nuisance z columns (n, 2) and their columns: the range [lo, hi) cut into pieces of
         about one bin, one free level each (the term's shape inside it is not assumed), the
-        outer edges at the refined ends (a step there is then taken whole)."""
+        outer edges at the refined ends (a step there is then taken whole). A piece with too
+        few rows of ``obs`` is left out; given ``names`` (those a fit on other data kept),
+        exactly those pieces, in that order."""
         v = self.values(obs)
         w = float(self.edges[1] - self.edges[0])
         pieces = max(int(round((self.hi - self.lo) / w)), 1)
@@ -171,15 +176,19 @@ class Located:
         sel &= obs.moving[:, None]
         sign = np.broadcast_to(self.shape.sign(obs.direction)[:, None], v.shape)
         z: dict[str, NDArray[np.float64]] = {}
-        cols = []
         for k in range(pieces):
-            inside = sel & (v >= cuts[k]) & (v < cuts[k + 1])
-            if inside.sum() < MIN_BIN_ROWS:
-                continue
             name = f'located_{k}'
+            inside = sel & (v >= cuts[k]) & (v < cuts[k + 1])
+            if (names is None and inside.sum() < MIN_BIN_ROWS) or (names is not None and name not in names):
+                continue
             z[name] = np.where(inside, sign, 0.0)
-            cols.append(Column(name, name, _nuisance_ones))
-        return z, tuple(cols)
+        if names is not None:
+            missing = [n for n in names if n not in z]
+            if missing:
+                msg = f'the located term has no piece {", ".join(missing)}'
+                raise ValueError(msg)
+            z = {n: z[n] for n in names}
+        return z, piece_columns(tuple(z))
 
 
     def near_ends(self, obs: Observations) -> NDArray[np.bool_]:
@@ -194,6 +203,12 @@ class Located:
 
 def _nuisance_ones(mom: Moments, feats: dict) -> NDArray[np.float64]:
     return np.ones(len(mom))
+
+
+def piece_columns(names: Sequence[str]) -> tuple[Column, ...]:
+    """The fit's columns of a located term's pieces ``names`` (:meth:`Located.columns`): a free
+    level each, a nuisance (not reported)."""
+    return tuple(Column(name, name, _nuisance_ones) for name in names)
 
 
 _nuisance_ones.nuisance = True  # type: ignore[attr-defined]

@@ -105,6 +105,27 @@ def test_nuisance_columns_span_the_range_with_the_term_sign():
     assert near.any() and not near[np.abs(deg - 15.0) < 2.0].any()
 
 
+def test_named_pieces_on_other_data_are_the_same_levels():
+    """The windows fit a term located on the whole log on part of it: the pieces the whole
+    log's fit kept, by name and in that order, each the same column on any rows, a piece the
+    part holds few rows of included; a name the term has no piece for is refused."""
+    obs = _observations()
+    deg = np.degrees(np.abs(obs.alpha))
+    resid = _noise(obs) + (obs.direction * ((deg >= 12.0) & (deg <= 18.0)) * 4e3)[:, None]
+    loc = L.locate(obs, resid, 1.0)
+    z, cols = loc.columns(obs)
+    names = tuple(reversed([c.name for c in cols]))
+    low = deg < 14.0                                        # the range's upper pieces hold no row of it
+    part = obs.select(low)
+    zp, cp = loc.columns(part, names)
+    assert tuple(zp) == names and [c.name for c in cp] == list(names) and L.piece_columns(names) == cp
+    for name in names:
+        np.testing.assert_array_equal(zp[name], z[name][low])
+    assert len(loc.columns(part)[0]) < len(names)           # unnamed: the part's empty pieces left out
+    with pytest.raises(ValueError, match='the located term has no piece located_99'):
+        loc.columns(part, ('located_99',))
+
+
 def test_an_unknown_variable_is_named():
     with pytest.raises(ValueError, match="unknown variable 'depth_m'"):
         L.variable_values(_observations(n=100), 'depth_m')

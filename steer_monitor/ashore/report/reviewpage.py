@@ -191,10 +191,10 @@ def page_estimate(inp: ReportInput) -> ClearanceEstimate | None:
 
 
 def timeline_caveat(analysis: Analysis | None) -> str:
-    """What the plot of the clearances over time adds to its caption: the model its windows fit
-    (the declared model with the effects the model check adopted, :func:`~steer_monitor.ashore.review.refit_windows`),
-    and where the model check left a residual unexplained, that their intervals, without the
-    term the check located in the whole log, can be too narrow (docs/accuracy-timeline.md)."""
+    """What the plot of the clearances over time adds to its caption: the model its windows fit,
+    the model check's (:func:`~steer_monitor.ashore.review.window_model`): the declared model
+    with the effects the check adopted and, where it left a residual unexplained, the term it
+    located taken out as it took it out, the intervals widened for the misfit (docs/accuracy-timeline.md)."""
     if analysis is None or analysis.verdict == 'declared':
         return ''
     said = ''
@@ -202,8 +202,10 @@ def timeline_caveat(analysis: Analysis | None) -> str:
         said = (' The windows also fit the effects the model check adopted ('
                 + ', '.join(s.name for s in analysis.steps) + ').')
     if analysis.verdict == 'unexplained':
-        said += (' The model check left a residual its model does not explain: these intervals, without it, '
-                 'can be too narrow (the clearances at the top of the page account for it).')
+        how = ('fitted with the term it located taken out' if analysis.located is not None
+               else 'fitted with that residual counted as noise')
+        said += (' The model check left a residual its model does not explain: the windows, as the clearances at '
+                 f'the top of the page, are {how}, their intervals widened for it, and rest on an incomplete model.')
     return said
 
 

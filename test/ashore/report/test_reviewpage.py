@@ -233,6 +233,8 @@ def test_the_timeline_says_which_model_its_windows_fit():
     assert timeline_caveat(SimpleNamespace(verdict='declared', steps=())) == ''
     said = timeline_caveat(SimpleNamespace(verdict='effect', steps=(SimpleNamespace(name='viscous'),)))
     assert said == ' The windows also fit the effects the model check adopted (viscous).'
-    said = timeline_caveat(SimpleNamespace(verdict='unexplained', steps=(SimpleNamespace(name='stribeck'),)))
-    assert '(stribeck)' in said and 'does not explain' in said and 'can be too narrow' in said
-    assert 'adopted' not in timeline_caveat(SimpleNamespace(verdict='unexplained', steps=()))
+    said = timeline_caveat(SimpleNamespace(verdict='unexplained', steps=(SimpleNamespace(name='stribeck'),),
+                                           located=object()))
+    assert '(stribeck)' in said and 'does not explain' in said and 'the term it located taken out' in said
+    said = timeline_caveat(SimpleNamespace(verdict='unexplained', steps=(), located=None))
+    assert 'adopted' not in said and 'counted as noise' in said and 'incomplete model' in said
