@@ -275,7 +275,7 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
     print(f'  node CPU             : {100 * node_cpu:.1f} % of a core (target < 25 %)')
     worst = int(lat.argmax())       # the states come evenly over the run: where in it the worst one fell
     print(f'  latency frame->state : p50 {np.percentile(lat, 50):.1f} ms, p99 {np.percentile(lat, 99):.1f} ms, '
-          f'max {lat.max():.1f} ms (the {worst + 1:,d}th of {lat.size:,d} states, about '
+          f'max {lat.max():.1f} ms (state {worst + 1:,d} of {lat.size:,d}, about '
           f'{wall * worst / max(lat.size - 1, 1):.0f} s into the run; {int((lat > 100).sum())} over 100 ms) '
           f'(target p99 < 20 ms)')
     print(f'  resident memory      : {rss_start:.0f} MB at start, {rss_end:.0f} MB at end '

@@ -24,16 +24,33 @@ def voyage(r18_params, can_db):
 
 
 def _review(r18_params, can_db, frames: FrameArrays, blocks: int, plan: bool = False, reuse: bool = True,
-            with_review: bool = False):
+            with_review: bool = False, model=()):
     db, smap = can_db
     dec = Decoder(db, smap, RejectCounter())
     rv = Review(gear_from_params(r18_params), Clearances.from_mm(0.6, 0.25), reuse_boxes=reuse,
-                min_clearance_2z=min_clearance_2z_from_params(r18_params))   # as batchpath does
+                min_clearance_2z=min_clearance_2z_from_params(r18_params), model=model)   # as batchpath does
     for i, part in enumerate(np.array_split(np.arange(len(frames)), blocks)):
         rv.add(dec.decode_arrays(frames.take(part)))
         if plan and i == 0:
             rv.plan(int(frames.t_ns[-1]))
     return (rv.finish(), rv) if with_review else rv.finish()
+
+
+def _effect_voyage(r18_params, can_db, truth: Clearances, effect: str, seed: int) -> FrameArrays:
+    """A realistic 25-minute voyage with one effect the declared model lacks."""
+    db, smap = can_db
+    return sim.run(r18_params, sim.SimConfig(program='realistic:1500', gaps=truth, effects=(sim.parse_effect(effect),)),
+                   db, smap, seed=seed).frames
+
+
+def _reviewed_log(tmp_path, frames: FrameArrays):
+    """``frames`` written as a candump log and reviewed on the batch path: (the log, its review)."""
+    from steer_monitor.ashore.review import review_logs
+    from steer_monitor.logfiles.logs import write_candump
+    log = tmp_path / 'voyage.log'
+    with open(log, 'wb') as fh:
+        write_candump(fh, frames)
+    return log, review_logs([log], jobs=1)
 
 
 def test_hard_overs_as_the_live_monitor_times_them(r18_params, can_db, voyage):
@@ -222,18 +239,10 @@ def test_windows_refitted_under_the_model_checks_effects_hold_the_truth(tmp_path
     [0.188 .. 0.191] for 0.25); refitted with the effect the model check adopts
     (:func:`refit_windows`, as the report does), every window's interval holds the truth, and
     so does the effect's own coefficient; the rest of the review is the declared pass's."""
-    from steer_monitor.ashore.review import refit_windows, review_logs
+    from steer_monitor.ashore.review import refit_windows
     from steer_monitor.estimate.effects import Effect
-    from steer_monitor.logfiles.logs import write_candump
-    db, smap = can_db
     truth = Clearances.from_mm(0.6, 0.25)
-    frames = sim.run(r18_params, sim.SimConfig(program='realistic:1500', gaps=truth,
-                                               effects=(sim.parse_effect('pressure_friction'),)), db, smap,
-                     seed=21).frames
-    log = tmp_path / 'voyage.log'
-    with open(log, 'wb') as fh:
-        write_candump(fh, frames)
-    batch = review_logs([log], jobs=1)
+    _, batch = _reviewed_log(tmp_path, _effect_voyage(r18_params, can_db, truth, 'pressure_friction', 21))
     assert refit_windows(batch, ()) is batch
     declared = batch.review.estimates
     assert declared and not declared[-1].estimate.z_gb.contains(truth.z_gb)
@@ -253,16 +262,9 @@ def test_a_window_under_an_angle_delay_reads_the_angle_later(r18_params, can_db)
     off the truth; under the delay (the grid waiting for the angle read later) the first
     window holds the truth and the last lies within 0.01 mm of it."""
     from steer_monitor.estimate.effects import Effect
-    db, smap = can_db
     truth = Clearances.from_mm(0.6, 0.25)
-    frames = sim.run(r18_params, sim.SimConfig(program='realistic:1500', gaps=truth,
-                                               effects=(sim.parse_effect('angle_delay'),)), db, smap, seed=21).frames
-    dec = Decoder(db, smap, RejectCounter())
-    rv = Review(gear_from_params(r18_params), truth, min_clearance_2z=min_clearance_2z_from_params(r18_params),
-                model=(Effect('angle_delay', (('tau_s', 0.25),)),))
-    for part in np.array_split(np.arange(len(frames)), 5):
-        rv.add(dec.decode_arrays(frames.take(part)))
-    res = rv.finish()
+    frames = _effect_voyage(r18_params, can_db, truth, 'angle_delay', 21)
+    res = _review(r18_params, can_db, frames, 5, model=(Effect('angle_delay', (('tau_s', 0.25),)),))
     assert res.estimates[0].estimate.z_gb.contains(truth.z_gb)
     assert res.estimates[-1].estimate.z_gb.value == pytest.approx(truth.z_gb, abs=1e-5)
 
@@ -275,22 +277,11 @@ def test_a_window_under_temp_friction_holds_the_truth(r18_params, can_db):
     interval's lower end 0.2502 mm, just above the truth, the draw of this voyage's noise)."""
     from steer_monitor.estimate.effects import Effect
     from steer_monitor.params import friction_from_params
-    db, smap = can_db
     truth = Clearances.from_mm(0.6, 0.25)
-    frames = sim.run(r18_params, sim.SimConfig(program='realistic:1500', gaps=truth,
-                                               effects=(sim.parse_effect('temp_friction'),)), db, smap, seed=21).frames
+    frames = _effect_voyage(r18_params, can_db, truth, 'temp_friction', 21)
     fr = friction_from_params(r18_params)
-    answers = []
-    for model in ((), (Effect('temp_friction', shape=(fr.seal, fr.mu_bushing, fr.mu_guide)),)):
-        dec = Decoder(db, smap, RejectCounter())
-        rv = Review(gear_from_params(r18_params), truth, min_clearance_2z=min_clearance_2z_from_params(r18_params),
-                    model=model)
-        for i, part in enumerate(np.array_split(np.arange(len(frames)), 5)):
-            rv.add(dec.decode_arrays(frames.take(part)))
-            if i == 0:
-                rv.plan(int(frames.t_ns[-1]))
-        answers.append(rv.finish().estimates)
-    declared, under = answers
+    declared, under = (_review(r18_params, can_db, frames, 5, plan=True, model=model).estimates
+                       for model in ((), (Effect('temp_friction', shape=(fr.seal, fr.mu_bushing, fr.mu_guide)),)))
     assert not declared[-1].estimate.z_gb.contains(truth.z_gb)
     assert abs(declared[-1].estimate.z_gb.value - truth.z_gb) > 0.02e-3
     assert under and all(abs(w.estimate.z_gb.value - truth.z_gb) < 0.01e-3 for w in under), \
@@ -306,18 +297,10 @@ def test_windows_refitted_with_the_located_term_where_the_check_left_a_residual(
     truth where those fitted without it did not (this voyage's last, its intervals widened as
     the check's: Z_gb 0.249 mm [0.198 .. 0.307] for 0.3227)."""
     from steer_monitor.ashore.loganalysis import model_check
-    from steer_monitor.ashore.review import Nuisance, refit_windows, review_logs, window_model
+    from steer_monitor.ashore.review import Nuisance, refit_windows, window_model
     from steer_monitor.can.busconfig import load_setup
-    from steer_monitor.logfiles.logs import write_candump
-    db, smap = can_db
     truth = Clearances.from_mm(0.547, 0.3227)
-    frames = sim.run(r18_params, sim.SimConfig(program='realistic:1500', gaps=truth,
-                                               effects=(sim.parse_effect('band_friction'),)), db, smap,
-                     seed=39016).frames
-    log = tmp_path / 'voyage.log'
-    with open(log, 'wb') as fh:
-        write_candump(fh, frames)
-    batch = review_logs([log], jobs=1)
+    log, batch = _reviewed_log(tmp_path, _effect_voyage(r18_params, can_db, truth, 'band_friction', 39016))
     path, params, _, _ = load_setup(None)
     a, why = model_check([log], params, path, int(batch.review.t_ns[-1]))
     assert a is not None and a.verdict == 'unexplained', why
