@@ -47,7 +47,8 @@ def _count(out: dict, key: str, iv, truth: float) -> None:
 def run(case) -> dict:
     from steer_monitor import sim
     from steer_monitor.ashore.loganalysis import model_check
-    from steer_monitor.ashore.review import refit_windows, review_logs, window_model
+    from steer_monitor.ashore.review import refit_windows, review_logs
+    from steer_monitor.ashore.windowmodel import window_model
     from steer_monitor.can.busconfig import load_setup
     from steer_monitor.logfiles.logs import write_candump
     from steer_monitor.model.gear import Clearances

@@ -48,13 +48,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from steer_monitor.ashore.windowmodel import Nuisance
 from steer_monitor.can.busconfig import load_setup
 from steer_monitor.can.decoder import Decoder, Series, SignalSet, clock_notes
 from steer_monitor.can.frames import FrameArrays
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.signals import PRESSURE_INPUTS
 from steer_monitor.estimate import fit as F
-from steer_monitor.estimate.analyze import Analysis, unexplained_inflation
 from steer_monitor.estimate.batch import (
     MIN_MOTION_SAMPLES,
     ClearanceEstimate,
@@ -68,7 +68,7 @@ from steer_monitor.estimate.batch import (
     search_box,
 )
 from steer_monitor.estimate.effects import Effect, candidate_of, iter_z_columns
-from steer_monitor.estimate.locate import Located, piece_columns
+from steer_monitor.estimate.locate import piece_columns
 from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations, build_observations
 from steer_monitor.estimate.rams import opposed_cause, working_against
@@ -87,8 +87,8 @@ from steer_monitor.params import (
     ram_share_warn_from_params,
 )
 
-__all__ = ['TAIL_NS', 'BatchRun', 'Nuisance', 'Review', 'ReviewResult', 'WindowEstimate', 'refit_windows',
-           'review_logs', 'share_at', 'window_model']
+__all__ = ['TAIL_NS', 'BatchRun', 'Review', 'ReviewResult', 'WindowEstimate', 'refit_windows', 'review_logs',
+           'share_at']
 
 
 SECOND_NS = 1_000_000_000
@@ -97,29 +97,6 @@ KEEP_NS = 3 * SECOND_NS     # samples carried into the next block
 TAIL_NS = 600 * SECOND_NS   # steady-motion observations kept for the inflation factor
 MAX_WINDOWS = 4
 SLICE_NS = 600 * SECOND_NS
-
-
-@dataclass(frozen=True)
-class Nuisance:
-    """Where a model check left the residual unexplained, what its clearances were fitted with:
-    the term it located (None: none found) and the pieces of it the fit kept (a free level
-    each, :meth:`~steer_monitor.estimate.locate.Located.columns`), and the factor its intervals
-    count the misfit with (:func:`~steer_monitor.estimate.analyze.unexplained_inflation`)."""
-
-    located: Located | None
-    pieces: tuple[str, ...]
-    model_inflation: float
-
-
-def window_model(analysis: Analysis) -> tuple[tuple[Effect, ...], Nuisance | None]:
-    """What the windows fit to follow the model check ``analysis``: the effects it adopted and,
-    where it left a residual unexplained, the nuisance its clearances were fitted with."""
-    if analysis.verdict != 'unexplained':
-        return analysis.adopted, None
-    located, pieces = analysis.located, ()
-    if located is not None:
-        pieces = tuple(c.name for c in located.columns(analysis.final_observations)[1])
-    return analysis.adopted, Nuisance(located if pieces else None, pieces, unexplained_inflation(analysis.model))
 
 
 @dataclass(frozen=True)
@@ -180,15 +157,13 @@ class Review:
     the angle, the others' columns beside the declared model's, as ``analyze`` under that
     model fits them; ``nuisance``: where that check left a residual unexplained, the term it
     located, fitted as it fitted it (the rows near the term's ends left out, the intervals
-    counting the misfit) (:func:`window_model`)."""
+    counting the misfit) (:func:`~steer_monitor.ashore.windowmodel.window_model`)."""
 
     def __init__(self, gear: GearParams, gaps: Clearances, *, min_clearance_2z: float = 0.0,
                  window_ns: int | None = None, reuse_boxes: bool = True, ram_share_warn: float = 0.15,
                  model: Sequence[Effect] = (), nuisance: Nuisance | None = None) -> None:
         self.gear = gear
-        self.model = tuple(model)
-        self.nuisance = nuisance
-        cands = [candidate_of(e) for e in self.model]
+        cands = [candidate_of(e) for e in model]
         self._located = nuisance.located if nuisance is not None and nuisance.pieces else None
         self._pieces = nuisance.pieces if self._located is not None else ()
         self._model_inflation = nuisance.model_inflation if nuisance is not None else 1.0
@@ -592,7 +567,8 @@ def refit_windows(batch: BatchRun, model: Sequence[Effect], config: str | Path |
                   nuisance: Nuisance | None = None, progress: Callable[[int], None] | None = None,
                   date: datetime.date | None = None) -> BatchRun:
     """``batch`` with its clearance windows estimated again under ``model`` and ``nuisance``
-    (what a model check of the logs fitted, :func:`window_model`; the logs read again), so that
+    (what a model check of the logs fitted, :func:`~steer_monitor.ashore.windowmodel.window_model`; the
+    logs read again), so that
     they fit the model the clearances the page gives rest on; the rest of the review as it was,
     the new pass's notes added. ``batch`` itself when the check fitted the declared model alone."""
     if not model and nuisance is None:

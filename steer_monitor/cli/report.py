@@ -79,7 +79,8 @@ def _run(paths: list[Path], out_dir: str | Path, config_path: str | Path, params
 
     from steer_monitor.ashore.loganalysis import headline_json, headline_text, headlines, model_check
     from steer_monitor.ashore.report.reviewpage import report_input, write_review_report
-    from steer_monitor.ashore.review import refit_windows, review_logs, window_model
+    from steer_monitor.ashore.review import refit_windows, review_logs
+    from steer_monitor.ashore.windowmodel import window_model
     from steer_monitor.estimate.ramscheck import rams_verdict, uneven_json
     from steer_monitor.logfiles.logs import LogError
 

@@ -297,7 +297,8 @@ def test_windows_refitted_with_the_located_term_where_the_check_left_a_residual(
     truth where those fitted without it did not (this voyage's last, its intervals widened as
     the check's: Z_gb 0.249 mm [0.198 .. 0.307] for 0.3227)."""
     from steer_monitor.ashore.loganalysis import model_check
-    from steer_monitor.ashore.review import Nuisance, refit_windows, window_model
+    from steer_monitor.ashore.review import refit_windows
+    from steer_monitor.ashore.windowmodel import Nuisance, window_model
     from steer_monitor.can.busconfig import load_setup
     truth = Clearances.from_mm(0.547, 0.3227)
     log, batch = _reviewed_log(tmp_path, _effect_voyage(r18_params, can_db, truth, 'band_friction', 39016))

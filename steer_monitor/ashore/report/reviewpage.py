@@ -192,7 +192,7 @@ def page_estimate(inp: ReportInput) -> ClearanceEstimate | None:
 
 def timeline_caveat(analysis: Analysis | None) -> str:
     """What the plot of the clearances over time adds to its caption: the model its windows fit,
-    the model check's (:func:`~steer_monitor.ashore.review.window_model`): the declared model
+    the model check's (:func:`~steer_monitor.ashore.windowmodel.window_model`): the declared model
     with the effects the check adopted and, where it left a residual unexplained, the term it
     located taken out as it took it out, the intervals widened for the misfit (docs/accuracy-timeline.md)."""
     if analysis is None or analysis.verdict == 'declared':
