@@ -34,9 +34,9 @@ With ``--parts``, where the reader thread's CPU goes: its calls clocked on the t
 CPU clock (``time.thread_time``; a call inside another counted in its own part only; the clocks
 cost about a microsecond a call, counted in the parts): reading the bus (python-can's ``recv``
 and the frame made of its message), the pause between reads, the pipeline
-(``Pipeline.feed_frames``, ``Pipeline.idle``), the messages made for rclpy (``to_ros``) and
-published (rclpy's ``publish``), their CDR for the recording and the hand-over to the
-recorder's thread, the states' and diagnostics' fields, and the rest of the loop by difference.
+(``Pipeline.feed_frames``, ``Pipeline.idle``), the messages' CDR (published serialized and
+recorded), rclpy's ``publish``, the frames and messages gathered for the recorder and handed
+over to its thread, the states' and diagnostics' fields, and the rest of the loop by difference.
 
 Run: ``python -m bench.bench_node [bus] [speedup] [voyage] [--seconds=S] [--no-record]
 [--batch-ms=B] [--parts]`` (part of ``make bench``: bus and speedup for 60 s, the voyage for
@@ -122,19 +122,23 @@ class ReaderParts:
         import steer_monitor.node.monitor_node as mn
         from steer_monitor.can.bus import BusReader, ListenOnlyBus
         from steer_monitor.monitor.pipeline import Pipeline
+        from steer_monitor.node.recordbatch import RecordBatches
         from steer_monitor.record.recorder import Recorder
         self._wrap(ListenOnlyBus, 'recv', 'reading the bus (recv, the frame)')
         self._wrap(BusReader, '_wait', 'the pause between reads')
         self._wrap(Pipeline, 'feed_frames', 'the pipeline')
         self._wrap(Pipeline, 'idle', 'the pipeline')
-        self._wrap(mn, 'to_ros', 'messages for rclpy (to_ros)')
         self._wrap(Publisher, 'publish', "rclpy's publish")
         self._wrap(mn, 'state_messages', "states' and diagnostics' fields")
         self._wrap(mn, 'diag_messages', "states' and diagnostics' fields")
         for key in list(mn.FAST_ENCODERS):
-            self._wrap(mn.FAST_ENCODERS, key, 'CDR for the recording', container=True)
+            self._wrap(mn.FAST_ENCODERS, key, 'the messages\' CDR', container=True)
         self._wrap(Recorder, 'write', 'to the recorder')
         self._wrap(Recorder, 'write_frames', 'to the recorder')
+        self._wrap(Recorder, 'write_messages', 'to the recorder')
+        self._wrap(RecordBatches, 'add', 'to the recorder')
+        self._wrap(RecordBatches, 'add_message', 'to the recorder')
+        self._wrap(RecordBatches, 'hand_over_if_due', 'to the recorder')
 
     def restore(self) -> None:
         for owner, name, fn in reversed(self._originals):

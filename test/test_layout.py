@@ -126,18 +126,19 @@ ROUND_TRIP = """
 import math, sys, time
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
-from rclpy.serialization import deserialize_message, serialize_message
+from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 from steer_monitor.model.gear import Clearances
 from steer_monitor.monitor.messages import CLEARANCE_NAMES, TOPICS, diag_messages
 from steer_monitor.monitor.pipeline import DiagOut
-from steer_monitor.node.rosmsg import message_class, to_ros
+from steer_monitor.node.rosmsg import message_class
+from steer_monitor.record.cdr import FAST_ENCODERS
 import steer_monitor
 assert all(message_class(t) for _, t in TOPICS.values())
 out = DiagOut(7_000_000_008, (), Clearances(6e-4, 2.5e-4), {'2z': (5e-4, None), 'zgb': (2.4e-4, 2.7e-4)}, 'estimated')
 fields = next(f for k, _, f in diag_messages(out) if k == 'clearances')
-m = to_ros('sensor_msgs/msg/JointState', fields)
-assert deserialize_message(serialize_message(m), JointState).position[5] == 2.7e-4
+m = FAST_ENCODERS['sensor_msgs/msg/JointState'](fields)
+assert deserialize_message(m, JointState).position[5] == 2.7e-4
 ctx = rclpy.Context()
 rclpy.init(context=ctx)
 node = rclpy.create_node('layout_check', context=ctx)
@@ -160,8 +161,8 @@ rclpy.shutdown(context=ctx)
 
 
 def _check_messages(site: Path, env: dict[str, str]) -> None:
-    """The installed package's messages: rclpy makes, serializes, publishes (loopback) and
-    receives the clearances, standard interfaces from the ROS 2 install alone."""
+    """The installed package's messages: the clearances' CDR as the node publishes it, read by
+    rclpy, published serialized (loopback) and received, standard interfaces from the ROS 2 install alone."""
     out = subprocess.run([sys.executable, '-c', ROUND_TRIP], env=env, capture_output=True, text=True, timeout=120,
                          cwd=site)
     assert out.returncode == 0 and out.stdout.split()[:1] == ['ok'], out.stderr[-2000:]

@@ -64,6 +64,8 @@ def _id_text(can_id: int) -> str:
 #: what a log's data after a step of its clock back are put after the data before it [ns]:
 #: longer than any gap the observations bridge, so the two stretches stay apart
 STITCH_GAP_NS = 60_000_000_000
+#: unknown identifiers whose reject text is kept (a bus has tens; a flood of random ones is not kept)
+MAX_UNKNOWN_TEXTS = 4096
 
 
 @dataclass(frozen=True)
@@ -144,6 +146,7 @@ class Decoder:
         self._held_fa = FrameArrays.empty()                     # the same, block by block,
         self._held_owner = np.zeros(0, np.int16)                # with their owners
         self.frames_seen = 0
+        self._unknown: dict[int, str] = {}      # an unknown identifier's reject text, made once
         #: who holds which address (seeded with the map's devices given an address too)
         self.devices = DeviceTable()
         self._owner_lut = np.full(256, -1, np.int16)
@@ -190,8 +193,13 @@ class Decoder:
             self._claim(frame.can_id, frame.data, len(frame.data))
             return None
         layout = self.db.message(pgn)
-        if layout is None:
-            r.add('unknown_id', f'{_id_text(frame.can_id)} (PGN {pgn})')
+        if layout is None:     # most of a busy bus: its text made once per identifier (a bounded few)
+            text = self._unknown.get(frame.can_id)
+            if text is None:
+                text = f'{_id_text(frame.can_id)} (PGN {pgn})'
+                if len(self._unknown) < MAX_UNKNOWN_TEXTS:
+                    self._unknown[frame.can_id] = text
+            r.add('unknown_id', text)
             return None
         if len(frame.data) != layout.length:
             r.add('wrong_length', f'{layout.name} {_id_text(frame.can_id)} has {len(frame.data)} bytes, '

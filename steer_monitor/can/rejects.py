@@ -72,24 +72,26 @@ class RejectCounter:
             raise KeyError(msg)
         if n <= 0:
             return
+        if len(detail) > MAX_DETAIL:          # a hostile 50 MB line is not an example
+            detail = detail[:MAX_DETAIL] + f'... ({len(detail)} characters)'
         with self._lock:
             self._counts[reason] += n
             if signal:
                 self._by_signal[(reason, signal)] += n
-            if len(detail) > MAX_DETAIL:      # a hostile 50 MB line is not an example
-                detail = detail[:MAX_DETAIL] + f'... ({len(detail)} characters)'
-            self._last[reason] = f'{REASONS[reason]}: {detail}' if detail else REASONS[reason]
+            self._last[reason] = detail       # the example's text is made when asked for (snapshot)
 
     def merge(self, other: RejectSnapshot) -> None:
         """Add another counter's snapshot to this one."""
         with self._lock:
             self._counts.update(other.counts)
             self._by_signal.update(other.by_signal)
-            self._last.update(other.last)
+            for reason, text in other.last.items():
+                self._last[reason] = text.removeprefix(REASONS[reason]).removeprefix(': ')
 
     def snapshot(self) -> RejectSnapshot:
         with self._lock:
-            return RejectSnapshot(dict(self._counts), dict(self._by_signal), dict(self._last))
+            last = {r: f'{REASONS[r]}: {d}' if d else REASONS[r] for r, d in self._last.items()}
+            return RejectSnapshot(dict(self._counts), dict(self._by_signal), last)
 
     def __getitem__(self, reason: str) -> int:
         with self._lock:

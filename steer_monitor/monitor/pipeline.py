@@ -261,8 +261,11 @@ class Pipeline:
         self.frames += 1
         samples = self.decoder.decode(frame)
         self._advance(self.clock(frame.t_ns), out)
-        self._take(samples)
-        self._changed_by_last = any(x.signal in _STATE_INPUTS for x in samples)
+        if samples:
+            self._take(samples)
+            self._changed_by_last = any(x.signal in _STATE_INPUTS for x in samples)
+        else:
+            self._changed_by_last = False
         return out
 
     def feed_run(self, run: DecodedRun) -> list[Output]:

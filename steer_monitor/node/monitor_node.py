@@ -9,9 +9,12 @@ frames (``steer-monitor replay``) publishes the same values. The analyses of the
 and the window is kept on disk; their findings reach the live model a fixed data time after
 each job started (:func:`~steer_monitor.monitor.pipeline.apply_delay_ns`). The executor's 1 Hz timer publishes
 diagnostics on wall
-time only when the bus has been silent for more than 1.5 s (that is where STALE shows). The
-recorder writes MCAP on its own thread. SIGINT and SIGTERM shut down cleanly: the outputs of
-the last frames, the analyses' state, and the MCAP file finished.
+time only when the bus has been silent for more than 1.5 s (that is where STALE shows). Each
+message is published as its CDR (:data:`~steer_monitor.record.cdr.FAST_ENCODERS`), the bytes
+the recording and a replay hold; the recorder writes MCAP on its own thread, the reader's
+frames and messages handed to it in batches (:mod:`~steer_monitor.node.recordbatch`). SIGINT
+and SIGTERM shut down cleanly: the outputs of the last frames, the analyses' state, and the
+MCAP file finished.
 
 Topics (standard message types only) are listed in
 :mod:`steer_monitor.monitor.messages`.
@@ -45,7 +48,7 @@ from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages
 from steer_monitor.monitor.pipeline import DiagOut, Output, Pipeline, StateOut, ThreadedJobs, analyst_from_params
 from steer_monitor.node.params_ros import declare_parameters
 from steer_monitor.node.recordbatch import RecordBatches
-from steer_monitor.node.rosmsg import message_class, to_ros
+from steer_monitor.node.rosmsg import message_class
 from steer_monitor.node.statefile import StateFile
 from steer_monitor.node.statuses import bus_status, clock_words, recording_status
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params, ram_share_warn_from_params
@@ -298,36 +301,46 @@ class MonitorNode(Node):
             if self.recorder is not None:
                 self.recorder.add_topic(pub.topic_name, datatype, msgdef(datatype))
 
-    def _publish(self, key: str, fields: dict[str, Any], t_ns: int) -> None:
+    def _publish(self, key: str, fields: dict[str, Any], t_ns: int, held: RecordBatches | None = None,
+                 now_ns: int = 0) -> None:
+        """Publish a message and record it: with the reader thread's batches (``held``, at
+        ``now_ns`` monotonic [ns]), among them; otherwise to the recorder itself. What is
+        published is what is recorded and what a replay writes: the message's CDR
+        (:data:`~steer_monitor.record.cdr.FAST_ENCODERS`, which rclpy's Fast-CDR reads), handed
+        to rclpy serialized."""
         pub, datatype = self._pubs[key]
-        msg = to_ros(datatype, fields)
+        cdr = FAST_ENCODERS[datatype](fields)
         try:
-            pub.publish(msg)
+            pub.publish(cdr)
         except Exception:    # rclpy's errors once its context is shut down; only while closing
             if not self._closing:
                 raise
-        if self.recorder is not None:    # the bytes replay writes (Fast-CDR pads empty sequences otherwise)
-            self.recorder.write(pub.topic_name, FAST_ENCODERS[datatype](fields), t_ns)
+        if self.recorder is not None:
+            if held is not None:
+                held.add_message(pub.topic_name, cdr, t_ns, now_ns)
+            else:
+                self.recorder.write(pub.topic_name, cdr, t_ns)
 
-    def _publish_outputs(self, outs: list[Output]) -> None:
+    def _publish_outputs(self, outs: list[Output], held: RecordBatches | None = None, now_ns: int = 0) -> None:
+        """Publish and record the pipeline's outputs (``held``, ``now_ns``: see :meth:`_publish`)."""
         for o in outs:
             if isinstance(o, StateOut):
                 for key, t_ns, fields in state_messages(o):
-                    self._publish(key, fields, t_ns)
+                    self._publish(key, fields, t_ns, held, now_ns)
                 done, pending, upto = time.time_ns(), self._unpublished, o.state.t_ns
                 while pending and pending[0] <= upto:     # the frames this state reflects
                     self.latencies_ns.append(done - pending.popleft())
             elif isinstance(o, DiagOut):
-                self._publish_diag(o)
+                self._publish_diag(o, held, now_ns)
             else:       # the node's live model solves each state's load sharing: no state columns come
                 msg = f'the pipeline gave the node an output it does not publish: {type(o).__name__}'
                 raise TypeError(msg)
 
-    def _publish_diag(self, o: DiagOut) -> None:
+    def _publish_diag(self, o: DiagOut, held: RecordBatches | None = None, now_ns: int = 0) -> None:
         rec = self._recording_status()
         extra = (self._bus_status(),) + (() if rec is None else (rec,))
         for key, t_ns, fields in diag_messages(o, extra):
-            self._publish(key, fields, t_ns)
+            self._publish(key, fields, t_ns, held, now_ns)
         self._last_diag = time.monotonic()
 
     # --- the data time going back ------------------------------------------------------------
@@ -397,12 +410,12 @@ class MonitorNode(Node):
                         self.get_logger().error(f'frames not processed: {exc}', throttle_duration_sec=GUARD_LOG_S)
                         outs, restarted = [], False
                     if outs:
-                        self._publish_outputs(outs)
+                        self._publish_outputs(outs, batches, received)
                     if restarted and batches is not None:
                         # each file holds one time: the old one's frames and outputs, then the new one's
                         batches.split(cut + taken, received)
                     if later:
-                        self._publish_outputs(later)
+                        self._publish_outputs(later, batches, received)
                     if batches is not None:
                         batches.hand_over_if_due(not frames, received)
         finally:

@@ -1,14 +1,14 @@
-"""Plain field dicts (:mod:`steer_monitor.monitor.messages`) -> rclpy messages."""
+"""The rclpy message classes of the published datatypes (the node publishes their CDR,
+:data:`~steer_monitor.record.cdr.FAST_ENCODERS`)."""
 
 from __future__ import annotations
 
 import importlib
 from functools import cache
-from typing import Any
 
 from steer_monitor.errors import SteerMonitorError
 
-__all__ = ['message_class', 'to_ros']
+__all__ = ['message_class']
 
 
 @cache
@@ -27,30 +27,3 @@ def message_class(datatype: str) -> type:
     except AttributeError:
         raise SteerMonitorError(f'message type {datatype}: {pkg} has no message {name} '
                                 '(an older build of the package? rebuild it)') from None
-
-
-@cache
-def _fields(cls: type) -> dict[str, str]:
-    return dict(cls.get_fields_and_field_types())  # type: ignore[attr-defined]
-
-
-def _fill(msg: Any, d: dict[str, Any]) -> Any:
-    types = _fields(type(msg))
-    for key, value in d.items():
-        ftype = types[key]
-        if isinstance(value, dict):
-            _fill(getattr(msg, key), value)
-        elif ftype in ('byte', 'octet') and isinstance(value, int):
-            setattr(msg, key, bytes([value]))
-        elif ftype.startswith('sequence<') and '/' in ftype:
-            cls = message_class(ftype[len('sequence<'):].rstrip('>').split(',')[0])
-            setattr(msg, key, [_fill(cls(), v) for v in value])
-        else:
-            setattr(msg, key, value)
-    return msg
-
-
-def to_ros(datatype: str, fields: dict[str, Any]) -> Any:
-    """A new rclpy message of ``datatype`` with ``fields`` set (nested dicts for nested
-    messages, lists of dicts for sequences of messages)."""
-    return _fill(message_class(datatype)(), fields)

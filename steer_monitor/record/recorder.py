@@ -27,9 +27,9 @@
   The file being written is never removed, nor one written to in the last minute (another
   recorder's with the same prefix); ``removed`` counts what was.
 
-Callers hand over already-serialized CDR (``write``) or frames (``write_frame``, or
-``write_frames`` for a batch: one queue entry, records packed at once); nothing here
-imports rclpy.
+Callers hand over already-serialized CDR (``write``, or ``write_messages`` for a batch) or
+frames (``write_frame``, or ``write_frames`` for a batch); a batch is one queue entry, its
+records packed at once. Nothing here imports rclpy.
 """
 
 from __future__ import annotations
@@ -55,6 +55,7 @@ __all__ = ['Recorder', 'RecorderStatus']
 
 
 _SPLIT: Any = object()    # as a queue entry's topic: finish the current file
+_MESSAGES: Any = object()  # as a queue entry's topic: a list of (topic, CDR, log time)
 #: a recording written to within this long is not removed for the budget (a second node with
 #: the same prefix in the directory may be writing it) [s]
 BUSY_S = 60.0
@@ -163,6 +164,12 @@ class Recorder:
         """Queue a batch of raw CAN frames (one queue entry; written in one go)."""
         if frames:
             self._put((FRAME_TOPIC, frames, frames[0].t_ns))
+
+    def write_messages(self, messages: list[tuple[str, bytes, int]]) -> None:
+        """Queue many serialized messages (topic, CDR, log time [ns]) as one entry, written
+        in one go; never blocks."""
+        if messages:
+            self._put((_MESSAGES, messages, messages[0][2]))
 
     def split(self) -> None:
         """Finish the current file after what is queued; the next message opens a new one
@@ -475,6 +482,17 @@ class Recorder:
         if topic == FRAME_TOPIC and isinstance(payload, Frame):
             self._writer.write_frame(payload)
             return
+        if topic is _MESSAGES:
+            topics = [m[0] for m in payload]
+            for name in dict.fromkeys(topics):
+                self._declare(name)
+            self._writer.write_messages(topics, [m[1] for m in payload], [m[2] for m in payload])
+            return
+        self._declare(topic)
+        self._writer.write_cdr(topic, payload, log_time_ns)
+
+    def _declare(self, topic: str) -> None:
+        """The topic's schema and channel in the current file."""
         with self._lock:
             t = self._topics.get(topic)
         if t is None:
@@ -482,7 +500,6 @@ class Recorder:
             raise KeyError(msg)
         self._writer.add_schema(t.datatype, t.msgdef)
         self._writer.add_channel(topic, t.datatype, t.qos)
-        self._writer.write_cdr(topic, payload, log_time_ns)
 
     def _flush(self) -> None:
         self._check_stream_directory()

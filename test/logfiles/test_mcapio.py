@@ -60,6 +60,36 @@ def test_write_frames_gives_the_same_file_as_one_at_a_time(batch, chunk_size):
     assert many.getvalue() == one.getvalue()
 
 
+@pytest.mark.parametrize('chunk_size', [1 << 24, 300])
+@pytest.mark.parametrize('batch', [1, 3, 50])
+def test_write_messages_gives_the_same_file_as_one_at_a_time(batch, chunk_size):
+    """Messages of several sizes on two topics among frames, in batches across chunk ends."""
+    msgs = [('/a' if i % 3 else '/b', bytes([i % 251]) * (4 + i % 17), 1_000 + 7 * i) for i in range(200)]
+    frames = _frames(200)
+
+    def writer(buf):
+        w = McapWriter(buf, chunk_size=chunk_size)
+        w.add_schema('std_msgs/msg/String', 'string data\n')
+        w.add_channel('/a', 'std_msgs/msg/String')
+        w.add_channel('/b', 'std_msgs/msg/String')
+        return w
+
+    one, many = io.BytesIO(), io.BytesIO()
+    with writer(one) as w:
+        for i in range(0, 200, batch):
+            for f in frames[i:i + batch]:
+                w.write_frame(f)
+            for topic, data, t in msgs[i:i + batch]:
+                w.write_cdr(topic, data, t)
+    with writer(many) as w:
+        for i in range(0, 200, batch):
+            w.write_frames(frames[i:i + batch])
+            part = msgs[i:i + batch]
+            w.write_messages([m[0] for m in part], [m[1] for m in part], [m[2] for m in part])
+        w.write_messages([], [], [])
+    assert many.getvalue() == one.getvalue()
+
+
 def test_write_frames_across_chunk_rollover_reads_back_with_crcs():
     from mcap.reader import make_reader
     frames = _frames(2000)

@@ -34,14 +34,15 @@ def test_joint_state_matches_the_generic_encoder(fields):
 
 
 def test_rclpy_serializes_the_same_message():
-    """The node records rclpy's serialization; replay writes these bytes. They decode to the
-    same values (rclpy leaves its alignment padding unset, so the padding bytes may differ).
+    """rclpy's own serialization of the typed message and the CDR the node publishes, records
+    and a replay writes decode to the same values (rclpy leaves its alignment padding unset,
+    so the padding bytes may differ).
     The rudder's message, that is: Fast-CDR pads an empty sequence of doubles where the
     generic encoder does not (see the next test)."""
     from mcap_ros2._dynamic import generate_dynamic
     from rclpy.serialization import serialize_message
 
-    from steer_monitor.node.rosmsg import to_ros
+    from test.node.rosref import to_ros
     dt = 'sensor_msgs/msg/JointState'
     decode = generate_dynamic(dt, msgdef(dt))[dt]
     for fields in JOINT[:1]:
@@ -141,7 +142,8 @@ def test_rclpy_and_rosbags_read_the_named_values(key):
     from rosbags.typesys import Stores, get_typestore
 
     from steer_monitor.monitor.messages import CLEARANCE_NAMES, LOAD_SHARING_NAMES
-    from steer_monitor.node.rosmsg import message_class, to_ros
+    from steer_monitor.node.rosmsg import message_class
+    from test.node.rosref import to_ros
     dt, fields = _typed_fields(key)
     msg = deserialize_message(FAST_ENCODERS[dt](fields), message_class(dt))
     assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (1_700_000_000, 250_000_000)

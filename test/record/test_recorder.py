@@ -86,6 +86,24 @@ def test_frame_batches_are_recorded_and_counted(tmp_path):
     assert st.ok and st.messages == 1001 and st.failed == 0 and st.dropped == 0
 
 
+def test_message_batches_are_recorded_read_by_rosbags_and_counted(tmp_path):
+    """A batch of messages on two topics, the first of a file: their schemas and channels
+    declared there; a topic never declared is refused by name."""
+    with Recorder(tmp_path) as rec:
+        rec.add_topic('/diagnostics', DIAG, msgdef(DIAG))
+        rec.add_topic('/other', DIAG, msgdef(DIAG))
+        rec.write_messages([('/diagnostics' if i % 3 else '/other', _diag_cdr(i), T0 + i) for i in range(30)])
+        rec.write_messages([])
+        rec.write_frames([_frame(0)])
+        rec.write_messages([('/diagnostics', _diag_cdr(30), T0 + 30)])
+    [path] = rec.files
+    got = _read_all(path)
+    assert [m.status[0].message for _, m in got['/diagnostics']] == [f'm{i}' for i in range(1, 30) if i % 3] + ['m30']
+    assert [t for t, _ in got['/other']] == [T0 + i for i in range(0, 30, 3)]
+    st = rec.status()
+    assert st.ok and st.messages == 32 and st.failed == 0 and st.dropped == 0
+
+
 def test_rotation_by_size_and_by_time(tmp_path):
     with Recorder(tmp_path / 'size', max_bytes=20_000, chunk_size=4096, flush_interval_s=0.0) as rec:
         for i in range(3000):
