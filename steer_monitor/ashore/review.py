@@ -97,6 +97,10 @@ KEEP_NS = 3 * SECOND_NS     # samples carried into the next block
 TAIL_NS = 600 * SECOND_NS   # steady-motion observations kept for the inflation factor
 MAX_WINDOWS = 4
 SLICE_NS = 600 * SECOND_NS
+#: a window's note where its last TAIL_NS of motion are too few rows to measure the residuals
+#: (said once for the log, whichever of their spread and correlation found it)
+_LITTLE_MOTION = ("too little recent motion to measure the residuals' spread and correlation: intervals assume "
+                  'independent residuals')
 
 
 @dataclass(frozen=True)
@@ -383,7 +387,8 @@ class Review:
             torque = torque_of_axial(g, fa, np.cos(alpha))
         share = share_at(g, alpha, torque, gaps)
         return ReviewResult(t, alpha, direction, pressure, force, torque, share, gaps, source, list(self.hard_overs),
-                            estimates, self.motion_s, self.samples, notes, estimating_s, list(self.uneven),
+                            estimates, self.motion_s, self.samples, list(dict.fromkeys(notes)), estimating_s,
+                            list(self.uneven),
                             self._opposed, self._rams.assessed)
 
     def _final_estimates(self, notes: list[str]) -> list[WindowEstimate]:
@@ -414,8 +419,7 @@ class Review:
             vif, scales = sample_spread(self.gear, tail, two_z, z_gb, best, ref, extra, self._z(tail),
                                         self._model_inflation)
             if scales is None:
-                self._notes.append("too little recent motion to measure the residuals' spread: intervals assume "
-                                   'independent residuals')
+                self._notes.append(_LITTLE_MOTION)
             return vif, scales
         return spread
 
@@ -425,7 +429,7 @@ class Review:
         tail = parts[0] if len(parts) == 1 else _concat_obs(parts)
         rows = make_rows(tail, self._z(tail))
         if rows.u.shape[0] < MIN_MOTION_SAMPLES:
-            self._notes.append("too little recent motion to measure the residuals' correlation: intervals assume none")
+            self._notes.append(_LITTLE_MOTION)
             return 1.0
         basis = F.TorqueBasis(self.gear.max_rudder)
         load = F.axial_load(self.gear, basis, rows.moments, coef)

@@ -153,7 +153,9 @@ class Recorder:
             self._topics[topic] = _Topic(datatype, msgdef, qos)
 
     def write(self, topic: str, cdr: bytes, log_time_ns: int) -> None:
-        """Queue one serialized message; never blocks (a full queue counts as dropped)."""
+        """Queue one serialized message; never blocks (a full queue counts as dropped). A
+        topic not declared (:meth:`add_topic`) raises ``KeyError`` here, not on the writer."""
+        self._declared(topic)
         self._put((topic, cdr, log_time_ns))
 
     def write_frame(self, frame: Frame) -> None:
@@ -167,9 +169,16 @@ class Recorder:
 
     def write_messages(self, messages: list[tuple[str, bytes, int]]) -> None:
         """Queue many serialized messages (topic, CDR, log time [ns]) as one entry, written
-        in one go; never blocks."""
+        in one go; never blocks. A topic not declared raises ``KeyError`` (see :meth:`write`)."""
         if messages:
+            for topic in {m[0] for m in messages}:
+                self._declared(topic)
             self._put((_MESSAGES, messages, messages[0][2]))
+
+    def _declared(self, topic: str) -> None:
+        if topic not in self._topics:
+            msg = f'topic {topic} was not declared with add_topic'
+            raise KeyError(msg)
 
     def split(self) -> None:
         """Finish the current file after what is queued; the next message opens a new one

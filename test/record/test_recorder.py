@@ -102,6 +102,13 @@ def test_message_batches_are_recorded_read_by_rosbags_and_counted(tmp_path):
     assert [t for t, _ in got['/other']] == [T0 + i for i in range(0, 30, 3)]
     st = rec.status()
     assert st.ok and st.messages == 32 and st.failed == 0 and st.dropped == 0
+    with Recorder(tmp_path / 'b') as rec:
+        with pytest.raises(KeyError, match='topic /nowhere was not declared with add_topic'):
+            rec.write_messages([('/nowhere', b'', T0)])
+        with pytest.raises(KeyError, match='topic /nowhere was not declared'):
+            rec.write('/nowhere', b'', T0)
+        rec.write_frame(_frame(0))
+    assert rec.status().messages == 1 and rec.status().failed == 0
 
 
 def test_rotation_by_size_and_by_time(tmp_path):
