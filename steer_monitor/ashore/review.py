@@ -173,6 +173,7 @@ class Review:
         self._model_inflation = nuisance.model_inflation if nuisance is not None else 1.0
         self._extra = tuple(col for c in cands for col in c.columns) + piece_columns(self._pieces)
         self._z_names = tuple(dict.fromkeys(col.z for col in self._extra if col.z))
+        self._accel = _Accel() if 'accel' in self._z_names else None
         self._shift_s = sum(c.angle_shift_s for c in cands)
         # the grid waits for the angle read later too
         self._lag_ns = LAG_NS + round(self._shift_s * 1e9)
@@ -300,11 +301,20 @@ class Review:
         self.hard_overs += self._hard.angles(angle.t_ns.tolist(), angle.value.tolist())
 
     def _process(self, start: int, end: int) -> None:
+        edge = GRID_NS if self._accel is not None else 0
         try:
-            obs = build_observations(self._buf, self.gear.ram_area, start_ns=start, end_ns=end,
+            obs = build_observations(self._buf, self.gear.ram_area, start_ns=start - edge, end_ns=end + edge,
                                      angle_shift_s=self._shift_s)
         except EstimateError:
             return
+        if self._accel is not None:
+            # the ram's acceleration reads the rate a grid point either side, as analyze's on the
+            # whole grid: worked out here, over the block and a point beyond each end, and kept
+            # for the rows folded later (a row kept alone would have no neighbour)
+            acc = next(col for name, col in iter_z_columns(obs, self.gear) if name == 'accel')
+            inner = (obs.t_ns >= start) & (obs.t_ns < end)
+            obs = obs.select(inner)
+            self._accel.add(obs.t_ns, acc[inner])
         whole = (obs.t_ns % SECOND_NS) == 0
         self._sec.append((obs.t_ns[whole], obs.alpha[whole], obs.direction[whole], obs.pressure[whole],
                           obs.force[whole]))
@@ -362,6 +372,8 @@ class Review:
         self._tail.append(sub)
         while len(self._tail) > 1 and sub.t_ns[-1] - self._tail[0].t_ns[-1] > TAIL_NS:
             self._tail.pop(0)
+        if self._accel is not None:       # what no row held or in the tail can ask for again
+            self._accel.drop_before(min(int(p.t_ns[0]) for p in (self._tail[0], self._held) if p is not None))
 
     # --- result --------------------------------------------------------------------------
     def finish(self) -> ReviewResult:
@@ -443,6 +455,8 @@ class Review:
         if not self._z_names:
             return {}
         got = {name: arr for name, arr in iter_z_columns(obs, self.gear) if name in self._z_names}
+        if self._accel is not None:
+            got['accel'] = self._accel.at(obs.t_ns)
         if self._located is not None:
             got.update(self._located.columns(obs, self._pieces)[0])
         if 'dtemp' in self._z_names:
@@ -463,6 +477,33 @@ def share_at(gear: GearParams, alpha: NDArray[np.float64], torque: NDArray[np.fl
     share = load_sharing(gear, np.where(ok, alpha, 0.0), np.where(ok, torque, 0.0), gaps.two_z, gaps.z_gb)
     return LoadSharing(*(np.where(ok, v, np.nan) if v.dtype.kind == 'f' else v
                          for v in (getattr(share, f) for f in share.__dataclass_fields__)))
+
+
+class _Accel:
+    """The ram acceleration column of the grid rows worked out so far, by time [ns] (kept
+    rows are asked for later, after rows around them are gone)."""
+
+    def __init__(self) -> None:
+        self._t = np.zeros(0, np.int64)
+        self._v = np.zeros(0)
+
+    def add(self, t_ns: NDArray[np.int64], values: NDArray[np.float64]) -> None:
+        self._t = np.concatenate([self._t, t_ns])
+        self._v = np.concatenate([self._v, values])
+
+    def at(self, t_ns: NDArray[np.int64]) -> NDArray[np.float64]:
+        """Each row's value (rows in time order, each one added)."""
+        if t_ns.size == 0:
+            return np.zeros(0)
+        i = np.searchsorted(self._t, t_ns)
+        if not (np.all(i < self._t.size) and np.array_equal(self._t[np.minimum(i, self._t.size - 1)], t_ns)):
+            msg = 'a row was folded whose ram acceleration was not worked out'
+            raise AssertionError(msg)
+        return self._v[i]
+
+    def drop_before(self, t_ns: int) -> None:
+        k = int(np.searchsorted(self._t, t_ns))
+        self._t, self._v = self._t[k:], self._v[k:]
 
 
 def _concat_obs(parts: list[Observations]) -> Observations:

@@ -269,6 +269,22 @@ def test_a_window_under_an_angle_delay_reads_the_angle_later(r18_params, can_db)
     assert res.estimates[-1].estimate.z_gb.value == pytest.approx(truth.z_gb, abs=1e-5)
 
 
+def test_under_ram_inertia_the_blocks_do_not_change_the_answer(r18_params, can_db):
+    """The ram's acceleration reads the rate a grid point either side (as analyze's, on the
+    whole grid): rows at the ends of a block or of a stretch of steady motion have it too, so
+    where the log is cut into blocks does not move the windows."""
+    from steer_monitor.estimate.effects import Effect
+    frames = _effect_voyage(r18_params, can_db, Clearances.from_mm(0.45, 0.2), 'ram_inertia', 23)
+    model = (Effect('ram_inertia'),)
+    one = _review(r18_params, can_db, frames, 1, model=model).estimates
+    many = _review(r18_params, can_db, frames, 11, plan=True, model=model).estimates
+    assert len(one) >= 2 and [w.t_end_ns for w in one] == [w.t_end_ns for w in many]
+    for a, b in zip(one, many):
+        assert a.estimate.z_gb.value == pytest.approx(b.estimate.z_gb.value, abs=1e-9)
+        assert a.estimate.two_z.value == pytest.approx(b.estimate.two_z.value, abs=1e-9)
+        assert a.estimate.extra['mass_kg'].value == pytest.approx(b.estimate.extra['mass_kg'].value, rel=1e-4)
+
+
 def test_a_window_under_temp_friction_holds_the_truth(r18_params, can_db):
     """Friction rising 2 %/K with the oil's temperature (temp_friction): the declared windows
     put Z_gb at 0.278 mm [0.263 .. 0.285] for 0.25; under the effect (its column taken from the
