@@ -326,9 +326,11 @@ class Review:
             keep &= np.all(np.isfinite(arr), axis=1) if arr.ndim == 2 else np.isfinite(arr)
         if self._located is not None:               # as analyze: a row near the term's ends carries a step
             keep &= ~self._located.near_ends(obs)
-        if not keep.any():
-            return
-        self._take(obs.select(keep))
+        if keep.any():
+            self._take(obs.select(keep))
+        if self._accel is not None:     # kept for the rows held or in the tail only (a log at rest adds none)
+            firsts = [int(p.t_ns[0]) for p in (*self._tail[:1], self._held) if p is not None and len(p)]
+            self._accel.drop_before(min(firsts, default=end))
 
     def _take(self, sub: Observations | None, final: bool = False) -> None:
         """Fold steady-motion rows, those of stretches where the rams did not share the force
@@ -372,8 +374,6 @@ class Review:
         self._tail.append(sub)
         while len(self._tail) > 1 and sub.t_ns[-1] - self._tail[0].t_ns[-1] > TAIL_NS:
             self._tail.pop(0)
-        if self._accel is not None:       # what no row held or in the tail can ask for again
-            self._accel.drop_before(min(int(p.t_ns[0]) for p in (self._tail[0], self._held) if p is not None))
 
     # --- result --------------------------------------------------------------------------
     def finish(self) -> ReviewResult:
