@@ -16,8 +16,8 @@ from numpy.typing import NDArray
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, Frame, FrameArrays
 from steer_monitor.rostime import SEC_MAX, ros_time
 
-__all__ = ['DEFAULT_QOS', 'FRAME_DATATYPE', 'FRAME_MSGDEF', 'FRAME_TOPIC', 'Counted', 'McapWriter', 'frame_cdr',
-           'frame_message', 'frame_records', 'leading_metadata', 'record_dtype']
+__all__ = ['DEFAULT_QOS', 'FRAME_DATATYPE', 'FRAME_MSGDEF', 'FRAME_TOPIC', 'MESSAGE_HEAD', 'Counted', 'McapWriter',
+           'frame_cdr', 'frame_message', 'frame_records', 'leading_metadata', 'message_head', 'record_dtype']
 
 FRAME_TOPIC = '/steering_can/rx'
 FRAME_DATATYPE = 'can_msgs/msg/Frame'
@@ -48,7 +48,17 @@ DEFAULT_QOS = ('- history: 3\n  depth: 0\n  reliability: 1\n  durability: 2\n'
 
 
 _CDR_HEADER = b'\x00\x01\x00\x00'  # CDR, little-endian
-_RECORD_HEADER = struct.Struct('<BQHIQQ')    # a Message record: opcode, length, channel, sequence, times
+
+
+#: the head of an MCAP Message record: opcode, length, channel, sequence, log and publish time
+MESSAGE_HEAD = struct.Struct('<BQHIQQ')
+
+
+def message_head(channel_id: int, log_time_ns: int, data_size: int) -> bytes:
+    """The head of a Message record of ``data_size`` bytes on ``channel_id``, sequence 0, logged
+    and published at ``log_time_ns``: as mcap's writer makes it for ``add_message``."""
+    return MESSAGE_HEAD.pack(Opcode.MESSAGE, MESSAGE_HEAD.size - 9 + data_size, channel_id, 0, log_time_ns,
+                             log_time_ns)
 
 
 def frame_cdr(frame: Frame, frame_id: str = 'steering_can') -> bytes:
@@ -257,11 +267,10 @@ class McapWriter:
         if n == 0:
             return
         channels = np.fromiter((self._channels[t][0] for t in topics), np.uint16, n)
-        pack = _RECORD_HEADER.pack
         data = b''.join([part for cid, d, t in zip(channels.tolist(), datas, log_times)
-                         for part in (pack(0x05, _RECORD_HEADER.size - 9 + len(d), cid, 0, t, t), d)])
+                         for part in (message_head(cid, t, len(d)), d)])
         offsets = np.zeros(n + 1, np.int64)
-        np.cumsum(np.fromiter((len(d) for d in datas), np.int64, n) + _RECORD_HEADER.size, out=offsets[1:])
+        np.cumsum(np.fromiter((len(d) for d in datas), np.int64, n) + MESSAGE_HEAD.size, out=offsets[1:])
         self.write_records(data, channels, np.fromiter(log_times, np.int64, n), offsets)
 
     def channel_id(self, topic: str) -> int:
@@ -291,7 +300,7 @@ class McapWriter:
         if chunk is None or stats is None or finalize is None or not hasattr(chunk, 'record_writer') \
                 or not hasattr(w, '_Writer__chunk_size'):
             for i in range(n):      # a record is opcode (1), length (8), channel (2), sequence (4),
-                a, b = int(offsets[i]) + 31, int(offsets[i + 1])     # log and publish time (8, 8)
+                a, b = int(offsets[i]) + MESSAGE_HEAD.size, int(offsets[i + 1])     # log and publish time (8, 8)
                 w.add_message(int(channels[i]), log_time=int(log_times[i]), data=data[a:b],
                               publish_time=int(log_times[i]))
             return

@@ -24,6 +24,7 @@ from functools import cache
 import numpy as np
 from numpy.typing import NDArray
 
+from steer_monitor.logfiles.mcapio import MESSAGE_HEAD, message_head
 from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.loadshare import ShareScalar, load_sharing
 from steer_monitor.monitor.live import LiveState
@@ -35,8 +36,6 @@ from steer_monitor.rostime import SEC_MAX
 
 __all__ = ['PackedStates', 'pack_states']
 
-_RECORD_HEADER = struct.Struct('<BQHIQQ')     # opcode, length, channel, sequence, log, publish time
-_MESSAGE = 0x05
 
 # sentinel values: a state whose every field has a bit pattern found once in its messages
 _T_NS = 1_234_567_890 * 1_000_000_000 + 987_654_321
@@ -78,7 +77,7 @@ def _layouts() -> tuple[_Layout, _Layout]:
                                      ('sensor_msgs/msg/JointState', share,
                                       tuple(float(getattr(_SHARE, k)) for k in _SHARE_FLOATS))):
         cdr = FAST_ENCODERS[datatype](fields)
-        rec = _RECORD_HEADER.pack(_MESSAGE, _RECORD_HEADER.size - 9 + len(cdr), 0, 0, 0, 0) + cdr
+        rec = message_head(0, 0, len(cdr)) + cdr
         sec, nsec = divmod(_T_NS, 1_000_000_000)
         places = tuple(_find(rec, struct.pack('<d', v)) for v in floats)
         out.append(_Layout(rec, _find(rec, struct.pack('<iI', sec, nsec)), places))
@@ -103,7 +102,7 @@ def _fill(layout: _Layout, channel: int, t: NDArray[np.int64], floats: NDArray[n
     floats ((n, k), in the layout's order)."""
     n, size = t.shape[0], len(layout.template)
     rec = np.tile(np.frombuffer(layout.template, np.uint8), (n, 1))
-    head = rec[:, :_RECORD_HEADER.size]
+    head = rec[:, :MESSAGE_HEAD.size]
     head[:, 9:11] = np.frombuffer(np.uint16(channel).tobytes(), np.uint8)
     times = t.astype('<u8').view(np.uint8).reshape(n, 8)
     head[:, 15:23] = times
