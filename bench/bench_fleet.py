@@ -81,7 +81,7 @@ def main() -> dict:
             t0 = time.perf_counter()
             client, cluster = make_client(workers, None)     # the LocalCluster run_fleet makes
             with cluster, client:
-                client.run(lambda: __import__('steer_monitor.ashore.review'))     # what a warm worker has
+                client.run(lambda: __import__('steer_monitor.ashore.reviewlogs'))     # what a warm worker has
                 started = time.perf_counter() - t0
                 if workers == 1:     # the worker's process alone: the same loop inside it, no scheduling
                     (inside,) = client.run(_loop, [str(p) for p in logs]).values()

@@ -9,7 +9,7 @@ under ``BENCH_DIR`` (default ``/tmp/steer_monitor_bench``).
 
 Measured, each case in a fresh process (so its peak resident memory is its own):
 
-* batch path (:func:`steer_monitor.ashore.review.review_logs`): read in blocks of columns,
+* batch path (:func:`steer_monitor.ashore.reviewlogs.review_logs`): read in blocks of columns,
   decode, model, clearance moments, the estimates with intervals over time; frames/s end to
   end, and the part of the time spent estimating (a fixed cost per log, up to 4 + 1
   profiles, whatever its length). Timed ``BATCH_RUNS`` times, the median shown with every
@@ -121,7 +121,7 @@ def _case(kind: str, path: str) -> dict:
     single_blas_thread()
     t0 = time.perf_counter()
     if kind == 'batch':
-        from steer_monitor.ashore.review import review_logs
+        from steer_monitor.ashore.reviewlogs import review_logs
         run = review_logs([path])
         frames, extra = run.frames, {'estimating_s': round(run.review.estimating_s, 2),
                                      'estimates': len(run.review.estimates)}

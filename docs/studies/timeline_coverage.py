@@ -4,9 +4,9 @@
 log: the page's boxes and its load-sharing figure) and, over time, the review's windows (the
 plot of the clearances over time: an estimate from the binned statistics of the data up to each
 window's end, its intervals scaled by the recent residuals' spread). This study runs the
-report's paths (:func:`steer_monitor.ashore.review.review_logs`,
+report's paths (:func:`steer_monitor.ashore.reviewlogs.review_logs`,
 :func:`steer_monitor.ashore.loganalysis.model_check`, and the windows refitted under the effects
-it adopted, :func:`steer_monitor.ashore.review.refit_windows`) over
+it adopted, :func:`steer_monitor.ashore.reviewlogs.refit_windows`) over
 simulated realistic voyages (``realistic:1500``, the clean plant, true clearances drawn
 uniformly off the estimator's grid by :func:`steer_monitor.studies.accuracy.off_grid_cases`
 from ``FIRST_SEED``, seeds used for no choice) and counts, for Z_gb and 2Z, the two-sided
@@ -47,7 +47,7 @@ def _count(out: dict, key: str, iv, truth: float) -> None:
 def run(case) -> dict:
     from steer_monitor import sim
     from steer_monitor.ashore.loganalysis import model_check
-    from steer_monitor.ashore.review import refit_windows, review_logs
+    from steer_monitor.ashore.reviewlogs import refit_windows, review_logs
     from steer_monitor.ashore.windowmodel import window_model
     from steer_monitor.can.busconfig import load_setup
     from steer_monitor.logfiles.logs import write_candump

@@ -1,5 +1,6 @@
-"""A whole log reviewed in blocks of columns: the batch path behind ``steer-monitor report``
-and the replay benchmark. Pure (arrays in, records out).
+"""A whole log reviewed in blocks of columns, the core of the batch path behind
+``steer-monitor report`` (:mod:`~steer_monitor.ashore.reviewlogs` reads the logs into it). Pure
+(arrays in, records out).
 
 Blocks of decoded series come in time order (:meth:`Review.add`); each is put on the
 estimator's 50 ms grid with the samples carried over from the block before (so a log cut in
@@ -20,9 +21,9 @@ blocks gives the grid of the whole), and then, vectorized over the block:
 The clearances are estimated from the moments up to the end of each window (an estimate with
 its interval over time: up to ``MAX_WINDOWS`` windows of whole 10 minutes, and the whole log
 at the end), under the declared model or, given ``model``, with the effects a model check of
-the log adopted (:func:`refit_windows`: the report's windows fit the model its clearances rest
-on). With :meth:`Review.plan` (where the data will end) a window is estimated as
-soon as the data pass its end, while the log is still being read; otherwise all at
+the log adopted (:func:`~steer_monitor.ashore.reviewlogs.refit_windows`: the report's windows
+fit the model its clearances rest on). With :meth:`Review.plan` (where the data will end) a
+window is estimated as soon as the data pass its end, while the log is still being read; otherwise all at
 :meth:`Review.finish`. Each: the coarse profile, the inflation factor of the residuals at its
 best point over the last ``TAIL_NS`` of motion read,
 then the fine profile on the search box of :func:`~steer_monitor.estimate.batch.search_box`.
@@ -32,27 +33,21 @@ off its inner edges); the whole log's estimate always profiles the whole grid co
 
 Times integer ns, values SI.
 
-The batch path over logs (:func:`review_logs`): read in blocks of columns, decode vectorized,
-review; no Python object per frame.
+The logs read into a review (:func:`~steer_monitor.ashore.reviewlogs.review_logs`) are the
+next module's; this one takes decoded blocks, whatever reads them.
 """
 
 from __future__ import annotations
 
-import datetime
 import time
-from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field, replace
-from pathlib import Path
-from typing import Any
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
 from steer_monitor.ashore.windowmodel import Nuisance
-from steer_monitor.can.busconfig import load_setup
-from steer_monitor.can.decoder import Decoder, Series, SignalSet, clock_notes
-from steer_monitor.can.frames import FrameArrays
-from steer_monitor.can.rejects import RejectCounter
+from steer_monitor.can.decoder import Series, SignalSet
 from steer_monitor.can.signals import PRESSURE_INPUTS
 from steer_monitor.estimate import fit as F
 from steer_monitor.estimate.batch import (
@@ -74,21 +69,12 @@ from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations,
 from steer_monitor.estimate.rams import opposed_cause, working_against
 from steer_monitor.estimate.ramscheck import RamsCheck, UnevenSpan, describe
 from steer_monitor.estimate.refine import Refined
-from steer_monitor.logfiles.blocks import in_time_order, iter_log_blocks, log_end_ns
-from steer_monitor.logfiles.logs import LogError
 from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.kinematics import torque_of_axial
 from steer_monitor.model.loadshare import LoadSharing, load_sharing
 from steer_monitor.monitor.performance import HardOver, HardOverTracker
-from steer_monitor.params import (
-    gaps_from_params,
-    gear_from_params,
-    min_clearance_2z_from_params,
-    ram_share_warn_from_params,
-)
 
-__all__ = ['TAIL_NS', 'BatchRun', 'Review', 'ReviewResult', 'WindowEstimate', 'refit_windows', 'review_logs',
-           'share_at']
+__all__ = ['TAIL_NS', 'Review', 'ReviewResult', 'WindowEstimate', 'share_at']
 
 
 SECOND_NS = 1_000_000_000
@@ -509,116 +495,3 @@ class _Accel:
 def _concat_obs(parts: list[Observations]) -> Observations:
     names = Observations.__dataclass_fields__
     return Observations(*(np.concatenate([getattr(p, f) for p in parts]) for f in names))
-
-
-@dataclass
-class BatchRun:
-    """A review and what reading the logs met."""
-
-    review: ReviewResult
-    logs: list[str]
-    frames: int
-    rejects: dict[str, int]
-    errors: list[str]
-
-
-def _decoded(paths: list[Path], db: object, smap: object, rejects: RejectCounter,
-             date: datetime.date | None = None) -> Iterator[tuple[str, Any, int]]:
-    """Read and decode ``paths`` in order: ('block', signals, frames) per block, ('error',
-    text, 0) for a log that breaks off, ('note', text, 0) for what to say of the frames'
-    clock (a step back is stitched: :class:`~steer_monitor.can.decoder.Decoder`), and last
-    ('done', reject counts, 0)."""
-    decoder = Decoder(db, smap, rejects, stitch=True)  # type: ignore[arg-type]
-    for path in paths:
-        try:
-            for block in iter_log_blocks(path, rejects, date):
-                yield 'block', decoder.decode_arrays(block), len(block)
-        except LogError as exc:
-            yield 'error', str(exc), 0
-    yield 'block', decoder.decode_arrays(FrameArrays.empty(), final=True), 0   # frames held at the end
-    for note in clock_notes(decoder.clock_steps):
-        yield 'note', note, 0
-    yield 'done', dict(rejects.snapshot().counts), 0
-
-
-def _produce(paths: list[Path], db: object, smap: object, out: object, date: datetime.date | None) -> None:
-    """:func:`_decoded` in a second process, onto the queue ``out``."""
-    rejects = RejectCounter()
-    try:
-        for item in _decoded(paths, db, smap, rejects, date):
-            out.put(item)  # type: ignore[attr-defined]
-    except BaseException as exc:   # a defect: say so rather than leave the reader waiting
-        out.put(('error', f'reading failed: {type(exc).__name__}: {exc}', 0))  # type: ignore[attr-defined]
-        out.put(('done', dict(rejects.snapshot().counts), 0))  # type: ignore[attr-defined]
-
-
-def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *, jobs: int | None = None,
-                progress: Callable[[int], None] | None = None, date: datetime.date | None = None,
-                model: Sequence[Effect] = (), nuisance: Nuisance | None = None) -> BatchRun:
-    """Review ``logs`` (taken in order of their first frame) with the configuration's gear and
-    signal map, its estimates under ``model`` and ``nuisance`` (:class:`Review`). A log that breaks off gives
-    what came before; the error is reported."""
-    import multiprocessing as mp
-    import os
-
-    paths = in_time_order([Path(p) for p in logs], date)
-    _, params, db, smap = load_setup(config)
-    gear = gear_from_params(params)
-    jobs = min(jobs or os.cpu_count() or 1, 2)
-    review = Review(gear, gaps_from_params(params), min_clearance_2z=min_clearance_2z_from_params(params),
-                    ram_share_warn=ram_share_warn_from_params(params), model=model, nuisance=nuisance)
-    ends = [log_end_ns(p) for p in paths]
-    end = None if not ends or None in ends else max(e for e in ends if e is not None)
-    frames = 0
-    errors: list[str] = []
-    notes: list[str] = []
-    counts: dict[str, int] = {}
-    proc = None
-    if jobs > 1:
-        ctx = mp.get_context('fork')
-        queue = ctx.Queue(maxsize=4)
-        proc = ctx.Process(target=_produce, args=(paths, db, smap, queue, date), daemon=True)
-        proc.start()
-        items: Iterator[tuple[str, Any, int]] = iter(queue.get, None)
-    else:
-        items = _decoded(paths, db, smap, RejectCounter(), date)
-    try:
-        for kind, payload, n in items:
-            if kind == 'block':
-                frames += n
-                review.add(payload)
-                if end is not None and frames == n:
-                    review.plan(end)
-                if progress is not None:
-                    progress(n)
-            elif kind == 'error':
-                errors.append(payload)
-            elif kind == 'note':
-                notes.append(payload)
-            else:
-                counts = payload
-                break
-    finally:
-        if proc is not None:
-            proc.join(5)
-            if proc.is_alive():
-                proc.kill()
-    result = review.finish()
-    result.notes[:0] = notes
-    return BatchRun(result, [str(p) for p in paths], frames, dict(sorted(counts.items())), errors)
-
-
-def refit_windows(batch: BatchRun, model: Sequence[Effect], config: str | Path | None = None, *,
-                  nuisance: Nuisance | None = None, progress: Callable[[int], None] | None = None,
-                  date: datetime.date | None = None) -> BatchRun:
-    """``batch`` with its clearance windows estimated again under ``model`` and ``nuisance``
-    (what a model check of the logs fitted, :func:`~steer_monitor.ashore.windowmodel.window_model`; the
-    logs read again), so that
-    they fit the model the clearances the page gives rest on; the rest of the review as it was,
-    the new pass's notes added. ``batch`` itself when the check fitted the declared model alone."""
-    if not model and nuisance is None:
-        return batch
-    again = review_logs(batch.logs, config, progress=progress, date=date, model=model, nuisance=nuisance).review
-    r = batch.review
-    return replace(batch, review=replace(r, estimates=again.estimates,
-                                         notes=r.notes + [n for n in again.notes if n not in r.notes]))

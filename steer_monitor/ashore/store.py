@@ -153,7 +153,7 @@ def log_result(vessel: str, log: str, config: str | None, log_sha256: str, confi
     exception: the fleet goes on, and says so; a page that cannot be written is said in the
     result's read errors."""
     from steer_monitor.ashore.loganalysis import model_check
-    from steer_monitor.ashore.review import review_logs
+    from steer_monitor.ashore.reviewlogs import review_logs
     from steer_monitor.errors import SteerMonitorError
     from steer_monitor.params import load_config
     from steer_monitor.runtime import single_blas_thread

@@ -3,7 +3,7 @@
 The page's clearances are the model check's (``analyze`` of the log's last hours): the declared
 model with the effects it adopted and, where it left a residual it could not name, the term it
 located taken out as a nuisance. The review's windows (the plot of the clearances over time)
-are refitted under the same model (:func:`~steer_monitor.ashore.review.refit_windows`); this
+are refitted under the same model (:func:`~steer_monitor.ashore.reviewlogs.refit_windows`); this
 says what that model is.
 """
 

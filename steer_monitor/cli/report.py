@@ -1,7 +1,7 @@
 """``steer-monitor report LOG_OR_MCAP... --out DIR``: a page engineers read (``DIR/index.html``,
 self-contained, with its PNG plots beside it) from a CAN log, a node recording or a replay.
 
-The review runs on the batch path over the whole log (:mod:`steer_monitor.ashore.review`): the
+The review runs on the batch path over the whole log (:mod:`steer_monitor.ashore.reviewlogs`): the
 plots and the clearances over time. The clearances the page and ``--json`` give, with their
 levels, are the model check's (:mod:`steer_monitor.ashore.loganalysis`: ``analyze`` of the last
 ``--analysis-hours`` of data, default 3, which is ``steer-monitor analyze`` of a shorter log).
@@ -79,7 +79,7 @@ def _run(paths: list[Path], out_dir: str | Path, config_path: str | Path, params
 
     from steer_monitor.ashore.loganalysis import headline_json, headline_text, headlines, model_check
     from steer_monitor.ashore.report.reviewpage import report_input, write_review_report
-    from steer_monitor.ashore.review import refit_windows, review_logs
+    from steer_monitor.ashore.reviewlogs import refit_windows, review_logs
     from steer_monitor.ashore.windowmodel import window_model
     from steer_monitor.estimate.ramscheck import rams_verdict, uneven_json
     from steer_monitor.logfiles.logs import LogError

@@ -45,7 +45,7 @@ def _effect_voyage(r18_params, can_db, truth: Clearances, effect: str, seed: int
 
 def _reviewed_log(tmp_path, frames: FrameArrays):
     """``frames`` written as a candump log and reviewed on the batch path: (the log, its review)."""
-    from steer_monitor.ashore.review import review_logs
+    from steer_monitor.ashore.reviewlogs import review_logs
     from steer_monitor.logfiles.logs import write_candump
     log = tmp_path / 'voyage.log'
     with open(log, 'wb') as fh:
@@ -129,7 +129,7 @@ def test_a_log_at_rest_says_why_there_is_no_estimate(r18_params, can_db):
 
 
 def test_batch_path_one_or_two_processes(tmp_path, r18_params, can_db, voyage):
-    from steer_monitor.ashore.review import review_logs
+    from steer_monitor.ashore.reviewlogs import review_logs
     path = tmp_path / 'v.mcap'
     with LogWriter(path) as w:
         for f in voyage.frames():
@@ -239,7 +239,7 @@ def test_windows_refitted_under_the_model_checks_effects_hold_the_truth(tmp_path
     [0.188 .. 0.191] for 0.25); refitted with the effect the model check adopts
     (:func:`refit_windows`, as the report does), every window's interval holds the truth, and
     so does the effect's own coefficient; the rest of the review is the declared pass's."""
-    from steer_monitor.ashore.review import refit_windows
+    from steer_monitor.ashore.reviewlogs import refit_windows
     from steer_monitor.estimate.effects import Effect
     truth = Clearances.from_mm(0.6, 0.25)
     _, batch = _reviewed_log(tmp_path, _effect_voyage(r18_params, can_db, truth, 'pressure_friction', 21))
@@ -313,7 +313,7 @@ def test_windows_refitted_with_the_located_term_where_the_check_left_a_residual(
     truth where those fitted without it did not (this voyage's last, its intervals widened as
     the check's: Z_gb 0.249 mm [0.198 .. 0.307] for 0.3227)."""
     from steer_monitor.ashore.loganalysis import model_check
-    from steer_monitor.ashore.review import refit_windows
+    from steer_monitor.ashore.reviewlogs import refit_windows
     from steer_monitor.ashore.windowmodel import Nuisance, window_model
     from steer_monitor.can.busconfig import load_setup
     truth = Clearances.from_mm(0.547, 0.3227)

@@ -513,7 +513,7 @@ def _clearance_values(msg: Any) -> list[float] | None:
 def report_input(paths: Sequence[Path], batch: Any, params: dict[str, Any], config_path: str | Path,
                  analysis: Any, analysis_note: str) -> Any:
     """The page's input for ``paths`` reviewed as ``batch`` (a
-    :class:`~steer_monitor.ashore.review.BatchRun`) with these parameters; ``analysis``: the model
+    :class:`~steer_monitor.ashore.reviewlogs.BatchRun`) with these parameters; ``analysis``: the model
     check (None, and ``analysis_note`` says why)."""
     from steer_monitor.params import gear_from_params
     from steer_monitor.record.provenance import parameters_digest
