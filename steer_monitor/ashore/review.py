@@ -25,7 +25,8 @@ the log adopted (:func:`~steer_monitor.ashore.reviewlogs.refit_windows`: the rep
 fit the model its clearances rest on). With :meth:`Review.plan` (where the data will end) a
 window is estimated as soon as the data pass its end, while the log is still being read; otherwise all at
 :meth:`Review.finish`. Each: the coarse profile, the inflation factor of the residuals at its
-best point over the last ``TAIL_NS`` of motion read,
+best point over the window's own last ``TAIL_NS`` of steady motion (the ``TAIL_ROWS`` grid rows
+folded before its end: a window is told of the residuals it fits, whenever it is estimated),
 then the fine profile on the search box of :func:`~steer_monitor.estimate.batch.search_box`.
 A window after the first tries the box of the last coarse profile first (the moments have only
 grown since) and keeps it when the answer lies inside (the best point and the interval's ends
@@ -74,16 +75,17 @@ from steer_monitor.model.kinematics import torque_of_axial
 from steer_monitor.model.loadshare import LoadSharing, load_sharing
 from steer_monitor.monitor.performance import HardOver, HardOverTracker
 
-__all__ = ['TAIL_NS', 'Review', 'ReviewResult', 'WindowEstimate', 'share_at']
+__all__ = ['TAIL_NS', 'TAIL_ROWS', 'Review', 'ReviewResult', 'WindowEstimate', 'share_at']
 
 
 SECOND_NS = 1_000_000_000
 LAG_NS = SECOND_NS          # the grid is processed up to this far behind the newest angle
 KEEP_NS = 3 * SECOND_NS     # samples carried into the next block
-TAIL_NS = 600 * SECOND_NS   # steady-motion observations kept for the inflation factor
+TAIL_NS = 600 * SECOND_NS   # steady motion a window's residual spread is measured on
+TAIL_ROWS = TAIL_NS // GRID_NS
 MAX_WINDOWS = 4
 SLICE_NS = 600 * SECOND_NS
-#: a window's note where its last TAIL_NS of motion are too few rows to measure the residuals
+#: a window's note where its last TAIL_ROWS rows of motion are too few to measure the residuals
 #: (said once for the log, whichever of their spread and correlation found it)
 _LITTLE_MOTION = ("too little recent motion to measure the residuals' spread and correlation: intervals assume "
                   'independent residuals')
@@ -190,6 +192,8 @@ class Review:
         self.boxes_missed = 0          # search boxes an interval ran past: the whole grid profiled
         self._notes: list[str] = []
         self._sec: list[tuple[NDArray, ...]] = []
+        #: the rows folded, in time order, as far back as a window still to estimate needs them
+        #: (its last TAIL_ROWS before its end); all of them until :meth:`plan` says where windows end
         self._tail: list[Observations] = []
         self._hard = HardOverTracker()
         self.hard_overs: list[HardOver] = []
@@ -230,6 +234,7 @@ class Review:
             self._step = max(-(-span // (MAX_WINDOWS * SLICE_NS)), 1)
             if self._done is not None:
                 self._due_windows(self._folded_until(self._done))
+            self._prune_tail()
 
     def _folded_until(self, end_ns: int) -> int:
         """Up to where every row is folded: ``end_ns``, or the first row held (see :meth:`_take`)."""
@@ -246,18 +251,56 @@ class Review:
                 return
             self._windows_tried += 1
             self._merge_below(end_key)
-            self._windows.append((end_key * SLICE_NS, self._estimate(self._acc, self._tail)))
+            self._windows.append((end_key * SLICE_NS, self._estimate(self._acc, self._tail_before(end_key * SLICE_NS))))
+            self._prune_tail()
+
+    def _next_end(self) -> int | None:
+        """Where the next window to estimate ends [ns] (None before :meth:`plan`)."""
+        if self._step is None or self._first is None:
+            return None
+        return (self._first // SLICE_NS + self._step * (self._windows_tried + 1)) * SLICE_NS
+
+    def _tail_before(self, end_ns: int) -> Observations | None:
+        """The last ``TAIL_ROWS`` rows folded before ``end_ns`` (None when none are)."""
+        picked: list[Observations] = []
+        need = TAIL_ROWS
+        for part in reversed(self._tail):
+            if need <= 0:
+                break
+            k = int(np.searchsorted(part.t_ns, end_ns))
+            if k == 0:
+                continue
+            picked.append(part.select(slice(max(k - need, 0), k)))     # type: ignore[arg-type]
+            need -= min(k, need)
+        if not picked:
+            return None
+        return picked[0] if len(picked) == 1 else _concat_obs(picked[::-1])
+
+    def _prune_tail(self) -> None:
+        """Drop the rows no window still to estimate needs: those before the last ``TAIL_ROWS``
+        ahead of the next window's end (a later window's last rows lie no earlier)."""
+        end = self._next_end()
+        if end is None:
+            return
+        need, keep_from = TAIL_ROWS, len(self._tail)
+        for i in range(len(self._tail) - 1, -1, -1):
+            keep_from = i
+            need -= int(np.searchsorted(self._tail[i].t_ns, end))
+            if need <= 0:
+                break
+        del self._tail[:keep_from]
 
     def _merge_below(self, key: int) -> None:
         for k in sorted(k for k in self._slices if (self._merged_below is None or k >= self._merged_below) and k < key):
             self._acc = self._acc.merge(self._slices[k])
         self._merged_below = key
 
-    def _estimate(self, mom: Moments, tail: list[Observations], reuse: bool = True) -> ClearanceEstimate | None:
-        """The estimate from ``mom``: coarse profile, inflation of the recent residuals at its
-        best point, fine profile on the search box. With ``reuse``, a window after the first
-        first tries the box the window before found (the moments only grew), with the
-        inflation at that box's best fit, and keeps it when :func:`box_holds` says it held."""
+    def _estimate(self, mom: Moments, tail: Observations | None, reuse: bool = True) -> ClearanceEstimate | None:
+        """The estimate from ``mom``: coarse profile, inflation of the residuals over ``tail``
+        (the window's last rows) at its best point, fine profile on the search box. With
+        ``reuse``, a window after the first first tries the box the window before found (the
+        moments only grew), with the inflation at that box's best fit, and keeps it when
+        :func:`box_holds` says it held."""
         if mom.samples < MIN_MOTION_SAMPLES:
             return None
         try:
@@ -358,8 +401,7 @@ class Review:
                 mom = Moments.from_rows(keys, aa, v2, u, (SPEED_Z, *z))
                 self._slices[k] = self._slices[k].merge(mom) if k in self._slices else mom
         self._tail.append(sub)
-        while len(self._tail) > 1 and sub.t_ns[-1] - self._tail[0].t_ns[-1] > TAIL_NS:
-            self._tail.pop(0)
+        self._prune_tail()
 
     # --- result --------------------------------------------------------------------------
     def finish(self) -> ReviewResult:
@@ -400,20 +442,23 @@ class Review:
         if self._merged_below is None or last > self._merged_below:
             self._merge_below(last)
             # the whole log's estimate, the answer: a coarse profile of the whole grid always
-            self._windows.append((int(self._done or 0), self._estimate(self._acc, self._tail, reuse=False)))
+            end = int(self._done or 0)
+            self._windows.append((end, self._estimate(self._acc, self._tail_before(end), reuse=False)))
         done = [WindowEstimate(t_end, est) for t_end, est in self._windows if est is not None]
         if not done:
             notes.append(f'only {self._acc.samples:.0f} rows of steady motion (at least {MIN_MOTION_SAMPLES} '
                          'needed): the clearances are not estimated')
         return done
 
-    def _spread(self, parts: list[Observations]) -> Spread:
-        """What a window's estimate is told of its residuals: their spread over ``parts`` (the
-        last ``TAIL_NS`` of motion read) at its best fit (:func:`sample_spread`)."""
-        tail = parts[0] if len(parts) == 1 else _concat_obs(parts)
+    def _spread(self, tail: Observations | None) -> Spread:
+        """What a window's estimate is told of its residuals: their spread over ``tail`` (its
+        last ``TAIL_ROWS`` rows of motion) at its best fit (:func:`sample_spread`)."""
 
         def spread(two_z: float, z_gb: float, best: F.FitAt, ref: Refined,
                    extra: Sequence[F.Column]) -> tuple[float, dict | None]:
+            if tail is None:
+                self._notes.append(_LITTLE_MOTION)
+                return 1.0, None
             vif, scales = sample_spread(self.gear, tail, two_z, z_gb, best, ref, extra, self._z(tail),
                                         self._model_inflation)
             if scales is None:
@@ -421,12 +466,11 @@ class Review:
             return vif, scales
         return spread
 
-    def _inflation(self, parts: list[Observations], two_z: float, z_gb: float, coef: NDArray[np.float64]) -> float:
-        """The residuals' variance inflation over ``parts`` (the last ``TAIL_NS`` of motion
-        read), at the fit ``coef`` with the clearances (``two_z``, ``z_gb``) [m]."""
-        tail = parts[0] if len(parts) == 1 else _concat_obs(parts)
-        rows = make_rows(tail, self._z(tail))
-        if rows.u.shape[0] < MIN_MOTION_SAMPLES:
+    def _inflation(self, tail: Observations | None, two_z: float, z_gb: float, coef: NDArray[np.float64]) -> float:
+        """The residuals' variance inflation over ``tail`` (the window's last ``TAIL_ROWS`` rows
+        of motion), at the fit ``coef`` with the clearances (``two_z``, ``z_gb``) [m]."""
+        rows = None if tail is None else make_rows(tail, self._z(tail))
+        if tail is None or rows is None or rows.u.shape[0] < MIN_MOTION_SAMPLES:
             self._notes.append(_LITTLE_MOTION)
             return 1.0
         basis = F.TorqueBasis(self.gear.max_rudder)
