@@ -25,9 +25,9 @@ the log adopted (:func:`~steer_monitor.ashore.reviewlogs.refit_windows`: the rep
 fit the model its clearances rest on). With :meth:`Review.plan` (where the data will end) a
 window is estimated as soon as the data pass its end, while the log is still being read; otherwise all at
 :meth:`Review.finish`. Each: the coarse profile, the inflation factor of the residuals at its
-best point over the window's own last ``TAIL_NS`` of steady motion (the ``TAIL_ROWS`` grid rows
-folded before its end: a window is told of the residuals it fits, whenever it is estimated),
-then the fine profile on the search box of :func:`~steer_monitor.estimate.batch.search_box`.
+best point over a sample of the window's own rows, spread over all of them
+(:class:`~steer_monitor.ashore.rowsample.RowSample`: a window is told of the residuals it fits,
+whenever it is estimated), then the fine profile on the search box of :func:`~steer_monitor.estimate.batch.search_box`.
 A window after the first tries the box of the last coarse profile first (the moments have only
 grown since) and keeps it when the answer lies inside (the best point and the interval's ends
 off its inner edges); the whole log's estimate always profiles the whole grid coarsely.
@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from steer_monitor.ashore.rowsample import RowSample, concat_observations
 from steer_monitor.ashore.windowmodel import Nuisance
 from steer_monitor.can.decoder import Series, SignalSet
 from steer_monitor.can.signals import PRESSURE_INPUTS
@@ -75,19 +76,17 @@ from steer_monitor.model.kinematics import torque_of_axial
 from steer_monitor.model.loadshare import LoadSharing, load_sharing
 from steer_monitor.monitor.performance import HardOver, HardOverTracker
 
-__all__ = ['TAIL_NS', 'TAIL_ROWS', 'Review', 'ReviewResult', 'WindowEstimate', 'share_at']
+__all__ = ['Review', 'ReviewResult', 'WindowEstimate', 'share_at']
 
 
 SECOND_NS = 1_000_000_000
 LAG_NS = SECOND_NS          # the grid is processed up to this far behind the newest angle
 KEEP_NS = 3 * SECOND_NS     # samples carried into the next block
-TAIL_NS = 600 * SECOND_NS   # steady motion a window's residual spread is measured on
-TAIL_ROWS = TAIL_NS // GRID_NS
 MAX_WINDOWS = 4
 SLICE_NS = 600 * SECOND_NS
-#: a window's note where its last TAIL_ROWS rows of motion are too few to measure the residuals
+#: a window's note where its rows of motion are too few to measure the residuals
 #: (said once for the log, whichever of their spread and correlation found it)
-_LITTLE_MOTION = ("too little recent motion to measure the residuals' spread and correlation: intervals assume "
+_LITTLE_MOTION = ("too little motion to measure the residuals' spread and correlation: intervals assume "
                   'independent residuals')
 
 
@@ -192,9 +191,8 @@ class Review:
         self.boxes_missed = 0          # search boxes an interval ran past: the whole grid profiled
         self._notes: list[str] = []
         self._sec: list[tuple[NDArray, ...]] = []
-        #: the rows folded, in time order, as far back as a window still to estimate needs them
-        #: (its last TAIL_ROWS before its end); all of them until :meth:`plan` says where windows end
-        self._tail: list[Observations] = []
+        #: the rows folded, as far as a window still to estimate may measure its spread on them
+        self._sample = RowSample()
         self._hard = HardOverTracker()
         self.hard_overs: list[HardOver] = []
         self.motion_s = 0.0
@@ -234,7 +232,7 @@ class Review:
             self._step = max(-(-span // (MAX_WINDOWS * SLICE_NS)), 1)
             if self._done is not None:
                 self._due_windows(self._folded_until(self._done))
-            self._prune_tail()
+            self._prune_sample()
 
     def _folded_until(self, end_ns: int) -> int:
         """Up to where every row is folded: ``end_ns``, or the first row held (see :meth:`_take`)."""
@@ -251,44 +249,17 @@ class Review:
                 return
             self._windows_tried += 1
             self._merge_below(end_key)
-            self._windows.append((end_key * SLICE_NS, self._estimate(self._acc, self._tail_before(end_key * SLICE_NS))))
-            self._prune_tail()
+            end = end_key * SLICE_NS
+            self._windows.append((end, self._estimate(self._acc, self._sample.before(end))))
+            self._prune_sample()
 
-    def _next_end(self) -> int | None:
-        """Where the next window to estimate ends [ns] (None before :meth:`plan`)."""
-        if self._step is None or self._first is None:
-            return None
-        return (self._first // SLICE_NS + self._step * (self._windows_tried + 1)) * SLICE_NS
-
-    def _tail_before(self, end_ns: int) -> Observations | None:
-        """The last ``TAIL_ROWS`` rows folded before ``end_ns`` (None when none are)."""
-        picked: list[Observations] = []
-        need = TAIL_ROWS
-        for part in reversed(self._tail):
-            if need <= 0:
-                break
-            k = int(np.searchsorted(part.t_ns, end_ns))
-            if k == 0:
-                continue
-            picked.append(part.select(slice(max(k - need, 0), k)))     # type: ignore[arg-type]
-            need -= min(k, need)
-        if not picked:
-            return None
-        return picked[0] if len(picked) == 1 else _concat_obs(picked[::-1])
-
-    def _prune_tail(self) -> None:
-        """Drop the rows no window still to estimate needs: those before the last ``TAIL_ROWS``
-        ahead of the next window's end (a later window's last rows lie no earlier)."""
-        end = self._next_end()
-        if end is None:
+    def _prune_sample(self) -> None:
+        """Drop the rows no window still to estimate may measure its spread on."""
+        if self._step is None or self._first is None:       # not planned: windows may end on any slice
+            self._sample.prune(boundary_ns=SLICE_NS)
             return
-        need, keep_from = TAIL_ROWS, len(self._tail)
-        for i in range(len(self._tail) - 1, -1, -1):
-            keep_from = i
-            need -= int(np.searchsorted(self._tail[i].t_ns, end))
-            if need <= 0:
-                break
-        del self._tail[:keep_from]
+        next_end = (self._first // SLICE_NS + self._step * (self._windows_tried + 1)) * SLICE_NS
+        self._sample.prune(next_end_ns=next_end, step_ns=self._step * SLICE_NS)
 
     def _merge_below(self, key: int) -> None:
         for k in sorted(k for k in self._slices if (self._merged_below is None or k >= self._merged_below) and k < key):
@@ -358,7 +329,8 @@ class Review:
         if keep.any():
             self._take(obs.select(keep))
         if self._accel is not None:     # kept for the rows held or in the tail only (a log at rest adds none)
-            firsts = [int(p.t_ns[0]) for p in (*self._tail[:1], self._held) if p is not None and len(p)]
+            firsts = [t for t in (self._sample.first_ns(), None if self._held is None or not len(self._held)
+                                  else int(self._held.t_ns[0])) if t is not None]
             self._accel.drop_before(min(firsts, default=end))
 
     def _take(self, sub: Observations | None, final: bool = False) -> None:
@@ -375,7 +347,7 @@ class Review:
             self._notes.append(f'{describe(sp)}: left out of the clearance estimates')
         if not parts:
             return
-        sub = parts[0] if len(parts) == 1 else _concat_obs(parts)
+        sub = concat_observations(parts)
         cut = None if final else self._rams.unsettled_from()
         if cut is not None:
             later = sub.t_ns >= cut
@@ -400,8 +372,8 @@ class Review:
             if keys.size:
                 mom = Moments.from_rows(keys, aa, v2, u, (SPEED_Z, *z))
                 self._slices[k] = self._slices[k].merge(mom) if k in self._slices else mom
-        self._tail.append(sub)
-        self._prune_tail()
+        self._sample.add(sub)
+        self._prune_sample()
 
     # --- result --------------------------------------------------------------------------
     def finish(self) -> ReviewResult:
@@ -443,7 +415,7 @@ class Review:
             self._merge_below(last)
             # the whole log's estimate, the answer: a coarse profile of the whole grid always
             end = int(self._done or 0)
-            self._windows.append((end, self._estimate(self._acc, self._tail_before(end), reuse=False)))
+            self._windows.append((end, self._estimate(self._acc, self._sample.before(end), reuse=False)))
         done = [WindowEstimate(t_end, est) for t_end, est in self._windows if est is not None]
         if not done:
             notes.append(f'only {self._acc.samples:.0f} rows of steady motion (at least {MIN_MOTION_SAMPLES} '
@@ -451,8 +423,8 @@ class Review:
         return done
 
     def _spread(self, tail: Observations | None) -> Spread:
-        """What a window's estimate is told of its residuals: their spread over ``tail`` (its
-        last ``TAIL_ROWS`` rows of motion) at its best fit (:func:`sample_spread`)."""
+        """What a window's estimate is told of its residuals: their spread over ``tail`` (the
+        window's sample of rows) at its best fit (:func:`sample_spread`)."""
 
         def spread(two_z: float, z_gb: float, best: F.FitAt, ref: Refined,
                    extra: Sequence[F.Column]) -> tuple[float, dict | None]:
@@ -467,8 +439,8 @@ class Review:
         return spread
 
     def _inflation(self, tail: Observations | None, two_z: float, z_gb: float, coef: NDArray[np.float64]) -> float:
-        """The residuals' variance inflation over ``tail`` (the window's last ``TAIL_ROWS`` rows
-        of motion), at the fit ``coef`` with the clearances (``two_z``, ``z_gb``) [m]."""
+        """The residuals' variance inflation over ``tail`` (the window's sample of rows), at the
+        fit ``coef`` with the clearances (``two_z``, ``z_gb``) [m]."""
         rows = None if tail is None else make_rows(tail, self._z(tail))
         if tail is None or rows is None or rows.u.shape[0] < MIN_MOTION_SAMPLES:
             self._notes.append(_LITTLE_MOTION)
@@ -534,8 +506,3 @@ class _Accel:
     def drop_before(self, t_ns: int) -> None:
         k = int(np.searchsorted(self._t, t_ns))
         self._t, self._v = self._t[k:], self._v[k:]
-
-
-def _concat_obs(parts: list[Observations]) -> Observations:
-    names = Observations.__dataclass_fields__
-    return Observations(*(np.concatenate([getattr(p, f) for p in parts]) for f in names))
