@@ -20,8 +20,8 @@ cost, about a microsecond a call, is counted in the parts):
 * analyses: the jobs (``SyncJobs.submit``: ``analyze`` of the window on the node's schedule),
   run at once when due, as a replay runs them;
 * messages: the states' load sharing solved and the states packed into MCAP records, a
-  batch of up to 16,384 frames' states at once, diagnostics into message fields and CDR, and
-  writing them (with the frames) to the MCAP;
+  batch of up to 16,384 frames' states at once, diagnostics into message fields, CDR and
+  records packed among the states', and writing them (with the frames) to the MCAP;
 * reading: the log read into blocks of frames (``iter_log_blocks``, each block's time);
 * the schedule (the rest): the pipeline's loop over runs, spans and seconds, by difference.
 
@@ -136,8 +136,12 @@ def _instrument(spent: dict[str, float], fine: bool) -> None:
     _clock(spent, 'analyses', SyncJobs, 'submit')
     for name in ('write_cdr', 'write', 'write_frames', 'write_records'):
         _clock(spent, 'messages', McapWriter, name)
-    for name in ('pack_states', 'diag_messages', 'write_messages'):   # the diagnostics' CDR encoding with the writing
+    for name in ('pack_states', 'diag_messages', 'pack_messages'):
         _clock(spent, 'messages', R, name)
+    from steer_monitor.record.cdr import FAST_ENCODERS    # the diagnostics' CDR, as the replay asks for it
+    for datatype in list(FAST_ENCODERS):
+        fn = _ORIGINALS.setdefault(('FAST_ENCODERS', datatype), FAST_ENCODERS[datatype])
+        FAST_ENCODERS[datatype] = _timed(spent, 'messages', fn)
     if not fine:
         return
     fn = _ORIGINALS.setdefault((R, 'iter_log_blocks'), R.iter_log_blocks)

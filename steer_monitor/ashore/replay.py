@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from steer_monitor.atomic import atomic_path, check_target, os_reason
 from steer_monitor.can.busconfig import Setup, can_setup, load_setup
@@ -37,7 +38,14 @@ from steer_monitor.errors import ParameterError, SteerMonitorError
 from steer_monitor.estimate.finding import Finding
 from steer_monitor.logfiles.blocks import in_time_order, iter_log_blocks
 from steer_monitor.logfiles.logs import LogError, log_path_problem
-from steer_monitor.logfiles.mcapio import FRAME_DATATYPE, FRAME_MSGDEF, FRAME_TOPIC, McapWriter, leading_metadata
+from steer_monitor.logfiles.mcapio import (
+    FRAME_DATATYPE,
+    FRAME_MSGDEF,
+    FRAME_TOPIC,
+    McapWriter,
+    leading_metadata,
+    pack_messages,
+)
 from steer_monitor.monitor.analyst import Analyst, SyncJobs
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig
 from steer_monitor.monitor.live import LiveMonitor
@@ -59,7 +67,7 @@ from steer_monitor.resources import default_config
 from steer_monitor.runtime import fewer_collections
 
 __all__ = ['FRAME_BATCH', 'ReplayError', 'ReplaySummary', 'Runner', 'SpanWatch', 'add_channels', 'note_overlap',
-           'recorded_setup', 'replay', 'replay_with', 'summary_json', 'write_messages']
+           'recorded_setup', 'replay', 'replay_with', 'summary_json']
 
 #: frames decoded and laid out at once, their outputs written together (about three minutes of
 #: gear traffic): a run's fixed costs (decoding's passes per PGN, the lay-out, the rates' plan)
@@ -188,7 +196,7 @@ def _replay(run: Runner, paths: list[Path], output: str | Path, config_path: Pat
     """The replay once set up: the MCAP written atomically, the summary filled in."""
     rejects = pipeline.rejects
     topics = {key: topic_name(key, node_name) for key in TOPICS}
-    encoders = {key: FAST_ENCODERS[dt] for key, (_, dt) in TOPICS.items() if dt in FAST_ENCODERS}
+    encoders = {key: FAST_ENCODERS[dt] for key, (_, dt) in TOPICS.items()}     # every topic has its CDR encoder
     with atomic_path(output) as tmp:
         try:
             writer = McapWriter(tmp)
@@ -224,18 +232,6 @@ def add_channels(writer: McapWriter, topics: dict[str, str], frames: bool) -> No
         writer.add_channel(FRAME_TOPIC, FRAME_DATATYPE)
 
 
-def write_messages(writer: McapWriter, topics: dict[str, str], encoders: dict[str, Any],
-                   msgs: list[tuple[str, int, Any]]) -> None:
-    """Messages ``(topic key, time [ns], fields)`` written, in CDR by the fast encoder where
-    there is one."""
-    for key, t_ns, fields in msgs:
-        fast = encoders.get(key)
-        if fast is not None:
-            writer.write_cdr(topics[key], fast(fields), t_ns)
-        else:
-            writer.write(topics[key], fields, t_ns)
-
-
 class SpanWatch:
     """The span of the stream a replay saw: :meth:`see` the stream's time before each frame
     (or a run's first and last) and its stamp; the first and last times go to the summary (a
@@ -267,26 +263,37 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
          progress: Callable[[int, int | None], None] | None, date: datetime.date | None) -> None:
     """Feed every frame of ``paths`` through ``pipeline`` in runs the decoder takes at once,
     writing what it emits (and the frames) to ``writer``: the states' load sharing solved and
-    their records packed in batches of up to ``FRAME_BATCH`` frames' outputs."""
+    their records packed in batches of up to ``FRAME_BATCH`` frames' outputs, the diagnostics'
+    records packed among them, each batch's records written at once."""
     add_channels(writer, topics, frames)
     queue: list[Output] = []       # outputs not yet written, their states solved and packed together
     rudder, share = writer.channel_id(topics['rudder']), writer.channel_id(topics['load_sharing'])
+    channel = {key: writer.channel_id(topics[key]) for key in TOPICS}
     gear = pipeline.monitor.gear
 
     def flush() -> None:
         """The queued outputs, in order: the load sharing of all their states solved at once,
-        their records packed at once and written between the diagnostics."""
+        their records packed at once, each diagnostics round's records (CDR by the fast
+        encoders) put after the states before it, and the whole written at once."""
         if not queue:
             return
         p = pack_states([o.state if isinstance(o, StateOut) else o for o in queue if not isinstance(o, DiagOut)],
                         rudder, share, gear)
-        done = seen = 0            # records written, states passed
+        sizes = np.diff(p.offsets)
+        data: list[bytes] = []
+        channels: list[NDArray[np.uint16]] = []
+        times: list[NDArray[np.int64]] = []
+        lengths: list[NDArray[np.int64]] = []
+        done = seen = 0            # state records taken, states passed
 
-        def records_until_seen() -> None:
+        def states_until_seen() -> None:
             nonlocal done
             end = int(p.state_ends[seen - 1]) if seen else 0
             if end > done:
-                writer.write_records(p.data, p.channels[done:end], p.log_times[done:end], p.offsets[done:end + 1])
+                data.append(p.data[int(p.offsets[done]):int(p.offsets[end])])
+                channels.append(p.channels[done:end])
+                times.append(p.log_times[done:end])
+                lengths.append(sizes[done:end])
                 done = end
         for o in queue:
             if isinstance(o, StateOut):
@@ -294,10 +301,22 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
             elif isinstance(o, StateRun):
                 seen += len(o)
             else:
-                records_until_seen()
-                write_messages(writer, topics, encoders, diag_messages(o))
-        records_until_seen()
+                states_until_seen()
+                msgs = diag_messages(o)
+                cids = np.array([channel[key] for key, _, _ in msgs], np.uint16)
+                t = np.array([t_ns for _, t_ns, _ in msgs], np.int64)
+                raw, offsets = pack_messages(cids, [encoders[key](fields) for key, _, fields in msgs], t)
+                data.append(raw)
+                channels.append(cids)
+                times.append(t)
+                lengths.append(np.diff(offsets))
+        states_until_seen()
         queue.clear()
+        if not lengths:
+            return
+        offsets = np.zeros(sum(x.size for x in lengths) + 1, np.int64)
+        np.cumsum(np.concatenate(lengths), out=offsets[1:])
+        writer.write_records(b''.join(data), np.concatenate(channels), np.concatenate(times), offsets)
 
     def emit(outs: list[Output]) -> None:
         for o in outs:

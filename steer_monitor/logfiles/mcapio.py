@@ -17,7 +17,8 @@ from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX
 from steer_monitor.rostime import SEC_MAX, ros_time
 
 __all__ = ['DEFAULT_QOS', 'FRAME_DATATYPE', 'FRAME_MSGDEF', 'FRAME_TOPIC', 'MESSAGE_HEAD', 'Counted', 'McapWriter',
-           'frame_cdr', 'frame_message', 'frame_records', 'leading_metadata', 'message_head', 'record_dtype']
+           'frame_cdr', 'frame_message', 'frame_records', 'leading_metadata', 'message_head', 'pack_messages',
+           'record_dtype']
 
 FRAME_TOPIC = '/steering_can/rx'
 FRAME_DATATYPE = 'can_msgs/msg/Frame'
@@ -59,6 +60,20 @@ def message_head(channel_id: int, log_time_ns: int, data_size: int) -> bytes:
     and published at ``log_time_ns``: as mcap's writer makes it for ``add_message``."""
     return MESSAGE_HEAD.pack(Opcode.MESSAGE, MESSAGE_HEAD.size - 9 + data_size, channel_id, 0, log_time_ns,
                              log_time_ns)
+
+
+def pack_messages(channels: NDArray[np.uint16], datas: Sequence[bytes], log_times: NDArray[np.int64]
+                  ) -> tuple[bytes, NDArray[np.int64]]:
+    """Already-serialized messages as Message records for :meth:`McapWriter.write_records`:
+    message ``i`` (``datas[i]``) on ``channels[i]`` at ``log_times[i]`` [ns]. Returns the
+    records' bytes and their offsets ((n + 1,): record ``i`` is ``data[offsets[i]:offsets[i + 1]]``)."""
+    n = len(datas)
+    data = b''.join([part for cid, d, t in zip(channels.tolist(), datas, log_times.tolist())
+                     for part in (message_head(cid, t, len(d)), d)])
+    offsets = np.zeros(n + 1, np.int64)
+    if n:
+        np.cumsum(np.fromiter((len(d) for d in datas), np.int64, n) + MESSAGE_HEAD.size, out=offsets[1:])
+    return data, offsets
 
 
 def frame_cdr(frame: Frame, frame_id: str = 'steering_can') -> bytes:
@@ -267,11 +282,9 @@ class McapWriter:
         if n == 0:
             return
         channels = np.fromiter((self._channels[t][0] for t in topics), np.uint16, n)
-        data = b''.join([part for cid, d, t in zip(channels.tolist(), datas, log_times)
-                         for part in (message_head(cid, t, len(d)), d)])
-        offsets = np.zeros(n + 1, np.int64)
-        np.cumsum(np.fromiter((len(d) for d in datas), np.int64, n) + MESSAGE_HEAD.size, out=offsets[1:])
-        self.write_records(data, channels, np.fromiter(log_times, np.int64, n), offsets)
+        times = np.fromiter(log_times, np.int64, n)
+        data, offsets = pack_messages(channels, datas, times)
+        self.write_records(data, channels, times, offsets)
 
     def channel_id(self, topic: str) -> int:
         """The MCAP channel id of a registered topic (for :meth:`write_records`)."""

@@ -17,9 +17,26 @@ import struct
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ['FAST_ENCODERS', 'encode_diagnostic_array', 'encode_joint_state', 'encode_string']
+__all__ = ['FAST_ENCODERS', 'MAX_STRINGS', 'encode_diagnostic_array', 'encode_joint_state', 'encode_string']
 
 _HEADER = b'\x00\x01\x00\x00'
+_U32 = struct.Struct('<I')
+
+#: the CDR strings made so far, by text (a diagnostics round's names, keys and most of its
+#: values recur every second): at most MAX_STRINGS kept, the others made each time
+_STRINGS: dict[str, bytes] = {}
+MAX_STRINGS = 4096
+
+
+def _string(s: str) -> bytes:
+    """A CDR string after its alignment: its length with the NUL (uint32), the UTF-8 bytes, the NUL."""
+    got = _STRINGS.get(s)
+    if got is None:
+        raw = s.encode()
+        got = _U32.pack(len(raw) + 1) + raw + b'\x00'
+        if len(_STRINGS) < MAX_STRINGS:
+            _STRINGS[s] = got
+    return got
 
 
 class _Writer:
@@ -55,9 +72,8 @@ class _Writer:
         self.string(h['frame_id'])
 
     def string(self, s: str) -> None:
-        raw = s.encode()
-        self.u32(len(raw) + 1)
-        self.buf += raw + b'\x00'
+        self.align(4)
+        self.buf += _string(s)
 
     def strings(self, items: list[str]) -> None:
         self.u32(len(items))
@@ -84,19 +100,13 @@ def encode_joint_state(m: dict[str, Any]) -> bytes:
     return w.done()
 
 
-_U32 = struct.Struct('<I')
-
-
 def _put_string(buf: bytearray, s: str) -> None:
     """A CDR string at the end of ``buf`` (whose length counts from after the encapsulation
-    header): aligned to 4, its length with the NUL, the bytes, the NUL."""
+    header): aligned to 4, then :func:`_string`."""
     pad = -len(buf) % 4
     if pad:
         buf += b'\x00' * pad
-    raw = s.encode()
-    buf += _U32.pack(len(raw) + 1)
-    buf += raw
-    buf += b'\x00'
+    buf += _string(s)
 
 
 def encode_diagnostic_array(m: dict[str, Any]) -> bytes:

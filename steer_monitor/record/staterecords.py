@@ -24,7 +24,7 @@ from functools import cache
 import numpy as np
 from numpy.typing import NDArray
 
-from steer_monitor.logfiles.mcapio import MESSAGE_HEAD, message_head
+from steer_monitor.logfiles.mcapio import message_head
 from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.loadshare import ShareScalar, load_sharing
 from steer_monitor.monitor.live import LiveState
@@ -97,16 +97,17 @@ class PackedStates:
     state_ends: NDArray[np.int64]
 
 
-def _fill(layout: _Layout, channel: int, t: NDArray[np.int64], floats: NDArray[np.float64]) -> NDArray[np.uint8]:
-    """(n, record size) bytes of ``n`` records from the template: channel, times, stamp, the
-    floats ((n, k), in the layout's order)."""
-    n, size = t.shape[0], len(layout.template)
-    rec = np.tile(np.frombuffer(layout.template, np.uint8), (n, 1))
-    head = rec[:, :MESSAGE_HEAD.size]
-    head[:, 9:11] = np.frombuffer(np.uint16(channel).tobytes(), np.uint8)
+def _fill(layout: _Layout, channel: int, t: NDArray[np.int64], floats: NDArray[np.float64],
+          rec: NDArray[np.uint8]) -> None:
+    """``n`` records from the template into ``rec`` ((n, record size), a view of the rows):
+    channel, times, stamp, the floats ((n, k), in the layout's order)."""
+    n = t.shape[0]
+    assert rec.shape == (n, len(layout.template))
+    rec[:] = np.frombuffer(layout.template, np.uint8)
+    rec[:, 9:11] = np.frombuffer(np.uint16(channel).tobytes(), np.uint8)
     times = t.astype('<u8').view(np.uint8).reshape(n, 8)
-    head[:, 15:23] = times
-    head[:, 23:31] = times
+    rec[:, 15:23] = times
+    rec[:, 23:31] = times
     sec, nsec = np.divmod(t, 1_000_000_000)
     unset = (sec > SEC_MAX) | (sec < -SEC_MAX - 1)     # see rostime.ros_time
     stamp = np.empty(n, [('sec', '<i4'), ('nsec', '<u4')])
@@ -115,8 +116,6 @@ def _fill(layout: _Layout, channel: int, t: NDArray[np.int64], floats: NDArray[n
     f = np.ascontiguousarray(floats, '<f8').view(np.uint8).reshape(n, len(layout.floats), 8)
     for k, at in enumerate(layout.floats):
         rec[:, at:at + 8] = f[:, k]
-    assert rec.shape == (n, size)
-    return rec
 
 
 def _shares(shares: list[ShareScalar], given: NDArray[np.bool_], todo: NDArray[np.bool_],
@@ -204,28 +203,25 @@ def pack_states(states: Sequence[LiveState | StateRun], rudder_channel: int, sha
     c = _columns(states)
     t, alpha, rate, torque = c.t, c.alpha, c.rate, c.torque
     n = t.shape[0]
-    rudder = _fill(joint, rudder_channel, t, np.stack([alpha, rate, np.copysign(torque, alpha)], axis=1))
     given = c.given
     todo = np.zeros(n, bool)              # left to be solved here: only with the gear to solve them
     if gear is not None:
         todo = ~given & c.measured
     has = given | todo
-    floats = _shares(c.shares, given, todo, alpha, torque, c.two_z, c.z_gb, gear)
-    m = floats.shape[0]
-    sh = _fill(share, share_channel, t[has], floats)
-    a, b = rudder.shape[1], sh.shape[1]
-    sizes = np.where(has, a + b, a)
-    offsets = np.zeros(n + m + 1, np.int64)
-    starts = np.cumsum(sizes) - sizes           # each state's first byte
-    out = np.empty(int(sizes.sum()), np.uint8)
-    out[(starts[:, None] + np.arange(a)).ravel()] = rudder.ravel()
-    out[((starts[has] + a)[:, None] + np.arange(b)).ravel()] = sh.ravel()
-    # record order: per state, its rudder then its load sharing
-    order_t = np.repeat(t, np.where(has, 2, 1))
-    kind = np.zeros(n + m, bool)                   # True: a load-sharing record
-    pos = np.cumsum(np.where(has, 2, 1)) - 1       # the last record of each state
-    kind[pos[has]] = True
-    rec_size = np.where(kind, b, a)
-    offsets[1:] = np.cumsum(rec_size)
+    a, b = len(joint.template), len(share.template)
+    # a row per state: its rudder record, then a load sharing's (dropped where it has none)
+    rows = np.empty((n, a + b), np.uint8)
+    _fill(joint, rudder_channel, t, np.stack([alpha, rate, np.copysign(torque, alpha)], axis=1), rows[:, :a])
+    floats = np.zeros((n, len(_SHARE_FLOATS)))
+    floats[has] = _shares(c.shares, given, todo, alpha, torque, c.two_z, c.z_gb, gear)
+    _fill(share, share_channel, t, floats, rows[:, a:])
+    keep = np.ones((n, a + b), bool)
+    keep[~has, a:] = False
+    per_state = np.where(has, 2, 1)
+    ends = np.cumsum(per_state)                    # per state, the index of the record after its own
+    kind = np.zeros(int(ends[-1]) if n else 0, bool)   # True: a load-sharing record
+    kind[ends[has] - 1] = True
+    offsets = np.zeros(kind.size + 1, np.int64)
+    np.cumsum(np.where(kind, b, a), out=offsets[1:])
     channels = np.where(kind, share_channel, rudder_channel).astype(np.uint16)
-    return PackedStates(out.tobytes(), channels, order_t, offsets, pos + 1)
+    return PackedStates(rows[keep].tobytes(), channels, np.repeat(t, per_state), offsets, ends)

@@ -89,6 +89,20 @@ def test_any_diagnostic_array_matches_the_generic_encoder(frame_id, status):
     assert FAST_ENCODERS[dt](fields) == _generic(dt)(fields)
 
 
+def test_strings_past_the_kept_ones_are_encoded_the_same():
+    """The encoders keep the CDR of at most MAX_STRINGS texts: a round of more distinct texts
+    than that, encoded twice (the second time partly from what was kept), is the generic
+    encoder's both times."""
+    from steer_monitor.record.cdr import MAX_STRINGS
+    dt = 'diagnostic_msgs/msg/DiagnosticArray'
+    values = [{'key': f'k{i}', 'value': f'v{i} \u00b0'} for i in range(MAX_STRINGS)]
+    fields = {'header': {'stamp': {'sec': 1, 'nanosec': 2}, 'frame_id': 'x'},
+              'status': [{'level': 0, 'name': 'n', 'message': 'm', 'hardware_id': 'h', 'values': values}]}
+    want = _generic(dt)(fields)
+    assert FAST_ENCODERS[dt](fields) == want
+    assert FAST_ENCODERS[dt](fields) == want
+
+
 @pytest.mark.parametrize('text', ['', 'estimated', 'configured', '\u00e9'])
 def test_string_matches_the_generic_encoder(text):
     dt = 'std_msgs/msg/String'
