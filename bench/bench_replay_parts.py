@@ -136,12 +136,7 @@ def _instrument(spent: dict[str, float], fine: bool) -> None:
     _clock(spent, 'analyses', SyncJobs, 'submit')
     for name in ('write_cdr', 'write', 'write_frames', 'write_records'):
         _clock(spent, 'messages', McapWriter, name)
-    for name in ('pack_states', 'diag_messages', 'pack_messages'):
-        _clock(spent, 'messages', R, name)
-    from steer_monitor.record.cdr import FAST_ENCODERS    # the diagnostics' CDR, as the replay asks for it
-    for datatype in list(FAST_ENCODERS):
-        fn = _ORIGINALS.setdefault(('FAST_ENCODERS', datatype), FAST_ENCODERS[datatype])
-        FAST_ENCODERS[datatype] = _timed(spent, 'messages', fn)
+    _clock(spent, 'messages', R, 'write_outputs')     # a batch of outputs packed and written
     if not fine:
         return
     fn = _ORIGINALS.setdefault((R, 'iter_log_blocks'), R.iter_log_blocks)

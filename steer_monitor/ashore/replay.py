@@ -46,6 +46,7 @@ from steer_monitor.logfiles.mcapio import (
     leading_metadata,
     pack_messages,
 )
+from steer_monitor.model.gear import GearParams
 from steer_monitor.monitor.analyst import Analyst, SyncJobs
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig
 from steer_monitor.monitor.live import LiveMonitor
@@ -67,7 +68,7 @@ from steer_monitor.resources import default_config
 from steer_monitor.runtime import fewer_collections
 
 __all__ = ['FRAME_BATCH', 'ReplayError', 'ReplaySummary', 'Runner', 'SpanWatch', 'add_channels', 'note_overlap',
-           'recorded_setup', 'replay', 'replay_with', 'summary_json']
+           'recorded_setup', 'replay', 'replay_with', 'summary_json', 'write_outputs']
 
 #: frames decoded and laid out at once, their outputs written together (about three minutes of
 #: gear traffic): a run's fixed costs (decoding's passes per PGN, the lay-out, the rates' plan)
@@ -232,6 +233,57 @@ def add_channels(writer: McapWriter, topics: dict[str, str], frames: bool) -> No
         writer.add_channel(FRAME_TOPIC, FRAME_DATATYPE)
 
 
+def write_outputs(writer: McapWriter, outputs: Sequence[Output], channels: dict[str, int],
+                  encoders: dict[str, Any], gear: GearParams | None) -> None:
+    """Outputs written in their order, as one batch: the load sharing of all their states
+    solved at once (with ``gear``), their records packed at once
+    (:func:`~steer_monitor.record.staterecords.pack_states`), each diagnostics round's
+    records (its messages' CDR by ``encoders``, per topic key) put after the states before
+    it, and the whole appended at once (``McapWriter.write_records``). ``channels``: the MCAP
+    channel of each topic key."""
+    if not outputs:
+        return
+    p = pack_states([o.state if isinstance(o, StateOut) else o for o in outputs if not isinstance(o, DiagOut)],
+                    channels['rudder'], channels['load_sharing'], gear)
+    sizes = np.diff(p.offsets)
+    data: list[bytes] = []
+    cids: list[NDArray[np.uint16]] = []
+    times: list[NDArray[np.int64]] = []
+    lengths: list[NDArray[np.int64]] = []
+    done = seen = 0            # state records taken, states passed
+
+    def states_until_seen() -> None:
+        nonlocal done
+        end = int(p.state_ends[seen - 1]) if seen else 0
+        if end > done:
+            data.append(p.data[int(p.offsets[done]):int(p.offsets[end])])
+            cids.append(p.channels[done:end])
+            times.append(p.log_times[done:end])
+            lengths.append(sizes[done:end])
+            done = end
+    for o in outputs:
+        if isinstance(o, StateOut):
+            seen += 1
+        elif isinstance(o, StateRun):
+            seen += len(o)
+        else:
+            states_until_seen()
+            msgs = diag_messages(o)
+            c = np.array([channels[key] for key, _, _ in msgs], np.uint16)
+            t = np.array([t_ns for _, t_ns, _ in msgs], np.int64)
+            raw, offsets = pack_messages(c, [encoders[key](fields) for key, _, fields in msgs], t)
+            data.append(raw)
+            cids.append(c)
+            times.append(t)
+            lengths.append(np.diff(offsets))
+    states_until_seen()
+    if not lengths:
+        return
+    offsets = np.zeros(sum(x.size for x in lengths) + 1, np.int64)
+    np.cumsum(np.concatenate(lengths), out=offsets[1:])
+    writer.write_records(b''.join(data), np.concatenate(cids), np.concatenate(times), offsets)
+
+
 class SpanWatch:
     """The span of the stream a replay saw: :meth:`see` the stream's time before each frame
     (or a run's first and last) and its stamp; the first and last times go to the summary (a
@@ -267,56 +319,12 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
     records packed among them, each batch's records written at once."""
     add_channels(writer, topics, frames)
     queue: list[Output] = []       # outputs not yet written, their states solved and packed together
-    rudder, share = writer.channel_id(topics['rudder']), writer.channel_id(topics['load_sharing'])
-    channel = {key: writer.channel_id(topics[key]) for key in TOPICS}
+    channels = {key: writer.channel_id(topics[key]) for key in TOPICS}
     gear = pipeline.monitor.gear
 
     def flush() -> None:
-        """The queued outputs, in order: the load sharing of all their states solved at once,
-        their records packed at once, each diagnostics round's records (CDR by the fast
-        encoders) put after the states before it, and the whole written at once."""
-        if not queue:
-            return
-        p = pack_states([o.state if isinstance(o, StateOut) else o for o in queue if not isinstance(o, DiagOut)],
-                        rudder, share, gear)
-        sizes = np.diff(p.offsets)
-        data: list[bytes] = []
-        channels: list[NDArray[np.uint16]] = []
-        times: list[NDArray[np.int64]] = []
-        lengths: list[NDArray[np.int64]] = []
-        done = seen = 0            # state records taken, states passed
-
-        def states_until_seen() -> None:
-            nonlocal done
-            end = int(p.state_ends[seen - 1]) if seen else 0
-            if end > done:
-                data.append(p.data[int(p.offsets[done]):int(p.offsets[end])])
-                channels.append(p.channels[done:end])
-                times.append(p.log_times[done:end])
-                lengths.append(sizes[done:end])
-                done = end
-        for o in queue:
-            if isinstance(o, StateOut):
-                seen += 1
-            elif isinstance(o, StateRun):
-                seen += len(o)
-            else:
-                states_until_seen()
-                msgs = diag_messages(o)
-                cids = np.array([channel[key] for key, _, _ in msgs], np.uint16)
-                t = np.array([t_ns for _, t_ns, _ in msgs], np.int64)
-                raw, offsets = pack_messages(cids, [encoders[key](fields) for key, _, fields in msgs], t)
-                data.append(raw)
-                channels.append(cids)
-                times.append(t)
-                lengths.append(np.diff(offsets))
-        states_until_seen()
+        write_outputs(writer, queue, channels, encoders, gear)
         queue.clear()
-        if not lengths:
-            return
-        offsets = np.zeros(sum(x.size for x in lengths) + 1, np.int64)
-        np.cumsum(np.concatenate(lengths), out=offsets[1:])
-        writer.write_records(b''.join(data), np.concatenate(channels), np.concatenate(times), offsets)
 
     def emit(outs: list[Output]) -> None:
         for o in outs:
