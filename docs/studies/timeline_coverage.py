@@ -3,7 +3,7 @@
 ``report`` shows two kinds of clearance estimate: the model check's (``analyze`` of the whole
 log: the page's boxes and its load-sharing figure) and, over time, the review's windows (the
 plot of the clearances over time: an estimate from the binned statistics of the data up to each
-window's end, its intervals scaled by the recent residuals' spread). This study runs the
+window's end, its intervals scaled by the residuals' spread over a sample of its rows). This study runs the
 report's paths (:func:`steer_monitor.ashore.reviewlogs.review_logs`,
 :func:`steer_monitor.ashore.loganalysis.model_check`, and the windows refitted under the effects
 it adopted, :func:`steer_monitor.ashore.reviewlogs.refit_windows`) over

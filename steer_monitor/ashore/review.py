@@ -266,9 +266,9 @@ class Review:
             self._acc = self._acc.merge(self._slices[k])
         self._merged_below = key
 
-    def _estimate(self, mom: Moments, tail: Observations | None, reuse: bool = True) -> ClearanceEstimate | None:
-        """The estimate from ``mom``: coarse profile, inflation of the residuals over ``tail``
-        (the window's last rows) at its best point, fine profile on the search box. With
+    def _estimate(self, mom: Moments, sample: Observations | None, reuse: bool = True) -> ClearanceEstimate | None:
+        """The estimate from ``mom``: coarse profile, inflation of the residuals over ``sample``
+        (the window's sample of its rows) at its best point, fine profile on the search box. With
         ``reuse``, a window after the first first tries the box the window before found (the
         moments only grew), with the inflation at that box's best fit, and keeps it when
         :func:`box_holds` says it held."""
@@ -276,23 +276,23 @@ class Review:
             return None
         try:
             if reuse and self.reuse_boxes and self._box is not None:
-                est = estimate_in_box(self.gear, mom, *self._box, self._spread(tail), self._extra)
+                est = estimate_in_box(self.gear, mom, *self._box, self._spread(sample), self._extra)
                 if box_holds(est, self.grid_2z, F.GRID_ZGB):
                     self.boxes_reused += 1
                     return est
             coarse = coarse_profile(self.gear, mom, self.grid_2z, F.GRID_ZGB, extra=self._extra)
             pr, g2, gz = coarse
             bi, bj = pr.best
-            vif = self._inflation(tail, float(g2[bi]), float(gz[bj]), pr.coef)
+            vif = self._inflation(sample, float(g2[bi]), float(gz[bj]), pr.coef)
             self._box = search_box(self.gear, mom, self.grid_2z, F.GRID_ZGB, vif, coarse=coarse)
-            est = estimate_in_box(self.gear, mom, *self._box, self._spread(tail), self._extra)
+            est = estimate_in_box(self.gear, mom, *self._box, self._spread(sample), self._extra)
             if box_holds(est, self.grid_2z, F.GRID_ZGB):
                 return est
             # the box was drawn with the residuals' correlation alone; their cluster-robust spread
             # can widen an interval past it (its end would be the box's edge): the whole grid
             self.boxes_missed += 1
             self._box = (self.grid_2z, F.GRID_ZGB)
-            return estimate_in_box(self.gear, mom, self.grid_2z, F.GRID_ZGB, self._spread(tail), self._extra)
+            return estimate_in_box(self.gear, mom, self.grid_2z, F.GRID_ZGB, self._spread(sample), self._extra)
         except EstimateError as exc:
             self._notes.append(f'an estimate failed: {exc}')
             return None
@@ -328,7 +328,7 @@ class Review:
             keep &= ~self._located.near_ends(obs)
         if keep.any():
             self._take(obs.select(keep))
-        if self._accel is not None:     # kept for the rows held or in the tail only (a log at rest adds none)
+        if self._accel is not None:     # kept for the rows held or in the sample only (a log at rest adds none)
             firsts = [t for t in (self._sample.first_ns(), None if self._held is None or not len(self._held)
                                   else int(self._held.t_ns[0])) if t is not None]
             self._accel.drop_before(min(firsts, default=end))
@@ -422,32 +422,32 @@ class Review:
                          'needed): the clearances are not estimated')
         return done
 
-    def _spread(self, tail: Observations | None) -> Spread:
-        """What a window's estimate is told of its residuals: their spread over ``tail`` (the
-        window's sample of rows) at its best fit (:func:`sample_spread`)."""
+    def _spread(self, sample: Observations | None) -> Spread:
+        """What a window's estimate is told of its residuals: their spread over ``sample`` (the
+        window's sample of its rows) at its best fit (:func:`sample_spread`)."""
 
         def spread(two_z: float, z_gb: float, best: F.FitAt, ref: Refined,
                    extra: Sequence[F.Column]) -> tuple[float, dict | None]:
-            if tail is None:
+            if sample is None:
                 self._notes.append(_LITTLE_MOTION)
                 return 1.0, None
-            vif, scales = sample_spread(self.gear, tail, two_z, z_gb, best, ref, extra, self._z(tail),
+            vif, scales = sample_spread(self.gear, sample, two_z, z_gb, best, ref, extra, self._z(sample),
                                         self._model_inflation)
             if scales is None:
                 self._notes.append(_LITTLE_MOTION)
             return vif, scales
         return spread
 
-    def _inflation(self, tail: Observations | None, two_z: float, z_gb: float, coef: NDArray[np.float64]) -> float:
-        """The residuals' variance inflation over ``tail`` (the window's sample of rows), at the
-        fit ``coef`` with the clearances (``two_z``, ``z_gb``) [m]."""
-        rows = None if tail is None else make_rows(tail, self._z(tail))
-        if tail is None or rows is None or rows.u.shape[0] < MIN_MOTION_SAMPLES:
+    def _inflation(self, sample: Observations | None, two_z: float, z_gb: float, coef: NDArray[np.float64]) -> float:
+        """The residuals' variance inflation over ``sample`` (the window's sample of its rows), at
+        the fit ``coef`` with the clearances (``two_z``, ``z_gb``) [m]."""
+        rows = None if sample is None else make_rows(sample, self._z(sample))
+        if sample is None or rows is None or rows.u.shape[0] < MIN_MOTION_SAMPLES:
             self._notes.append(_LITTLE_MOTION)
             return 1.0
         basis = F.TorqueBasis(self.gear.max_rudder)
         load = F.axial_load(self.gear, basis, rows.moments, coef)
-        return residuals_and_inflation(self.gear, basis, rows, tail.t_ns, coef, two_z, z_gb, load, self._extra)[1]
+        return residuals_and_inflation(self.gear, basis, rows, sample.t_ns, coef, two_z, z_gb, load, self._extra)[1]
 
     def _z(self, obs: Observations) -> dict[str, NDArray[np.float64]]:
         """The per-observation columns the model's effects read (none for the declared model),

@@ -426,7 +426,7 @@ def sample_spread(gear: GearParams, obs: Observations, two_z: float, z_gb: float
                   model_inflation: float = 1.0) -> tuple[float, dict[str, RobustScale] | None]:
     """The residuals' spread at the fit ``best`` (clearances ``two_z``, ``z_gb`` [m], profile
     ``ref``, with its ``extra`` columns) over the steady-motion observations ``obs``
-    (a sample of the estimate's rows: the review keeps its last minutes of motion): the
+    (a sample of the estimate's rows: the review's :class:`~steer_monitor.ashore.rowsample.RowSample`): the
     variance inflation of their correlation in time and each parameter's cluster-robust scale
     (:func:`~steer_monitor.estimate.robust.robust_scales`, as :func:`estimate_clearances` has
     them of all its rows). ``z``: the per-observation columns the ``extra`` columns read, as
