@@ -49,8 +49,11 @@ class RowSample:
             msg = f'a row sample needs max_rows and chunk_ns >= 1, got {max_rows}, {chunk_ns}'
             raise ValueError(msg)
         self.max_rows, self.chunk_ns = max_rows, chunk_ns
-        self._counts: dict[int, int] = {}                 # rows added per chunk, every chunk seen
+        self._ids: list[int] = []                         # every chunk seen, in order
+        self._counts: list[int] = []                      # rows added to each
         self._rows: dict[int, list[Observations]] = {}    # the rows kept, per chunk
+        self._latest: int | None = None                   # the latest row's time [ns]
+        self._settled = -1              # not planned: chunks up to this one are kept or dropped for good
 
     def add(self, obs: Observations) -> None:
         """Rows later than any added before."""
@@ -59,8 +62,13 @@ class RowSample:
         chunk = obs.t_ns // self.chunk_ns
         for c in np.unique(chunk).tolist():
             part = obs.select(chunk == c)
-            self._counts[c] = self._counts.get(c, 0) + len(part)
+            if self._ids and self._ids[-1] == c:
+                self._counts[-1] += len(part)
+            else:
+                self._ids.append(c)
+                self._counts.append(len(part))
             self._rows.setdefault(c, []).append(part)
+        self._latest = int(obs.t_ns[-1])
 
     @property
     def kept(self) -> int:
@@ -75,10 +83,10 @@ class RowSample:
         """The sample's stride for a window ending at ``end_ns``: the least power of two ``s``
         with at most ``max_rows`` rows in the chunks begun before ``end_ns`` whose index is a
         multiple of ``s``."""
-        last = -(-end_ns // self.chunk_ns)
-        counts = [(c, n) for c, n in self._counts.items() if c < last]
+        k = int(np.searchsorted(self._ids, -(-end_ns // self.chunk_ns)))
+        ids, counts = np.asarray(self._ids[:k], np.int64), np.asarray(self._counts[:k], np.int64)
         s = 1
-        while sum(n for c, n in counts if c % s == 0) > self.max_rows:
+        while int(counts[ids % s == 0].sum()) > self.max_rows:
             s *= 2
         return s
 
@@ -101,18 +109,24 @@ class RowSample:
         of ``boundary_ns`` (one that is not); the whole log's estimate, after every row, asks
         for the largest stride of all. A chunk is asked for by the first window ending after
         its start, at a stride no smaller than that window's as counted now."""
+        planned = next_end_ns is not None and step_ns is not None
+        if not planned and boundary_ns is None:
+            return
+        if any(x is not None and x % self.chunk_ns for x in (next_end_ns, step_ns, boundary_ns)):
+            msg = f'windows must end on whole chunks of {self.chunk_ns} ns'
+            raise ValueError(msg)
         strides: dict[int, int] = {}
-        for c in list(self._rows):
+        for c in [c for c in self._rows if planned or c > self._settled]:
             start = c * self.chunk_ns
-            if next_end_ns is not None and step_ns is not None:
+            if planned:
                 end = next_end_ns if start < next_end_ns else \
                     next_end_ns + (-(-(start + 1 - next_end_ns) // step_ns)) * step_ns
-            elif boundary_ns is not None:
-                end = (start // boundary_ns + 1) * boundary_ns
             else:
-                return
+                end = (start // boundary_ns + 1) * boundary_ns
             s = strides.get(end)
             if s is None:
                 s = strides[end] = self.stride(end)
             if c % s:
                 del self._rows[c]
+            if not planned and self._latest is not None and end <= self._latest:
+                self._settled = c       # the rows before its window's end are all in: its stride is final

@@ -105,3 +105,14 @@ def test_a_short_voyage_is_sampled_whole():
 def test_a_sample_refuses_a_size_it_cannot_have():
     with pytest.raises(ValueError, match='max_rows and chunk_ns >= 1, got 0'):
         RowSample(0)
+
+
+def test_windows_that_do_not_end_on_whole_chunks_are_refused():
+    """A window's sample counts whole chunks: an end inside one would make it depend on the
+    rows read after the end."""
+    sample = RowSample(100)
+    sample.add(_rows(_voyage(7, 0.2)))
+    with pytest.raises(ValueError, match='windows must end on whole chunks of 300000000000 ns'):
+        sample.prune(boundary_ns=CHUNK_NS // 2)
+    with pytest.raises(ValueError, match='whole chunks'):
+        sample.prune(next_end_ns=T0 + CHUNK_NS + 1, step_ns=CHUNK_NS)
