@@ -274,25 +274,26 @@ class Review:
         :func:`box_holds` says it held."""
         if mom.samples < MIN_MOTION_SAMPLES:
             return None
+        z = None if sample is None else self._z(sample)     # the effects' columns of the sample, once
         try:
             if reuse and self.reuse_boxes and self._box is not None:
-                est = estimate_in_box(self.gear, mom, *self._box, self._spread(sample), self._extra)
+                est = estimate_in_box(self.gear, mom, *self._box, self._spread(sample, z), self._extra)
                 if box_holds(est, self.grid_2z, F.GRID_ZGB):
                     self.boxes_reused += 1
                     return est
             coarse = coarse_profile(self.gear, mom, self.grid_2z, F.GRID_ZGB, extra=self._extra)
             pr, g2, gz = coarse
             bi, bj = pr.best
-            vif = self._inflation(sample, float(g2[bi]), float(gz[bj]), pr.coef)
+            vif = self._inflation(sample, z, float(g2[bi]), float(gz[bj]), pr.coef)
             self._box = search_box(self.gear, mom, self.grid_2z, F.GRID_ZGB, vif, coarse=coarse)
-            est = estimate_in_box(self.gear, mom, *self._box, self._spread(sample), self._extra)
+            est = estimate_in_box(self.gear, mom, *self._box, self._spread(sample, z), self._extra)
             if box_holds(est, self.grid_2z, F.GRID_ZGB):
                 return est
             # the box was drawn with the residuals' correlation alone; their cluster-robust spread
             # can widen an interval past it (its end would be the box's edge): the whole grid
             self.boxes_missed += 1
             self._box = (self.grid_2z, F.GRID_ZGB)
-            return estimate_in_box(self.gear, mom, self.grid_2z, F.GRID_ZGB, self._spread(sample), self._extra)
+            return estimate_in_box(self.gear, mom, self.grid_2z, F.GRID_ZGB, self._spread(sample, z), self._extra)
         except EstimateError as exc:
             self._notes.append(f'an estimate failed: {exc}')
             return None
@@ -422,26 +423,29 @@ class Review:
                          'needed): the clearances are not estimated')
         return done
 
-    def _spread(self, sample: Observations | None) -> Spread:
+    def _spread(self, sample: Observations | None, z: dict[str, NDArray[np.float64]] | None) -> Spread:
         """What a window's estimate is told of its residuals: their spread over ``sample`` (the
-        window's sample of its rows) at its best fit (:func:`sample_spread`)."""
+        window's sample of its rows, ``z`` its effects' columns) at its best fit
+        (:func:`sample_spread`)."""
 
         def spread(two_z: float, z_gb: float, best: F.FitAt, ref: Refined,
                    extra: Sequence[F.Column]) -> tuple[float, dict | None]:
             if sample is None:
                 self._notes.append(_LITTLE_MOTION)
                 return 1.0, None
-            vif, scales = sample_spread(self.gear, sample, two_z, z_gb, best, ref, extra, self._z(sample),
+            vif, scales = sample_spread(self.gear, sample, two_z, z_gb, best, ref, extra, z,
                                         self._model_inflation)
             if scales is None:
                 self._notes.append(_LITTLE_MOTION)
             return vif, scales
         return spread
 
-    def _inflation(self, sample: Observations | None, two_z: float, z_gb: float, coef: NDArray[np.float64]) -> float:
-        """The residuals' variance inflation over ``sample`` (the window's sample of its rows), at
-        the fit ``coef`` with the clearances (``two_z``, ``z_gb``) [m]."""
-        rows = None if sample is None else make_rows(sample, self._z(sample))
+    def _inflation(self, sample: Observations | None, z: dict[str, NDArray[np.float64]] | None, two_z: float,
+                   z_gb: float, coef: NDArray[np.float64]) -> float:
+        """The residuals' variance inflation over ``sample`` (the window's sample of its rows,
+        ``z`` its effects' columns), at the fit ``coef`` with the clearances (``two_z``,
+        ``z_gb``) [m]."""
+        rows = None if sample is None else make_rows(sample, z)
         if sample is None or rows is None or rows.u.shape[0] < MIN_MOTION_SAMPLES:
             self._notes.append(_LITTLE_MOTION)
             return 1.0
