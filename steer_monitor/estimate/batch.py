@@ -240,7 +240,14 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: PF.Profile,
     # angle cell and ``best`` per bin, which differ by ~1e-4 of the RSS (a deviance of ~1)
     floor = float(ref.rss.min())
     flat = RobustScale(vif, math.inf)
-    rs = [flat, flat] if scales is None else [scales.get(name, flat) for name in CLEARANCES]
+
+    def scale_of(name: str) -> RobustScale:
+        # a parameter the rows could not measure (its column empty there, or too few clusters)
+        # is read as one not differentiated: never narrower than the correlation in time gives
+        r = None if scales is None else scales.get(name)
+        return flat if r is None else r if r.by else RobustScale(max(r.scale, vif), math.inf)
+
+    rs = [scale_of(name) for name in CLEARANCES]
     units = [sigma2 * r.scale * (MODEL_ERROR_FLOOR if scales is not None else 1.0) for r in rs]
     unit = max(units)
     delta = (pr.rss - floor) / unit
@@ -262,7 +269,7 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: PF.Profile,
     for name in best.names[basis.size:]:
         k = best.names.index(name)
         c = np.array([f.coef[k] for _, _, f in region_fits])
-        r = flat if scales is None else scales.get(name, flat)
+        r = scale_of(name)
         z = math.sqrt(r.threshold_1)
         with np.errstate(over='ignore', invalid='ignore'):   # ill-posed fits in a wide region
             se = np.sqrt(np.maximum(np.array([f.cov_unscaled[k, k] for _, _, f in region_fits]), 0.0) * sigma2

@@ -232,6 +232,38 @@ def test_a_box_that_cuts_the_answer_off_does_not_hold(r18_params, can_db, voyage
     assert not box_holds(away, rv.grid_2z, F.GRID_ZGB)
 
 
+def test_a_clearance_scale_the_rows_could_not_measure_is_never_below_the_time_correlations(r18_params, can_db,
+                                                                                           voyage):
+    """A clearance differentiated at the fit whose robust scale the rows could not measure
+    (its column empty in a window's sample, too few clusters) came back as 1 and was taken as
+    measured: narrower than a clearance not differentiated at all, which the correlation in
+    time (the inflation) widens. Now it is read as one not measured."""
+    import math
+
+    from steer_monitor.estimate import fit as F
+    from steer_monitor.estimate.batch import estimate_in_box
+    from steer_monitor.estimate.robust import MODEL_ERROR_FLOOR, RobustScale
+
+    res, rv = _review(r18_params, can_db, voyage, 3, with_review=True)
+    mom, gear = rv._acc, gear_from_params(r18_params)
+    vif = 3.0
+
+    def told(scale_2z: RobustScale):
+        def spread(*_):
+            return vif, {'two_z': scale_2z, 'z_gb': RobustScale(5.0, 40.0, 'state')}
+        return estimate_in_box(gear, mom, rv.grid_2z, F.GRID_ZGB, spread)
+
+    unmeasured = told(RobustScale(1.0, math.inf))
+    measured = told(RobustScale(vif, math.inf, 'time'))
+    assert unmeasured.scales[0] == pytest.approx(vif * MODEL_ERROR_FLOOR, rel=1e-12)
+    assert unmeasured.thresholds[0] == pytest.approx(measured.thresholds[0], rel=1e-12)
+    assert (unmeasured.two_z.lo, unmeasured.two_z.hi) == (measured.two_z.lo, measured.two_z.hi)
+    # a scale measured above the inflation stands as measured, and Z_gb's own is untouched
+    wide = told(RobustScale(7.0, 12.0, 'state'))
+    assert wide.scales[0] == pytest.approx(7.0 * MODEL_ERROR_FLOOR, rel=1e-12)
+    assert unmeasured.scales[1] == pytest.approx(5.0 * MODEL_ERROR_FLOOR, rel=1e-12)
+
+
 def test_a_ram_read_the_wrong_way_round_is_named_and_nothing_estimated(r18_params, can_db, voyage):
     """Ram 2's starboard and port inputs swapped (a new vessel's map): before, the report's
     estimates were made from it as from any log, 0.0 mm for Z_gb with no note."""
