@@ -25,6 +25,12 @@ for nothing. The result is each clearance's marginal profile (least RSS over the
 clearance) on the merged axis, and every pair evaluated, from which the estimate takes its
 best point, intervals and joint region.
 
+Before that, a valley the grid steps over (:func:`_deeper_valley`): a clamp can pin a
+clearance in a valley narrower than the grid's step away from the grid's best, its bottom
+below the best though the grid's points on its flanks stand high. Each clearance's lowest
+local minima the grid does not resolve are profiled between their grid neighbours; one that
+goes below the grid's best becomes the best the refinement goes on from.
+
 RSS here is the profile's (friction features per angle cell, :func:`~steer_monitor.estimate.pointfit.fit_points`),
 so refined and grid points compare on the same footing.
 """
@@ -43,7 +49,7 @@ from steer_monitor.estimate.intervals import CHI2_1_95
 from steer_monitor.estimate.moments import Moments
 from steer_monitor.model.gear import GearParams
 
-__all__ = ['MIN_POINTS', 'SHARP_STEPS', 'Marginal', 'Refined', 'marginal_of', 'refine_profile']
+__all__ = ['MIN_POINTS', 'SHARP_STEPS', 'VALLEYS', 'Marginal', 'Refined', 'marginal_of', 'refine_profile']
 
 SHARP_STEPS = 4          # a 95 % set narrower than this many grid steps is profiled between them
 POINTS = 11              # values of the finer axis per pass
@@ -55,6 +61,9 @@ MOVES = 8                # ... moving on at most this many times while the least
 ZOOMS = 3                # ... then +-2 quarters of that step around the best, three times (to 1/64),
                          # and last at the vertex of the parabola through the best and its neighbours
 DECIMALS = 12            # m: values rounded to a picometre, so a grid value is found as itself
+VALLEYS = 2              # a clearance's lowest local minima on the grid looked into between grid points
+VALLEY_POINTS = 9        # values across a valley, its two grid neighbours included
+VALLEY_ZOOMS = 2         # ... then +-2 quarters of that spacing around the least, twice
 
 
 @dataclass(frozen=True)
@@ -211,12 +220,17 @@ class _Axis:
         self.fine: dict[float, tuple[float, float]] = {}
         self.spans: list[tuple[float, float]] = []   # ranges profiled between grid points
 
-    def run(self, xs: NDArray[np.float64]) -> None:
+    def run(self, xs: NDArray[np.float64], start: float | None = None) -> None:
+        """The conditional minima at ``xs`` not profiled yet, the other clearance's search
+        started where the marginal so far has it (or at ``start`` [m])."""
         xs = np.array([x for x in np.round(np.asarray(xs, float), DECIMALS).tolist() if x not in self.fine])
         if xs.size == 0:
             return
-        m = self.marginal()
-        guess = np.interp(xs, m.axis, m.other)
+        if start is None:
+            m = self.marginal()
+            guess = np.interp(xs, m.axis, m.other)
+        else:
+            guess = np.full(xs.size, start)
         rss, other = _conditional(self.evaluate, self.axis, xs, guess, self.o_step, self.o_lo, self.o_hi,
                                   self.other_open)
         for x, r, o in zip(xs.tolist(), rss.tolist(), other.tolist()):
@@ -308,6 +322,59 @@ def _open_axis(ax: _Axis, scale: float) -> None:
             ax.fine[x] = (r, o)
 
 
+def _valleys(m: Marginal, scale: float, best: int) -> list[int]:
+    """The grid marginal's interior local minima, the grid's best (index ``best``) aside, that
+    the grid does not resolve (each neighbour more than the 95 % deviance above it, RSS unit
+    ``scale``), the :data:`VALLEYS` lowest."""
+    r = m.rss
+    if r.size < 3:
+        return []
+    rise = CHI2_1_95 * scale
+    k = np.nonzero((r[:-2] - r[1:-1] > rise) & (r[2:] - r[1:-1] > rise))[0] + 1
+    k = k[k != best]
+    return k[np.argsort(r[k], kind='stable')][:VALLEYS].tolist()
+
+
+def _deeper_valley(evaluate: _Evaluator, marginals: Sequence[Marginal], grids: Sequence[NDArray[np.float64]],
+                   opened: Sequence[bool], best: tuple[int, int], scale: float) -> list[Marginal] | None:
+    """A valley of the profile between grid points deeper than the grid's best, or None.
+
+    A clamp can pin a clearance in a valley narrower than the grid's step, away from the grid's
+    best, whose bottom the grid's points on its flanks miss by hundreds of the deviance's units.
+    Each clearance's lowest local minima the grid does not resolve (:func:`_valleys`) are
+    profiled between their grid neighbours (the other clearance searched as everywhere here):
+    :data:`VALLEY_POINTS` values, then twice around the least at a quarter of the spacing. When
+    one goes below the grid's best, the marginals the refinement goes on from: the valley's
+    bottom stands at its grid point, and the other clearance's grid values are profiled again
+    with the search started at the valley's bottom (its marginal the least over both branches).
+    Otherwise nothing found is kept (``evaluate`` as it was): the grid's answer stands."""
+    floor, mark = evaluate.least, len(evaluate.pairs)
+    kept = evaluate.best
+    for axis in (0, 1):
+        coarse = marginals[axis]
+        ax = _Axis(evaluate, axis, grids[1 - axis], coarse, opened[1 - axis])
+        for k in _valleys(coarse, scale, best[axis]):
+            lo, hi = float(coarse.axis[k - 1]), float(coarse.axis[k + 1])
+            ax.run(np.linspace(lo, hi, VALLEY_POINTS)[1:-1])
+            h = (hi - lo) / (VALLEY_POINTS - 1)
+            for _ in range(VALLEY_ZOOMS):
+                xs, rss = ax.within(lo, hi)
+                h /= 4
+                ax.run(np.clip(xs[int(np.argmin(rss))] + h * np.array([-2.0, -1.0, 1.0, 2.0]), lo, hi))
+        if evaluate.least < floor:
+            k = int(np.argmin(np.abs(coarse.axis - evaluate.best[axis])))
+            rss, other = coarse.rss.copy(), coarse.other.copy()
+            rss[k], other[k] = evaluate.least, evaluate.best[1 - axis]
+            snapped = Marginal(coarse.axis, rss, other)
+            across = _Axis(evaluate, 1 - axis, grids[axis], marginals[1 - axis], opened[axis])
+            across.run(grids[1 - axis], start=evaluate.best[axis])
+            out = [snapped, across.marginal()]
+            return out if axis == 0 else out[::-1]
+    del evaluate.pairs[mark:], evaluate.rss[mark:]
+    evaluate.least, evaluate.best = floor, kept
+    return None
+
+
 def refine_profile(gear: GearParams, basis: F.TorqueBasis, mom: Moments, load: NDArray[np.float64],
                    extra: Sequence[F.Column], pr: PF.Profile) -> Refined:
     """The profile ``pr`` (on a part of the clearance grid) with each clearance the grid
@@ -320,21 +387,26 @@ def refine_profile(gear: GearParams, basis: F.TorqueBasis, mom: Moments, load: N
     grids = (np.asarray(pr.two_z, float), np.asarray(pr.z_gb, float))
     steps = [float(g[1] - g[0]) if g.size > 1 else 0.0 for g in grids]
     inside = [_accepted(m.rss, floor, scale) for m in marginals]     # each clearance's 95 % set on the grid
-    sharp = [g.size > 2 and k.size > 0 and int(k.max() - k.min()) < SHARP_STEPS and scale > 0
-             for g, k in zip(grids, inside)]
     evaluate = _Evaluator(gear, basis, mom, load, extra)
     i, j = pr.best
     evaluate.least, evaluate.best = floor, (float(pr.two_z[i]), float(pr.z_gb[j]))
+    # A clearance the data bound from one side only (its 95 % set runs to the grid's end: no
+    # contact at the loads seen) is searched on its grid values alone: between them a search
+    # would place a contact at the highest loads wherever the noise likes it best (a change
+    # point's place is a free parameter), lowering the least RSS, and with it narrowing the
+    # other clearance's interval, for no real evidence.
+    opened = [bool(k.size) and int(k.max()) == g.size - 1 for g, k in zip(grids, inside)]
+    deeper = _deeper_valley(evaluate, marginals, grids, opened, (i, j), scale) if scale > 0 else None
+    if deeper is not None:
+        marginals, floor = deeper, evaluate.least
+        inside = [_accepted(m.rss, floor, scale) for m in marginals]
+        opened = [bool(k.size) and int(k.max()) == g.size - 1 for g, k in zip(grids, inside)]
+    sharp = [g.size > 2 and k.size > 0 and int(k.max() - k.min()) < SHARP_STEPS and scale > 0
+             for g, k in zip(grids, inside)]
     refined = [False, False]
     if any(sharp):
         # Both are profiled again: the other clearance's marginal, taken over the grid alone,
-        # would read high against a minimum found between grid points. A clearance the data
-        # bound from one side only (its 95 % set runs to the grid's end: no contact at the
-        # loads seen) is searched on its grid values alone: between them a search would place
-        # a contact at the highest loads wherever the noise likes it best (a change point's
-        # place is a free parameter), lowering the least RSS, and with it narrowing the other
-        # clearance's interval, for no real evidence.
-        opened = [bool(k.size) and int(k.max()) == g.size - 1 for g, k in zip(grids, inside)]
+        # would read high against a minimum found between grid points.
         axes = [_Axis(evaluate, axis, grids[1 - axis], marginals[axis], opened[1 - axis]) for axis in (0, 1)]
         for axis in (0, 1):
             if grids[axis].size <= 2 or not inside[axis].size:

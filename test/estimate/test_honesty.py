@@ -86,10 +86,25 @@ def test_a_clean_voyage_adopts_no_effect(r18_params, can_db, seed, two_z, z_gb):
 def test_a_contact_placed_at_the_datas_edge_is_a_lower_bound(r18_params, can_db):
     """A ram clamped early (2Z 0.12 mm) keeps the slipper (0.34 mm) from ever touching; the fit
     placed a guide contact in 0.7 % of the rows with a friction of 0.25 to take up a misfit at
-    the highest loads: Z_gb 0.265 [0.258, 0.270] mm. Now a lower bound, saying why."""
+    the highest loads: Z_gb 0.265 [0.258, 0.270] mm. Now a lower bound (with the profile's
+    valleys between grid points looked into, the profile's own; where the profile would still
+    place such a contact, the rule that says why: the test below), and 2Z holds the truth."""
     a = _analysis(r18_params, can_db, 'realistic:1500', 0.1229, 0.3386, 20022)
-    iv = a.final.z_gb
+    two_z, iv = a.final.two_z, a.final.z_gb
+    assert two_z.hi is not None and two_z.lo <= 0.1229 * MM <= two_z.hi
     assert iv.hi is None and iv.lo <= 0.3386 * MM
-    assert 'too little to place a contact' in a.final.bound_why[1]
     _, z_gb = _levels(r18_params, a)
     assert z_gb.level != 'OK'
+
+
+def test_a_valley_narrower_than_the_grid_step_is_found(r18_params, can_db):
+    """2Z 0.1128 mm clamps the ram in a valley of the profile 8 um wide, between the grid's
+    0.10 and 0.12 mm; the grid's points on its flanks read 1,150 and 145 units above a fake
+    optimum (2Z above 0.2 mm, a guide contact at the highest loads), and the answer was 2Z
+    >= 0.18 mm, the truth excluded. Its bottom lies 100 units below that optimum."""
+    a = _analysis(r18_params, can_db, 'realistic:1500', 0.1128, 0.3469, 46012)
+    two_z, z_gb = a.final.two_z, a.final.z_gb
+    assert two_z.hi is not None and two_z.lo <= 0.1128 * MM <= two_z.hi
+    assert two_z.hi - two_z.lo < 0.01 * MM
+    assert z_gb.hi is None and z_gb.lo <= 0.3469 * MM
+    assert 'too little to place a contact' in a.final.bound_why[1]
