@@ -335,6 +335,17 @@ def _valleys(m: Marginal, scale: float, best: int) -> list[int]:
     return k[np.argsort(r[k], kind='stable')][:VALLEYS].tolist()
 
 
+def _look_into(ax: _Axis, lo: float, hi: float) -> None:
+    """Clearance ``ax.axis`` profiled between ``lo`` and ``hi`` [m]: :data:`VALLEY_POINTS`
+    values, then twice around the least at a quarter of the spacing."""
+    ax.run(np.linspace(lo, hi, VALLEY_POINTS)[1:-1])
+    h = (hi - lo) / (VALLEY_POINTS - 1)
+    for _ in range(VALLEY_ZOOMS):
+        xs, rss = ax.within(lo, hi)
+        h /= 4
+        ax.run(np.clip(xs[int(np.argmin(rss))] + h * np.array([-2.0, -1.0, 1.0, 2.0]), lo, hi))
+
+
 def _deeper_valley(evaluate: _Evaluator, marginals: Sequence[Marginal], grids: Sequence[NDArray[np.float64]],
                    opened: Sequence[bool], best: tuple[int, int], scale: float) -> list[Marginal] | None:
     """A valley of the profile between grid points deeper than the grid's best, or None.
@@ -342,34 +353,38 @@ def _deeper_valley(evaluate: _Evaluator, marginals: Sequence[Marginal], grids: S
     A clamp can pin a clearance in a valley narrower than the grid's step, away from the grid's
     best, whose bottom the grid's points on its flanks miss by hundreds of the deviance's units.
     Each clearance's lowest local minima the grid does not resolve (:func:`_valleys`) are
-    profiled between their grid neighbours (the other clearance searched as everywhere here):
-    :data:`VALLEY_POINTS` values, then twice around the least at a quarter of the spacing. When
-    one goes below the grid's best, the marginals the refinement goes on from: the valley's
-    bottom stands at its grid point, and the other clearance's grid values are profiled again
-    with the search started at the valley's bottom (its marginal the least over both branches).
-    Otherwise nothing found is kept (``evaluate`` as it was): the grid's answer stands."""
-    floor, mark = evaluate.least, len(evaluate.pairs)
-    kept = evaluate.best
+    profiled between their grid neighbours (:func:`_look_into`; the other clearance searched
+    as everywhere here), and so is the grid's best between its neighbours, so that a valley
+    wins on its bottom and not on a finer search. When a valley's bottom is the least of all,
+    the marginals the refinement goes on from: the valley's bottom stands at its grid point,
+    and the other clearance's grid values are profiled again with the search started at the
+    valley's bottom (its marginal the least over both branches). Otherwise nothing found is
+    kept (``evaluate`` as it was): the grid's answer stands."""
+    floor, kept, mark = evaluate.least, evaluate.best, len(evaluate.pairs)
+    probed = []
     for axis in (0, 1):
         coarse = marginals[axis]
+        valleys = _valleys(coarse, scale, best[axis])
+        if not valleys:
+            continue
         ax = _Axis(evaluate, axis, grids[1 - axis], coarse, opened[1 - axis])
-        for k in _valleys(coarse, scale, best[axis]):
-            lo, hi = float(coarse.axis[k - 1]), float(coarse.axis[k + 1])
-            ax.run(np.linspace(lo, hi, VALLEY_POINTS)[1:-1])
-            h = (hi - lo) / (VALLEY_POINTS - 1)
-            for _ in range(VALLEY_ZOOMS):
-                xs, rss = ax.within(lo, hi)
-                h /= 4
-                ax.run(np.clip(xs[int(np.argmin(rss))] + h * np.array([-2.0, -1.0, 1.0, 2.0]), lo, hi))
-        if evaluate.least < floor:
-            k = int(np.argmin(np.abs(coarse.axis - evaluate.best[axis])))
-            rss, other = coarse.rss.copy(), coarse.other.copy()
-            rss[k], other[k] = evaluate.least, evaluate.best[1 - axis]
-            snapped = Marginal(coarse.axis, rss, other)
-            across = _Axis(evaluate, 1 - axis, grids[axis], marginals[1 - axis], opened[axis])
-            across.run(grids[1 - axis], start=evaluate.best[axis])
-            out = [snapped, across.marginal()]
-            return out if axis == 0 else out[::-1]
+        b, last = best[axis], coarse.axis.size - 1
+        _look_into(ax, float(coarse.axis[max(b - 1, 0)]), float(coarse.axis[min(b + 1, last)]))
+        spans = [(k, float(coarse.axis[k - 1]), float(coarse.axis[k + 1])) for k in valleys]
+        for _, lo, hi in spans:
+            _look_into(ax, lo, hi)
+        probed.append((axis, ax, spans))
+    for axis, ax, spans in probed:
+        x = float(np.round(evaluate.best[axis], DECIMALS))
+        for k, lo, hi in spans:
+            if evaluate.least < floor and lo < x < hi and x in ax.fine and ax.fine[x][0] == evaluate.least:
+                coarse = marginals[axis]
+                rss, other = coarse.rss.copy(), coarse.other.copy()
+                rss[k], other[k] = evaluate.least, evaluate.best[1 - axis]
+                across = _Axis(evaluate, 1 - axis, grids[axis], marginals[1 - axis], opened[axis])
+                across.run(grids[1 - axis], start=evaluate.best[axis])
+                out = [Marginal(coarse.axis, rss, other), across.marginal()]
+                return out if axis == 0 else out[::-1]
     del evaluate.pairs[mark:], evaluate.rss[mark:]
     evaluate.least, evaluate.best = floor, kept
     return None

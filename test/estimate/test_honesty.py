@@ -108,3 +108,16 @@ def test_a_valley_narrower_than_the_grid_step_is_found(r18_params, can_db):
     assert two_z.hi - two_z.lo < 0.01 * MM
     assert z_gb.hi is None and z_gb.lo <= 0.3469 * MM
     assert 'too little to place a contact' in a.final.bound_why[1]
+
+
+def test_a_valley_wins_on_its_bottom_not_on_a_finer_search(r18_params, can_db):
+    """Looked into between its grid neighbours with the other clearance searched finely, a
+    valley away from the grid's best read below the best's grid point only for the finer
+    search, and was taken: 2Z 0.1093 [0.1078, 0.1106] mm, where the grid's best, looked into
+    alike, lies lower. The grid's best is now looked into the same way before a valley is
+    taken, and the answer is the grid's refined one: 0.1093 [0.1057, 0.1127] mm (truth 0.1101)."""
+    a = _analysis(r18_params, can_db, 'realistic:1500', 0.1101, 0.2252, 53021)
+    two_z = a.final.two_z
+    assert two_z.hi is not None and two_z.lo <= 0.1101 * MM <= two_z.hi
+    assert two_z.lo < 0.1065 * MM and two_z.hi > 0.1120 * MM
+    _holds_or_is_a_bound(a.final.z_gb, 0.2252 * MM)
