@@ -26,8 +26,9 @@ holds the three to the same samples and rejects.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -115,6 +116,24 @@ def clock_notes(steps: list[ClockStep]) -> list[str]:
         out.append(f'the frames\' clock jumps forward {len(fwd)} times (clock steps, or pauses in the log); the '
                    f'largest: {big.text().partition("jumps forward ")[2]}')
     return out
+
+
+class _Field(NamedTuple):
+    """One input's field in one PGN's frames (:meth:`Decoder._mapped_fields`): the frames it
+    takes (``rows``), which of them are not available, an error value, out of the input's
+    range (each under the first that applies), and the physical values [SI]; shapes (k,)."""
+
+    spec: SignalSpec
+    unit: str
+    rows: NDArray[np.intp]
+    na: NDArray[np.bool_]
+    err: NDArray[np.bool_]
+    bad: NDArray[np.bool_]
+    phys: NDArray[np.float64]
+
+    @property
+    def good(self) -> NDArray[np.bool_]:
+        return ~(self.na | self.err | self.bad)
 
 
 class Decoder:
@@ -377,37 +396,54 @@ class Decoder:
             fa = self._stitched(fa, np.nonzero(ok)[0])
         ok &= self._time_checks(fa, ok)
 
-        words = CanDatabase.words(fa.data)
         out_t: dict[str, list[NDArray[np.int64]]] = {s: [] for s in self.map.names}
         out_v: dict[str, list[NDArray[np.float64]]] = {s: [] for s in self.map.names}
+        for layout, fields, unmapped in self._mapped_fields(fa, ok, pgns, owner):
+            for f in fields:
+                spec = f.spec
+                t = fa.t_ns[f.rows]
+                r.add('not_available', f'{spec.name} in a log block', spec.name, int(f.na.sum()))
+                r.add('error_value', f'{spec.name} in a log block', spec.name, int(f.err.sum()))
+                if f.bad.any():
+                    j = int(np.argmax(f.bad))
+                    r.add('out_of_range', f'{spec.name} = {f.phys[j]:g} {f.unit} at {int(t[j])} ns and others '
+                                          f'(possible: {spec.low:g}..{spec.high:g})', spec.name, int(f.bad.sum()))
+                good = f.good
+                out_t[spec.name].append(t[good])
+                out_v[spec.name].append(f.phys[good])
+            r.add('unmapped', f'{layout.name} frames in a log block', n=int(unmapped.size))
+        return {name: Series(np.concatenate(out_t[name]) if out_t[name] else np.zeros(0, np.int64),
+                             np.concatenate(out_v[name]) if out_v[name] else np.zeros(0, np.float64))
+                for name in self.map.names}
+
+    def _mapped_fields(self, fa: FrameArrays, ok: NDArray[np.bool_], pgns: NDArray, owner: NDArray[np.int16]
+                       ) -> Iterator[tuple[MessageLayout, list[_Field], NDArray[np.intp]]]:
+        """The fields of the frames ``ok`` as the map takes them, one PGN of the DBC at a time:
+        its layout, each of its inputs' field judged (:class:`_Field`, in the PGN's order of
+        inputs: a frame's samples' order) and the frames no input takes. ``owner``: each
+        frame's device (the map's index holding its address when it came, -1: none); shapes (n,).
+        The one definition of decoding frames as arrays, for :meth:`decode_arrays` and
+        :meth:`decode_run`."""
+        words = CanDatabase.words(fa.data)
         for pgn, layout in self.db.by_pgn.items():
-            rows = np.nonzero(ok & (pgns == pgn))[0]
-            if rows.size == 0:
+            rows = np.flatnonzero(ok & (pgns == pgn))
+            specs = self.map.for_pgn(pgn)
+            if rows.size == 0 or not specs:
+                yield layout, [], rows
                 continue
             w = words[rows]
             inst = CanDatabase.extract(layout.fields['Instance'], w) if 'Instance' in layout.fields else None
             src = CanDatabase.extract(layout.fields['Source'], w) if 'Source' in layout.fields else None
             address = fa.can_id[rows] & 0xFF
             mapped = np.zeros(rows.size, bool)
-            for spec in self.map.for_pgn(pgn):
+            fields = []
+            for spec in specs:
                 sel = self._selected(spec, inst, src, address, owner[rows])
                 mapped |= sel
                 f = layout.fields[spec.field]
                 na, err, bad, phys = self._judged(spec, f, CanDatabase.extract(f, w[sel]))
-                t = fa.t_ns[rows[sel]]
-                r.add('not_available', f'{spec.name} in a log block', spec.name, int(na.sum()))
-                r.add('error_value', f'{spec.name} in a log block', spec.name, int(err.sum()))
-                if bad.any():
-                    j = int(np.argmax(bad))
-                    r.add('out_of_range', f'{spec.name} = {phys[j]:g} {f.unit} at {int(t[j])} ns and others '
-                                          f'(possible: {spec.low:g}..{spec.high:g})', spec.name, int(bad.sum()))
-                good = ~(na | err | bad)
-                out_t[spec.name].append(t[good])
-                out_v[spec.name].append(phys[good])
-            r.add('unmapped', f'{layout.name} frames in a log block', n=int((~mapped).sum()))
-        return {name: Series(np.concatenate(out_t[name]) if out_t[name] else np.zeros(0, np.int64),
-                             np.concatenate(out_v[name]) if out_v[name] else np.zeros(0, np.float64))
-                for name in self.map.names}
+                fields.append(_Field(spec, f.unit, rows[sel], na, err, bad, phys))
+            yield layout, fields, rows[~mapped]
 
     def _stitched(self, fa: FrameArrays, rows: NDArray[np.intp]) -> FrameArrays:
         """``fa`` with the released ``rows``' times put after every step back of the clock
@@ -584,37 +620,22 @@ class Decoder:
         events = [(np.flatnonzero(m), reason, '') for m, reason in (
             (error, 'error_frame'), (remote, 'remote_frame'), (standard, 'not_extended'), (unknown, 'unknown_id'),
             (wrong_length, 'wrong_length'), (back, 'time_backwards'), (dup, 'duplicate'))]
-        words = CanDatabase.words(fa.data)
         names: list[str] = []                          # a sample's input, by its spec's number
         s_row: list[NDArray[np.intp]] = []
         s_spec: list[NDArray[np.intp]] = []
         s_val: list[NDArray[np.float64]] = []
-        for pgn, layout in self.db.by_pgn.items():
-            rows = np.flatnonzero(ok & (pgns == pgn))
-            specs = self.map.for_pgn(pgn)
-            if rows.size == 0 or not specs:
-                events.append((rows, 'unmapped', ''))
-                continue
-            w = words[rows]
-            inst = CanDatabase.extract(layout.fields['Instance'], w) if 'Instance' in layout.fields else None
-            src = CanDatabase.extract(layout.fields['Source'], w) if 'Source' in layout.fields else None
-            address = fa.can_id[rows] & 0xFF
-            owner = self._owner_lut[address.astype(np.intp)]
-            mapped = np.zeros(rows.size, bool)
-            for spec in specs:                       # numbered in the PGN's order: a frame's samples' order
-                sel = self._selected(spec, inst, src, address, owner)
-                mapped |= sel
-                f = layout.fields[spec.field]
-                na, err, bad, phys = self._judged(spec, f, CanDatabase.extract(f, w[sel]))
-                r = rows[sel]
-                events += [(r[na], 'not_available', spec.name), (r[err], 'error_value', spec.name),
-                           (r[bad], 'out_of_range', spec.name)]
-                good = ~(na | err | bad)
-                s_row.append(r[good])
+        owner = self._owner_lut[(fa.can_id & 0xFF).astype(np.intp)]
+        for _, fields, unmapped in self._mapped_fields(fa, ok, pgns, owner):
+            for f in fields:                          # numbered in the PGN's order: a frame's samples' order
+                name = f.spec.name
+                events += [(f.rows[f.na], 'not_available', name), (f.rows[f.err], 'error_value', name),
+                           (f.rows[f.bad], 'out_of_range', name)]
+                good = f.good
+                s_row.append(f.rows[good])
                 s_spec.append(np.full(int(good.sum()), len(names), np.intp))
-                s_val.append(phys[good])
-                names.append(spec.name)
-            events.append((rows[~mapped], 'unmapped', ''))
+                s_val.append(f.phys[good])
+                names.append(name)
+            events.append((unmapped, 'unmapped', ''))
         row = np.concatenate(s_row) if s_row else np.zeros(0, np.intp)
         spec_no = np.concatenate(s_spec) if s_spec else np.zeros(0, np.intp)
         value = np.concatenate(s_val) if s_val else np.zeros(0, np.float64)
