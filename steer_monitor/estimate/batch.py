@@ -31,6 +31,7 @@ from steer_monitor.estimate.intervals import (
 )
 from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observations
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations
+from steer_monitor.estimate.plausible import guide_contact_at_friction_limit
 from steer_monitor.estimate.ranges import DECLARED, at_edge
 from steer_monitor.estimate.refine import Marginal, Refined, refine_profile
 from steer_monitor.estimate.robust import CLEARANCES, MODEL_ERROR_FLOOR, RobustScale, block_seconds, robust_scales
@@ -277,6 +278,9 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: PF.Profile,
         ok = np.isfinite(c) & np.isfinite(se)
         coefs[name] = _within_range(name, float(best.coef[k]), float(np.min((c - z * se)[ok])) if ok.any() else None,
                                     float(np.max((c + z * se)[ok])) if ok.any() else None)
+    z_gb, why_guide = guide_contact_at_friction_limit(z_gb, coefs['mu_guide'])
+    if why_guide:
+        why = (why[0], why_guide)
     angles = np.union1d(np.radians(np.arange(0.0, math.degrees(max_seen), 0.5)), [max_seen])
     bmat = basis(angles)
     tq = bmat @ best.coef[:basis.size]
