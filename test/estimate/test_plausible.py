@@ -14,7 +14,8 @@ def test_a_contact_bought_with_the_friction_limit_is_a_lower_bound():
     z_gb = Interval(0.299 * MM, 0.283 * MM, 0.308 * MM)
     iv, why = guide_contact_at_friction_limit(z_gb, Interval(0.3, 0.241, 0.3, 'high'))
     assert (iv.value, iv.lo, iv.hi) == (z_gb.value, z_gb.lo, None)
-    assert why == 'the guide friction fitted at the top of its physical range (0.30): a contact bought with a limit value'
+    assert why == ('the guide friction fitted at the top of its physical range (0.30): '
+                   'a contact bought with a limit value')
 
 
 def test_a_friction_inside_its_range_or_at_zero_leaves_the_interval():
