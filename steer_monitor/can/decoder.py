@@ -16,10 +16,11 @@ Both paths apply the same checks in the same order and count every refusal in a
 
 What passes becomes a sample: (t_ns, input name, SI value).
 
-Why one module of some 680 lines: :meth:`Decoder.decode` (a frame), :meth:`Decoder.decode_arrays`
+Why one module of some 700 lines: :meth:`Decoder.decode` (a frame), :meth:`Decoder.decode_arrays`
 (a log's columns) and :meth:`Decoder.decode_run` (a run of frames, as replay feeds the pipeline)
 are three ways into one decoder whose verdicts depend on the same state (the device table, the
-time-jump filter, the last time and data per identifier, the frames held). Kept beside each
+time-jump filter, the last time and data per identifier, the frames held); the two over arrays
+take and judge the fields by one definition (``Decoder._mapped_fields``). Kept beside each
 other, a check changed in one is seen to change in the others; ``test/can/test_decoder.py``
 holds the three to the same samples and rejects.
 """
