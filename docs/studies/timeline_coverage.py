@@ -16,8 +16,16 @@ not independent (each holds the one before): the last-window column is the per-v
 
 With ``effects``, voyage k carries the k-th effect of ``accuracy_online.EFFECTS`` in turn.
 
+Other conditions than the simulator's defaults, to prove on data the estimator was not
+developed on: ``--plant=KEY=VALUE,...`` sets fields of the simulated plant
+(:class:`~steer_monitor.sim.SimConfig`: ``seal_friction`` [N], ``mu_bushing``, ``mu_guide``,
+``pressure_noise`` [Pa], ``angle_noise`` [rad], ``oil_temp_start_c``, ...; the monitor's
+configuration stays ``config/r18.yaml``'s), ``--scale=F`` multiplies each effect's size
+(:data:`SIZES`) by F, ``--program=TEXT`` replaces the helm programme (default
+``realistic:1500``).
+
 Run from the repository: ``.venv/bin/python docs/studies/timeline_coverage.py [N] [FIRST_SEED]
-[effects]`` (prints a Markdown table).
+[effects] [--plant=...] [--scale=F] [--program=TEXT]`` (prints a Markdown table).
 """
 
 from __future__ import annotations
@@ -35,6 +43,29 @@ from accuracy_online import EFFECTS, PROGRAM  # noqa: E402  (a sibling script: d
 
 N = 40
 FIRST_SEED = 36001
+#: each effect's size, the parameter ``--scale`` multiplies (the others, a place or a time
+#: constant, stay)
+SIZES = {'viscous': 'c_ns_per_m', 'angle_delay': 'tau_s', 'pressure_offset': 'offset_bar',
+         'temp_friction': 'k_per_k', 'pressure_friction': 'k', 'stribeck': 'f_st_n', 'ram_inertia': 'mass_kg',
+         'band_friction': 'f_n'}
+
+
+def _effect_text(name: str, scale: float) -> str:
+    """The ``--effect`` text of an effect at ``scale`` times its default size."""
+    if scale == 1.0:
+        return name
+    from steer_monitor.sim.plant_effects import EFFECTS as DEFAULTS
+    key = SIZES[name]
+    return f'{name}:{key}={float(DEFAULTS[name][key]) * scale:g}'
+
+
+def _plant(text: str) -> dict[str, float]:
+    """``KEY=VALUE,...`` -> the plant's fields to set (numbers)."""
+    out = {}
+    for item in filter(None, text.split(',')):
+        key, _, value = item.partition('=')
+        out[key.strip()] = float(value)
+    return out
 
 
 def _count(out: dict, key: str, iv, truth: float) -> None:
@@ -44,7 +75,8 @@ def _count(out: dict, key: str, iv, truth: float) -> None:
     out[(key, kind)] = [n + 1, held + int(iv.contains(truth))]
 
 
-def run(case) -> dict:
+def run(job) -> dict:
+    case, plant, program = job
     from steer_monitor import sim
     from steer_monitor.ashore.loganalysis import model_check
     from steer_monitor.ashore.reviewlogs import refit_windows, review_logs
@@ -55,8 +87,8 @@ def run(case) -> dict:
     from steer_monitor.runtime import single_blas_thread
     single_blas_thread()
     path, params, db, smap = load_setup(None)
-    cfg = sim.SimConfig(program=PROGRAM, gaps=Clearances.from_mm(case.two_z_mm, case.z_gb_mm),
-                        effects=tuple(sim.parse_effect(e) for e in case.effects))
+    cfg = sim.SimConfig(program=program, gaps=Clearances.from_mm(case.two_z_mm, case.z_gb_mm),
+                        effects=tuple(sim.parse_effect(e) for e in case.effects), **plant)
     s = sim.run(params, cfg, db, smap, case.seed)
     truth = {'2Z': case.two_z_mm * 1e-3, 'Z_gb': case.z_gb_mm * 1e-3}
     out: dict = {}
@@ -84,19 +116,24 @@ def run(case) -> dict:
     return out
 
 
-def main(n: int = N, first_seed: int = FIRST_SEED, effects: bool = False) -> None:
+def main(n: int = N, first_seed: int = FIRST_SEED, effects: bool = False, plant: str = '', scale: float = 1.0,
+         program: str = PROGRAM) -> None:
     from steer_monitor.studies.accuracy import coverage_interval, off_grid_cases
-    cases = off_grid_cases(['realistic'], n, first_seed=first_seed, effects=EFFECTS if effects else ())
+    texts = tuple(_effect_text(e, scale) for e in EFFECTS) if effects else ()
+    cases = off_grid_cases(['realistic'], n, first_seed=first_seed, effects=texts)
+    fields = _plant(plant)
     total: dict = {}
     missed: list[str] = []
     with ProcessPoolExecutor(2) as pool:
-        for out in pool.map(run, cases):
+        for out in pool.map(run, [(c, fields, program) for c in cases]):
             missed += out.pop('missed', [])
             for key, (k, held) in out.items():
                 a, b = total.get(key, (0, 0))
                 total[key] = (a + k, b + held)
     kind = 'realistic voyages, each with one effect the declared model lacks,' if effects else 'clean realistic voyages'
-    print(f'{n} {kind} ({PROGRAM}), seeds {first_seed}-{first_seed + n - 1}\n')
+    other = ''.join([f'; the plant with {plant}' if plant else '', f'; effects at {scale:g} x their size' if
+                     effects and scale != 1.0 else ''])
+    print(f'{n} {kind} ({program}{other}), seeds {first_seed}-{first_seed + n - 1}\n')
     print('| estimate | two-sided holding the truth | lower bounds at or below it |')
     print('|---|---|---|')
     for what in ('window', 'last window', 'model check'):
@@ -115,4 +152,6 @@ def main(n: int = N, first_seed: int = FIRST_SEED, effects: bool = False) -> Non
 
 if __name__ == '__main__':
     args = [int(a) for a in sys.argv[1:3] if a.isdigit()]
-    main(*args, effects='effects' in sys.argv[1:])
+    opts = dict(a[2:].split('=', 1) for a in sys.argv[1:] if a.startswith('--'))
+    main(*args, effects='effects' in sys.argv[1:], plant=opts.get('plant', ''), scale=float(opts.get('scale', 1.0)),
+         program=opts.get('program', PROGRAM))

@@ -8,10 +8,14 @@ OK means *assessed and within limits*; nothing else reads OK:
   at least that), or the point passes the limit with an interval narrow enough to say so;
 * NOT ASSESSED (REP-107's STALE: no current knowledge) when the data cannot say whether it is
   within limits: no estimate yet, a lower bound below the warning (the contact never showed
-  at the loads seen), an interval wider than the limit reaching from below the warning to
-  past the limit, or a model that does not explain the pressures. The note says why and what
-  would assess it;
-* OK otherwise.
+  at the loads seen), an interval reaching from below the warning to past the limit (a point
+  below the limit, or an interval wider than the limit), or a model that does not explain the
+  pressures. The note says why and what would assess it;
+* OK otherwise: the whole interval within the limit, its low end below the warning.
+
+An interval holds the truth at its stated rate (95 %), so OK is wrong at most as often as the
+interval misses above its high end (2.5 %), and never on a point the interval itself puts past
+the limit's reach.
 """
 
 from __future__ import annotations
@@ -94,4 +98,6 @@ def clearance_verdict(value: float, lo: float | None, hi: float | None, limit: f
     if too_wide:
         return Verdict(NOT_ASSESSED, share, 'the interval, wider than the limit, reaches from below the warning to '
                                             f'past it; {hint}')
+    if hi > limit:                    # within the limit or past it: the interval holds both
+        return Verdict(NOT_ASSESSED, share, f'the interval reaches from below the warning to past the limit; {hint}')
     return Verdict(OK, share, '')

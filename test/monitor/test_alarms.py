@@ -207,6 +207,9 @@ MM = 1e-3
     (0.35, (0.113, 0.429), STALE, 'NOT ASSESSED: the interval, wider than the limit, reaches from below'),
     (0.35, (0.21, 0.43), WARN, 'Z_gb 0.350 mm [0.210 .. 0.430] (140% of limit)'),
     (0.30, (0.19, 0.31), WARN, '(120% of limit)'),                # the point past the limit, judgeable
+    (0.18, (0.12, 0.27), STALE, 'Z_gb 0.180 mm [0.120 .. 0.270] (72% of limit) NOT ASSESSED: the interval reaches '
+                                'from below the warning to past the limit'),     # the point within: not OK
+    (0.18, (0.12, 0.25), OK, 'Z_gb 0.180 mm [0.120 .. 0.250] (72% of limit)'),  # the high end at the limit
     (0.10, (0.10, None), STALE, 'Z_gb >= 0.100 mm (40% of limit) NOT ASSESSED: lower bound only (the guide beam '
                                 'never carried load at the loads seen); a hard-over at sea speed would load the guide '
                                 'beam and show it'),
