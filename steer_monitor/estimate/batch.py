@@ -33,7 +33,7 @@ from steer_monitor.estimate.moments import SPEED_Z, Moments, rows_from_observati
 from steer_monitor.estimate.observe import GRID_NS, EstimateError, Observations
 from steer_monitor.estimate.plausible import guide_contact_at_friction_limit
 from steer_monitor.estimate.ranges import DECLARED, at_edge
-from steer_monitor.estimate.refine import Marginal, Refined, refine_profile
+from steer_monitor.estimate.refine import Marginal, Refined, refine_profile, widen_to
 from steer_monitor.estimate.robust import CLEARANCES, MODEL_ERROR_FLOOR, RobustScale, block_seconds, robust_scales
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import STAGE_CLAMPED, load_sharing
@@ -237,9 +237,6 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: PF.Profile,
     effective clusters; without (a moments-only estimate), by ``vif`` against the normal."""
     dof = max(best.n - best.coef.size, 1.0)
     sigma2 = best.rss / dof
-    # relative to the profile's own minimum: the profile evaluates the friction features per
-    # angle cell and ``best`` per bin, which differ by ~1e-4 of the RSS (a deviance of ~1)
-    floor = float(ref.rss.min())
     flat = RobustScale(vif, math.inf)
 
     def scale_of(name: str) -> RobustScale:
@@ -251,6 +248,12 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: PF.Profile,
     rs = [scale_of(name) for name in CLEARANCES]
     units = [sigma2 * r.scale * (MODEL_ERROR_FLOOR if scales is not None else 1.0) for r in rs]
     unit = max(units)
+    # the refinement judged its sets without these scales: where an interval reaches past the
+    # values it profiled, profiled further, so that it does not end at a grid value that reads high
+    ref = widen_to(ref, (units[0] * rs[0].threshold_1, units[1] * rs[1].threshold_1))
+    # relative to the profile's own minimum: the profile evaluates the friction features per
+    # angle cell and ``best`` per bin, which differ by ~1e-4 of the RSS (a deviance of ~1)
+    floor = float(ref.rss.min())
     delta = (pr.rss - floor) / unit
     two_z = plateau_interval(ref.two_z.axis, (ref.two_z.rss - floor) / units[0], rs[0].threshold_1,
                              PLATEAU_THRESHOLD * rs[0].threshold_1 / CHI2_1_95)

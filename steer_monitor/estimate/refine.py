@@ -38,7 +38,7 @@ so refined and grid points compare on the same footing.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -49,7 +49,7 @@ from steer_monitor.estimate.intervals import CHI2_1_95
 from steer_monitor.estimate.moments import Moments
 from steer_monitor.model.gear import GearParams
 
-__all__ = ['MIN_POINTS', 'SHARP_STEPS', 'VALLEYS', 'Marginal', 'Refined', 'marginal_of', 'refine_profile']
+__all__ = ['MIN_POINTS', 'SHARP_STEPS', 'VALLEYS', 'Marginal', 'Refined', 'marginal_of', 'refine_profile', 'widen_to']
 
 SHARP_STEPS = 4          # a 95 % set narrower than this many grid steps is profiled between them
 POINTS = 11              # values of the finer axis per pass
@@ -96,6 +96,10 @@ class Refined:
     rss: NDArray[np.float64]
     steps: tuple[float, float]
     refined: tuple[bool, bool]
+    #: each clearance profiled between grid points, as :func:`widen_to` goes on with it (None: not)
+    axes: tuple[_Axis | None, _Axis | None] = field(default=(None, None), repr=False, compare=False)
+    #: how many of the evaluator's calls ``pairs`` holds (the rest came after it was made)
+    evaluated: int = field(default=0, repr=False, compare=False)
 
     @property
     def best(self) -> tuple[float, float]:
@@ -272,24 +276,7 @@ def _refine_axis(ax: _Axis, grid: NDArray[np.float64], scale: float) -> float:
         spacing = (hi - lo) / (POINTS - 1)
         ax.run(np.linspace(lo, hi, POINTS))
         ax.spans.append((lo, hi))
-        for _ in range(WIDEN):
-            xs, rss = ax.within(lo, hi)
-            inside = _accepted(rss, evaluate.least, scale)
-            grow_lo = bool(inside.size) and xs[inside.min()] <= lo and lo > grid[0]
-            grow_hi = bool(inside.size) and xs[inside.max()] >= hi and hi < grid[-1]
-            if not (grow_lo or grow_hi):
-                break
-            width, new = hi - lo, []
-            if grow_lo:
-                lo_new = max(lo - width / 2, float(grid[0]))
-                new.append(np.arange(lo - spacing, lo_new - spacing / 2, -spacing))
-                lo = lo_new
-            if grow_hi:
-                hi_new = min(hi + width / 2, float(grid[-1]))
-                new.append(np.arange(hi + spacing, hi_new + spacing / 2, spacing))
-                hi = hi_new
-            ax.run(np.concatenate(new))
-            ax.spans.append((lo, hi))
+        lo, hi, _ = _widen(ax, grid, lo, hi, spacing, CHI2_1_95 * scale)
         xs, rss = ax.within(lo, hi)
         inside = _accepted(rss, evaluate.least, scale)
         if level == LEVELS - 1 or inside.size >= MIN_POINTS:
@@ -299,6 +286,89 @@ def _refine_axis(ax: _Axis, grid: NDArray[np.float64], scale: float) -> float:
         lo = float(xs[max(int(inside.min()) - 1, 0)])
         hi = float(xs[min(int(inside.max()) + 1, xs.size - 1)])
     return spacing
+
+
+def _widen(ax: _Axis, grid: NDArray[np.float64], lo: float, hi: float, spacing: float, limit: float
+           ) -> tuple[float, float, bool]:
+    """Clearance ``ax.axis`` profiled beyond ``lo`` .. ``hi`` [m] at ``spacing`` while the set
+    within ``limit`` [N^2] of the least RSS still reaches an end (by half the width, up to
+    :data:`WIDEN` times, within the grid) -> (lo, hi, whether it grew)."""
+    grew = False
+    for _ in range(WIDEN):
+        xs, rss = ax.within(lo, hi)
+        inside = np.nonzero(rss - ax.evaluate.least <= limit)[0]
+        grow_lo = bool(inside.size) and int(inside.min()) == 0 and lo > grid[0]
+        grow_hi = bool(inside.size) and int(inside.max()) == xs.size - 1 and hi < grid[-1]
+        if not (grow_lo or grow_hi):
+            break
+        width, new = hi - lo, []
+        if grow_lo:
+            lo_new = max(lo - width / 2, float(grid[0]))
+            new.append(np.arange(lo - spacing, lo_new - spacing / 2, -spacing))
+            lo = lo_new
+        if grow_hi:
+            hi_new = min(hi + width / 2, float(grid[-1]))
+            new.append(np.arange(hi + spacing, hi_new + spacing / 2, spacing))
+            hi = hi_new
+        ax.run(np.clip(np.concatenate(new), float(grid[0]), float(grid[-1])))
+        ax.spans.append((lo, hi))
+        grew = True
+    return lo, hi, grew
+
+
+def widen_to(ref: Refined, limits: tuple[float, float]) -> Refined:
+    """``ref`` with each clearance it profiled between grid points profiled further where its
+    95 % set read against ``limits`` (2Z, Z_gb: RSS above the least [N^2], the intervals' own,
+    their scale and threshold known only once the refinement's best is fitted) reaches past
+    the values profiled. Beyond them the marginal is the grid's, whose other clearance on its
+    grid reads high, so an interval would end at the first grid value there, too soon (a
+    window read Z_gb 0.3147 [0.2980, 0.3192] mm for 0.3213: the grid's 0.320 stood 21 of the
+    interval's units above the least where the other clearance searched between grid points
+    put it below 4). The set's ends are then located between the values profiled at a tenth of
+    their spacing. Unchanged when no set reaches that far."""
+    marginals = [ref.two_z, ref.z_gb]
+    grew_any = False
+    for axis, ax in enumerate(ref.axes):
+        if ax is None or not ax.spans:
+            continue
+        grid = ax.coarse.axis
+        lo, hi = min(a for a, _ in ax.spans), max(b for _, b in ax.spans)
+        first = ax.spans[0]
+        spacing = (first[1] - first[0]) / (POINTS - 1)
+        lo, hi, grew = _widen(ax, grid, lo, hi, spacing, limits[axis])
+        if not grew:
+            continue
+        grew_any = True
+        xs, rss = ax.within(lo, hi)
+        inside = np.nonzero(rss - ax.evaluate.least <= limits[axis])[0]
+        if inside.size:                      # each end of the set between the values either side
+            new = []
+            for a, b in ((int(inside.min()) - 1, int(inside.min())), (int(inside.max()), int(inside.max()) + 1)):
+                if 0 <= a and b < xs.size:
+                    new.append(np.linspace(xs[a], xs[b], POINTS)[1:-1])
+            if new:
+                ax.run(np.concatenate(new))
+        marginals[axis] = ax.marginal()
+    if not grew_any:
+        return ref
+    evaluate = next(a for a in ref.axes if a is not None).evaluate
+    pairs = np.concatenate([ref.pairs, *evaluate.pairs[ref.evaluated:]])
+    rss = np.concatenate([ref.rss, *evaluate.rss[ref.evaluated:]])
+    return _assembled(marginals, pairs, rss, ref.steps, ref.refined, ref.axes, len(evaluate.pairs))
+
+
+def _assembled(marginals: list[Marginal], pairs: NDArray[np.float64], rss: NDArray[np.float64],
+               steps: tuple[float, float], refined: tuple[bool, bool],
+               axes: tuple[_Axis | None, _Axis | None], evaluated: int) -> Refined:
+    """The refined profile: the least pair evaluated, wherever its search found it, stands in
+    both marginals, so each reaches the profile's minimum (any pair bounds the least RSS at
+    its values)."""
+    k = int(np.argmin(rss))
+    for axis in (0, 1):
+        m = marginals[axis]
+        marginals[axis] = _merged(np.append(m.axis, pairs[k, axis]), np.append(m.rss, rss[k]),
+                                  np.append(m.other, pairs[k, 1 - axis]))
+    return Refined(marginals[0], marginals[1], pairs, rss, steps, refined, axes, evaluated)
 
 
 def _open_axis(ax: _Axis, scale: float) -> None:
@@ -419,6 +489,7 @@ def refine_profile(gear: GearParams, basis: F.TorqueBasis, mom: Moments, load: N
     sharp = [g.size > 2 and k.size > 0 and int(k.max() - k.min()) < SHARP_STEPS and scale > 0
              for g, k in zip(grids, inside)]
     refined = [False, False]
+    kept: list[_Axis | None] = [None, None]
     if any(sharp):
         # Both are profiled again: the other clearance's marginal, taken over the grid alone,
         # would read high against a minimum found between grid points.
@@ -431,15 +502,10 @@ def refine_profile(gear: GearParams, basis: F.TorqueBasis, mom: Moments, load: N
             else:
                 steps[axis] = _refine_axis(axes[axis], grids[axis], scale)
                 refined[axis] = True
+                kept[axis] = axes[axis]
         marginals = [a.marginal() for a in axes]
     grid_pairs = np.stack([np.repeat(grids[0], grids[1].size), np.tile(grids[1], grids[0].size)], axis=1)
     pairs = np.concatenate([grid_pairs, *evaluate.pairs]) if evaluate.pairs else grid_pairs
     rss = np.concatenate([pr.rss.ravel(), *evaluate.rss]) if evaluate.rss else pr.rss.ravel()
-    # the least pair evaluated, wherever its search found it, stands in both marginals, so
-    # each reaches the profile's minimum (any pair bounds the least RSS at its values)
-    k = int(np.argmin(rss))
-    for axis in (0, 1):
-        m = marginals[axis]
-        marginals[axis] = _merged(np.append(m.axis, pairs[k, axis]), np.append(m.rss, rss[k]),
-                                  np.append(m.other, pairs[k, 1 - axis]))
-    return Refined(marginals[0], marginals[1], pairs, rss, (steps[0], steps[1]), (refined[0], refined[1]))
+    return _assembled(list(marginals), pairs, rss, (steps[0], steps[1]), (refined[0], refined[1]),
+                      (kept[0], kept[1]), len(evaluate.pairs))
