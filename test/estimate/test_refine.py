@@ -11,7 +11,7 @@ from steer_monitor.estimate import fit as F
 from steer_monitor.estimate import pointfit as PF
 from steer_monitor.estimate.batch import estimate_clearances, make_rows
 from steer_monitor.estimate.observe import build_observations
-from steer_monitor.estimate.refine import Marginal, marginal_of, refine_profile
+from steer_monitor.estimate.refine import Marginal, marginal_of, refine_profile, widen_to
 
 # a ram that clamps pins 2Z far tighter than the grid's 0.02 mm; both true clearances lie
 # between grid points (2Z grid 0.18 / 0.20, Z_gb grid 0.310 / 0.315 mm)
@@ -95,6 +95,48 @@ def test_marginal_is_the_conditional_minimum(r18, clamped, axis):
         lo, hi = float(m.other[k]) - reach, float(m.other[k]) + reach
         best = minimize_scalar(at, bounds=(lo, hi), method='bounded', options={'xatol': 1e-10})
         assert (m.rss[k] - best.fun) / scale <= 0.1, (x, m.rss[k], best.fun)
+
+
+@pytest.mark.slow
+def test_an_interval_past_the_refined_values_is_profiled_further(r18, clamped):
+    """An interval's own scale and threshold (here 25 of the variance's units: a scale of 2.5
+    read against t at 10) reach past the values the refinement profiled (it judged its sets
+    at 3.84 units). There the marginal was the grid's, its other clearance on its grid:
+    Z_gb's set ended at a grid value reading some 1,800 units above the least RSS over the
+    other clearance (scipy's bounded minimiser). Widened, each end of each set lies between
+    values whose marginal is that least, to 0.1 of a unit."""
+    mom, load, extra, basis, *_ = clamped
+    pr = PF.profile(r18, basis, mom, load, extra, _box(TRUE_2Z, F.GRID_2Z, 4), _box(TRUE_ZGB, F.GRID_ZGB, 6))
+    ref = refine_profile(r18, basis, mom, load, extra, pr)
+    scale = float(pr.rss.min()) / (pr.n - pr.p)
+    limit = 25.0 * scale
+    fitter = PF.PointFitter(r18, basis, mom, load, extra)
+
+    def excess(r, axis: int) -> list[float]:
+        """At the first value outside each end of the set: the marginal above the least RSS
+        over the other clearance [units]."""
+        m: Marginal = r.two_z if axis == 0 else r.z_gb
+        inside = np.nonzero(m.rss - r.rss.min() <= limit)[0]
+        other_grid = pr.z_gb if axis == 0 else pr.two_z
+        reach = 2 * float(other_grid[1] - other_grid[0])
+        out = []
+        for k in (int(inside.min()) - 1, int(inside.max()) + 1):
+            x = float(m.axis[k])
+
+            def at(y, x=x):
+                pair = (np.array([x]), np.array([y])) if axis == 0 else (np.array([y]), np.array([x]))
+                return float(fitter.fit(*pair).rss[0])
+
+            best = minimize_scalar(at, bounds=(float(m.other[k]) - reach, float(m.other[k]) + reach),
+                                   method='bounded', options={'xatol': 1e-10})
+            out.append((float(m.rss[k]) - best.fun) / scale)
+        return out
+
+    assert max(excess(ref, 1)) > 100            # the refinement alone: Z_gb's set ends at a grid value
+    wide = widen_to(ref, (limit, limit))
+    for axis in (0, 1):
+        assert max(excess(wide, axis)) <= 0.1
+    assert widen_to(wide, (3.84 * scale, 3.84 * scale)) is wide     # nothing reaches past: unchanged
 
 
 @pytest.mark.slow
