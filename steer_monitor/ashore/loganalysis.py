@@ -214,7 +214,8 @@ def analyze_log(path: str | Path, config: str | Path | None = None, progress: bo
 #: hours of data at a log's end the check looks at (``report --analysis-hours``)
 ANALYSIS_HOURS = 3.0
 #: the level of a clearance the data do not assess: no estimate, a lower bound below the warning,
-#: an interval too wide, or one from a model that does not explain the data (one word everywhere)
+#: an interval reaching from below the warning past the limit, or one from a model that does not
+#: explain the data (one word everywhere)
 NOT_JUDGED = LABELS[NOT_ASSESSED]
 
 

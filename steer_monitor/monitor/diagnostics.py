@@ -211,8 +211,9 @@ class DiagnosticsBuilder:
         """Each clearance judged on its interval (:func:`~steer_monitor.monitor.verdict.clearance_verdict`):
         OVER LIMIT (ERROR) when its lower end is past the limit, WARN when past the warning share,
         OK when assessed and within limits, and NOT ASSESSED (STALE) when the data cannot say:
-        not estimated yet, a lower bound below the warning, an interval too wide to judge, or an
-        analysis whose model does not explain the pressures (model health carries that WARN).
+        not estimated yet, a lower bound below the warning, an interval reaching from below the
+        warning past the limit, or an analysis whose model does not explain the pressures (model
+        health carries that WARN).
         A clearance not assessed now shows the last value that was, with its date."""
         cfg = self.cfg
         gaps = mon.gaps

@@ -342,7 +342,8 @@ def _verdict_block(inp: ReportInput) -> str:
             f'Clearances from the model check (analyze of the last hours of data). OK: assessed and below '
             f'{inp.warn_share:.0%} of its limit; WARN from it; OVER LIMIT when even the interval\'s low end is '
             f'past the limit; NOT ASSESSED when the data cannot say (no estimate, a lower bound below the warning, '
-            f'an interval too wide, or a model that does not explain the pressures), with why.')
+            f'an interval reaching from below the warning past the limit, or a model that does not explain '
+            f'the pressures), with why.')
     return f'<div class="verdict">{"".join(boxes)}</div><p class="prov">{prov}</p>'
 
 
