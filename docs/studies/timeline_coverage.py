@@ -130,7 +130,7 @@ def main(n: int = N, first_seed: int = FIRST_SEED, effects: bool = False, plant:
             for key, (k, held) in out.items():
                 a, b = total.get(key, (0, 0))
                 total[key] = (a + k, b + held)
-    kind = 'realistic voyages, each with one effect the declared model lacks,' if effects else 'clean realistic voyages'
+    kind = 'voyages, each with one effect the declared model lacks,' if effects else 'clean voyages'
     other = ''.join([f'; the plant with {plant}' if plant else '', f'; effects at {scale:g} x their size' if
                      effects and scale != 1.0 else ''])
     print(f'{n} {kind} ({program}{other}), seeds {first_seed}-{first_seed + n - 1}\n')
