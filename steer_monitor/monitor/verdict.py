@@ -13,9 +13,8 @@ OK means *assessed and within limits*; nothing else reads OK:
   pressures. The note says why and what would assess it;
 * OK otherwise: the whole interval within the limit, its low end below the warning.
 
-An interval holds the truth at its stated rate (95 %), so OK is wrong at most as often as the
-interval misses above its high end (2.5 %), and never on a point the interval itself puts past
-the limit's reach.
+So OK is wrong (the truth past the limit) only when the interval misses above its high end: for
+an interval that holds the truth at its stated 95 %, at most 2.5 % of the time.
 """
 
 from __future__ import annotations
@@ -95,9 +94,8 @@ def clearance_verdict(value: float, lo: float | None, hi: float | None, limit: f
         return Verdict(NOT_ASSESSED, share, f'lower bound only ({reason}); {hint}')
     if lo >= warn or (value > limit and not too_wide):
         return Verdict(WARN, share, '')
-    if too_wide:
-        return Verdict(NOT_ASSESSED, share, 'the interval, wider than the limit, reaches from below the warning to '
-                                            f'past it; {hint}')
     if hi > limit:                    # within the limit or past it: the interval holds both
-        return Verdict(NOT_ASSESSED, share, f'the interval reaches from below the warning to past the limit; {hint}')
+        reach = ('the interval, wider than the limit, reaches from below the warning to past it' if too_wide
+                 else 'the interval reaches from below the warning to past the limit')
+        return Verdict(NOT_ASSESSED, share, f'{reach}; {hint}')
     return Verdict(OK, share, '')
