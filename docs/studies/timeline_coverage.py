@@ -60,11 +60,21 @@ def _effect_text(name: str, scale: float) -> str:
 
 
 def _plant(text: str) -> dict[str, float]:
-    """``KEY=VALUE,...`` -> the plant's fields to set (numbers)."""
+    """``KEY=VALUE,...`` -> the plant's fields to set (numbers); one line naming what is wrong
+    (SystemExit) otherwise."""
+    import dataclasses
+
+    from steer_monitor.sim import SimConfig
+    numbers = {f.name for f in dataclasses.fields(SimConfig) if f.type in ('float', float)}
     out = {}
     for item in filter(None, text.split(',')):
-        key, _, value = item.partition('=')
-        out[key.strip()] = float(value)
+        key, _, value = (x.strip() for x in item.partition('='))
+        if key not in numbers:
+            raise SystemExit(f'--plant: {key!r} is not a number of the simulated plant ({", ".join(sorted(numbers))})')
+        try:
+            out[key] = float(value)
+        except ValueError:
+            raise SystemExit(f'--plant: {key} must be a number, got {value!r}') from None
     return out
 
 
