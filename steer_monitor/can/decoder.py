@@ -184,16 +184,16 @@ class Decoder:
             if address is not None:
                 self._owner_lut[address] = k
 
-    def _claim(self, can_id: int, data: bytes, dlc: int) -> None:
-        """An address claim: counted, and read into the device table when well formed."""
+    def _claim(self, can_id: int, data: bytes, dlc: int) -> tuple[str, str]:
+        """An address claim read into the device table when well formed -> the reject it is
+        counted as, and its text (the caller counts it, now or when its frame is reached)."""
         if dlc != 8:
-            self.rejects.add('wrong_length', f'address claim {_id_text(can_id)} has {dlc} bytes, expected 8')
-            return
+            return 'wrong_length', f'address claim {_id_text(can_id)} has {dlc} bytes, expected 8'
         name = DeviceName.from_data(data).name
         self.devices.claim(can_id & 0xFF, name)
         if self.map.device_names:
             self._update_owners()
-        self.rejects.add('address_claim', f'device {format_name(name)} at address {can_id & 0xFF}')
+        return 'address_claim', f'device {format_name(name)} at address {can_id & 0xFF}'
 
     # --- frame-level checks shared by both paths -----------------------------------------
     def _frame_layout(self, frame: Frame) -> MessageLayout | None:
@@ -210,7 +210,7 @@ class Decoder:
             return None
         pgn = int(pgn_of(frame.can_id))
         if pgn == ADDRESS_CLAIM_PGN:
-            self._claim(frame.can_id, frame.data, len(frame.data))
+            r.add(*self._claim(frame.can_id, frame.data, len(frame.data)))
             return None
         layout = self.db.message(pgn)
         if layout is None:     # most of a busy bus: its text made once per identifier (a bounded few)
@@ -517,15 +517,22 @@ class Decoder:
             sel &= owner == self.map.device_names.index(spec.device_name)
         return sel
 
-    def _owners(self, fa: FrameArrays, claims: NDArray[np.intp]) -> NDArray[np.int16]:
+    def _owners(self, fa: FrameArrays, claims: NDArray[np.intp], counted: dict[str, list[int]] | None = None
+                ) -> NDArray[np.int16]:
         """Each row's owner (the map's device holding its address when it arrived, -1: none),
-        reading the address claims at rows ``claims`` in order; shape (n,)."""
+        reading the address claims at rows ``claims`` in order; shape (n,). The claims' rejects
+        are counted now, or, given ``counted``, their rows kept there by reason (a run counts
+        them when its frames are reached)."""
         address = (fa.can_id & 0xFF).astype(np.intp)
         owner = np.empty(len(fa), np.int16)
         start = 0
         for c in claims.tolist():
             owner[start:c] = self._owner_lut[address[start:c]]
-            self._claim(int(fa.can_id[c]), fa.data[c].tobytes(), int(fa.dlc[c]))
+            reason, text = self._claim(int(fa.can_id[c]), fa.data[c].tobytes(), int(fa.dlc[c]))
+            if counted is None:
+                self.rejects.add(reason, text)
+            else:
+                counted.setdefault(reason, []).append(c)
             owner[c] = -1
             start = c + 1
         owner[start:] = self._owner_lut[address[start:]]
@@ -590,10 +597,11 @@ class Decoder:
         *not* counted here: :meth:`DecodedRun.count_rejects` counts those of the frames up to
         one, so a count read between frames is the frame-by-frame one.
 
-        Only for a run that holds no decision made across frames: the stream's time
-        established and no chain held after a time jump, no jump in the run, no address
-        claim. Anything else returns None with nothing changed; decode those frames one at a
-        time (:meth:`decode`)."""
+        Address claims are read in order, each frame's device the one holding its address when
+        it came. Only for a run that holds no decision made across frames in time: the
+        stream's time established and no chain held after a time jump, no jump in the run.
+        Anything else returns None with nothing changed; decode those frames one at a time
+        (:meth:`decode`)."""
         n = len(fa)
         jumps = self.jumps
         if n == 0 or jumps.ref_ns is None or jumps.pending or self._held or len(self._held_fa):
@@ -601,8 +609,8 @@ class Decoder:
         error, remote, standard = self._flag_rejects(fa.flags)
         ok = ~(error | remote | standard)
         pgns = pgn_of(fa.can_id.astype(np.uint32))
-        if (ok & (pgns == ADDRESS_CLAIM_PGN)).any():
-            return None
+        claims = ok & (pgns == ADDRESS_CLAIM_PGN)
+        ok &= ~claims
         known, length_ok = self._known(pgns, fa.dlc)
         unknown = ok & ~known
         wrong_length = ok & known & ~length_ok
@@ -612,6 +620,9 @@ class Decoder:
         if t_ok.size and (abs(int(t_ok[0]) - jumps.ref_ns) > jumps.max_jump_ns
                           or (np.abs(np.diff(t_ok)) > jumps.max_jump_ns).any()):
             return None
+        # the run is taken from here on: the claims read into the device table in order
+        counted: dict[str, list[int]] = {}
+        owner = self._owners(fa, np.flatnonzero(claims), counted)
         # every sound frame is released as it comes and becomes the stream's time
         last_ok = np.maximum.accumulate(np.where(ok, np.arange(n), -1))
         ref_after = np.where(last_ok >= 0, t[np.maximum(last_ok, 0)], jumps.ref_ns)
@@ -621,11 +632,11 @@ class Decoder:
         events = [(np.flatnonzero(m), reason, '') for m, reason in (
             (error, 'error_frame'), (remote, 'remote_frame'), (standard, 'not_extended'), (unknown, 'unknown_id'),
             (wrong_length, 'wrong_length'), (back, 'time_backwards'), (dup, 'duplicate'))]
+        events += [(np.array(rows, np.intp), reason, '') for reason, rows in counted.items()]
         names: list[str] = []                          # a sample's input, by its spec's number
         s_row: list[NDArray[np.intp]] = []
         s_spec: list[NDArray[np.intp]] = []
         s_val: list[NDArray[np.float64]] = []
-        owner = self._owner_lut[(fa.can_id & 0xFF).astype(np.intp)]
         for _, fields, unmapped in self._mapped_fields(fa, ok, pgns, owner):
             for f in fields:                          # numbered in the PGN's order: a frame's samples' order
                 name = f.spec.name

@@ -208,7 +208,7 @@ class Pipeline:
         node (what each read of the bus holds, as frames) and for a replay (a log's blocks, as
         columns). Runs the decoder can decode at once go through :meth:`feed_run`; a part of
         fewer than :data:`MIN_RUN` frames, and where the decoder must decide across frames (the
-        stream's start, a time jump, an address claim) pieces of up to :data:`MIN_RUN` frames,
+        stream's start, a time jump and the chain held after it) pieces of up to :data:`MIN_RUN` frames,
         go one at a time (:meth:`feed`) (:func:`runs_of`). The outputs do not depend on how the
         frames are cut into parts (tested: one part per frame and parts of any size give the
         same). Returns what became due, in order; :attr:`changed_stamps` then holds the stamps
@@ -539,7 +539,7 @@ class Pipeline:
 
 def runs_of(decoder: Decoder, part: FrameArrays) -> Iterator[DecodedRun | FrameArrays]:
     """``part`` as runs the decoder has decoded at once, or, where it must decide across
-    frames (the stream's start, a time jump, an address claim), pieces of up to :data:`MIN_RUN`
+    frames (the stream's start, a time jump and the chain held after it), pieces of up to :data:`MIN_RUN`
     frames to feed one at a time before the next is asked for; the largest run before such a
     place is still taken at once (halving down to :data:`MIN_RUN`). A part of fewer than
     :data:`MIN_RUN` frames is one piece, fed one at a time."""

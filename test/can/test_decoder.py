@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -9,9 +10,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from steer_monitor.can import Decoder, Frame, FrameArrays, RejectCounter, make_id
+from steer_monitor.can import Decoder, Frame, FrameArrays, RejectCounter, SignalMap, make_id
 from steer_monitor.can.rejects import REASONS
-from test.support.canframes import T0, assert_same, both, pressure, rudder
+from test.support.canframes import AUTOPILOT, OTHER, T0, assert_same, both, claim, pressure, rudder
 
 
 def test_good_frames_become_samples(db, smap):
@@ -185,17 +186,55 @@ def test_a_run_decoded_at_once_gives_each_frames_answers(db, smap, reason):
     assert run is not None and run.rejects.snapshot().counts.get(reason, 0) >= 1
 
 
-@pytest.mark.parametrize('case', ['jump', 'claim'])
-def test_a_run_with_a_decision_across_frames_is_left_to_frame_by_frame(db, smap, case):
+def test_a_run_with_a_time_jump_is_left_to_frame_by_frame(db, smap):
     from steer_monitor.can.devices import ADDRESS_CLAIM_PGN
-    odd = (rudder(db, T0 + 3_600_000_000_000, 1) if case == 'jump'
-           else Frame(T0 + 1000, make_id(6, ADDRESS_CLAIM_PGN, 0x10), bytes(8)))
     d = Decoder(db, smap)
     for k in range(60):
         d.decode(rudder(db, T0 - 2_000_000_000 + k * 10_000_000, k))
-    before = (d.jumps.ref_ns, d.frames_seen, d.rejects.snapshot().counts)
-    assert d.decode_run(FrameArrays.from_frames([rudder(db, T0, 1), odd])) is None
-    assert (d.jumps.ref_ns, d.frames_seen, d.rejects.snapshot().counts) == before
+    before = (d.jumps.ref_ns, d.frames_seen, d.rejects.snapshot().counts, d.devices.name_at(0x10))
+    # a claim before the jump is not read either: the frames one by one will read it in turn
+    frames = [rudder(db, T0, 1), Frame(T0 + 1000, make_id(6, ADDRESS_CLAIM_PGN, 0x10), AUTOPILOT.to_bytes(8, 'little')),
+              rudder(db, T0 + 3_600_000_000_000, 1)]
+    assert d.decode_run(FrameArrays.from_frames(frames)) is None
+    assert (d.jumps.ref_ns, d.frames_seen, d.rejects.snapshot().counts, d.devices.name_at(0x10)) == before
+
+
+def _bound_to(smap, name):
+    """The map with the rudder angle taken from the device ``name`` wherever it is."""
+    return SignalMap(tuple(dataclasses.replace(s, device_name=name, address=-1, instance=0)
+                           if s.name == 'rudder_angle' else s for s in smap.specs), smap.max_jump_ns)
+
+
+def test_a_run_with_address_claims_gives_each_frames_answers(db, smap):
+    """Claims inside a run are read in order: each frame is its device's as it came, and each
+    claim's reject (a short one as a wrong length) is counted when its frame is reached."""
+    m = _bound_to(smap, AUTOPILOT)
+    short = claim(T0 + 25, 13, OTHER)
+    short = Frame(short.t_ns, short.can_id, short.data[:5])
+    frames = [rudder(db, T0, 100, source=13),                         # nobody's yet: unmapped
+              claim(T0 + 1, 13, AUTOPILOT),
+              rudder(db, T0 + 10, 200, source=13),                    # the autopilot's
+              claim(T0 + 20, 13, OTHER),                              # OTHER takes 13
+              short,
+              rudder(db, T0 + 30, 300, source=13),                    # OTHER's: not the rudder
+              claim(T0 + 40, 14, AUTOPILOT),
+              rudder(db, T0 + 50, 400, source=14)]
+    run = _run_against_frames(db, m, frames)
+    assert run is not None
+    counts = run.rejects.snapshot().counts
+    assert counts['address_claim'] == 3 and counts['wrong_length'] == 1
+    got = [v for name, v in zip(run.sample_name, run.sample_value.tolist()) if name == 'rudder_angle']
+    assert got == pytest.approx([0.02, 0.04])
+
+
+@settings(max_examples=200, deadline=None)
+@given(events=st.lists(st.tuples(st.booleans(), st.integers(0, 2000), st.sampled_from([13, 14, 20]),
+                                 st.sampled_from([AUTOPILOT, OTHER])), min_size=1, max_size=40))
+def test_fuzz_a_run_with_claims_agrees_with_frame_by_frame(db, smap, events):
+    m = _bound_to(smap, AUTOPILOT)
+    frames = [claim(T0 + i * 10**6, a, n) if is_claim else rudder(db, T0 + i * 10**6, t, source=a)
+              for i, (is_claim, t, a, n) in enumerate(events)]
+    assert _run_against_frames(db, m, frames) is not None
 
 
 @settings(max_examples=300, deadline=None)
