@@ -187,14 +187,12 @@ def test_a_run_decoded_at_once_gives_each_frames_answers(db, smap, reason):
 
 
 def test_a_run_with_a_time_jump_is_left_to_frame_by_frame(db, smap):
-    from steer_monitor.can.devices import ADDRESS_CLAIM_PGN
     d = Decoder(db, smap)
     for k in range(60):
         d.decode(rudder(db, T0 - 2_000_000_000 + k * 10_000_000, k))
     before = (d.jumps.ref_ns, d.frames_seen, d.rejects.snapshot().counts, d.devices.name_at(0x10))
     # a claim before the jump is not read either: the frames one by one will read it in turn
-    frames = [rudder(db, T0, 1), Frame(T0 + 1000, make_id(6, ADDRESS_CLAIM_PGN, 0x10), AUTOPILOT.to_bytes(8, 'little')),
-              rudder(db, T0 + 3_600_000_000_000, 1)]
+    frames = [rudder(db, T0, 1), claim(T0 + 1000, 0x10, AUTOPILOT), rudder(db, T0 + 3_600_000_000_000, 1)]
     assert d.decode_run(FrameArrays.from_frames(frames)) is None
     assert (d.jumps.ref_ns, d.frames_seen, d.rejects.snapshot().counts, d.devices.name_at(0x10)) == before
 
