@@ -8,8 +8,7 @@ among other traffic up to the full NMEA 2000 rate (1,908 frames/s, as ``bench_no
 cut into parts of each read period; per part size, the CPU of
 
 * ``frame``: :meth:`Pipeline.feed` of each frame;
-* ``run``: :meth:`Decoder.decode_run` of the part, then :meth:`Pipeline.feed_run` (each part
-  that the decoder declines, the stream's first, frame by frame);
+* ``run``: :meth:`Decoder.decode_run` of the part, then :meth:`Pipeline.feed_run`;
 * ``feed_frames``: what the package does (the one or the other by ``MIN_RUN``),
 
 each as a share of a core over the minute of bus, from the lists of frames the node reads
@@ -83,12 +82,7 @@ def _time(how: str, parts: list, params, db, smap) -> tuple[float, int]:
         if how == 'feed_frames':
             n += len(p.feed_frames(frames))
             continue
-        run = p.decoder.decode_run(FrameArrays.from_frames(frames))
-        if run is None:
-            for f in frames:
-                n += len(p.feed(f))
-        else:
-            n += len(p.feed_run(run))
+        n += len(p.feed_run(p.decoder.decode_run(FrameArrays.from_frames(frames))))
     spent = time.process_time() - start
     n += len(p.finish())
     return spent, n

@@ -5,8 +5,8 @@ Each part of :func:`steer_monitor.ashore.replay.replay` is timed by wrapping its
 a clock, a timed call made inside another counted in its own part only (the wrappers' own
 cost, about a microsecond a call, is counted in the parts):
 
-* decode: ``Decoder.decode_run`` over runs of up to 16,384 frames (``Decoder.decode`` for the
-  frames it leaves to one at a time);
+* decode: ``Decoder.decode_run`` over runs of up to 16,384 frames (``Decoder.decode`` for a
+  block's last piece when it is shorter than ``MIN_RUN`` frames);
 * live model: ``LiveMonitor.update`` per angle and order sample (rate, the performance
   trackers) where they are taken one by one, ``RunPlan.take_rudder`` where a span of them is
   taken at once (their rates worked out per run, ``SteadyMotion.plan``),

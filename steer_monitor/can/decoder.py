@@ -16,7 +16,7 @@ Both paths apply the same checks in the same order and count every refusal in a
 
 What passes becomes a sample: (t_ns, input name, SI value).
 
-Why one module of some 700 lines: :meth:`Decoder.decode` (a frame), :meth:`Decoder.decode_arrays`
+Why one module of some 800 lines: :meth:`Decoder.decode` (a frame), :meth:`Decoder.decode_arrays`
 (a log's columns) and :meth:`Decoder.decode_run` (a run of frames, as replay feeds the pipeline)
 are three ways into one decoder whose verdicts depend on the same state (the device table, the
 time-jump filter, the last time and data per identifier, the frames held); the two over arrays
@@ -27,6 +27,7 @@ holds the three to the same samples and rejects.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -39,7 +40,7 @@ from steer_monitor.can.devices import ADDRESS_CLAIM_PGN, DeviceName, DeviceTable
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, Frame, FrameArrays, pgn_of
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.can.signals import SignalMap, SignalSpec
-from steer_monitor.can.timejump import HELD, REJECTED, RELEASED, JumpFilter
+from steer_monitor.can.timejump import HELD, NO_TIME, REJECTED, RELEASED, JumpFilter
 from steer_monitor.model.inputs import Sample, Series, SignalSet
 from steer_monitor.utc import utc_text
 
@@ -47,6 +48,13 @@ __all__ = ['STITCH_GAP_NS', 'ClockStep', 'DecodedRun', 'Decoder', 'Sample', 'Ser
            'collect']
 
 
+
+
+#: the flags a frame's structural checks read, and no rows
+_FLAG_CHECKED = FLAG_ERROR | FLAG_REMOTE | FLAG_EXTENDED
+_NO_ROWS = np.zeros(0, np.intp)
+_NO_TIMES = np.zeros(0, np.int64)
+_NO_VALUES = np.zeros(0, np.float64)
 
 
 def collect(samples: Iterable[Sample], names: Iterable[str]) -> SignalSet:
@@ -174,6 +182,16 @@ class Decoder:
             if spec.device_name is not None and spec.address >= 0:
                 self.devices.seed(spec.address, spec.device_name)
         self._update_owners()
+        # the DBC's PGNs, sorted, and each one's data length (a PGN looked up by a search)
+        pgn_list = sorted(db.by_pgn) or [-1]
+        self._pgn_table = (np.array(pgn_list, np.int64),
+                           np.array([db.by_pgn[p].length if p in db.by_pgn else -1 for p in pgn_list], np.int64))
+
+    @property
+    def settled(self) -> bool:
+        """The stream's time established and no frame held after a jump: a run without a jump
+        is then decoded with no decision across its frames."""
+        return self.jumps.ref_ns is not None and not self.jumps.pending
 
     # --- devices ---------------------------------------------------------------------------
     def _update_owners(self) -> None:
@@ -364,10 +382,7 @@ class Decoder:
         hit = ok & ~length_ok
         r.add('wrong_length', 'in a log block', n=int(hit.sum()))
         ok &= length_ok
-        if self._held:
-            self._held_fa = FrameArrays.concat([self._held_fa, FrameArrays.from_frames(f for f, _, _ in self._held)])
-            self._held_owner = np.concatenate([self._held_owner, np.array([o for _, _, o in self._held], np.int16)])
-            self._held = []
+        self._held_as_arrays()
         if len(self._held_fa):     # frames held after a jump come first, structurally checked already
             fa = FrameArrays.concat([self._held_fa, fa])
             ok = np.concatenate([np.ones(len(self._held_fa), bool), ok])
@@ -419,27 +434,37 @@ class Decoder:
 
     def _mapped_fields(self, fa: FrameArrays, ok: NDArray[np.bool_], pgns: NDArray, owner: NDArray[np.int16]
                        ) -> Iterator[tuple[MessageLayout, list[_Field], NDArray[np.intp]]]:
-        """The fields of the frames ``ok`` as the map takes them, one PGN of the DBC at a time:
-        its layout, each of its inputs' field judged (:class:`_Field`, in the PGN's order of
-        inputs: a frame's samples' order) and the frames no input takes. ``owner``: each
+        """The fields of the frames ``ok`` as the map takes them, each PGN of the DBC they hold in
+        turn: its layout, each of its inputs' field judged where a frame holds it (:class:`_Field`,
+        in the PGN's order of inputs: a frame's samples' order) and the frames no input takes. ``owner``: each
         frame's device (the map's index holding its address when it came, -1: none); shapes (n,).
         The one definition of decoding frames as arrays, for :meth:`decode_arrays` and
         :meth:`decode_run`."""
+        sound = np.flatnonzero(ok)
+        if sound.size == 0:
+            return
+        present = {int(pgns[sound[0]])} if sound.size == 1 else set(np.unique(pgns[sound]).tolist())
         words = CanDatabase.words(fa.data)
         for pgn, layout in self.db.by_pgn.items():
-            rows = np.flatnonzero(ok & (pgns == pgn))
+            if pgn not in present:
+                continue
+            rows = sound[pgns[sound] == pgn]
             specs = self.map.for_pgn(pgn)
-            if rows.size == 0 or not specs:
+            if not specs:
                 yield layout, [], rows
                 continue
             w = words[rows]
-            inst = CanDatabase.extract(layout.fields['Instance'], w) if 'Instance' in layout.fields else None
-            src = CanDatabase.extract(layout.fields['Source'], w) if 'Source' in layout.fields else None
+            inst = (CanDatabase.extract(layout.fields['Instance'], w)
+                    if 'Instance' in layout.fields and any(sp.instance >= 0 for sp in specs) else None)
+            src = (CanDatabase.extract(layout.fields['Source'], w)
+                   if 'Source' in layout.fields and any(sp.source >= 0 for sp in specs) else None)
             address = fa.can_id[rows] & 0xFF
             mapped = np.zeros(rows.size, bool)
             fields = []
             for spec in specs:
                 sel = self._selected(spec, inst, src, address, owner[rows])
+                if not sel.any():                    # no frame of this input: nothing to judge
+                    continue
                 mapped |= sel
                 f = layout.fields[spec.field]
                 na, err, bad, phys = self._judged(spec, f, CanDatabase.extract(f, w[sel]))
@@ -493,13 +518,10 @@ class Decoder:
 
     def _known(self, pgns: NDArray, dlc: NDArray[np.uint8]) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
         """Rows whose PGN the DBC has, and rows of such a PGN with its data length; shapes (n,)."""
-        known = np.zeros(pgns.shape[0], bool)
-        length_ok = np.zeros(pgns.shape[0], bool)
-        for pgn, layout in self.db.by_pgn.items():
-            is_pgn = pgns == pgn
-            known |= is_pgn
-            length_ok |= is_pgn & (dlc == layout.length)
-        return known, length_ok
+        table, lengths = self._pgn_table
+        at = np.minimum(np.searchsorted(table, pgns), table.shape[0] - 1)
+        known = table[at] == pgns
+        return known, known & (lengths[at] == dlc)
 
     def _selected(self, spec: SignalSpec, inst: NDArray | None, src: NDArray | None, address: NDArray,
                   owner: NDArray[np.int16]) -> NDArray[np.bool_]:
@@ -551,13 +573,26 @@ class Decoder:
         back_all = np.zeros(len(fa), bool)
         dup_all = np.zeros(len(fa), bool)
         rows_all = np.nonzero(ok)[0]
+        if rows_all.size == 0:
+            return back_all, dup_all
         ids = fa.can_id[rows_all]
         # payloads compared as one 64-bit word each
         data = np.ascontiguousarray(fa.data)
         words = data.view('<u8')[:, 0] if data.shape[1] == 8 else None
-        for can_id in np.unique(ids):
-            cid = int(can_id)
-            rows = rows_all[ids == can_id]
+        uniq, first, counts = np.unique(ids, return_index=True, return_counts=True)
+        for cid, k, c in zip(uniq.tolist(), first.tolist(), counts.tolist()):
+            if c == 1:                          # one frame of the identifier (a node's read): as _in_order
+                r = int(rows_all[k])
+                ti, last = int(fa.t_ns[r]), self._last.get(cid)
+                payload = fa.data[r, :int(fa.dlc[r])].tobytes()
+                if last is not None and ti < last[0]:
+                    back_all[r] = True
+                elif last is not None and ti == last[0] and payload == last[1]:
+                    dup_all[r] = True
+                else:
+                    self._last[cid] = (ti, payload)
+                continue
+            rows = rows_all[ids == cid]
             t = fa.t_ns[rows]
             last = self._last.get(cid)
             seed = last[0] if last is not None else np.iinfo(np.int64).min
@@ -590,97 +625,163 @@ class Decoder:
         return back_all, dup_all
 
     # --- a run of frames, frame by frame's answers at once ---------------------------------
-    def decode_run(self, fa: FrameArrays) -> DecodedRun | None:
+    def decode_run(self, fa: FrameArrays, until_step_back: bool = False) -> DecodedRun:
         """What :meth:`decode` of each frame of ``fa`` in turn would give, vectorized: each
-        frame's samples and rejects, indexed by frame, for a caller that must act between
-        frames (the pipeline's schedule) without a Python call per frame. The rejects are
-        *not* counted here: :meth:`DecodedRun.count_rejects` counts those of the frames up to
-        one, so a count read between frames is the frame-by-frame one.
+        frame's samples and rejects, indexed by the frame at whose arrival :meth:`decode` gives
+        them, for a caller that must act between frames (the pipeline's schedule) without a
+        Python call per frame. The rejects are *not* counted here: :meth:`DecodedRun.count_rejects`
+        counts those of the frames up to one, so a count read between frames is the
+        frame-by-frame one.
 
         Address claims are read in order, each frame's device the one holding its address when
-        it came. Only for a run that holds no decision made across frames in time: the
-        stream's time established and no chain held after a time jump, no jump in the run.
-        Anything else returns None with nothing changed; decode those frames one at a time
-        (:meth:`decode`)."""
+        it came. The stream's start and time jumps are decided as :meth:`decode` decides them
+        (:meth:`JumpFilter.decide`): frames held after a jump, here or in an earlier call, give
+        their samples at the frame that confirms their chain, stamped with their own times
+        (:attr:`DecodedRun.sample_t_ns`). ``until_step_back``: the run ends at the frame that
+        confirms the stream's time going back (at once if it went back before), its
+        :attr:`~DecodedRun.t_ns` then shorter than ``fa``; the frames after it are not taken."""
         n = len(fa)
         jumps = self.jumps
-        if n == 0 or jumps.ref_ns is None or jumps.pending or self._held or len(self._held_fa):
-            return None
-        error, remote, standard = self._flag_rejects(fa.flags)
-        ok = ~(error | remote | standard)
+        events: list[tuple[NDArray[np.intp], str, str]] = []
+        ok = (fa.flags & _FLAG_CHECKED) == FLAG_EXTENDED          # no error, remote or 11-bit frame
+        if not ok.all():
+            error, remote, standard = self._flag_rejects(fa.flags)
+            events += [(np.flatnonzero(m), reason, '') for m, reason in (
+                (error, 'error_frame'), (remote, 'remote_frame'), (standard, 'not_extended')) if m.any()]
         pgns = pgn_of(fa.can_id.astype(np.uint32))
         claims = ok & (pgns == ADDRESS_CLAIM_PGN)
-        ok &= ~claims
+        any_claim = bool(claims.any())
+        if any_claim:
+            ok &= ~claims
         known, length_ok = self._known(pgns, fa.dlc)
-        unknown = ok & ~known
-        wrong_length = ok & known & ~length_ok
-        ok &= known & length_ok
+        events += [(np.flatnonzero(m), reason, '') for m, reason in (
+            (ok & ~known, 'unknown_id'), (ok & known & ~length_ok, 'wrong_length')) if m.any()]
+        ok &= length_ok
         t = fa.t_ns
-        t_ok = t[ok]
-        if t_ok.size and (abs(int(t_ok[0]) - jumps.ref_ns) > jumps.max_jump_ns
-                          or (np.abs(np.diff(t_ok)) > jumps.max_jump_ns).any()):
-            return None
-        # the run is taken from here on: the claims read into the device table in order
+        rows = np.flatnonzero(ok)
+        t_ok = t[rows]
+        self._held_as_arrays()
+        ref0 = NO_TIME if jumps.ref_ns is None else jumps.ref_ns
+        settled = (not jumps.pending and jumps.ref_ns is not None
+                   and (t_ok.size == 0 or (abs(int(t_ok[0]) - jumps.ref_ns) <= jumps.max_jump_ns
+                                           and (t_ok.size == 1
+                                                or not (np.abs(np.diff(t_ok)) > jumps.max_jump_ns).any()))))
+        if until_step_back and n > 1:
+            cut = 0 if jumps.steps_back else -1
+            if cut < 0 and not settled:          # a run without a jump confirms no chain
+                probe = dataclasses.replace(jumps, pending=list(jumps.pending))
+                at = probe.decide(t_ok).step_back_at
+                cut = int(rows[at]) if at >= 0 else -1
+            if 0 <= cut < n - 1:
+                return self.decode_run(fa.take(np.arange(cut + 1)))
         counted: dict[str, list[int]] = {}
-        owner = self._owners(fa, np.flatnonzero(claims), counted)
-        # every sound frame is released as it comes and becomes the stream's time
-        last_ok = np.maximum.accumulate(np.where(ok, np.arange(n), -1))
-        ref_after = np.where(last_ok >= 0, t[np.maximum(last_ok, 0)], jumps.ref_ns)
-        ref_before = np.concatenate([[jumps.ref_ns], ref_after[:-1]]).astype(np.int64)
-        back, dup = self._time_verdicts(fa, ok)
-        ok &= ~back & ~dup
-        events = [(np.flatnonzero(m), reason, '') for m, reason in (
-            (error, 'error_frame'), (remote, 'remote_frame'), (standard, 'not_extended'), (unknown, 'unknown_id'),
-            (wrong_length, 'wrong_length'), (back, 'time_backwards'), (dup, 'duplicate'))]
+        owner = self._owners(fa, np.flatnonzero(claims) if any_claim else _NO_ROWS, counted)  # claims read in order
         events += [(np.array(rows, np.intp), reason, '') for reason, rows in counted.items()]
+        if settled:
+            # every sound frame is released as it comes and becomes the stream's time
+            every, every_pgns, every_owner, released, emit = fa, pgns, owner, ok, None
+            if t_ok.size:
+                last_ok = np.maximum.accumulate(np.where(ok, np.arange(n), -1))
+                ref_after = np.where(last_ok >= 0, t[np.maximum(last_ok, 0)], ref0)
+                jumps.ref_ns = int(t_ok[-1])
+            else:
+                ref_after = np.full(n, ref0, np.int64)
+        else:
+            # the frames held before, then this run's sound ones, decided frame by frame's way
+            held, held_owner = self._held_fa, self._held_owner
+            d = jumps.decide(t_ok)
+            every = FrameArrays.concat([held, fa.take(rows)])
+            every_pgns = pgn_of(every.can_id.astype(np.uint32))
+            every_owner = np.concatenate([held_owner, owner[rows]])
+            released = d.verdict == RELEASED
+            emit = np.full(d.at.shape[0], -1, np.intp)          # the frame whose arrival decides
+            decided = d.at >= 0
+            emit[decided] = rows[d.at[decided]]
+            still = np.flatnonzero(d.verdict == HELD)
+            self._held_fa, self._held_owner = every.take(still), every_owner[still]
+            events.append((emit[d.verdict == REJECTED], 'time_jump', ''))
+            ref_at = np.full(n, NO_TIME, np.int64)
+            ref_at[rows] = d.ref_after
+            last_ok = np.maximum.accumulate(np.where(ok, np.arange(n), -1))
+            ref_after = np.where(last_ok >= 0, ref_at[np.maximum(last_ok, 0)], ref0)
+        ref_before = np.empty(n, np.int64)
+        ref_before[0] = ref0
+        ref_before[1:] = ref_after[:-1]
+
+        def at(idx: NDArray[np.intp]) -> NDArray[np.intp]:
+            return idx if emit is None else emit[idx]
+        good = released
+        if released.any():
+            back, dup = self._time_verdicts(every, released)       # in arrival order: the order of release
+            for m, reason in ((back, 'time_backwards'), (dup, 'duplicate')):
+                if m.any():
+                    events.append((at(np.flatnonzero(m)), reason, ''))
+                    good = good & ~m
         names: list[str] = []                          # a sample's input, by its spec's number
-        s_row: list[NDArray[np.intp]] = []
+        s_idx: list[NDArray[np.intp]] = []
         s_spec: list[NDArray[np.intp]] = []
         s_val: list[NDArray[np.float64]] = []
-        for _, fields, unmapped in self._mapped_fields(fa, ok, pgns, owner):
+        for _, fields, unmapped in self._mapped_fields(every, good, every_pgns, every_owner):
             for f in fields:                          # numbered in the PGN's order: a frame's samples' order
                 name = f.spec.name
-                events += [(f.rows[f.na], 'not_available', name), (f.rows[f.err], 'error_value', name),
-                           (f.rows[f.bad], 'out_of_range', name)]
-                good = f.good
-                s_row.append(f.rows[good])
-                s_spec.append(np.full(int(good.sum()), len(names), np.intp))
-                s_val.append(f.phys[good])
+                events += [(at(f.rows[m]), reason, name) for m, reason in (
+                    (f.na, 'not_available'), (f.err, 'error_value'), (f.bad, 'out_of_range')) if m.any()]
+                ok_f = f.good
+                s_idx.append(f.rows[ok_f])
+                s_spec.append(np.full(int(ok_f.sum()), len(names), np.intp))
+                s_val.append(f.phys[ok_f])
                 names.append(name)
-            events.append((unmapped, 'unmapped', ''))
-        row = np.concatenate(s_row) if s_row else np.zeros(0, np.intp)
-        spec_no = np.concatenate(s_spec) if s_spec else np.zeros(0, np.intp)
-        value = np.concatenate(s_val) if s_val else np.zeros(0, np.float64)
-        order = np.lexsort((spec_no, row))
+            if unmapped.size:
+                events.append((at(unmapped), 'unmapped', ''))
         self.frames_seen += n
-        if t_ok.size:
-            jumps.ref_ns = int(t_ok[-1])
-        return DecodedRun(t, ref_before, ref_after, row[order], spec_no[order], tuple(names), value[order], events,
-                          self.rejects)
+        if not s_idx:
+            return DecodedRun(t, ref_before, ref_after, _NO_ROWS, _NO_TIMES, _NO_ROWS, (), _NO_VALUES, events,
+                              self.rejects, settled)
+        idx, spec_no, value = np.concatenate(s_idx), np.concatenate(s_spec), np.concatenate(s_val)
+        row = at(idx)
+        order = np.lexsort((spec_no, idx, row))
+        return DecodedRun(t, ref_before, ref_after, row[order], every.t_ns[idx[order]], spec_no[order], tuple(names),
+                          value[order], events, self.rejects, settled)
+
+    def _held_as_arrays(self) -> None:
+        """Frames held by the frame path, handed to the array paths (with their owners)."""
+        if self._held:
+            self._held_fa = FrameArrays.concat([self._held_fa, FrameArrays.from_frames(f for f, _, _ in self._held)])
+            self._held_owner = np.concatenate([self._held_owner, np.array([o for _, _, o in self._held], np.int16)])
+            self._held = []
 
 
 @dataclass
 class DecodedRun:
     """A run of frames decoded at once (:meth:`Decoder.decode_run`). Per frame ``i`` (shapes
     (n,)): ``t_ns`` its stamp, ``ref_before``/``ref_after`` the stream's established time
-    before and after it was decoded [ns]. Samples in frame-by-frame order: ``sample_row``
-    (the frame each comes from, non-decreasing), ``sample_spec`` (the number of its input in
-    ``spec_names``; :attr:`sample_name` names them), ``sample_value`` [SI]."""
+    before and after it was decoded [ns] (``NO_TIME`` before the stream's first). Samples in
+    frame-by-frame order: ``sample_row`` (the frame at whose arrival it is given,
+    non-decreasing), ``sample_t_ns`` (its own frame's stamp: a frame held after a time jump
+    gives its samples at the frame that confirms its chain), ``sample_spec`` (the number of
+    its input in ``spec_names``; :attr:`sample_name` names them), ``sample_value`` [SI]."""
 
     t_ns: NDArray[np.int64]
     ref_before: NDArray[np.int64]
     ref_after: NDArray[np.int64]
     sample_row: NDArray[np.intp]
+    sample_t_ns: NDArray[np.int64]
     sample_spec: NDArray[np.intp]
     spec_names: tuple[str, ...]
     sample_value: NDArray[np.float64]
     events: list[tuple[NDArray[np.intp], str, str]]     # (frames, reason, input or '')
     rejects: RejectCounter
+    #: nothing decided across frames: every frame after the stream's first time, every sample
+    #: given at its own frame
+    settled: bool = True
 
     def __post_init__(self) -> None:
         parts = [(rows, k) for k, (rows, _, _) in enumerate(self.events) if rows.size]
-        row = np.concatenate([r for r, _ in parts]) if parts else np.zeros(0, np.intp)
-        kind = np.concatenate([np.full(r.size, k) for r, k in parts]) if parts else np.zeros(0, np.intp)
+        if len(parts) == 1:
+            row, kind = parts[0][0], np.full(parts[0][0].size, parts[0][1])
+        else:
+            row = np.concatenate([r for r, _ in parts]) if parts else np.zeros(0, np.intp)
+            kind = np.concatenate([np.full(r.size, k) for r, k in parts]) if parts else np.zeros(0, np.intp)
         order = np.argsort(row, kind='stable')
         self._event_row, self._event_kind = row[order], kind[order]
         self._next = 0                                   # the first event not counted
@@ -707,7 +808,14 @@ class DecodedRun:
             return
         hi = int(np.searchsorted(rows, upto, 'right'))
         self._next = hi
-        kinds, counts = np.unique(self._event_kind[lo:hi], return_counts=True)
-        for k, c in zip(kinds.tolist(), counts.tolist()):
+        if hi - lo <= 64:                                # a few: counted as they come
+            counts: dict[int, int] = {}
+            for k in self._event_kind[lo:hi].tolist():
+                counts[k] = counts.get(k, 0) + 1
+            pairs = sorted(counts.items())
+        else:
+            kinds, many = np.unique(self._event_kind[lo:hi], return_counts=True)
+            pairs = list(zip(kinds.tolist(), many.tolist()))
+        for k, c in pairs:
             _, reason, signal = self.events[k]
             self.rejects.add(reason, 'in a log block', signal, int(c))

@@ -17,9 +17,11 @@ periods of data. Such steps are counted (:attr:`JumpFilter.steps_back`, with the
 size): the live node then starts its monitor again from the new time, as a restart would,
 rather than refuse the data for as long as the clock was ahead.
 
-:class:`JumpFilter` decides frame by frame (live: a chain's frames wait for its confirmation,
-at most ``CONFIRM_FRAMES`` frames) or a block at a time (logs), with the same verdicts either
-way. Pure Python and numpy.
+:class:`JumpFilter` decides frame by frame (a chain's frames wait for its confirmation, at
+most ``CONFIRM_FRAMES`` frames), a run at a time with frame by frame's answers kept per frame
+(:meth:`JumpFilter.decide`: which frame's arrival released or refused each, the stream's time
+after each; the node's reads and replay's blocks) or a block at a time (logs), with the same
+verdicts every way. Pure Python and numpy.
 """
 
 from __future__ import annotations
@@ -29,12 +31,29 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ['CONFIRM_FRAMES', 'DEFAULT_MAX_JUMP_NS', 'HELD', 'REJECTED', 'RELEASED', 'JumpFilter']
+__all__ = ['CONFIRM_FRAMES', 'DEFAULT_MAX_JUMP_NS', 'HELD', 'NO_TIME', 'REJECTED', 'RELEASED', 'Decisions',
+           'JumpFilter']
 
 #: frames a new chain needs before its time is believed (about half a second of a steering bus)
 CONFIRM_FRAMES = 50
 DEFAULT_MAX_JUMP_NS = 5_000_000_000
 RELEASED, HELD, REJECTED = 1, 0, -1
+#: the stream's time before any chain has been confirmed, in an array of times [ns]
+NO_TIME = np.iinfo(np.int64).min
+
+
+@dataclass(frozen=True)
+class Decisions:
+    """:meth:`JumpFilter.decide`'s answer on ``h`` frames held before and ``n`` new ones, shapes
+    (h + n,) over the held frames then the new: ``verdict`` (``RELEASED``, ``REJECTED`` or
+    ``HELD``: still held after the last), ``at`` (the new frame whose arrival decided it, -1
+    while held); per new frame, shape (n,), ``ref_after`` (the stream's time after it, ``NO_TIME``
+    before any); ``step_back_at`` (the new frame that confirmed a step back in time, -1: none)."""
+
+    verdict: NDArray[np.int8]
+    at: NDArray[np.intp]
+    ref_after: NDArray[np.int64]
+    step_back_at: int
 
 
 @dataclass
@@ -99,6 +118,47 @@ class JumpFilter:
         n = len(self.pending)
         self.pending = []
         return n
+
+    def decide(self, t_ns: NDArray[np.int64]) -> Decisions:
+        """:meth:`push` of each time of ``t_ns`` in turn, its answers kept per frame: which frame's
+        arrival released or rejected each of the frames held (:attr:`pending`, first) and each new
+        one, and the stream's time after each. Frame by frame where a chain is held; the
+        stretches of the established time between jumps at once."""
+        t = np.asarray(t_ns, np.int64)
+        h, n = len(self.pending), t.size
+        verdict = np.zeros(h + n, np.int8)
+        at = np.full(h + n, -1, np.intp)
+        ref_after = np.full(n, NO_TIME, np.int64)
+        step_back_at = -1
+        jump_after = np.flatnonzero(np.abs(np.diff(t)) > self.max_jump_ns) + 1    # frames far from the one before
+        chain = list(range(h))          # the held frames, by their place over held then new
+        i = 0
+        while i < n:
+            if not chain and self.ref_ns is not None and self._near(int(t[i]), self.ref_ns):
+                # the established time goes on to the next jump: each frame released as it comes
+                nxt = int(np.searchsorted(jump_after, i, 'right'))
+                k = int(jump_after[nxt]) if nxt < jump_after.size else n
+                verdict[h + i:h + k] = RELEASED
+                at[h + i:h + k] = np.arange(i, k)
+                ref_after[i:k] = t[i:k]
+                self.ref_ns = int(t[k - 1])
+                i = k
+                continue
+            steps = self.steps_back
+            rejected, released = self.push(int(t[i]))
+            gone, chain = chain[:rejected], chain[rejected:] + [h + i]
+            verdict[gone] = REJECTED
+            at[gone] = i
+            if released:
+                freed, chain = chain[len(chain) - released:], chain[:len(chain) - released]
+                verdict[freed] = RELEASED
+                at[freed] = i
+            if self.ref_ns is not None:
+                ref_after[i] = self.ref_ns
+            if self.steps_back != steps and step_back_at < 0:
+                step_back_at = i
+            i += 1
+        return Decisions(verdict, at, ref_after, step_back_at)
 
     # --- a block at a time -------------------------------------------------------------------
     def run_block(self, t_ns: NDArray[np.int64]) -> NDArray[np.int8]:

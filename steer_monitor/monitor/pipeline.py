@@ -30,7 +30,7 @@ import threading
 import time
 from bisect import bisect_left
 from collections import deque
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
@@ -41,6 +41,7 @@ from numpy.typing import NDArray
 from steer_monitor.can.decoder import DecodedRun, Decoder
 from steer_monitor.can.frames import Frame, FrameArrays
 from steer_monitor.can.rejects import RejectCounter
+from steer_monitor.can.timejump import NO_TIME
 from steer_monitor.estimate.effects import Effect
 from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.inputs import INPUTS, PRESSURE_INPUTS, Sample
@@ -52,18 +53,18 @@ from steer_monitor.params import min_clearance_2z_from_params, ram_share_warn_fr
 from steer_monitor.runtime import release_freed_memory
 
 __all__ = ['APPLY_DELAY_NS', 'APPLY_PER_MOTION', 'MAX_GAP_SECONDS', 'MIN_RUN', 'SECOND_NS', 'SLOT_NS', 'DiagOut',
-           'Pipeline', 'StateOut', 'ThreadedJobs', 'analyst_from_params', 'apply_delay_ns', 'runs_of',
-           'settings_from_params']
+           'Pipeline', 'StateOut', 'ThreadedJobs', 'analyst_from_params', 'apply_delay_ns', 'settings_from_params']
 
 SLOT_NS = 10_000_000
 SECOND_NS = 1_000_000_000
 APPLY_DELAY_NS = 20 * SECOND_NS     # a finding is applied this long after its job started ...
 APPLY_PER_MOTION = 0.01             # ... and this share of the motion its window may hold
 MAX_GAP_SECONDS = 60
-#: frames: a part of fewer frames goes one by one, and so does a run the decoder cannot take
-#: at once once halved to this: a run's decoding and laying out cost some 0.3 ms whatever its
-#: length, so below about 500 frames of a full bus (a quarter of a second of it) frame by frame
-#: is cheaper (bench/bench_feed.py)
+#: frames: a part of fewer goes a frame at a time. A run's decoding and laying out cost some
+#: 50-150 us whatever its length, a frame's some 2 us (on a full bus most frames are PGNs the
+#: monitor does not use, refused by a dictionary lookup), so below about 500 frames of a full
+#: bus (a quarter of a second of it: a replay's blocks are longer, the node's reads shorter)
+#: frame by frame is the cheaper (bench/bench_feed.py)
 MIN_RUN = 512
 #: the inputs whose samples change the live model's state (what a published state reflects)
 _STATE_INPUTS = frozenset(('rudder_angle', *PRESSURE_INPUTS))
@@ -206,57 +207,77 @@ class Pipeline:
                     *, until_step_back: bool = False) -> list[Output]:
         """Take frames in the order received: the one way frames enter the pipeline, for the
         node (what each read of the bus holds, as frames) and for a replay (a log's blocks, as
-        columns). Runs the decoder can decode at once go through :meth:`feed_run`; a part of
-        fewer than :data:`MIN_RUN` frames, and where the decoder must decide across frames (the
-        stream's start, a time jump and the chain held after it) pieces of up to :data:`MIN_RUN` frames,
-        go one at a time (:meth:`feed`) (:func:`runs_of`). The outputs do not depend on how the
-        frames are cut into parts (tested: one part per frame and parts of any size give the
-        same). Returns what became due, in order; :attr:`changed_stamps` then holds the stamps
-        [ns] of the frames taken whose samples changed the live model's state (rudder angle,
-        pressures), in order, and :attr:`taken` how many of its frames it took. ``see`` hears
-        the stream's time before a frame is taken, and its stamp (of every frame fed one at a
-        time; of a run's first and last). ``until_step_back``: stop after the frame that
-        confirms the stream's time going back (the node starts a new monitor there)."""
+        columns). A part of :data:`MIN_RUN` frames or more is one run (:meth:`Decoder.decode_run`,
+        :meth:`feed_run`), the stream's start and time jumps included; a shorter one goes a
+        frame at a time (:meth:`feed`). The outputs do not depend on how the frames are cut into
+        parts (tested: one part per frame and parts of any size give the same). Returns what
+        became due, in order; :attr:`changed_stamps` then holds the stamps [ns] of the frames
+        taken whose samples changed the live model's state (rudder angle, pressures), in order,
+        and :attr:`taken` how many of its frames it took. ``see`` hears the stream's time before
+        a frame is taken (None before the stream's first) and its stamp: of every frame fed one
+        at a time; of a run's first, its first with a time and its last. ``until_step_back``:
+        stop after the frame that confirms the stream's time going back (the node starts a new
+        monitor there)."""
+        if len(part) < MIN_RUN:
+            return self._feed_each(part.frames() if isinstance(part, FrameArrays) else part, see, until_step_back)
+        fa = part if isinstance(part, FrameArrays) else FrameArrays.from_frames(part)
+        if self.decoder.settled or len(fa) < 2 * MIN_RUN:
+            return self._feed_run_of(fa, see, until_step_back)
+        # the stream's start or a chain held: a run of its first frames alone, so that the rest,
+        # its time then settled, is laid out at once (a run deciding across frames goes a row at a time)
+        out = self._feed_run_of(fa.take(np.arange(MIN_RUN)), see, until_step_back)
+        stamps, taken = self.changed_stamps, self.taken
+        if taken == MIN_RUN and not (until_step_back and self.decoder.jumps.steps_back):
+            out += self._feed_run_of(fa.take(np.arange(MIN_RUN, len(fa))), see, until_step_back)
+            stamps, taken = stamps + self.changed_stamps, taken + self.taken
+        self.changed_stamps, self.taken = stamps, taken
+        return out
+
+    def _feed_run_of(self, fa: FrameArrays, see: Callable[[int | None, int], None] | None,
+                     until_step_back: bool) -> list[Output]:
+        """:meth:`feed_frames` of frames taken as one run."""
+        run = self.decoder.decode_run(fa, until_step_back)
+        n = run.t_ns.shape[0]
+        if see is not None:
+            jump = self.decoder.jumps.max_jump_ns
+            before = run.ref_before
+            first_timed = int(np.argmax(before != NO_TIME)) if before[0] == NO_TIME and before[-1] != NO_TIME else 0
+            for i in sorted({0, first_timed, n - 1}):
+                ti, ref = int(run.t_ns[i]), int(before[i])
+                see(None if ref == NO_TIME else ti if abs(ti - ref) <= jump else ref, ti)
+        out = self.feed_run(run)
+        stamps: list[int] = []
+        changing = [name in _STATE_INPUTS for name in run.spec_names]
+        if any(changing):
+            rows = run.sample_row[np.array(changing)[run.sample_spec]]       # non-decreasing
+            if rows.size:
+                rows = rows[np.concatenate(([True], rows[1:] != rows[:-1]))]
+            stamps = run.t_ns[rows].tolist()
+        self.changed_stamps, self.taken = stamps, n
+        return out
+
+    def _feed_each(self, frames: Iterable[Frame], see: Callable[[int | None, int], None] | None,
+                   until_step_back: bool) -> list[Output]:
+        """:meth:`feed_frames` of a short part: a frame at a time."""
         out: list[Output] = []
         stamps: list[int] = []
         taken = 0
-        if isinstance(part, FrameArrays):
-            pieces: Iterable[DecodedRun | FrameArrays | Sequence[Frame]] = runs_of(self.decoder, part)
-        elif len(part) < MIN_RUN:
-            pieces = (part,)                 # as runs_of would: not worth making columns of
-        else:
-            pieces = runs_of(self.decoder, FrameArrays.from_frames(part))
-        for piece in pieces:
-            if not isinstance(piece, DecodedRun):
-                for frame in piece.frames() if isinstance(piece, FrameArrays) else piece:
-                    if see is not None:
-                        see(self.clock(frame.t_ns), frame.t_ns)
-                    out += self.feed(frame)
-                    taken += 1
-                    if self._changed_by_last:
-                        stamps.append(frame.t_ns)
-                    if until_step_back and self.decoder.jumps.steps_back:
-                        self.changed_stamps, self.taken = stamps, taken
-                        return out
-                continue
+        for frame in frames:
             if see is not None:
-                jump = self.decoder.jumps.max_jump_ns
-                for i in (0, len(piece.t_ns) - 1):
-                    ti, ref = int(piece.t_ns[i]), int(piece.ref_before[i])
-                    see(ti if abs(ti - ref) <= jump else ref, ti)
-            out += self.feed_run(piece)             # a run holds no time jump (decode_run)
-            taken += len(piece.t_ns)
-            changing = [k for k, name in enumerate(piece.spec_names) if name in _STATE_INPUTS]
-            if changing:
-                rows = np.unique(piece.sample_row[np.isin(piece.sample_spec, changing)])
-                stamps += piece.t_ns[rows].tolist()
+                see(self.clock(frame.t_ns), frame.t_ns)
+            out += self.feed(frame)
+            taken += 1
+            if self._changed_by_last:
+                stamps.append(frame.t_ns)
+            if until_step_back and self.decoder.jumps.steps_back:
+                break
         self.changed_stamps, self.taken = stamps, taken
         return out
 
     def feed(self, frame: Frame) -> list[Output]:
         """Take one frame; returns what became due before it (the frame itself is in the
-        next output). The per-frame path :meth:`feed_frames` takes where the decoder must
-        decide across frames, and the reference the run path is tested against."""
+        next output). The path of a part shorter than :data:`MIN_RUN` frames, and the
+        reference the run path is tested against."""
         out: list[Output] = []
         self.frames += 1
         samples = self.decoder.decode(frame)
@@ -270,41 +291,49 @@ class Pipeline:
 
     def feed_run(self, run: DecodedRun) -> list[Output]:
         """Take a run of frames the decoder has decoded at once (:meth:`Decoder.decode_run`):
-        the same outputs, in the same order, as :meth:`feed` of each frame in turn, with the
-        rejects counted as they would have been by each second's diagnostics. Between whole
-        seconds the angle and order samples are taken one by one, the others recorded where
-        something reads them and the slots' states worked out at once (:mod:`.runfeed`); the
-        states come as :class:`~steer_monitor.monitor.runfeed.StateRun` columns."""
+        the same outputs, in the same order, as every frame fed alone, with the rejects counted
+        as they would have been by each second's diagnostics. Between whole seconds the angle
+        and order samples are taken one by one, the others recorded where something reads them
+        and the slots' states worked out at once (:mod:`.runfeed`); the states come as
+        :class:`~steer_monitor.monitor.runfeed.StateRun` columns. A run where the decoder
+        decided across frames (the stream's start, a time jump) goes a frame it visits at a time."""
         t = run.t_ns
         n = t.shape[0]
         out: list[Output] = []
         if n == 0:
             return out
         ref = run.ref_after
-        clock = np.where(np.abs(t - ref) <= self.decoder.jumps.max_jump_ns, t, ref)
-        slot = clock // SLOT_NS
+        jump = self.decoder.jumps.max_jump_ns
+        if run.settled:                                 # every frame after the stream's first time
+            clock = np.where(np.abs(t - ref) <= jump, t, ref)
+            slot = clock // SLOT_NS
+        else:
+            timed = ref != NO_TIME
+            clock = np.where(timed & (np.abs(t - np.where(timed, ref, t)) <= jump), t, ref)
+            slot = np.where(timed, clock // SLOT_NS, np.iinfo(np.int64).min)
         reached = np.maximum.accumulate(slot)
         before = np.empty(n, np.int64)                  # the newest slot before each frame
         before[0] = self._slot if self._slot is not None else np.iinfo(np.int64).min
         before[1:] = np.maximum(reached[:-1], before[0])
         opens = slot > before
-        visit = opens.copy()
-        visit[run.sample_row] = True
-        if self._slot is None:
-            visit[0] = True
-        rows = np.flatnonzero(visit)
+        if run.sample_row.size:
+            visit = opens.copy()
+            visit[run.sample_row] = True
+            rows = np.flatnonzero(visit)
+        else:
+            rows = np.flatnonzero(opens)
         lo = np.searchsorted(run.sample_row, rows, 'left')
         hi = np.searchsorted(run.sample_row, rows, 'right')
         plan = None
-        if self._slot is not None and self.monitor.defer_share:
+        if self._slot is not None and self.monitor.defer_share and run.settled:
             plan = RunPlan(run, self.monitor, lo[opens[rows]])
         if plan is None or not plan.ok:
-            names, values, clocks, stamps = run.sample_name, run.sample_value.tolist(), clock.tolist(), t.tolist()
+            names, values, clocks = run.sample_name, run.sample_value.tolist(), clock.tolist()
+            stamps = run.sample_t_ns.tolist()
             for i, a, b in zip(rows.tolist(), lo.tolist(), hi.tolist()):
                 run.count_rejects(i)
                 self._advance(clocks[i], out)
-                ti = stamps[i]
-                self._take([Sample(ti, names[k], values[k]) for k in range(a, b)])
+                self._take([Sample(stamps[k], names[k], values[k]) for k in range(a, b)])
         else:
             self._feed_planned(run, plan, rows, lo, hi, opens[rows], clock, slot, out)
         run.count_rejects(n - 1)
@@ -535,26 +564,3 @@ class Pipeline:
                                    why=None if self.analyst is None else self.analyst.why)
         interval = dict(mon.gaps_interval) if mon.gaps_interval else None
         return DiagOut(now_ns, tuple(statuses), mon.gaps, interval, mon.gaps_source)
-
-
-def runs_of(decoder: Decoder, part: FrameArrays) -> Iterator[DecodedRun | FrameArrays]:
-    """``part`` as runs the decoder has decoded at once, or, where it must decide across
-    frames (the stream's start, a time jump and the chain held after it), pieces of up to :data:`MIN_RUN`
-    frames to feed one at a time before the next is asked for; the largest run before such a
-    place is still taken at once (halving down to :data:`MIN_RUN`). A part of fewer than
-    :data:`MIN_RUN` frames is one piece, fed one at a time."""
-    n, pos = len(part), 0
-    if n < MIN_RUN:
-        if n:
-            yield part
-        return
-    while pos < n:
-        size = n - pos
-        while True:
-            piece = part if pos == 0 and size == n else part.take(np.arange(pos, pos + size))
-            run = decoder.decode_run(piece)
-            if run is not None or size <= MIN_RUN:
-                break
-            size //= 2
-        pos += size
-        yield piece if run is None else run

@@ -65,7 +65,7 @@ class RunPlan:
         m = run.sample_spec.shape[0]
         self.m = m
         code = np.array([_CODE[n] for n in run.spec_names], np.int8)[run.sample_spec] if m else np.zeros(0, np.int8)
-        stamp = run.t_ns[run.sample_row]
+        stamp = run.sample_t_ns
         value = run.sample_value
         self.codes: list[int] = code.tolist()
         # per input: its samples' positions, times and values (one stable sort by input)

@@ -150,32 +150,48 @@ def test_counter_rejects_unknown_reason():
         RejectCounter().add('nope')
 
 
-def _run_against_frames(db, smap, frames):
-    """``decode_run`` of ``frames`` after an established stream, against ``decode`` of each in
-    turn: per frame, the same samples in the same order and the same reject counts so far."""
-    lead = [rudder(db, T0 - 2_000_000_000 + k * 10_000_000, k) for k in range(60)]   # the stream's time
+def _runs_against_frames(db, smap, frames, cuts=(), lead=True, confirm=None):
+    """``decode_run`` of ``frames`` cut into runs at ``cuts`` against ``decode`` of each in turn
+    (after an established stream, or, without ``lead``, from the stream's start; a chain after
+    a jump confirmed by ``confirm`` frames): per frame, the same samples (their own stamps) in
+    the same order and the same reject counts so far; at the end the same frames held."""
     d1, d2 = Decoder(db, smap), Decoder(db, smap)
-    for f in lead:
-        d1.decode(f)
-        d2.decode(f)
-    run = d2.decode_run(FrameArrays.from_frames(frames))
-    if run is None:
-        return None
-    by_frame, counts = [], []
-    for f in frames:
-        by_frame.append([(s.t_ns, s.signal, s.value) for s in d1.decode(f)])
-        snap = d1.rejects.snapshot()
-        counts.append((snap.counts, snap.by_signal))
-    got: list[list] = [[] for _ in frames]
-    for row, name, value in zip(run.sample_row.tolist(), run.sample_name, run.sample_value.tolist()):
-        got[row].append((frames[row].t_ns, name, value))
-    assert got == by_frame
-    for i in range(len(frames)):
-        run.count_rejects(i)
-        snap = d2.rejects.snapshot()
-        assert (snap.counts, snap.by_signal) == counts[i], i
-    assert d2.jumps.ref_ns == d1.jumps.ref_ns and d2.frames_seen == d1.frames_seen
-    return run
+    if confirm is not None:
+        d1.jumps.confirm = d2.jumps.confirm = confirm
+    if lead:
+        for f in [rudder(db, T0 - 2_000_000_000 + k * 10_000_000, k) for k in range(60)]:   # the stream's time
+            d1.decode(f)
+            d2.decode(f)
+    bounds = [0, *cuts, len(frames)]
+    runs = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        part = frames[a:b]
+        run = d2.decode_run(FrameArrays.from_frames(part))
+        assert run.t_ns.shape[0] == len(part)
+        by_frame, counts = [], []
+        for f in part:
+            by_frame.append([(s.t_ns, s.signal, s.value) for s in d1.decode(f)])
+            snap = d1.rejects.snapshot()
+            counts.append((snap.counts, snap.by_signal))
+        got: list[list] = [[] for _ in part]
+        for row, t, name, value in zip(run.sample_row.tolist(), run.sample_t_ns.tolist(), run.sample_name,
+                                       run.sample_value.tolist()):
+            got[row].append((t, name, value))
+        assert got == by_frame
+        for i in range(len(part)):
+            run.count_rejects(i)
+            snap = d2.rejects.snapshot()
+            assert (snap.counts, snap.by_signal) == counts[i], i
+        assert d2.jumps.ref_ns == d1.jumps.ref_ns and d2.frames_seen == d1.frames_seen
+        assert d2.jumps.pending == d1.jumps.pending and d2.jumps.steps_back == d1.jumps.steps_back
+        runs.append(run)
+    assert [s.t_ns for s in d2.finish()] == [s.t_ns for s in d1.finish()]
+    assert d2.rejects.snapshot().counts == d1.rejects.snapshot().counts
+    return runs[0] if len(runs) == 1 else runs
+
+
+def _run_against_frames(db, smap, frames):
+    return _runs_against_frames(db, smap, frames)
 
 
 @pytest.mark.parametrize('reason', FRAME_REASONS)
@@ -183,18 +199,68 @@ def test_a_run_decoded_at_once_gives_each_frames_answers(db, smap, reason):
     frames = [Frame(f.t_ns + 100_000, f.can_id, f.data, f.is_extended, f.is_error, f.is_remote)
               for f in _case(db, reason) * 2]
     run = _run_against_frames(db, smap, frames)
-    assert run is not None and run.rejects.snapshot().counts.get(reason, 0) >= 1
+    assert run.settled and run.rejects.snapshot().counts.get(reason, 0) >= 1
 
 
-def test_a_run_with_a_time_jump_is_left_to_frame_by_frame(db, smap):
+def test_a_run_over_a_time_jump_gives_the_held_frames_at_the_frame_that_confirms_them(db, smap):
+    """A jump an hour on: the chain after it is held until its fifth frame, then its frames'
+    samples come there with their own stamps; a glitched frame alone is refused as a time jump
+    when the next frame returns; a claim before the jump is read in its turn."""
+    hour = 3_600_000_000_000
+    frames = [rudder(db, T0, 1), claim(T0 + 1000, 0x10, AUTOPILOT), rudder(db, T0 + 2 * hour, 2),
+              rudder(db, T0 + 2000, 3)] + [rudder(db, T0 + hour + k * 1000, 10 + k) for k in range(7)]
+    run = _runs_against_frames(db, smap, frames, confirm=5)
+    assert not run.settled
+    assert run.rejects.snapshot().counts['time_jump'] == 1
+    # the chain's first four frames give nothing as they come, then all five at the fifth
+    rows, stamps = run.sample_row.tolist(), run.sample_t_ns.tolist()
+    assert sorted(set(rows)) == [0, 3, 8, 9, 10]
+    assert sorted({t for r, t in zip(rows, stamps) if r == 8}) == [T0 + hour + k * 1000 for k in range(5)]
+
+
+def test_the_streams_start_and_its_chains_across_runs(db, smap):
+    """From the stream's first frame, cut into runs anywhere: the first chain held until
+    confirmed across runs, a chain after a jump held across runs and refused where it ends."""
+    hour = 3_600_000_000_000
+    frames = ([rudder(db, T0 + k * 1000, k) for k in range(6)]
+              + [rudder(db, T0 + hour + k * 1000, k) for k in range(3)]       # too short: refused
+              + [rudder(db, T0 + 9000 + k * 1000, k) for k in range(4)]
+              + [rudder(db, T0 - hour + k * 1000, k) for k in range(5)])      # a step back, confirmed
+    for cuts in [(), (1,), (2, 7), (5, 8, 10, 14), tuple(range(1, len(frames)))]:
+        _runs_against_frames(db, smap, frames, cuts, lead=False, confirm=4)
+
+
+def test_a_run_stops_at_the_frame_that_confirms_a_step_back(db, smap):
+    hour = 3_600_000_000_000
+    frames = ([rudder(db, T0 + k * 1000, k) for k in range(3)]
+              + [rudder(db, T0 - hour + k * 1000, k) for k in range(6)])
     d = Decoder(db, smap)
+    d.jumps.confirm = 4
     for k in range(60):
         d.decode(rudder(db, T0 - 2_000_000_000 + k * 10_000_000, k))
-    before = (d.jumps.ref_ns, d.frames_seen, d.rejects.snapshot().counts, d.devices.name_at(0x10))
-    # a claim before the jump is not read either: the frames one by one will read it in turn
-    frames = [rudder(db, T0, 1), claim(T0 + 1000, 0x10, AUTOPILOT), rudder(db, T0 + 3_600_000_000_000, 1)]
-    assert d.decode_run(FrameArrays.from_frames(frames)) is None
-    assert (d.jumps.ref_ns, d.frames_seen, d.rejects.snapshot().counts, d.devices.name_at(0x10)) == before
+    run = d.decode_run(FrameArrays.from_frames(frames), until_step_back=True)
+    assert run.t_ns.shape[0] == 7 and d.jumps.steps_back == 1       # the fourth frame of the chain
+    assert d.decode_run(FrameArrays.from_frames(frames[7:]), until_step_back=True).t_ns.shape[0] == 1
+
+
+_far = st.sampled_from([0, 0, 0, 0, 0, 0, 3_600_000_000_000, -3_600_000_000_000, 7_000_000_000])
+
+
+@settings(max_examples=300, deadline=None)
+@given(steps=st.lists(st.tuples(st.integers(0, 3_000_000), _far, st.integers(0, 2000), st.sampled_from('1122o')),
+                      min_size=1, max_size=40),
+       cuts=st.lists(st.integers(1, 39), max_size=6, unique=True), lead=st.booleans())
+def test_fuzz_runs_over_time_jumps_agree_with_frame_by_frame(db, smap, steps, cuts, lead):
+    """Frames a few ms apart with jumps an hour or seven seconds away and back, some
+    duplicates, some of a PGN the monitor does not know, from the stream's start or after it,
+    cut into runs anywhere."""
+    t, frames = T0, []
+    for dt, far, pos, kind in steps:
+        t += dt
+        f = rudder(db, t + far, pos)
+        frames += {'1': [f], '2': [f, f], 'o': [Frame(t + far, make_id(3, 129025, 0x05), bytes(8))]}[kind]
+    cuts = sorted(c for c in cuts if c < len(frames))
+    _runs_against_frames(db, smap, frames, cuts, lead=lead, confirm=3)
 
 
 def _bound_to(smap, name):
@@ -218,7 +284,6 @@ def test_a_run_with_address_claims_gives_each_frames_answers(db, smap):
               claim(T0 + 40, 14, AUTOPILOT),
               rudder(db, T0 + 50, 400, source=14)]
     run = _run_against_frames(db, m, frames)
-    assert run is not None
     counts = run.rejects.snapshot().counts
     assert counts['address_claim'] == 3 and counts['wrong_length'] == 1
     got = [v for name, v in zip(run.sample_name, run.sample_value.tolist()) if name == 'rudder_angle']
@@ -232,7 +297,7 @@ def test_fuzz_a_run_with_claims_agrees_with_frame_by_frame(db, smap, events):
     m = _bound_to(smap, AUTOPILOT)
     frames = [claim(T0 + i * 10**6, a, n) if is_claim else rudder(db, T0 + i * 10**6, t, source=a)
               for i, (is_claim, t, a, n) in enumerate(events)]
-    assert _run_against_frames(db, m, frames) is not None
+    _run_against_frames(db, m, frames)
 
 
 @settings(max_examples=300, deadline=None)

@@ -1,5 +1,5 @@
-"""Fuzzing both decode paths (hypothesis, bounded): frames with time jumps split into blocks
-anywhere, and candump lines mangled anywhere read by both log readers. The answers must be
+"""Fuzzing the decode paths (hypothesis, bounded): frames with time jumps split into blocks
+and runs anywhere, and candump lines mangled anywhere read by both log readers. The answers must be
 the same samples and the same rejects, and nothing may raise."""
 
 from __future__ import annotations
@@ -52,6 +52,21 @@ def _paths(db, smap, frames, cuts):
     return collect(per_frame, smap.names), parts, d1.rejects.snapshot(), d2.rejects.snapshot()
 
 
+def _runs(db, smap, frames, cuts):
+    """The samples (in order) and rejects of ``decode_run`` over the frames cut at ``cuts``."""
+    d = Decoder(db, smap)
+    fa = FrameArrays.from_frames(frames)
+    edges = sorted({0, len(frames), *[c % (len(frames) + 1) for c in cuts]})
+    samples = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        run = d.decode_run(fa.take(np.arange(a, b)))
+        run.count_rejects(b - a - 1)
+        samples += [(t, name, v) for t, name, v in zip(run.sample_t_ns.tolist(), run.sample_name,
+                                                       run.sample_value.tolist())]
+    samples += [(s.t_ns, s.signal, s.value) for s in d.finish()]
+    return samples, d.rejects.snapshot()
+
+
 @FUZZ
 @given(step_list=st.lists(steps, min_size=1, max_size=3 * CONFIRM_FRAMES),
        values=st.lists(payloads, min_size=3 * CONFIRM_FRAMES, max_size=3 * CONFIRM_FRAMES),
@@ -60,6 +75,12 @@ def test_time_jumps_both_paths_agree(db, smap, step_list, values, cuts):
     frames = _frames(db, step_list, values)
     a, parts, ra, rb = _paths(db, smap, frames, cuts)
     assert ra.counts == rb.counts
+    # runs cut at the same places: frame by frame's samples in its order, the same rejects
+    d1 = Decoder(db, smap)
+    one = [(s.t_ns, s.signal, s.value) for f in frames for s in d1.decode(f)] + \
+        [(s.t_ns, s.signal, s.value) for s in d1.finish()]
+    runs, rc = _runs(db, smap, frames, cuts)
+    assert runs == one and rc.counts == ra.counts
     for name in smap.names:
         t_b = np.concatenate([p[name].t_ns for p in parts])
         v_b = np.concatenate([p[name].value for p in parts])

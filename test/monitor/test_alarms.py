@@ -410,7 +410,8 @@ def test_a_short_lived_early_fit_leaves_no_alarm_behind(r18_params, can_db):
         p = Pipeline(Decoder(db, smap, rejects), rejects, mon, diag, analyst_from_params(gear, early))
         last = None
         for f, ta in zip(frames.frames(), arrival.tolist()):
-            last = next((o for o in reversed(p.feed(dataclasses.replace(f, t_ns=ta))) if isinstance(o, DiagOut)), last)
+            outs = p.feed(dataclasses.replace(f, t_ns=ta))
+            last = next((o for o in reversed(outs) if isinstance(o, DiagOut)), last)
         # the bus falls silent; the node goes on counting seconds, and the finding comes
         quiet = p.idle(int(arrival[-1]) + 60 * 10**9)
         last = next(o for o in reversed(quiet) if isinstance(o, DiagOut))

@@ -8,7 +8,7 @@ import math
 import pytest
 
 from steer_monitor import sim
-from steer_monitor.can import Decoder, Frame, RejectCounter
+from steer_monitor.can import Decoder, Frame, FrameArrays, RejectCounter
 from steer_monitor.can.timejump import CONFIRM_FRAMES
 from steer_monitor.estimate.finding import Finding
 from steer_monitor.estimate.intervals import Interval
@@ -102,7 +102,7 @@ def _flat(out):
     return flat
 
 
-@pytest.mark.parametrize(('batch', 'defer_share'), [(4096, True), (700, True), (1500, False), (37, False)])
+@pytest.mark.parametrize(('batch', 'defer_share'), [(1024, True), (700, True), (1500, False), (37, False)])
 def test_runs_taken_at_once_give_what_each_frame_gives(r18_params, can_db, batch, defer_share):
     """Frames fed in parts (feed_frames: a replay's runs, samples laid out and states as
     columns; the node's reads of a few dozen frames, states one by one with their load sharing;
@@ -127,6 +127,36 @@ def test_runs_taken_at_once_give_what_each_frame_gives(r18_params, can_db, batch
     assert len(fa) > 3000 and fa == fb
     assert many.monitor.motion_ns == one.monitor.motion_ns > 0
     assert many.monitor.residuals == one.monitor.residuals
+
+
+@pytest.mark.parametrize(('part', 'defer_share'), [(512, False), (777, True), (10**6, True)])
+def test_runs_over_time_jumps_give_what_each_frame_gives(r18_params, can_db, part, defer_share):
+    """The stream's start, a glitched frame an hour ahead, a gap of 30 s (past the jump limit:
+    its chain held until confirmed) and a clock set back, inside runs: fed in parts taken as
+    runs (the whole stream in one, the last part shorter, a frame at a time) against each
+    frame alone, the same outputs."""
+    import dataclasses
+
+    import numpy as np
+    db, smap = can_db
+    frames = list(sim.run(r18_params, sim.SimConfig(program='zigzag_10', max_duration_s=30.0), db, smap,
+                          8).frames.frames())
+    third = len(frames) // 3
+    frames[third // 2] = dataclasses.replace(frames[third // 2], t_ns=frames[third // 2].t_ns + 3600 * 10**9)
+    frames = frames[:third] + [dataclasses.replace(f, t_ns=f.t_ns + 30 * 10**9) for f in frames[third:2 * third]] \
+        + [dataclasses.replace(f, t_ns=f.t_ns - 20 * 10**9) for f in frames[2 * third:]]
+    one = _pipeline(r18_params, can_db, defer_share=defer_share)
+    a = [o for f in frames for o in one.feed(f)] + one.finish()
+    many = _pipeline(r18_params, can_db, defer_share=defer_share)
+    arrays = FrameArrays.from_frames(frames)
+    b = []
+    for k in range(0, len(arrays), part):
+        b += many.feed_frames(arrays.take(np.arange(k, min(k + part, len(arrays)))))
+    b += many.finish()
+    assert many.rejects.snapshot().counts['time_jump'] >= 1 and many.decoder.jumps.steps_back == 1
+    fa, fb = _flat(a), _flat(b)
+    assert len(fa) > 1000 and fa == fb
+    assert many.rejects.snapshot().counts == one.rejects.snapshot().counts
 
 
 @pytest.mark.parametrize('gap_s', [5.4, 30.0, 500.2])
