@@ -129,7 +129,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec('can.reopen_backoff_max_s', 'double', 10.0,
               'longest wait between reopen attempts [s]', 0.0, 600.0, True),
     ParamSpec('can.read_batch_ms', 'double', 5.0,
-              'on a busy bus, read what has arrived every this many ms and take it as one run (a frame '
+              'on a busy bus, read what has arrived every this many ms and take it as one part (a frame '
               'waits at most about this long; 0: no pause, more CPU) [ms]', 0.0, 100.0),
     ParamSpec('can.max_abs_rudder_deg', 'double', 45.0,
               'rudder angles beyond this are physically impossible [deg]', 0.0, 90.0, True),
