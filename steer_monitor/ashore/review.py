@@ -327,6 +327,8 @@ class Review:
             keep &= np.all(np.isfinite(arr), axis=1) if arr.ndim == 2 else np.isfinite(arr)
         if self._located is not None:               # as analyze: a row near the term's ends carries a step
             keep &= ~self._located.near_ends(obs)
+        if self._accel is not None:     # asked for again only for rows folded: the block's others forgotten
+            self._accel.keep_last(keep)
         if keep.any():
             self._take(obs.select(keep))
         if self._accel is not None:     # kept for the rows held or in the sample only (a log at rest adds none)
@@ -506,6 +508,14 @@ class _Accel:
             msg = 'a row was folded whose ram acceleration was not worked out'
             raise AssertionError(msg)
         return self._v[i]
+
+    def keep_last(self, keep: NDArray[np.bool_]) -> None:
+        """Of the rows added last (``keep``'s length of them), only those ``keep`` marks stay."""
+        n = keep.shape[0]
+        if n and not keep.all():
+            cut = self._t.size - n
+            self._t = np.concatenate([self._t[:cut], self._t[cut:][keep]])
+            self._v = np.concatenate([self._v[:cut], self._v[cut:][keep]])
 
     def drop_before(self, t_ns: int) -> None:
         k = int(np.searchsorted(self._t, t_ns))
