@@ -38,9 +38,12 @@ and the frame made of its message), the pause between reads, the pipeline
 recorded), rclpy's ``publish``, the frames and messages gathered for the recorder and handed
 over to its thread, the states' and diagnostics' fields, and the rest of the loop by difference.
 
+With ``--min-run=N``, parts of N frames or more are taken as runs (``Pipeline.feed_frames``;
+the package's ``MIN_RUN`` otherwise): ``--min-run=1``, every read of the bus one run.
+
 Run: ``python -m bench.bench_node [bus] [speedup] [voyage] [--seconds=S] [--no-record]
-[--batch-ms=B] [--parts]`` (part of ``make bench``: bus and speedup for 60 s, the voyage for
-``VOYAGE_SECONDS``).
+[--batch-ms=B] [--parts] [--min-run=N]`` (part of ``make bench``: bus and speedup for 60 s, the
+voyage for ``VOYAGE_SECONDS``).
 """
 
 from __future__ import annotations
@@ -174,10 +177,14 @@ def _other_traffic(t0_ns: int, seconds: float, rate: float, seed: int = 0):
 
 
 def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch_ms: float | None = None,
-         parts: bool = False) -> dict:
+         parts: bool = False, min_run: int | None = None) -> dict:
     import can
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
+
+    from steer_monitor.monitor import pipeline
+    if min_run is not None:       # the shortest part taken as a run (the package's MIN_RUN otherwise)
+        pipeline.MIN_RUN = min_run
 
     from steer_monitor import sim
     from steer_monitor.can.busconfig import can_setup
@@ -272,7 +279,7 @@ def main(seconds: float = SECONDS, record: bool = True, mode: str = 'bus', batch
     how = (f'the simulated gear sped up {factor:.1f}x' if mode == 'speedup' else
            'a realistic voyage in real time among other traffic, its analyses included' if mode == 'voyage' else
            'the simulated gear in real time among other traffic')
-    batch = f'read batch {node.reader.batch * 1e3:g} ms'
+    batch = f'read batch {node.reader.batch * 1e3:g} ms, parts of {pipeline.MIN_RUN} frames or more as runs'
     print(f'node at the full NMEA 2000 rate ({mode}: {how}), recording {"on" if record else "off"}, {batch}: '
           f'{sent:,} frames in {wall:.1f} s ({sent / wall:,.0f} frames/s)')
     print(f'  frames dropped       : {dropped} (received {received:,}; target 0)')
@@ -318,7 +325,9 @@ if __name__ == '__main__':
     modes = [a for a in sys.argv[1:] if a in ('bus', 'speedup', 'voyage')] or ['bus', 'speedup', 'voyage']
     secs = [float(a.split('=', 1)[1]) for a in sys.argv[1:] if a.startswith('--seconds=')]
     batches = [float(a.split('=', 1)[1]) for a in sys.argv[1:] if a.startswith('--batch-ms=')]
+    runs = [int(a.split('=', 1)[1]) for a in sys.argv[1:] if a.startswith('--min-run=')]
     for m in modes:
         main(seconds=secs[0] if secs else VOYAGE_SECONDS if m == 'voyage' else SECONDS, mode=m,
              record='--no-record' not in sys.argv,
-             batch_ms=batches[0] if batches else None, parts='--parts' in sys.argv)
+             batch_ms=batches[0] if batches else None, parts='--parts' in sys.argv,
+             min_run=runs[0] if runs else None)
