@@ -384,13 +384,14 @@ class Decoder:
         r.add('wrong_length', 'in a log block', n=int(hit.sum()))
         ok &= length_ok
         self._held_as_arrays()
-        if len(self._held_fa):     # frames held after a jump come first, structurally checked already
+        held = len(self._held_fa)
+        if held:                   # frames held after a jump come first, structurally checked already
             fa = FrameArrays.concat([self._held_fa, fa])
-            ok = np.concatenate([np.ones(len(self._held_fa), bool), ok])
+            ok = np.concatenate([np.ones(held, bool), ok])
             owner = np.concatenate([self._held_owner, owner])
             pgns = pgn_of(fa.can_id.astype(np.uint32))
         rows = np.nonzero(ok)[0]
-        verdict = self.jumps.run_block(fa.t_ns[rows])
+        verdict = self.jumps.decide(fa.t_ns[rows[held:]]).verdict     # the held ones' too, first
         jumped = rows[verdict == REJECTED]
         if jumped.size:
             i = int(jumped[0])
@@ -681,12 +682,9 @@ class Decoder:
         if settled:
             # every sound frame is released as it comes and becomes the stream's time
             every, every_pgns, every_owner, released, emit = fa, pgns, owner, ok, None
+            ref_ok = t_ok
             if t_ok.size:
-                last_ok = np.maximum.accumulate(np.where(ok, np.arange(n), -1))
-                ref_after = np.where(last_ok >= 0, t[np.maximum(last_ok, 0)], ref0)
                 jumps.ref_ns = int(t_ok[-1])
-            else:
-                ref_after = np.full(n, ref0, np.int64)
         else:
             # the frames held before, then this run's sound ones, decided frame by frame's way
             held, held_owner = self._held_fa, self._held_owner
@@ -701,10 +699,13 @@ class Decoder:
             still = np.flatnonzero(d.verdict == HELD)
             self._held_fa, self._held_owner = every.take(still), every_owner[still]
             events.append((emit[d.verdict == REJECTED], 'time_jump', ''))
-            ref_at = np.full(n, NO_TIME, np.int64)
-            ref_at[rows] = d.ref_after
-            last_ok = np.maximum.accumulate(np.where(ok, np.arange(n), -1))
-            ref_after = np.where(last_ok >= 0, ref_at[np.maximum(last_ok, 0)], ref0)
+            ref_ok = d.ref_after
+        # the stream's time after each frame: after its last sound frame so far, else as before the run
+        if rows.size:
+            last = np.searchsorted(rows, np.arange(n), 'right') - 1
+            ref_after = np.where(last >= 0, ref_ok[np.maximum(last, 0)], ref0)
+        else:
+            ref_after = np.full(n, ref0, np.int64)
         ref_before = np.empty(n, np.int64)
         ref_before[0] = ref0
         ref_before[1:] = ref_after[:-1]

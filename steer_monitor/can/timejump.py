@@ -17,11 +17,11 @@ periods of data. Such steps are counted (:attr:`JumpFilter.steps_back`, with the
 size): the live node then starts its monitor again from the new time, as a restart would,
 rather than refuse the data for as long as the clock was ahead.
 
-:class:`JumpFilter` decides frame by frame (a chain's frames wait for its confirmation, at
-most ``CONFIRM_FRAMES`` frames), a run at a time with frame by frame's answers kept per frame
-(:meth:`JumpFilter.decide`: which frame's arrival released or refused each, the stream's time
-after each; the node's reads and replay's blocks) or a block at a time (logs), with the same
-verdicts every way. Pure Python and numpy.
+:class:`JumpFilter` decides frame by frame (:meth:`JumpFilter.push`: a chain's frames wait for
+its confirmation, at most ``CONFIRM_FRAMES`` frames), or a run or a log's block at a time with
+frame by frame's answers kept per frame (:meth:`JumpFilter.decide`: push() where a chain is
+held, the stretches of the established time between jumps at once; which frame's arrival
+released or refused each, the stream's time after each). Pure Python and numpy.
 """
 
 from __future__ import annotations
@@ -159,40 +159,3 @@ class JumpFilter:
                 step_back_at = i
             i += 1
         return Decisions(verdict, at, ref_after, step_back_at)
-
-    # --- a block at a time -------------------------------------------------------------------
-    def run_block(self, t_ns: NDArray[np.int64]) -> NDArray[np.int8]:
-        """Verdicts on a block of times: ``RELEASED`` (1), ``REJECTED`` (-1) or ``HELD`` (0),
-        shape (n,), as :meth:`push` frame by frame would give them by the end of the block.
-
-        The frames still held come last. The caller keeps them and passes their times again,
-        first, with the next block: the held chain is forgotten here and re-run from its
-        first frame (which was a jump, so the re-run takes the same course). Vectorized over
-        the stretches between jumps, so a block without any costs a few array operations.
-        """
-        t = np.asarray(t_ns, np.int64)
-        n = t.size
-        out = np.zeros(n, np.int8)
-        self.pending = []
-        if n == 0:
-            return out
-        gaps = np.nonzero(np.abs(np.diff(t)) > self.max_jump_ns)[0] + 1
-        starts = [0, *gaps.tolist()]
-        ends = [*gaps.tolist(), n]
-        chain = -1          # first row of the held chain in this block (-1: none)
-        for a, b in zip(starts, ends):
-            first = int(t[a])
-            if chain >= 0:                         # a jump ends the held chain
-                out[chain:a] = REJECTED
-                chain = -1
-                self.pending = []
-            if self.ref_ns is not None and self._near(first, self.ref_ns):
-                out[a:b] = RELEASED                # the established time goes on
-                self.ref_ns = int(t[b - 1])
-            elif b - a >= self.confirm:            # a new chain, long enough at once
-                out[a:b] = RELEASED
-                self._new_time(first, int(t[b - 1]))
-            else:                                  # a new chain, held
-                chain = a
-                self.pending = t[a:b].tolist()
-        return out

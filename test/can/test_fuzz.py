@@ -183,6 +183,6 @@ def test_a_confirmed_step_back_is_counted_with_its_size_in_both_paths(db, smap):
         for t in times:
             one.push(t)
         block = JumpFilter()
-        block.run_block(np.array(times, np.int64))
+        block.decide(np.array(times, np.int64))
         assert one.steps_back == block.steps_back == n, (n, one.steps_back, block.steps_back)
     assert one.step_back_ns == block.step_back_ns > 3600 * 10**9 - 100 * ms
