@@ -123,7 +123,17 @@ def run(job) -> dict:
         raise SystemExit(f'seed {case.seed}: {why}')
     for name, iv in (('2Z', a.final.two_z), ('Z_gb', a.final.z_gb)):
         _count(out, f'model check {name}', iv, truth[name])
+        if not iv.contains(truth[name]):
+            out.setdefault('check missed', []).append(
+                f'{case.seed} {name} {_interval_text(iv)} for {truth[name] * 1e3:.4f} mm '
+                f'{"+".join(case.effects) or "clean"} ({a.verdict}: {", ".join(e.name for e in a.adopted) or "-"})')
     return out
+
+
+def _interval_text(iv) -> str:
+    if iv.hi is None:
+        return f'>= {iv.lo * 1e3:.4f} mm'
+    return f'{iv.value * 1e3:.4f} [{iv.lo * 1e3:.4f}, {iv.hi * 1e3:.4f}] mm'
 
 
 def main(n: int = N, first_seed: int = FIRST_SEED, effects: bool = False, plant: str = '', scale: float = 1.0,
@@ -134,9 +144,11 @@ def main(n: int = N, first_seed: int = FIRST_SEED, effects: bool = False, plant:
     fields = _plant(plant)
     total: dict = {}
     missed: list[str] = []
+    check_missed: list[str] = []
     with ProcessPoolExecutor(2) as pool:
         for out in pool.map(run, [(c, fields, program) for c in cases]):
             missed += out.pop('missed', [])
+            check_missed += out.pop('check missed', [])
             for key, (k, held) in out.items():
                 a, b = total.get(key, (0, 0))
                 total[key] = (a + k, b + held)
@@ -158,6 +170,8 @@ def main(n: int = N, first_seed: int = FIRST_SEED, effects: bool = False, plant:
                 cells.append(f'{held / k:.3f} ({held}/{k}; {lo:.2f}-{hi:.2f})')
             print(f'| {what} {name} | {cells[0]} | {cells[1]} |')
     print('\nlast windows missing the truth (seed, clearance, effect): ' + ('; '.join(missed) or 'none'))
+    print('\nmodel checks missing the truth (seed, clearance, estimate, truth, effect, verdict: adopted): '
+          + ('; '.join(check_missed) or 'none'))
 
 
 if __name__ == '__main__':

@@ -19,8 +19,9 @@ refitted and adopted if what it takes from the residual is systematic: the resid
 autocovariance at the next instant (50 ms) must fall by at least ``MIN_SYSTEMATIC_SHARE`` of
 the fall of its mean square (a column that fits the noise, or the instants a shifted angle
 keeps, explains nothing systematic and is no effect, however it scores); else the next one is tried (at most
-``MAX_TRIED``). An adopted effect stays even
-when a residual remains.
+``MAX_TRIED``). temp_friction's column scales a friction law, screened with the law of the fit
+without it and refitted with that of its own fit until the law settles (``SHAPE_RTOL``). An
+adopted effect stays even when a residual remains.
 
 The model explains the data when its smooth part is at most ``EXPLAINED_RATIO`` of its noise
 part: the verdict is then "declared" (nothing adopted) or "effect". Otherwise it is
@@ -95,6 +96,8 @@ MAX_TRIED = 3            # passing candidates refitted per round, best held-out 
 DELAY_STEP_S = 0.05      # the delay grid's step (effects.DELAYS_S)
 DELAY_KEEP_S = 0.01      # a grid point stands unless the parabola's vertex lies further off
 DELAY_VERTEX_S = 0.005   # the vertex, and its neighbours, to 5 ms
+SHAPE_RTOL = 0.01        # temp_friction's friction law settled: each part moved less than this share of itself
+SHAPE_ROUNDS = 4         # refits at most to settle it
 
 
 @dataclass(frozen=True)
@@ -403,6 +406,8 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
                 trial = replace(base, extra=base.extra + cand.columns,
                                 est=estimate_clearances(gear, base.obs, base.rows, base.extra + cand.columns,
                                                         grid_2z=grid_2z))
+                if cand.shape is not None:
+                    cand, trial = _shaped(gear, base, cand, trial, grid_2z, say)
             if _systematic(base, trial):
                 new = (sc, cand, trial)
                 break
@@ -419,6 +424,32 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
     closest = next((s for s in rounds[-1]), None)
     return replace(_conclude(gear, obs, base, declared, steps, rounds[0], closest, unkept, n_out, note, uneven,
                              rams, grid_2z, say, False, win), rams_assessed=check.assessed)
+
+
+def _friction_of(est: ClearanceEstimate) -> tuple[float, float, float]:
+    """The friction law a fit found: (F_s [N], mu_b, mu_g)."""
+    return tuple(est.fit.get(k) for k in ('seal_friction_n', 'mu_bushing', 'mu_guide'))  # type: ignore[return-value]
+
+
+def _shaped(gear: GearParams, base: _Base, cand: Candidate, trial: _Base, grid_2z: NDArray,
+            say: Callable[[str], None]) -> tuple[Candidate, _Base]:
+    """temp_friction with the friction law it scales taken from its own fit. Its column is the
+    law of the fit without it (the declared one, at screening), and friction that changes with
+    the oil's temperature distorts that fit: an effect twice the simulator's default put the
+    guide's friction at its limit (0.3) there, and the column scaling that law bought Z_gb >=
+    0.42 mm for a true 0.086 mm. The law is taken again from the fit with the column until it
+    moves less than ``SHAPE_RTOL`` of itself (at most ``SHAPE_ROUNDS`` refits; it settles in two
+    or three)."""
+    for _ in range(SHAPE_ROUNDS):
+        shape = _friction_of(trial.est)
+        assert cand.shape is not None
+        if all(abs(a - b) <= SHAPE_RTOL * max(abs(a), abs(b)) for a, b in zip(shape, cand.shape)):
+            break
+        say(f'refit with {cand.name}, the friction law it scales taken from its fit')
+        cand = candidate_of(Effect(cand.name, shape=shape))
+        extra = base.extra + cand.columns
+        trial = replace(base, extra=extra, est=estimate_clearances(gear, base.obs, base.rows, extra, grid_2z=grid_2z))
+    return cand, trial
 
 
 def _given(gear: GearParams, signals: Mapping[str, Series], obs: Observations, model: tuple[Effect, ...],

@@ -88,6 +88,26 @@ def test_default_magnitude_effects_cut_the_systematic_residual(r18, simulate_sig
     assert a.final.z_gb.contains(0.25e-3)
 
 
+def test_temp_friction_scales_the_friction_law_of_its_own_fit(r18, simulate_signals):
+    """Friction rising 4 %/K with the oil (twice the simulator's default), a realistic voyage, a
+    nearly new slipper (Z_gb 0.086 mm). Fitted without the effect, the friction law is distorted
+    (the guide's friction at its limit, 0.3); temp_friction's column scaled that law, a
+    pressure_friction column was adopted beside it and Z_gb read >= 0.42 mm: a false OVER LIMIT.
+    Its law taken again from the fit with the column until it settles: the one effect, and Z_gb
+    holds the truth."""
+    from steer_monitor.estimate.analyze import SHAPE_RTOL
+    signals, _ = simulate_signals('realistic:1500', 0.4147, 0.0861, ('temp_friction:k_per_k=0.04',), seed=78128)
+    a = analyze(r18, signals, min_clearance_2z=MIN_2Z)
+    assert a.verdict == 'effect' and [s.name for s in a.steps] == ['temp_friction'], a.message
+    e = a.final
+    law = (e.seal_friction.value, e.mu_bushing.value, e.mu_guide.value)
+    shape = a.adopted[0].shape
+    assert shape is not None
+    assert all(abs(x - y) <= 2 * SHAPE_RTOL * abs(y) for x, y in zip(shape, law)), (shape, law)
+    assert e.z_gb.hi is not None and e.z_gb.contains(0.0861e-3)
+    assert e.mu_guide.hi < 0.3
+
+
 def test_effect_outside_the_library_is_reported_unexplained(r18, simulate_signals):
     """A scored stretch of both rams' bushings (12 kN more friction between 12 and 18 deg
     either side, in no library): 'unexplained', located on the angle band, and the
