@@ -239,7 +239,7 @@ def _screen(
     nuisance = F.speed_scale_columns(rows.moments) + base.extra
     rss0, n0, cv0, _, _, p0, _ = candidate_score(gear, basis, rows.moments, parts, coef_t, nuisance, grid_2z, at)
     n_eff = n0 / est.inflation
-    seal, mu_b, mu_g = (est.fit.get(k) for k in ('seal_friction_n', 'mu_bushing', 'mu_guide'))
+    seal, mu_b, mu_g = _friction_of(est)
     screened: list[tuple[Screening, Candidate]] = []
     # every delay's score; its observations and rows are rebuilt for the best one only (each
     # trial's are tens of MB on a long log, and a dozen are tried)
