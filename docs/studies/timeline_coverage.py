@@ -92,6 +92,7 @@ def run(job) -> dict:
     from steer_monitor.ashore.reviewlogs import refit_windows, review_logs
     from steer_monitor.ashore.windowmodel import window_model
     from steer_monitor.can.busconfig import load_setup
+    from steer_monitor.jsonvocab import estimate_text
     from steer_monitor.logfiles.logs import write_candump
     from steer_monitor.model.gear import Clearances
     from steer_monitor.runtime import single_blas_thread
@@ -125,15 +126,9 @@ def run(job) -> dict:
         _count(out, f'model check {name}', iv, truth[name])
         if not iv.contains(truth[name]):
             out.setdefault('check missed', []).append(
-                f'{case.seed} {name} {_interval_text(iv)} for {truth[name] * 1e3:.4f} mm '
+                f'{case.seed} {name} {estimate_text(iv.scaled(1e3), "mm")} for {truth[name] * 1e3:.4f} mm '
                 f'{"+".join(case.effects) or "clean"} ({a.verdict}: {", ".join(e.name for e in a.adopted) or "-"})')
     return out
-
-
-def _interval_text(iv) -> str:
-    if iv.hi is None:
-        return f'>= {iv.lo * 1e3:.4f} mm'
-    return f'{iv.value * 1e3:.4f} [{iv.lo * 1e3:.4f}, {iv.hi * 1e3:.4f}] mm'
 
 
 def main(n: int = N, first_seed: int = FIRST_SEED, effects: bool = False, plant: str = '', scale: float = 1.0,

@@ -38,7 +38,10 @@ model has each ram carry half.
 The parts live beside it: the held-out scoring (:mod:`~steer_monitor.estimate.heldout`), what a
 screening records and the outliers set aside (:mod:`~steer_monitor.estimate.screening`), whether
 a fit is physical (:mod:`~steer_monitor.estimate.plausible`) and the verdict's words
-(:mod:`~steer_monitor.estimate.analysiswords`).
+(:mod:`~steer_monitor.estimate.analysiswords`). What stays here, some 600 lines, is one room:
+the loop (:func:`analyze`), a run under a given model (``_given``) and the verdict they share
+(``_conclude``, its specification check) all work on one ``_Base`` (observations, rows, the
+adopted columns, the fit) and hand it on; split, each would reach into the others' state.
 """
 
 from __future__ import annotations
@@ -403,9 +406,7 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
                 o, o_mask = delay_obs[cand.angle_shift_s]
                 trial = _base(gear, o, o_mask, base.extra, grid_2z)
             else:
-                trial = replace(base, extra=base.extra + cand.columns,
-                                est=estimate_clearances(gear, base.obs, base.rows, base.extra + cand.columns,
-                                                        grid_2z=grid_2z))
+                trial = _refit(gear, base, cand.columns, grid_2z)
                 if cand.shape is not None:
                     cand, trial = _shaped(gear, base, cand, trial, grid_2z, say)
             if _systematic(base, trial):
@@ -426,6 +427,12 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
                              rams, grid_2z, say, False, win), rams_assessed=check.assessed)
 
 
+def _refit(gear: GearParams, base: _Base, columns: tuple[F.Column, ...], grid_2z: NDArray) -> _Base:
+    """``base`` with ``columns`` fitted beside its own, on its rows (a candidate's trial)."""
+    extra = base.extra + columns
+    return replace(base, extra=extra, est=estimate_clearances(gear, base.obs, base.rows, extra, grid_2z=grid_2z))
+
+
 def _friction_of(est: ClearanceEstimate) -> tuple[float, float, float]:
     """The friction law a fit found: (F_s [N], mu_b, mu_g)."""
     return tuple(est.fit.get(k) for k in ('seal_friction_n', 'mu_bushing', 'mu_guide'))  # type: ignore[return-value]
@@ -441,14 +448,13 @@ def _shaped(gear: GearParams, base: _Base, cand: Candidate, trial: _Base, grid_2
     moves less than ``SHAPE_RTOL`` of itself (at most ``SHAPE_ROUNDS`` refits; it settles in two
     or three)."""
     for _ in range(SHAPE_ROUNDS):
-        shape = _friction_of(trial.est)
-        assert cand.shape is not None
-        if all(abs(a - b) <= SHAPE_RTOL * max(abs(a), abs(b)) for a, b in zip(shape, cand.shape)):
+        shape, law = _friction_of(trial.est), cand.shape
+        assert law is not None
+        if all(abs(a - b) <= SHAPE_RTOL * max(abs(a), abs(b)) for a, b in zip(shape, law)):
             break
         say(f'refit with {cand.name}, the friction law it scales taken from its fit')
         cand = candidate_of(Effect(cand.name, shape=shape))
-        extra = base.extra + cand.columns
-        trial = replace(base, extra=extra, est=estimate_clearances(gear, base.obs, base.rows, extra, grid_2z=grid_2z))
+        trial = _refit(gear, base, cand.columns, grid_2z)
     return cand, trial
 
 
