@@ -420,7 +420,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    _parse_grid(a.grid_zgb_mm, A.GRID_ZGB_MM, '--grid-zgb-mm'),
                    a.seeds, a.jobs, a.out, a.json_out, command='steer-monitor accuracy ' + ' '.join(sys.argv[2:]),
                    sensitivity_seeds=a.sensitivity_seeds, off_grid=a.off_grid, long_seeds=a.long_seeds,
-                   first_seed=a.first_seed, effects=[x.strip() for x in a.effects.split(',') if x.strip()])
+                   first_seed=a.first_seed, effects=A.sim.split_effects(a.effects))
     p.add_argument('--first-seed', type=int, metavar='S',
                    help='the first seed: of the grid (default 1), of the off-grid draws (default 9001); the '
                         'sensitivity study from S + 10000 (default 5001). A study meant to prove something runs on '

@@ -59,7 +59,7 @@ from dataclasses import dataclass, field
 
 from steer_monitor.errors import ParameterError
 
-__all__ = ['EFFECTS', 'FAULTS', 'OUTSIDE_LIBRARY', 'Effect', 'parse_effect']
+__all__ = ['EFFECTS', 'FAULTS', 'OUTSIDE_LIBRARY', 'Effect', 'parse_effect', 'split_effects']
 
 EFFECTS: dict[str, dict[str, float | str]] = {
     'viscous': {'c_ns_per_m': 1.0e6},
@@ -92,6 +92,19 @@ class Effect:
 
     def __getitem__(self, key: str) -> float | str:
         return self.params[key]
+
+
+def split_effects(text: str) -> list[str]:
+    """A comma-separated list of effects -> their texts: ``'viscous,band_friction:lo_deg=4,hi_deg=9'``
+    -> ``['viscous', 'band_friction:lo_deg=4,hi_deg=9']`` (an item ``key=value`` with no ``:``
+    is one more parameter of the effect before it). Each text is checked by :func:`parse_effect`."""
+    out: list[str] = []
+    for item in filter(None, (s.strip() for s in text.split(','))):
+        if out and ':' not in item and '=' in item and ':' in out[-1]:
+            out[-1] += f',{item}'
+        else:
+            out.append(item)
+    return out
 
 
 def parse_effect(text: str) -> Effect:

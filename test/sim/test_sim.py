@@ -208,6 +208,27 @@ def test_bad_effects(text, msg):
         sim.parse_effect(text)
 
 
+@pytest.mark.parametrize('text,effects', [
+    ('viscous', ['viscous']),
+    (' viscous , stribeck ', ['viscous', 'stribeck']),
+    ('band_friction:lo_deg=4,hi_deg=9', ['band_friction:lo_deg=4,hi_deg=9']),
+    ('viscous,band_friction:f_n=6e3,lo_deg=4,hi_deg=9,temp_friction:k_per_k=0.04',
+     ['viscous', 'band_friction:f_n=6e3,lo_deg=4,hi_deg=9', 'temp_friction:k_per_k=0.04']),
+    ('', []),
+])
+def test_split_effects(text, effects):
+    assert sim.split_effects(text) == effects
+    for e in effects:
+        sim.parse_effect(e)
+
+
+def test_split_effects_leaves_a_stray_parameter_for_parse_effect_to_name():
+    # a parameter with no effect before it is an item of its own, which parse_effect refuses
+    assert sim.split_effects('hi_deg=9,viscous') == ['hi_deg=9', 'viscous']
+    with pytest.raises(ParameterError, match="unknown effect 'hi_deg=9'"):
+        sim.parse_effect('hi_deg=9')
+
+
 @pytest.mark.parametrize('text,msg', [
     ('tango', "unknown helm programme 'tango'"),
     ('hold:-3', "helm programme 'hold:-3': the value after \":\" must be a positive number"),
