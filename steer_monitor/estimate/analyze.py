@@ -68,9 +68,10 @@ from steer_monitor.estimate.effects import (
 )
 from steer_monitor.estimate.heldout import candidate_score, halves
 from steer_monitor.estimate.intervals import Interval
-from steer_monitor.estimate.locate import Located, locate
+from steer_monitor.estimate.locate import UNITS, Located, locate
 from steer_monitor.estimate.moments import Moments
 from steer_monitor.estimate.observe import EstimateError, Observations, build_observations, in_sorted
+from steer_monitor.estimate.placements import moved_off, placements, spanned
 from steer_monitor.estimate.plausible import rated_force
 from steer_monitor.estimate.rams import OPPOSED, RamShare, judge, opposed_cause, ram_share, working_against
 from steer_monitor.estimate.ramscheck import RamsCheck, UnevenSpan, within
@@ -499,25 +500,33 @@ def _conclude(gear: GearParams, obs: Observations, base: _Base, declared: Cleara
     located = locate(base.obs, base.est.residual, base.est.inflation)
     final = base.est
     nuisance = False
+    spread = ''
     if located is not None:
-        say('refit with the located term as a nuisance')
-        zl, cols = located.columns(base.obs)
-        if cols:
-            rows = make_rows(base.obs, {**z_columns(base.obs, gear), **zl}, base.keep & ~located.near_ends(base.obs))
-            try:
-                final = estimate_clearances(gear, base.obs, rows, base.extra + cols, grid_2z=grid_2z,
-                                            model_inflation=unexplained_inflation(base.est))
-                nuisance = True
-            except EstimateError:       # too little motion left outside the term: keep the model's
-                pass
+        say('refit with the located term as a nuisance, where it sits and beside it')
+        placed = placements(gear, base.obs, base.keep, base.extra, located, grid_2z, unexplained_inflation(base.est))
+        if placed:                      # else too little motion left outside the term: keep the model's
+            final, nuisance = spanned(placed), True
+            alike = [p.where for p in placed if p.fits]
+            unit = UNITS[located.variable]
+            if moved_off(placed):
+                best = placed[0].where
+                spread = (f'; fitted beside the clearances, the term fits best at {best.lo:.3g} to {best.hi:.3g} '
+                          f'{unit}, not where the residual put it: where it sits is not known, and the intervals '
+                          f'span the clearances of every place tried '
+                          f'({", ".join(f"{p.where.lo:.3g} to {p.where.hi:.3g}" for p in placed)} {unit})')
+            elif len(alike) > 1:
+                spread += (f'; it fits as well at {", ".join(f"{w.lo:.3g} to {w.hi:.3g}" for w in alike[1:])} {unit}, '
+                           f'and the intervals span the clearances of each place')
     if not nuisance:                    # the model's own fit, its intervals counting the misfit as noise
         final = estimate_clearances(gear, base.obs, base.rows, base.extra, grid_2z=grid_2z,
                                     model_inflation=unexplained_inflation(base.est))
 
     msg = message('unexplained', declared, base.est, closest, steps, given)
     msg += f'; {located.message(gear.ram_area)}' if located is not None else '; no observed variable carries it'
-    msg += ('; the clearances are fitted with that term as a nuisance and rest on an incomplete model' if nuisance
-            else '; the clearances rest on an incomplete model')
+    if nuisance:                        # the term as the clearances were fitted with it
+        located = placed[0].where
+    msg += ('; the clearances are fitted with that term as a nuisance and rest on an incomplete model' + spread
+            if nuisance else '; the clearances rest on an incomplete model')
     return Analysis(declared, final, names[0] if names else None, steps[0].params if steps else {}, 'unexplained',
                     msg + note, screening, closest, obs, final_obs, n_out, tuple(steps), located, base.est, uneven,
                     rams, given=given, window=win)

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -151,6 +151,22 @@ class Located:
         return (f'the unexplained residual lives at {WHAT[self.variable]} {self.lo:.3g} to {self.hi:.3g} {unit}{side} '
                 f'on {rams}{moving}: {abs(self.level) / bar:.2f} bar of {kind}, '
                 f'{100 * self.share:.0f} % of the systematic part')
+
+    def moved(self, lo: float, hi: float) -> Located:
+        """The same term over [``lo``, ``hi``): its level and share over the bins whose centres
+        lie there (the residual's own, as :func:`locate` measured them; level 0 and share 0
+        where none does)."""
+        centres = 0.5 * (self.edges[:-1] + self.edges[1:])
+        inside = np.nonzero((centres >= lo) & (centres < hi) & (self.counts >= MIN_BIN_ROWS))[0]
+        a, b = self.run
+        c_old, m_old = self.counts[a:b + 1], self.means[a:b + 1]
+        old = float(np.sum(c_old * m_old ** 2))
+        c, m = self.counts[inside], self.means[inside]
+        new = float(np.sum(c * m ** 2))
+        level = math.copysign(math.sqrt(new / float(c.sum())), float(np.sum(c * m))) if inside.size else 0.0
+        share = min(self.share * new / old, 1.0) if old > 0 else 0.0
+        run = (int(inside[0]), int(inside[-1])) if inside.size else self.run
+        return replace(self, lo=lo, hi=hi, level=level, share=share, run=run)
 
     def values(self, obs: Observations) -> NDArray[np.float64]:
         """The located variable per observation and ram, (n, 2), in its unit."""

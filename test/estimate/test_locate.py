@@ -31,13 +31,18 @@ def _noise(obs: Observations, seed: int = 1, sigma: float = 1.5e3) -> np.ndarray
     return np.random.default_rng(seed).normal(0.0, sigma, (len(obs), 2))
 
 
-def test_a_friction_band_on_both_sides_is_found_on_the_angle():
+def _band_located() -> L.Located:
+    """The term located on 4 kN more friction between 12 and 18 deg either side."""
     obs = _observations()
     deg = np.degrees(np.abs(obs.alpha))
     band = (deg >= 12.0) & (deg <= 18.0)
-    resid = _noise(obs) + (obs.direction * band * 4e3)[:, None]
-    loc = L.locate(obs, resid, 1.0)
+    loc = L.locate(obs, _noise(obs) + (obs.direction * band * 4e3)[:, None], 1.0)
     assert loc is not None
+    return loc
+
+
+def test_a_friction_band_on_both_sides_is_found_on_the_angle():
+    loc = _band_located()
     assert loc.variable == 'alpha_deg' and loc.either_side
     assert loc.shape == L.Shape(None, 0, True)
     assert loc.lo == pytest.approx(12.0, abs=0.2) and loc.hi == pytest.approx(18.0, abs=0.2)
@@ -129,3 +134,15 @@ def test_named_pieces_on_other_data_are_the_same_levels():
 def test_an_unknown_variable_is_named():
     with pytest.raises(ValueError, match="unknown variable 'depth_m'"):
         L.variable_values(_observations(n=100), 'depth_m')
+
+
+def test_a_moved_term_measures_its_level_on_the_bins_it_covers():
+    loc = _band_located()
+    same = loc.moved(loc.lo, loc.hi)
+    assert same.level == pytest.approx(4e3, rel=0.05) and same.share == pytest.approx(loc.share, rel=0.1)
+    beside = loc.moved(loc.hi, loc.hi + (loc.hi - loc.lo))          # its width further out: noise only
+    assert (beside.lo, beside.hi) == (loc.hi, 2 * loc.hi - loc.lo)
+    assert abs(beside.level) < 0.05 * 4e3 and beside.share < 0.01
+    half = loc.moved(loc.lo + 0.5 * (loc.hi - loc.lo), loc.hi + 0.5 * (loc.hi - loc.lo))
+    assert 0.3 * loc.share < half.share < 0.7 * loc.share
+    assert loc.moved(80.0, 90.0).level == 0.0                       # no bin there
