@@ -81,8 +81,8 @@ def placements(gear: GearParams, obs: Observations, keep: NDArray[np.bool_], ext
     """The nuisance fit of ``located`` at its own range and moved by each of ``shifts`` of its
     width, all on the rows of ``keep`` less the instants near the located range's ends (so the
     fit at its own place is the one made without the others); best first (least RSS), each
-    marked whether it fits as well as the best. Empty when no placement leaves enough motion
-    to fit."""
+    marked whether it fits as well as the best. Empty when the located place leaves too little
+    motion to fit (the others are then no answer of their own)."""
     where = [(0.0, located)] + [(s, m) for s in shifts if s and (m := _moved(located, s)) is not None]
     near = located.near_ends(obs)
     z = z_columns(obs, gear)
@@ -99,7 +99,7 @@ def placements(gear: GearParams, obs: Observations, keep: NDArray[np.bool_], ext
             continue
         if math.isfinite(est.rss_floor):
             fitted.append((shift, w, est))
-    if not fitted:
+    if not fitted or fitted[0][0] != 0.0:     # the located place itself could not be fitted
         return []
     fitted.sort(key=lambda swe: swe[2].rss_floor)
     best = fitted[0][2]
