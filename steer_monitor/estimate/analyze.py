@@ -27,8 +27,9 @@ The model explains the data when its smooth part is at most ``EXPLAINED_RATIO`` 
 part: the verdict is then "declared" (nothing adopted) or "effect". Otherwise it is
 "unexplained": :func:`~steer_monitor.estimate.locate.locate` finds the observed variable,
 range, ram and direction that carry the rest, and the clearances are refitted with that
-term as a nuisance (so they do not lean on the misfit), saying they rest on an incomplete
-model.
+term as a nuisance (so they do not lean on the misfit), where it was found and beside it
+(:mod:`~steer_monitor.estimate.placements`: the intervals span the places it fits as well),
+saying they rest on an incomplete model.
 
 Before all that, stretches where the two rams did not share the force evenly
 (:class:`~steer_monitor.estimate.ramscheck.RamsCheck`: a bypass or isolating valve open, a

@@ -296,6 +296,14 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: PF.Profile,
     # either edge of its band (K_gl grows with the load)
     for t in (tq - band, tq, tq + band):
         kgl += k_gl_max(gear, angles, t, region_all[:, 0], region_all[:, 1]).tolist()
+    if z_gb.hi is None:
+        # a slipper clearance bounded only from below may lie anywhere past its bound, as far
+        # as the data tell, up to one where the beam never carries: the joint region (read
+        # against the two-sided threshold) does not reach there. K_gl over every pair of the
+        # profile's grid within both intervals
+        box = _within_box(pr.two_z, pr.z_gb, two_z, z_gb)
+        for t in (tq - band, tq, tq + band):
+            kgl += k_gl_max(gear, angles, t, box[:, 0], box[:, 1]).tolist()
     k_best = float(k_gl_max(gear, angles, tq, tz, zg)[0])
     return ClearanceEstimate(
         two_z=two_z, z_gb=z_gb,
@@ -498,6 +506,17 @@ def search_box(gear: GearParams, mom: Moments, grid_2z: NDArray, grid_zgb: NDArr
     i1 = grid_2z.size - 1 if near[:, 0].max() + 1 >= g2.size - 1 else (near[:, 0].max() + 1) * 2
     j1 = grid_zgb.size - 1 if near[:, 1].max() + 1 >= gz.size - 1 else (near[:, 1].max() + 1) * 2
     return grid_2z[i0:i1 + 1], grid_zgb[j0:j1 + 1]
+
+
+def _within_box(axis_2z: NDArray, axis_zgb: NDArray, two_z: Interval, z_gb: Interval) -> NDArray[np.float64]:
+    """The pairs (P, 2) of grid values of 2Z and Z_gb [m] that lie within both intervals (an
+    open end reaching to the grid's last value)."""
+    def within(axis: NDArray, iv: Interval) -> NDArray:
+        lo = -math.inf if iv.lo is None else iv.lo
+        hi = math.inf if iv.hi is None else iv.hi
+        return axis[(axis >= lo - 1e-12) & (axis <= hi + 1e-12)]
+    a, b = np.meshgrid(within(axis_2z, two_z), within(axis_zgb, z_gb), indexing='ij')
+    return np.column_stack([a.ravel(), b.ravel()])
 
 
 def k_gl_max(gear: GearParams, angles: NDArray, torque: NDArray, two_z: ArrayLike, z_gb: ArrayLike) -> NDArray:

@@ -145,6 +145,25 @@ def test_an_unexplained_misfit_is_fitted_where_it_fits_best_and_the_intervals_sp
     assert not m.final.z_gb.contains(0.1176e-3) and m.located.hi < 12.5
 
 
+def test_k_gl_spans_every_pair_within_a_clearance_bounded_only_from_below(r18, simulate_signals, monkeypatch):
+    """A small ram bushing clearance (2Z 0.11 mm) and a slipper wide open (Z_gb 0.343 mm): the
+    ram clamps before the guide beam takes load, so K_gl max is 0, and Z_gb is a lower bound.
+    The joint region K_gl was read over, against the two-sided threshold, stopped short of
+    the open end: K_gl 0.24 [0.16, 0.59], a beam said to carry load that carries none. Over
+    every pair of the grid within the intervals it reaches 0; without them (the mutation), it
+    does not."""
+    import numpy as np
+
+    from steer_monitor.estimate import batch
+    signals, _ = simulate_signals('realistic:1500', 0.11, 0.3426, ('band_friction',), seed=80007)
+    a = analyze(r18, signals, min_clearance_2z=MIN_2Z)
+    assert a.final.z_gb.hi is None and a.final.z_gb.lo <= 0.3426e-3
+    assert a.final.k_gl_max.lo == 0.0 and a.final.k_gl_max.hi > a.final.k_gl_max.value
+    monkeypatch.setattr(batch, '_within_box', lambda *args: np.zeros((0, 2)))
+    m = analyze(r18, signals, min_clearance_2z=MIN_2Z)
+    assert m.final.k_gl_max.lo > 0.1
+
+
 @pytest.mark.parametrize('ram, carries', [(2, 0.0), (1, 0.4)])
 def test_a_stretch_where_one_ram_carried_too_little_is_named_and_left_out(r18, simulate_signals, ram, carries):
     """Another programme, seed and clearances than the other tests here (realistic, 0.4 / 0.2
