@@ -293,17 +293,15 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: PF.Profile,
     kgl = k_gl_max(gear, angles, bmat @ fit_torque.T, fit_tz, fit_zg).tolist()
     # every point of the region (the extremes of K_gl sit at its edges; the subsample above
     # carries each fit's own torque curve) with the best torque curve and with the curve at
-    # either edge of its band (K_gl grows with the load)
-    for t in (tq - band, tq, tq + band):
-        kgl += k_gl_max(gear, angles, t, region_all[:, 0], region_all[:, 1]).tolist()
+    # either edge of its band (K_gl grows with the load). A slipper clearance bounded only from
+    # below may lie anywhere past its bound, as far as the data tell, up to one where the beam
+    # never carries, where the joint region (read against the two-sided threshold) does not
+    # reach: then every pair of the profile's grid within both intervals as well
+    pairs = region_all
     if z_gb.hi is None:
-        # a slipper clearance bounded only from below may lie anywhere past its bound, as far
-        # as the data tell, up to one where the beam never carries: the joint region (read
-        # against the two-sided threshold) does not reach there. K_gl over every pair of the
-        # profile's grid within both intervals
-        box = _within_box(pr.two_z, pr.z_gb, two_z, z_gb)
-        for t in (tq - band, tq, tq + band):
-            kgl += k_gl_max(gear, angles, t, box[:, 0], box[:, 1]).tolist()
+        pairs = np.vstack([region_all, _within_box(pr.two_z, pr.z_gb, two_z, z_gb)])
+    for t in (tq - band, tq, tq + band):
+        kgl += k_gl_max(gear, angles, t, pairs[:, 0], pairs[:, 1]).tolist()
     k_best = float(k_gl_max(gear, angles, tq, tz, zg)[0])
     return ClearanceEstimate(
         two_z=two_z, z_gb=z_gb,
@@ -512,9 +510,7 @@ def _within_box(axis_2z: NDArray, axis_zgb: NDArray, two_z: Interval, z_gb: Inte
     """The pairs (P, 2) of grid values of 2Z and Z_gb [m] that lie within both intervals (an
     open end reaching to the grid's last value)."""
     def within(axis: NDArray, iv: Interval) -> NDArray:
-        lo = -math.inf if iv.lo is None else iv.lo
-        hi = math.inf if iv.hi is None else iv.hi
-        return axis[(axis >= lo - 1e-12) & (axis <= hi + 1e-12)]
+        return axis[np.array([iv.contains(float(x)) for x in axis], bool)]
     a, b = np.meshgrid(within(axis_2z, two_z), within(axis_zgb, z_gb), indexing='ij')
     return np.column_stack([a.ravel(), b.ravel()])
 
