@@ -509,12 +509,16 @@ def _conclude(gear: GearParams, obs: Observations, base: _Base, declared: Cleara
             final, nuisance = spanned(placed), True
             alike = [p.where for p in placed if p.fits]
             unit = UNITS[located.variable]
+            own = next(p.where for p in placed if p.shift == 0.0)
+            if (own.lo, own.hi) != (located.lo, located.hi):
+                spread = (f'; fitted beside the clearances, the term reaches {own.lo:.3g} to {own.hi:.3g} {unit} '
+                          '(the fit with the clearances free pays for each piece added)')
             if moved_off(placed):
                 best = placed[0].where
-                spread = (f'; fitted beside the clearances, the term fits best at {best.lo:.3g} to {best.hi:.3g} '
-                          f'{unit}, not where the residual put it: where it sits is not known, and the intervals '
-                          f'span the clearances of every place tried '
-                          f'({", ".join(f"{p.where.lo:.3g} to {p.where.hi:.3g}" for p in placed)} {unit})')
+                spread += (f'; fitted beside the clearances, the term fits best at {best.lo:.3g} to {best.hi:.3g} '
+                           f'{unit}, not where the residual put it: where it sits is not known, and the intervals '
+                           f'span the clearances of every place tried '
+                           f'({", ".join(f"{p.where.lo:.3g} to {p.where.hi:.3g}" for p in placed)} {unit})')
             elif len(alike) > 1:
                 spread += (f'; it fits as well at {", ".join(f"{w.lo:.3g} to {w.hi:.3g}" for w in alike[1:])} {unit}, '
                            f'and the intervals span the clearances of each place')

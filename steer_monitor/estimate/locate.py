@@ -119,6 +119,7 @@ class Located:
             (0 where a bin has too few rows); se: its standard error [N]; counts: rows per bin.
         run: (first, last) bin of the range.
         x, target: per-row variable value and the residual signed by the shape [N], for plots.
+        pieces: how many pieces :meth:`columns` cuts the range into (0: about one bin each).
     """
 
     variable: str
@@ -135,6 +136,7 @@ class Located:
     run: tuple[int, int] = (0, 0)
     x: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0), repr=False)
     target: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0), repr=False)
+    pieces: int = 0
 
     def message(self, ram_area: float) -> str:
         """One sentence for the user (pressures in bar over the ram area [m^2])."""
@@ -168,6 +170,12 @@ class Located:
         run = (int(inside[0]), int(inside[-1])) if inside.size else self.run
         return replace(self, lo=lo, hi=hi, level=level, share=share, run=run)
 
+    @property
+    def cut_into(self) -> int:
+        """How many pieces :meth:`columns` cuts the range into: ``pieces``, or about one bin each."""
+        w = float(self.edges[1] - self.edges[0])
+        return self.pieces or max(int(round((self.hi - self.lo) / w)), 1)
+
     def values(self, obs: Observations) -> NDArray[np.float64]:
         """The located variable per observation and ram, (n, 2), in its unit."""
         v = variable_values(obs, self.variable)
@@ -181,8 +189,7 @@ class Located:
         few rows of ``obs`` is left out; given ``names`` (those a fit on other data kept),
         exactly those pieces, in that order."""
         v = self.values(obs)
-        w = float(self.edges[1] - self.edges[0])
-        pieces = max(int(round((self.hi - self.lo) / w)), 1)
+        pieces = self.cut_into
         cuts = np.linspace(self.lo, self.hi, pieces + 1)
         sel = np.ones(v.shape, bool)
         if self.shape.ram is not None:

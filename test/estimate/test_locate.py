@@ -3,6 +3,8 @@ and against a brute-force search of the range's ends."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -146,3 +148,21 @@ def test_a_moved_term_measures_its_level_on_the_bins_it_covers():
     half = loc.moved(loc.lo + 0.5 * (loc.hi - loc.lo), loc.hi + 0.5 * (loc.hi - loc.lo))
     assert 0.3 * loc.share < half.share < 0.7 * loc.share
     assert loc.moved(80.0, 90.0).level == 0.0                       # no bin there
+
+
+def test_a_term_given_its_pieces_keeps_their_cuts_when_an_end_moves_by_one():
+    """Grown by a piece of its own width (``pieces`` one more), the term's pieces are the ones
+    it had and one more beside them; by the bin width alone they would be cut again."""
+    obs = _observations()
+    loc = _band_located()
+    w = float(loc.edges[1] - loc.edges[0])
+    loc = loc.moved(loc.lo, loc.lo + 3.4 * w)       # 3 pieces; 4.53 bins grown: 5 if cut again
+    z, cols = loc.columns(obs)
+    k = len(cols)
+    assert k == 3
+    step = (loc.hi - loc.lo) / k
+    longer = replace(loc.moved(loc.lo, loc.hi + step), pieces=k + 1)
+    zg, cg = longer.columns(obs)
+    assert len(cg) == k + 1
+    for name in z:
+        np.testing.assert_array_equal(zg[name], z[name])

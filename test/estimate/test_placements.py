@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from steer_monitor.estimate.batch import ClearanceEstimate
 from steer_monitor.estimate.intervals import Interval
-from steer_monitor.estimate.placements import Placed, moved_off, spanned
+from steer_monitor.estimate.placements import Placed, grown, moved_off, spanned
 
 TWO_Z = Interval(3e-4, 2e-4, 4e-4)
 
@@ -68,3 +69,73 @@ def test_a_term_that_fits_best_away_from_where_the_residual_put_it_spans_every_p
     assert out.z_gb.lo == 0.0 and out.z_gb.hi is None
     assert out.bound_why[1].startswith('where the misfit the model lacks sits is not known')
     assert (out.two_z.lo, out.two_z.hi) == (2e-4, 4e-4) and out.two_z.value == 3e-4
+
+
+@dataclass(frozen=True)
+class _Term:
+    """A located term over [lo, hi) of a variable seen up to ``end``, in pieces of about 1 unit
+    (what grown reads of a Located)."""
+
+    lo: float
+    hi: float
+    end: float = 20.0
+    pieces: int = 0
+    either_side: bool = True
+
+    @property
+    def cut_into(self) -> int:
+        return self.pieces or round(self.hi - self.lo)
+
+    def columns(self, obs: object) -> tuple[dict, tuple]:
+        cuts = np.linspace(self.lo, self.hi, self.cut_into + 1)
+        return {}, (None,) * int(np.sum(cuts[:-1] < self.end - 0.5))
+
+    def moved(self, lo: float, hi: float) -> _Term:
+        return replace(self, lo=lo, hi=hi)
+
+
+def _fits(band: tuple[float, float], drop: float, tried: list[tuple[float, float]]):
+    """A fit whose least RSS falls by ``drop`` per unit of ``band`` the term covers, from 10,000
+    (10,000 rows, no inflation: a piece is charged log(10,000) = 9.2 and must buy 10 more)."""
+    def fit(term: _Term) -> ClearanceEstimate:
+        tried.append((term.lo, term.hi))
+        covered = max(0.0, min(term.hi, band[1]) - max(term.lo, band[0]))
+        return replace(_est(Interval(1e-4, 0.9e-4, 1.1e-4)), rows=10_000, rss_floor=1e4 - drop * covered)
+    return fit
+
+
+def test_a_term_grows_a_piece_at_a_time_while_the_fit_pays_for_each():
+    """Located over part of a band (the residual of a fit that bent a clearance to take the
+    rest): grown at the end where the band goes on, a piece of its own width at a time, its
+    pieces kept, to the band's end."""
+    tried: list[tuple[float, float]] = []
+    fit = _fits((12.0, 18.0), 40.0, tried)
+    start = _Term(12.0, 15.0)
+    term, est = grown(start, fit(start), fit, None)
+    assert (term.lo, term.hi, term.pieces) == (12.0, 18.0, 6)
+    assert est.rss_floor == 1e4 - 40.0 * 6
+    assert (11.0, 15.0) in tried and (12.0, 19.0) in tried     # each end tried, the piece past the band refused
+
+
+def test_a_piece_that_does_not_pay_for_itself_is_not_added_nor_one_past_the_data():
+    tried: list[tuple[float, float]] = []
+    fit = _fits((12.0, 18.0), 15.0, tried)       # pays its charge, not the 10 more
+    start = _Term(12.0, 15.0)
+    term, _ = grown(start, fit(start), fit, None)
+    assert (term.lo, term.hi) == (12.0, 15.0)
+    tried.clear()
+    fit = _fits((0.0, 30.0), 40.0, tried)
+    start = _Term(0.5, 20.0)                    # the data end at 20 and the magnitude at 0
+    term, _ = grown(start, fit(start), fit, None)
+    assert (term.lo, term.hi) == (0.5, 20.0) and tried == [(0.5, 20.0)]
+
+
+def test_a_term_that_does_not_grow_keeps_its_cuts_a_thin_piece_included():
+    """A piece with too few rows to be fitted still counts in how the range is cut: a term that
+    does not grow is fitted as located."""
+    tried: list[tuple[float, float]] = []
+    fit = _fits((0.0, 1.0), 40.0, tried)        # nothing to gain anywhere
+    start = _Term(12.0, 19.6, end=19.0)         # 8 pieces, the last too thin to fit
+    term, _ = grown(start, fit(start), fit, None)
+    assert (term.lo, term.hi, term.cut_into) == (12.0, 19.6, 8)
+    assert len(term.columns(None)[1]) == len(start.columns(None)[1]) == 7
