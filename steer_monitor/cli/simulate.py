@@ -8,6 +8,7 @@ import json
 import math
 import sys
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -20,6 +21,7 @@ from steer_monitor.errors import OutputError, ParameterError
 from steer_monitor.logfiles.logs import WRITE_SUFFIXES, LogError, LogWriter
 from steer_monitor.model.gear import Clearances
 from steer_monitor.params import gaps_from_params
+from steer_monitor.sim.gateway import forward, gateway_json, parse_gateway
 from steer_monitor.utc import parse_utc, utc_json
 
 __all__ = ['parse_speed_profile', 'register', 'run', 'truth_path']
@@ -55,8 +57,10 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
         gap_2z_mm: float | None = None, gap_zgb_mm: float | None = None,
         speed_profile: str | None = None, effects: Sequence[str] = (), noise: bool = True,
         max_duration_s: float = 7200.0, json_out: str | Path | None = None, out: TextIO | None = None,
-        real_bus: bool = False, start_ns: int | None = None) -> int:
-    """Simulate into a file or onto a bus. Onto anything but python-can's ``virtual`` bus or
+        real_bus: bool = False, start_ns: int | None = None, gateway: str | None = None) -> int:
+    """Simulate into a file or onto a bus; with ``gateway`` (``--gateway``,
+    :func:`~steer_monitor.sim.gateway.parse_gateway`'s text), the frames as a gateway between
+    the sensors and the bus forwards them (slower, late, some lost). Onto anything but python-can's ``virtual`` bus or
     a vcan link only with ``real_bus`` (``--i-know-this-is-a-real-bus``): a simulator's frames
     on a vessel's steering bus would be read as the rudder."""
     out = out or sys.stdout
@@ -92,6 +96,7 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
         for target in (Path(out_path), truth_path(Path(out_path))):
             check_target(target, [config])
     check_json_target(json_out, [config, out_path])
+    forwarding = None if gateway is None else parse_gateway(gateway)
     _, params, db, smap = load_setup(config)
     configured = gaps_from_params(params)
     gaps = Clearances.from_mm(configured.two_z * 1e3 if gap_2z_mm is None else gap_2z_mm,
@@ -102,7 +107,11 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
                         max_duration_s=max_duration_s,
                         **({} if start_ns is None else {'start_ns': start_ns}))
     result = sim.run(params, cfg, db, smap, seed)
+    if forwarding is not None:
+        result = replace(result, frames=forward(result.frames, forwarding, db, seed + 1))
     truth = sim.truth(params, cfg, result, seed)
+    if forwarding is not None:
+        truth['gateway'] = gateway_json(forwarding)
     if out_path is not None:
         path = Path(out_path)
         tpath = truth_path(path)
@@ -181,10 +190,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument('--start', type=_utc_arg, metavar='UTC',
                    help='the time the log starts, ISO 8601 (e.g. 2026-03-01T08:00:00Z; default '
                         f'{utc_json(sim.DEFAULT_START_NS)}): logs of a simulated fleet at their own dates')
+    p.add_argument('--gateway', metavar='RATES[,k=v...]',
+                   help='forward the frames as a gateway does: rates in Hz per message (rudder, pressure, speed, '
+                        'temperature or a PGN), mode=hold|decimate, loss (share of time the bus is bad), burst '
+                        '[s], latency, jitter, timeout [s], outage=START+SECONDS; e.g. '
+                        '"rudder=2,pressure=0.5,loss=0.02,outage=600+3"')
     add_force_option(p)
     p.set_defaults(handler=lambda a: run(a.config, a.program, a.out, a.bus, a.speed_factor, a.seed,
                                          a.gap_2z, a.gap_zgb, a.speed_profile, a.effect, not a.no_noise,
-                                         a.max_duration, a.json_out, real_bus=a.real_bus, start_ns=a.start))
+                                         a.max_duration, a.json_out, real_bus=a.real_bus, start_ns=a.start,
+                                         gateway=a.gateway))
 
 
 def _utc_arg(text: str) -> int:

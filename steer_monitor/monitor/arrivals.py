@@ -11,6 +11,8 @@ import bisect
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from steer_monitor.model.inputs import INPUTS
 
 __all__ = ['ARRIVALS_KEPT_NS', 'RATE_WINDOW_NS', 'Arrivals', 'InputLog']
@@ -57,6 +59,13 @@ class Arrivals:
         """Seconds since the input was last heard at ``now_ns`` (None: never)."""
         t = self.last_t_ns
         return None if t is None else (now_ns - t) / 1e9
+
+    def median_interval_ns(self) -> int | None:
+        """The median interval between the arrivals kept [ns]: the input's own period, whatever
+        it was configured at (None: fewer than three arrivals, or out of order)."""
+        if not self.ordered or self.kept() < 3:
+            return None
+        return int(np.median(np.diff(np.asarray(self.times[self.start:], np.int64))))
 
     def rate_hz(self, now_ns: int, window_ns: int) -> float:
         """:meth:`InputLog.rate_hz` of this input (``window_ns`` at most the time kept)."""

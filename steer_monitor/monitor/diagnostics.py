@@ -41,12 +41,20 @@ from steer_monitor.model.landmarks import landmarks
 from steer_monitor.model.loadshare import load_sharing_at
 from steer_monitor.monitor.arrivals import ARRIVALS_KEPT_NS, RATE_WINDOW_NS
 from steer_monitor.monitor.live import LiveMonitor
+from steer_monitor.monitor.performance import hard_over_words, solas_judgement
 from steer_monitor.monitor.verdict import ERROR, NOT_ASSESSED, OK, WARN, Verdict, clearance_verdict, worst
 from steer_monitor.params import ram_share_warn_from_params
 from steer_monitor.utc import utc_json, utc_text
 
-__all__ = ['ERROR', 'OK', 'STALE', 'WARN', 'DiagnosticsBuilder', 'DiagnosticsConfig', 'Status']
+__all__ = ['ERROR', 'OK', 'SILENT_PERIODS', 'SLOW_DEFAULT_INTERVAL_NS', 'STALE', 'WARN', 'DiagnosticsBuilder',
+           'DiagnosticsConfig', 'Status']
 
+#: NMEA 2000's default transmission interval for slow data (Actual Pressure, PGN 130314, among
+#: them): an input heard once is judged silent after three of these, until its own period is known
+SLOW_DEFAULT_INTERVAL_NS = 2_000_000_000
+#: an input is silent once this many of its own periods passed without it (and
+#: ``diagnostics.stale_after_s``): four lost in a row is not silence
+SILENT_PERIODS = 5
 STALE = 3          # REP-107 levels: OK, WARN and ERROR (0, 1, 2) are the verdict's own
 LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR', STALE: 'STALE'}
 PREFIX = 'steer_monitor: '
@@ -123,15 +131,15 @@ class DiagnosticsBuilder:
         # per input: its name, how long it may be silent [s], the window its rate is judged
         # over [ns], its expected rate [Hz], the keys of its rate and silence, and its expected
         # rate as a (key, text) value
-        self._inputs = [(spec.name,
-                         # a slow signal is stale only after missing several of its own periods
-                         max(cfg.stale_after_s, 3.0 / spec.rate_hz),
+        # per input: its name, its configured rate [Hz], how long it may be silent [s] and the
+        # window its rate is judged over [ns] before its own period is known, and the keys of
+        # its values
+        self._inputs = [(spec.name, spec.rate_hz, max(cfg.stale_after_s, 3.0 / spec.rate_hz),
                          # over five of its periods at least: a 0.5 Hz input has two in 5 s, and one
                          # late frame would read as rate 0
                          min(ARRIVALS_KEPT_NS, max(RATE_WINDOW_NS, int(5e9 / spec.rate_hz))),
-                         spec.rate_hz,
-                         (f'{spec.name}_rate_hz', f'{spec.name}_silent_s'),
-                         (f'{spec.name}_expected_hz', f'{spec.rate_hz:g}')) for spec in smap.specs]
+                         (f'{spec.name}_rate_hz', f'{spec.name}_expected_hz', f'{spec.name}_interval_s',
+                          f'{spec.name}_silent_s')) for spec in smap.specs]
 
     def _status(self, item: str, level: int, message: str, values: list[tuple[str, str]]) -> Status:
         return Status(PREFIX + item, level, message, self.cfg.hardware_id, tuple(values))
@@ -173,18 +181,41 @@ class DiagnosticsBuilder:
         return out
 
     def can_input(self, mon: LiveMonitor, rejects: RejectSnapshot, now_ns: int) -> Status:
+        """Each input judged against its own period (the median interval of its arrivals kept),
+        whatever the parameters say it comes at: a gateway forwarding the angle at 2 Hz is at
+        its rate, not slow. Silent (STALE for a required input, WARN for another) past
+        ``diagnostics.stale_after_s`` or :data:`SILENT_PERIODS` of its own periods, whichever
+        is longer, so a burst of lost frames of a slow input is not silence (an input heard
+        only once: that many of NMEA 2000's default interval for slow data,
+        :data:`SLOW_DEFAULT_INTERVAL_NS`); WARN when over the arrivals kept (the last 30 s: an
+        outage of a few seconds is not half of them) fewer than half the frames its period
+        promises came (frames lost). An input coming steadily slower than the parameters say is said in
+        the message, at level OK."""
         values: list[tuple[str, str]] = []
-        stale, slow = [], []
+        stale, slow, slower = [], [], []
         signals = mon.inputs.signals
-        for name, limit, window_ns, expected_hz, keys, expected in self._inputs:
+        for name, configured_hz, limit, window_ns, keys in self._inputs:
             sig = signals[name]
-            rate = sig.rate_hz(now_ns, window_ns)      # the window within the time kept (__init__)
+            period = sig.median_interval_ns()
+            if period is None and sig.kept() == 2:
+                period = sig.times[-1] - sig.times[-2]
+            if period is not None and period > 0:
+                window_ns = ARRIVALS_KEPT_NS
+                limit = max(limit, SILENT_PERIODS * period / 1e9)
+            elif sig.kept() == 1:
+                limit = max(limit, SILENT_PERIODS * SLOW_DEFAULT_INTERVAL_NS / 1e9)
+            rate = sig.rate_hz(now_ns, window_ns)
             silent = sig.silent_for(now_ns)            # finite where heard: a difference of stamps
-            values += ((keys[0], f'{rate:.2f}'), expected, (keys[1], 'n/a' if silent is None else f'{silent:.2f}'))
+            values += ((keys[0], f'{rate:.2f}'), (keys[1], f'{configured_hz:g}'),
+                       (keys[2], 'n/a' if period is None else f'{period / 1e9:.3f}'),
+                       (keys[3], 'n/a' if silent is None else f'{silent:.2f}'))
             if silent is None or silent > limit:
                 stale.append(name)
-            elif rate < 0.5 * expected_hz and sig.kept() >= 3:
-                slow.append(name)  # a rate is judged once it has a few arrivals
+            elif period is not None and sig.kept() >= 3:   # a rate is judged once it has a few arrivals
+                if rate < 0.5e9 / period:
+                    slow.append(name)
+                elif 1e9 / period < 0.5 * configured_hz:
+                    slower.append(f'{name} {1e9 / period:.2g} Hz ({configured_hz:g} configured)')
         for reason, n in sorted(rejects.counts.items()):
             values.append((f'rejects_{reason}', str(n)))
         values.append(('rejects_total', str(rejects.total)))
@@ -193,9 +224,11 @@ class DiagnosticsBuilder:
             level = STALE if required_stale else WARN
             message = 'silent: ' + ', '.join(stale)
         elif slow:
-            level, message = WARN, 'below half the expected rate: ' + ', '.join(slow)
+            level, message = WARN, 'below half its own rate (frames lost): ' + ', '.join(slow)
         else:
             level, message = OK, f'all {len(self.smap.specs)} inputs at rate'
+            if slower:
+                message += '; slower than the parameters say, judged at their own rates: ' + ', '.join(slower)
         if rejects.total and level == OK:
             message += f'; {rejects.total} rejected ({", ".join(sorted(rejects.counts))})'
         return self._status('CAN input', level, message, values)
@@ -309,28 +342,38 @@ class DiagnosticsBuilder:
     def performance(self, mon: LiveMonitor) -> Status:
         """The hard-over time against SOLAS and the response to the last order step."""
         r = mon.response
-        key = (mon.hard_over_s, None if r is None else (r.order, r.t_step_ns, r.direction_ok, r.delay_s, r.accuracy,
-                                                         r.stalled_s, r.stalled_at))
+        key = (mon.hard_over, None if r is None else (r.order, r.t_step_ns, r.direction_ok, r.delay_s, r.accuracy,
+                                                       r.stalled_s, r.stalled_at))
         return self._memo('performance', key, (), lambda: self._performance(mon))
 
     def _performance(self, mon: LiveMonitor) -> Status:
-        values = [('hard_over_s', _f(mon.hard_over_s, '.1f')),
+        """The last hard-over judged against SOLAS (:func:`~steer_monitor.monitor.performance.solas_judgement`:
+        WARN only when even its shortest reading is over, a sampling that leaves it open said),
+        and the response to the last order step."""
+        h = mon.hard_over
+        values = [('hard_over_s', _f(None if h is None else h.seconds, '.1f')),
+                  ('hard_over_min_s', _f(None if h is None else h.seconds_min, '.1f')),
                   ('solas_limit_s', f'{self.cfg.solas_hard_over_s:g}')]
         level, parts = OK, []
-        if mon.hard_over_s is None:
+        if h is None:
             parts.append('no hard-over seen yet')
         else:
-            pumps = self.pumps_running(mon.hard_over_s)
+            pumps = self.pumps_running(h.seconds)
             values.append(('hard_over_pumps', str(pumps)))
-            head = (f'hard-over 35 deg to 30 deg the other side in {mon.hard_over_s:.1f} s with '
+            head = (f'hard-over 35 deg to 30 deg the other side in {hard_over_words(h)} with '
                     f"{pumps} pump{'s' if pumps > 1 else ''}")
+            solas = self.cfg.solas_hard_over_s
             if pumps < self.cfg.pumps:     # SOLAS's time is for the gear's pumps: reported, not judged
                 parts.append(f'{head}, as its time says (one pump: {self.one_pump_hard_over_s():.0f} s; SOLAS '
-                             f'{self.cfg.solas_hard_over_s:g} s is judged with {self.cfg.pumps})')
+                             f'{solas:g} s is judged with {self.cfg.pumps})')
             else:
-                ok = mon.hard_over_s <= self.cfg.solas_hard_over_s
-                level = OK if ok else WARN
-                parts.append(f"{head} ({'within' if ok else 'OVER'} SOLAS {self.cfg.solas_hard_over_s:g} s)")
+                within = solas_judgement(h, solas)
+                if within is None:
+                    parts.append(f'{head} (SOLAS {solas:g} s not judged: the angle\'s samples leave the time either '
+                                 'side of it)')
+                else:
+                    level = OK if within else WARN
+                    parts.append(f"{head} ({'within' if within else 'OVER'} SOLAS {solas:g} s)")
         r = mon.response
         values += [
             ('order_deg', _f(None if r is None else math.degrees(r.order), '.2f')),

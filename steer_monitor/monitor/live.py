@@ -47,7 +47,7 @@ from steer_monitor.model.loadshare import ShareScalar, load_sharing_scalar
 from steer_monitor.model.ramforce import ram_force
 from steer_monitor.model.torque import TorqueTable
 from steer_monitor.monitor.arrivals import Arrivals, InputLog
-from steer_monitor.monitor.performance import Response, SteeringPerformance
+from steer_monitor.monitor.performance import HardOver, Response, SteeringPerformance
 from steer_monitor.monitor.residual import LiveResidual
 from steer_monitor.monitor.steady import MAX_DELAY_NS, MOVING_RATE, SteadyMotion
 from steer_monitor.utc import utc_json
@@ -175,8 +175,13 @@ class LiveMonitor:
 
     @property
     def hard_over_s(self) -> float | None:
-        """The last hard-over's time [s]."""
+        """The last hard-over's time [s], its longest reading."""
         return self.performance.hard_over_s
+
+    @property
+    def hard_over(self) -> HardOver | None:
+        """The last hard-over, with the shortest time its samples allow (None: none seen)."""
+        return self.performance.last_hard_over
 
     @property
     def response(self) -> Response | None:
@@ -263,7 +268,7 @@ class LiveMonitor:
         self.inputs.heard(name, t_ns, value)
         if name == 'rudder_angle':
             rate = self.steady.angle(t_ns, value, self._speed.last_value, self._oil.last_value)
-            self.performance.angle(t_ns, value, rate)
+            self.performance.angle(t_ns, value, rate, self.steady.rate_span_ns)
             self.changed = True
         elif name == 'rudder_order':
             self.performance.order(t_ns, value)

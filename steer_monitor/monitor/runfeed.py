@@ -298,11 +298,12 @@ def take_rudder(mon: LiveMonitor, kinds: list[bool], angle_t: list[int], angle_a
     the rate [rad/s] after each angle sample, or None, having changed nothing, where the plan
     does not give them (then take them one by one)."""
     rates: list[float] = []
+    spans: list[int | None] = []
     if angle_t:
         taken = mon.steady.take_span(angle_t, angle_a, held, env, hold_t, hold_p)
         if taken is None:
             return None
-        rates = taken
+        rates, spans = taken
         mon.inputs.record('rudder_angle', angle_t, angle_a, True)
         mon.changed = True
         mon.performance.hard_over.angles(angle_t, angle_a)
@@ -313,7 +314,7 @@ def take_rudder(mon: LiveMonitor, kinds: list[bool], angle_t: list[int], angle_a
     for is_angle in kinds:               # the response: angle and order samples in their order
         if is_angle:
             if responses.response is not None:
-                responses.angle(angle_t[ia], angle_a[ia], rates[ia])
+                responses.angle(angle_t[ia], angle_a[ia], rates[ia], spans[ia])
             ia += 1
         else:
             responses.order(order_t[io], order_v[io])

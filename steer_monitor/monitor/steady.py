@@ -1,8 +1,13 @@
 """The rudder's rate and the instants of steady motion, sample by sample or a span at once. Pure.
 
 Per angle sample: the rudder's rate, the least-squares slope of the angle over the last
-:data:`SLOPE_WINDOW_NS` (one compiled kernel, :mod:`~steer_monitor.monitor.slopes`, whether one
-window is asked for or a replay's run of them at once: :meth:`SteadyMotion.plan`). Pressure
+:data:`SLOPE_WINDOW_NS`, or over the last :data:`MIN_RATE_POINTS` samples where the signal
+comes too slowly for that (a gateway forwarding the angle at 2 Hz), as long as they lie within
+:data:`MAX_RATE_SPAN_NS` (:func:`rate_window_start`; beyond it, after an outage, the rate is not
+known until samples come again). One compiled kernel reads the slopes
+(:mod:`~steer_monitor.monitor.slopes`), whether one window is asked for or a replay's run of
+them at once (:meth:`SteadyMotion.plan`). The span of the window behind each rate is kept
+beside it (:attr:`SteadyMotion.rate_span_ns`): what reads the rate judges its lag by it. Pressure
 samples (all four known) are held until the angle is known :data:`HALF_WINDOW_NS` past them
 (and the model's angle delay); then whether the rudder moved steadily through each (the
 slopes on both sides of it past :data:`MOVING_RATE`, the same sign) is judged, later and for
@@ -32,10 +37,18 @@ from steer_monitor.monitor.buffers import HeldSamples
 from steer_monitor.monitor.instants import CALL_FIELDS, OUT_FIELDS, take_instants
 from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope, window_slopes
 
-__all__ = ['CALLS_KEPT', 'HALF_WINDOW_NS', 'MAX_DELAY_NS', 'MAX_HELD', 'MOTION_STEP_NS', 'MOVING_RATE',
-           'SLOPE_WINDOW_NS', 'InstantSink', 'SteadyMotion']
+__all__ = ['CALLS_KEPT', 'HALF_WINDOW_NS', 'MAX_DELAY_NS', 'MAX_HELD', 'MAX_RATE_SPAN_NS', 'MIN_RATE_POINTS',
+           'MOTION_STEP_NS', 'MOVING_RATE', 'SLOPE_WINDOW_NS', 'InstantSink', 'SteadyMotion', 'rate_window_start',
+           'rate_window_starts']
 
 SLOPE_WINDOW_NS = 500_000_000
+#: a slope needs this many samples: a signal with fewer in :data:`SLOPE_WINDOW_NS` has its rate
+#: read over its last ones
+MIN_RATE_POINTS = 3
+#: ... when they lie within this span [ns]: three samples of a signal at 0.5 Hz (NMEA 2000's
+#: default interval for slow data) with one lost between them, and their jitter; a longer span
+#: (an outage) gives no rate
+MAX_RATE_SPAN_NS = 8_000_000_000
 MAX_DELAY_NS = 1_000_000_000   # the longest angle delay the model in use may read the angle later by
 MOTION_STEP_NS = 250_000_000   # a steady bracket of angle samples counts at most this much motion
 _HELD = OUT_FIELDS.index('held')     # out's column of the held sample's index
@@ -44,6 +57,25 @@ _N_INSTANT = 7                       # the instant's columns (residual.INSTANT_F
 #: hears the instants of steady motion taken (n, 7: residual.INSTANT_FIELDS), the times of
 #: their pressure samples (n,) [ns], the rams' forces (n, 2) [N] and the four pressures (n, 4) [Pa]
 InstantSink = Callable[[NDArray[np.float64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]], None]
+
+
+def rate_window_start(times: list[int], t_ns: int) -> int:
+    """Where the window of the rate at ``t_ns`` (the newest of ``times`` [ns], in order) begins,
+    as an index into ``times``: the samples of the last :data:`SLOPE_WINDOW_NS`, or the last
+    :data:`MIN_RATE_POINTS` where those are fewer, but none older than :data:`MAX_RATE_SPAN_NS`
+    (then fewer points than a slope needs: no rate). :func:`rate_window_starts`, for one."""
+    n = len(times)
+    lo_time = bisect.bisect_left(times, t_ns - SLOPE_WINDOW_NS)
+    lo_span = bisect.bisect_left(times, t_ns - MAX_RATE_SPAN_NS)
+    return min(lo_time, max(n - MIN_RATE_POINTS, lo_span))
+
+
+def rate_window_starts(t: NDArray[np.int64]) -> NDArray[np.intp]:
+    """:func:`rate_window_start` of every sample of ``t`` [ns] (in order) over those before it."""
+    idx = np.arange(t.shape[0])
+    lo_time = np.searchsorted(t, t - SLOPE_WINDOW_NS, 'left')
+    lo_span = np.searchsorted(t, t - MAX_RATE_SPAN_NS, 'left')
+    return np.minimum(lo_time, np.maximum(idx + 1 - MIN_RATE_POINTS, lo_span))
 
 
 @dataclass(frozen=True)
@@ -60,6 +92,7 @@ class _AnglePlan:
     n: int
     t: list[int]
     rate_lo: list[int]
+    span: list[int]
     status: list[int]
     slope: list[float]
     delay: int
@@ -85,11 +118,16 @@ class SteadyMotion:
     def __init__(self, ram_area: float, sink: InstantSink) -> None:
         self.ram_area = ram_area
         self._sink = sink
-        #: the rate after the last angle sample [rad/s]
+        #: the rate after the last angle sample [rad/s] (the last known: a sample that gives
+        #: none leaves it)
         self.rate = 0.0
+        #: the span of the window the last angle sample's rate was read over [ns]; None where
+        #: that sample gave no rate (too few samples within :data:`MAX_RATE_SPAN_NS`)
+        self.rate_span_ns: int | None = None
         #: how much later the model in use reads the angle [ns] (take what is held first: :meth:`take`)
         self.delay_ns = 0
-        self._history: deque[tuple[int, float]] = deque()   # the last 0.9 s of angles (and the delay)
+        # the last 0.9 s of angles (and the delay), and never fewer than MIN_RATE_POINTS
+        self._history: deque[tuple[int, float]] = deque()
         self._hist_base = 0                                  # angle samples dropped from its front
         self._plan: _AnglePlan | None = None                 # a replay's run's slopes (plan)
         # pressure samples held (where all four pressures are known), in the order held, not
@@ -163,17 +201,21 @@ class SteadyMotion:
             return
         a = np.fromiter(chain((p[1] for p in self._history), values), float, t.shape[0])
         n = t.shape[0]
-        lo = np.searchsorted(t, t - SLOPE_WINDOW_NS, 'left')
+        lo = rate_window_starts(t)
         status = np.empty(n, np.int8)
         out = np.empty(n)
         window_slopes(t, a, lo, np.arange(1, n + 1), status, out)
+        span = t - t[lo]
         base = self._hist_base
-        lo += base
         delay = self.delay_ns
-        front = base + np.searchsorted(t, t - (3 * HALF_WINDOW_NS + delay), 'left')
+        # the history's front after each sample (angle's rule): the first within the time it
+        # reaches back, but never fewer than MIN_RATE_POINTS samples, and never back again
+        reach = np.searchsorted(t, t - (3 * HALF_WINDOW_NS + delay), 'left')
+        front = base + np.maximum(np.minimum(reach, np.arange(n) + 1 - MIN_RATE_POINTS), 0)
+        lo += base
         unplanned = np.concatenate([[0], np.cumsum((status == SPECIAL) | (lo < front))])
-        self._plan = _AnglePlan(base, n, t.tolist(), lo.tolist(), status.tolist(), out.tolist(), delay, front.tolist(),
-                                unplanned.tolist())
+        self._plan = _AnglePlan(base, n, t.tolist(), lo.tolist(), span.tolist(), status.tolist(), out.tolist(), delay,
+                                front.tolist(), unplanned.tolist())
 
     def angle(self, t_ns: int, alpha: float, speed: float, oil: float) -> float:
         """One angle sample [ns, rad], the ship's speed [m/s] and oil temperature [K] standing
@@ -181,19 +223,23 @@ class SteadyMotion:
         hist = self._history
         hist.append((t_ns, alpha))
         delay = self.delay_ns
-        while hist and hist[0][0] < t_ns - 3 * HALF_WINDOW_NS - delay:
+        while len(hist) > MIN_RATE_POINTS and hist[0][0] < t_ns - 3 * HALF_WINDOW_NS - delay:
             hist.popleft()
             self._hist_base += 1
-        plan, slope, known = self._plan, None, False
+        plan, slope, known, span = self._plan, None, False, 0
         if plan is not None:
             k = self._hist_base + len(hist) - 1 - plan.base
             if 0 <= k < plan.n and plan.t[k] == t_ns:
                 if plan.rate_lo[k] >= self._hist_base and plan.status[k] != SPECIAL:
-                    known, slope = True, (plan.slope[k] if plan.status[k] == SLOPE else None)
+                    known, slope, span = True, (plan.slope[k] if plan.status[k] == SLOPE else None), plan.span[k]
             else:
                 self._plan = None      # not the samples planned: work each out
         if not known:
-            slope = self.rate_of([p for p in hist if p[0] >= t_ns - SLOPE_WINDOW_NS])
+            times = [p[0] for p in hist]
+            lo = rate_window_start(times, t_ns)
+            slope = self.rate_of([hist[i] for i in range(lo, len(hist))])
+            span = t_ns - times[lo]
+        self.rate_span_ns = None if slope is None else span
         if slope is not None:
             self.rate = slope
         # what this sample releases of the held pressure samples, judged later (take)
@@ -213,16 +259,18 @@ class SteadyMotion:
         self._calls += chain.from_iterable(zip([t - cut for t in t_ns], [delay] * len(t_ns), first, last, held))
 
     def take_span(self, angle_t: list[int], angle_a: list[float], held: list[int], env: list[float],
-                  hold_t: NDArray[np.int64], hold_p: NDArray[np.float64]) -> list[float] | None:
+                  hold_t: NDArray[np.int64], hold_p: NDArray[np.float64]
+                  ) -> tuple[list[float], list[int | None]] | None:
         """:meth:`angle` of a replay's span of angle samples at once, where :meth:`plan`
         planned their rates: the times (m,) [ns] and angles (m,) [rad], with what each one logs
         beside it: how many of the pressure samples ``hold_t`` (k,) [ns], ``hold_p`` (k, 4) [Pa]
         (those :meth:`hold` takes before the last angle sample, held here first) came before it
         (``held`` (m,)), and the ship's speed and oil temperature then (``env``, flat (2 m,)).
         The same state as taking them one by one with the pressure samples between them.
-        Returns the rate [rad/s] after each angle sample, or None, having changed nothing, where
-        the plan does not give them or the held samples would pass :data:`MAX_HELD` (then take
-        them one by one)."""
+        Returns the rate [rad/s] after each angle sample and the span of its window [ns] (None
+        where that sample gave no rate: :attr:`rate_span_ns`), or None, having changed nothing,
+        where the plan does not give them or the held samples would pass :data:`MAX_HELD` (then
+        take them one by one)."""
         m = len(angle_t)
         plan = self._plan
         if plan is None or plan.delay != self.delay_ns or len(self._pending) + hold_t.shape[0] > MAX_HELD:
@@ -235,11 +283,13 @@ class SteadyMotion:
         total = self.held_total
         self.hold_many(hold_t, hold_p)
         rates: list[float] = []
+        spans: list[int | None] = []
         rate = self.rate
-        for status, value in zip(plan.status[k0:k1], plan.slope[k0:k1]):
+        for status, value, span in zip(plan.status[k0:k1], plan.slope[k0:k1], plan.span[k0:k1]):
             if status == SLOPE:
                 rate = value
             rates.append(rate)
+            spans.append(span if status == SLOPE else None)
         front = plan.front[k0:k1]
         hist = self._history
         hist.extend(zip(angle_t, angle_a))
@@ -255,7 +305,8 @@ class SteadyMotion:
         if len(self._calls) >= len(CALL_FIELDS) * CALLS_KEPT:
             self.take()
         self.rate = rates[-1]
-        return rates
+        self.rate_span_ns = spans[-1]
+        return rates, spans
 
     def _bound_held(self) -> None:
         """At most :data:`MAX_HELD` held samples waiting: those released judged first, then

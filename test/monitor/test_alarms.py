@@ -22,6 +22,7 @@ from steer_monitor.monitor.diagnostics import LEVEL_NAMES, STALE
 from steer_monitor.monitor.performance import REVERSAL_NS
 from steer_monitor.monitor.pipeline import DiagOut, Pipeline, analyst_from_params
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
+from steer_monitor.sim.gateway import forward, parse_gateway
 from steer_monitor.utc import parse_utc
 
 #: every helm programme, one after the other (about 70 minutes of data)
@@ -30,20 +31,22 @@ EVERY_PROGRAMME = ('hard_over_2,hard_over_1,zigzag_10,zigzag_25,autopilot:300,au
 T0 = 1_767_225_600_000_000_000
 
 
-def _replay(params, can_db, program, gaps_mm, seed, effects=(), motion=False):
+def _replay(params, can_db, program, gaps_mm, seed, effects=(), motion=False, gateway=None):
     """Every diagnostic the node would publish for a simulated run: [(t_s, status)] (with
-    ``motion``: [(t_s, motion_s, status)], the steady motion counted by then)."""
+    ``motion``: [(t_s, motion_s, status)], the steady motion counted by then); ``gateway``: its
+    frames forwarded by that gateway (sim.gateway's text) first."""
     db, smap = can_db
     gear = gear_from_params(params)
     s = sim.run(params, sim.SimConfig(program=program, gaps=Clearances.from_mm(*gaps_mm),
                                       effects=tuple(sim.parse_effect(e) for e in effects)), db, smap, seed)
+    frames = s.frames if gateway is None else forward(s.frames, parse_gateway(gateway), db, seed + 1)
     rejects = RejectCounter()
     mon = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params))
     diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(params), smap, gear)
     p = Pipeline(Decoder(db, smap, rejects), rejects, mon, diag, analyst_from_params(gear, params))
     t0 = int(s.frames.t_ns[0])
     out = []
-    for f in s.frames.frames():
+    for f in frames.frames():
         out += [(o, mon.motion_s) for o in p.feed(f) if isinstance(o, DiagOut)]
     out += [(o, mon.motion_s) for o in p.finish() if isinstance(o, DiagOut)]
     if motion:
@@ -159,6 +162,36 @@ def test_a_frozen_rudder_angle_is_found_at_the_next_order(r18_params, can_db):
     assert found and 305 <= found[0][0] <= 400
     assert 'rudder has not moved for' in found[0][1].message and 'the rudder angle sensor frozen, the rudder jammed, ' \
         'or no pump running' in found[0][1].message
+
+
+@pytest.mark.parametrize('gateway, seed', [
+    ('rudder=2,pressure=5,mode=hold', 74101),                       # the retrofit gateway a user met
+    ('rudder=0.5,pressure=0.5,mode=decimate,loss=0.02,outage=400+3,outage=900+3', 74102),  # NMEA's slow default
+])
+def test_no_alarm_through_a_slow_gateway(r18_params, can_db, gateway, seed):
+    """A realistic voyage whose gateway forwards the angle and pressures slowly (seeds used for
+    no choice): no WARN or ERROR in any status once the inputs are fresh; the inputs at their
+    own rates, said."""
+    statuses = _replay(r18_params, can_db, 'realistic:1500', (0.45, 0.12), seed, gateway=gateway)
+    fresh = next(t for t, st in statuses if st.name.endswith('CAN input') and st.level == OK)
+    alarms = [(round(t), st.name, LEVEL_NAMES[st.level], st.message) for t, st in statuses
+              if t >= fresh and st.level in (WARN, ERROR)]
+    assert alarms == []
+    inputs = [st for _, st in statuses if st.name.endswith('CAN input')]
+    assert 'slower than the parameters say, judged at their own rates: rudder_angle' in inputs[-1].message
+
+
+@pytest.mark.parametrize('hz', [0.5, 2.0])
+def test_a_frozen_rudder_angle_behind_a_slow_gateway_is_found(r18_params, can_db, hz):
+    """The frozen angle at 300 s forwarded at ``hz``: found at an order step as at the full
+    rate, within one of its periods more; nothing before."""
+    statuses = _replay(r18_params, can_db, 'realistic:900', (0.45, 0.12), 19, effects=['angle_stuck:start_s=300'],
+                       gateway=f'rudder={hz:g},pressure={hz:g},mode=hold')
+    perf = [(t, st) for t, st in statuses if st.name.endswith('steering performance')]
+    assert all(st.level == OK for t, st in perf if t < 300)
+    found = [(t, st) for t, st in perf if st.level == ERROR]
+    assert found and 305 <= found[0][0] <= 400 + 1 / hz
+    assert 'rudder has not moved for' in found[0][1].message
 
 
 def test_a_rudder_that_stands_after_an_order_step_and_then_moves(mon, builder):

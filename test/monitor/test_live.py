@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -128,9 +129,16 @@ def test_slow_hard_over_with_all_pumps_warns(r18_params, can_db):
     as one pump, which the message says), over 28 s."""
     _, mon, dec, t_last = _feed(r18_params, can_db, 'hard_over_2')
     b = _builder(r18_params, can_db)
-    mon.performance.hard_over.last_s = 30.0      # one pump takes 50 s, two 25 s
+    last = mon.hard_over
+    mon.performance.hard_over.last = replace(last, seconds=30.0, seconds_min=29.9)   # one pump takes 50 s, two 25 s
     perf = b.performance(mon)
     assert perf.level == WARN and perf.value('hard_over_pumps') == '2' and 'OVER SOLAS 28 s' in perf.message
+    # an angle sampled every 2 s: 27.0-30.0 s can be either side of 28 s, and is not judged
+    mon.performance.hard_over.last = replace(last, seconds=30.0, seconds_min=27.0)
+    perf = b.performance(mon)
+    assert perf.level == OK and perf.value('hard_over_min_s') == '27.0'
+    assert ('hard-over 35 deg to 30 deg the other side in 27.0-30.0 s with 2 pumps (SOLAS 28 s not judged: the '
+            "angle's samples leave the time either side of it)") in perf.message
 
 
 @pytest.mark.parametrize('pumps, speed_mm_s', [(1, 15.0), (2, 15.0), (2, 9.0), (1, 25.0)])
@@ -189,14 +197,35 @@ def test_a_slow_input_with_one_late_frame_is_at_rate(r18_params, can_db, now_s):
     assert 0.25 <= float(status.value('oil_temperature_rate_hz')) <= 0.5
 
 
-@pytest.mark.parametrize(('name', 'rate'), [('oil_temperature', 0.2), ('pressure_r1_stbd', 8.0),
+@pytest.mark.parametrize(('name', 'rate'), [('oil_temperature', 0.2), ('pressure_r1_stbd', 0.5),
                                             ('rudder_angle', 2.0)])
-def test_an_input_below_half_its_rate_warns(r18_params, can_db, name, rate):
-    mon = _steady_feed(r18_params, can_db[1], 30.0, slow={name: rate})
-    status = _builder(r18_params, can_db).can_input(mon, RejectCounter().snapshot(), int(29.9e9))
+def test_an_input_steadily_slower_than_configured_is_judged_at_its_own_rate(r18_params, can_db, name, rate):
+    """A gateway forwarding an input at its own rate, slower than the parameters say: at rate,
+    the rate said, OK; silent only after five of its own periods."""
+    # it stops at 60 s, the others go on to 90 s
+    mon = _steady_feed(r18_params, can_db[1], 90.0, slow={name: rate}, skip={name: set(range(int(60 * rate), 999))})
+    b = _builder(r18_params, can_db)
+    configured = next(s.rate_hz for s in can_db[1].specs if s.name == name)
+    last = (int(60.0 * rate) - 1) / rate
+    status = b.can_input(mon, RejectCounter().snapshot(), int((last + 4.9 / rate) * 1e9))
+    assert status.level == OK, status.message
+    assert f'slower than the parameters say, judged at their own rates: {name} {rate:.2g} Hz ' \
+        f'({configured:g} configured)' in status.message
+    assert float(status.value(f'{name}_interval_s')) == pytest.approx(1.0 / rate, rel=1e-6)
+    assert status.value(f'{name}_expected_hz') == f'{configured:g}'
+    status = b.can_input(mon, RejectCounter().snapshot(), int((last + 5.1 / rate) * 1e9))
+    assert status.level in (STALE, WARN) and status.message == f'silent: {name}'
+
+
+def test_an_input_that_loses_most_of_its_frames_warns(r18_params, can_db):
+    """A pressure transducer at 20 Hz heard 1.5 s in every 4 (a loose connector): between its
+    silences, WARN for frames lost, its own period still 50 ms."""
+    skip = {'pressure_r1_stbd': {i for i in range(1200) if (i % 80) >= 30}}
+    mon = _steady_feed(r18_params, can_db[1], 60.0, skip=skip)
+    status = _builder(r18_params, can_db).can_input(mon, RejectCounter().snapshot(), int(57.6e9))
     assert status.level == WARN
-    assert status.message == f'below half the expected rate: {name}'
-    assert float(status.value(f'{name}_rate_hz')) == pytest.approx(rate, rel=0.05)
+    assert status.message == 'below half its own rate (frames lost): pressure_r1_stbd'
+    assert status.value('pressure_r1_stbd_interval_s') == '0.050'
 
 
 def test_a_monitor_that_defers_the_load_sharing_leaves_it_to_its_caller(r18_params, can_db):

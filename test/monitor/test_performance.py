@@ -108,3 +108,102 @@ def test_small_order_changes_are_not_steps():
     responses.order(0, 0.0)
     responses.order(S, math.radians(0.5))
     assert responses.response is None
+
+
+def _slow_response(hz: float, frozen: bool, order_deg: float = 10.0, rate_deg_s: float = 2.5):
+    """A live monitor's rate part and response tracker fed a rudder whose angle (and order) come
+    at ``hz``: at rest at 0 deg, an order step to ``order_deg`` at 10 s, the rudder moving there
+    at ``rate_deg_s`` from 0.3 s later; ``frozen``: its sensor sends 0 deg on. The rates are the
+    live model's (SteadyMotion). The tracker and the time [s] the order step was seen."""
+    from steer_monitor.monitor.steady import SteadyMotion
+    steady, responses = SteadyMotion(0.045, lambda *a: None), ResponseTracker()
+    period = 1.0 / hz
+    step_seen = None
+    for k in range(int(40 * hz)):
+        t = k * period + 0.013
+        order = order_deg if t >= 10.0 else 0.0
+        truth = min(max(t - 10.3, 0.0) * rate_deg_s, order_deg)
+        alpha = math.radians(0.0 if frozen else truth)
+        if order and step_seen is None:
+            step_seen = t
+        responses.order(int(t * 1e9), math.radians(order))
+        rate = steady.angle(int(t * 1e9), alpha, math.nan, math.nan)
+        responses.angle(int(t * 1e9), alpha, rate, steady.rate_span_ns)
+    return responses, step_seen
+
+
+@pytest.mark.parametrize('hz', [0.5, 1.0, 2.0, 5.0, 10.0])
+def test_a_slowly_sampled_rudder_that_moves_is_not_stalled(hz):
+    responses, _ = _slow_response(hz, frozen=False)
+    r = responses.response
+    assert r.stalled_s is None and r.direction_ok is True
+    assert r.delay_s <= 0.3 + 3.0 / hz             # seen moving within three of its samples
+
+
+@pytest.mark.parametrize('hz', [0.5, 1.0, 2.0, 5.0, 10.0])
+def test_a_frozen_sensor_is_found_at_any_rate_within_one_sample_of_the_rule(hz):
+    """The stated time: NO_RESPONSE_NS after the order step is seen, at the first angle sample
+    from then on (one period at most)."""
+    responses, seen = _slow_response(hz, frozen=True)
+    r = responses.response
+    assert r.stalled_s is not None and r.direction_ok is None
+    assert NO_RESPONSE_NS / 1e9 <= r.stalled_s <= 40.0 - seen
+    assert _first_stall_time(hz) - seen <= NO_RESPONSE_NS / 1e9 + 1.0 / hz + 1e-9
+
+
+def _first_stall_time(hz: float) -> float:
+    from steer_monitor.monitor.steady import SteadyMotion
+    steady, responses = SteadyMotion(0.045, lambda *a: None), ResponseTracker()
+    for k in range(int(40 * hz)):
+        t = k / hz + 0.013
+        responses.order(int(t * 1e9), math.radians(10.0 if t >= 10.0 else 0.0))
+        rate = steady.angle(int(t * 1e9), 0.0, math.nan, math.nan)
+        responses.angle(int(t * 1e9), 0.0, rate, steady.rate_span_ns)
+        if responses.response is not None and responses.response.stalled_s is not None:
+            return t
+    raise AssertionError('never raised')
+
+
+@pytest.mark.parametrize('hz', [0.5, 1.0, 2.0])
+def test_a_slowly_sampled_rudder_following_a_ramping_order_is_not_against_it(hz):
+    """The autopilot's order stepping and then ramping on down; the rudder follows it, a little
+    ahead. The frames of 11-15 s lost, it is first seen moving when already ahead of the order:
+    going the way the step asked (from where it stood), not against it (it read so at 0.5 Hz,
+    judged from where it was then)."""
+    from steer_monitor.monitor.steady import SteadyMotion
+    steady, responses = SteadyMotion(0.045, lambda *a: None), ResponseTracker()
+    for k in range(int(30 * hz)):
+        t = k / hz + 0.013
+        if 11.0 < t < 15.0:
+            continue
+        order = 8.0 if t < 10.0 else 5.0 - 0.28 * (t - 10.0)
+        alpha = 8.0 if t < 10.0 else max(8.0 - 1.5 * (t - 10.0), order - 0.35)
+        responses.order(int(t * 1e9), math.radians(order))
+        rate = steady.angle(int(t * 1e9), math.radians(alpha), math.nan, math.nan)
+        responses.angle(int(t * 1e9), math.radians(alpha), rate, steady.rate_span_ns)
+    assert responses.response.direction_ok is True
+
+
+def test_a_sample_that_gives_no_rate_judges_nothing():
+    responses = ResponseTracker()
+    responses.order(0, 0.0)
+    responses.order(S, math.radians(10.0))
+    responses.angle(S + 2 * NO_RESPONSE_NS, 0.0, 0.0, None)
+    assert responses.response.stalled_s is None and responses.response.direction_ok is None
+
+
+@pytest.mark.parametrize('step_s', [0.1, 0.5, 2.0, 2.7])
+@pytest.mark.parametrize('phase_s', [0.0, 0.37, 1.3])
+def test_a_slowly_sampled_hard_over_is_bracketed(step_s, phase_s):
+    """A sweep at 2.5 deg/s from 40 deg to -32 deg sampled every ``step_s``: the true time from
+    35 deg to -30 deg lies between the shortest and longest readings, which are two samples
+    apart at most; one sample at a time and all at once alike."""
+    rate = 2.5
+    t = [int((phase_s + k * step_s) * S) for k in range(int(30 / step_s) + 2)]
+    a = [math.radians(40.0 - rate * (tk / S)) for tk in t]
+    want = (HARD_OVER_DEG + OTHER_SIDE_DEG) / rate
+    one, many = HardOverTracker(), HardOverTracker()
+    h = [x for x in (one.angle(ti, ai) for ti, ai in zip(t, a)) if x is not None]
+    assert many.angles(t, a) == h and len(h) == 1
+    assert h[0].seconds_min <= want <= h[0].seconds
+    assert h[0].seconds - h[0].seconds_min <= 2 * step_s + 1e-9

@@ -13,20 +13,26 @@ from steer_monitor.monitor.runfeed import take_rudder
 from steer_monitor.params import gear_from_params
 
 
-def _rudder_stream(seed: int, seconds: float, nan_at_s: float | None = None):
+def _rudder_stream(seed: int, seconds: float, nan_at_s: float | None = None, angle_hz: float = 10.0,
+                   outage_s: tuple[float, float] | None = None):
     """Samples (t [ns], input, value) of a gear swinging through hard over and back, its orders
-    stepping, four pressures and the ship's speed, in time order."""
+    stepping, four pressures and the ship's speed, in time order; the angle and order at
+    ``angle_hz``, none of them within ``outage_s`` (start, end [s])."""
     from steer_monitor.model.inputs import PRESSURE_INPUTS
     rng = np.random.default_rng(seed)
     t0 = 1_700_000_000_000_000_000
     out = []
-    for k in range(int(seconds * 10)):                          # angle and order at 10 Hz
-        t = t0 + k * 100_000_000 + int(rng.integers(0, 3_000_000))
-        a = math.radians(37.0 * math.sin(2 * math.pi * k / 300.0) + rng.normal(0, 0.05))
-        if nan_at_s is not None and abs(k / 10 - nan_at_s) < 1e-9:
+    period = int(1e9 / angle_hz)
+    for k in range(int(seconds * angle_hz)):                    # angle and order
+        t = t0 + k * period + int(rng.integers(0, 3_000_000))
+        phase = 2 * math.pi * k / (30.0 * angle_hz)
+        a = math.radians(37.0 * math.sin(phase) + rng.normal(0, 0.05))
+        if nan_at_s is not None and abs(k / angle_hz - nan_at_s) < 1e-9:
             a = math.nan
+        if outage_s is not None and outage_s[0] <= k / angle_hz < outage_s[1]:
+            continue
         out.append((t, 'rudder_angle', a))
-        out.append((t + 40_000_000, 'rudder_order', math.radians(35.0 * round(math.sin(2 * math.pi * k / 300.0)))))
+        out.append((t + 40_000_000, 'rudder_order', math.radians(35.0 * round(math.sin(phase)))))
     for k in range(int(seconds * 20)):                          # each pressure at 20 Hz
         for j, name in enumerate(PRESSURE_INPUTS):
             out.append((t0 + k * 50_000_000 + 7_000_000 + j, name, 40e5 + 30e5 * (j % 2) + rng.normal(0, 0.3e5)))
@@ -97,8 +103,13 @@ def _take_in_spans(mon: LiveMonitor, stream, read: bool, span_s: float = 1.0) ->
     return taken
 
 
-@pytest.mark.parametrize('nan_at_s, read, refused', [(None, True, []), (20.3, True, [20]), (None, False, [51])])
-def test_a_span_of_rudder_samples_taken_at_once_is_each_taken_alone(r18_params, nan_at_s, read, refused):
+@pytest.mark.parametrize('nan_at_s, read, refused, angle_hz, outage_s', [
+    (None, True, [], 10.0, None), (20.3, True, [20], 10.0, None), (None, False, [51], 10.0, None),
+    # a gateway's slow angle (its rate read over its last three samples), and an outage of 12 s
+    (None, True, [], 2.0, None), (None, True, [], 0.5, (20.0, 32.0)), (None, True, [], 10.0, (20.0, 32.0)),
+])
+def test_a_span_of_rudder_samples_taken_at_once_is_each_taken_alone(r18_params, nan_at_s, read, refused, angle_hz,
+                                                                     outage_s):
     """take_rudder (a replay's spans of angle and order samples) leaves the monitor as update()
     of each sample does: the rate, the hard-over time, the response to the order steps, the
     history the residual's instants are judged from, the steady motion counted and the residual.
@@ -107,7 +118,7 @@ def test_a_span_of_rudder_samples_taken_at_once_is_each_taken_alone(r18_params, 
     where its held samples would pass MAX_HELD."""
     from steer_monitor.model.inputs import Sample
     gear = gear_from_params(r18_params)
-    stream = _rudder_stream(3, 65.0, nan_at_s)
+    stream = _rudder_stream(3, 65.0, nan_at_s, angle_hz, outage_s)
     one = LiveMonitor(gear, Clearances.from_mm(0.6, 0.25))
     for t, name, value in stream:
         one.update(Sample(t, name, value))
@@ -117,8 +128,12 @@ def test_a_span_of_rudder_samples_taken_at_once_is_each_taken_alone(r18_params, 
     assert one.hard_over_s is not None and spans.hard_over_s == one.hard_over_s
     assert one.response is not None and spans.response == one.response
     assert spans.rate == one.rate and spans.steady.history == one.steady.history
-    assert spans.motion_ns == one.motion_ns > 0
-    assert spans.residuals == one.residuals and len(one.residuals) > 100
+    assert spans.steady.rate_span_ns == one.steady.rate_span_ns
+    if angle_hz >= 10.0:            # steady motion is judged over 0.3 s either side of a sample
+        assert spans.motion_ns == one.motion_ns > 0
+        assert spans.residuals == one.residuals and len(one.residuals) > 100
+    else:
+        assert spans.motion_ns == one.motion_ns and spans.residuals == one.residuals
     assert spans.signals['rudder_order'].arrivals == one.signals['rudder_order'].arrivals
 
 

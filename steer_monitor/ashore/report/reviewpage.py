@@ -39,6 +39,7 @@ from steer_monitor.model.gear import Clearances, GearParams
 from steer_monitor.model.hardover import pumps_running
 from steer_monitor.model.loadshare import load_sharing_at
 from steer_monitor.monitor.messages import CLEARANCE_NAMES
+from steer_monitor.monitor.performance import hard_over_words, solas_judgement
 
 __all__ = ['PLOTS', 'PublishedTrack', 'ReportInput', 'clearances_words', 'page_estimate', 'published_track',
            'remove_report_debris', 'report_input', 'timeline_caveat', 'write_report_dir', 'write_review_report']
@@ -270,7 +271,8 @@ def _pumps(inp: ReportInput, seconds: float) -> int:
 
 def _hardover(r: ReviewResult, tx: _TimeAxis, inp: ReportInput) -> Any:
     """Hard-over times with the pumps that ran them: judged against SOLAS (green within, red
-    over) only with all the gear's pumps; with fewer, grey and not judged."""
+    over, orange where the angle's sampling leaves it open: the bar its longest reading, a line
+    down to its shortest) only with all the gear's pumps; with fewer, grey and not judged."""
     import matplotlib.pyplot as plt
     solas = inp.solas_s
     fig, ax = plt.subplots(figsize=(12, 3.4))
@@ -278,9 +280,15 @@ def _hardover(r: ReviewResult, tx: _TimeAxis, inp: ReportInput) -> Any:
         x = tx(np.array([h.t_leave_ns for h in r.hard_overs]))
         y = np.array([h.seconds for h in r.hard_overs])
         n = [_pumps(inp, v) for v in y]
-        colors = ['tab:gray' if k < inp.pumps else 'tab:green' if v <= solas else 'tab:red' for v, k in zip(y, n)]
+        judged = [solas_judgement(h, solas) for h in r.hard_overs]
+        colors = ['tab:gray' if k < inp.pumps else {True: 'tab:green', False: 'tab:red', None: 'tab:orange'}[j]
+                  for j, k in zip(judged, n)]
         span = float(tx(np.array([int(r.t_ns[-1])]))[0]) if len(r.t_ns) else float(x.max()) + 1.0
         ax.bar(x, y, width=max(span, 1e-9) / 60, color=colors)      # one bar is a bar, not the whole plot
+        shortest = np.array([h.seconds_min for h in r.hard_overs])
+        open_ = y - shortest >= 0.5
+        if open_.any():
+            ax.vlines(x[open_], shortest[open_], y[open_], color='k', lw=1)
         ax.set_xlim(0, max(span, float(x.max())) * 1.02 + 1e-9)
         for xi, yi, k in zip(x, y, n):
             ax.text(xi, yi, f"{yi:.1f} s\n{k} pump{'s' if k > 1 else ''}", ha='center', va='bottom', fontsize=8)
@@ -381,12 +389,15 @@ def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
     else:
         rows.append(('clearances', 'not estimated: ' + '; '.join(r.notes)))
     if r.hard_overs:
-        full = [h.seconds for h in r.hard_overs if _pumps(inp, h.seconds) >= inp.pumps]
+        full = [h for h in r.hard_overs if _pumps(inp, h.seconds) >= inp.pumps]
         text = f'{len(r.hard_overs)}'
         if full:
-            worst = max(full)
-            text += (f'; with all {inp.pumps} pumps: {len(full)}, slowest {worst:.1f} s '
-                     f"({'within' if worst <= inp.solas_s else 'OVER'} SOLAS {inp.solas_s:g} s)")
+            worst = max(full, key=lambda h: (h.seconds_min, h.seconds))
+            within = solas_judgement(worst, inp.solas_s)
+            said = {True: 'within', False: 'OVER', None: 'not judged against'}[within]
+            text += (f'; with all {inp.pumps} pumps: {len(full)}, slowest {hard_over_words(worst)} '
+                     f'({said} SOLAS {inp.solas_s:g} s' + (': the angle\'s samples leave the time either side of it)'
+                                                           if within is None else ')'))
         if len(full) < len(r.hard_overs):
             text += (f'; with fewer pumps: {len(r.hard_overs) - len(full)} (not judged against SOLAS, which '
                      f'assumes {inp.pumps})')
@@ -415,7 +426,8 @@ def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
                     'declared model leaves, and what is left after the effect the data support.',
         'hardover': 'From leaving 35 deg to reaching 30 deg the other side, as SOLAS II-1/29 asks, with the '
                     'pumps that ran it (told from its time). Green: within SOLAS with all pumps; red: over it; '
-                    'grey: fewer pumps, reported and not judged.',
+                    'orange: the angle sampled too slowly to tell (the line: from its shortest to its longest '
+                    'reading); grey: fewer pumps, reported and not judged.',
     }
     body = ''.join(
         f'<section id="{key}"><h2>{esc(title)}</h2>'
