@@ -453,7 +453,8 @@ class Review:
             return 1.0
         basis = F.TorqueBasis(self.gear.max_rudder)
         load = F.axial_load(self.gear, basis, rows.moments, coef)
-        return residuals_and_inflation(self.gear, basis, rows, sample.t_ns, coef, two_z, z_gb, load, self._extra)[1]
+        return residuals_and_inflation(self.gear, basis, rows, sample.t_ns, coef, two_z, z_gb, load, self._extra,
+                                       sample.step_ns)[1]
 
     def _z(self, obs: Observations) -> dict[str, NDArray[np.float64]]:
         """The per-observation columns the model's effects read (none for the declared model),

@@ -57,7 +57,14 @@ from numpy.typing import NDArray
 from steer_monitor.estimate import fit as F
 from steer_monitor.estimate import window as W
 from steer_monitor.estimate.analysiswords import message, uneven_note
-from steer_monitor.estimate.batch import ClearanceEstimate, Rows, estimate_clearances, lag_moments, make_rows
+from steer_monitor.estimate.batch import (
+    MIN_MOTION_SAMPLES,
+    ClearanceEstimate,
+    Rows,
+    estimate_clearances,
+    lag_moments,
+    make_rows,
+)
 from steer_monitor.estimate.effects import (
     Candidate,
     Effect,
@@ -71,7 +78,13 @@ from steer_monitor.estimate.heldout import candidate_score, halves
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.locate import UNITS, Located, locate
 from steer_monitor.estimate.moments import Moments
-from steer_monitor.estimate.observe import EstimateError, Observations, build_observations, in_sorted
+from steer_monitor.estimate.observe import (
+    EstimateError,
+    Observations,
+    build_observations,
+    in_sorted,
+    too_little_motion,
+)
 from steer_monitor.estimate.placements import moved_off, placements, spanned
 from steer_monitor.estimate.plausible import rated_force
 from steer_monitor.estimate.rams import OPPOSED, RamShare, judge, opposed_cause, ram_share, working_against
@@ -371,6 +384,9 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
         win = W.select(signals, gear.ram_area, window_motion_s)
         signals = win.signals
     obs = build_observations(signals, gear.ram_area)
+    rows = int(np.isfinite(obs.force[obs.moving]).sum())
+    if rows < MIN_MOTION_SAMPLES:            # the cause said: the motion missing, or the rates that hide it
+        raise EstimateError(too_little_motion(signals, obs, rows, MIN_MOTION_SAMPLES))
     whole = ram_share(obs.force[obs.moving])
     if whole is not None and judge(whole, ram_share_warn, gear.ram_area) == OPPOSED:   # a ram reversed: nothing holds
         ram = working_against(obs.force[obs.moving], obs.rate[obs.moving])
@@ -599,8 +615,8 @@ def _systematic(before: _Base, after: _Base) -> bool:
     large at the next instant; what a column takes from noise (or a shifted angle from the
     instants it keeps) is not. One step, not the 200 ms of the smooth part: a Stribeck rise or
     an inertia force lasts a fraction of a second, and at 200 ms only a third of it shows."""
-    m0, c0 = lag_moments(before.est.residual, before.obs.t_ns, SYSTEMATIC_LAG_STEPS)
-    m1, c1 = lag_moments(after.est.residual, after.obs.t_ns, SYSTEMATIC_LAG_STEPS)
+    m0, c0 = lag_moments(before.est.residual, before.obs.t_ns, SYSTEMATIC_LAG_STEPS, before.obs.step_ns)
+    m1, c1 = lag_moments(after.est.residual, after.obs.t_ns, SYSTEMATIC_LAG_STEPS, after.obs.step_ns)
     d_lag, d_mse = c0 - c1, m0 - m1
     return d_lag > 0 and d_lag >= MIN_SYSTEMATIC_SHARE * d_mse
 

@@ -148,14 +148,18 @@ class ClearanceEstimate:
 
 
 def lag_moments(
-    resid: NDArray[np.float64], t_ns: NDArray[np.int64], lag: int = SMOOTH_LAG_STEPS
+    resid: NDArray[np.float64], t_ns: NDArray[np.int64], lag: int = SMOOTH_LAG_STEPS, step_ns: int = GRID_NS
 ) -> tuple[float, float]:
     """(mean square, autocovariance at ``lag`` grid steps, 200 ms by default) of residuals
-    (n, 2) [N^2], the latter over the
-    pairs of the same ram with both instants fitted, unclamped (it may come out negative
-    where the smooth part is nil); NaN when there is nothing to average."""
+    (n, 2) [N^2], the latter over the pairs of the same ram with both instants fitted,
+    unclamped (it may come out negative where the smooth part is nil); NaN when there is
+    nothing to average. Rows further apart than the grid (``step_ns``: a slow pressure's
+    period) are each interpolated between two of its samples, so two rows one period apart
+    share one and their sensor noise correlates: the lag is then at least two periods."""
     c0 = c4 = 0.0
     n0 = n4 = 0
+    if step_ns > GRID_NS:
+        lag = max(lag, 2 * (step_ns // GRID_NS))
     step = np.round((t_ns - (t_ns[0] if t_ns.size else 0)) / GRID_NS).astype(np.int64)
     for k in range(resid.shape[1]):
         r = resid[:, k]
@@ -170,11 +174,12 @@ def lag_moments(
     return (c0 / n0 if n0 else math.nan), (c4 / n4 if n4 else math.nan)
 
 
-def residual_parts(resid: NDArray[np.float64], t_ns: NDArray[np.int64]) -> tuple[float, float]:
+def residual_parts(resid: NDArray[np.float64], t_ns: NDArray[np.int64], step_ns: int = GRID_NS
+                   ) -> tuple[float, float]:
     """(noise RMS, smooth RMS) of residuals (n, 2): the autocovariance at 200 ms (same ram,
     both instants fitted, :func:`lag_moments`) is the smooth part's variance, clamped to
     [0, mean square]; the rest is sensor noise."""
-    var, c4 = lag_moments(resid, t_ns)
+    var, c4 = lag_moments(resid, t_ns, step_ns=step_ns)
     if not math.isfinite(var):
         return math.nan, math.nan
     smooth = min(max(c4, 0.0) if math.isfinite(c4) else 0.0, var)
@@ -196,13 +201,15 @@ def predict_rows(gear: GearParams, basis: F.TorqueBasis, rows: Rows, coef: NDArr
 
 def residuals_and_inflation(gear: GearParams, basis: F.TorqueBasis, rows: Rows, t_ns: NDArray[np.int64],
                             coef: NDArray[np.float64], two_z: float, z_gb: float, load: NDArray[np.float64],
-                            extra: Sequence[F.Column] = ()) -> tuple[NDArray[np.float64], float]:
+                            extra: Sequence[F.Column] = (), step_ns: int = GRID_NS
+                            ) -> tuple[NDArray[np.float64], float]:
     """The ram-force residual per observation and ram, shape (len(t_ns), 2) [N] (NaN where no
-    row), at a fit, and the variance inflation of its autocorrelation."""
+    row), at a fit, and the variance inflation of its autocorrelation (its lags in the rows'
+    spacing ``step_ns``: :attr:`~steer_monitor.estimate.observe.Observations.step_ns`)."""
     pred = predict_rows(gear, basis, rows, coef, two_z, z_gb, load, extra)
     resid = np.full((t_ns.size, 2), np.nan)
     resid[rows.obs_index, rows.ram] = rows.u[:, -1] - pred
-    return resid, inflation(resid[rows.obs_index], t_ns[rows.obs_index], GRID_NS)
+    return resid, inflation(resid[rows.obs_index], t_ns[rows.obs_index], step_ns)
 
 
 def _profile_fit(gear: GearParams, basis: F.TorqueBasis, mom: Moments, extra: Sequence[F.Column],
@@ -390,8 +397,8 @@ def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: 
     mom = rows.moments
     extra = tuple(extra) + F.speed_scale_columns(mom)
     pr, ref, best, tz, zg, load = _profile_fit(gear, basis, mom, extra, grid_2z, grid_zgb, load)
-    resid, vif = residuals_and_inflation(gear, basis, rows, obs.t_ns, best.coef, tz, zg, load, extra)
-    noise, smooth = residual_parts(resid, obs.t_ns)
+    resid, vif = residuals_and_inflation(gear, basis, rows, obs.t_ns, best.coef, tz, zg, load, extra, obs.step_ns)
+    noise, smooth = residual_parts(resid, obs.t_ns, obs.step_ns)
     max_seen = float(np.nanmax(np.abs(obs.alpha[rows.obs_index])))
     scales = _robust(gear, basis, obs, rows, resid, best, tz, zg, load, extra, ref, max(model_inflation, 1.0))
     return _bound(gear, basis, mom, pr, ref, best, tz, zg, load, extra, vif, max_seen, resid, noise, smooth, scales)
@@ -407,7 +414,7 @@ def _robust(gear: GearParams, basis: F.TorqueBasis, obs: Observations, rows: Row
     alpha = obs.alpha[rows.obs_index]
     moving = [axis for axis, m in enumerate((ref.two_z, ref.z_gb))
               if m.rss.size > 2 and float(np.ptp(m.rss)) > 0 and int(np.argmin(m.rss)) < m.rss.size - 1]
-    block = block_seconds(resid[rows.obs_index], obs.t_ns[rows.obs_index], GRID_NS)
+    block = block_seconds(resid[rows.obs_index], obs.t_ns[rows.obs_index], obs.step_ns)
     scales = robust_scales(gear, basis, rows.moments, rows.bin_of_row, rows.u, r, obs.t_ns[rows.obs_index],
                            np.abs(alpha), np.sign(alpha).astype(np.int8), obs.direction[rows.obs_index], best.coef,
                            best.names, tz, zg, load, extra, moving, block)
@@ -457,7 +464,8 @@ def sample_spread(gear: GearParams, obs: Observations, two_z: float, z_gb: float
         return 1.0, None
     basis = F.TorqueBasis(gear.max_rudder)
     load = F.axial_load(gear, basis, rows.moments, best.coef)
-    resid, vif = residuals_and_inflation(gear, basis, rows, obs.t_ns, best.coef, two_z, z_gb, load, extra)
+    resid, vif = residuals_and_inflation(gear, basis, rows, obs.t_ns, best.coef, two_z, z_gb, load, extra,
+                                         obs.step_ns)
     return vif, _robust(gear, basis, obs, rows, resid, best, two_z, z_gb, load, extra, ref, max(model_inflation, 1.0))
 
 

@@ -22,6 +22,18 @@ what the data can tell:
   since the 20 Hz pressures interpolated to a point within 50 ms of a stop mix a sample
   with friction and one without.
 
+The constants are made for the angle at 10 Hz and the pressures at 20 Hz (a direct tap).
+A gateway may forward them far slower (NMEA 2000's default interval for Actual Pressure is
+2 s): each input's own period is measured from its samples (the median interval,
+:func:`median_period_ns`) and an input more than ``SLOWER`` times slower than that has its
+windows scaled to its period (:class:`Windows`): interpolation across up to 2.5 of its periods,
+the slopes over three of the angle's periods each side, the steadiness segments one of its
+periods long, steady motion required through every grid point a pressure sample's bracket
+reaches, and one row per pressure period (rows between two slow pressure samples are one
+interpolation, not more data: :attr:`Observations.step_ns` is the rows' spacing, what the
+residual's autocorrelation is read in). So the slower signal bounds what a transient can show:
+at 0.5 Hz only motion steady for a dozen seconds counts. At the design rates nothing changes.
+
 Pure numpy. Times integer ns, values SI.
 """
 
@@ -40,9 +52,10 @@ from steer_monitor.errors import SteerMonitorError
 from steer_monitor.model.inputs import PRESSURE_INPUTS, Series
 from steer_monitor.model.ramforce import ram_forces
 
-__all__ = ['GRID_NS', 'HALF_WINDOW_NS', 'MOVING_RATE', 'SEGMENT_NS', 'STEADY_FRACTION', 'EstimateError', 'Observations',
-           'angle_slopes', 'build_observations', 'data_grid', 'grid_times', 'in_sorted', 'interp_held',
-           'sorted_positions']
+__all__ = ['DESIGN_ANGLE_PERIOD_NS', 'DESIGN_PRESSURE_PERIOD_NS', 'GRID_NS', 'HALF_WINDOW_NS', 'MOVING_RATE',
+           'SEGMENT_NS', 'SLOWER', 'STEADY_FRACTION', 'EstimateError', 'Observations', 'Windows', 'angle_slopes',
+           'build_observations', 'data_grid', 'grid_times', 'in_sorted', 'interp_held', 'median_period_ns',
+           'sorted_positions', 'too_little_motion']
 
 GRID_NS = 50_000_000
 HALF_WINDOW_NS = 300_000_000
@@ -53,6 +66,9 @@ MAX_GAP_NS = 250_000_000              # angle and pressures: up to 2.5 of the sl
 SLOW_GAP_NS = 10_000_000_000          # ship speed (1 Hz) and oil temperature (0.5 Hz)
 LONG_GAP_NS = 60_000_000_000          # no angle this long: the grid skips the stretch ...
 GAP_PAD_NS = 1_000_000_000            # ... keeping this much at each side
+DESIGN_ANGLE_PERIOD_NS = 100_000_000      # the rates the constants above are made for: the angle at 10 Hz,
+DESIGN_PRESSURE_PERIOD_NS = 50_000_000    # the pressures at 20 Hz
+SLOWER = 1.2                              # an input this much slower has its windows scaled (Windows)
 
 
 class EstimateError(SteerMonitorError, ValueError):
@@ -72,6 +88,8 @@ class Observations:
         pressure: the four transducers [Pa], shape (n, 4), in ``PRESSURE_INPUTS`` order.
         speed: ship speed [m/s], NaN where not on the bus.
         oil_temp: oil temperature [K], NaN where not on the bus.
+        step_ns: the spacing of the rows steady motion may give [ns]: the grid's, or one
+            pressure period where the pressures come slower (:class:`Windows`).
     """
 
     t_ns: NDArray[np.int64]
@@ -82,6 +100,7 @@ class Observations:
     pressure: NDArray[np.float64]
     speed: NDArray[np.float64]
     oil_temp: NDArray[np.float64]
+    step_ns: int = GRID_NS
 
     def __len__(self) -> int:
         return int(self.t_ns.shape[0])
@@ -97,7 +116,66 @@ class Observations:
 
     def select(self, mask: NDArray[np.bool_]) -> Observations:
         return Observations(self.t_ns[mask], self.alpha[mask], self.rate[mask], self.direction[mask],
-                            self.force[mask], self.pressure[mask], self.speed[mask], self.oil_temp[mask])
+                            self.force[mask], self.pressure[mask], self.speed[mask], self.oil_temp[mask], self.step_ns)
+
+
+def median_period_ns(series: Series | None) -> int | None:
+    """An input's own period [ns]: the median interval between its samples (times in any order;
+    samples at one time count once). None with fewer than three distinct times."""
+    if series is None or len(series) < 3:
+        return None
+    d = np.diff(np.unique(series.t_ns))
+    return int(np.median(d)) if d.size >= 2 else None
+
+
+def _scaled(period: int | None, design: int, const: int, periods: float) -> int:
+    """``const`` at the design period (and up to ``SLOWER`` times it), else at least
+    ``periods`` of the input's own ``period``."""
+    if period is None or period <= SLOWER * design:
+        return const
+    return max(const, int(round(periods * period)))
+
+
+@dataclass(frozen=True)
+class Windows:
+    """What the observations are judged over, from the inputs' own periods (see the module):
+    the angle's and the pressures' periods [ns] (the slowest pressure's), the interpolation
+    brackets, the slopes' half window and the steadiness segments [ns], the grid points either
+    side a steady one needs steady too, and the rows' spacing in grid points."""
+
+    angle_period_ns: int | None
+    pressure_period_ns: int | None
+    angle_gap_ns: int = MAX_GAP_NS
+    pressure_gap_ns: int = MAX_GAP_NS
+    half_window_ns: int = HALF_WINDOW_NS
+    segment_ns: int = SEGMENT_NS
+    erode: int = 1
+    row_step: int = 1
+
+    @classmethod
+    def of(cls, signals: Mapping[str, Series]) -> Windows:
+        """The windows for ``signals``' own periods."""
+        pa = median_period_ns(signals.get('rudder_angle'))
+        periods = [p for p in (median_period_ns(signals.get(n)) for n in PRESSURE_INPUTS) if p is not None]
+        pp = max(periods) if periods else None
+        slow_p = pp is not None and pp > SLOWER * DESIGN_PRESSURE_PERIOD_NS
+        return cls(pa, pp,
+                   angle_gap_ns=_scaled(pa, DESIGN_ANGLE_PERIOD_NS, MAX_GAP_NS, 2.5),
+                   pressure_gap_ns=_scaled(pp, DESIGN_PRESSURE_PERIOD_NS, MAX_GAP_NS, 2.5),
+                   half_window_ns=_scaled(pa, DESIGN_ANGLE_PERIOD_NS, HALF_WINDOW_NS, 3.0),
+                   segment_ns=_scaled(pa, DESIGN_ANGLE_PERIOD_NS, SEGMENT_NS, 1.0),
+                   erode=max(1, math.ceil(pp / GRID_NS)) if slow_p and pp is not None else 1,
+                   row_step=max(1, round(pp / GRID_NS)) if slow_p and pp is not None else 1)
+
+    @property
+    def step_ns(self) -> int:
+        """The rows' spacing [ns]."""
+        return self.row_step * GRID_NS
+
+    @property
+    def design(self) -> bool:
+        """Both at the rates the constants are made for: nothing scaled."""
+        return self == Windows(self.angle_period_ns, self.pressure_period_ns)
 
 
 def grid_times(start_ns: int, end_ns: int) -> NDArray[np.int64]:
@@ -250,17 +328,17 @@ def _slope(sums: NDArray[np.float64]) -> NDArray[np.float64]:
     return out
 
 
-def angle_slopes(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.int64]
+def angle_slopes(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.int64], half_ns: int = HALF_WINDOW_NS
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Least-squares slopes of the angle samples over ``HALF_WINDOW_NS`` before each grid
+    """Least-squares slopes of the angle samples over ``half_ns`` before each grid
     point, after it, and over both (each window with its ends): shapes (n,). The whole
     window's sums are the halves' less the samples exactly at the grid point, which both
     halves hold (x = 0 there, so only the count and sum y are counted twice)."""
     j = sorted_positions(ts, t, right=False)                 # the first sample at or after t
     k = sorted_positions(ts, t, right=True)                  # the first after t
     y_ref = v[np.minimum(j, ts.size - 1)]
-    before = _window_sums(ts, v, t, y_ref, sorted_positions(ts, t - HALF_WINDOW_NS, right=False), k)
-    after = _window_sums(ts, v, t, y_ref, j, sorted_positions(ts, t + HALF_WINDOW_NS, right=True))
+    before = _window_sums(ts, v, t, y_ref, sorted_positions(ts, t - half_ns, right=False), k)
+    after = _window_sums(ts, v, t, y_ref, j, sorted_positions(ts, t + half_ns, right=True))
     at = k - j                                               # samples exactly at t
     whole = before + after
     whole[0] -= at
@@ -272,31 +350,40 @@ def angle_slopes(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.in
     return _slope(before), _slope(after), _slope(whole)
 
 
-def _steady_through(angle: Series, t: NDArray[np.int64], shift_ns: int, need: NDArray[np.float64]) -> NDArray[np.bool_]:
-    """True where the angle's slope over each of the five ``SEGMENT_NS`` segments centred on
-    ``t`` (+-250 ms) has the sign of ``need`` [rad/s] and at least its size."""
-    offsets = np.array([k * SEGMENT_NS // 2 for k in (-5, -3, -1, 1, 3, 5)], np.int64)
-    ends = interp_held(angle, (t[None, :] + offsets[:, None]).ravel(), MAX_GAP_NS, shift_ns).reshape(offsets.size, -1)
+def _steady_through(angle: Series, t: NDArray[np.int64], shift_ns: int, need: NDArray[np.float64],
+                    win: Windows) -> NDArray[np.bool_]:
+    """True where the angle's slope over each of the five ``win.segment_ns`` segments centred
+    on ``t`` (+-250 ms at the design rate) has the sign of ``need`` [rad/s] and at least its size."""
+    seg_ns = win.segment_ns
+    offsets = np.array([k * seg_ns // 2 for k in (-5, -3, -1, 1, 3, 5)], np.int64)
+    ends = interp_held(angle, (t[None, :] + offsets[:, None]).ravel(), win.angle_gap_ns,
+                       shift_ns).reshape(offsets.size, -1)
     ok = np.ones(t.shape, bool)
     with np.errstate(invalid='ignore'):
         for a, b in zip(ends[:-1], ends[1:]):
-            seg = (b - a) / (SEGMENT_NS / 1e9)
+            seg = (b - a) / (seg_ns / 1e9)
             ok &= np.isfinite(seg) & (seg * np.sign(need) >= np.abs(need))
     return ok
 
 
-def _eroded(direction: NDArray[np.int8]) -> NDArray[np.int8]:
-    """Steady motion kept only where both neighbouring grid points (50 ms either side) are in
-    the same steady motion. The pressures are sampled at 20 Hz and interpolated to the grid,
-    so a grid point within 50 ms of a stop or start mixes a sample with friction and one
-    without (the angle's 100 ms segments cannot place the stop closer than that)."""
+def _eroded(direction: NDArray[np.int8], radius: int = 1) -> NDArray[np.int8]:
+    """Steady motion kept only where the ``radius`` grid points either side (one, 50 ms, at
+    the design rate) are in the same steady motion. The pressures are sampled at 20 Hz and
+    interpolated to the grid, so a grid point within 50 ms of a stop or start mixes a sample
+    with friction and one without (the angle's 100 ms segments cannot place the stop closer
+    than that); a slower pressure's bracket reaches its period either side."""
     out = direction.copy()
-    if out.size < 3:
+    r = radius
+    if out.size < 2 * r + 1:
         out[:] = 0
         return out
-    same = (direction[1:-1] == direction[:-2]) & (direction[1:-1] == direction[2:])
-    out[1:-1] = np.where(same, direction[1:-1], 0)
-    out[0] = out[-1] = 0
+    same = np.ones(out.size - 2 * r, bool)
+    mid = direction[r:out.size - r]
+    for k in range(1, r + 1):
+        same &= (mid == direction[r - k:out.size - r - k]) & (mid == direction[r + k:out.size - r + k])
+    out[r:out.size - r] = np.where(same, mid, 0)
+    out[:r] = 0
+    out[out.size - r:] = 0
     return out
 
 
@@ -321,26 +408,56 @@ def build_observations(signals: Mapping[str, Series], ram_area: float, *,
     if len(missing) == len(PRESSURE_INPUTS):
         msg = 'no cylinder pressure in the data (inputs ' + ', '.join(PRESSURE_INPUTS) + ')'
         raise EstimateError(msg)
+    win = Windows.of(signals)
     shift_ns = round(angle_shift_s * 1e9)
     a_t = angle.t_ns - np.int64(shift_ns)
     t0 = int(a_t[0]) if start_ns is None else start_ns
     t1 = int(a_t[-1]) + 1 if end_ns is None else end_ns
     t = data_grid(a_t, t0, t1)
-    # the motion is judged on the grid and one point either side of it, so that the
-    # erosion at a span's ends does not depend on where a log or a fold is cut
-    t_ext = np.concatenate([t[:1] - GRID_NS, t, t[-1:] + GRID_NS]) if t.size else t
-    alpha_ext = interp_held(angle, t_ext, MAX_GAP_NS, shift_ns)
-    before, after, rate = angle_slopes(a_t, angle.value, t_ext)
+    # the motion is judged on the grid and the points either side of it its erosion reads, so
+    # that the erosion at a span's ends does not depend on where a log or a fold is cut
+    r = win.erode
+    t_ext = np.concatenate([t[0] - GRID_NS * np.arange(r, 0, -1), t, t[-1] + GRID_NS * np.arange(1, r + 1)]) \
+        if t.size else t
+    alpha_ext = interp_held(angle, t_ext, win.angle_gap_ns, shift_ns)
+    before, after, rate = angle_slopes(a_t, angle.value, t_ext, win.half_window_ns)
     with np.errstate(invalid='ignore'):
         steady = (np.abs(before) > MOVING_RATE) & (np.abs(after) > MOVING_RATE) & \
             (np.sign(before) == np.sign(after)) & np.isfinite(alpha_ext)
     steady &= _steady_through(angle, t_ext, shift_ns,
-                              np.sign(before) * np.maximum(MOVING_RATE, STEADY_FRACTION * np.abs(rate)))
-    direction = _eroded(np.where(steady, np.sign(before), 0).astype(np.int8))
-    inner = slice(1, -1) if t.size else slice(None)
+                              np.sign(before) * np.maximum(MOVING_RATE, STEADY_FRACTION * np.abs(rate)), win)
+    direction = _eroded(np.where(steady, np.sign(before), 0).astype(np.int8), r)
+    inner = slice(r, t_ext.size - r) if t.size else slice(None)
     alpha, rate, direction = alpha_ext[inner], rate[inner], direction[inner]
-    pressure = np.stack([interp_held(signals.get(n), t, MAX_GAP_NS) for n in PRESSURE_INPUTS], axis=1)
+    if win.row_step > 1:            # one row per slow pressure period: the rows between are interpolation
+        direction = np.where(t % win.step_ns == 0, direction, 0).astype(np.int8)
+    pressure = np.stack([interp_held(signals.get(n), t, win.pressure_gap_ns) for n in PRESSURE_INPUTS], axis=1)
     force = ram_forces(ram_area, pressure)
     speed = interp_held(signals.get('ship_speed'), t, SLOW_GAP_NS)
     oil = interp_held(signals.get('oil_temperature'), t, SLOW_GAP_NS)
-    return Observations(t, alpha, rate, direction, force, pressure, speed, oil)
+    return Observations(t, alpha, rate, direction, force, pressure, speed, oil, win.step_ns)
+
+
+def too_little_motion(signals: Mapping[str, Series], obs: Observations, rows: int, need: int) -> str:
+    """Why ``obs`` (of ``signals``) cannot be estimated from, holding ``rows`` rows of steady
+    motion (ram x instant) where ``need`` are needed: at the design rates, the motion missing;
+    with a slow input, its period, what the analysis takes from it, and how much steering at
+    this log's pace, or which rates, would be enough."""
+    msg = f'too little steady rudder motion to estimate the clearances: {rows} rows of steady motion, need {need}'
+    win = Windows.of(signals)
+    if win.design:
+        return msg + ' (about 5 s of moving rudder)'
+    said = [f'the {what} every {p / 1e9:.2f} s ({1e9 / p:.2g} Hz)'
+            for what, p in (('rudder angle', win.angle_period_ns), ('pressures', win.pressure_period_ns))
+            if p is not None]
+    msg += (f': this log has {" and ".join(said)}, slower than a direct tap (a gateway?), so the analysis takes '
+            f'one row per ram every {win.step_ns / 1e9:.2g} s and counts motion only where the rudder moved steadily '
+            f'for {2 * win.half_window_ns / 1e9:.2g} s')
+    span_min = (int(obs.t_ns[-1]) - int(obs.t_ns[0])) / 60e9 if len(obs) else 0.0
+    if rows > 0 and span_min > 0:
+        msg += (f'; at this log\'s pace about {math.ceil(span_min * need / rows)} minutes of steering would be '
+                f'enough (it holds {span_min:.0f})')
+    else:
+        msg += '; no stretch of this log held such motion'
+    return msg + ('; or raise the rates (the angle at 10 Hz, the pressures at 20 Hz) on the gateway, or through NMEA '
+                  "2000's group function (PGN 126208) where the device supports it")

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from steer_monitor.can.decoder import Series
-from steer_monitor.estimate.observe import GRID_NS, EstimateError, build_observations, grid_times
+from steer_monitor.estimate.observe import GRID_NS, EstimateError, Windows, build_observations, grid_times
 
 
 def _series(t_s, v):
@@ -182,3 +182,76 @@ def test_sorted_positions_and_in_sorted_are_numpys(seed):
                               np.searchsorted(ts, t, side='right' if right else 'left'))
     assert np.array_equal(in_sorted(t, ts), np.isin(t, ts))
     assert np.array_equal(in_sorted(ts, np.unique(t)), np.isin(ts, t))
+
+
+def _slow_signals(angle_hz: float, pressure_hz: float, seconds: float = 120.0, pause=None, seed: int = 0):
+    """A rudder sweeping at 2 deg/s (``pause``: standing over (start, end) [s] instead), its angle
+    at ``angle_hz`` and each pressure at ``pressure_hz`` on its own phase, white noise of 0.25
+    bar on the pressures; the pressures hold 50 bar against 2 bar while the rudder moves."""
+    rng = np.random.default_rng(seed)
+    rate = np.radians(2.0)
+
+    def angle(t):
+        t = np.asarray(t, float)
+        if pause is None:
+            return rate * t
+        a, b = pause
+        return rate * (np.minimum(t, a) + np.maximum(t - b, 0.0))
+
+    t_a = np.arange(0.0, seconds, 1.0 / angle_hz) + 0.011
+    sig = {'rudder_angle': _series(t_a, angle(t_a))}
+    for k, name in enumerate(('pressure_r1_stbd', 'pressure_r1_port', 'pressure_r2_stbd', 'pressure_r2_port')):
+        t = np.arange(0.0, seconds, 1.0 / pressure_hz) + 0.013 + 0.37 * k / pressure_hz
+        v = np.full(t.size, 50e5 if k % 2 == 0 else 2e5) + rng.normal(0, 0.25e5, t.size)
+        if pause is not None:
+            still = (t >= pause[0]) & (t <= pause[1])
+            v[still] = 30e5 if k % 2 == 0 else 20e5
+        sig[name] = _series(t, v)
+    return sig
+
+
+@pytest.mark.parametrize('angle_hz, pressure_hz', [(10.0, 20.0), (10.5, 19.0), (8.5, 17.0)])
+def test_at_the_design_rates_nothing_is_scaled(angle_hz, pressure_hz):
+    w = Windows.of(_slow_signals(angle_hz, pressure_hz, 20.0))
+    assert w.design and w.step_ns == GRID_NS
+    assert w.angle_period_ns == pytest.approx(1e9 / angle_hz, rel=1e-3)
+
+
+@pytest.mark.parametrize('angle_hz, pressure_hz', [(2.0, 20.0), (10.0, 5.0), (2.0, 5.0), (0.5, 0.5), (1.0, 2.0)])
+def test_a_slow_input_is_read_over_its_own_period(angle_hz, pressure_hz):
+    """Steady motion through slowly sampled inputs: rows one pressure period apart, the angle
+    at each row the sweep's, the force the pressures' (their noise within 4 sigma of a mean
+    of interpolated samples)."""
+    obs = build_observations(_slow_signals(angle_hz, pressure_hz), 0.045)
+    w = Windows.of(_slow_signals(angle_hz, pressure_hz))
+    rows = obs.t_ns[obs.moving]
+    step = max(GRID_NS, int(round(1e9 / pressure_hz / GRID_NS)) * GRID_NS) if pressure_hz < 20.0 else GRID_NS
+    assert obs.step_ns == step and np.all(np.diff(rows) % step == 0)
+    assert rows.size >= 0.7 * 120.0 / (step / 1e9)
+    t = (obs.t_ns[obs.moving] - 0) / 1e9
+    assert np.allclose(obs.alpha[obs.moving], np.radians(2.0) * t, atol=1e-9)
+    assert np.all(np.abs(obs.force[obs.moving] - 0.045 * 48e5) < 0.045 * 4 * 0.25e5 * np.sqrt(2))
+    assert w.angle_gap_ns >= 2.5e9 / angle_hz - 1 and w.pressure_gap_ns >= 2.5e9 / pressure_hz - 1
+
+
+@pytest.mark.parametrize('angle_hz, pressure_hz', [(2.0, 5.0), (0.5, 0.5), (10.0, 1.0)])
+def test_no_row_where_a_slowly_sampled_rudder_may_have_stopped(angle_hz, pressure_hz):
+    """The rudder stands from 49.5 s to 59.5 s: no steady row from a slow sample's reach before
+    the stop to after the start (the pressures interpolated there would mix the two)."""
+    obs = build_observations(_slow_signals(angle_hz, pressure_hz, pause=(49.5, 59.5)), 0.045)
+    t = obs.t_ns[obs.moving] / 1e9
+    reach = 1.0 / min(angle_hz, pressure_hz)
+    assert not np.any((t > 49.5 - reach) & (t < 59.5 + reach))
+    assert np.any(t < 49.5 - reach) and np.any(t > 59.5 + reach)
+
+
+def test_the_sensor_noise_of_slow_rows_is_not_read_as_systematic():
+    """White noise on pressures at 5 Hz, interpolated to rows one period apart: neighbouring
+    rows share a sample, so their noise correlates; read two periods apart it does not, and the
+    smooth part of a pure-noise residual is nil."""
+    from steer_monitor.estimate.batch import residual_parts
+    obs = build_observations(_slow_signals(10.0, 5.0, 600.0, seed=3), 0.045)
+    m = obs.moving
+    resid = np.where(m[:, None], obs.force - 0.045 * 48e5, np.nan)
+    noise, smooth = residual_parts(resid[m], obs.t_ns[m], obs.step_ns)
+    assert smooth < 0.1 * noise
