@@ -57,6 +57,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from steer_monitor.ashore.inspection import rate_notes, timing_json
 from steer_monitor.can.busconfig import load_setup
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.estimate.analyze import Analysis, analyze
@@ -203,7 +204,9 @@ def analyze_log(path: str | Path, config: str | Path | None = None, progress: bo
     out['data'] = {'log': str(path), 'frames': logs.frames, 'span_s': logs.span_s,
                    'rejects': dict(sorted(rejects.snapshot().counts.items())),
                    'read_errors': list(logs.errors),
-                   'clock_steps': clock_steps_json(logs.clock_steps), 'notes': list(logs.notes),
+                   'clock_steps': clock_steps_json(logs.clock_steps),
+                   'notes': [*logs.notes, *rate_notes(signals)],
+                   'inputs': timing_json(signals, {spec.name: spec.rate_hz for spec in smap.specs}),
                    'config': str(config_path)}
     out['window'] = {**time_json('until', until_ns),
                      'motion_h': window_motion_s / 3600.0 if window_motion_s > 0 else None,

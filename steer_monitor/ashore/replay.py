@@ -146,7 +146,8 @@ def replay_with(run: Runner, logs: Sequence[str | Path], output: str | Path, con
     gear = gear_from_params(params)
     rejects = RejectCounter()
     monitor = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params),
-                          defer_share=defer_share, ram_share_warn=ram_share_warn_from_params(params))
+                          defer_share=defer_share, ram_share_warn=ram_share_warn_from_params(params),
+                          angle_period_ns=smap.period_ns('rudder_angle'))
     diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(params), smap, gear)
     summary = ReplaySummary(str(output), [str(p) for p in paths])
     if recorded is not None:

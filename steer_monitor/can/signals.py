@@ -80,6 +80,11 @@ class SignalMap:
     def names(self) -> tuple[str, ...]:
         return tuple(s.name for s in self.specs)
 
+    def period_ns(self, name: str) -> int | None:
+        """The configured period of input ``name`` [ns] (None: not mapped)."""
+        spec = next((s for s in self.specs if s.name == name), None)
+        return None if spec is None else int(round(1e9 / spec.rate_hz))
+
     def check(self, db: CanDatabase) -> None:
         """Every mapped PGN and field exists in the DBC, with instance/source fields where
         the map matches on them."""

@@ -42,9 +42,12 @@ def run(path: str | Path, config: str | Path | None = None, json_out: str | Path
     if not json_to_stdout(json_out):
         out.write(f"{s['log']}: {s['frames']} frames, {s['span_s']:.1f} s"
                   + (f" ({s['start_utc']} .. {s['end_utc']})" if s['start_utc'] else '') + '\n')
-        table(['signal', 'PGN', 'inst', 'addr', 'samples', 'rate Hz', 'expected', 'gaps>1s', 'range'],
+        table(['signal', 'PGN', 'inst', 'addr', 'samples', 'rate Hz', 'expected', 'period s', 'jitter ms', 'lost',
+               'gaps>1s', 'range'],
               [[name, v['pgn'], any_text(v['instance']), any_text(v['address']), v['samples'],
                 '-' if v['rate_hz'] is None else f"{v['rate_hz']:.2f}", f"{v['expected_rate_hz']:g}",
+                '-' if v['period_s'] is None else f"{v['period_s']:.3f}",
+                '-' if v['jitter_s'] is None else f"{v['jitter_s'] * 1e3:.1f}", v['frames_lost'],
                 v['gaps_over_1s'], range_text(name, v)] for name, v in s['signals'].items()], out)
         if s['rejects']:
             out.write('\nrejects:\n')

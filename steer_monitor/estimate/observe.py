@@ -49,26 +49,31 @@ import numpy as np
 from numpy.typing import NDArray
 
 from steer_monitor.errors import SteerMonitorError
+from steer_monitor.estimate.sampling import (
+    DESIGN_ANGLE_PERIOD_NS,
+    DESIGN_PRESSURE_PERIOD_NS,
+    GRID_NS,
+    HALF_WINDOW_NS,
+    SEGMENT_NS,
+    SLOWER,
+    SignalTiming,
+    Windows,
+    median_period_ns,
+    signal_timing,
+)
 from steer_monitor.model.inputs import PRESSURE_INPUTS, Series
 from steer_monitor.model.ramforce import ram_forces
 
 __all__ = ['DESIGN_ANGLE_PERIOD_NS', 'DESIGN_PRESSURE_PERIOD_NS', 'GRID_NS', 'HALF_WINDOW_NS', 'MOVING_RATE',
            'SEGMENT_NS', 'SLOWER', 'STEADY_FRACTION', 'EstimateError', 'Observations', 'Windows', 'angle_slopes',
            'build_observations', 'data_grid', 'grid_times', 'in_sorted', 'interp_held', 'median_period_ns',
-           'sorted_positions', 'too_little_motion']
+           'sorted_positions', 'SignalTiming', 'signal_timing', 'too_little_motion']
 
-GRID_NS = 50_000_000
-HALF_WINDOW_NS = 300_000_000
 MOVING_RATE = 0.2 * math.pi / 180.0   # rad/s
-SEGMENT_NS = 100_000_000              # the five segments of the steadiness test
 STEADY_FRACTION = 0.5                 # each segment's rate against the window's
-MAX_GAP_NS = 250_000_000              # angle and pressures: up to 2.5 of the slower period
 SLOW_GAP_NS = 10_000_000_000          # ship speed (1 Hz) and oil temperature (0.5 Hz)
 LONG_GAP_NS = 60_000_000_000          # no angle this long: the grid skips the stretch ...
 GAP_PAD_NS = 1_000_000_000            # ... keeping this much at each side
-DESIGN_ANGLE_PERIOD_NS = 100_000_000      # the rates the constants above are made for: the angle at 10 Hz,
-DESIGN_PRESSURE_PERIOD_NS = 50_000_000    # the pressures at 20 Hz
-SLOWER = 1.2                              # an input this much slower has its windows scaled (Windows)
 
 
 class EstimateError(SteerMonitorError, ValueError):
@@ -117,65 +122,6 @@ class Observations:
     def select(self, mask: NDArray[np.bool_]) -> Observations:
         return Observations(self.t_ns[mask], self.alpha[mask], self.rate[mask], self.direction[mask],
                             self.force[mask], self.pressure[mask], self.speed[mask], self.oil_temp[mask], self.step_ns)
-
-
-def median_period_ns(series: Series | None) -> int | None:
-    """An input's own period [ns]: the median interval between its samples (times in any order;
-    samples at one time count once). None with fewer than three distinct times."""
-    if series is None or len(series) < 3:
-        return None
-    d = np.diff(np.unique(series.t_ns))
-    return int(np.median(d)) if d.size >= 2 else None
-
-
-def _scaled(period: int | None, design: int, const: int, periods: float) -> int:
-    """``const`` at the design period (and up to ``SLOWER`` times it), else at least
-    ``periods`` of the input's own ``period``."""
-    if period is None or period <= SLOWER * design:
-        return const
-    return max(const, int(round(periods * period)))
-
-
-@dataclass(frozen=True)
-class Windows:
-    """What the observations are judged over, from the inputs' own periods (see the module):
-    the angle's and the pressures' periods [ns] (the slowest pressure's), the interpolation
-    brackets, the slopes' half window and the steadiness segments [ns], the grid points either
-    side a steady one needs steady too, and the rows' spacing in grid points."""
-
-    angle_period_ns: int | None
-    pressure_period_ns: int | None
-    angle_gap_ns: int = MAX_GAP_NS
-    pressure_gap_ns: int = MAX_GAP_NS
-    half_window_ns: int = HALF_WINDOW_NS
-    segment_ns: int = SEGMENT_NS
-    erode: int = 1
-    row_step: int = 1
-
-    @classmethod
-    def of(cls, signals: Mapping[str, Series]) -> Windows:
-        """The windows for ``signals``' own periods."""
-        pa = median_period_ns(signals.get('rudder_angle'))
-        periods = [p for p in (median_period_ns(signals.get(n)) for n in PRESSURE_INPUTS) if p is not None]
-        pp = max(periods) if periods else None
-        slow_p = pp is not None and pp > SLOWER * DESIGN_PRESSURE_PERIOD_NS
-        return cls(pa, pp,
-                   angle_gap_ns=_scaled(pa, DESIGN_ANGLE_PERIOD_NS, MAX_GAP_NS, 2.5),
-                   pressure_gap_ns=_scaled(pp, DESIGN_PRESSURE_PERIOD_NS, MAX_GAP_NS, 2.5),
-                   half_window_ns=_scaled(pa, DESIGN_ANGLE_PERIOD_NS, HALF_WINDOW_NS, 3.0),
-                   segment_ns=_scaled(pa, DESIGN_ANGLE_PERIOD_NS, SEGMENT_NS, 1.0),
-                   erode=max(1, math.ceil(pp / GRID_NS)) if slow_p and pp is not None else 1,
-                   row_step=max(1, round(pp / GRID_NS)) if slow_p and pp is not None else 1)
-
-    @property
-    def step_ns(self) -> int:
-        """The rows' spacing [ns]."""
-        return self.row_step * GRID_NS
-
-    @property
-    def design(self) -> bool:
-        """Both at the rates the constants are made for: nothing scaled."""
-        return self == Windows(self.angle_period_ns, self.pressure_period_ns)
 
 
 def grid_times(start_ns: int, end_ns: int) -> NDArray[np.int64]:
@@ -447,8 +393,10 @@ def too_little_motion(signals: Mapping[str, Series], obs: Observations, rows: in
     win = Windows.of(signals)
     if win.design:
         return msg + ' (about 5 s of moving rudder)'
+    pressures = [p for p in (median_period_ns(signals.get(n)) for n in PRESSURE_INPUTS) if p is not None]
     said = [f'the {what} every {p / 1e9:.2f} s ({1e9 / p:.2g} Hz)'
-            for what, p in (('rudder angle', win.angle_period_ns), ('pressures', win.pressure_period_ns))
+            for what, p in (('rudder angle', median_period_ns(signals.get('rudder_angle'))),
+                            ('pressures', max(pressures) if pressures else None))
             if p is not None]
     msg += (f': this log has {" and ".join(said)}, slower than a direct tap (a gateway?), so the analysis takes '
             f'one row per ram every {win.step_ns / 1e9:.2g} s and counts motion only where the rudder moved steadily '

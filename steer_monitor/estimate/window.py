@@ -10,9 +10,11 @@ says at a time is what the shore says of the log cut there. The window is
   ``SLOW_MARGIN_NS`` (ship speed, oil temperature) of those instants; the rest is left out.
   The margins hold every sample the observations of those instants are made from (the
   angle's slopes and steadiness segments reach 0.35 s, an interpolation bracket 0.25 s, a
-  slow input's 10 s), so the observations of the window's instants are those of the whole
-  data, to the bit. (The margin before the first instant may also show up to 2 s of motion
-  before it: an analysis of the window sees that too, the node's and a log's alike.)
+  slow input's 10 s; where the angle or the pressures come slower than the design rates,
+  the windows they are judged over: :attr:`~steer_monitor.estimate.observe.Windows.reach_ns`),
+  so the observations of the window's instants are those of the whole data, to the bit. (The
+  margin before the first instant may also show up to 2 s of motion before it: an analysis
+  of the window sees that too, the node's and a log's alike.)
 
 So memory is bounded by the motion kept (about 1.5 MB a hour of motion), not by the time a
 ship lies in port. :func:`compact` is what a node does with the samples it holds: it drops
@@ -29,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from steer_monitor.estimate.observe import GRID_NS, EstimateError, build_observations
+from steer_monitor.estimate.observe import GRID_NS, EstimateError, Windows, build_observations
 from steer_monitor.model.inputs import FAST_INPUTS, Series
 
 __all__ = ['FAST_MARGIN_NS', 'SETTLE_NS', 'SLOW_MARGIN_NS', 'Window', 'WindowBuffer', 'before', 'compact', 'select']
@@ -46,7 +48,8 @@ class Window:
     Attributes:
         signals: the samples of each input inside it.
         start_ns: the first steady-motion instant it holds [ns] (None: no motion).
-        motion_s: the steady motion it holds [s] (instants x 50 ms).
+        motion_s: the steady motion it holds [s] (instants x their spacing, 50 ms at the
+            design rates).
         spans: (k, 2) [ns]: the stretches of steady motion it holds, each [first, last instant].
     """
 
@@ -56,11 +59,11 @@ class Window:
     spans: NDArray[np.int64]
 
 
-def _spans(t_ns: NDArray[np.int64]) -> NDArray[np.int64]:
-    """Runs of grid instants one step apart: (k, 2) [first, last]."""
+def _spans(t_ns: NDArray[np.int64], step_ns: int = GRID_NS) -> NDArray[np.int64]:
+    """Runs of instants one step (``step_ns``) apart: (k, 2) [first, last]."""
     if t_ns.size == 0:
         return np.zeros((0, 2), np.int64)
-    cut = np.flatnonzero(np.diff(t_ns) != GRID_NS) + 1
+    cut = np.flatnonzero(np.diff(t_ns) != step_ns) + 1
     starts = np.concatenate([[0], cut])
     ends = np.concatenate([cut - 1, [t_ns.size - 1]])
     return np.stack([t_ns[starts], t_ns[ends]], axis=1)
@@ -78,12 +81,13 @@ def _near(t: NDArray[np.int64], spans: NDArray[np.int64], margin: int) -> NDArra
     return np.cumsum(mark[:-1]) > 0
 
 
-def _moving_times(signals: Mapping[str, Series], ram_area: float) -> NDArray[np.int64]:
+def _moving_times(signals: Mapping[str, Series], ram_area: float) -> tuple[NDArray[np.int64], int]:
+    """The steady-motion instants of ``signals`` and their spacing [ns]."""
     try:
         obs = build_observations(signals, ram_area)
     except EstimateError:
-        return np.zeros(0, np.int64)
-    return obs.t_ns[obs.moving]
+        return np.zeros(0, np.int64), GRID_NS
+    return obs.t_ns[obs.moving], obs.step_ns
 
 
 def _keep(signals: Mapping[str, Series], spans: NDArray[np.int64], before_ns: int | None = None
@@ -92,8 +96,9 @@ def _keep(signals: Mapping[str, Series], spans: NDArray[np.int64], before_ns: in
     older than that less the input's margin are judged, newer ones are all kept (motion that
     starts after ``before_ns`` may need them)."""
     out: dict[str, Series] = {}
+    fast = max(FAST_MARGIN_NS, Windows.of(signals).reach_ns)
     for name, ser in signals.items():
-        margin = FAST_MARGIN_NS if name in FAST_INPUTS else SLOW_MARGIN_NS
+        margin = fast if name in FAST_INPUTS else SLOW_MARGIN_NS
         keep = _near(ser.t_ns, spans, margin)
         if before_ns is not None:
             keep |= ser.t_ns >= before_ns - margin
@@ -114,13 +119,13 @@ def before(signals: Mapping[str, Series], t_ns: int) -> dict[str, Series]:
 def select(signals: Mapping[str, Series], ram_area: float, motion_s: float = 0.0) -> Window:
     """The window of ``signals``: the last ``motion_s`` seconds of steady motion (0: all of it)
     and the samples near it (see the module docstring)."""
-    moving = _moving_times(signals, ram_area)
+    moving, step = _moving_times(signals, ram_area)
     if motion_s > 0:
-        keep = int(round(motion_s * 1e9 / GRID_NS))
+        keep = int(round(motion_s * 1e9 / step))
         moving = moving[-keep:] if keep > 0 else moving[:0]
-    spans = _spans(moving)
+    spans = _spans(moving, step)
     kept = _keep(signals, spans)
-    return Window(kept, int(moving[0]) if moving.size else None, moving.size * GRID_NS / 1e9, spans)
+    return Window(kept, int(moving[0]) if moving.size else None, moving.size * step / 1e9, spans)
 
 
 def compact(signals: Mapping[str, Series], ram_area: float, motion_s: float = 0.0) -> dict[str, Series]:
@@ -132,13 +137,13 @@ def compact(signals: Mapping[str, Series], ram_area: float, motion_s: float = 0.
     angle = signals.get('rudder_angle')
     if angle is None or len(angle) == 0:
         return dict(signals)
-    settled = int(angle.t_ns[-1]) - SETTLE_NS
-    moving = _moving_times(signals, ram_area)
+    settled = int(angle.t_ns[-1]) - max(SETTLE_NS, Windows.of(signals).reach_ns)
+    moving, step = _moving_times(signals, ram_area)
     moving = moving[moving < settled]
     if motion_s > 0:
-        keep = int(round(motion_s * 1e9 / GRID_NS))
+        keep = int(round(motion_s * 1e9 / step))
         moving = moving[-keep:] if keep > 0 else moving[:0]
-    return _keep(signals, _spans(moving), before_ns=settled)
+    return _keep(signals, _spans(moving, step), before_ns=settled)
 
 
 class WindowBuffer:

@@ -228,7 +228,9 @@ class DiagnosticsBuilder:
         else:
             level, message = OK, f'all {len(self.smap.specs)} inputs at rate'
             if slower:
-                message += '; slower than the parameters say, judged at their own rates: ' + ', '.join(slower)
+                message += ('; slower than the parameters say, judged at their own rates: ' + ', '.join(slower)
+                            + ' (set their rate_hz to what comes, as steer-monitor discover writes it: the '
+                            "node's steady motion, which its analyses wait for, is judged at the angle's)")
         if rejects.total and level == OK:
             message += f'; {rejects.total} rejected ({", ".join(sorted(rejects.counts))})'
         return self._status('CAN input', level, message, values)

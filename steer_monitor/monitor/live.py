@@ -112,7 +112,7 @@ class LiveMonitor:
 
     def __init__(self, gear: GearParams, gaps: Clearances, gaps_source: str = 'configured',
                  priors: FrictionParams | None = None, *, defer_share: bool = False,
-                 ram_share_warn: float = 0.15) -> None:
+                 ram_share_warn: float = 0.15, angle_period_ns: int | None = None) -> None:
         self.gear = gear
         #: :meth:`slot_state` leaves the load sharing to its caller (see there)
         self.defer_share = defer_share
@@ -126,7 +126,10 @@ class LiveMonitor:
         self.rams = RamsCheck(ram_share_warn, gear.ram_area)
         # the instants taken go to the residual and the rams check (a function of those two, not a
         # method of this monitor: no reference cycle for the collector to find)
-        self.steady = SteadyMotion(gear.ram_area, partial(_to_residual_and_rams, self.residual, self.rams))
+        # ``angle_period_ns``: the angle's configured period, which the steady motion's windows
+        # are made for (a gateway's 2 Hz: configured so, the motion is counted at that rate)
+        self.steady = SteadyMotion(gear.ram_area, partial(_to_residual_and_rams, self.residual, self.rams),
+                                   angle_period_ns)
         self.performance = SteeringPerformance()
         #: the analysis the model in use comes from (None: the configured model)
         self.finding: Finding | None = None

@@ -9,6 +9,7 @@ known until samples come again). One compiled kernel reads the slopes
 them at once (:meth:`SteadyMotion.plan`). The span of the window behind each rate is kept
 beside it (:attr:`SteadyMotion.rate_span_ns`): what reads the rate judges its lag by it. Pressure
 samples (all four known) are held until the angle is known :data:`HALF_WINDOW_NS` past them
+(the analyses' half window for the angle's configured period, where it is slower than 10 Hz)
 (and the model's angle delay); then whether the rudder moved steadily through each (the
 slopes on both sides of it past :data:`MOVING_RATE`, the same sign) is judged, later and for
 many angle samples at once (:mod:`~steer_monitor.monitor.instants`), and each instant of steady
@@ -32,14 +33,14 @@ from itertools import chain
 import numpy as np
 from numpy.typing import NDArray
 
-from steer_monitor.estimate.observe import HALF_WINDOW_NS, MOVING_RATE
+from steer_monitor.estimate.observe import DESIGN_ANGLE_PERIOD_NS, HALF_WINDOW_NS, MOVING_RATE, SLOWER, Windows
 from steer_monitor.monitor.buffers import HeldSamples
 from steer_monitor.monitor.instants import CALL_FIELDS, OUT_FIELDS, take_instants
 from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope, window_slopes
 
 __all__ = ['CALLS_KEPT', 'HALF_WINDOW_NS', 'MAX_DELAY_NS', 'MAX_HELD', 'MAX_RATE_SPAN_NS', 'MIN_RATE_POINTS',
-           'MOTION_STEP_NS', 'MOVING_RATE', 'SLOPE_WINDOW_NS', 'InstantSink', 'SteadyMotion', 'rate_window_start',
-           'rate_window_starts']
+           'MOTION_STEP_NS', 'MOTION_STEP_PERIODS', 'MOVING_RATE', 'SLOPE_WINDOW_NS', 'InstantSink', 'SteadyMotion',
+           'rate_window_start', 'rate_window_starts']
 
 SLOPE_WINDOW_NS = 500_000_000
 #: a slope needs this many samples: a signal with fewer in :data:`SLOPE_WINDOW_NS` has its rate
@@ -51,6 +52,8 @@ MIN_RATE_POINTS = 3
 MAX_RATE_SPAN_NS = 8_000_000_000
 MAX_DELAY_NS = 1_000_000_000   # the longest angle delay the model in use may read the angle later by
 MOTION_STEP_NS = 250_000_000   # a steady bracket of angle samples counts at most this much motion
+#: ... or, of an angle slower than the design rate, this many of its periods
+MOTION_STEP_PERIODS = 1.5
 _HELD = OUT_FIELDS.index('held')     # out's column of the held sample's index
 _N_INSTANT = 7                       # the instant's columns (residual.INSTANT_FIELDS)
 
@@ -115,9 +118,16 @@ CALLS_KEPT = 1024
 class SteadyMotion:
     """The rudder's rate and the instants of steady motion (see the module). Not thread-safe."""
 
-    def __init__(self, ram_area: float, sink: InstantSink) -> None:
+    def __init__(self, ram_area: float, sink: InstantSink, angle_period_ns: int | None = None) -> None:
         self.ram_area = ram_area
         self._sink = sink
+        #: each side of an angle sample its steady-motion slopes are taken over [ns], and the most
+        #: motion a steady bracket counts: the analyses' (observe.Windows) for the angle's period
+        #: ``angle_period_ns`` (its configured rate; None: the design rate)
+        self.half_ns = Windows.of_periods(angle_period_ns, None).half_window_ns
+        slow = angle_period_ns is not None and angle_period_ns > SLOWER * DESIGN_ANGLE_PERIOD_NS
+        self.motion_step_ns = max(MOTION_STEP_NS, int(MOTION_STEP_PERIODS * angle_period_ns)) if slow and \
+            angle_period_ns is not None else MOTION_STEP_NS
         #: the rate after the last angle sample [rad/s] (the last known: a sample that gives
         #: none leaves it)
         self.rate = 0.0
@@ -210,7 +220,7 @@ class SteadyMotion:
         delay = self.delay_ns
         # the history's front after each sample (angle's rule): the first within the time it
         # reaches back, but never fewer than MIN_RATE_POINTS samples, and never back again
-        reach = np.searchsorted(t, t - (3 * HALF_WINDOW_NS + delay), 'left')
+        reach = np.searchsorted(t, t - (3 * self.half_ns + delay), 'left')
         front = base + np.maximum(np.minimum(reach, np.arange(n) + 1 - MIN_RATE_POINTS), 0)
         lo += base
         unplanned = np.concatenate([[0], np.cumsum((status == SPECIAL) | (lo < front))])
@@ -223,7 +233,7 @@ class SteadyMotion:
         hist = self._history
         hist.append((t_ns, alpha))
         delay = self.delay_ns
-        while len(hist) > MIN_RATE_POINTS and hist[0][0] < t_ns - 3 * HALF_WINDOW_NS - delay:
+        while len(hist) > MIN_RATE_POINTS and hist[0][0] < t_ns - 3 * self.half_ns - delay:
             hist.popleft()
             self._hist_base += 1
         plan, slope, known, span = self._plan, None, False, 0
@@ -255,7 +265,7 @@ class SteadyMotion:
         """What angle samples at ``t_ns`` saw, into the log judged later (instants.CALL_FIELDS),
         one row each: the time up to which it releases held samples, the delay then [ns], the
         global indices of its history's first and last angle, the pressure samples held so far."""
-        cut = HALF_WINDOW_NS + delay
+        cut = self.half_ns + delay
         self._calls += chain.from_iterable(zip([t - cut for t in t_ns], [delay] * len(t_ns), first, last, held))
 
     def take_span(self, angle_t: list[int], angle_a: list[float], held: list[int], env: list[float],
@@ -343,7 +353,7 @@ class SteadyMotion:
             n = 0
             while True:
                 n = take_instants(pend_t, pend_p, self.held_total - pend_t.shape[0], log, env, angle_t, angle_a,
-                                  first, HALF_WINDOW_NS, MOVING_RATE, MOTION_STEP_NS, self.ram_area, state, given,
+                                  first, self.half_ns, MOVING_RATE, self.motion_step_ns, self.ram_area, state, given,
                                   out, n)
                 if state[5] < 0:
                     break
@@ -352,8 +362,8 @@ class SteadyMotion:
                 lo, hi = int(log[k, 2]) - first, int(log[k, 3]) - first + 1
                 points = list(zip(self._angles_t[lo:hi], self._angles_a[lo:hi]))
                 times, t_i = self._angles_t[lo:hi], self._angles_t[i]
-                s1 = self.rate_of(points[bisect.bisect_left(times, t_i - HALF_WINDOW_NS):i - lo + 1])
-                s2 = self.rate_of(points[i - lo:bisect.bisect_right(times, t_i + HALF_WINDOW_NS)])
+                s1 = self.rate_of(points[bisect.bisect_left(times, t_i - self.half_ns):i - lo + 1])
+                s2 = self.rate_of(points[i - lo:bisect.bisect_right(times, t_i + self.half_ns)])
                 given[:] = (k, i, s1 is not None, math.nan if s1 is None else s1, s2 is not None,
                             math.nan if s2 is None else s2)
             self._pending.release(int(state[1]))

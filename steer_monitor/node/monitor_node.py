@@ -258,7 +258,8 @@ class MonitorNode(Node):
         """A live model on the configured clearances and friction (until an analysis comes)."""
         p = self.params
         return LiveMonitor(self.gear, gaps_from_params(p), 'configured', friction_from_params(p),
-                           ram_share_warn=ram_share_warn_from_params(p))
+                           ram_share_warn=ram_share_warn_from_params(p),
+                           angle_period_ns=self.smap.period_ns('rudder_angle'))
 
     def _new_pipeline(self, jobs: ThreadedJobs | None) -> Pipeline:
         """The pipeline over a new decoder, on the live model, diagnostics and analyst in use."""

@@ -7,7 +7,8 @@ own default interval for Actual Pressure, PGN 130314, is 2 s). What such a gatew
 the frames, modelled from what gateways do and nothing the estimator assumes:
 
 * **rate per message**: each PGN (and each instance within it, one channel of the gateway)
-  forwarded at its own rate; PGNs not named pass as they came;
+  forwarded at its own rate, on its own timer, whose crystal runs off by up to ``drift_ppm``
+  (so its phase against the sensor's slides); PGNs not named pass as they came;
 * **two ways of forwarding**: ``decimate`` forwards the first frame received at or after each
   tick of its timer (the frame's own payload, late by the wait for the next frame);
   ``hold`` sends on its own timer the last payload received (a value may go out twice, or
@@ -58,6 +59,7 @@ class Gateway:
     loss: float = 0.0
     burst_s: float = 0.2
     hold_timeout_s: float = 2.5
+    drift_ppm: float = 50.0
     outages: tuple[tuple[float, float], ...] = field(default=())
 
     def __post_init__(self) -> None:
@@ -70,7 +72,8 @@ class Gateway:
                 raise ParameterError(msg)
         for name, value, lo, hi in (('latency_s', self.latency_s, 0.0, 10.0), ('jitter_s', self.jitter_s, 0.0, 10.0),
                                     ('loss', self.loss, 0.0, 0.9), ('burst_s', self.burst_s, 1e-3, 60.0),
-                                    ('hold_timeout_s', self.hold_timeout_s, 0.0, 1e6)):
+                                    ('hold_timeout_s', self.hold_timeout_s, 0.0, 1e6),
+                                    ('drift_ppm', self.drift_ppm, 0.0, 1e4)):
             if not (lo <= value <= hi):
                 msg = f'gateway {name} {value}: must be within {lo:g} .. {hi:g}'
                 raise ParameterError(msg)
@@ -80,11 +83,12 @@ class Gateway:
                 raise ParameterError(msg)
 
 
-def _ticks(t0: int, t1: int, rate_hz: float, rng: np.random.Generator) -> NDArray[np.int64]:
-    """A channel's timer over [t0, t1] [ns]: a period of 1/rate from a random phase."""
-    period = round(1e9 / rate_hz)
-    start = t0 + int(rng.integers(0, period))
-    return np.arange(start, t1 + 1, period, dtype=np.int64)
+def _ticks(t0: int, t1: int, rate_hz: float, drift_ppm: float, rng: np.random.Generator) -> NDArray[np.int64]:
+    """A channel's timer over [t0, t1] [ns]: a period of 1/rate, off by a drift drawn within
+    +-``drift_ppm``, from a random phase."""
+    period = 1e9 / rate_hz * (1.0 + rng.uniform(-drift_ppm, drift_ppm) * 1e-6)
+    start = t0 + float(rng.uniform(0.0, period))
+    return np.round(start + period * np.arange(int((t1 - start) // period) + 1)).astype(np.int64)
 
 
 def bad_spells(t0: int, t1: int, loss: float, burst_s: float, rng: np.random.Generator) -> NDArray[np.int64]:
@@ -144,7 +148,7 @@ def forward(frames: FrameArrays, gateway: Gateway, db: CanDatabase, seed: int) -
     for pgn in sorted(gateway.rates_hz):
         for rows in _channels(frames, db, pgn).values():
             t_in = frames.t_ns[rows]
-            ticks = _ticks(t_first, t_last, gateway.rates_hz[pgn], rng)
+            ticks = _ticks(t_first, t_last, gateway.rates_hz[pgn], gateway.drift_ppm, rng)
             if gateway.mode == 'decimate':      # the first frame at or after each tick
                 k = np.searchsorted(t_in, ticks, 'left')
                 keep = np.unique(k[k < t_in.shape[0]])
@@ -168,13 +172,13 @@ def forward(frames: FrameArrays, gateway: Gateway, db: CanDatabase, seed: int) -
 
 def parse_gateway(text: str) -> Gateway:
     """A gateway from ``rudder=2,pressure=0.5,mode=hold,loss=0.02,burst=0.2,latency=0.05,
-    jitter=0.02,timeout=2.5,outage=600+3`` (rates in Hz by message name or PGN number; times
-    in s; ``outage`` start+duration, repeatable)."""
+    jitter=0.02,timeout=2.5,drift=50,outage=600+3`` (rates in Hz by message name or PGN number;
+    times in s; drift in ppm; ``outage`` start+duration, repeatable)."""
     rates: dict[int, float] = {}
     kw: dict[str, object] = {}
     outages: list[tuple[float, float]] = []
     names = {'latency': 'latency_s', 'jitter': 'jitter_s', 'loss': 'loss', 'burst': 'burst_s',
-             'timeout': 'hold_timeout_s'}
+             'timeout': 'hold_timeout_s', 'drift': 'drift_ppm'}
     for item in filter(None, (s.strip() for s in text.split(','))):
         key, sep, value = item.partition('=')
         try:
@@ -205,5 +209,5 @@ def gateway_json(gateway: Gateway) -> dict[str, object]:
     """The gateway as the truth file of ``simulate`` gives it (docs/json.md)."""
     return {'rates': [{'pgn': pgn, 'rate_hz': rate} for pgn, rate in sorted(gateway.rates_hz.items())],
             'mode': gateway.mode, 'latency_s': gateway.latency_s, 'jitter_s': gateway.jitter_s, 'loss': gateway.loss,
-            'burst_s': gateway.burst_s, 'hold_timeout_s': gateway.hold_timeout_s,
+            'burst_s': gateway.burst_s, 'hold_timeout_s': gateway.hold_timeout_s, 'drift_ppm': gateway.drift_ppm,
             'outages': [{'start_s': a, 'duration_s': d} for a, d in gateway.outages]}

@@ -49,6 +49,22 @@ def test_analyze_of_a_log_without_motion_says_why(tmp_path, capsys):
     assert 'too little steady rudder motion' in capsys.readouterr().err
 
 
+def test_analyze_of_a_slowly_sampled_log_with_too_little_motion_names_the_rates(tmp_path, capsys):
+    """Ten minutes through a gateway at NMEA 2000's slow default (0.5 Hz): refused with the
+    rates, what they limit, the minutes of steering at this pace that would be enough and how to
+    raise the rates; not 'N ram samples' as if the data came at the design rate."""
+    log = tmp_path / 'slow.log'
+    assert main(['simulate', '--program', 'realistic:600', '--seed', '3', '--gateway', 'rudder=0.5,pressure=0.5',
+                 '--out', str(log)]) == 0
+    capsys.readouterr()
+    assert main(['analyze', str(log)]) == 1
+    err = capsys.readouterr().err
+    assert err.count('\n') == 1 and 'Traceback' not in err
+    assert 'rows of steady motion, need 200: this log has the rudder angle every 2.00 s (0.5 Hz) and the pressures ' \
+        'every 2.00 s (0.5 Hz), slower than a direct tap' in err
+    assert 'minutes of steering would be enough' in err and 'PGN 126208' in err
+
+
 def test_an_unexplained_residual_is_located_in_the_json_and_plotted(tmp_path):
     """The band of extra friction outside the library: ``unexplained`` names the angle band,
     the ram and the direction, and the report plots the residual against the angle."""

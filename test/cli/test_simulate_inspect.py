@@ -85,3 +85,28 @@ def test_inspect_says_any_where_the_map_takes_any_address(tmp_path, capsys):
     rows = capsys.readouterr().out.splitlines()
     angle = next(r for r in rows if r.startswith('rudder_angle '))
     assert angle.split()[3] == 'any' and ' -1 ' not in angle
+
+
+def test_inspect_gives_each_signal_its_own_timing_and_what_a_slow_rate_limits(tmp_path, capsys):
+    """Through a gateway at 2 Hz (angle) and 0.5 Hz (pressures), 2 % of frames lost: each
+    signal's own period, its jitter and the frames lost; gaps judged against its own period
+    (the outage of 5 s, none for the 2 s between pressure frames); the note on what the rates
+    limit and how to raise them."""
+    path = tmp_path / 'gw.log'
+    out = io.StringIO()
+    assert simulate.run(None, 'zigzag_10', path, seed=3, json_out='-', out=out,
+                        gateway='rudder=2,pressure=0.5,loss=0.02,outage=60+5') == 0
+    report = inspect.inspect_log(path)
+    angle, p = report['signals']['rudder_angle'], report['signals']['pressure_r1_stbd']
+    assert angle['period_s'] == pytest.approx(0.5, abs=0.005) and p['period_s'] == pytest.approx(2.0, abs=0.02)
+    assert angle['jitter_s'] <= 0.011 and 0 < angle['frames_lost'] < 0.1 * angle['samples']
+    assert any(g['length_s'] > 5 for g in angle['gaps']) and all(g['length_s'] > 1.5 for g in angle['gaps'])
+    assert all(g['length_s'] > 3.0 for g in p['gaps'])
+    note = next(n for n in report['notes'] if n.startswith('rates: '))
+    assert note.startswith('rates: the rudder angle every 0.50 s (2 Hz) and the pressures every 2.00 s (0.5 Hz), '
+                           'slower than a direct tap')
+    assert 'PGN 126208' in note
+    assert inspect.run(path, out=io.StringIO()) == 0
+    full = tmp_path / 'full.log'
+    simulate.run(None, 'zigzag_10', full, seed=3, out=io.StringIO())
+    assert not [n for n in inspect.inspect_log(full)['notes'] if n.startswith('rates: ')]

@@ -214,7 +214,7 @@ def _slow_signals(angle_hz: float, pressure_hz: float, seconds: float = 120.0, p
 def test_at_the_design_rates_nothing_is_scaled(angle_hz, pressure_hz):
     w = Windows.of(_slow_signals(angle_hz, pressure_hz, 20.0))
     assert w.design and w.step_ns == GRID_NS
-    assert w.angle_period_ns == pytest.approx(1e9 / angle_hz, rel=1e-3)
+    assert w.angle_period_ns == pytest.approx(1e9 / angle_hz, rel=2e-3)
 
 
 @pytest.mark.parametrize('angle_hz, pressure_hz', [(2.0, 20.0), (10.0, 5.0), (2.0, 5.0), (0.5, 0.5), (1.0, 2.0)])
@@ -225,8 +225,12 @@ def test_a_slow_input_is_read_over_its_own_period(angle_hz, pressure_hz):
     obs = build_observations(_slow_signals(angle_hz, pressure_hz), 0.045)
     w = Windows.of(_slow_signals(angle_hz, pressure_hz))
     rows = obs.t_ns[obs.moving]
-    step = max(GRID_NS, int(round(1e9 / pressure_hz / GRID_NS)) * GRID_NS) if pressure_hz < 20.0 else GRID_NS
-    assert obs.step_ns == step and np.all(np.diff(rows) % step == 0)
+    step = obs.step_ns
+    if pressure_hz < 20.0:      # a row per period, on the ladder: at most a fifth more
+        assert 1e9 / pressure_hz <= step <= 1.2e9 / pressure_hz + GRID_NS
+    else:
+        assert step == GRID_NS
+    assert np.all(np.diff(rows) % step == 0)
     assert rows.size >= 0.7 * 120.0 / (step / 1e9)
     t = (obs.t_ns[obs.moving] - 0) / 1e9
     assert np.allclose(obs.alpha[obs.moving], np.radians(2.0) * t, atol=1e-9)

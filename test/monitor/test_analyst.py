@@ -12,18 +12,21 @@ import pytest
 
 from steer_monitor import sim
 from steer_monitor.can import Decoder, RejectCounter
+from steer_monitor.can.busconfig import can_setup
 from steer_monitor.estimate.analyze import analyze
 from steer_monitor.estimate.effects import Effect
 from steer_monitor.estimate.finding import Finding, finding_of
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.model import Clearances
-from steer_monitor.model.inputs import Series
+from steer_monitor.model.inputs import PRESSURE_INPUTS, Series
 from steer_monitor.monitor import DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
 from steer_monitor.monitor.analyst import Analyst, AnalystSettings, SyncJobs
 from steer_monitor.monitor.pipeline import DiagOut, Pipeline, analyst_from_params
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
+from steer_monitor.sim.gateway import forward, parse_gateway
 from steer_monitor.utc import parse_utc
+from test.conftest import R18_YAML
 
 T0 = 1_767_225_600_000_000_000
 
@@ -47,7 +50,8 @@ def _node_over(params, can_db, frames):
     db, smap = can_db
     gear = gear_from_params(params)
     rejects = RejectCounter()
-    mon = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params))
+    mon = LiveMonitor(gear, gaps_from_params(params), 'configured', friction_from_params(params),
+                      angle_period_ns=smap.period_ns('rudder_angle'))
     diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(params), smap, gear)
     analyst = analyst_from_params(gear, params)
     jobs = Recording(gear, analyst.settings)
@@ -78,12 +82,15 @@ def _close(a: Finding, b: Finding) -> bool:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize('program, effects, seed', [
-    ('realistic', (), 41),                            # a realistic voyage
-    ('realistic', ('angle_delay:tau_s=0.25',), 42),   # one with an effect the declared model lacks
-    ('autopilot:1500', (), 43),                       # autopilot only
+@pytest.mark.parametrize('program, effects, seed, gateway', [
+    ('realistic', (), 41, None),                            # a realistic voyage
+    ('realistic', ('angle_delay:tau_s=0.25',), 42, None),   # one with an effect the declared model lacks
+    ('autopilot:1500', (), 43, None),                       # autopilot only
+    # through a gateway forwarding the angle at 2 Hz and the pressures at 5 Hz, configured so
+    ('realistic', (), 44, 'rudder=2,pressure=5,mode=decimate,loss=0.02'),
 ])
-def test_the_nodes_findings_are_analyze_of_the_log_cut_at_their_time(r18_params, can_db, program, effects, seed):
+def test_the_nodes_findings_are_analyze_of_the_log_cut_at_their_time(r18_params, can_db, program, effects, seed,
+                                                                     gateway):
     """Every analysis the node runs on a voyage (loops and estimates, on its own compacted
     window of the data) equals ``analyze`` of the decoded log cut at the job's second with the
     node's window (and, for an estimate, the model of the loop before it): the clearances with
@@ -94,10 +101,18 @@ def test_the_nodes_findings_are_analyze_of_the_log_cut_at_their_time(r18_params,
     s = sim.run(r18_params, cfg, db, smap, seed)
     # loops from 60 s of motion and estimates between them: more analyses to compare
     params = {**r18_params, 'estimator.first_motion_s': 60.0, 'estimator.every_motion_s': 90.0}
-    analyst, done, diags = _node_over(params, can_db, s.frames.frames())
+    frames = s.frames
+    if gateway is not None:
+        gw = parse_gateway(gateway)
+        frames = forward(frames, gw, db, seed)
+        rates = {'rudder_angle': gw.rates_hz[127245], 'rudder_order': gw.rates_hz[127245],
+                 **{n: gw.rates_hz[130314] for n in PRESSURE_INPUTS}}
+        params.update({f'signals.{n}.rate_hz': r for n, r in rates.items()})
+        can_db = can_setup(params, R18_YAML)
+    analyst, done, diags = _node_over(params, can_db, frames.frames())
     kinds = [job.kind for job, _ in done]
     assert kinds.count('loop') >= 3 and 'estimate' in kinds, kinds
-    signals = Decoder(db, smap).decode_arrays(s.frames)
+    signals = Decoder(db, smap).decode_arrays(frames)
     gear = gear_from_params(r18_params)
     settings = analyst.settings
     model: tuple[Effect, ...] = ()

@@ -146,6 +146,10 @@ def _words(d: Any) -> str:
     return '; '.join(out)
 
 
+def _num(x: float | None, fmt: str) -> str:
+    return '-' if x is None else format(x, fmt)
+
+
 def write_analysis_report(a: Analysis, result: dict[str, Any], path: str | Path) -> Path:
     """Write the page; returns its path."""
     plots = _plots(a)
@@ -163,6 +167,12 @@ def write_analysis_report(a: Analysis, result: dict[str, Any], path: str | Path)
         f"<td>{s['delta_bic']:.1f}</td><td>{s['rmse_bar']:.3f}</td><td>{'yes' if s['passes'] else 'no'}</td></tr>"
         for s in result['screening']
     )
+    inputs = result.get('data', {}).get('inputs', {})
+    timing = ''.join(
+        f'<tr><td>{esc(name)}</td><td>{v["samples"]}</td><td>{_num(v["period_s"], ".3f")}</td>'
+        f'<td>{_num(None if v["jitter_s"] is None else v["jitter_s"] * 1e3, ".1f")}</td><td>{v["frames_lost"]}</td>'
+        f'<td>{v["gaps_over_1s"]}</td><td>{v["expected_rate_hz"]:g}</td></tr>' for name, v in inputs.items())
+    notes = ''.join(f'<li>{esc(n)}</li>' for n in result.get('data', {}).get('notes', []))
     effects = result['effects']
     eff = 'none' if not effects else '; '.join(
         f"{esc(e['name'])} ({e['rmse_before_bar']} &rarr; {e['rmse_after_bar']} bar): {esc(_words(e['params']))}"
@@ -184,6 +194,9 @@ table{{border-collapse:collapse}}tr:nth-child(even){{background:#f2f2f2}}img{{ma
 {img}
 <h2>Candidates</h2><table><tr><th>effect</th><th>fixed</th><th>held-out gain</th><th>&Delta;BIC</th>
 <th>RMS [bar]</th><th>passes</th></tr>{scr}</table>
+<h2>The inputs as they came</h2><table><tr><th>input</th><th>samples</th><th>period [s]</th><th>jitter [ms]</th>
+<th>frames lost</th><th>gaps over 1 s</th><th>configured [Hz]</th></tr>{timing}</table>
+{f'<ul>{notes}</ul>' if notes else ''}
 </body></html>
 """
     path = Path(path)
