@@ -23,6 +23,7 @@ from steer_monitor.can.codec import CanDatabase
 from steer_monitor.can.devices import ADDRESS_CLAIM_PGN, DeviceName, DeviceTable, format_name
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, FrameArrays, pgn_of
 from steer_monitor.can.signals import PRESSURE_INPUTS, SignalMap, SignalSpec
+from steer_monitor.estimate.sampling import DESIGN_ANGLE_PERIOD_NS, DESIGN_PRESSURE_PERIOD_NS, SLOWER
 from steer_monitor.utc import time_json
 
 __all__ = ['RULES', 'Device', 'Discovery', 'FieldStats', 'Stream', 'propose']
@@ -231,6 +232,13 @@ def _entry(spec: SignalSpec, st: Stream, fname: str, discovery: Discovery, notes
                      '(a device that changes address is not followed)')
     instance = -1 if st.instance is None or st.instance == 255 else st.instance
     rate = st.rate_hz
+    design = {'rudder_angle': DESIGN_ANGLE_PERIOD_NS, **{n: DESIGN_PRESSURE_PERIOD_NS for n in PRESSURE_INPUTS}}
+    if spec.name in design and rate is not None and rate > 0 and 1e9 / rate > SLOWER * design[spec.name]:
+        notes.append(f'{spec.name}: PGN {st.pgn} from address {st.source} comes at {rate:.2g} Hz, slower than a '
+                     f'direct tap ({1e9 / design[spec.name]:g} Hz): the analyses then count only long steady '
+                     'motion and need more steering to assess the clearances; raise its rate on the gateway or '
+                     'through NMEA 2000\'s group function (PGN 126208, a request to change its transmission '
+                     'interval) where the device supports it')
     return {'pgn': spec.pgn, 'field': fname, 'instance': instance, 'source': spec.source,
             'address': st.source, 'device_name': format_name(name) if name is not None else '',
             'rate_hz': round(rate, 1) if rate is not None and rate >= 0.1 else spec.rate_hz}

@@ -31,7 +31,9 @@ the slopes over three of the angle's periods each side, the steadiness segments 
 periods long, steady motion required through every grid point a pressure sample's bracket
 reaches, and one row per pressure period (rows between two slow pressure samples are one
 interpolation, not more data: :attr:`Observations.step_ns` is the rows' spacing, what the
-residual's autocorrelation is read in). So the slower signal bounds what a transient can show:
+residual's autocorrelation is read in), and only rows where a timing error of one period
+moves the ram forces by at most ``TIMING_PA`` (a gateway that holds a value sends it up to a
+period stale: :func:`_timing_resolved`). So the slower signal bounds what a transient can show:
 at 0.5 Hz only motion steady for a dozen seconds counts. At the design rates nothing changes.
 
 Pure numpy. Times integer ns, values SI.
@@ -67,13 +69,17 @@ from steer_monitor.model.ramforce import ram_forces
 __all__ = ['DESIGN_ANGLE_PERIOD_NS', 'DESIGN_PRESSURE_PERIOD_NS', 'GRID_NS', 'HALF_WINDOW_NS', 'MOVING_RATE',
            'SEGMENT_NS', 'SLOWER', 'STEADY_FRACTION', 'EstimateError', 'Observations', 'Windows', 'angle_slopes',
            'build_observations', 'data_grid', 'grid_times', 'in_sorted', 'interp_held', 'median_period_ns',
-           'sorted_positions', 'SignalTiming', 'signal_timing', 'too_little_motion']
+           'sorted_positions', 'SignalTiming', 'signal_timing', 'too_little_motion', 'TIMING_PA']
 
 MOVING_RATE = 0.2 * math.pi / 180.0   # rad/s
 STEADY_FRACTION = 0.5                 # each segment's rate against the window's
 SLOW_GAP_NS = 10_000_000_000          # ship speed (1 Hz) and oil temperature (0.5 Hz)
 LONG_GAP_NS = 60_000_000_000          # no angle this long: the grid skips the stretch ...
 GAP_PAD_NS = 1_000_000_000            # ... keeping this much at each side
+#: where an input is slower than the design rate: the most a timing error of one of its periods
+#: may move a ram's force, in cylinder pressure [Pa] (chosen on one log, seed 74201 through a
+#: hold gateway at 2 Hz / 5 Hz; docs/accuracy-rates.md proves it on others)
+TIMING_PA = 2e5
 
 
 class EstimateError(SteerMonitorError, ValueError):
@@ -333,6 +339,27 @@ def _eroded(direction: NDArray[np.int8], radius: int = 1) -> NDArray[np.int8]:
     return out
 
 
+def _timing_resolved(force: NDArray[np.float64], win: Windows, ram_area: float) -> NDArray[np.bool_]:
+    """Grid points (n,) where neither ram's force changes by more than ``TIMING_PA`` of cylinder
+    pressure over one period of the slower input (half a period either side). A gateway that
+    holds a value and sends it on its own timer sends it up to one period stale, a lag per
+    channel that slides with its crystal; where the force changes fast (near midships the
+    torque curve is steep) that is more than the sensor noise, and such rows are not what a
+    slow signal can show. Measured on the force itself (its change over the period, not a
+    derivative that the 20 Hz noise would swamp)."""
+    n = force.shape[0]
+    ok = np.zeros(n, bool)
+    period = max(win.pressure_period_ns or 0, win.angle_period_ns or 0)
+    k = max(1, int(round(period / 2 / GRID_NS)))
+    if n <= 2 * k:
+        return ok
+    with np.errstate(invalid='ignore'):
+        change = np.abs(force[2 * k:] - force[:-2 * k])
+        worst = np.where(np.isfinite(change), change, np.inf).max(axis=1)
+    ok[k:n - k] = worst <= TIMING_PA * ram_area
+    return ok
+
+
 def build_observations(signals: Mapping[str, Series], ram_area: float, *,
                        start_ns: int | None = None, end_ns: int | None = None,
                        angle_shift_s: float = 0.0) -> Observations:
@@ -379,6 +406,8 @@ def build_observations(signals: Mapping[str, Series], ram_area: float, *,
         direction = np.where(t % win.step_ns == 0, direction, 0).astype(np.int8)
     pressure = np.stack([interp_held(signals.get(n), t, win.pressure_gap_ns) for n in PRESSURE_INPUTS], axis=1)
     force = ram_forces(ram_area, pressure)
+    if not win.design:
+        direction = np.where(_timing_resolved(force, win, ram_area), direction, 0).astype(np.int8)
     speed = interp_held(signals.get('ship_speed'), t, SLOW_GAP_NS)
     oil = interp_held(signals.get('oil_temperature'), t, SLOW_GAP_NS)
     return Observations(t, alpha, rate, direction, force, pressure, speed, oil, win.step_ns)

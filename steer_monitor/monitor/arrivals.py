@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from steer_monitor.estimate.sampling import SignalTiming, signal_timing
 from steer_monitor.model.inputs import INPUTS
 
 __all__ = ['ARRIVALS_KEPT_NS', 'RATE_WINDOW_NS', 'Arrivals', 'InputLog']
@@ -32,6 +33,11 @@ class Arrivals:
     times: list[int] = field(default_factory=list)
     start: int = 0
     ordered: bool = True        # arrivals in time order (a clock step back can break it)
+    #: frames lost, silences and the last of them, as counted so far (:meth:`count_gaps`)
+    lost: int = 0
+    gaps: int = 0
+    last_gap: tuple[int, int] | None = None
+    counted_to: int | None = None      # the last arrival counted
 
     @property
     def arrivals(self) -> list[int]:
@@ -60,12 +66,31 @@ class Arrivals:
         t = self.last_t_ns
         return None if t is None else (now_ns - t) / 1e9
 
-    def median_interval_ns(self) -> int | None:
-        """The median interval between the arrivals kept [ns]: the input's own period, whatever
-        it was configured at (None: fewer than three arrivals, or out of order)."""
-        if not self.ordered or self.kept() < 3:
-            return None
-        return int(np.median(np.diff(np.asarray(self.times[self.start:], np.int64))))
+    def timing(self) -> SignalTiming:
+        """How the input came over the arrivals kept (its own period, whatever it was configured
+        at: :func:`~steer_monitor.estimate.sampling.signal_timing`; no period out of order)."""
+        if not self.ordered:
+            return SignalTiming(None, None, 0, ())
+        return signal_timing(np.asarray(self.times[self.start:], np.int64), 2 ** 62)
+
+    def count_gaps(self, period_ns: int, gap_ns: int) -> None:
+        """Count what came since the last count: the frames lost (an interval of k periods of
+        ``period_ns`` has k - 1 missing) into :attr:`lost`, the silences over ``gap_ns`` into
+        :attr:`gaps` and the last of them into :attr:`last_gap` (start, end [ns]). Arrivals
+        out of order are not counted."""
+        times = self.times
+        if not self.ordered or len(times) <= self.start:
+            return
+        i = self.start if self.counted_to is None else max(bisect.bisect_left(times, self.counted_to, self.start),
+                                                             self.start)
+        if len(times) - i >= 2:
+            d = np.diff(np.asarray(times[i:], np.int64))
+            self.lost += int(np.maximum(np.rint(d / period_ns) - 1, 0).sum())
+            at = np.flatnonzero(d > gap_ns)
+            if at.size:
+                self.gaps += int(at.size)
+                self.last_gap = (int(times[i + at[-1]]), int(times[i + at[-1] + 1]))
+        self.counted_to = times[-1]
 
     def rate_hz(self, now_ns: int, window_ns: int) -> float:
         """:meth:`InputLog.rate_hz` of this input (``window_ns`` at most the time kept)."""

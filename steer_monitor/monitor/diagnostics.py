@@ -52,6 +52,9 @@ __all__ = ['ERROR', 'OK', 'SILENT_PERIODS', 'SLOW_DEFAULT_INTERVAL_NS', 'STALE',
 #: NMEA 2000's default transmission interval for slow data (Actual Pressure, PGN 130314, among
 #: them): an input heard once is judged silent after three of these, until its own period is known
 SLOW_DEFAULT_INTERVAL_NS = 2_000_000_000
+#: a silence this much longer than an input's own period is a gap, counted with its UTC time
+#: (as ``inspect`` counts them)
+GAP_NS = 1_000_000_000
 #: an input is silent once this many of its own periods passed without it (and
 #: ``diagnostics.stale_after_s``): four lost in a row is not silence
 SILENT_PERIODS = 5
@@ -196,7 +199,7 @@ class DiagnosticsBuilder:
         signals = mon.inputs.signals
         for name, configured_hz, limit, window_ns, keys in self._inputs:
             sig = signals[name]
-            period = sig.median_interval_ns()
+            period = sig.timing().period_ns
             if period is None and sig.kept() == 2:
                 period = sig.times[-1] - sig.times[-2]
             if period is not None and period > 0:
@@ -206,9 +209,15 @@ class DiagnosticsBuilder:
                 limit = max(limit, SILENT_PERIODS * SLOW_DEFAULT_INTERVAL_NS / 1e9)
             rate = sig.rate_hz(now_ns, window_ns)
             silent = sig.silent_for(now_ns)            # finite where heard: a difference of stamps
+            if period is not None and period > 0:
+                sig.count_gaps(period, int(GAP_NS + period))
             values += ((keys[0], f'{rate:.2f}'), (keys[1], f'{configured_hz:g}'),
                        (keys[2], 'n/a' if period is None else f'{period / 1e9:.3f}'),
-                       (keys[3], 'n/a' if silent is None else f'{silent:.2f}'))
+                       (keys[3], 'n/a' if silent is None else f'{silent:.2f}'),
+                       (f'{name}_frames_lost', str(sig.lost)), (f'{name}_gaps', str(sig.gaps)),
+                       (f'{name}_last_gap_utc', 'none' if sig.last_gap is None else utc_json(sig.last_gap[0]) or ''),
+                       (f'{name}_last_gap_s', 'n/a' if sig.last_gap is None
+                        else f'{(sig.last_gap[1] - sig.last_gap[0]) / 1e9:.1f}'))
             if silent is None or silent > limit:
                 stale.append(name)
             elif period is not None and sig.kept() >= 3:   # a rate is judged once it has a few arrivals

@@ -195,3 +195,20 @@ def test_the_text_gives_fields_in_the_units_inspect_uses(tmp_path, capsys):
     text = capsys.readouterr().out
     assert ' bar' in text and ' degC' in text and ' deg' in text and ' kn' in text
     assert ' Pa' not in text and ' K;' not in text and ' rad' not in text and ' m/s' not in text
+
+
+def test_a_slow_input_is_said_with_how_to_raise_its_rate(tmp_path, capsys):
+    """Through a gateway at 2 Hz (angle) and 0.5 Hz (pressures): discover says so per input and
+    how to raise the rate (PGN 126208), and writes the rates it saw into the map."""
+    log, conf = tmp_path / 'gw.log', tmp_path / 'vessel.yaml'
+    assert main(['simulate', '--program', 'zigzag_10', '--seed', '4', '--gateway', 'rudder=2,pressure=0.5',
+                 '--out', str(log)]) == 0
+    capsys.readouterr()
+    assert main(['discover', str(log), '--write-config', str(conf)]) == 0
+    err = capsys.readouterr().err
+    assert 'rudder_angle: PGN 127245 from address 16 comes at 2 Hz, slower than a direct tap (10 Hz)' in err
+    assert 'pressure_r1_stbd: PGN 130314 from address 32 comes at 0.5 Hz, slower than a direct tap (20 Hz)' in err
+    assert err.count('PGN 126208') == 5
+    p = load_params_file(conf)
+    assert p['signals.rudder_angle.rate_hz'] == pytest.approx(2.0, abs=0.1)
+    assert p['signals.pressure_r2_port.rate_hz'] == pytest.approx(0.5, abs=0.1)

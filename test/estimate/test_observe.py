@@ -259,3 +259,21 @@ def test_the_sensor_noise_of_slow_rows_is_not_read_as_systematic():
     resid = np.where(m[:, None], obs.force - 0.045 * 48e5, np.nan)
     noise, smooth = residual_parts(resid[m], obs.t_ns[m], obs.step_ns)
     assert smooth < 0.1 * noise
+
+
+@pytest.mark.parametrize('angle_hz, pressure_hz, excluded', [(2.0, 5.0, True), (10.0, 20.0, False)])
+def test_rows_a_slow_sample_time_cannot_resolve_are_left_out(angle_hz, pressure_hz, excluded):
+    """The starboard pressures climbing 10 bar/s from 30 s to 60 s: a timing error of one
+    period (0.5 s at 2 Hz: 5 bar) is more than TIMING_PA, so no row there; where the force
+    holds, rows. At the design rates the stamps are trusted and nothing is left out."""
+    from steer_monitor.estimate.observe import TIMING_PA
+    sig = _slow_signals(angle_hz, pressure_hz)
+    for name in ('pressure_r1_stbd', 'pressure_r2_stbd'):
+        s = sig[name]
+        t = s.t_ns / 1e9
+        sig[name] = _series(t, s.value + 10e5 * np.clip(t - 30.0, 0.0, 30.0))
+    obs = build_observations(sig, 0.045)
+    t = obs.t_ns[obs.moving] / 1e9
+    climbing = (t > 31.0) & (t < 59.0)
+    assert TIMING_PA < 10e5 * 0.5
+    assert climbing.any() != excluded and (t < 29.0).any() and (t > 61.0).any()

@@ -253,3 +253,18 @@ def test_a_monitor_that_defers_the_load_sharing_leaves_it_to_its_caller(r18_para
             seen += 1
     assert seen > 1000
 
+
+
+def test_lost_frames_and_gaps_are_counted_with_their_time(r18_params, can_db):
+    """The rudder angle at 10 Hz with frames 100-102 lost (0.4 s) and 300-329 (3.1 s, a gap):
+    counted once each however often the status is built, the gap's UTC time and length said."""
+    from steer_monitor.utc import utc_json
+    mon = _steady_feed(r18_params, can_db[1], 40.0, skip={'rudder_angle': {100, 101, 102, *range(300, 330)}})
+    b = _builder(r18_params, can_db)
+    for now in (25.0, 35.0, 39.9):
+        status = b.can_input(mon, RejectCounter().snapshot(), int(now * 1e9))
+    assert status.value('rudder_angle_frames_lost') == str(3 + 30)
+    assert status.value('rudder_angle_gaps') == '1'
+    assert status.value('rudder_angle_last_gap_utc') == utc_json(int(29.9e9))
+    assert status.value('rudder_angle_last_gap_s') == '3.1'
+    assert status.value('pressure_r1_stbd_frames_lost') == '0' and status.value('pressure_r1_stbd_gaps') == '0'
