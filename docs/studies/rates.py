@@ -20,9 +20,9 @@ the case. Per case:
 
 Run from the repository:
 ``.venv/bin/python docs/studies/rates.py OUT.md FIRST_SEED N [JOBS] [RATES]`` (RATES: a
-comma-separated list of ``angle_hz/pressure_hz/mode``; the default is the grid below). Write
+comma-separated list of ``angle_hz/pressure_hz/mode[/loss]``; the default is the grid below). Write
 the JSON lines of each case beside OUT (OUT.jsonl) as they finish, so a long run can be read
-before it ends.
+before it ends. A rate may end in ``/LOSS``, the share of the time the bus is bad (2 % else).
 """
 
 from __future__ import annotations
@@ -58,10 +58,11 @@ def _setup() -> None:
 
 
 def _gateway(rate: str, seed: int):
+    """``angle_hz/pressure_hz/mode[/loss]``: the case's gateway (loss 2 % unless given)."""
     from steer_monitor.sim.gateway import Gateway
-    a, p, mode = rate.split('/')
-    return Gateway({127245: float(a), 130314: float(p)}, mode=mode, loss=0.02, burst_s=0.2,
-                   outages=((400.0 + seed % 97, 3.0), (900.0 + seed % 89, 3.0)))
+    a, p, mode, *loss = rate.split('/')
+    return Gateway({127245: float(a), 130314: float(p)}, mode=mode, loss=float(loss[0]) if loss else 0.02,
+                   burst_s=0.2, outages=((400.0 + seed % 97, 3.0), (900.0 + seed % 89, 3.0)))
 
 
 def _analysis(gear, signals, params) -> dict:
@@ -95,7 +96,7 @@ def _node(params, frames, rate: str, with_analyses: bool):
     from steer_monitor.monitor import DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
     from steer_monitor.monitor.pipeline import DiagOut, Pipeline, analyst_from_params
     from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
-    a, p, _ = rate.split('/')
+    a, p = rate.split('/')[:2]
     params = dict(params, **{'signals.rudder_angle.rate_hz': float(a), 'signals.rudder_order.rate_hz': float(a)},
                   **{f'signals.{n}.rate_hz': float(p) for n in PRESSURE_INPUTS})
     db, smap = can_setup(params, _W['path'])
@@ -144,12 +145,16 @@ def run_case(args: tuple[int, str, float, float]) -> dict:
     warn = params['diagnostics.clearance_warn_share']
     truly_worn = (two_z_mm >= warn * params['clearances.limit_2z_mm']
                   or z_gb_mm >= warn * params['clearances.limit_zgb_mm'])
+    # the guide beam truly idle past its warning angle on the true clearances: its WARN is true
+    from steer_monitor.monitor import DiagnosticsBuilder, DiagnosticsConfig
+    onset = DiagnosticsBuilder(DiagnosticsConfig.from_params(params), smap, gear).guide_onset_deg(cfg.gaps)
+    truly_idle = onset is None or onset > params['diagnostics.guide_idle_warn_deg']
     alarms: dict[str, int] = {}
     first_alarm = {}
     for t, st in statuses:
         if fresh is not None and t >= fresh and st.level in (1, 2):
             name = st.name.split(': ', 1)[1]
-            if name == 'clearances' and truly_worn:
+            if (name == 'clearances' and truly_worn) or (name == 'guide beam' and truly_idle):
                 continue
             key = f'{name}/{LEVEL_NAMES[st.level]}'
             alarms[key] = alarms.get(key, 0) + 1
@@ -171,6 +176,11 @@ def run_case(args: tuple[int, str, float, float]) -> dict:
 def _holds(iv, truth) -> bool:
     v, lo, hi = iv
     return (lo is None or lo <= truth * (1 + 1e-9)) and (hi is None or truth <= hi * (1 + 1e-9))
+
+
+def _said(rate: str) -> str:
+    a, p, mode, *loss = rate.split('/')
+    return f'{a} / {p} / {mode}' + (f' ({float(loss[0]):.0%} lost)' if loss else '')
 
 
 def _wilson(k: int, n: int) -> str:
@@ -215,13 +225,13 @@ def markdown(results: list[dict], command: str) -> str:
         na_full = sum(2 if 'refused' in r['full'] else sum(lv == 'NOT ASSESSED' for lv in r['full']['levels'])
                       for r in rs)
         secs = sorted(r['seconds'] for r in rs)[len(rs) // 2]
-        a, p, mode = rate.split('/')
-        lines.append(f'| {a} / {p} / {mode} | {len(rs)} | {refused} | ' + ' | '.join(cov[q] for q in QUANTITIES)
+        lines.append(f'| {_said(rate)} | {len(rs)} | {refused} | ' + ' | '.join(cov[q] for q in QUANTITIES)
                      + f' | {" / ".join(widths[q] for q in QUANTITIES)} | {na / (2 * len(rs)):.0%} '
                      f'({na_full / (2 * len(rs)):.0%}) | {secs:.0f} |')
     lines += ['', '## Alarms, and a frozen angle sensor', '',
               'Seconds at WARN or ERROR in any status of the node over the gateway\'s log, its analyses on, once the '
-              'inputs are fresh (a clearance\'s alarm counted false unless its truth is past the warning share; '
+              'inputs are fresh (a clearance\'s alarm counted false unless its truth is past the warning share, the '
+              'guide beam\'s unless on the true clearances it is idle past its warning angle; '
               'STALE, a silent input, is not counted: the outages are silences); and, on a second voyage with the '
               'angle sensor frozen at 300 s, how long until steering performance said ERROR (the rule: 5 s after an '
               'order step a degree away, at the first angle sample from then on), and any alarm before the freeze.',
@@ -235,11 +245,10 @@ def markdown(results: list[dict], command: str) -> str:
         found = sorted(r['frozen_found_s'] for r in rs if r['frozen_found_s'] is not None)
         missed = sum(r['frozen_found_s'] is None for r in rs)
         before = sum(len(r['frozen_false_before']) for r in rs)
-        a, p, mode = rate.split('/')
         said = ', '.join(f'{k}: {n}' for k, n in sorted(alarms.items())) or 'none'
         fz = (f'{found[len(found) // 2]:.0f} s, {found[-1]:.0f} s' if found else '-') + (
             f' ({missed} not found)' if missed else '')
-        lines.append(f'| {a} / {p} / {mode} | {said} | {fz} | {before} |')
+        lines.append(f'| {_said(rate)} | {said} | {fz} | {before} |')
     return '\n'.join(lines) + '\n'
 
 

@@ -180,11 +180,18 @@ class ResponseTracker:
         self._last_alpha: float | None = None
 
     def order(self, t_ns: int, order: float) -> None:
-        """One order sample [ns, rad]: a step of at least :data:`ORDER_STEP` starts a new response."""
-        if self._last_order is not None and abs(order - self._last_order) >= ORDER_STEP:
+        """One order sample [ns, rad]: a step of at least :data:`ORDER_STEP` starts a new response,
+        unless the rudder still owes the last one a move (not seen moving since, that order more
+        than :data:`NO_RESPONSE_ERR` from it): then that one goes on with the new order, the
+        rudder having stood since it (slowly sampled, an autopilot's order steps at nearly every
+        sample, and a frozen sensor would never stand 5 s past the last)."""
+        r = self.response
+        owed = (r is not None and r.direction_ok is None and self._last_alpha is not None
+                and abs(r.order - self._last_alpha) > NO_RESPONSE_ERR)
+        if self._last_order is not None and abs(order - self._last_order) >= ORDER_STEP and not owed:
             self.response = Response(order=order, t_step_ns=t_ns, from_alpha=self._last_alpha)
-        elif self.response is not None:
-            self.response.order = order
+        elif r is not None:
+            r.order = order
         self._last_order = order
 
     def angle(self, t_ns: int, alpha: float, rate: float, span_ns: int | None = SLOPE_WINDOW_NS) -> None:

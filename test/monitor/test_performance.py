@@ -207,3 +207,25 @@ def test_a_slowly_sampled_hard_over_is_bracketed(step_s, phase_s):
     assert many.angles(t, a) == h and len(h) == 1
     assert h[0].seconds_min <= want <= h[0].seconds
     assert h[0].seconds - h[0].seconds_min <= 2 * step_s + 1e-9
+
+
+def test_an_order_the_rudder_owes_a_move_keeps_its_clock_through_new_steps():
+    """A frozen sensor at 0 deg, the order stepping by 1.5 deg every 2 s (slowly sampled, an
+    autopilot steps at nearly every sample): stalled 5 s after the first step, not never; where
+    the rudder owed nothing (the order within a degree of it), a new step starts afresh."""
+    responses = ResponseTracker()
+    responses.order(0, 0.0)
+    responses.angle(0, 0.0, 0.0)
+    for k in range(1, 5):
+        responses.order(k * 2 * S, math.radians(1.5 * k))
+        responses.angle(k * 2 * S + 1, 0.0, 0.0)
+    r = responses.response
+    assert r.t_step_ns == 2 * S and r.stalled_s == pytest.approx(6.0, abs=1e-6)
+    fresh = ResponseTracker()
+    fresh.order(0, 0.0)
+    fresh.angle(0, 0.0, 0.0)
+    fresh.order(S, math.radians(1.2))            # a step the rudder (within 0.3 deg) need not answer
+    fresh.angle(S + 1, math.radians(0.9), 0.0)
+    fresh.order(30 * S, math.radians(10.0))      # 29 s later a new one: its own clock
+    fresh.angle(30 * S + 1, math.radians(0.9), 0.0)
+    assert fresh.response.t_step_ns == 30 * S and fresh.response.stalled_s is None
