@@ -33,6 +33,7 @@ from steer_monitor.resources import default_config
 from steer_monitor.yamlfile import load_yaml
 
 __all__ = [
+    'MAX_LIMIT_MULTIPLE',
     'NODE_NAME',
     'TIMESTAMP_MODES',
     'load_config',
@@ -40,6 +41,7 @@ __all__ = [
     'ParamSpec',
     'friction_from_params',
     'gaps_from_params',
+    'given_gaps',
     'min_clearance_2z_from_params',
     'ram_share_warn_from_params',
     'gear_from_params',
@@ -433,6 +435,35 @@ def gear_from_params(p: Mapping[str, Any]) -> GearParams:
 def gaps_from_params(p: Mapping[str, Any]) -> Clearances:
     """The configured clearances (SI) from validated parameters."""
     return Clearances.from_mm(p['clearances.gap_2z_mm'], p['clearances.gap_zgb_mm'])
+
+
+#: a clearance given on a command line may be at most this many times its wear limit: further
+#: worn, the gear is out of service, and a figure so far out is a slip of the units or a digit
+MAX_LIMIT_MULTIPLE = 4.0
+
+
+def given_gaps(p: Mapping[str, Any], gap_2z_mm: float | None, gap_zgb_mm: float | None,
+               options: tuple[str, str] = ('--gap-2z', '--gap-zgb')) -> Clearances:
+    """The clearances a command is given [mm] (None: the configured one), in SI;
+    :class:`ParameterError` naming the ``options`` for one below 0, not a number, or more
+    than :data:`MAX_LIMIT_MULTIPLE` times its limit (``clearances.limit_*_mm``)."""
+    configured = gaps_from_params(p)
+    out = []
+    for option, value, limit_key, default in ((options[0], gap_2z_mm, 'clearances.limit_2z_mm', configured.two_z),
+                                              (options[1], gap_zgb_mm, 'clearances.limit_zgb_mm', configured.z_gb)):
+        if value is None:
+            out.append(default * 1e3)
+            continue
+        if not (math.isfinite(value) and value >= 0.0):
+            msg = f'{option} must be a clearance of at least 0 mm, got {value:g} mm'
+            raise ParameterError(msg)
+        limit = p[limit_key]
+        if value > MAX_LIMIT_MULTIPLE * limit:
+            msg = (f'{option} {value:g} mm is {value / limit:.0f} times the {limit:g} mm wear limit ({limit_key}): '
+                   f'a gear worn so far is out of service; give at most {MAX_LIMIT_MULTIPLE * limit:g} mm')
+            raise ParameterError(msg)
+        out.append(value)
+    return Clearances.from_mm(*out)
 
 
 def friction_from_params(p: Mapping[str, Any]) -> FrictionParams:

@@ -227,7 +227,7 @@ def _entry(spec: SignalSpec, st: Stream, fname: str, discovery: Discovery, notes
     if st.instance == 255:
         notes.append(f'{spec.name}: PGN {st.pgn} from address {st.source} has instance 255 (a sender of one '
                      'instance): mapped by its address, whatever the instance')
-    if name is None:
+    if name is None and discovery.devices:      # a log of no claims at all is said once (propose)
         notes.append(f'{spec.name}: no address claim from address {st.source} in the log: mapped by address only '
                      '(a device that changes address is not followed)')
     instance = -1 if st.instance is None or st.instance == 255 else st.instance
@@ -333,6 +333,9 @@ def propose(discovery: Discovery, smap: SignalMap, required: tuple[str, ...]) ->
                             + (f' (there are: {seen})' if seen else ''))
     for entry in proposed.values():
         entry.setdefault('on_bus', True)
+    if not discovery.devices and any(e['on_bus'] for e in proposed.values()):
+        notes.append('no address claim in the log (none sent, or the log began after them): every input mapped by '
+                     'its address only; a device that changes address is not followed')
     return proposed, notes
 
 

@@ -36,6 +36,7 @@ from steer_monitor.can.frames import FrameArrays
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import ParameterError, SteerMonitorError
 from steer_monitor.estimate.finding import Finding
+from steer_monitor.estimate.sampling import missing_steering
 from steer_monitor.logfiles.blocks import in_time_order, iter_log_blocks
 from steer_monitor.logfiles.logs import LogError, log_path_problem
 from steer_monitor.logfiles.mcapio import (
@@ -211,6 +212,10 @@ def _replay(run: Runner, paths: list[Path], output: str | Path, config_path: Pat
             run(paths, pipeline, writer, topics, encoders, frames, rejects, summary, progress, date)
         if summary.frames == 0:     # nothing to write: no output rather than an empty one
             msg = summary.errors[0] if summary.errors else 'no frame in ' + ', '.join(str(p) for p in paths)
+            raise ReplayError(msg)
+        missing = missing_steering({n: a.total for n, a in pipeline.monitor.signals.items()}, pressures=False)
+        if missing is not None:     # the statuses of a bus without the gear say nothing of it
+            msg = f"{', '.join(str(p) for p in paths)}: {missing}"
             raise ReplayError(msg)
     summary.rejects = dict(sorted(rejects.snapshot().counts.items()))
     if pipeline.analyst is not None:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import datetime
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +42,8 @@ class BatchRun:
     frames: int
     rejects: dict[str, int]
     errors: list[str]
+    #: samples decoded per input
+    samples: dict[str, int] = field(default_factory=dict)
 
 
 def _decoded(paths: list[Path], db: object, smap: object, rejects: RejectCounter,
@@ -95,6 +97,7 @@ def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *,
     errors: list[str] = []
     notes: list[str] = []
     counts: dict[str, int] = {}
+    samples: dict[str, int] = {}
     proc = None
     if jobs > 1:
         ctx = mp.get_context('fork')
@@ -108,6 +111,8 @@ def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *,
         for kind, payload, n in items:
             if kind == 'block':
                 frames += n
+                for name, series in payload.items():
+                    samples[name] = samples.get(name, 0) + len(series)
                 review.add(payload)
                 if end is not None and frames == n:
                     review.plan(end)
@@ -127,7 +132,7 @@ def review_logs(logs: Sequence[str | Path], config: str | Path | None = None, *,
                 proc.kill()
     result = review.finish()
     result.notes[:0] = notes
-    return BatchRun(result, [str(p) for p in paths], frames, dict(sorted(counts.items())), errors)
+    return BatchRun(result, [str(p) for p in paths], frames, dict(sorted(counts.items())), errors, samples)
 
 
 def refit_windows(batch: BatchRun, model: Sequence[Effect], config: str | Path | None = None, *,

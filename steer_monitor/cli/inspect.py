@@ -61,14 +61,18 @@ def run(path: str | Path, config: str | Path | None = None, json_out: str | Path
 
 
 def _problems(s: dict[str, Any]) -> list[str]:
-    """What makes the log a bad input: what broke off or was corrupt, or no frame at all (an
-    empty file, or nothing in it read as a frame: the rejects say what it held instead)."""
+    """What makes the log a bad input: what broke off or was corrupt, no frame at all (an
+    empty file, or nothing in it read as a frame: the rejects say what it held instead), or no
+    rudder angle (nothing of the gear to judge, in the words every command refuses with; the
+    table still shows what the log holds)."""
     if s['read_error']:
         return [s['read_error']]
     if s['frames'] == 0:
         held = ', '.join(f'{n} {reason}' for reason, n in s['rejects'].items())
         return [f"no frame in {s['log']}" + (f' (rejected: {held})' if held else '')]
-    return []
+    from steer_monitor.estimate.sampling import missing_steering
+    missing = missing_steering({name: v['samples'] for name, v in s['signals'].items()}, pressures=False)
+    return [] if missing is None else [f"{s['log']}: {missing}"]
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -3,17 +3,14 @@
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 from typing import TextIO
 
 from steer_monitor.cli.options import add_config_option, add_force_option, add_json_option
 from steer_monitor.cli.output import check_json_target, emit_json, json_to_stdout, table, text_stream
-from steer_monitor.errors import ParameterError
-from steer_monitor.model.gear import Clearances
 from steer_monitor.model.loadshare import case_words
-from steer_monitor.params import gaps_from_params, gear_from_params, load_params_file
+from steer_monitor.params import gear_from_params, given_gaps, load_params_file
 from steer_monitor.resources import default_config
 from steer_monitor.studies.tables import loadshare_rows
 
@@ -28,13 +25,7 @@ def run(config: str | Path | None = None, gap_2z_mm: float | None = None,
     check_json_target(json_out, [config, plot])
     params = load_params_file(config or default_config())
     gear = gear_from_params(params)
-    configured = gaps_from_params(params)
-    for option, value in (('--gap-2z', gap_2z_mm), ('--gap-zgb', gap_zgb_mm)):
-        if value is not None and not (math.isfinite(value) and value >= 0.0):
-            msg = f'{option} must be a clearance of at least 0 mm, got {value:g} mm'
-            raise ParameterError(msg)
-    gaps = Clearances.from_mm(configured.two_z * 1e3 if gap_2z_mm is None else gap_2z_mm,
-                        configured.z_gb * 1e3 if gap_zgb_mm is None else gap_zgb_mm)
+    gaps = given_gaps(params, gap_2z_mm, gap_zgb_mm)
     s, (alpha, res, marks) = loadshare_rows(gear, gaps, speed_kn, step_deg)
     if plot is not None:
         from steer_monitor.studies.plots import plot_load_sharing

@@ -82,6 +82,7 @@ def _run(paths: list[Path], out_dir: str | Path, config_path: str | Path, params
     from steer_monitor.ashore.reviewlogs import refit_windows, review_logs
     from steer_monitor.ashore.windowmodel import window_model
     from steer_monitor.estimate.ramscheck import rams_verdict, uneven_json
+    from steer_monitor.estimate.sampling import missing_steering
     from steer_monitor.logfiles.logs import LogError
 
     date_notes('report', paths, date, err)
@@ -91,6 +92,9 @@ def _run(paths: list[Path], out_dir: str | Path, config_path: str | Path, params
     if batch.frames == 0:           # nothing to show: no page rather than an empty one
         msg = batch.errors[0] if batch.errors else 'no frame in ' + ', '.join(str(p) for p in paths)
         raise LogError(msg)
+    missing = missing_steering(batch.samples, pressures=False)
+    if missing is not None:         # a page of a bus without the gear would say nothing of it
+        raise LogError(f"{', '.join(str(p) for p in paths)}: {missing}")
     r = batch.review
     analysis, note = None, 'no data'
     if len(r.t_ns) and analysis_hours > 0:

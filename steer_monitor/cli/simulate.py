@@ -19,8 +19,7 @@ from steer_monitor.cli.options import add_config_option, add_force_option, add_j
 from steer_monitor.cli.output import check_json_target, emit_json, json_to_stdout
 from steer_monitor.errors import OutputError, ParameterError
 from steer_monitor.logfiles.logs import WRITE_SUFFIXES, LogError, LogWriter
-from steer_monitor.model.gear import Clearances
-from steer_monitor.params import gaps_from_params
+from steer_monitor.params import given_gaps
 from steer_monitor.sim.gateway import forward, gateway_json, parse_gateway
 from steer_monitor.utc import parse_utc, utc_json
 
@@ -98,9 +97,7 @@ def run(config: str | Path | None = None, program: str = 'hard_over_2', out_path
     check_json_target(json_out, [config, out_path])
     forwarding = None if gateway is None else parse_gateway(gateway)
     _, params, db, smap = load_setup(config)
-    configured = gaps_from_params(params)
-    gaps = Clearances.from_mm(configured.two_z * 1e3 if gap_2z_mm is None else gap_2z_mm,
-                        configured.z_gb * 1e3 if gap_zgb_mm is None else gap_zgb_mm)
+    gaps = given_gaps(params, gap_2z_mm, gap_zgb_mm)
     profile = parse_speed_profile(speed_profile) if speed_profile else ((0.0, params['torque.service_speed_kn']),)
     cfg = sim.SimConfig(program=program, gaps=gaps, speed_profile=profile,
                         effects=tuple(sim.parse_effect(e) for e in effects), noise=noise,

@@ -61,6 +61,7 @@ from steer_monitor.estimate.sampling import (
     SignalTiming,
     Windows,
     median_period_ns,
+    missing_steering,
     signal_timing,
 )
 from steer_monitor.model.inputs import PRESSURE_INPUTS, Series
@@ -373,14 +374,10 @@ def build_observations(signals: Mapping[str, Series], ram_area: float, *,
         angle_shift_s: read the angle ``shift`` seconds later (a sensor that lags by tau is
             undone by shift = tau).
     """
-    angle = signals.get('rudder_angle')
-    if angle is None or len(angle) < 2:
-        msg = 'no rudder angle in the data (input rudder_angle): nothing to estimate from'
-        raise EstimateError(msg)
-    missing = [n for n in PRESSURE_INPUTS if signals.get(n) is None or len(signals[n]) == 0]
-    if len(missing) == len(PRESSURE_INPUTS):
-        msg = 'no cylinder pressure in the data (inputs ' + ', '.join(PRESSURE_INPUTS) + ')'
-        raise EstimateError(msg)
+    missing = missing_steering({n: len(v) for n, v in signals.items() if v is not None})
+    if missing is not None:
+        raise EstimateError(missing)
+    angle = signals['rudder_angle']
     win = Windows.of(signals)
     shift_ns = round(angle_shift_s * 1e9)
     a_t = angle.t_ns - np.int64(shift_ns)

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from steer_monitor.model.inputs import PRESSURE_INPUTS, Series
 
 __all__ = ['DESIGN_ANGLE_PERIOD_NS', 'DESIGN_PRESSURE_PERIOD_NS', 'GRID_NS', 'HALF_WINDOW_NS', 'MAX_GAP_NS',
-           'SEGMENT_NS', 'SLOWER', 'SignalTiming', 'Windows', 'median_period_ns', 'signal_timing']
+           'SEGMENT_NS', 'SLOWER', 'SignalTiming', 'Windows', 'median_period_ns', 'missing_steering', 'signal_timing']
 
 GRID_NS = 50_000_000
 HALF_WINDOW_NS = 300_000_000
@@ -148,3 +148,16 @@ class Windows:
         return self == Windows(self.angle_period_ns, self.pressure_period_ns)
 
 
+
+
+def missing_steering(samples: Mapping[str, int], pressures: bool = True) -> str | None:
+    """Why data holding ``samples`` per input cannot tell anything of the gear, in the words
+    every command refuses with (None: they can): no rudder angle (no motion, no response, no
+    hard-over: nothing to judge), or, where the clearances are asked for (``pressures``), no
+    cylinder pressure at all. A bus with the rudder and no pressures still shows the steering
+    performance: ``inspect``, ``replay`` and ``report`` take it."""
+    if samples.get('rudder_angle', 0) < 2:
+        return 'no rudder angle in the data (input rudder_angle): nothing to estimate from'
+    if pressures and not any(samples.get(n, 0) for n in PRESSURE_INPUTS):
+        return 'no cylinder pressure in the data (inputs ' + ', '.join(PRESSURE_INPUTS) + ')'
+    return None

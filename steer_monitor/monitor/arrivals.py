@@ -33,6 +33,8 @@ class Arrivals:
     times: list[int] = field(default_factory=list)
     start: int = 0
     ordered: bool = True        # arrivals in time order (a clock step back can break it)
+    #: arrivals ever (those dropped from ``times`` too)
+    total: int = 0
     #: frames lost, silences and the last of them, as counted so far (:meth:`count_gaps`)
     lost: int = 0
     gaps: int = 0
@@ -54,11 +56,13 @@ class Arrivals:
         if len(times) > self.start and t_ns < times[-1]:
             self.ordered = False
         times.append(t_ns)
+        self.total += 1
         self._drop(t_ns - ARRIVALS_KEPT_NS)
 
     def arrive_many(self, t_ns: list[int]) -> None:
         """Arrivals in time order, none before the last kept, :meth:`arrive` of each at once."""
         self.times += t_ns
+        self.total += len(t_ns)
         self._drop(t_ns[-1] - ARRIVALS_KEPT_NS)
 
     def silent_for(self, now_ns: int) -> float | None:

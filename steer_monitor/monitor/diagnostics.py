@@ -319,25 +319,36 @@ class DiagnosticsBuilder:
                        ('lateral_force_kn', f'{state.share.lateral / 1e3:.1f}'),
                        ('ram_force_kn', f'{state.share.ram_force / 1e3:.1f}'),
                        ('guide_force_kn', f'{state.share.guide_force / 1e3:.1f}')]
-        idle = onset is None or onset > self.cfg.guide_idle_warn_deg
-        if idle:
-            message = ('guide beam carries nothing over the whole range' if onset is None else
-                       f'guide beam idle up to {onset:.2f} deg (warn above {self.cfg.guide_idle_warn_deg:g} deg)')
-        else:
-            message = f'guide beam carries load from {onset:.2f} deg'
+        warn = self.cfg.guide_idle_warn_deg
+        idle = onset is None or onset > warn
+
+        def carries(at: float | None) -> str:
+            return ('carries nothing over the whole range' if at is None else
+                    f'idle up to {at:.2f} deg (warn above {warn:g} deg)' if at > warn else
+                    f'carries load from {at:.2f} deg')
+
         # judged on the estimate, not the configured values, and on its interval: WARN only
-        # when the guide is idle beyond the warning even at the smallest Z_gb the data allow
+        # when the guide is idle beyond the warning even at the smallest Z_gb the data allow;
+        # where that cannot be said, NOT ASSESSED and why, never OK beside a passed threshold
         level = OK
         if not mon.gaps_interval:
-            message += ' at the configured clearances (judged once they are estimated)'
+            level = NOT_ASSESSED
+            message = ('NOT ASSESSED: the clearances are not estimated yet; at the configured ones the guide beam '
+                       f'{carries(onset)}')
         elif idle:
             lo = mon.gaps_interval.get('zgb', (None, None))[0]
             onset_lo = onset if lo is None else self.guide_onset_deg(Clearances(mon.gaps.two_z, lo))
             values.append(('guide_onset_lo_deg', _f(onset_lo, '.2f')))
-            if onset_lo is None or onset_lo > self.cfg.guide_idle_warn_deg:
+            message = f'guide beam {carries(onset)}'
+            if onset_lo is None or onset_lo > warn:
                 level = WARN
             else:
-                message += f' (from {onset_lo:.2f} deg at the low end of the Z_gb interval: not judged)'
+                level = NOT_ASSESSED
+                message = (f'NOT ASSESSED: on the estimate the guide beam is {carries(onset)}, but from '
+                           f'{onset_lo:.2f} deg at the low end of the Z_gb interval: the interval reaches either side '
+                           'of the warning')
+        else:
+            message = f'guide beam {carries(onset)}'
         if k_now is not None:
             message += f'; K_gl now {k_now:.2f}'
         return self._status('guide beam', level, message, values)

@@ -11,6 +11,7 @@ held to (``_check``) for every command."""
 
 from __future__ import annotations
 
+import io
 import json
 import random
 import re
@@ -124,7 +125,8 @@ CANDUMP_CASES = {
     # name: (bytes from the good log, inspect's exit status)
     'empty': (lambda b: b'', 1),
     'junk': (lambda b: random.Random(5).randbytes(4000), 1),
-    'reversed': (lambda b: b'\n'.join(reversed(b.splitlines())) + b'\n', 0),
+    # every frame but the first goes back in time: no rudder angle left, refused as every command refuses it
+    'reversed': (lambda b: b'\n'.join(reversed(b.splitlines())) + b'\n', 1),
     'crlf_tabs': (lambda b: b.replace(b' ', b' \t ').replace(b'\n', b'\r\n'), 0),
     'huge_line': (lambda b: b[:3000] + b'x' * 5_000_000 + b'\n' + b[3000:], 0),
     'non_utf8': (lambda b: b[:3000] + b'\xff\xfe\x80' + b[3000:], 0),
@@ -148,12 +150,19 @@ def test_bad_candump_logs(base, tmp_path, capsys, case):
     elif case == 'junk':
         assert re.fullmatch(rf'steer-monitor inspect: error: no frame in {re.escape(str(path))} '
                             r'\(rejected: \d+ malformed_record\)', lines[0]) and len(lines) == 1, lines
+    elif case == 'reversed':           # the frames are there, the rudder angle is not: said as analyze says it
+        assert lines == [f'steer-monitor inspect: error: {path}: no rudder angle in the data (input rudder_angle): '
+                         'nothing to estimate from'], lines
     else:
         assert not lines, lines
-    assert (json.loads(out)['frames'] == 0) == bool(inspect_rc)
+    assert (json.loads(out)['frames'] == 0) == (case in ('empty', 'junk'))
     lines = _check(capsys, 'replay', path, tmp_path / 'o2', None, None)
     if case in ('empty', 'junk'):
         assert lines == [f'steer-monitor replay: error: no frame in {path}']
+        assert not (tmp_path / 'o2' / 'r.mcap').exists()
+    if case == 'reversed':
+        assert lines == [f'steer-monitor replay: error: {path}: no rudder angle in the data (input rudder_angle): '
+                         'nothing to estimate from']
         assert not (tmp_path / 'o2' / 'r.mcap').exists()
 
 
@@ -636,3 +645,23 @@ def test_a_failed_report_leaves_no_output_directory(tmp_path, capsys):
     assert main(['report', str(bad), '--out', str(tmp_path / 'out' / 'report')]) == 1
     assert capsys.readouterr().err == f'steer-monitor report: error: no frame in {bad}\n'
     assert not (tmp_path / 'out').exists()
+
+
+def test_a_log_without_steering_frames_is_refused_by_every_command(tmp_path, capsys):
+    """Only the speed log and the oil temperature: inspect shows what the log holds and, as
+    analyze, replay and report, refuses it in analyze's words with a non-zero exit; no output
+    is left."""
+    from steer_monitor.cli import simulate
+    full = tmp_path / 'full.log'
+    simulate.run(None, 'hold:20', full, seed=2, out=io.StringIO())
+    path = tmp_path / 'nosteer.log'
+    kept = [ln for ln in full.read_text().splitlines() if ' 09F50330#' in ln or ' 15FD0C40#' in ln]
+    path.write_text(''.join(ln + '\n' for ln in kept))
+    why = f'{path}: no rudder angle in the data (input rudder_angle): nothing to estimate from'
+    for argv, out in ((['inspect', str(path)], None), (['analyze', str(path)], None),
+                      (['replay', str(path), '--out', str(tmp_path / 'r.mcap')], tmp_path / 'r.mcap'),
+                      (['report', str(path), '--out', str(tmp_path / 'page')], tmp_path / 'page')):
+        assert main(argv) == 1, argv
+        err = capsys.readouterr().err
+        assert err.strip().endswith(why.split(': ', 1)[1]) and 'Traceback' not in err, (argv, err)
+        assert out is None or not out.exists(), argv

@@ -59,6 +59,10 @@ def test_backlash_json_with_limit():
 @pytest.mark.parametrize('argv,msg', [
     (['fit', '240 X9/f9'], "only hole-basis fits (hole H) are supported, got hole 'X'"),
     (['loadshare', '--gap-2z', '-1'], '--gap-2z must be a clearance of at least 0 mm, got -1 mm'),  # its words
+    # 20 times its limit: refused, not a table of a gear that cannot be in service
+    (['loadshare', '--gap-zgb', '5'], '--gap-zgb 5 mm is 20 times the 0.25 mm wear limit (clearances.limit_zgb_mm): '
+                                      'a gear worn so far is out of service; give at most 1 mm'),
+    (['simulate', '--gap-2z', '3', '--out', 'x.log'], '--gap-2z 3 mm is 5 times the 0.6 mm wear limit'),
     (['loadshare', '--speed-kn', '99'], '--speed-kn must lie in [0, 60] kn'),
     (['loadshare', '--config', 'nope.yaml'], 'cannot read parameters file nope.yaml'),
     (['backlash', str(CHAIN), '--angle-deg', '50'], "--angle-deg 50 is outside the chain's range"),

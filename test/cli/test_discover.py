@@ -58,10 +58,13 @@ def test_text_output_and_ambiguity_on_stderr(tmp_path, capsys):
 
 def test_ydwg_date_is_said(tmp_path, capsys):
     capture(MERRIMAC)
-    assert main(['inspect', str(MERRIMAC), '--date', '2020-08-22', '--json', '-']) == 0
+    # the R-18's map finds no rudder angle on this vessel's bus: what it holds is shown, and why
+    # it is refused (discover's map finds it: test_discover_then_inspect_sees_the_rudder)
+    assert main(['inspect', str(MERRIMAC), '--date', '2020-08-22', '--json', '-']) == 1
     cap = capsys.readouterr()
     assert json.loads(cap.out)['start_utc'].startswith('2020-08-22T00:29:58')
     assert 'YDWG raw log (time of day only) read as starting on 2020-08-22 UTC, the date given' in cap.err
+    assert 'no rudder angle in the data (input rudder_angle)' in cap.err
     copy = tmp_path / 'merrimac-2021-03-04.raw'
     shutil.copy(MERRIMAC, copy)
     assert main(['discover', str(copy)]) == 1      # no ram pressures on this bus
@@ -212,3 +215,15 @@ def test_a_slow_input_is_said_with_how_to_raise_its_rate(tmp_path, capsys):
     p = load_params_file(conf)
     assert p['signals.rudder_angle.rate_hz'] == pytest.approx(2.0, abs=0.1)
     assert p['signals.pressure_r2_port.rate_hz'] == pytest.approx(0.5, abs=0.1)
+
+
+def test_a_bus_without_address_claims_is_said_once(tmp_path, capsys):
+    """The simulator sends no address claim: one note for the log, not one per input."""
+    log = tmp_path / 'sim.log'
+    assert main(['simulate', '--program', 'hard_over_2', '--max-duration', '20', '--out', str(log)]) == 0
+    capsys.readouterr()
+    assert main(['discover', str(log)]) == 0
+    err = capsys.readouterr().err
+    assert err.count('no address claim') == 1
+    assert 'no address claim in the log (none sent, or the log began after them): every input mapped by its ' \
+        'address only' in err
