@@ -32,7 +32,7 @@ periods long, steady motion required through every grid point a pressure sample'
 reaches, and one row per pressure period (rows between two slow pressure samples are one
 interpolation, not more data: :attr:`Observations.step_ns` is the rows' spacing, what the
 residual's autocorrelation is read in), and only rows where a timing error of one period
-moves the ram forces by at most ``TIMING_PA`` (a gateway that holds a value sends it up to a
+moves the ram forces by at most ``TIMING_PA`` (1 bar; a gateway that holds a value sends it up to a
 period stale: :func:`_timing_resolved`). So the slower signal bounds what a transient can show:
 at 0.5 Hz only motion steady for a dozen seconds counts. At the design rates nothing changes.
 
@@ -78,9 +78,11 @@ SLOW_GAP_NS = 10_000_000_000          # ship speed (1 Hz) and oil temperature (0
 LONG_GAP_NS = 60_000_000_000          # no angle this long: the grid skips the stretch ...
 GAP_PAD_NS = 1_000_000_000            # ... keeping this much at each side
 #: where an input is slower than the design rate: the most a timing error of one of its periods
-#: may move a ram's force, in cylinder pressure [Pa] (chosen on one log, seed 74201 through a
-#: hold gateway at 2 Hz / 5 Hz; docs/accuracy-rates.md proves it on others)
-TIMING_PA = 2e5
+#: may move a ram's force, in cylinder pressure [Pa]: about three times the sensor noise of a
+#: ram's force (two transducers of 0.25 bar). Chosen on the seeds 74201 and 74401-74405 (at
+#: 2 bar the seal friction through a hold gateway at 5 Hz was read 5-9 % high and its interval
+#: held on 2 of 5); docs/accuracy-rates.md proves it on others
+TIMING_PA = 1e5
 
 
 class EstimateError(SteerMonitorError, ValueError):
