@@ -25,7 +25,7 @@ from steer_monitor.ashore.store import LogResult, file_digest, load_results, log
 from steer_monitor.atomic import os_reason
 from steer_monitor.errors import InputError, SteerMonitorError
 from steer_monitor.estimate.intervals import Interval
-from steer_monitor.estimate.trend import YEAR_S, Trend, TrendPoint, fit_trend
+from steer_monitor.estimate.trend import NO_WEAR, YEAR_S, Trend, TrendPoint, fit_trend
 from steer_monitor.logfiles.compressed import plain_suffix
 from steer_monitor.logfiles.logs import log_path_problem
 from steer_monitor.monitor.verdict import clearance_verdict
@@ -335,7 +335,10 @@ def _trend_json(tr: Trend | None, limit: float, logs: list[str]) -> dict[str, An
     return {'rate_mm_per_year': {'value': round(r.value * k, 5),
                                  'ci95': [round(r.lo * k, 5), round(r.hi * k, 5)]},  # type: ignore[operator]
             'wear_seen': tr.wear_seen,
+            'verdict': tr.verdict,
             'message': tr.message(),
+            'limit_date_earliest_utc': _utc(tr.earliest_t) if tr.verdict != NO_WEAR else None,
+            'months_to_tell': None if tr.months_to_tell is None else round(tr.months_to_tell, 1),
             'limit_mm': round(limit * 1e3, 4),
             'limit_date_utc': _utc(tr.limit_t),
             'limit_date_ci95': [_utc(tr.limit_t_lo), _utc(tr.limit_t_hi)] if tr.limit_t is not None else None,

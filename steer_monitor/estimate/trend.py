@@ -22,9 +22,14 @@ effects:
 
 The limit is reached where the line meets it; its 95 % interval is where the line's 95 % band
 does (the band inverted: Fieller's interval), open at the late end when the band never reaches
-the limit. No date is given when the rate's interval holds zero: then no wear is seen over the
-span of the logs, and a line with no slope says nothing about a date. Pure: arrays and records
-in and out.
+the limit. The verdict is read from the rate's interval (:attr:`Trend.verdict`): **wear seen**
+where it excludes zero (with the date); **no wear seen** only where even its upper end, from the
+upper end of the line's band at the last log, reaches no limit within :data:`HORIZON_S` (two and a
+half years, the time between dry-dockings, when the gear can be opened); otherwise **cannot
+tell yet**, with the earliest the limit could come (:attr:`Trend.earliest_t`) and how many more
+months of logs at the same pace would tell (:attr:`Trend.months_to_tell`: a slope's standard
+error falls as the span to the power 3/2 when logs keep coming at one pace). Pure: arrays and
+records in and out.
 """
 
 from __future__ import annotations
@@ -37,13 +42,17 @@ import numpy as np
 
 from steer_monitor.estimate.intervals import Interval
 
-__all__ = ['HUBER_SIGMAS', 'OUTLIER_SIGMAS', 'Trend', 'TrendPoint', 'band_crossing', 'fit_trend']
+__all__ = ['CANNOT_TELL', 'HORIZON_S', 'HUBER_SIGMAS', 'NO_WEAR', 'OUTLIER_SIGMAS', 'WEAR_SEEN', 'Trend', 'TrendPoint',
+           'band_crossing', 'fit_trend']
 
 Z95 = 1.959963984540054
 HUBER_SIGMAS = 2.0
 OUTLIER_SIGMAS = 3.0
 YEAR_S = 365.25 * 86400.0
 CHI2_1_MEDIAN = 0.454936423119572
+#: how far ahead a trend's verdict looks [s]: the time between dry-dockings
+HORIZON_S = 2.5 * YEAR_S
+WEAR_SEEN, NO_WEAR, CANNOT_TELL = 'wear seen', 'no wear seen', 'cannot tell yet'
 
 
 @dataclass(frozen=True)
@@ -72,6 +81,8 @@ class Trend:
         between: tau, the scatter between logs beyond their own intervals [SI].
         span_s: the time the two-sided estimates span [s]; dof: the t quantile's degrees of
             freedom.
+        last_t: the last two-sided estimate's time [s]; last_hi: the upper end of the line's
+            95 % band there [SI].
     """
 
     rate: Interval
@@ -88,20 +99,74 @@ class Trend:
     between: float = 0.0
     span_s: float = 0.0
     dof: int = 1
+    last_t: float = 0.0
+    last_hi: float = 0.0
 
     @property
     def wear_seen(self) -> bool:
         """The rate's 95 % interval excludes zero wear (only then is there a limit date)."""
         return self.rate.lo is not None and self.rate.lo > 0
 
+    @property
+    def earliest_t(self) -> float | None:
+        """The earliest the limit could come [s since 1970]: the upper end of the line's band at
+        the last log going on at the upper end of the rate (None: at that rate it never comes;
+        the last log's time where the band is past the limit already)."""
+        hi = self.rate.hi
+        if self.last_hi >= self.limit:
+            return self.last_t
+        if hi is None or hi <= 0:
+            return None
+        return self.last_t + (self.limit - self.last_hi) / hi
+
+    @property
+    def verdict(self) -> str:
+        """:data:`WEAR_SEEN`, :data:`NO_WEAR` or :data:`CANNOT_TELL` (see the module)."""
+        if self.wear_seen:
+            return WEAR_SEEN
+        early = self.earliest_t
+        return NO_WEAR if early is None or early - self.last_t > HORIZON_S else CANNOT_TELL
+
+    @property
+    def months_to_tell(self) -> float | None:
+        """Where the verdict is 'cannot tell yet': how many more months of logs at this pace
+        would tell (the rate's interval clear of zero at the rate seen, or its upper end too low
+        to reach the limit within the horizon, whichever comes first); None where neither can."""
+        if self.verdict != CANNOT_TELL or self.rate.hi is None or self.span_s <= 0:
+            return None
+        b, half = self.rate.value, self.rate.hi - self.rate.value
+        needs = []
+        if b > 0:                                  # the interval's low end past zero
+            needs.append(half / b)
+        room = (self.limit - self.last_hi) / HORIZON_S - b   # how far above b the upper end may stay
+        if room > 0:
+            needs.append(half / room)
+        if not needs:
+            return None
+        factor = min(needs)                        # the half-width must shrink by this
+        return self.span_s * (factor ** (2.0 / 3.0) - 1.0) / (YEAR_S / 12)
+
     def message(self, unit: float = 1e-3, unit_name: str = 'mm') -> str:
-        """One sentence: the rate and the date, or that no wear is seen over the span."""
+        """One sentence: the verdict with the rate, and the date or what would tell."""
         k = YEAR_S / unit
         rate = f'{self.rate.value * k:.4f} [{self.rate.lo * k:.4f} .. {self.rate.hi * k:.4f}] {unit_name}/year'  # type: ignore[operator]
         months = self.span_s / (YEAR_S / 12)
-        if not self.wear_seen:
-            return f'no wear seen over {months:.0f} months ({self.used} logs; rate {rate}): no limit date'
-        return f'wearing at {rate} over {months:.0f} months ({self.used} logs)'
+        over = f'over {months:.0f} months ({self.used} logs; rate {rate})'
+        verdict = self.verdict
+        if verdict == WEAR_SEEN:
+            return f'wearing at {rate} over {months:.0f} months ({self.used} logs)'
+        if verdict == NO_WEAR:
+            return (f'no wear seen {over}: even at the upper rate the limit is more than '
+                    f'{HORIZON_S / YEAR_S:g} years away')
+        early = self.earliest_t
+        more = self.months_to_tell
+        when = ('at the last log the line\'s 95 % band reaches past the limit already'
+                if early is not None and early <= self.last_t else
+                f'at the upper rate the limit could come in {(early - self.last_t) / (YEAR_S / 12):.0f} months'
+                if early is not None else '')
+        tell = (f'; about {max(more, 1.0):.0f} more months of logs at this pace would tell' if more is not None
+                else '; more logs would tell')
+        return f'cannot tell yet {over}: {when}{tell}'
 
     def at(self, t_s: float) -> float:
         return self.level + self.rate.value * (t_s - self.t_ref)
@@ -172,6 +237,9 @@ def fit_trend(points: Sequence[TrendPoint], limit: float) -> Trend | None:
     se_b = math.sqrt(max(vbb, 0.0))
     rate = Interval(b, b - z * se_b, b + z * se_b)
     outliers = tuple(two[k] for k in np.nonzero(np.abs(r[:len(two)]) > OUTLIER_SIGMAS)[0])
+    t_last = float(np.max(t))
+    d_last = t_last - t_ref
+    band_last = z * math.sqrt(max(vaa + d_last * d_last * vbb + 2 * d_last * vab, 0.0))
     limit_t = lo_t = hi_t = None
     if rate.lo is not None and rate.lo > 0:
         tau = (limit - a) / b
@@ -180,7 +248,7 @@ def fit_trend(points: Sequence[TrendPoint], limit: float) -> Trend | None:
         lo_t = None if lo_t is None else t_ref + lo_t
         hi_t = None if hi_t is None else t_ref + hi_t
     return Trend(rate, a, t_ref, limit, limit_t, lo_t, hi_t, len(two), len(one), outliers, scale,
-                 math.sqrt(tau2), float(np.ptp(t)), dof)
+                 math.sqrt(tau2), float(np.ptp(t)), dof, t_last, a + b * d_last + band_last)
 
 
 def _between_logs(design: np.ndarray, v: np.ndarray, s: np.ndarray, robust: bool = False) -> float:

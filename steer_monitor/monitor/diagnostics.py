@@ -348,7 +348,17 @@ class DiagnosticsBuilder:
                            f'{onset_lo:.2f} deg at the low end of the Z_gb interval: the interval reaches either side '
                            'of the warning')
         else:
+            hi = mon.gaps_interval.get('zgb', (None, None))[1]
+            onset_hi = None if hi is None else self.guide_onset_deg(Clearances(mon.gaps.two_z, hi))
+            values.append(('guide_onset_hi_deg', _f(onset_hi, '.2f')))
             message = f'guide beam {carries(onset)}'
+            if onset_hi is None or onset_hi > warn:     # the interval reaches past the warning
+                level = NOT_ASSESSED
+                reach = ('the high end of the Z_gb interval is open' if hi is None else
+                         'at the high end of the Z_gb interval it carries nothing' if onset_hi is None else
+                         f'from {onset_hi:.2f} deg at the high end of the Z_gb interval')
+                message = (f'NOT ASSESSED: on the estimate the guide beam {carries(onset)}, but {reach}: the interval '
+                           'reaches either side of the warning')
         if k_now is not None:
             message += f'; K_gl now {k_now:.2f}'
         return self._status('guide beam', level, message, values)

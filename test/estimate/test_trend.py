@@ -9,7 +9,17 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from steer_monitor.estimate.trend import YEAR_S, Z95, TrendPoint, band_crossing, fit_trend
+from steer_monitor.estimate.trend import (
+    CANNOT_TELL,
+    HORIZON_S,
+    NO_WEAR,
+    WEAR_SEEN,
+    YEAR_S,
+    Z95,
+    TrendPoint,
+    band_crossing,
+    fit_trend,
+)
 
 T0 = 1_767_225_600.0          # 2026-01-01
 MM = 1e-3
@@ -129,8 +139,10 @@ def test_a_steady_vessel_whose_logs_scatter_beyond_their_intervals_gets_no_date(
     trends = [fit_trend(biased_monthly(0.0, 0.12, 0.004, 0.008, rng), 0.25 * MM) for _ in range(300)]
     dated = sum(tr.limit_t is not None for tr in trends)
     assert dated <= 0.04 * 300
-    assert all(not tr.wear_seen and tr.message().startswith('no wear seen over 11 months') for tr in trends
-               if tr.limit_t is None)
+    undated = [tr for tr in trends if tr.limit_t is None]
+    assert all(not tr.wear_seen and tr.message().startswith(('no wear seen over 11 months',
+                                                            'cannot tell yet over 11 months')) for tr in undated)
+    assert sum(tr.verdict == NO_WEAR for tr in undated) >= 0.5 * len(undated)
     assert np.median([tr.between for tr in trends]) / MM == pytest.approx(0.008, rel=0.3)
 
 
@@ -148,3 +160,39 @@ def test_a_wearing_vessel_whose_logs_scatter_gets_its_date_within_its_interval()
                          and (tr.limit_t_hi is None or true_date(0.10, 0.12, 0.25) <= tr.limit_t_hi))
     assert hit_rate / n >= 0.93
     assert dated / n >= 0.9 and hit_date / dated >= 0.93
+
+
+def test_a_trend_that_cannot_tell_says_so_with_the_earliest_date_and_what_would_tell():
+    """Three logs over six months, Z_gb 0.10, 0.14, 0.18 mm (the first and last intervals do not
+    overlap): the rate's interval holds zero, but at its upper end the 0.25 mm limit is months
+    away: 'cannot tell yet', the earliest the limit could come, and how many more months of logs
+    would tell; never 'no wear seen'."""
+    pts = [TrendPoint(T0, 0.10 * MM, 0.085 * MM, 0.115 * MM),
+           TrendPoint(T0 + YEAR_S / 4, 0.14 * MM, 0.08 * MM, 0.20 * MM),
+           TrendPoint(T0 + YEAR_S / 2, 0.18 * MM, 0.165 * MM, 0.195 * MM)]
+    tr = fit_trend(pts, 0.25 * MM)
+    assert tr is not None
+    if tr.wear_seen:                     # the three are steep enough to say so: then a date
+        assert tr.verdict == WEAR_SEEN and tr.limit_t is not None
+        return
+    assert tr.verdict == CANNOT_TELL
+    early = tr.earliest_t
+    assert early is not None and tr.last_t <= early < tr.last_t + HORIZON_S
+    assert tr.months_to_tell is not None and tr.months_to_tell > 0
+    msg = tr.message()
+    assert msg.startswith('cannot tell yet over 6 months (3 logs; rate ')
+    assert ('at the upper rate the limit could come in ' in msg
+            or "at the last log the line's 95 % band reaches past the limit already" in msg)
+    assert 'more months of logs at this pace would tell' in msg
+
+
+def test_no_wear_is_said_only_where_even_the_upper_rate_reaches_no_limit_within_the_horizon():
+    """A steady slipper at 0.10 mm, a year of tight logs: no wear seen, the upper rate far from
+    the limit; the same logs at 0.24 mm, just under the 0.25 mm limit: the upper rate reaches it
+    within the horizon, so it cannot tell."""
+    def logs(level):
+        return [TrendPoint(T0 + k * YEAR_S / 12, level * MM, (level - 0.004) * MM, (level + 0.004) * MM)
+                for k in range(12)]
+    far, near = fit_trend(logs(0.10), 0.25 * MM), fit_trend(logs(0.24), 0.25 * MM)
+    assert far.verdict == NO_WEAR and far.earliest_t is None or far.earliest_t - far.last_t > HORIZON_S
+    assert near.verdict == CANNOT_TELL and near.earliest_t - near.last_t <= HORIZON_S

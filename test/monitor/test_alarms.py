@@ -371,6 +371,12 @@ def test_guide_idle_judged_on_the_estimate_and_its_interval(builder, mon):
                  {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.08 * MM, 0.12 * MM)})
     st = builder.guide_beam(mon)
     assert st.level == OK and st.message.startswith('guide beam carries load from ')
+    # carrying in time on the estimate, idle past the warning at the interval's high end
+    mon.set_gaps(Clearances(0.4 * MM, 0.245 * MM), 'estimated',
+                 {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.20 * MM, 0.30 * MM)})
+    st = builder.guide_beam(mon)
+    assert st.level == STALE and 'at the high end of the Z_gb interval: the interval reaches either side' in st.message
+    assert float(st.value('guide_onset_hi_deg')) > 10.0
     mon.set_gaps(Clearances(0.4 * MM, 0.3 * MM), 'estimated',
                  {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.27 * MM, 0.33 * MM)})
     st = builder.guide_beam(mon)
