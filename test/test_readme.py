@@ -176,3 +176,48 @@ def test_the_readme_examples_run_as_written(tmp_path):
         assert done.returncode == 0, (code, done.stderr[-2000:])
         ran.append(command)
     assert sorted(set(ran) | set(NOT_RUN)) == sorted(_subparsers()), ran
+
+
+#: a status line of the demo: [time] LEVEL name: message
+DEMO_STATUS = re.compile(r'^\[\s*[\d.]+ s\] (OK|WARN|ERROR|STALE)\s+([\w ]+): (.*)$')
+
+
+def _demo_pattern(message: str) -> re.Pattern[str]:
+    """A README demo message as a pattern: each number stands for any number, a trailing or
+    inner '...' for anything (the README shortens)."""
+    parts = re.split(r'(\.\.\.|-?\d+(?:\.\d+)?)', message)
+    out = ''
+    for part in parts:
+        if part == '...':
+            out += '.*'
+        elif re.fullmatch(r'-?\d+(?:\.\d+)?', part or 'x'):
+            out += r'-?\d+(?:\.\d+)?'
+        else:
+            out += re.escape(part)
+    return re.compile(out)
+
+
+@pytest.mark.slow
+def test_the_readme_demo_lines_are_what_the_demo_prints(tmp_path):
+    """Each status line the README shows of ``make demo`` is one the demo prints: the same level,
+    the same status and the same words (numbers as any number, '...' as what the README leaves
+    out), in the same order."""
+    import io
+    import os
+
+    from steer_monitor.cli import demo
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    listing = README[README.index('== steer_monitor demo'):]
+    listing = listing[:listing.index('```')]
+    shown = [m.groups() for m in map(DEMO_STATUS.match, listing.splitlines()) if m]
+    assert len(shown) >= 5
+    out = io.StringIO()
+    assert demo.run(tmp_path / 'out', out=out) == 0
+    printed = [m.groups() for m in map(DEMO_STATUS.match, out.getvalue().splitlines()) if m]
+    at = 0
+    for level, name, message in shown:
+        pattern = _demo_pattern(message)
+        found = next((k for k in range(at, len(printed)) if printed[k][:2] == (level, name)
+                      and pattern.fullmatch(printed[k][2])), None)
+        assert found is not None, (level, name, message, printed[at:])
+        at = found + 1
