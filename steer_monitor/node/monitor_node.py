@@ -144,7 +144,7 @@ class MonitorNode(Node):
         self._reader_thread.start()
         self.get_logger().info(
             f'opening {interface}:{channel} (listen-only); {len(smap.specs)} inputs mapped; '
-            + (f'recording to {p["recording.directory"]}' if self.recorder else 'recording off'))
+            + (f'recording to {Path(p["recording.directory"]).resolve()}' if self.recorder else 'recording off'))
 
     def _abort_start(self) -> None:
         """Stopped while starting (Ctrl-C as it loads, an error after the recorder opened): stop
