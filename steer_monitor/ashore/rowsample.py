@@ -36,9 +36,9 @@ def concat_observations(parts: list[Observations]) -> Observations:
     """``parts`` (at least one) as one, in the order given."""
     if len(parts) == 1:
         return parts[0]
-    names = [f for f in Observations.__dataclass_fields__ if f != 'step_ns']
+    names = [f for f in Observations.__dataclass_fields__ if f not in ('step_ns', 'shared_ns')]
     return Observations(*(np.concatenate([getattr(p, f) for p in parts]) for f in names),
-                        step_ns=max(p.step_ns for p in parts))
+                        step_ns=max(p.step_ns for p in parts), shared_ns=max(p.shared_ns for p in parts))
 
 
 class RowSample:

@@ -174,12 +174,15 @@ def lag_moments(
     return (c0 / n0 if n0 else math.nan), (c4 / n4 if n4 else math.nan)
 
 
-def residual_parts(resid: NDArray[np.float64], t_ns: NDArray[np.int64], step_ns: int = GRID_NS
-                   ) -> tuple[float, float]:
+def residual_parts(resid: NDArray[np.float64], t_ns: NDArray[np.int64], step_ns: int = GRID_NS,
+                   shared_ns: int = GRID_NS) -> tuple[float, float]:
     """(noise RMS, smooth RMS) of residuals (n, 2): the autocovariance at 200 ms (same ram,
     both instants fitted, :func:`lag_moments`) is the smooth part's variance, clamped to
-    [0, mean square]; the rest is sensor noise."""
-    var, c4 = lag_moments(resid, t_ns, step_ns=step_ns)
+    [0, mean square]; the rest is sensor noise. Rows closer than ``shared_ns`` may be read
+    from one sample of a slow input (:attr:`~steer_monitor.estimate.observe.Observations.shared_ns`):
+    the autocovariance is then read at least two of it apart, so what that sample's noise and
+    timing put into both rows counts as noise, not as something the model misses."""
+    var, c4 = lag_moments(resid, t_ns, step_ns=max(step_ns, shared_ns))
     if not math.isfinite(var):
         return math.nan, math.nan
     smooth = min(max(c4, 0.0) if math.isfinite(c4) else 0.0, var)
@@ -398,7 +401,7 @@ def estimate_clearances(gear: GearParams, obs: Observations, rows: Rows, extra: 
     extra = tuple(extra) + F.speed_scale_columns(mom)
     pr, ref, best, tz, zg, load = _profile_fit(gear, basis, mom, extra, grid_2z, grid_zgb, load)
     resid, vif = residuals_and_inflation(gear, basis, rows, obs.t_ns, best.coef, tz, zg, load, extra, obs.step_ns)
-    noise, smooth = residual_parts(resid, obs.t_ns, obs.step_ns)
+    noise, smooth = residual_parts(resid, obs.t_ns, obs.step_ns, obs.shared_ns)
     max_seen = float(np.nanmax(np.abs(obs.alpha[rows.obs_index])))
     scales = _robust(gear, basis, obs, rows, resid, best, tz, zg, load, extra, ref, max(model_inflation, 1.0))
     return _bound(gear, basis, mom, pr, ref, best, tz, zg, load, extra, vif, max_seen, resid, noise, smooth, scales)

@@ -104,6 +104,9 @@ class Observations:
         oil_temp: oil temperature [K], NaN where not on the bus.
         step_ns: the spacing of the rows steady motion may give [ns]: the grid's, or one
             pressure period where the pressures come slower (:class:`Windows`).
+        shared_ns: rows closer than this [ns] may be interpolated from one sample of the
+            slowest input (:attr:`Windows.shared_ns`): the residual's smooth part is read
+            further apart.
     """
 
     t_ns: NDArray[np.int64]
@@ -115,6 +118,7 @@ class Observations:
     speed: NDArray[np.float64]
     oil_temp: NDArray[np.float64]
     step_ns: int = GRID_NS
+    shared_ns: int = GRID_NS
 
     def __len__(self) -> int:
         return int(self.t_ns.shape[0])
@@ -130,7 +134,8 @@ class Observations:
 
     def select(self, mask: NDArray[np.bool_]) -> Observations:
         return Observations(self.t_ns[mask], self.alpha[mask], self.rate[mask], self.direction[mask],
-                            self.force[mask], self.pressure[mask], self.speed[mask], self.oil_temp[mask], self.step_ns)
+                            self.force[mask], self.pressure[mask], self.speed[mask], self.oil_temp[mask], self.step_ns,
+                            self.shared_ns)
 
 
 def grid_times(start_ns: int, end_ns: int) -> NDArray[np.int64]:
@@ -409,7 +414,7 @@ def build_observations(signals: Mapping[str, Series], ram_area: float, *,
         direction = np.where(_timing_resolved(force, win, ram_area), direction, 0).astype(np.int8)
     speed = interp_held(signals.get('ship_speed'), t, SLOW_GAP_NS)
     oil = interp_held(signals.get('oil_temperature'), t, SLOW_GAP_NS)
-    return Observations(t, alpha, rate, direction, force, pressure, speed, oil, win.step_ns)
+    return Observations(t, alpha, rate, direction, force, pressure, speed, oil, win.step_ns, win.shared_ns)
 
 
 def too_little_motion(signals: Mapping[str, Series], obs: Observations, rows: int, need: int) -> str:

@@ -136,6 +136,15 @@ class Windows:
         return self.row_step * GRID_NS
 
     @property
+    def shared_ns(self) -> int:
+        """The longest of the inputs' periods where one comes slower than the design's, the
+        grid's at the design rates [ns]: rows closer than this may be interpolated from the same
+        sample of it, so their errors from that sample (its noise, its timing) correlate."""
+        if self.design:
+            return GRID_NS
+        return max(self.step_ns, self.angle_period_ns or 0, self.pressure_period_ns or 0)
+
+    @property
     def reach_ns(self) -> int:
         """How far from a row the samples its judgement reads reach [ns]: the slopes' half
         window or the steadiness segments, an interpolation bracket beyond, and the erosion."""

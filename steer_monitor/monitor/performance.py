@@ -12,9 +12,10 @@ The rate is the live model's (:mod:`~steer_monitor.monitor.steady`): a slope ove
 0.5 s, or over the last three samples where the angle comes slower (a gateway), with the span it
 was read over. A rate read over a longer span turns later: the response allows for the span it
 is given. A sample that gives no rate (an outage) judges nothing. So a slowly sampled moving
-rudder is never read as standing, while a frozen sensor (the same reading sent on, its slope
-0) is found at any rate: :data:`NO_RESPONSE_NS` after an order step more than
-:data:`NO_RESPONSE_ERR` away from it, at the first angle sample from then on.
+rudder is never read as standing, nor one seen more than :data:`NO_RESPONSE_ERR` from where it
+stood at the step (it moved, between samples or across lost frames), while a frozen sensor (the
+same reading sent on, its slope 0) is found at any rate: :data:`NO_RESPONSE_NS` after an order
+step more than :data:`NO_RESPONSE_ERR` away from it, at the first angle sample from then on.
 
 Times are integer ns; angles [rad], rates [rad/s].
 """
@@ -170,6 +171,13 @@ class Response:
     stalled_s: float | None = None
     stalled_at: float | None = None
 
+    def shifted(self, alpha: float) -> bool:
+        """Whether the rudder at ``alpha`` [rad] stands more than :data:`NO_RESPONSE_ERR` from
+        where it stood at the step: it has moved since, whatever its rate reads (frames lost
+        across the move leave a slope over samples either side of it near zero), so it neither
+        stalled nor owes the step a move. A frozen sensor sends the angle of the step on."""
+        return self.from_alpha is not None and abs(alpha - self.from_alpha) > NO_RESPONSE_ERR
+
 
 class ResponseTracker:
     """The response to the last order step (:attr:`response`, None before the first step)."""
@@ -187,7 +195,7 @@ class ResponseTracker:
         sample, and a frozen sensor would never stand 5 s past the last)."""
         r = self.response
         owed = (r is not None and r.direction_ok is None and self._last_alpha is not None
-                and abs(r.order - self._last_alpha) > NO_RESPONSE_ERR)
+                and abs(r.order - self._last_alpha) > NO_RESPONSE_ERR and not r.shifted(self._last_alpha))
         if self._last_order is not None and abs(order - self._last_order) >= ORDER_STEP and not owed:
             self.response = Response(order=order, t_step_ns=t_ns, from_alpha=self._last_alpha)
         elif r is not None:
@@ -202,11 +210,11 @@ class ResponseTracker:
         if r is None or span_ns is None:
             return
         moving = abs(rate) > MOVING_RATE
-        if r.direction_ok is None and not moving:
+        if r.direction_ok is None and not moving and not r.shifted(alpha):
             stood = t_ns - r.t_step_ns
             if stood >= NO_RESPONSE_NS and abs(r.order - alpha) > NO_RESPONSE_ERR:
                 r.stalled_s, r.stalled_at = stood / 1e9, alpha
-        elif moving:
+        elif moving or r.shifted(alpha):
             r.stalled_s = r.stalled_at = None
         if r.direction_ok is None and moving:
             start = alpha if r.from_alpha is None else r.from_alpha

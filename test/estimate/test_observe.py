@@ -261,6 +261,26 @@ def test_the_sensor_noise_of_slow_rows_is_not_read_as_systematic():
     assert smooth < 0.1 * noise
 
 
+def test_what_one_slow_angle_sample_puts_into_several_rows_is_not_read_as_systematic():
+    """The angle at 2 Hz, the pressures at 5 Hz: rows 200 ms apart, each angle sample's error
+    (its noise, how stale a gateway sent it) interpolated into the rows of a second. A residual
+    made only of that is noise: read two angle periods apart its smooth part is nil, where two
+    pressure periods apart (400 ms, the rows still sharing a sample) it would pass for half of
+    it and more."""
+    from steer_monitor.estimate.batch import residual_parts
+    w = Windows.of(_slow_signals(2.0, 5.0))
+    assert w.shared_ns == w.angle_period_ns and w.shared_ns > w.step_ns
+    assert Windows.of(_slow_signals(10.0, 20.0)).shared_ns == GRID_NS
+    rng = np.random.default_rng(11)
+    t_rows = np.arange(0, 3600 * 10**9, w.step_ns, dtype=np.int64)
+    knots = np.arange(0, 3601 * 10**9, w.angle_period_ns, dtype=np.int64)
+    resid = np.stack([np.interp(t_rows, knots, rng.normal(0.0, 1.0, knots.size)) for _ in range(2)], axis=1)
+    noise, smooth = residual_parts(resid, t_rows, w.step_ns, w.shared_ns)
+    assert smooth < 0.1 * noise
+    noise_p, smooth_p = residual_parts(resid, t_rows, w.step_ns)
+    assert smooth_p > 0.5 * noise_p
+
+
 @pytest.mark.parametrize('angle_hz, pressure_hz, excluded', [(2.0, 5.0, True), (10.0, 20.0, False)])
 def test_rows_a_slow_sample_time_cannot_resolve_are_left_out(angle_hz, pressure_hz, excluded):
     """The starboard pressures climbing 10 bar/s from 30 s to 60 s: a timing error of one

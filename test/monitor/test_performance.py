@@ -229,3 +229,31 @@ def test_an_order_the_rudder_owes_a_move_keeps_its_clock_through_new_steps():
     fresh.order(30 * S, math.radians(10.0))      # 29 s later a new one: its own clock
     fresh.angle(30 * S + 1, math.radians(0.9), 0.0)
     assert fresh.response.t_step_ns == 30 * S and fresh.response.stalled_s is None
+
+
+def test_a_rudder_that_moved_across_lost_frames_is_not_stalled():
+    """Sampled every 2 s, the frames of 6 s lost while the rudder went from -5 deg to midships
+    (the order's steps among them): the slope over the samples either side reads near zero,
+    but the rudder stands 5 deg from where it stood at the step: moved, neither stalled nor
+    owing the step a move; the next step starts its own clock."""
+    from steer_monitor.monitor.steady import SteadyMotion
+    steady, responses = SteadyMotion(0.045, lambda *a: None), ResponseTracker()
+    samples = [(0.0, 0.56, -0.24), (2.0, -5.17, -5.41), (8.0, -0.1, 0.0), (10.0, -0.1, 0.0)]
+    for t, alpha, order in samples:                # each angle frame just before the order's
+        rate = steady.angle(int(t * S), math.radians(alpha), math.nan, math.nan)
+        responses.angle(int(t * S), math.radians(alpha), rate, steady.rate_span_ns)
+        assert responses.response is None or responses.response.stalled_s is None
+        responses.order(int(t * S) + 1, math.radians(order))
+    assert responses.response.t_step_ns == 8 * S + 1
+
+
+def test_a_frozen_sensor_after_lost_frames_is_still_found():
+    """The same, the sensor frozen at -5.17 deg: stalled once the rule's time has passed."""
+    from steer_monitor.monitor.steady import SteadyMotion
+    steady, responses = SteadyMotion(0.045, lambda *a: None), ResponseTracker()
+    for t, order in ((0.0, -0.24), (2.0, -5.41), (8.0, 0.0), (10.0, 0.0), (14.0, 0.0)):
+        rate = steady.angle(int(t * S), math.radians(-5.17), math.nan, math.nan)
+        responses.angle(int(t * S), math.radians(-5.17), rate, steady.rate_span_ns)
+        responses.order(int(t * S) + 1, math.radians(order))
+    r = responses.response
+    assert r.t_step_ns == 8 * S + 1 and r.stalled_s == pytest.approx(6.0, abs=1e-6)
