@@ -75,8 +75,8 @@ def fleet_page(run: FleetRun) -> str:
         rs = run.results[v['name']]
         rows = ''.join(
             f"<tr><td>{_log_cell(lg)}</td><td>{esc(lg['start_utc'] or '-')}</td>"
-            f"<td>{_iv(lg['clearance_2z_mm'])}</td><td>{_iv(lg['clearance_zgb_mm'])}</td>"
-            f"<td class=\"{esc(_css(lg['level']))}\">{esc(_level_text(lg))}</td>"
+            f"<td>{_clearance_cell(lg['clearance_2z_mm'])}</td><td>{_clearance_cell(lg['clearance_zgb_mm'])}</td>"
+            f"<td>{esc(_check_text(lg))}</td>"
             f"<td{warn if lg['uneven_rams'] else ''}>{esc(_rams(lg['uneven_rams']))}</td></tr>"
             for lg in v['logs'])
         trend = '; '.join(
@@ -88,7 +88,7 @@ def fleet_page(run: FleetRun) -> str:
         parts.append(
             f"<section><h2>{esc(v['name'])}</h2><p>{esc(trend)}</p>"
             f"<img alt=\"{esc(v['name'])}\" src=\"data:image/png;base64,{_plot(rs, run.params[v['name']])}\">"
-            "<table><tr><th>log</th><th>start (UTC)</th><th>2Z [mm]</th><th>Z_gb [mm]</th><th>level</th>"
+            "<table><tr><th>log</th><th>start (UTC)</th><th>2Z [mm]</th><th>Z_gb [mm]</th><th>model check</th>"
             "<th>rams</th></tr>"
             f"{rows}</table></section>"
         )
@@ -121,16 +121,22 @@ def _css(level: str) -> str:
     return 'NONE' if level == NOT_JUDGED else level.split()[0]
 
 
-def _level_text(lg: dict[str, Any]) -> str:
-    """A log's level, and the model check's verdict when it is not the declared model."""
+def _clearance_cell(d: dict[str, Any]) -> str:
+    """A clearance's estimate and its own level (a log's two are judged apart: one may be
+    fine where the other is not assessed)."""
+    return f"{_iv(d)} <span class=\"{html.escape(_css(d['level']))}\">{html.escape(d['level'])}</span>"
+
+
+def _check_text(lg: dict[str, Any]) -> str:
+    """The model check's verdict on a log (or why the log gave none)."""
     if lg['error']:
         return lg['error']
     mc = lg['model_check']
     if mc is None:
-        return lg['level']
+        return '-'
     if mc['verdict'] == 'unexplained':
-        return f"{lg['level']}: the model does not explain the pressures"
-    return lg['level'] + (f" (with {', '.join(mc['effects'])})" if mc['effects'] else '')
+        return 'the model does not explain the pressures: neither clearance judged'
+    return f"with {', '.join(mc['effects'])}" if mc['effects'] else 'the declared model'
 
 
 def _iv(d: dict[str, Any] | None) -> str:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import datetime
 import json
+import math
 import os
 import signal
 from pathlib import Path
@@ -360,3 +361,19 @@ def test_the_trend_uses_judged_logs_only_and_says_no_wear(r18_params):
     tr = v['trend']['clearance_zgb_mm']
     assert tr['estimates_used'] == 8 and tr['limit_date_utc'] is None
     assert [lg['clearance_zgb_mm']['level'] for lg in v['logs']][8:] == ['NOT ASSESSED'] * 4
+
+
+def test_the_page_shows_each_clearance_with_its_own_level(r18_params):
+    """2Z a lower bound (not assessed) beside a Z_gb past its warning share: the page gives each
+    clearance its own level, not the log's worst in one column."""
+    from steer_monitor.ashore.fleet import FleetRun, Vessel
+    from steer_monitor.ashore.fleetpage import fleet_page
+    from steer_monitor.ashore.store import LogResult
+    warn = 0.9 * r18_params['clearances.limit_zgb_mm'] * 1e-3
+    start = int(1_767_225_600 * 10**9)
+    r = LogResult('mv', 'a.log', 'a.log', 'cfg', start, start + 3_600 * 10**9, 1000, 0.1e-3, 0.08e-3, math.nan,
+                  warn, warn - 1e-5, warn + 1e-5, 0.6, 0.59, 0.61, '[]', '[]', '', '[]')
+    page = fleet_page(FleetRun([Vessel('mv', Path('mv'), None, ())], {'mv': [r]}, {'mv': dict(r18_params)}))
+    row = next(line for line in page.split('<tr>') if 'a.log' in line)
+    cells = row.split('<td>')
+    assert 'NOT ASSESSED' in cells[3] and 'WARN' in cells[4] and 'NOT ASSESSED' not in cells[4]
