@@ -68,12 +68,13 @@ from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.estimate.ramscheck import rams_verdict, uneven_json
 from steer_monitor.estimate.window import before
 from steer_monitor.logfiles.decodelog import clock_steps_json, decode_logs
+from steer_monitor.model.reach import Reach
 from steer_monitor.monitor.verdict import LABELS, NOT_ASSESSED, assess_hint, clearance_verdict
 from steer_monitor.params import gear_from_params, min_clearance_2z_from_params, ram_share_warn_from_params
 from steer_monitor.utc import time_json
 
 __all__ = ['ANALYSIS_HOURS', 'NOT_JUDGED', 'Headline', 'analysis_json', 'analyze_log', 'headline_json',
-           'headline_text', 'headlines', 'model_check']
+           'headline_text', 'headlines', 'model_check', 'reach_json']
 
 
 def _quantities(e: ClearanceEstimate) -> dict[str, Any]:
@@ -201,6 +202,7 @@ def analyze_log(path: str | Path, config: str | Path | None = None, progress: bo
         out[key]['level'] = h.level
         out[key]['note'] = h.note
         out[key]['limit_mm'] = round(h.limit * 1e3, 4)
+        out[key].update(reach_json(h.reach))
     out['data'] = {'log': str(path), 'frames': logs.frames, 'span_s': logs.span_s,
                    'rejects': dict(sorted(rejects.snapshot().counts.items())),
                    'read_errors': list(logs.errors),
@@ -247,13 +249,15 @@ def model_check(paths: Sequence[str | Path], params: Mapping[str, Any], config_p
 @dataclass(frozen=True)
 class Headline:
     """One clearance as the page shows it: its estimate (None: none), the level (``OK``,
-    ``WARN``, ``OVER LIMIT`` or ``NOT ASSESSED``), the limit [m] and a note ('' or why)."""
+    ``WARN``, ``OVER LIMIT`` or ``NOT ASSESSED``), the limit [m], a note ('' or why) and how far
+    the clearance can show on the gear (None: not worked out)."""
 
     name: str
     estimate: Interval | None
     level: str
     limit: float
     note: str
+    reach: Reach | None = None
 
 
 def headlines(analysis: Analysis | None, limit_2z: float, limit_zgb: float, warn_share: float
@@ -269,13 +273,14 @@ def headlines(analysis: Analysis | None, limit_2z: float, limit_zgb: float, warn
                                 f'not estimated (too little steady motion); {assess_hint(name)}'))
             continue
         iv = getattr(analysis.final, attr)
-        why = analysis.final.bound_why[0 if attr == 'two_z' else 1]
-        v = clearance_verdict(iv.value, iv.lo, iv.hi, limit, warn_share, name, why)
+        k = 0 if attr == 'two_z' else 1
+        reach = None if analysis.final.reach is None else analysis.final.reach[k]
+        v = clearance_verdict(iv.value, iv.lo, iv.hi, limit, warn_share, name, analysis.final.bound_why[k], reach)
         if analysis.verdict == 'unexplained':
             out.append(Headline(name, iv, NOT_JUDGED, limit, 'the model does not explain the pressures, so the '
-                                                             'clearances rest on an incomplete model'))
+                                                             'clearances rest on an incomplete model', reach))
             continue
-        out.append(Headline(name, iv, v.label, limit, v.note))
+        out.append(Headline(name, iv, v.label, limit, v.note, reach))
     return out[0], out[1]
 
 
@@ -285,8 +290,9 @@ def headline_text(h: Headline) -> str:
     iv = h.estimate
     if iv is None:
         est = 'not estimated'
-    elif iv.hi is None:
-        est = f'>= {iv.lo * 1e3:.3f} mm (lower bound only), {iv.lo / h.limit:.0%} of the {h.limit * 1e3:g} mm limit'
+    elif iv.hi is None:      # a bound below the limit is no share of it: "13 % of the limit" read as reassurance
+        est = f'>= {iv.lo * 1e3:.3f} mm (lower bound only)' + (
+            f', {iv.lo / h.limit:.0%} of the {h.limit * 1e3:g} mm limit' if iv.lo > h.limit else '')
     else:
         est = (f'{iv.value * 1e3:.3f} mm [{iv.lo * 1e3:.3f} .. {iv.hi * 1e3:.3f}], {iv.value / h.limit:.0%} of the '
                f'{h.limit * 1e3:g} mm limit')
@@ -298,4 +304,12 @@ def headline_json(h: Headline) -> dict[str, object]:
     estimate)."""
     if h.estimate is None:
         return {'value': None, 'ci95': [None, None], 'bounded': False, 'level': h.level}
-    return {**h.estimate.scaled(1e3), 'level': h.level}
+    return {**h.estimate.scaled(1e3), 'level': h.level, **reach_json(h.reach)}
+
+
+def reach_json(reach: Reach | None) -> dict[str, object]:
+    """``{"observable_to_mm": {"loads_seen", "gear", "at_other_mm"}}`` ({} when not worked out)."""
+    if reach is None:
+        return {}
+    return {'observable_to_mm': {'loads_seen': round(reach.seen * 1e3, 4), 'gear': round(reach.gear * 1e3, 4),
+                                 'at_other_mm': round(reach.other * 1e3, 4)}}

@@ -76,7 +76,9 @@ def _verdict(name: str, d: dict[str, Any]) -> str:
     """One clearance's line: the estimate, its share of the limit, the level and why."""
     lo, hi = d['ci95']
     ref = d['value'] if d['value'] is not None else lo
-    share = f", {ref / d['limit_mm']:.0%} of the {d['limit_mm']:g} mm limit" if ref is not None else ''
+    # a lower bound below the limit is no share of it ("13 % of the limit" read as reassurance)
+    share = (f", {ref / d['limit_mm']:.0%} of the {d['limit_mm']:g} mm limit"
+             if ref is not None and (hi is not None or ref > d['limit_mm']) else '')
     note = f": {d['note']}" if d.get('note') else ''
     return f"{name:<7} {_fmt(d, 'mm')}{share}  {d['level']}{note}\n"
 

@@ -37,6 +37,7 @@ from steer_monitor.estimate.refine import Marginal, Refined, refine_profile, wid
 from steer_monitor.estimate.robust import CLEARANCES, MODEL_ERROR_FLOOR, RobustScale, block_seconds, robust_scales
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.loadshare import STAGE_CLAMPED, load_sharing
+from steer_monitor.model.reach import Reach, gear_reach
 
 __all__ = ['MIN_MOTION_SAMPLES', 'ClearanceEstimate', 'Rows', 'Spread', 'box_holds', 'coarse_profile',
            'estimate_clearances', 'estimate_in_box', 'k_gl_max', 'lag_moments', 'make_rows',
@@ -135,6 +136,9 @@ class ClearanceEstimate:
     #: (2Z, Z_gb): why an interval the profile closed is given as a lower bound only ('' when it is not)
     bound_why: tuple[str, str] = ('', '')
     sigma2: float = math.nan         # the residual variance per row [N^2] the deviances are in units of
+    #: (2Z, Z_gb): how far each can show, at the other's estimate, under the loads the rows
+    #: held and under the gear's largest (:mod:`~steer_monitor.model.reach`); None: not worked out
+    reach: tuple[Reach, Reach] | None = None
 
     def marginal_deviance(self, axis: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(values [m], deviance) of clearance ``axis`` (0: 2Z, 1: Z_gb): the profile its
@@ -323,7 +327,16 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: PF.Profile,
         marginals=(ref.two_z, ref.z_gb), steps=ref.steps, rss_floor=floor,
         scales=(units[0] / sigma2, units[1] / sigma2), thresholds=(rs[0].threshold_1, rs[1].threshold_1),
         bound_why=why,
-        robust=dict(scales or {}), sigma2=sigma2)
+        robust=dict(scales or {}), sigma2=sigma2, reach=_reach(gear, mom, load, two_z.value, z_gb.value))
+
+
+def _reach(gear: GearParams, mom: Moments, load: NDArray[np.float64], two_z: float, z_gb: float
+           ) -> tuple[Reach, Reach]:
+    """How far 2Z and Z_gb can show, each at the other's estimate: under the loads of the
+    rows' bins (their angles and the torque the fitted load gives there) and the gear's largest."""
+    held = mom.count > 0
+    alpha, torque = mom.abs_alpha[held], F.torque_of_load(gear, mom, load)[held]
+    return gear_reach(gear, 0, z_gb, alpha, torque), gear_reach(gear, 1, two_z, alpha, torque)
 
 
 MIN_CONTACT_SHARE = 0.02    # of the steady-motion rows, where a clearance's contact must show to be assessed

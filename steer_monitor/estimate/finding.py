@@ -19,6 +19,7 @@ from steer_monitor.estimate.analyze import Analysis
 from steer_monitor.estimate.effects import Effect
 from steer_monitor.estimate.intervals import Interval
 from steer_monitor.model.gear import GearParams
+from steer_monitor.model.reach import Reach
 from steer_monitor.model.torque import TorqueTable
 
 __all__ = ['KINDS', 'Finding', 'finding_of']
@@ -53,6 +54,8 @@ class Finding:
             known: a finding saved by an earlier version).
         bound_why: (2Z, Z_gb) why a clearance is given as a lower bound only although its
             profile closed ('' when it is not): the contact's evidence too thin to place it.
+        reach: (2Z, Z_gb) how far each can show on the gear (:mod:`~steer_monitor.model.reach`;
+            None: not known, a finding saved by an earlier version).
     """
 
     t_ns: int
@@ -74,6 +77,7 @@ class Finding:
     rows: int = 0
     bound_why: tuple[str, str] = ('', '')
     friction_ci: tuple[tuple[float | None, float | None], ...] = ()
+    reach: tuple[Reach, Reach] | None = None
 
     @property
     def explained(self) -> bool:
@@ -99,7 +103,9 @@ class Finding:
                 'verdict': self.verdict, 'message': self.message, 'rms_bar': self.rms_bar,
                 'systematic_bar': self.systematic_bar, 'noise_bar': self.noise_bar, 'motion_s': self.motion_s,
                 'rows': self.rows, 'bound_why': list(self.bound_why),
-                'friction_ci': [list(x) for x in self.friction_ci]}
+                'friction_ci': [list(x) for x in self.friction_ci],
+                'reach': None if self.reach is None else [[r.seen, r.gear, r.angle, r.speed, r.other]
+                                                          for r in self.reach]}
 
     @classmethod
     def from_json(cls, d: dict) -> Finding:
@@ -122,7 +128,19 @@ class Finding:
                    float(d['rms_bar']), float(d['systematic_bar']), float(d['noise_bar']), float(d['motion_s']),
                    int(d['rows']), tuple(str(x) for x in d.get('bound_why', ('', ''))),  # type: ignore[arg-type]
                    tuple((None if lo is None else float(lo), None if hi is None else float(hi))
-                         for lo, hi in d.get('friction_ci', ())))
+                         for lo, hi in d.get('friction_ci', ())),
+                   _reach_of(d.get('reach')))
+
+
+def _reach_of(x: object) -> tuple[Reach, Reach] | None:
+    """The reach of :meth:`Finding.to_json` (None kept; ValueError when it has not two of five)."""
+    if x is None:
+        return None
+    rs = [Reach(*(float(v) for v in r)) for r in x]  # type: ignore[attr-defined]
+    if len(rs) != 2:
+        msg = f'reach of {len(rs)} clearances, expected 2'
+        raise ValueError(msg)
+    return rs[0], rs[1]
 
 
 def finding_of(a: Analysis, t_ns: int, kind: str) -> Finding:
@@ -149,6 +167,6 @@ def finding_of(a: Analysis, t_ns: int, kind: str) -> Finding:
         torque_coef=tuple(float(c) for c in f.fit.coef[:basis_size]), max_angle=float(f.max_angle_seen),
         model=a.adopted, terms=terms, verdict=a.verdict, message=a.message, rms_bar=judged.rms / bar,
         systematic_bar=judged.smooth_rms / bar, noise_bar=judged.noise_rms / bar, motion_s=motion, rows=int(f.rows),
-        bound_why=f.bound_why,
+        bound_why=f.bound_why, reach=f.reach,
         friction_ci=tuple((iv.lo, iv.hi) for iv in (f.seal_friction, f.mu_bushing, f.mu_guide)))
 

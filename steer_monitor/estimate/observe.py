@@ -69,8 +69,8 @@ from steer_monitor.model.ramforce import ram_forces
 
 __all__ = ['DESIGN_ANGLE_PERIOD_NS', 'DESIGN_PRESSURE_PERIOD_NS', 'GRID_NS', 'HALF_WINDOW_NS', 'MOVING_RATE',
            'SEGMENT_NS', 'SLOWER', 'STEADY_FRACTION', 'EstimateError', 'Observations', 'Windows', 'angle_slopes',
-           'build_observations', 'data_grid', 'grid_times', 'in_sorted', 'interp_held', 'median_period_ns',
-           'sorted_positions', 'SignalTiming', 'signal_timing', 'too_little_motion', 'TIMING_PA']
+           'build_observations', 'data_grid', 'fresh_readings', 'grid_times', 'in_sorted', 'interp_held',
+           'median_period_ns', 'sorted_positions', 'SignalTiming', 'signal_timing', 'too_little_motion', 'TIMING_PA']
 
 MOVING_RATE = 0.2 * math.pi / 180.0   # rad/s
 STEADY_FRACTION = 0.5                 # each segment's rate against the window's
@@ -172,6 +172,41 @@ def interp_held(series: Series | None, t: NDArray[np.int64], max_gap: int, shift
     _interp_into(np.ascontiguousarray(ts), np.ascontiguousarray(series.value, dtype=np.float64),
                  np.ascontiguousarray(t, dtype=np.int64).reshape(-1), np.int64(max_gap), out.reshape(-1))
     return out
+
+
+def fresh_readings(series: Series, within_ns: int = DESIGN_ANGLE_PERIOD_NS) -> Series:
+    """``series`` without the copies a gateway sends of a reading: a sample that repeats the
+    last one kept exactly and comes less than ``within_ns`` after it (the design angle period:
+    no sensor of this bus reads faster). A gateway that holds the last value and sends it on a
+    timer faster than the sensor (15 Hz from a 10 Hz rudder sensor) sends some readings twice;
+    its copies, stamped later, make a moving rudder a staircase whose flat treads read as
+    standing (a log at 15 Hz kept a tenth of the steady motion the same log kept at 10 Hz).
+    A reading's time is its first sending. A rudder at rest repeating a reading keeps one
+    sample per ``within_ns`` at least, so the gaps stay within the interpolation's.
+    :func:`build_observations` applies it only where the angle comes faster than the design
+    period: from a sensor read directly a repeat is a reading (the rudder still there then),
+    and where it starts to move is in it."""
+    if len(series) < 2:
+        return series
+    keep = _fresh(np.ascontiguousarray(series.t_ns), np.ascontiguousarray(series.value, dtype=np.float64),
+                  np.int64(within_ns))
+    if keep.all():
+        return series
+    return Series(series.t_ns[keep], series.value[keep])
+
+
+@numba.njit(cache=True, nogil=True)
+def _fresh(t: NDArray[np.int64], v: NDArray[np.float64], within: np.int64
+           ) -> NDArray[np.bool_]:   # pragma: no cover - compiled
+    """:func:`fresh_readings`' walk: which samples to keep."""
+    keep = np.ones(t.size, np.bool_)
+    last = 0
+    for i in range(1, t.size):
+        if v[i] == v[last] and t[i] - t[last] < within:
+            keep[i] = False
+        else:
+            last = i
+    return keep
 
 
 @numba.njit(cache=True, nogil=True, inline='always')
@@ -385,6 +420,9 @@ def build_observations(signals: Mapping[str, Series], ram_area: float, *,
     if missing is not None:
         raise EstimateError(missing)
     angle = signals['rudder_angle']
+    fast = median_period_ns(angle)
+    if fast is not None and fast * SLOWER < DESIGN_ANGLE_PERIOD_NS:   # faster than any sensor reads: copies
+        angle = fresh_readings(angle)
     win = Windows.of(signals)
     shift_ns = round(angle_shift_s * 1e9)
     a_t = angle.t_ns - np.int64(shift_ns)

@@ -275,15 +275,16 @@ class DiagnosticsBuilder:
                        (f'limit_{key}_mm', f'{limit * 1e3:.3f}')]
             name = '2Z' if key == '2z' else 'Z_gb'
             why = f.bound_why[k] if f is not None else ''
-            v = clearance_verdict(value, lo, hi, limit, cfg.clearance_warn_share, name, why)
+            reach = f.reach[k] if f is not None and f.reach is not None else None
+            v = clearance_verdict(value, lo, hi, limit, cfg.clearance_warn_share, name, why, reach)
             if unexplained:
                 v = Verdict(NOT_ASSESSED, v.share, 'the model in use does not explain the pressures '
                                                    f'(systematic part {f.systematic_bar:.2f} bar against '
                                                    f'{f.noise_bar:.2f} bar of sensor noise; see model health)')
             if lo is None:
                 text = f'{name} {value * 1e3:.3f} mm configured'
-            elif hi is None:
-                text = f'{name} >= {lo * 1e3:.3f} mm ({lo / limit:.0%} of limit)'
+            elif hi is None:      # a bound below the limit is no share of it
+                text = f'{name} >= {lo * 1e3:.3f} mm' + (f' ({lo / limit:.0%} of limit)' if lo > limit else '')
             else:
                 text = f'{name} {value * 1e3:.3f} mm [{lo * 1e3:.3f} .. {hi * 1e3:.3f}] ({value / limit:.0%} of limit)'
             text += f' {v.label}'

@@ -10,7 +10,11 @@ OK means *assessed and within limits*; nothing else reads OK:
   within limits: no estimate yet, a lower bound below the warning (the contact never showed
   at the loads seen), an interval reaching from below the warning to past the limit (a point
   below the limit, or an interval wider than the limit), or a model that does not explain the
-  pressures. The note says why and what would assess it;
+  pressures. The note says why and what would assess it: the manoeuvre, with its angle and
+  speed and how far it would show the clearance, where one can show more than the data did
+  (:mod:`~steer_monitor.model.reach`); where none can (the loads seen already reached as far as
+  the gear's largest, or the gear's largest stop short of the bound), that the clearance is
+  beyond what the pressures can show on this gear and has to be measured;
 * OK otherwise: the whole interval within the limit, its low end below the warning.
 
 So OK is wrong (the truth past the limit) only when the interval misses above its high end: for
@@ -19,10 +23,14 @@ an interval that holds the truth at its stated 95 %, at most 2.5 % of the time.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-__all__ = ['ERROR', 'LABELS', 'NOT_ASSESSED', 'OK', 'WARN', 'Verdict', 'assess_hint', 'clearance_verdict', 'worst']
+from steer_monitor.model.reach import Reach
+
+__all__ = ['ERROR', 'LABELS', 'MARGIN', 'NOT_ASSESSED', 'OK', 'WARN', 'Verdict', 'assess_hint', 'beyond_words',
+           'clearance_verdict', 'worst']
 
 OK, WARN, ERROR = 0, 1, 2      # REP-107's levels (diagnostic_msgs/DiagnosticStatus); the diagnostics use them
 NOT_ASSESSED = 3               # REP-107's STALE: the data do not tell
@@ -45,9 +53,31 @@ NEVER = {
 }
 
 
-def assess_hint(name: str) -> str:
-    """The manoeuvre that would assess clearance ``name`` ('2Z' or 'Z_gb')."""
-    return HINTS.get(name, 'a hard-over at sea speed would show it')
+#: the contact that shows each clearance, as a manoeuvre would make it
+CONTACT = {'2Z': 'clamp the ram in its bushing', 'Z_gb': 'load the guide beam'}
+#: a manoeuvre showing a clearance less than this much further than the data did shows nothing
+#: new [m]: the estimator's grid step of that clearance (estimate/fit.py GRID_2Z, GRID_ZGB)
+MARGIN = {'2Z': 0.02e-3, 'Z_gb': 0.005e-3}
+OTHER = {'2Z': 'Z_gb', 'Z_gb': '2Z'}
+KNOT = 1852.0 / 3600.0
+
+
+def assess_hint(name: str, reach: Reach | None = None) -> str:
+    """The manoeuvre that would assess clearance ``name`` ('2Z' or 'Z_gb'): with ``reach``, its
+    angle and speed and how far it would show the clearance."""
+    if reach is None or reach.gear <= 0:
+        return HINTS.get(name, 'a hard-over at sea speed would show it')
+    return (f'a hard-over to {math.degrees(reach.angle):.0f} deg at {reach.speed / KNOT:.0f} kn would '
+            f'{CONTACT.get(name, "make its contact")} for {name} up to {reach.gear * 1e3:.3f} mm and show it')
+
+
+def beyond_words(name: str, reach: Reach) -> str:
+    """Why a clearance past ``reach`` cannot be shown, and what to do instead."""
+    contact = {'2Z': 'the ram clamps in its bushing', 'Z_gb': 'the guide beam carries load'}.get(name, 'it shows')
+    return (f'beyond what the pressures can show on this gear: at {OTHER.get(name, "the other")} '
+            f'{reach.other * 1e3:.3f} mm {contact} only for {name} up to {reach.gear * 1e3:.3f} mm, even at a '
+            f'hard-over to {math.degrees(reach.angle):.0f} deg at {reach.speed / KNOT:.0f} kn; measure it at the next '
+            'survey')
 
 
 def worst(levels: Iterable[int]) -> int:
@@ -74,13 +104,15 @@ class Verdict:
 
 
 def clearance_verdict(value: float, lo: float | None, hi: float | None, limit: float,
-                      warn_share: float, name: str = '', why: str = '') -> Verdict:
+                      warn_share: float, name: str = '', why: str = '', reach: Reach | None = None) -> Verdict:
     """The verdict on a clearance ``value`` [m] with interval [``lo``, ``hi``] (``hi`` None:
     a lower bound only; ``lo`` None: not estimated, the value is configured). ``name`` ('2Z'
     or 'Z_gb') chooses the hint of what would assess it; ``why``: the estimate's own reason
-    for a lower bound, when it has one."""
+    for a lower bound, when it has one; ``reach``: how far the clearance can show on this gear
+    (None: not known, the hint then names no figures). The level does not depend on ``reach``:
+    only what the note says would assess it."""
     share = value / limit
-    hint = assess_hint(name)
+    hint = assess_hint(name, reach)
     if lo is None:
         return Verdict(NOT_ASSESSED, share, f'not estimated yet (the configured value is shown); {hint}')
     warn = warn_share * limit
@@ -91,6 +123,8 @@ def clearance_verdict(value: float, lo: float | None, hi: float | None, limit: f
         if lo >= warn:
             return Verdict(WARN, share, 'lower bound past the warning')
         reason = why or NEVER.get(name, 'the contact did not show at the loads seen')
+        if reach is not None and reach.beyond(lo, MARGIN.get(name, 0.0)):
+            return Verdict(NOT_ASSESSED, share, f'lower bound only ({reason}); {beyond_words(name, reach)}')
         return Verdict(NOT_ASSESSED, share, f'lower bound only ({reason}); {hint}')
     if lo >= warn or (value > limit and not too_wide):
         return Verdict(WARN, share, '')

@@ -88,9 +88,11 @@ def test_a_schema_catches_a_changed_shape(outputs):
 def _walk(x: Any, path: str, out: list[str]) -> None:
     if isinstance(x, dict):
         if 'ci95' in x:
-            if (set(x) - {'level', 'note', 'limit_mm', 'at_range_edge'} != {'value', 'ci95', 'bounded'}
-                    or len(x['ci95']) != 2 or ('level' not in x and {'note', 'limit_mm'} & set(x))):
-                out.append(f'{path}: an estimate is {{value, ci95, bounded, level?, note?, limit_mm?, at_range_edge?}}'
+            extra = {'level', 'note', 'limit_mm', 'at_range_edge', 'observable_to_mm'}
+            if (set(x) - extra != {'value', 'ci95', 'bounded'}
+                    or len(x['ci95']) != 2 or ('level' not in x and {'note', 'limit_mm', 'observable_to_mm'} & set(x))):
+                out.append(f'{path}: an estimate is {{value, ci95, bounded, level?, note?, limit_mm?, at_range_edge?, '
+                           'observable_to_mm?}}'
                            f', not {sorted(x)}')
             elif not x['bounded'] and x['value'] is not None:
                 out.append(f'{path}: a bound has no point value')

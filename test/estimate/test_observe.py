@@ -281,6 +281,26 @@ def test_what_one_slow_angle_sample_puts_into_several_rows_is_not_read_as_system
     assert smooth_p > 0.5 * noise_p
 
 
+def test_a_gateway_s_copies_of_a_reading_do_not_make_a_moving_rudder_stand():
+    """A gateway holding the last reading of a 10 Hz rudder sensor and sending it at 15 Hz (the
+    pressures at 5 Hz): every other reading goes out twice, a staircase whose treads read as
+    standing. Its copies dropped, the steady motion is the 10 Hz log's; a rudder at rest
+    repeating one reading keeps a sample every design period at least."""
+    sig = _slow_signals(10.0, 5.0)
+    src = sig['rudder_angle']
+    ticks = np.arange(int(src.t_ns[0]) + 7_000_000, int(src.t_ns[-1]), 66_666_667, dtype=np.int64)
+    k = np.searchsorted(src.t_ns, ticks, 'right') - 1
+    held = dict(sig, rudder_angle=_series(ticks / 1e9, src.value[k]))
+    direct = build_observations(sig, 0.045).moving.sum()
+    assert build_observations(held, 0.045).moving.sum() >= 0.9 * direct
+    from steer_monitor.estimate.observe import DESIGN_ANGLE_PERIOD_NS, fresh_readings
+    assert fresh_readings(held['rudder_angle']).t_ns.size == np.unique(k).size
+    rest = _series(np.cumsum(np.random.default_rng(2).uniform(0.09, 0.11, 600)), np.full(600, 0.1))
+    kept = fresh_readings(rest)
+    assert np.diff(kept.t_ns).max() < DESIGN_ANGLE_PERIOD_NS + np.diff(rest.t_ns).max() and kept.t_ns[0] == rest.t_ns[0]
+    assert kept.t_ns.size < rest.t_ns.size
+
+
 @pytest.mark.parametrize('angle_hz, pressure_hz, excluded', [(2.0, 5.0, True), (10.0, 20.0, False)])
 def test_rows_a_slow_sample_time_cannot_resolve_are_left_out(angle_hz, pressure_hz, excluded):
     """The starboard pressures climbing 10 bar/s from 30 s to 60 s: a timing error of one

@@ -330,7 +330,8 @@ def _verdict_block(inp: ReportInput) -> str:
                          f'<div class="big">{NOT_JUDGED}</div><div>{esc(inp.analysis_note or h.note)}</div></div>')
             continue
         if iv.hi is None:
-            point = f'at least {iv.lo * 1e3:.3f} mm ({iv.lo / limit:.0%} of the {limit * 1e3:.3f} mm limit)'
+            point = f'at least {iv.lo * 1e3:.3f} mm' + (
+                f' ({iv.lo / limit:.0%} of the {limit * 1e3:.3f} mm limit)' if iv.lo > limit else '')
             rng = 'the ram never clamped at the loads seen: no upper bound'
         else:
             point = f'{iv.value * 1e3:.3f} mm, {iv.value / limit:.0%} of the {limit * 1e3:.3f} mm limit'
