@@ -70,7 +70,8 @@ from steer_monitor.model.ramforce import ram_forces
 __all__ = ['DESIGN_ANGLE_PERIOD_NS', 'DESIGN_PRESSURE_PERIOD_NS', 'GRID_NS', 'HALF_WINDOW_NS', 'MOVING_RATE',
            'SEGMENT_NS', 'SLOWER', 'STEADY_FRACTION', 'EstimateError', 'Observations', 'Windows', 'angle_slopes',
            'build_observations', 'data_grid', 'fresh_readings', 'grid_times', 'in_sorted', 'interp_held',
-           'median_period_ns', 'sorted_positions', 'SignalTiming', 'signal_timing', 'too_little_motion', 'TIMING_PA']
+           'median_period_ns', 'sorted_positions', 'SignalTiming', 'signal_timing', 'too_little_motion', 'TIMING_PA',
+           'COPIES_FASTER']
 
 MOVING_RATE = 0.2 * math.pi / 180.0   # rad/s
 STEADY_FRACTION = 0.5                 # each segment's rate against the window's
@@ -83,6 +84,9 @@ GAP_PAD_NS = 1_000_000_000            # ... keeping this much at each side
 #: 2 bar the seal friction through a hold gateway at 5 Hz was read 5-9 % high and its interval
 #: held on 2 of 5); docs/accuracy-rates.md proves it on others
 TIMING_PA = 1e5
+#: an angle whose median interval is this much shorter than the design period comes from a
+#: gateway resending readings (:func:`fresh_readings`)
+COPIES_FASTER = 1.1
 
 
 class EstimateError(SteerMonitorError, ValueError):
@@ -175,17 +179,20 @@ def interp_held(series: Series | None, t: NDArray[np.int64], max_gap: int, shift
 
 
 def fresh_readings(series: Series, within_ns: int = DESIGN_ANGLE_PERIOD_NS) -> Series:
-    """``series`` without the copies a gateway sends of a reading: a sample that repeats the
-    last one kept exactly and comes less than ``within_ns`` after it (the design angle period:
-    no sensor of this bus reads faster). A gateway that holds the last value and sends it on a
-    timer faster than the sensor (15 Hz from a 10 Hz rudder sensor) sends some readings twice;
-    its copies, stamped later, make a moving rudder a staircase whose flat treads read as
-    standing (a log at 15 Hz kept a tenth of the steady motion the same log kept at 10 Hz).
-    A reading's time is its first sending. A rudder at rest repeating a reading keeps one
-    sample per ``within_ns`` at least, so the gaps stay within the interpolation's.
-    :func:`build_observations` applies it only where the angle comes faster than the design
-    period: from a sensor read directly a repeat is a reading (the rudder still there then),
-    and where it starts to move is in it."""
+    """``series`` without the copies a gateway sends of a reading: in a run of samples of one
+    value that the signal passes through (the values either side of the run lie on either side
+    of it: the rudder moving on through), those less than ``within_ns`` after the run's first
+    (the design angle period: no sensor of this bus reads faster). A gateway that holds the last
+    value and sends it on a timer faster than the sensor (12 or 15 Hz from a 10 Hz rudder sensor)
+    sends some readings twice; its copies, stamped later, make a moving rudder a staircase whose
+    flat treads read as standing (a log at 15 Hz kept a twentieth of the steady motion the same
+    log kept at 10 Hz). A reading's time is its first sending. A run where the rudder stops
+    (turns back, or stands longer than ``within_ns``) keeps its samples: there a repeat is a
+    reading, and where the rudder starts to move again is in it. :func:`build_observations`
+    applies it only where the angle comes over ``COPIES_FASTER`` times faster than the design
+    period, faster than any rudder sensor on this bus reads: from a sensor read directly a
+    repeat is a reading (below its resolution, as the rudder slows to a stop, where the
+    instants it reads are what the inertia and the stops are judged on)."""
     if len(series) < 2:
         return series
     keep = _fresh(np.ascontiguousarray(series.t_ns), np.ascontiguousarray(series.value, dtype=np.float64),
@@ -200,12 +207,21 @@ def _fresh(t: NDArray[np.int64], v: NDArray[np.float64], within: np.int64
            ) -> NDArray[np.bool_]:   # pragma: no cover - compiled
     """:func:`fresh_readings`' walk: which samples to keep."""
     keep = np.ones(t.size, np.bool_)
-    last = 0
-    for i in range(1, t.size):
-        if v[i] == v[last] and t[i] - t[last] < within:
-            keep[i] = False
-        else:
-            last = i
+    n = t.size
+    a = 1
+    while a < n:
+        if v[a] != v[a - 1]:
+            a += 1
+            continue
+        first = a - 1                   # a run of one value from first to b - 1
+        b = a
+        while b < n and v[b] == v[first]:
+            b += 1
+        if first > 0 and b < n and (v[first] - v[first - 1]) * (v[b] - v[first]) > 0:
+            for i in range(first + 1, b):
+                if t[i] - t[first] < within:
+                    keep[i] = False
+        a = b
     return keep
 
 
@@ -420,8 +436,8 @@ def build_observations(signals: Mapping[str, Series], ram_area: float, *,
     if missing is not None:
         raise EstimateError(missing)
     angle = signals['rudder_angle']
-    fast = median_period_ns(angle)
-    if fast is not None and fast * SLOWER < DESIGN_ANGLE_PERIOD_NS:   # faster than any sensor reads: copies
+    period = median_period_ns(angle)
+    if period is not None and period * COPIES_FASTER < DESIGN_ANGLE_PERIOD_NS:
         angle = fresh_readings(angle)
     win = Windows.of(signals)
     shift_ns = round(angle_shift_s * 1e9)
