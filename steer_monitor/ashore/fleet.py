@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from steer_monitor.ashore.loganalysis import NOT_JUDGED
+from steer_monitor.ashore.loganalysis import NOT_JUDGED, reach_json
 from steer_monitor.ashore.store import LogResult, file_digest, load_results, log_result, save_results
 from steer_monitor.atomic import os_reason
 from steer_monitor.errors import InputError, SteerMonitorError
@@ -28,7 +28,7 @@ from steer_monitor.estimate.intervals import Interval
 from steer_monitor.estimate.trend import NO_WEAR, YEAR_S, Trend, TrendPoint, fit_trend
 from steer_monitor.logfiles.compressed import plain_suffix
 from steer_monitor.logfiles.logs import log_path_problem
-from steer_monitor.monitor.verdict import clearance_verdict
+from steer_monitor.monitor.verdict import MARGIN, beyond_words, clearance_verdict
 from steer_monitor.params import load_config
 from steer_monitor.record.provenance import parameters_digest
 from steer_monitor.utc import utc_json
@@ -261,7 +261,26 @@ def _clearance(r: LogResult, attr: str, limit: float, warn_share: float) -> dict
         return {'value': None, 'ci95': [None, None], 'bounded': False, 'level': NOT_JUDGED}
     label = clearance_verdict(iv.value, iv.lo, iv.hi, limit, warn_share).label
     level = NOT_JUDGED if r.verdict == 'unexplained' else label
-    return {**iv.scaled(1e3), 'level': level}
+    return {**iv.scaled(1e3), 'level': level, **reach_json(r.reach(0 if attr == 'two_z' else 1))}
+
+
+def beyond_reach(rs: Sequence[LogResult]) -> dict[str, dict[str, Any] | None]:
+    """Per clearance, the first log (in time) where it lay beyond what the pressures can show
+    on the gear (a lower bound past the gear's reach, :meth:`~steer_monitor.model.reach.Reach.beyond`):
+    ``{"since_utc", "log", "lower_bound_mm", "gear_mm", "message"}``, None when none did. From then
+    on the logs can only say it is at least that: a measurement tells the rest, and a trend is
+    what the logs before it imply."""
+    out: dict[str, dict[str, Any] | None] = {}
+    for key, attr, k, name in (('clearance_2z_mm', 'two_z', 0, '2Z'), ('clearance_zgb_mm', 'z_gb', 1, 'Z_gb')):
+        out[key] = None
+        for r in sorted((r for r in rs if not r.error and r.start_ns), key=lambda r: r.start_ns):
+            iv, reach = _interval(r, attr), r.reach(k)
+            if (iv is not None and iv.hi is None and iv.lo is not None and reach is not None
+                    and reach.beyond(iv.lo, MARGIN[name])):
+                out[key] = {'since_utc': _iso(r.start_ns), 'log': r.log, 'lower_bound_mm': round(iv.lo * 1e3, 4),
+                            'gear_mm': round(reach.gear * 1e3, 4), 'message': beyond_words(name, reach)}
+                break
+    return out
 
 
 #: levels from the least to the most serious (a log's level is its worst clearance's): a
@@ -379,7 +398,7 @@ def fleet_json(run: FleetRun) -> dict[str, Any]:
         for i, k in same_time_as(rs).items():
             logs[i]['same_time_as'] = rs[k].log
         vessels.append({'name': v.name, 'config': None if v.config is None else str(v.config),
-                        'logs': logs,
+                        'logs': logs, 'beyond_reach': beyond_reach(rs),
                         'trend': {key: _trend_json(tr, p[f'clearances.limit_{key.split("_")[1]}_mm'] * 1e-3,
                                                    [rs[i].log for i in index])
                                   for key, (tr, _, index) in trends.items()}})

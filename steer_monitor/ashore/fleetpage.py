@@ -81,6 +81,8 @@ def fleet_page(run: FleetRun) -> str:
             for lg in v['logs'])
         trend = '; '.join(
             f"{'2Z' if '2z' in key else 'Z_gb'}: " + (
+                f"since {v['beyond_reach'][key]['since_utc']} {v['beyond_reach'][key]['message']}; the logs up to "
+                'then: ' if v['beyond_reach'][key] is not None else '') + (
                 'too few judged estimates for a trend' if t is None else
                 t['message'] + (f", limit reached {t['limit_date_utc']} [{t['limit_date_ci95'][0]} .. "
                                 f"{t['limit_date_ci95'][1] or 'later'}]" if t['limit_date_utc'] else ''))

@@ -24,6 +24,7 @@ from typing import Any
 
 from steer_monitor.atomic import atomic_path
 from steer_monitor.errors import InputError
+from steer_monitor.model.reach import Reach
 
 __all__ = ['LATER_COLUMNS', 'RESULTS_FILE', 'LogResult', 'file_digest', 'load_results', 'log_result', 'save_results']
 
@@ -33,7 +34,7 @@ RESULTS_FILE = 'results.parquet'
 #: earlier version, whose results are not kept but made again (that version's estimates
 #: took in stretches where the rams did not share the force evenly; then the declared
 #: model's, where the clearances now are the model check's)
-LATER_COLUMNS = ('uneven_json', 'verdict', 'effects')
+LATER_COLUMNS = ('uneven_json', 'verdict', 'effects', 'reach_json')
 
 
 def load_results(directory: str | Path) -> tuple[dict[tuple[str, str], LogResult], int]:
@@ -126,6 +127,15 @@ class LogResult:
     uneven_json: str = '[]'
     verdict: str = ''
     effects: str = ''
+    #: how far 2Z and Z_gb can show on the gear at this log (:mod:`~steer_monitor.model.reach`):
+    #: JSON ``[[seen, gear, angle, speed, other], [...]]`` in SI, '' when not worked out
+    reach_json: str = ''
+
+    def reach(self, k: int) -> Reach | None:
+        """Clearance ``k``'s reach (0: 2Z, 1: Z_gb), None when not worked out."""
+        if not self.reach_json:
+            return None
+        return Reach(*(float(x) for x in json.loads(self.reach_json)[k]))
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -192,7 +202,9 @@ def log_result(vessel: str, log: str, config: str | None, log_sha256: str, confi
                      json.dumps([{'start_ns': sp.start_ns, 'end_ns': sp.end_ns, 'ram': sp.ram + 1, 'share': sp.share,
                                   'idle': sp.idle} for sp in r.uneven]),
                      '' if analysis is None else analysis.verdict,
-                     '' if analysis is None else ','.join(st.name for st in analysis.steps))
+                     '' if analysis is None else ','.join(st.name for st in analysis.steps),
+                     '' if e is None or e.reach is None else json.dumps(
+                         [[r.seen, r.gear, r.angle, r.speed, r.other] for r in e.reach]))
 
 
 def _why_none(estimate: Any, opposed: str, run: Any) -> str:

@@ -72,7 +72,11 @@ def _run(dirs: Sequence[str | Path], out_dir: Path, workers: int | None, schedul
                       (f'first limit reached {soon}' if soon else 'no limit date') + '\n')
             for key, t in v['trend'].items():
                 name = '2Z' if '2z' in key else 'Z_gb'
-                out.write(f"  {name}: {'too few judged estimates for a trend' if t is None else t['message']}\n")
+                trend = 'too few judged estimates for a trend' if t is None else t['message']
+                b = v['beyond_reach'][key]
+                if b is not None:     # the logs from then on say only "at least": the trend is the logs' before
+                    trend = f"since {b['since_utc']} ({b['log']}) {b['message']}; the logs up to then: {trend}"
+                out.write(f"  {name}: {trend}\n")
             for log in twice:
                 out.write(f"  {log['log']} holds the time of {log['same_time_as']}: counted once in the trend\n")
         if data['earlier_version_results']:

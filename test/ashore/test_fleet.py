@@ -377,3 +377,21 @@ def test_the_page_shows_each_clearance_with_its_own_level(r18_params):
     row = next(line for line in page.split('<tr>') if 'a.log' in line)
     cells = row.split('<td>')
     assert 'NOT ASSESSED' in cells[3] and 'WARN' in cells[4] and 'NOT ASSESSED' not in cells[4]
+
+
+def test_the_fleet_says_when_a_clearance_left_what_the_pressures_can_show(r18_params):
+    """2Z assessed in the first logs, then a lower bound past the gear's reach (the bushing worn
+    past what clamps at its largest loads): the vessel says since when, and the logs' trend up
+    to then; a log's clearance carries its reach."""
+    import dataclasses
+    reach = json.dumps([[0.2e-3, 0.21e-3, 0.61, 8.23, 0.25e-3], [0.5e-3, 0.6e-3, 0.61, 8.23, 0.2e-3]])
+    rs = [dataclasses.replace(_result(f'd{d:03d}.log', d, 24, 0.20), reach_json=reach) for d in range(0, 150, 30)]
+    worn = [dataclasses.replace(r, two_z=0.2e-3, two_z_lo=0.2e-3, two_z_hi=math.nan) for r in rs[3:]]
+    v = _fleet(rs[:3] + worn, r18_params)
+    b = v['beyond_reach']['clearance_2z_mm']
+    assert b['log'] == 'd090.log' and b['since_utc'].startswith('2026-04-01') and b['gear_mm'] == 0.21
+    assert b['message'].startswith('beyond what the pressures can show on this gear') and 'survey' in b['message']
+    assert v['beyond_reach']['clearance_zgb_mm'] is None
+    assert v['logs'][0]['clearance_2z_mm']['observable_to_mm'] == {'loads_seen': 0.2, 'gear': 0.21,
+                                                                   'at_other_mm': 0.25}
+    assert _fleet(rs, r18_params)['beyond_reach']['clearance_2z_mm'] is None
