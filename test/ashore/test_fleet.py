@@ -94,7 +94,9 @@ def test_a_year_of_a_fleet_with_a_worker_killed(tmp_path, fleet_dirs, client):
         'ci95',
         'bounded',
         'level',
+        'observable_to_mm',
     }
+    assert set(log0['clearance_zgb_mm']['observable_to_mm']) == {'loads_seen', 'gear', 'at_other_mm'}
 
     # each log's report page, from the same review, whole (written aside and renamed)
     for v in data['vessels']:

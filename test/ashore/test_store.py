@@ -50,7 +50,7 @@ def test_results_of_an_earlier_version_are_made_again_and_a_foreign_table_refuse
     pq.write_table(table.drop_columns(['z_gb_lo', *LATER_COLUMNS]), path)
     with pytest.raises(
         InputError,
-        match=r'kept results .*results\.parquet lack columns z_gb_lo, uneven_json, verdict, effects '
+        match=r'kept results .*results\.parquet lack columns z_gb_lo, uneven_json, verdict, effects, reach_json '
         r'\(written by another version\? remove it\)',
     ):
         load_results(tmp_path)
