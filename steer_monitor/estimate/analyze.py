@@ -90,6 +90,7 @@ from steer_monitor.estimate.plausible import rated_force
 from steer_monitor.estimate.rams import OPPOSED, RamShare, judge, opposed_cause, ram_share, working_against
 from steer_monitor.estimate.ramscheck import RamsCheck, UnevenSpan, within
 from steer_monitor.estimate.screening import Screening, Step, best_per_name, outlier_instants, screening_record
+from steer_monitor.estimate.stamplags import over_stamp_lags
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.inputs import PRESSURE_INPUTS, Series
 
@@ -441,8 +442,8 @@ def analyze(gear: GearParams, signals: Mapping[str, Series], *, min_clearance_2z
         base = trial
     steps = [replace(s, params=_effect_params(s.candidate, base.est, base.obs)) for s in steps]
     closest = next((s for s in rounds[-1]), None)
-    return replace(_conclude(gear, obs, base, declared, steps, rounds[0], closest, unkept, n_out, note, uneven,
-                             rams, grid_2z, say, False, win), rams_assessed=check.assessed)
+    return replace(_conclude(gear, signals, obs, base, declared, steps, rounds[0], closest, unkept, n_out, note,
+                             uneven, rams, grid_2z, say, False, win), rams_assessed=check.assessed)
 
 
 def _refit(gear: GearParams, base: _Base, columns: tuple[F.Column, ...], grid_2z: NDArray) -> _Base:
@@ -491,17 +492,20 @@ def _given(gear: GearParams, signals: Mapping[str, Series], obs: Observations, m
     n_out = int(outliers.sum())
     base = _base(gear, m_obs, ~outliers, extra, grid_2z, est=None if outliers.any() else first)
     steps = [Step(c.name, _effect_params(c, base.est, base.obs), None, base.est, base.est, c) for c in cands]
-    return _conclude(gear, obs, base, base.est, steps, [], None, [], n_out, note, uneven, rams, grid_2z, say, True,
-                     win)
+    return _conclude(gear, signals, obs, base, base.est, steps, [], None, [], n_out, note, uneven, rams, grid_2z, say,
+                     True, win)
 
 
-def _conclude(gear: GearParams, obs: Observations, base: _Base, declared: ClearanceEstimate, steps: list[Step],
-              screening: list[Screening], closest: Screening | None, unkept: list[str], n_out: int, note: str,
-              uneven: tuple[UnevenSpan, ...], rams: RamShare | None, grid_2z: NDArray, say: Callable[[str], None],
-              given: bool, win: W.Window | None) -> Analysis:
+def _conclude(gear: GearParams, signals: Mapping[str, Series], obs: Observations, base: _Base,
+              declared: ClearanceEstimate, steps: list[Step], screening: list[Screening], closest: Screening | None,
+              unkept: list[str], n_out: int, note: str, uneven: tuple[UnevenSpan, ...], rams: RamShare | None,
+              grid_2z: NDArray, say: Callable[[str], None], given: bool, win: W.Window | None) -> Analysis:
     """The verdict on ``base`` (the model the loop chose, or the one given), and when it does not
-    explain the data, where the misfit lives and the clearances refitted with it as a nuisance."""
+    explain the data, where the misfit lives and the clearances refitted with it as a nuisance.
+    From a slow log, the friction's intervals span the lags its stamps allow
+    (:mod:`~steer_monitor.estimate.stamplags`)."""
     final_obs = base.obs
+    shift_s = sum(s.candidate.angle_shift_s for s in steps)
     explained = base.est.smooth_rms <= EXPLAINED_RATIO * base.est.noise_rms
     names = [s.name for s in steps]
     if explained:
@@ -510,6 +514,7 @@ def _conclude(gear: GearParams, obs: Observations, base: _Base, declared: Cleara
         if not steps and unkept:
             msg += f' ({"; ".join(unkept)})'
         est, said = _specification_check(gear, base, grid_2z, say)
+        est = over_stamp_lags(gear, signals, est, base.obs, base.keep, base.extra, shift_s, grid_2z, say=say)
         return Analysis(declared, est, names[0] if names else None, steps[0].params if steps else {}, verdict,
                         msg + said + note, screening, None, obs, final_obs, n_out, tuple(steps), None, base.est,
                         uneven, rams, given=given, window=win)
@@ -541,6 +546,8 @@ def _conclude(gear: GearParams, obs: Observations, base: _Base, declared: Cleara
     if not nuisance:                    # the model's own fit, its intervals counting the misfit as noise
         final = estimate_clearances(gear, base.obs, base.rows, base.extra, grid_2z=grid_2z,
                                     model_inflation=unexplained_inflation(base.est))
+    final = over_stamp_lags(gear, signals, final, base.obs, base.keep, base.extra, shift_s, grid_2z,
+                            unexplained_inflation(base.est), say)
 
     msg = message('unexplained', declared, base.est, closest, steps, given)
     msg += f'; {located.message(gear.ram_area)}' if located is not None else '; no observed variable carries it'

@@ -41,7 +41,8 @@ from steer_monitor.model.reach import Reach, gear_reach
 
 __all__ = ['MIN_MOTION_SAMPLES', 'ClearanceEstimate', 'Rows', 'Spread', 'box_holds', 'coarse_profile',
            'estimate_clearances', 'estimate_in_box', 'k_gl_max', 'lag_moments', 'make_rows',
-           'predict_rows', 'residual_parts', 'residuals_and_inflation', 'sample_spread', 'search_box']
+           'predict_rows', 'residual_parts', 'residuals_and_inflation', 'sample_spread', 'search_box',
+           'within_range']
 
 MIN_MOTION_SAMPLES = 200     # rows (ram x instant) of steady motion: 5 s of moving rudder
 SMOOTH_LAG_STEPS = 4         # 200 ms: sensor noise is uncorrelated this far apart
@@ -293,7 +294,7 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: PF.Profile,
             se = np.sqrt(np.maximum(np.array([f.cov_unscaled[k, k] for _, _, f in region_fits]), 0.0) * sigma2
                          * r.scale)
         ok = np.isfinite(c) & np.isfinite(se)
-        coefs[name] = _within_range(name, float(best.coef[k]), float(np.min((c - z * se)[ok])) if ok.any() else None,
+        coefs[name] = within_range(name, float(best.coef[k]), float(np.min((c - z * se)[ok])) if ok.any() else None,
                                     float(np.max((c + z * se)[ok])) if ok.any() else None)
     z_gb, why_guide = guide_contact_at_friction_limit(z_gb, coefs['mu_guide'])
     if why_guide:
@@ -385,7 +386,7 @@ def _evidence(gear: GearParams, mom: Moments, load: NDArray[np.float64], two_z: 
     return out[0], out[1], (why[0], why[1])
 
 
-def _within_range(name: str, value: float, lo: float | None, hi: float | None) -> Interval:
+def within_range(name: str, value: float, lo: float | None, hi: float | None) -> Interval:
     """A coefficient's interval held to its physical range (the declared friction's,
     :data:`~steer_monitor.estimate.ranges.DECLARED`): clipped to it, with the end its fit
     stopped on; not determined (both ends None) where the data do not narrow the range at all

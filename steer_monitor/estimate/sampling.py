@@ -152,6 +152,21 @@ class Windows:
                 + self.erode * GRID_NS)
 
     @property
+    def lag_span_ns(self) -> tuple[int, int]:
+        """How much later the angle's stamps may read than the pressures' (lo, hi) [ns]: (0, 0)
+        at the design rates (a direct tap stamps each frame as it comes). Through a gateway
+        a value is stamped when the gateway sends it: one that holds the last value and sends
+        it on its own timer sends it up to one period of the sensor old, or of its own timer
+        where that is faster; one that forwards every n-th frame as it comes, about fresh.
+        Neither can be told from the stamps, so the angle may lag the pressures by up to its
+        period and lead them by up to theirs, each at most the design period (the sensor's)."""
+        if self.design:
+            return 0, 0
+        pa = min(self.angle_period_ns or DESIGN_ANGLE_PERIOD_NS, DESIGN_ANGLE_PERIOD_NS)
+        pp = min(self.pressure_period_ns or DESIGN_PRESSURE_PERIOD_NS, DESIGN_PRESSURE_PERIOD_NS)
+        return -pp, pa
+
+    @property
     def design(self) -> bool:
         """Both at the rates the constants are made for: nothing scaled."""
         return self == Windows(self.angle_period_ns, self.pressure_period_ns)

@@ -50,3 +50,18 @@ def test_at_or_near_the_design_rates_the_windows_are_the_design():
     assert Windows.of_periods(None, None).design
     assert Windows.of_periods(int(1.19 * DESIGN_ANGLE_PERIOD_NS), int(1.19 * DESIGN_PRESSURE_PERIOD_NS)).design
     assert not Windows.of_periods(int(1.25 * DESIGN_ANGLE_PERIOD_NS), None).design
+
+
+@pytest.mark.parametrize('angle_hz, pressure_hz, lags_ms', [
+    (10.0, 20.0, (0, 0)),           # a direct tap: stamped as read
+    (5.0, 5.0, (-50, 100)),         # a slower gateway: up to a sensor's period stale each
+    (2.0, 0.5, (-50, 100)),
+    (25.0, 3.0, (-50, 40)),         # the angle sent faster than its sensor: up to a tick stale
+    (10.0, 10.0, (-50, 100)),
+])
+def test_the_lags_a_gateway_s_stamps_allow(angle_hz, pressure_hz, lags_ms):
+    """The angle may read later than the pressures by up to the period it was sent at, at most
+    its sensor's (the design period), and earlier by up to theirs; nothing at the design rates."""
+    w = Windows.of_periods(round(1e9 / angle_hz), round(1e9 / pressure_hz))
+    lo, hi = w.lag_span_ns
+    assert lo == pytest.approx(lags_ms[0] * 1e6, rel=0.1) and hi == pytest.approx(lags_ms[1] * 1e6, rel=0.1)
