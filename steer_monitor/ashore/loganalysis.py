@@ -308,8 +308,9 @@ def headline_json(h: Headline) -> dict[str, object]:
 
 
 def reach_json(reach: Reach | None) -> dict[str, object]:
-    """``{"observable_to_mm": {"loads_seen", "gear", "at_other_mm"}}`` ({} when not worked out)."""
+    """``{"observable_to_mm": {"loads_seen", "gear", "at_other_mm", "other_lower_bound"}}`` ({} when
+    not worked out)."""
     if reach is None:
         return {}
     return {'observable_to_mm': {'loads_seen': round(reach.seen * 1e3, 4), 'gear': round(reach.gear * 1e3, 4),
-                                 'at_other_mm': round(reach.other * 1e3, 4)}}
+                                 'at_other_mm': round(reach.other * 1e3, 4), 'other_lower_bound': reach.other_bound}}

@@ -128,14 +128,14 @@ class LogResult:
     verdict: str = ''
     effects: str = ''
     #: how far 2Z and Z_gb can show on the gear at this log (:mod:`~steer_monitor.model.reach`):
-    #: JSON ``[[seen, gear, angle, speed, other], [...]]`` in SI, '' when not worked out
+    #: JSON ``[Reach.as_list(), ...]`` in SI, '' when not worked out
     reach_json: str = ''
 
     def reach(self, k: int) -> Reach | None:
         """Clearance ``k``'s reach (0: 2Z, 1: Z_gb), None when not worked out."""
         if not self.reach_json:
             return None
-        return Reach(*(float(x) for x in json.loads(self.reach_json)[k]))
+        return Reach.of_list(json.loads(self.reach_json)[k])
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -203,8 +203,7 @@ def log_result(vessel: str, log: str, config: str | None, log_sha256: str, confi
                                   'idle': sp.idle} for sp in r.uneven]),
                      '' if analysis is None else analysis.verdict,
                      '' if analysis is None else ','.join(st.name for st in analysis.steps),
-                     '' if e is None or e.reach is None else json.dumps(
-                         [[r.seen, r.gear, r.angle, r.speed, r.other] for r in e.reach]))
+                     '' if e is None or e.reach is None else json.dumps([r.as_list() for r in e.reach]))
 
 
 def _why_none(estimate: Any, opposed: str, run: Any) -> str:

@@ -328,16 +328,22 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: PF.Profile,
         marginals=(ref.two_z, ref.z_gb), steps=ref.steps, rss_floor=floor,
         scales=(units[0] / sigma2, units[1] / sigma2), thresholds=(rs[0].threshold_1, rs[1].threshold_1),
         bound_why=why,
-        robust=dict(scales or {}), sigma2=sigma2, reach=_reach(gear, mom, load, two_z.value, z_gb.value))
+        robust=dict(scales or {}), sigma2=sigma2, reach=_reach(gear, mom, load, two_z, z_gb))
 
 
-def _reach(gear: GearParams, mom: Moments, load: NDArray[np.float64], two_z: float, z_gb: float
+def _reach(gear: GearParams, mom: Moments, load: NDArray[np.float64], two_z: Interval, z_gb: Interval
            ) -> tuple[Reach, Reach]:
-    """How far 2Z and Z_gb can show, each at the other's estimate: under the loads of the
-    rows' bins (their angles and the torque the fitted load gives there) and the gear's largest."""
+    """How far 2Z and Z_gb can show, each at the other's estimate (at its lower bound where it
+    has no other): under the loads of the rows' bins (their angles and the torque the fitted
+    load gives there) and the gear's largest."""
     held = mom.count > 0
     alpha, torque = mom.abs_alpha[held], F.torque_of_load(gear, mom, load)[held]
-    return gear_reach(gear, 0, z_gb, alpha, torque), gear_reach(gear, 1, two_z, alpha, torque)
+
+    def of(which: int, other: Interval) -> Reach:
+        bound = other.hi is None and other.lo is not None
+        return gear_reach(gear, which, other.lo if bound else other.value, alpha, torque, bound)  # type: ignore[arg-type]
+
+    return of(0, z_gb), of(1, two_z)
 
 
 MIN_CONTACT_SHARE = 0.02    # of the steady-motion rows, where a clearance's contact must show to be assessed

@@ -104,8 +104,7 @@ class Finding:
                 'systematic_bar': self.systematic_bar, 'noise_bar': self.noise_bar, 'motion_s': self.motion_s,
                 'rows': self.rows, 'bound_why': list(self.bound_why),
                 'friction_ci': [list(x) for x in self.friction_ci],
-                'reach': None if self.reach is None else [[r.seen, r.gear, r.angle, r.speed, r.other]
-                                                          for r in self.reach]}
+                'reach': None if self.reach is None else [r.as_list() for r in self.reach]}
 
     @classmethod
     def from_json(cls, d: dict) -> Finding:
@@ -133,10 +132,10 @@ class Finding:
 
 
 def _reach_of(x: object) -> tuple[Reach, Reach] | None:
-    """The reach of :meth:`Finding.to_json` (None kept; ValueError when it has not two of five)."""
+    """The reach of :meth:`Finding.to_json` (None kept; ValueError when it has not two)."""
     if x is None:
         return None
-    rs = [Reach(*(float(v) for v in r)) for r in x]  # type: ignore[attr-defined]
+    rs = [Reach.of_list(r) for r in x]  # type: ignore[attr-defined]
     if len(rs) != 2:
         msg = f'reach of {len(rs)} clearances, expected 2'
         raise ValueError(msg)

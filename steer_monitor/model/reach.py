@@ -48,20 +48,43 @@ class Reach:
     """How far a clearance can show: ``seen`` [m] the largest value the loads a voyage held
     could show (0: those loads make no contact at any value), ``gear`` [m] the largest the
     gear's largest loads could (a hard-over to ``angle`` [rad] at ``speed`` [m/s], its service
-    speed), both at ``other`` [m], the other clearance's value they were worked out at."""
+    speed), both at ``other`` [m], the other clearance's value they were worked out at; where
+    the other is known only from below (``other_bound``), at that bound. Each clearance's
+    reach grows with the other's (a freer ram deflects further before the guide beam takes
+    load; a slipper further off lets the ram bend further in its bushing), so then the reach
+    is at least this."""
 
     seen: float
     gear: float
     angle: float
     speed: float
     other: float
+    other_bound: bool = False
 
     def beyond(self, lower_bound: float, margin: float) -> bool:
         """Whether a clearance known only to be at least ``lower_bound`` [m] lies beyond what
         any manoeuvre could show: the voyage's loads already reach to within ``margin`` [m] of
         the gear's (a hard-over would show no more than they did), or the gear's reach stops
-        below the bound itself."""
+        below the bound itself. Never where the other clearance is itself only a lower bound:
+        its true value may put the reach anywhere above this one."""
+        if self.other_bound:
+            return False
         return self.gear <= self.seen + margin or self.gear <= lower_bound + margin
+
+    def as_list(self) -> list[float]:
+        """``[seen, gear, angle, speed, other, other_bound]`` (SI; the flag 0 or 1): the one
+        form a reach is kept in (the node's state, the fleet's results)."""
+        return [self.seen, self.gear, self.angle, self.speed, self.other, float(self.other_bound)]
+
+    @classmethod
+    def of_list(cls, x: object) -> Reach:
+        """The reach of :meth:`as_list` (one kept before the flag, five numbers, reads as the
+        other clearance's estimate); ValueError when it is not five or six numbers."""
+        v = [float(a) for a in x]  # type: ignore[attr-defined]
+        if len(v) not in (5, 6):
+            msg = f'a reach of {len(v)} numbers, expected 5 or 6'
+            raise ValueError(msg)
+        return cls(*v[:5], other_bound=bool(v[5]) if len(v) == 6 else False)
 
 
 def _shows(gear: GearParams, which: int, alpha: NDArray[np.float64], torque: NDArray[np.float64],
@@ -105,9 +128,12 @@ def gear_loads(gear: GearParams) -> tuple[NDArray[np.float64], NDArray[np.float6
     return alpha, np.abs(gear.torque(alpha))
 
 
-def gear_reach(gear: GearParams, which: int, other: float, alpha_seen: ArrayLike, torque_seen: ArrayLike) -> Reach:
-    """Clearance ``which``'s reach at the other's value ``other`` [m]: under the loads a voyage
-    held (``alpha_seen`` [rad], ``torque_seen`` [N m]) and under the gear's largest."""
+def gear_reach(gear: GearParams, which: int, other: float, alpha_seen: ArrayLike, torque_seen: ArrayLike,
+               other_bound: bool = False) -> Reach:
+    """Clearance ``which``'s reach at the other's value ``other`` [m] (``other_bound``: the
+    other known only to be at least that): under the loads a voyage held (``alpha_seen``
+    [rad], ``torque_seen`` [N m]) and under the gear's largest."""
     ga, gt = gear_loads(gear)
     return Reach(seen=reach(gear, which, alpha_seen, torque_seen, other), gear=reach(gear, which, ga, gt, other),
-                 angle=float(gear.max_rudder), speed=float(gear.torque.service_speed), other=float(other))
+                 angle=float(gear.max_rudder), speed=float(gear.torque.service_speed), other=float(other),
+                 other_bound=other_bound)

@@ -14,7 +14,8 @@ OK means *assessed and within limits*; nothing else reads OK:
   speed and how far it would show the clearance, where one can show more than the data did
   (:mod:`~steer_monitor.model.reach`); where none can (the loads seen already reached as far as
   the gear's largest, or the gear's largest stop short of the bound), that the clearance is
-  beyond what the pressures can show on this gear and has to be measured;
+  beyond what the pressures can show on this gear and has to be measured (never said while the
+  other clearance is itself only a lower bound: how far one shows grows with the other);
 * OK otherwise: the whole interval within the limit, its low end below the warning.
 
 So OK is wrong (the truth past the limit) only when the interval misses above its high end: for
@@ -62,13 +63,23 @@ OTHER = {'2Z': 'Z_gb', 'Z_gb': '2Z'}
 KNOT = 1852.0 / 3600.0
 
 
-def assess_hint(name: str, reach: Reach | None = None) -> str:
+def assess_hint(name: str, reach: Reach | None = None, lower_bound: float | None = None) -> str:
     """The manoeuvre that would assess clearance ``name`` ('2Z' or 'Z_gb'): with ``reach``, its
-    angle and speed and how far it would show the clearance."""
-    if reach is None or reach.gear <= 0:
+    angle and speed and how far it would show the clearance. Where the other clearance is
+    itself only a lower bound the reach grows with it: at least that far, or, where that least
+    does not pass the clearance's own ``lower_bound`` [m], that it depends on the other."""
+    if reach is None or (reach.gear <= 0 and not reach.other_bound):
         return HINTS.get(name, 'a hard-over at sea speed would show it')
-    return (f'a hard-over to {math.degrees(reach.angle):.0f} deg at {reach.speed / KNOT:.0f} kn would '
-            f'{CONTACT.get(name, "make its contact")} for {name} up to {reach.gear * 1e3:.3f} mm and show it')
+    manoeuvre = f'a hard-over to {math.degrees(reach.angle):.0f} deg at {reach.speed / KNOT:.0f} kn'
+    other = OTHER.get(name, 'the other')
+    if reach.other_bound and (lower_bound is None or reach.gear <= lower_bound):
+        return (f'how far {name} can show grows with {other}, itself known only to be at least '
+                f'{reach.other * 1e3:.3f} mm: {manoeuvre} would show {other} where it can, and with it how far '
+                f'{name} can')
+    up_to = f'up to {reach.gear * 1e3:.3f} mm'
+    if reach.other_bound:
+        up_to += f' at least (further the larger {other}, known only to be at least {reach.other * 1e3:.3f} mm)'
+    return f'{manoeuvre} would {CONTACT.get(name, "make its contact")} for {name} {up_to} and show it'
 
 
 def beyond_words(name: str, reach: Reach) -> str:
@@ -112,7 +123,7 @@ def clearance_verdict(value: float, lo: float | None, hi: float | None, limit: f
     (None: not known, the hint then names no figures). The level does not depend on ``reach``:
     only what the note says would assess it."""
     share = value / limit
-    hint = assess_hint(name, reach)
+    hint = assess_hint(name, reach, lo)
     if lo is None:
         return Verdict(NOT_ASSESSED, share, f'not estimated yet (the configured value is shown); {hint}')
     warn = warn_share * limit

@@ -96,7 +96,8 @@ def test_a_year_of_a_fleet_with_a_worker_killed(tmp_path, fleet_dirs, client):
         'level',
         'observable_to_mm',
     }
-    assert set(log0['clearance_zgb_mm']['observable_to_mm']) == {'loads_seen', 'gear', 'at_other_mm'}
+    assert set(log0['clearance_zgb_mm']['observable_to_mm']) == {'loads_seen', 'gear', 'at_other_mm',
+                                                                 'other_lower_bound'}
 
     # each log's report page, from the same review, whole (written aside and renamed)
     for v in data['vessels']:
@@ -395,5 +396,5 @@ def test_the_fleet_says_when_a_clearance_left_what_the_pressures_can_show(r18_pa
     assert b['message'].startswith('beyond what the pressures can show on this gear') and 'survey' in b['message']
     assert v['beyond_reach']['clearance_zgb_mm'] is None
     assert v['logs'][0]['clearance_2z_mm']['observable_to_mm'] == {'loads_seen': 0.2, 'gear': 0.21,
-                                                                   'at_other_mm': 0.25}
+                                                                   'at_other_mm': 0.25, 'other_lower_bound': False}
     assert _fleet(rs, r18_params)['beyond_reach']['clearance_2z_mm'] is None

@@ -65,3 +65,30 @@ def test_a_voyage_of_small_angles_reaches_less_than_the_gear(r18):
 def test_a_voyage_that_held_the_gear_s_largest_loads_leaves_nothing_to_show():
     r = Reach(seen=0.199e-3, gear=0.2e-3, angle=0.6, speed=8.0, other=0.25e-3)
     assert r.beyond(0.08e-3, 0.02e-3)
+    # the other known only from below: its true value may put the reach anywhere above, so never beyond
+    assert not Reach(seen=0.199e-3, gear=0.2e-3, angle=0.6, speed=8.0, other=0.25e-3, other_bound=True).beyond(
+        0.08e-3, 0.02e-3)
+
+
+@pytest.mark.parametrize('which, others, top', [(0, (0.0, 0.05e-3, 0.15e-3, 0.3e-3), 0.4e-3),
+                                                (1, (0.0, 0.05e-3, 0.15e-3), 0.6e-3)])
+def test_each_clearance_s_reach_grows_with_the_other_s(r18, which, others, top):
+    """What makes a reach at the other's lower bound a lower bound of the reach: on the paper's
+    stepwise loading (the oracle, scanned), the last value that makes the contact does not fall
+    as the other clearance grows, under the gear's largest loads."""
+    alpha, torque = gear_loads(r18)
+    alpha, torque = alpha[::8], torque[::8]
+    lasts = []
+    for other in others:
+        values, shows = _scan(r18, which, alpha, torque, other, top)
+        lasts.append(values[shows][-1] if shows.any() else 0.0)
+    assert all(b >= a - SCAN_STEP for a, b in zip(lasts, lasts[1:])), lasts
+    assert lasts[-1] > lasts[0]
+
+
+def test_a_reach_is_kept_as_a_list_and_read_back():
+    r = Reach(seen=0.1e-3, gear=0.2e-3, angle=0.6, speed=8.0, other=0.02e-3, other_bound=True)
+    assert Reach.of_list(r.as_list()) == r
+    assert Reach.of_list(r.as_list()[:5]) == Reach(0.1e-3, 0.2e-3, 0.6, 8.0, 0.02e-3)   # kept before the flag
+    with pytest.raises(ValueError, match='a reach of 4 numbers, expected 5 or 6'):
+        Reach.of_list([1.0, 2.0, 3.0, 4.0])

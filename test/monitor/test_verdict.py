@@ -34,6 +34,21 @@ def test_a_manoeuvre_that_can_show_more_is_named_with_its_angle_speed_and_reach(
                            '0.212 mm and show it')
 
 
+def test_with_the_other_clearance_only_a_lower_bound_the_reach_is_at_least_and_never_beyond():
+    """A slow voyage at 8 kn, neither contact made: Z_gb >= 0.02 mm, 2Z >= 0.06 mm. 2Z's reach
+    at Z_gb 0.02 mm (0.052 mm) is below the bound, but the true Z_gb may be larger and with it
+    the reach: a hard-over would show both, so no 'measure it', the reach said as a least."""
+    r = Reach(seen=0.012e-3, gear=0.052e-3, angle=math.radians(35.0), speed=SPEED, other=0.02e-3, other_bound=True)
+    v = clearance_verdict(0.06e-3, 0.06e-3, None, 0.6e-3, 0.9, '2Z', reach=r)
+    assert v.level == NOT_ASSESSED and 'beyond' not in v.note and 'measure' not in v.note
+    assert v.note.endswith('how far 2Z can show grows with Z_gb, itself known only to be at least 0.020 mm: a '
+                           'hard-over to 35 deg at 16 kn would show Z_gb where it can, and with it how far 2Z can')
+    # where even the least reach passes the bound, the manoeuvre shows at least that far
+    v = clearance_verdict(0.03e-3, 0.03e-3, None, 0.6e-3, 0.9, '2Z', reach=r)
+    assert v.note.endswith('a hard-over to 35 deg at 16 kn would clamp the ram in its bushing for 2Z up to 0.052 mm '
+                           'at least (further the larger Z_gb, known only to be at least 0.020 mm) and show it')
+
+
 @pytest.mark.parametrize('seen_mm, bound_mm, beyond', [(0.212 - 0.019, 0.05, True), (0.212 - 0.021, 0.05, False),
                                                         (0.05, 0.195, True), (0.05, 0.19, False)])
 def test_a_manoeuvre_helps_only_past_one_grid_step_of_what_was_seen_and_of_the_bound(seen_mm, bound_mm, beyond):
