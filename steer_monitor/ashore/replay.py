@@ -49,7 +49,7 @@ from steer_monitor.logfiles.mcapio import (
 )
 from steer_monitor.model.gear import GearParams
 from steer_monitor.monitor.analyst import Analyst, SyncJobs
-from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig
+from steer_monitor.monitor.diagnostics import LEVEL_NAMES, DiagnosticsBuilder, DiagnosticsConfig
 from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.messages import TOPICS, diag_messages, topic_name
 from steer_monitor.monitor.pipeline import DiagOut, Output, Pipeline, StateOut, analyst_from_params
@@ -68,7 +68,7 @@ from steer_monitor.record.staterecords import pack_states
 from steer_monitor.resources import default_config
 from steer_monitor.runtime import fewer_collections
 
-__all__ = ['FRAME_BATCH', 'ReplayError', 'ReplaySummary', 'Runner', 'SpanWatch', 'add_channels', 'note_overlap',
+__all__ = ['CLEARANCES_STATUS', 'FRAME_BATCH', 'ReplayError', 'ReplaySummary', 'Runner', 'SpanWatch', 'add_channels', 'note_overlap',
            'recorded_setup', 'replay', 'replay_with', 'summary_json', 'write_outputs']
 
 #: frames decoded and laid out at once, their outputs written together (about three minutes of
@@ -81,6 +81,9 @@ FRAME_BATCH = 16384
 class ReplayError(SteerMonitorError):
     """A replay cannot start (no logs, an output that cannot be written)."""
 
+
+#: the clearances status's name after the node's own prefix
+CLEARANCES_STATUS = ': clearances'
 
 @dataclass
 class ReplaySummary:
@@ -104,6 +107,8 @@ class ReplaySummary:
     why: str = ''
     #: what the user should know that is no error (a log within the time of the ones before it)
     notes: list[str] = field(default_factory=list)
+    #: the node's last clearances status, as it published it: (level, message); None before any
+    clearances: tuple[int, str] | None = None
 
 
 def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | None = None, *,
@@ -340,6 +345,8 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
                 summary.states += len(o)
             else:
                 summary.diagnostics += 1
+                summary.clearances = next(((st.level, st.message) for st in o.statuses
+                                           if st.name.endswith(CLEARANCES_STATUS)), summary.clearances)
             queue.append(o)
 
     span = SpanWatch(summary, pipeline.decoder.jumps.max_jump_ns)
@@ -391,6 +398,8 @@ def summary_json(s: ReplaySummary) -> dict[str, Any]:
     return {'output': s.output, 'logs': s.logs, 'frames': s.frames, 'span_s': round(span, 3), 'states': s.states,
             'diagnostics': s.diagnostics, 'rejects': s.rejects, 'errors': s.errors, 'notes': s.notes,
             'analyses': s.analyses, 'motion_s': round(s.motion_s, 1),
+            'clearances_status': None if s.clearances is None else {'level': LEVEL_NAMES[s.clearances[0]],
+                                                                     'message': s.clearances[1]},
             'final_estimate': None if e is None else {
                 'clearance_2z_mm': iv(e.two_z, 1e3), 'clearance_zgb_mm': iv(e.z_gb, 1e3),
                 'k_gl_max': iv(e.k_gl_max, 1.0), 'verdict': e.verdict, 'kind': e.kind,

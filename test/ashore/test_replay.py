@@ -179,7 +179,16 @@ def test_cli_json(tmp_path, logs, capsys):
     assert rc == 0
     d = json.loads(capsys.readouterr().out)
     assert d['frames'] > 0 and d['errors'] == [] and d['diagnostics'] > 10
-    assert FRAME_TOPIC not in _read(tmp_path / 'j.mcap')
+    topics = _read(tmp_path / 'j.mcap')
+    assert FRAME_TOPIC not in topics
+    # the clearances' verdict said is the last the node published, read back by an independent reader
+    last = [st for _, msg in topics['/diagnostics'] for st in msg.status if st.name.endswith(': clearances')][-1]
+    assert d['clearances_status'] == {'level': {0: 'OK', 1: 'WARN', 2: 'ERROR', 3: 'STALE'}[int(last.level)],
+                                      'message': last.message}
+    rc = cli.main(['replay', str(logs['a.log']), '--out', str(tmp_path / 't.mcap'), '--no-frames'])
+    assert rc == 0
+    assert (f"the node's clearances status at the end: {d['clearances_status']['level']} {last.message}\n"
+            in capsys.readouterr().out)
 
 
 PROGRAMMES = ['hard_over_2', 'hard_over_1', 'zigzag_10', 'autopilot:60', 'pumps:1,autopilot_db:60', 'hold:20',
