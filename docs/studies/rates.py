@@ -19,8 +19,10 @@ the case. Per case:
   gateway: when steering performance first says ERROR.
 
 Run from the repository:
-``.venv/bin/python docs/studies/rates.py OUT.md FIRST_SEED N [JOBS] [RATES]`` (RATES: a
-comma-separated list of ``angle_hz/pressure_hz/mode[/loss]``; the default is the grid below). Write
+``.venv/bin/python docs/studies/rates.py OUT.md FIRST_SEED N [JOBS] [RATES] [PROGRAM]`` (RATES: a
+comma-separated list of ``angle_hz/pressure_hz/mode[/loss]``; the default is the grid below;
+PROGRAM: the voyage's helm programme, ``realistic:1500`` unless given, e.g. ``realistic:7200``
+for two hours). Write
 the JSON lines of each case beside OUT (OUT.jsonl) as they finish, so a long run can be read
 before it ends. A rate may end in ``/LOSS``, the share of the time the bus is bad (2 % else).
 """
@@ -114,8 +116,9 @@ def _node(params, frames, rate: str, with_analyses: bool):
     return out
 
 
-def run_case(args: tuple[int, str, float, float]) -> dict:
-    seed, rate, two_z_mm, z_gb_mm = args
+def run_case(args: tuple) -> dict:
+    seed, rate, two_z_mm, z_gb_mm, *program = args
+    program = program[0] if program else PROGRAM
     import numpy as np
 
     from steer_monitor import sim
@@ -129,7 +132,7 @@ def run_case(args: tuple[int, str, float, float]) -> dict:
     params = _W['params']
     db, smap = _W['can']
     gear = gear_from_params(params)
-    cfg = sim.SimConfig(program=PROGRAM, gaps=Clearances.from_mm(two_z_mm, z_gb_mm))
+    cfg = sim.SimConfig(program=program, gaps=Clearances.from_mm(two_z_mm, z_gb_mm), max_duration_s=86400.0)
     s = sim.run(params, cfg, db, smap, seed)
     frames = forward(s.frames, _gateway(rate, seed), db, seed + 1)
     full = _analysis(gear, Decoder(db, smap).decode_arrays(s.frames, final=True), params)
@@ -168,7 +171,7 @@ def run_case(args: tuple[int, str, float, float]) -> dict:
     t0f = int(sf.frames.t_ns[0])
     early = [round((t - t0f) / 1e9) for t, st in perf if st.level in (1, 2) and (t - t0f) / 1e9 < FROZEN_AT_S]
     found = next(((t - t0f) / 1e9 for t, st in perf if st.level == 2 and (t - t0f) / 1e9 >= FROZEN_AT_S), None)
-    return {'seed': seed, 'rate': rate, 'truth': truth, 'full': full, 'slow': slow, 'alarms': alarms,
+    return {'seed': seed, 'rate': rate, 'program': program, 'truth': truth, 'full': full, 'slow': slow, 'alarms': alarms,
             'first_alarm': first_alarm, 'frozen_found_s': None if found is None else round(found - FROZEN_AT_S, 1),
             'frozen_false_before': early[:5], 'seconds': round(time.perf_counter() - t0, 1)}
 
@@ -257,11 +260,12 @@ def main() -> int:
     first, n = int(sys.argv[2]), int(sys.argv[3])
     jobs = int(sys.argv[4]) if len(sys.argv) > 4 else 2
     rates = tuple(sys.argv[5].split(',')) if len(sys.argv) > 5 else RATES
+    program = sys.argv[6] if len(sys.argv) > 6 else PROGRAM
     import numpy as np
     rng = np.random.default_rng(first)
     clearances = [(round(float(rng.uniform(0.1, 0.6)), 4), round(float(rng.uniform(0.05, 0.35)), 4))
                   for _ in range(n)]
-    todo = [(first + k, rate, *clearances[k]) for k in range(n) for rate in rates]
+    todo = [(first + k, rate, *clearances[k], program) for k in range(n) for rate in rates]
     jsonl = out.with_suffix('.jsonl')
     results = []
     with ProcessPoolExecutor(jobs, initializer=_setup) as pool, open(jsonl, 'w') as fh:
@@ -270,7 +274,8 @@ def main() -> int:
             fh.write(json.dumps(r) + '\n')
             fh.flush()
     command = f'.venv/bin/python docs/studies/rates.py {out} {first} {n}' + (
-        f' {jobs}' if len(sys.argv) > 4 else '') + (f' {sys.argv[5]}' if len(sys.argv) > 5 else '')
+        f' {jobs}' if len(sys.argv) > 4 else '') + (f' {sys.argv[5]}' if len(sys.argv) > 5 else '') + (
+        f' {program}' if len(sys.argv) > 6 else '')
     out.write_text(markdown(results, command))
     return 0
 
