@@ -171,8 +171,9 @@ def run_case(args: tuple) -> dict:
     t0f = int(sf.frames.t_ns[0])
     early = [round((t - t0f) / 1e9) for t, st in perf if st.level in (1, 2) and (t - t0f) / 1e9 < FROZEN_AT_S]
     found = next(((t - t0f) / 1e9 for t, st in perf if st.level == 2 and (t - t0f) / 1e9 >= FROZEN_AT_S), None)
-    return {'seed': seed, 'rate': rate, 'program': program, 'truth': truth, 'full': full, 'slow': slow, 'alarms': alarms,
-            'first_alarm': first_alarm, 'frozen_found_s': None if found is None else round(found - FROZEN_AT_S, 1),
+    return {'seed': seed, 'rate': rate, 'program': program, 'truth': truth, 'full': full, 'slow': slow,
+            'alarms': alarms, 'first_alarm': first_alarm,
+            'frozen_found_s': None if found is None else round(found - FROZEN_AT_S, 1),
             'frozen_false_before': early[:5], 'seconds': round(time.perf_counter() - t0, 1)}
 
 

@@ -68,8 +68,8 @@ from steer_monitor.record.staterecords import pack_states
 from steer_monitor.resources import default_config
 from steer_monitor.runtime import fewer_collections
 
-__all__ = ['CLEARANCES_STATUS', 'FRAME_BATCH', 'ReplayError', 'ReplaySummary', 'Runner', 'SpanWatch', 'add_channels', 'note_overlap',
-           'recorded_setup', 'replay', 'replay_with', 'summary_json', 'write_outputs']
+__all__ = ['CLEARANCES_STATUS', 'FRAME_BATCH', 'ReplayError', 'ReplaySummary', 'Runner', 'SpanWatch', 'add_channels',
+           'note_overlap', 'recorded_setup', 'replay', 'replay_with', 'summary_json', 'write_outputs']
 
 #: frames decoded and laid out at once, their outputs written together (about three minutes of
 #: gear traffic): a run's fixed costs (decoding's passes per PGN, the lay-out, the rates' plan)
