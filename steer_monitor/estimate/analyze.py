@@ -62,7 +62,6 @@ from steer_monitor.estimate.batch import (
     ClearanceEstimate,
     Rows,
     estimate_clearances,
-    lag_moments,
     make_rows,
 )
 from steer_monitor.estimate.effects import (
@@ -89,7 +88,14 @@ from steer_monitor.estimate.placements import moved_off, placements, spanned
 from steer_monitor.estimate.plausible import rated_force
 from steer_monitor.estimate.rams import OPPOSED, RamShare, judge, opposed_cause, ram_share, working_against
 from steer_monitor.estimate.ramscheck import RamsCheck, UnevenSpan, within
-from steer_monitor.estimate.screening import Screening, Step, best_per_name, outlier_instants, screening_record
+from steer_monitor.estimate.screening import (
+    Screening,
+    Step,
+    best_per_name,
+    outlier_instants,
+    screening_record,
+    takes_systematic,
+)
 from steer_monitor.estimate.stamplags import over_stamp_lags
 from steer_monitor.model.gear import GearParams
 from steer_monitor.model.inputs import PRESSURE_INPUTS, Series
@@ -616,16 +622,16 @@ def _without_pressures(signals: Mapping[str, Series], spans: Sequence[UnevenSpan
 
 
 def _systematic(before: _Base, after: _Base) -> bool:
-    """True when the residual's autocovariance at one grid step (``SYSTEMATIC_LAG_STEPS``,
-    50 ms) falls from ``before`` to ``after`` by at least ``MIN_SYSTEMATIC_SHARE`` of the fall
-    of its mean square, and falls at all. A systematic term is as
+    """True when the positive part of the residual's autocovariance at one grid step
+    (``SYSTEMATIC_LAG_STEPS``, 50 ms) falls from ``before`` to ``after`` by at least
+    ``MIN_SYSTEMATIC_SHARE`` of the fall of its mean square
+    (:func:`~steer_monitor.estimate.screening.takes_systematic`). A systematic term is as
     large at the next instant; what a column takes from noise (or a shifted angle from the
     instants it keeps) is not. One step, not the 200 ms of the smooth part: a Stribeck rise or
     an inertia force lasts a fraction of a second, and at 200 ms only a third of it shows."""
-    m0, c0 = lag_moments(before.est.residual, before.obs.t_ns, SYSTEMATIC_LAG_STEPS, before.obs.step_ns)
-    m1, c1 = lag_moments(after.est.residual, after.obs.t_ns, SYSTEMATIC_LAG_STEPS, after.obs.step_ns)
-    d_lag, d_mse = c0 - c1, m0 - m1
-    return d_lag > 0 and d_lag >= MIN_SYSTEMATIC_SHARE * d_mse
+    return takes_systematic((before.est.residual, before.obs.t_ns, before.obs.step_ns),
+                            (after.est.residual, after.obs.t_ns, after.obs.step_ns),
+                            SYSTEMATIC_LAG_STEPS, MIN_SYSTEMATIC_SHARE)
 
 
 def _effect_params(cand: Candidate, final: ClearanceEstimate, obs: Observations) -> dict[str, Interval | str]:
