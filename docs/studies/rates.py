@@ -19,10 +19,10 @@ the case. Per case:
   gateway: when steering performance first says ERROR.
 
 Run from the repository:
-``.venv/bin/python docs/studies/rates.py OUT.md FIRST_SEED N [JOBS] [RATES] [PROGRAM]`` (RATES: a
+``.venv/bin/python docs/studies/rates.py OUT.md FIRST_SEED N [JOBS] [RATES] [PROGRAM] [CONFIG]`` (RATES: a
 comma-separated list of ``angle_hz/pressure_hz/mode[/loss]``; the default is the grid below;
 PROGRAM: the voyage's helm programme, ``realistic:1500`` unless given, e.g. ``realistic:7200``
-for two hours). Write
+for two hours; CONFIG: the gear's parameters file, the packaged R-18's unless given). Write
 the JSON lines of each case beside OUT (OUT.jsonl) as they finish, so a long run can be read
 before it ends. A rate may end in ``/LOSS``, the share of the time the bus is bad (2 % else).
 """
@@ -50,11 +50,11 @@ QUANTITIES = ('clearance_2z_mm', 'clearance_zgb_mm', 'k_gl_max', 'seal_friction_
 _W: dict = {}
 
 
-def _setup() -> None:
+def _setup(config: str = '') -> None:
     from steer_monitor.can.busconfig import can_setup
     from steer_monitor.params import load_params_file
     from steer_monitor.resources import default_config
-    path = str(default_config())
+    path = config or str(default_config())
     params = load_params_file(path)
     _W.update(path=path, params=params, can=can_setup(params, path))
 
@@ -262,6 +262,7 @@ def main() -> int:
     jobs = int(sys.argv[4]) if len(sys.argv) > 4 else 2
     rates = tuple(sys.argv[5].split(',')) if len(sys.argv) > 5 else RATES
     program = sys.argv[6] if len(sys.argv) > 6 else PROGRAM
+    config = sys.argv[7] if len(sys.argv) > 7 else ''
     import numpy as np
     rng = np.random.default_rng(first)
     clearances = [(round(float(rng.uniform(0.1, 0.6)), 4), round(float(rng.uniform(0.05, 0.35)), 4))
@@ -269,14 +270,14 @@ def main() -> int:
     todo = [(first + k, rate, *clearances[k], program) for k in range(n) for rate in rates]
     jsonl = out.with_suffix('.jsonl')
     results = []
-    with ProcessPoolExecutor(jobs, initializer=_setup) as pool, open(jsonl, 'w') as fh:
+    with ProcessPoolExecutor(jobs, initializer=_setup, initargs=(config,)) as pool, open(jsonl, 'w') as fh:
         for r in pool.map(run_case, todo):
             results.append(r)
             fh.write(json.dumps(r) + '\n')
             fh.flush()
     command = f'.venv/bin/python docs/studies/rates.py {out} {first} {n}' + (
         f' {jobs}' if len(sys.argv) > 4 else '') + (f' {sys.argv[5]}' if len(sys.argv) > 5 else '') + (
-        f' {program}' if len(sys.argv) > 6 else '')
+        f' {program}' if len(sys.argv) > 6 else '') + (f' {config}' if len(sys.argv) > 7 else '')
     out.write_text(markdown(results, command))
     return 0
 
