@@ -49,8 +49,8 @@ HINTS = {
 
 #: why a clearance is a lower bound only when the estimate gives no reason of its own
 NEVER = {
-    '2Z': 'the ram never clamped in its bushing at the loads seen',
-    'Z_gb': 'the guide beam never carried load at the loads seen',
+    '2Z': 'no clamping of the ram in its bushing shows at the loads seen',
+    'Z_gb': 'no load on the guide beam shows at the loads seen',
 }
 
 

@@ -28,8 +28,8 @@ def test_analyze_writes_the_documented_json_and_a_report(tmp_path, capsys):
     reach = d['clearance_2z_mm']['observable_to_mm']
     assert reach['loads_seen'] == pytest.approx(reach['gear'], abs=0.02) and lo > 0
     assert first.startswith(f"2Z      >= {lo} mm (lower bound only)  NOT ASSESSED: "
-                            'lower bound only (the ram never clamped in its bushing at the loads seen); beyond what '
-                            'the pressures can show on this gear: at Z_gb '), first
+                            'lower bound only (no clamping of the ram in its bushing shows at the loads seen); '
+                            'beyond what the pressures can show on this gear: at Z_gb '), first
     assert first.endswith(f"the ram clamps in its bushing only for 2Z up to {reach['gear']:.3f} mm, even at a "
                           'hard-over to 35 deg at 16 kn; measure it at the next survey'), first
     # the verdict on the terminal: one line per clearance with its level, and the model check

@@ -243,9 +243,9 @@ MM = 1e-3
     (0.18, (0.12, 0.27), STALE, 'Z_gb 0.180 mm [0.120 .. 0.270] (72% of limit) NOT ASSESSED: the interval reaches '
                                 'from below the warning to past the limit'),     # the point within: not OK
     (0.18, (0.12, 0.25), OK, 'Z_gb 0.180 mm [0.120 .. 0.250] (72% of limit)'),  # the high end at the limit
-    (0.10, (0.10, None), STALE, 'Z_gb >= 0.100 mm NOT ASSESSED: lower bound only (the guide beam '
-                                'never carried load at the loads seen); a hard-over at sea speed would load the guide '
-                                'beam and show it'),
+    (0.10, (0.10, None), STALE, 'Z_gb >= 0.100 mm NOT ASSESSED: lower bound only (no load on the guide beam '
+                                'shows at the loads seen); a hard-over at sea speed would load the guide beam and '
+                                'show it'),
     (0.22, (0.21, None), WARN, 'Z_gb >= 0.210 mm WARN: lower bound past the warning'),   # no share below it
     (0.30, (0.26, None), ERROR, 'Z_gb >= 0.260 mm (104% of limit) OVER LIMIT'),
 ])

@@ -332,7 +332,7 @@ def _verdict_block(inp: ReportInput) -> str:
         if iv.hi is None:
             point = f'at least {iv.lo * 1e3:.3f} mm' + (
                 f' ({iv.lo / limit:.0%} of the {limit * 1e3:.3f} mm limit)' if iv.lo > limit else '')
-            rng = 'the ram never clamped at the loads seen: no upper bound'
+            rng = 'no clamping of the ram shows at the loads seen: no upper bound'
         else:
             point = f'{iv.value * 1e3:.3f} mm, {iv.value / limit:.0%} of the {limit * 1e3:.3f} mm limit'
             rng = f'95 % interval {iv.lo * 1e3:.3f} .. {iv.hi * 1e3:.3f} mm'
@@ -420,7 +420,7 @@ def write_review_report(inp: ReportInput, out_dir: str | Path) -> Path:
                        'lateral force between ram (F_r) and guide beam (F_gb) at the clearances in the '
                        'title (paper 004, Fig. 7). Grey: rudder at rest (the pressure holds friction too).',
         'clearances': 'Each point uses all the data up to its time, fitted with the declared model. An arrow '
-                      'marks a lower bound only: the ram never clamped in its bushing at the loads seen, so '
+                      'marks a lower bound only: no clamping of the ram in its bushing shows at the loads seen, so '
                       'the data cannot say how large 2Z is, only that it is at least this.'
                       + timeline_caveat(inp.analysis),
         'residual': 'Ram-force residual of the fitted model, in bar of cylinder pressure: what the '
