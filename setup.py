@@ -12,7 +12,7 @@ setup(
     packages=find_packages(include=[PACKAGE, f'{PACKAGE}.*']),
     data_files=[
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
-        (f'share/{PACKAGE}', ['package.xml']),
+        (f'share/{PACKAGE}', ['package.xml', 'LICENSE']),
         (f'share/{PACKAGE}/config', sorted(glob('config/*.yaml') + glob('config/*.dbc'))),
         (f'share/{PACKAGE}/config/aggregator', sorted(glob('config/aggregator/*.yaml'))),
         (f'share/{PACKAGE}/launch', sorted(glob('launch/*.launch.py'))),

@@ -18,7 +18,7 @@ from test.conftest import PKG, ROOT, SHARED
 ROSDEP = SHARED / 'rosdep'
 #: ROS packages (resolved by rosdistro's distribution file, not by the rosdep key files)
 ROS_PACKAGES = {'rclpy', 'rcl_interfaces', 'ament_index_python', 'diagnostic_msgs', 'std_msgs', 'sensor_msgs',
-                'launch', 'launch_ros', 'diagnostic_aggregator'}
+                'launch', 'launch_ros', 'ros2launch', 'diagnostic_aggregator'}
 #: the package of this repository (rosdep skips it)
 WORKSPACE = {'steer_monitor'}
 MANIFESTS = [PKG / 'package.xml']
@@ -154,6 +154,23 @@ def test_the_bus_side_stands_apart_from_the_log_files():
         assert not mods, f'{path.relative_to(PKG)} imports {sorted(mods)}'
     assert _imports(sorted((PKG / 'steer_monitor' / 'can').rglob('*.py'))) & {'mcap', 'mcap_ros2'} == set()
     assert not (PKG / 'steer_monitor' / 'can' / 'discover.py').exists()
+
+
+def test_the_package_carries_its_licence_and_what_its_readme_runs():
+    """The licence package.xml and setup.py name, whole, installed beside package.xml; the
+    `ros2 launch` verb the README starts the node with is a dependency (ros2launch), as are the
+    packages its launch file imports."""
+    root = ET.parse(PKG / 'package.xml').getroot()
+    assert root.findtext('license') == 'Apache-2.0'
+    text = (ROOT / 'LICENSE').read_text(encoding='utf-8')
+    assert 'Apache License' in text and 'Version 2.0, January 2004' in text and 'END OF TERMS AND CONDITIONS' in text
+    assert "'LICENSE'" in (ROOT / 'setup.py').read_text(encoding='utf-8')
+    readme = (ROOT / 'README.md').read_text(encoding='utf-8')
+    assert 'ros2 launch steer_monitor monitor.launch.py' in readme
+    declared = set(_depends('exec_depend'))
+    assert 'ros2launch' in declared
+    launch = _imports([PKG / 'launch' / 'monitor.launch.py'])
+    assert launch - {'os'} <= declared, launch - declared
 
 
 def test_launch_file_declares_its_arguments():
