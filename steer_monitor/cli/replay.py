@@ -74,10 +74,9 @@ def run(logs: list[str], out_path: str | Path, config: str | Path | None = None,
                       f"{summary.first_motion_s:.0f} s needed for the first (estimator.first_motion_s)\n"
                       if summary.analyses == 0 else
                       f"{summary.analyses} analyses ran and none gave a finding: {summary.why}\n")
-        if summary.clearances is not None:
-            from steer_monitor.monitor.diagnostics import LEVEL_NAMES
-            level, message = summary.clearances
-            out.write(f"the node's clearances status at the end: {LEVEL_NAMES[level]} {message}\n")
+        status = result['clearances_status']
+        if status is not None:
+            out.write(f"the node's clearances status at the end: {status['level']} {status['message']}\n")
         if summary.rejects:
             out.write('rejected: ' + ', '.join(f'{k} {v}' for k, v in summary.rejects.items()) + '\n')
     return report_read_errors('replay', summary.errors, err)

@@ -39,7 +39,9 @@ model has each ram carry half.
 The parts live beside it: the held-out scoring (:mod:`~steer_monitor.estimate.heldout`), what a
 screening records and the outliers set aside (:mod:`~steer_monitor.estimate.screening`), whether
 a fit is physical (:mod:`~steer_monitor.estimate.plausible`) and the verdict's words
-(:mod:`~steer_monitor.estimate.analysiswords`). What stays here, some 600 lines, is one room:
+(:mod:`~steer_monitor.estimate.analysiswords`), whether an adopted column takes something systematic
+(:func:`~steer_monitor.estimate.screening.takes_systematic`) and the friction over a slow log's stamp
+lags (:mod:`~steer_monitor.estimate.stamplags`). What stays here, some 660 lines, is one room:
 the loop (:func:`analyze`), a run under a given model (``_given``) and the verdict they share
 (``_conclude``, its specification check) all work on one ``_Base`` (observations, rows, the
 adopted columns, the fit) and hand it on; split, each would reach into the others' state.

@@ -295,7 +295,7 @@ def _bound(gear: GearParams, basis: F.TorqueBasis, mom: Moments, pr: PF.Profile,
                          * r.scale)
         ok = np.isfinite(c) & np.isfinite(se)
         coefs[name] = within_range(name, float(best.coef[k]), float(np.min((c - z * se)[ok])) if ok.any() else None,
-                                    float(np.max((c + z * se)[ok])) if ok.any() else None)
+                                   float(np.max((c + z * se)[ok])) if ok.any() else None)
     z_gb, why_guide = guide_contact_at_friction_limit(z_gb, coefs['mu_guide'])
     if why_guide:
         why = (why[0], why_guide)
