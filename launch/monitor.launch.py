@@ -32,7 +32,8 @@ def generate_launch_description() -> LaunchDescription:
                          {'can.interface': LaunchConfiguration('interface'),
                           'can.channel': LaunchConfiguration('channel')}],
              sigterm_timeout='10'),
-        Node(package='diagnostic_aggregator', executable='aggregator_node', name='diagnostic_aggregator',
+        # under its own name, ``analyzers``, which the analyzer file is keyed by
+        Node(package='diagnostic_aggregator', executable='aggregator_node',
              output='screen', condition=IfCondition(LaunchConfiguration('aggregator')),
              parameters=[os.path.join(share, 'config', 'aggregator', 'steer_monitor_analyzers.yaml')]),
     ])

@@ -182,16 +182,6 @@ def test_launch_file_declares_its_arguments():
     assert args == ['params_file', 'interface', 'channel', 'aggregator']
 
 
-def test_aggregator_analyzer_expects_every_status():
-    doc = yaml.safe_load((PKG / 'config' / 'aggregator' / 'steer_monitor_analyzers.yaml').read_text())
-    a = doc['analyzers']['ros__parameters']['steering_gear']
-    assert a['type'] == 'diagnostic_aggregator/GenericAnalyzer' and a['startswith'] == ['steer_monitor:']
-    from steer_monitor.monitor.diagnostics import PREFIX
-    names = {'CAN input', 'CAN bus', 'clearances', 'guide beam', 'steering performance', 'model health', 'rams',
-             'recording'}
-    assert set(a['expected']) == {PREFIX + n for n in names}
-
-
 def test_systemd_unit_stops_with_sigint_and_restarts():
     unit = configparser.ConfigParser(strict=False, interpolation=None)
     unit.optionxform = str

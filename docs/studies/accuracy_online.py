@@ -119,7 +119,6 @@ def run(v: Voyage) -> Voyage:
     from steer_monitor.model import Clearances
     from steer_monitor.monitor import ERROR, WARN, DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
     from steer_monitor.monitor.pipeline import DiagOut, Pipeline, analyst_from_params
-    from steer_monitor.monitor.verdict import NOT_ASSESSED
     from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params, load_params_file
     from steer_monitor.resources import default_config
 
@@ -159,10 +158,10 @@ def run(v: Voyage) -> Voyage:
         v.seconds += 1
         v.zgb_held += _holds(f.z_gb.lo, f.z_gb.hi, zg)
         v.tz_held += _holds(f.two_z.lo, f.two_z.hi, tz)
-        level = next(st.level for st in o.statuses if st.name.endswith('clearances'))
-        v.alarms += level in (WARN, ERROR)
-        v.false_alarms += level in (WARN, ERROR) and quiet
-        v.not_assessed += level == NOT_ASSESSED
+        st = next(st for st in o.statuses if st.name.endswith('clearances'))
+        v.alarms += st.level in (WARN, ERROR)
+        v.false_alarms += st.level in (WARN, ERROR) and quiet
+        v.not_assessed += not st.assessed
 
     for frame in s.frames.frames():
         for o in p.feed(frame):

@@ -49,7 +49,7 @@ from steer_monitor.logfiles.mcapio import (
 )
 from steer_monitor.model.gear import GearParams
 from steer_monitor.monitor.analyst import Analyst, SyncJobs
-from steer_monitor.monitor.diagnostics import LEVEL_NAMES, DiagnosticsBuilder, DiagnosticsConfig
+from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig
 from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.messages import TOPICS, diag_messages, topic_name
 from steer_monitor.monitor.pipeline import DiagOut, Output, Pipeline, StateOut, analyst_from_params
@@ -107,8 +107,9 @@ class ReplaySummary:
     why: str = ''
     #: what the user should know that is no error (a log within the time of the ones before it)
     notes: list[str] = field(default_factory=list)
-    #: the node's last clearances status, as it published it: (level, message); None before any
-    clearances: tuple[int, str] | None = None
+    #: the node's last clearances status, as it published it: (level in words, NOT ASSESSED where
+    #: it says so, and message); None before any
+    clearances: tuple[str, str] | None = None
 
 
 def replay(logs: Sequence[str | Path], output: str | Path, config: str | Path | None = None, *,
@@ -345,7 +346,7 @@ def _run(paths: list[Path], pipeline: Pipeline, writer: McapWriter, topics: dict
                 summary.states += len(o)
             else:
                 summary.diagnostics += 1
-                summary.clearances = next(((st.level, st.message) for st in o.statuses
+                summary.clearances = next(((st.label, st.message) for st in o.statuses
                                            if st.name.endswith(CLEARANCES_STATUS)), summary.clearances)
             queue.append(o)
 
@@ -398,7 +399,7 @@ def summary_json(s: ReplaySummary) -> dict[str, Any]:
     return {'output': s.output, 'logs': s.logs, 'frames': s.frames, 'span_s': round(span, 3), 'states': s.states,
             'diagnostics': s.diagnostics, 'rejects': s.rejects, 'errors': s.errors, 'notes': s.notes,
             'analyses': s.analyses, 'motion_s': round(s.motion_s, 1),
-            'clearances_status': None if s.clearances is None else {'level': LEVEL_NAMES[s.clearances[0]],
+            'clearances_status': None if s.clearances is None else {'level': s.clearances[0],
                                                                      'message': s.clearances[1]},
             'final_estimate': None if e is None else {
                 'clearance_2z_mm': iv(e.two_z, 1e3), 'clearance_zgb_mm': iv(e.z_gb, 1e3),

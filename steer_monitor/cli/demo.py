@@ -2,11 +2,11 @@
 
 The simulated R-18 gear (SOLAS hard-over with two pumps, about 70 s of real time) plays onto
 a python-can virtual bus; the monitor node listens, runs the model, publishes /diagnostics
-and records MCAP; a listener prints each diagnostic status when its level changes, and every
-10 s a line with the rudder angle, K_gl and the model residual. After the simulator stops, the input goes STALE.
-Then the load-sharing study of
-paper 004 is written beside the recording, and the report page of the recording
-(``steer-monitor report``) in ``OUT/report``.
+and records MCAP; a listener prints each diagnostic status when its level changes or it
+becomes assessed, and every 10 s a line with the rudder angle, K_gl and the model residual.
+After the simulator stops, the input goes STALE. Then the load-sharing study of paper 004 is
+written beside the recording, and the report page of the recording (``steer-monitor report``)
+in ``OUT/report``.
 """
 
 from __future__ import annotations
@@ -25,7 +25,6 @@ from steer_monitor.errors import ParameterError
 
 __all__ = ['register', 'residual_text', 'run']
 
-LEVELS = {0: 'OK', 1: 'WARN', 2: 'ERROR', 3: 'STALE'}
 DEMO_FIRST_MOTION_S = 30.0
 
 
@@ -52,6 +51,7 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: 
     from steer_monitor import sim
     from steer_monitor.can.busconfig import load_setup
     from steer_monitor.cli import study
+    from steer_monitor.monitor.diagnostics import ASSESSMENT_KEY, LEVEL_NAMES
     from steer_monitor.node.monitor_node import MonitorNode
     from steer_monitor.node.params_ros import overrides_from_file
     from steer_monitor.sim.playback import play
@@ -81,7 +81,7 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: 
         'estimator.first_motion_s': DEMO_FIRST_MOTION_S})
     node = MonitorNode(parameter_overrides=overrides, context=context, config_path=str(config_path))
     listener = rclpy.create_node('steer_monitor_demo_listener', context=context)
-    seen: dict[str, int] = {}
+    seen: dict[str, tuple[int, str | None]] = {}
     t_start = time.monotonic()
     last_line = [0.0]
     lock = threading.Lock()
@@ -92,10 +92,13 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: 
             values: dict[str, str] = {}
             for s in msg.status:
                 level = s.level[0] if isinstance(s.level, bytes) else int(s.level)
-                values.update({kv.key: kv.value for kv in s.values})
-                if seen.get(s.name) != level:
-                    seen[s.name] = level
-                    out.write(f'[{now:5.1f} s] {LEVELS.get(level, level):5} '
+                own = {kv.key: kv.value for kv in s.values}
+                values.update(own)
+                # a line when the level changes, or whether the status has assessed the gear
+                state = (level, own.get(ASSESSMENT_KEY))
+                if seen.get(s.name) != state:
+                    seen[s.name] = state
+                    out.write(f'[{now:5.1f} s] {LEVEL_NAMES.get(level, level):5} '
                               f'{s.name[len("steer_monitor: "):]}: {s.message}\n')
             if now - last_line[0] >= 10.0:
                 last_line[0] = now

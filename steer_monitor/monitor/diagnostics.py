@@ -46,8 +46,8 @@ from steer_monitor.monitor.verdict import ERROR, NOT_ASSESSED, OK, WARN, Verdict
 from steer_monitor.params import ram_share_warn_from_params
 from steer_monitor.utc import utc_json, utc_text
 
-__all__ = ['ERROR', 'OK', 'SILENT_PERIODS', 'SLOW_DEFAULT_INTERVAL_NS', 'STALE', 'WARN', 'DiagnosticsBuilder',
-           'DiagnosticsConfig', 'Status']
+__all__ = ['ASSESSMENT_KEY', 'ERROR', 'LEVEL_NAMES', 'NOT_ASSESSED_TEXT', 'OK', 'SILENT_PERIODS',
+           'SLOW_DEFAULT_INTERVAL_NS', 'STALE', 'WARN', 'DiagnosticsBuilder', 'DiagnosticsConfig', 'Status']
 
 #: NMEA 2000's default transmission interval for slow data (Actual Pressure, PGN 130314, among
 #: them): an input heard once is judged silent after three of these, until its own period is known
@@ -61,6 +61,10 @@ SILENT_PERIODS = 5
 STALE = 3          # REP-107 levels: OK, WARN and ERROR (0, 1, 2) are the verdict's own
 LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR', STALE: 'STALE'}
 PREFIX = 'steer_monitor: '
+#: the value that says whether a status that judges the gear (clearances, guide beam, rams) has
+#: judged it: ``assessed`` or :data:`NOT_ASSESSED_TEXT`
+ASSESSMENT_KEY = 'assessment'
+NOT_ASSESSED_TEXT = 'NOT ASSESSED'
 
 
 @dataclass(frozen=True)
@@ -75,6 +79,16 @@ class Status:
 
     def value(self, key: str) -> str:
         return dict(self.values)[key]
+
+    @property
+    def assessed(self) -> bool:
+        """False where the status says the data do not tell yet (:data:`NOT_ASSESSED_TEXT`)."""
+        return dict(self.values).get(ASSESSMENT_KEY) != NOT_ASSESSED_TEXT
+
+    @property
+    def label(self) -> str:
+        """The level in words, NOT ASSESSED where the status is not (published at level OK)."""
+        return LEVEL_NAMES[self.level] if self.assessed else NOT_ASSESSED_TEXT
 
 
 @dataclass(frozen=True)
@@ -146,6 +160,16 @@ class DiagnosticsBuilder:
 
     def _status(self, item: str, level: int, message: str, values: list[tuple[str, str]]) -> Status:
         return Status(PREFIX + item, level, message, self.cfg.hardware_id, tuple(values))
+
+    def _judged(self, item: str, verdict: int, message: str, values: list[tuple[str, str]]) -> Status:
+        """A status that judges the gear, from its ``verdict`` (OK, WARN, ERROR or NOT_ASSESSED).
+        NOT ASSESSED is published at level OK with ``assessment: NOT ASSESSED`` and the message
+        saying why and what would assess it: a level is what diagnostic_aggregator rolls up, and
+        it reads a STALE item beside fresh ones as ERROR, so a gear not yet assessed after a
+        normal start would read as a fault; the level says a fault seen, the assessment what
+        is known."""
+        values = [*values, (ASSESSMENT_KEY, NOT_ASSESSED_TEXT if verdict == NOT_ASSESSED else 'assessed')]
+        return self._status(item, OK if verdict == NOT_ASSESSED else verdict, message, values)
 
     def _memo(self, item: str, key: tuple[Any, ...], objects: tuple[object, ...], make: Callable[[], Status]
               ) -> Status:
@@ -254,7 +278,7 @@ class DiagnosticsBuilder:
     def _clearances(self, mon: LiveMonitor) -> Status:
         """Each clearance judged on its interval (:func:`~steer_monitor.monitor.verdict.clearance_verdict`):
         OVER LIMIT (ERROR) when its lower end is past the limit, WARN when past the warning share,
-        OK when assessed and within limits, and NOT ASSESSED (STALE) when the data cannot say:
+        OK when assessed and within limits, and NOT ASSESSED (:meth:`_judged`) when the data cannot say:
         not estimated yet, a lower bound below the warning, an interval reaching from below the
         warning past the limit, or an analysis whose model does not explain the pressures (model
         health carries that WARN).
@@ -307,7 +331,7 @@ class DiagnosticsBuilder:
         if f is not None:
             values.append(('judged', 'yes' if f.explained else 'no: the model does not explain the pressures'))
         values += sorted(mon.estimate_info.items())
-        return self._status('clearances', worst_level, message, values)
+        return self._judged('clearances', worst_level, message, values)
 
     def guide_beam(self, mon: LiveMonitor) -> Status:
         onset = self.guide_onset_deg(mon.gaps)
@@ -362,7 +386,7 @@ class DiagnosticsBuilder:
                            'reaches either side of the warning')
         if k_now is not None:
             message += f'; K_gl now {k_now:.2f}'
-        return self._status('guide beam', level, message, values)
+        return self._judged('guide beam', level, message, values)
 
     def pumps_running(self, hard_over_s: float) -> int:
         """Pumps that ran a hard-over of ``hard_over_s`` [s] (:mod:`~steer_monitor.model.hardover`)."""
@@ -473,7 +497,7 @@ class DiagnosticsBuilder:
         its hysteresis: ERROR when one ram does next to no work or the two push against each
         other (a ram's pressures swapped in the map), WARN from the first window whose share's
         interval lies wholly outside the band ``50 +- ram_share_warn`` % until one lies wholly
-        inside it, NOT ASSESSED (STALE) until a window has said either, OK after that."""
+        inside it, NOT ASSESSED (:meth:`_judged`) until a window has said either, OK after that."""
         check = mon.rams
         return self._memo('rams', (check.level, len(check.spans), check.pending if check.last is None else -1),
                           (check.last,), lambda: self._rams(check))
@@ -502,24 +526,25 @@ class DiagnosticsBuilder:
             values += [('ram_uneven_last_start_utc', utc_json(last.start_ns) or ''),
                        ('ram_uneven_last_end_utc', utc_json(last.end_ns) or '')]
         if w is None:
-            return self._status('rams', STALE, f'NOT ASSESSED: not judged yet: {check.pending} of the '
+            return self._judged('rams', NOT_ASSESSED, f'NOT ASSESSED: not judged yet: {check.pending} of the '
                                 f'{check.window} instants of steady motion a window is judged over ({rule})', values)
         window = _share_words(sh)
         if check.level == OPPOSED:      # no share means anything until the map is right
             assert sh is not None
-            return self._status('rams', ERROR, opposed_cause(sh, None, PRESSURE_INPUTS) + '; no estimate is made from '
+            return self._judged('rams', ERROR, opposed_cause(sh, None, PRESSURE_INPUTS) + '; no estimate is made from '
                                 'them', values)
         if check.level == UNJUDGED:
             why = (f'{sh.instants} instants of steady motion, the rams\' mean force varying by {sh.spread / bar:.2f} '
                    'bar' if sh is not None and not enough(sh, self.gear.ram_area) else f'{window}, too uncertain')
-            return self._status('rams', STALE, f'NOT ASSESSED: not judged yet: the last window {why} (judged from '
-                                f'{MIN_SHARE_INSTANTS} instants and {MIN_SHARE_SPREAD_PA / 1e5:g} bar; {rule})', values)
+            return self._judged('rams', NOT_ASSESSED, f'NOT ASSESSED: not judged yet: the last window {why} (judged '
+                                f'from {MIN_SHARE_INSTANTS} instants and {MIN_SHARE_SPREAD_PA / 1e5:g} bar; {rule})',
+                                values)
         held = '' if w.said == check.level else (
             f'; the last window {window}, ' + ('at the band\'s edge' if w.said == AT_EDGE else 'not judged')
             + ': the level held')
         if check.level == EVEN:
             before = '; last uneven: ' + describe(check.spans[-1]) if check.spans else ''
-            return self._status('rams', OK, f'the rams share the driving force: {window} over the last window'
+            return self._judged('rams', OK, f'the rams share the driving force: {window} over the last window'
                                 f'{held} ({rule}){before}', values)
         weak = opened.ram if opened is not None else (sh.weaker if sh is not None else 0)
         since = '' if opened is None else f' since {utc_text(opened.start_ns)}'
@@ -527,7 +552,7 @@ class DiagnosticsBuilder:
         cause = (weak_ram_cause(aux, weak, PRESSURE_INPUTS) if aux is not None and w.said in (UNEVEN, IDLE)
                  else UNEVEN_CAUSE.format(ram=weak + 1))
         if check.level == IDLE:
-            return self._status('rams', ERROR, f'ram {weak + 1} does next to no work{since}: {window} over the last '
+            return self._judged('rams', ERROR, f'ram {weak + 1} does next to no work{since}: {window} over the last '
                                 f'window{held}: {cause}; on one ram the gear has half its torque ({rule})', values)
-        return self._status('rams', WARN, f'uneven{since}: {window} over the last window{held}: {cause} ({rule})',
+        return self._judged('rams', WARN, f'uneven{since}: {window} over the last window{held}: {cause} ({rule})',
                             values)

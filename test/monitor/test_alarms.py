@@ -18,7 +18,7 @@ from steer_monitor.model import Clearances
 from steer_monitor.model.friction import FrictionParams
 from steer_monitor.model.inputs import Sample
 from steer_monitor.monitor import ERROR, OK, WARN, DiagnosticsBuilder, DiagnosticsConfig, LiveMonitor
-from steer_monitor.monitor.diagnostics import LEVEL_NAMES, STALE
+from steer_monitor.monitor.diagnostics import LEVEL_NAMES, NOT_ASSESSED_TEXT
 from steer_monitor.monitor.performance import REVERSAL_NS
 from steer_monitor.monitor.pipeline import DiagOut, Pipeline, analyst_from_params
 from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params
@@ -29,6 +29,12 @@ from steer_monitor.utc import parse_utc
 EVERY_PROGRAMME = ('hard_over_2,hard_over_1,zigzag_10,zigzag_25,autopilot:300,autopilot_db:300,hold:60,'
                    'hold_at:-20/45,speed:8,pumps:1,zigzag_15,autopilot:120,pumps:2,speed:16,voyage,realistic:900')
 T0 = 1_767_225_600_000_000_000
+#: a status that judges the gear and could not: published at level OK, saying so
+NA = NOT_ASSESSED_TEXT
+
+
+def _label(level: int | str) -> str:
+    return level if isinstance(level, str) else LEVEL_NAMES[level]
 
 
 def _replay(params, can_db, program, gaps_mm, seed, effects=(), motion=False, gateway=None):
@@ -142,7 +148,7 @@ def test_a_ram_that_does_not_carry_its_share_is_found(r18_params, can_db, progra
     start = float(effect.partition('start_s=')[2] or 0.0)
     statuses = _replay(r18_params, can_db, program, (0.45, 0.12), 17, effects=[effect])
     rams = [(t, st) for t, st in statuses if st.name.endswith('rams')]
-    assert all(st.level in (OK, STALE) for t, st in rams if t < start)     # judged even, or not yet
+    assert all(st.level == OK for t, st in rams if t < start)     # judged even, or not yet
     found, st = next((t, st) for t, st in rams if st.level == level and text in st.message)
     assert start < found < start + within_s
     since = st.value('ram_uneven_since_utc')                 # the stretch named from its start
@@ -237,13 +243,13 @@ MM = 1e-3
     (0.10, (0.05, 0.15), OK, 'Z_gb 0.100 mm [0.050 .. 0.150] (40% of limit)'),
     (0.22, (0.20, 0.24), WARN, 'Z_gb 0.220 mm [0.200 .. 0.240] (88% of limit)'),          # low end at 80 %
     (0.28, (0.26, 0.30), ERROR, 'Z_gb 0.280 mm [0.260 .. 0.300] (112% of limit)'),
-    (0.35, (0.113, 0.429), STALE, 'NOT ASSESSED: the interval, wider than the limit, reaches from below'),
+    (0.35, (0.113, 0.429), NA, 'NOT ASSESSED: the interval, wider than the limit, reaches from below'),
     (0.35, (0.21, 0.43), WARN, 'Z_gb 0.350 mm [0.210 .. 0.430] (140% of limit)'),
     (0.30, (0.19, 0.31), WARN, '(120% of limit)'),                # the point past the limit, judgeable
-    (0.18, (0.12, 0.27), STALE, 'Z_gb 0.180 mm [0.120 .. 0.270] (72% of limit) NOT ASSESSED: the interval reaches '
+    (0.18, (0.12, 0.27), NA, 'Z_gb 0.180 mm [0.120 .. 0.270] (72% of limit) NOT ASSESSED: the interval reaches '
                                 'from below the warning to past the limit'),     # the point within: not OK
     (0.18, (0.12, 0.25), OK, 'Z_gb 0.180 mm [0.120 .. 0.250] (72% of limit)'),  # the high end at the limit
-    (0.10, (0.10, None), STALE, 'Z_gb >= 0.100 mm NOT ASSESSED: lower bound only (no load on the guide beam '
+    (0.10, (0.10, None), NA, 'Z_gb >= 0.100 mm NOT ASSESSED: lower bound only (no load on the guide beam '
                                 'shows at the loads seen); a hard-over at sea speed would load the guide beam and '
                                 'show it'),
     (0.22, (0.21, None), WARN, 'Z_gb >= 0.210 mm WARN: lower bound past the warning'),   # no share below it
@@ -254,7 +260,7 @@ def test_clearance_levels_on_the_interval(builder, mon, zgb, interval, level, te
     mon.set_gaps(Clearances(0.3 * MM, zgb * MM), 'estimated',
                  {'2z': (0.25 * MM, 0.35 * MM), 'zgb': (lo * MM, None if hi is None else hi * MM)})
     st = builder.clearances(mon)
-    assert (LEVEL_NAMES[st.level], text in st.message) == (LEVEL_NAMES[level], True), st.message
+    assert (st.label, text in st.message) == (_label(level), True), st.message
 
 
 def _feed(mon, pressures, t0_ns=0):
@@ -284,10 +290,10 @@ RULE = ("WARN while the share's interval lies wholly outside 35-65 %, OK again o
 
 
 @pytest.mark.parametrize('n, carries, amplitude, level, text', [
-    (0, 1.0, 40.0, STALE, f'NOT ASSESSED: not judged yet: 0 of the 600 instants of steady motion a window is judged '
+    (0, 1.0, 40.0, NA, f'NOT ASSESSED: not judged yet: 0 of the 600 instants of steady motion a window is judged '
                           f'over ({RULE})'),
-    (599, 0.0, 40.0, STALE, 'NOT ASSESSED: not judged yet: 599 of the 600 instants'),
-    (2000, 0.0, 0.5, STALE, "NOT ASSESSED: not judged yet: the last window 600 instants of steady motion, the rams' "
+    (599, 0.0, 40.0, NA, 'NOT ASSESSED: not judged yet: 599 of the 600 instants'),
+    (2000, 0.0, 0.5, NA, "NOT ASSESSED: not judged yet: the last window 600 instants of steady motion, the rams' "
                             'mean force varying by 0.'),
     (2000, 1.0, 40.0, OK, 'the rams share the driving force: ram 1 50 % [50 .. 50], ram 2 50 % over the last window'),
     (2000, 0.76, 40.0, OK, 'the rams share the driving force: ram 1 38 % ['),       # within 15 points
@@ -302,7 +308,7 @@ def test_rams_levels(builder, mon, n, carries, amplitude, level, text):
     if n:
         _feed(mon, _gear_pressures(n, carries, amplitude))
     st = builder.rams(mon)
-    assert (LEVEL_NAMES[st.level], st.message.startswith(text)) == (LEVEL_NAMES[level], True), st.message
+    assert (st.label, st.message.startswith(text)) == (_label(level), True), st.message
     assert st.value('ram_share_instants') == ('0' if n < 600 else '600')
     assert RULE in st.message
 
@@ -325,10 +331,10 @@ def test_the_rams_level_follows_its_band_with_hysteresis(builder, mon):
 
 
 def test_configured_clearances_are_shown_not_assessed(builder, mon):
-    """Before any analysis the clearances are not assessed (STALE), never OK."""
+    """Before any analysis the clearances are NOT ASSESSED (at level OK: no fault seen), never OK."""
     mon.set_gaps(Clearances(0.7 * MM, 0.3 * MM), 'configured')
     st = builder.clearances(mon)
-    assert st.level == STALE
+    assert (st.level, st.label) == (OK, NA)
     assert st.message.startswith('2Z 0.700 mm configured NOT ASSESSED: not estimated yet (the configured value is '
                                  'shown); a hard-over at sea speed would clamp the ram in its bushing and show it; '
                                  'Z_gb 0.300 mm configured NOT ASSESSED'), st.message
@@ -339,7 +345,7 @@ def test_a_clearance_not_assessed_now_shows_the_last_one_assessed(builder, mon):
     mon.set_finding(_finding(Interval(0.3 * MM, 0.2 * MM, None), Interval(0.1 * MM, 0.0, None)))
     mon.last_assessed = {'zgb': (0.21 * MM, 0.2 * MM, 0.22 * MM, T0 - 86_400_000_000_000)}
     st = builder.clearances(mon)
-    assert st.level == STALE
+    assert (st.level, st.label) == (OK, NA)
     assert 'Z_gb >= 0.000 mm NOT ASSESSED' in st.message
     assert 'last assessed 0.210 mm [0.200 .. 0.220] on the data of ' in st.message
     assert st.value('clearance_zgb_last_assessed').startswith('0.210 [0.200 .. 0.220]')
@@ -351,7 +357,8 @@ def test_a_lower_bound_for_want_of_evidence_says_why(builder, mon):
     mon.set_finding(replace(f, bound_why=('', 'the guide beam carried load in 0.7% of the steady motion at the '
                                               'estimate, too little to place a contact')))
     st = builder.clearances(mon)
-    assert st.level == STALE and 'in 0.7% of the steady motion' in st.message
+    assert (st.level, st.label) == (OK, NA)
+    assert 'in 0.7% of the steady motion' in st.message
 
 
 def test_guide_idle_judged_on_the_estimate_and_its_interval(builder, mon):
@@ -359,13 +366,15 @@ def test_guide_idle_judged_on_the_estimate_and_its_interval(builder, mon):
     and where the Z_gb interval reaches either side of the warning, NOT ASSESSED with why; WARN
     where even the interval's low end leaves it idle past it; OK where it carries in time."""
     st = builder.guide_beam(mon)
-    assert st.level == STALE and st.message.startswith(
+    assert (st.level, st.label) == (OK, NA)
+    assert st.message.startswith(
         'NOT ASSESSED: the clearances are not estimated yet; at the configured ones the guide beam idle up to 10.01 '
         'deg (warn above 10 deg)')
     mon.set_gaps(Clearances(0.4 * MM, 0.26 * MM), 'estimated',
                  {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.1 * MM, 0.4 * MM)})
     st = builder.guide_beam(mon)
-    assert st.level == STALE and st.message.startswith('NOT ASSESSED: on the estimate the guide beam is idle up to ')
+    assert (st.level, st.label) == (OK, NA)
+    assert st.message.startswith('NOT ASSESSED: on the estimate the guide beam is idle up to ')
     assert 'at the low end of the Z_gb interval: the interval reaches either side of the warning' in st.message
     mon.set_gaps(Clearances(0.4 * MM, 0.1 * MM), 'estimated',
                  {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.08 * MM, 0.12 * MM)})
@@ -375,7 +384,8 @@ def test_guide_idle_judged_on_the_estimate_and_its_interval(builder, mon):
     mon.set_gaps(Clearances(0.4 * MM, 0.245 * MM), 'estimated',
                  {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.20 * MM, 0.30 * MM)})
     st = builder.guide_beam(mon)
-    assert st.level == STALE and 'at the high end of the Z_gb interval: the interval reaches either side' in st.message
+    assert (st.level, st.label) == (OK, NA)
+    assert 'at the high end of the Z_gb interval: the interval reaches either side' in st.message
     assert float(st.value('guide_onset_hi_deg')) > 10.0
     mon.set_gaps(Clearances(0.4 * MM, 0.3 * MM), 'estimated',
                  {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.27 * MM, 0.33 * MM)})
@@ -546,11 +556,12 @@ def test_a_ram_read_the_wrong_way_round_is_an_error_naming_the_map(builder, mon)
 
 def test_clearances_of_a_model_that_does_not_explain_the_data_are_not_assessed(builder, mon):
     """Past the limit, but from a model the pressures do not fit: the clearances are not
-    assessed (STALE), and model health carries the WARN with what is left."""
+    assessed, and model health carries the WARN with what is left."""
     mon.set_finding(_finding(Interval(0.4 * MM, 0.3 * MM, 0.5 * MM), Interval(0.3 * MM, 0.28 * MM, 0.32 * MM),
                              'unexplained'))
     st = builder.clearances(mon)
-    assert st.level == STALE and 'NOT ASSESSED: the model in use does not explain the pressures' in st.message
+    assert (st.level, st.label) == (OK, NA)
+    assert 'NOT ASSESSED: the model in use does not explain the pressures' in st.message
     assert 'Z_gb 0.300 mm [0.280 .. 0.320]' in st.message and st.value('judged').startswith('no')
     health = builder.model_health(mon)
     assert health.level == WARN and health.value('analysis_verdict') == 'unexplained'

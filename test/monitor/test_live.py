@@ -90,12 +90,14 @@ def test_statuses_named_and_levelled(r18_params, can_db):
     assert float(by['steer_monitor: CAN input'].value('pressure_r1_stbd_rate_hz')) == pytest.approx(20, abs=0.5)
     # Configured clearances (at the wear limits here) are shown, not assessed: not estimated yet.
     cl = by['steer_monitor: clearances']
-    assert cl.level == STALE and cl.value('clearance_zgb_mm') == '0.250'
+    assert (cl.level, cl.label) == (OK, 'NOT ASSESSED')
+    assert cl.value('clearance_zgb_mm') == '0.250'
     assert cl.value('clearance_source') == 'configured'
     assert cl.message.startswith('2Z 0.600 mm configured NOT ASSESSED: not estimated yet')
     assert cl.value('clearance_2z_lo_mm') == 'n/a'
     gb = by['steer_monitor: guide beam']
-    assert gb.level == STALE and float(gb.value('guide_onset_deg')) == pytest.approx(10.0, abs=0.1)
+    assert (gb.level, gb.label) == (OK, 'NOT ASSESSED')
+    assert float(gb.value('guide_onset_deg')) == pytest.approx(10.0, abs=0.1)
     assert gb.message.startswith('NOT ASSESSED: the clearances are not estimated yet; at the configured ones')
     perf = by['steer_monitor: steering performance']
     assert perf.level == OK and float(perf.value('hard_over_s')) < 28
