@@ -170,7 +170,7 @@ def test_the_package_carries_its_licence_and_what_its_readme_runs():
     declared = set(_depends('exec_depend'))
     assert 'ros2launch' in declared
     launch = _imports([PKG / 'launch' / 'monitor.launch.py'])
-    assert launch - {'os'} <= declared, launch - declared
+    assert launch - {'os', 'steer_monitor'} <= declared, launch - declared     # its own package, and the stdlib
 
 
 def test_launch_file_declares_its_arguments():
@@ -179,7 +179,7 @@ def test_launch_file_declares_its_arguments():
     assert any(isinstance(n, ast.FunctionDef) and n.name == 'generate_launch_description' for n in tree.body)
     args = [n.args[0].value for n in ast.walk(tree) if isinstance(n, ast.Call)
             and getattr(n.func, 'id', '') == 'DeclareLaunchArgument']
-    assert args == ['params_file', 'interface', 'channel', 'aggregator']
+    assert args == ['name', 'params_file', 'interface', 'channel', 'aggregator']
 
 
 def test_systemd_unit_stops_with_sigint_and_restarts():

@@ -99,7 +99,7 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None, program: 
                 if seen.get(s.name) != state:
                     seen[s.name] = state
                     out.write(f'[{now:5.1f} s] {LEVEL_NAMES.get(level, level):5} '
-                              f'{s.name[len("steer_monitor: "):]}: {s.message}\n')
+                              f'{s.name.split(": ", 1)[-1]}: {s.message}\n')
             if now - last_line[0] >= 10.0:
                 last_line[0] = now
                 out.write(f'[{now:5.1f} s]       rudder {values.get("rudder_angle_deg", "n/a")} deg, '

@@ -43,11 +43,12 @@ from steer_monitor.monitor.arrivals import ARRIVALS_KEPT_NS, RATE_WINDOW_NS
 from steer_monitor.monitor.live import LiveMonitor
 from steer_monitor.monitor.performance import hard_over_words, solas_judgement
 from steer_monitor.monitor.verdict import ERROR, NOT_ASSESSED, OK, WARN, Verdict, clearance_verdict, worst
-from steer_monitor.params import ram_share_warn_from_params
+from steer_monitor.params import NODE_NAME, ram_share_warn_from_params
 from steer_monitor.utc import utc_json, utc_text
 
 __all__ = ['ASSESSMENT_KEY', 'ERROR', 'LEVEL_NAMES', 'NOT_ASSESSED_TEXT', 'OK', 'SILENT_PERIODS',
-           'SLOW_DEFAULT_INTERVAL_NS', 'STALE', 'WARN', 'DiagnosticsBuilder', 'DiagnosticsConfig', 'Status']
+           'SLOW_DEFAULT_INTERVAL_NS', 'STALE', 'WARN', 'DiagnosticsBuilder', 'DiagnosticsConfig', 'Status',
+           'status_name']
 
 #: NMEA 2000's default transmission interval for slow data (Actual Pressure, PGN 130314, among
 #: them): an input heard once is judged silent after three of these, until its own period is known
@@ -60,11 +61,16 @@ GAP_NS = 1_000_000_000
 SILENT_PERIODS = 5
 STALE = 3          # REP-107 levels: OK, WARN and ERROR (0, 1, 2) are the verdict's own
 LEVEL_NAMES = {OK: 'OK', WARN: 'WARN', ERROR: 'ERROR', STALE: 'STALE'}
-PREFIX = 'steer_monitor: '
 #: the value that says whether a status that judges the gear (clearances, guide beam, rams) has
 #: judged it: ``assessed`` or :data:`NOT_ASSESSED_TEXT`
 ASSESSMENT_KEY = 'assessment'
 NOT_ASSESSED_TEXT = 'NOT ASSESSED'
+
+
+def status_name(node_name: str, item: str) -> str:
+    """A status's name, ``node: item`` as diagnostic_updater names a node's tasks: two monitors
+    on one ship (``port_gear``, ``stbd_gear``) publish statuses of their own."""
+    return f'{node_name}: {item}'
 
 
 @dataclass(frozen=True)
@@ -96,6 +102,8 @@ class DiagnosticsConfig:
     """Thresholds of the statuses (SI except where named)."""
 
     hardware_id: str
+    #: the node's name, which each status's name begins with (:func:`status_name`)
+    node_name: str = NODE_NAME
     stale_after_s: float = 2.0
     clearance_warn_share: float = 0.8
     limit_2z: float = 0.6e-3
@@ -110,8 +118,8 @@ class DiagnosticsConfig:
     ram_speed_per_pump: float = 15e-3
 
     @classmethod
-    def from_params(cls, p: Mapping[str, Any]) -> DiagnosticsConfig:
-        return cls(hardware_id=p['node.hardware_id'], stale_after_s=p['diagnostics.stale_after_s'],
+    def from_params(cls, p: Mapping[str, Any], node_name: str = NODE_NAME) -> DiagnosticsConfig:
+        return cls(hardware_id=p['node.hardware_id'], node_name=node_name, stale_after_s=p['diagnostics.stale_after_s'],
                    clearance_warn_share=p['diagnostics.clearance_warn_share'],
                    limit_2z=p['clearances.limit_2z_mm'] * 1e-3, limit_zgb=p['clearances.limit_zgb_mm'] * 1e-3,
                    guide_idle_warn_deg=p['diagnostics.guide_idle_warn_deg'],
@@ -159,7 +167,7 @@ class DiagnosticsBuilder:
                           f'{spec.name}_silent_s')) for spec in smap.specs]
 
     def _status(self, item: str, level: int, message: str, values: list[tuple[str, str]]) -> Status:
-        return Status(PREFIX + item, level, message, self.cfg.hardware_id, tuple(values))
+        return Status(status_name(self.cfg.node_name, item), level, message, self.cfg.hardware_id, tuple(values))
 
     def _judged(self, item: str, verdict: int, message: str, values: list[tuple[str, str]]) -> Status:
         """A status that judges the gear, from its ``verdict`` (OK, WARN, ERROR or NOT_ASSESSED).

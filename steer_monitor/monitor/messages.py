@@ -42,7 +42,7 @@ from steer_monitor.monitor.live import LiveState
 from steer_monitor.monitor.pipeline import DiagOut, StateOut
 from steer_monitor.rostime import ros_time
 
-__all__ = ['CLEARANCE_NAMES', 'LOAD_SHARING_NAMES', 'TOPICS', 'diag_messages', 'state_messages', 'stamp',
+__all__ = ['CLEARANCE_NAMES', 'LATCHED', 'LOAD_SHARING_NAMES', 'TOPICS', 'diag_messages', 'state_messages', 'stamp',
            'topic_name']
 
 #: the named values of ``~/clearances`` (and of older recordings' labelled Float64MultiArray):
@@ -64,6 +64,11 @@ TOPICS = {
     'clearances': ('~/clearances', 'sensor_msgs/msg/JointState'),
     'clearance_source': ('~/clearance_source', 'std_msgs/msg/String'),
 }
+
+#: the outputs whose last message a late subscriber gets at once (transient_local, depth 1:
+#: the estimate in use and its source, which change seldom; a dashboard started after the node
+#: should not wait for the next analysis)
+LATCHED = frozenset({'clearances', 'clearance_source'})
 
 
 def topic_name(key: str, node_name: str = 'steer_monitor', namespace: str = '/') -> str:

@@ -16,12 +16,15 @@ from __future__ import annotations
 
 from typing import Any
 
+from steer_monitor.monitor.diagnostics import status_name
+from steer_monitor.params import NODE_NAME
+
 __all__ = ['AGGREGATOR_NODE', 'ALWAYS', 'DEFAULT_NODE_NAME', 'analyzer_file', 'analyzer_parameters']
 
 #: the node name diagnostic_aggregator's aggregator_node takes (its Aggregator's constructor)
 AGGREGATOR_NODE = 'analyzers'
 #: the monitor's node name unless it is started under another
-DEFAULT_NODE_NAME = 'steer_monitor'
+DEFAULT_NODE_NAME = NODE_NAME
 #: the statuses a monitor publishes every time (the recording's only while it records)
 ALWAYS = ('CAN input', 'CAN bus', 'clearances', 'guide beam', 'steering performance', 'model health', 'rams')
 #: an item not heard for this long reads STALE (the monitor publishes once a second)
@@ -35,8 +38,8 @@ def analyzer_parameters(node_name: str = DEFAULT_NODE_NAME) -> dict[str, Any]:
     path = 'Steering gear' if node_name == DEFAULT_NODE_NAME else f'Steering gear ({node_name})'
     return {'path': 'Vessel',
             node_name: {'type': 'diagnostic_aggregator/GenericAnalyzer', 'path': path,
-                        'startswith': [f'{node_name}:'],
-                        'expected': [f'{node_name}: {item}' for item in ALWAYS],
+                        'startswith': [status_name(node_name, '').rstrip()],
+                        'expected': [status_name(node_name, item) for item in ALWAYS],
                         'timeout': TIMEOUT_S}}
 
 

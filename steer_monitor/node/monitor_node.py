@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any
 
 from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from steer_monitor.can.bus import BusReader, ListenOnlyBus
 from steer_monitor.can.busclock import BusClock
@@ -44,7 +45,7 @@ from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.monitor.analyst import Analyst, Outcome, describe
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig, Status
 from steer_monitor.monitor.live import LiveMonitor
-from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages
+from steer_monitor.monitor.messages import LATCHED, TOPICS, diag_messages, state_messages
 from steer_monitor.monitor.pipeline import DiagOut, Output, Pipeline, StateOut, ThreadedJobs, analyst_from_params
 from steer_monitor.node.params_ros import declare_parameters
 from steer_monitor.node.recordbatch import RecordBatches
@@ -90,7 +91,7 @@ class MonitorNode(Node):
         self._db = db
         self.rejects = RejectCounter()
         self.monitor = self._new_monitor()
-        self.diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(p), smap, self.gear)
+        self.diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(p, self._node_name_kept), smap, self.gear)
         self.diag.guide_onset_deg(self.monitor.gaps)  # warm the cache before the first frame
         # the message types before anything opens: a package not built stops the node here
         self._classes = {key: message_class(datatype) for key, (_, datatype) in TOPICS.items()}
@@ -210,7 +211,7 @@ class MonitorNode(Node):
         silent, how = self._bus_mode
         p = self.params
         return bus_status(f"{p['can.interface']}:{p['can.channel']}", silent, how, self._clock_text(), self.restarts,
-                          self.reader.last_error, p['node.hardware_id'])
+                          self.reader.last_error, p['node.hardware_id'], self._node_name_kept)
 
     # --- analyses ----------------------------------------------------------------------------
     def _start_analyst(self) -> ThreadedJobs:
@@ -296,8 +297,10 @@ class MonitorNode(Node):
     # --- set-up ------------------------------------------------------------------------------
     def _make_publishers(self) -> None:
         self._pubs: dict[str, tuple[Any, str]] = {}
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                             reliability=ReliabilityPolicy.RELIABLE)
         for key, (topic, datatype) in TOPICS.items():
-            pub = self.create_publisher(self._classes[key], topic, 10)
+            pub = self.create_publisher(self._classes[key], topic, latched if key in LATCHED else 10)
             self._pubs[key] = (pub, datatype)
             if self.recorder is not None:
                 self.recorder.add_topic(pub.topic_name, datatype, msgdef(datatype))
@@ -426,7 +429,7 @@ class MonitorNode(Node):
     def _recording_status(self) -> Status | None:
         if self.recorder is None:
             return None
-        return recording_status(self.recorder.status(), self.params['node.hardware_id'])
+        return recording_status(self.recorder.status(), self.params['node.hardware_id'], self._node_name_kept)
 
     def _silent_diagnostics(self) -> None:
         """1 Hz on wall time: publish diagnostics only when the data clock has stopped (no

@@ -46,10 +46,18 @@ def declare_parameters(node: Any) -> dict[str, Any]:
         raise ParameterError(unknown_parameter_message(unknown))
     # Without any gear parameter (no parameters file given), the packaged one is the default,
     # said in the log: a node started bare monitors the R-18 gear it describes rather than
-    # failing on the first required parameter. Given some, a missing required one is an error:
-    # another gear's file must not be completed silently with R-18 values.
+    # failing on the first required parameter; a node of another name refuses (its file's
+    # entry is keyed for another node, or none was given). Given some, a missing required one
+    # is an error: another gear's file must not be completed silently with R-18 values.
     packaged: dict[str, Any] = {}
     if not any(name.startswith('gear.') for name in overrides):
+        from steer_monitor.params import NODE_NAME
+        if node.get_name() != NODE_NAME:
+            # a second monitor (``__node:=port_gear``) must not take the first gear's parameters
+            name = node.get_name()
+            msg = (f'node {name}: no gear parameters for it: give it a parameters file with an entry "{name}:" '
+                   f'(or "/**:") at the top; only a node named {NODE_NAME} falls back to the packaged R-18 gear')
+            raise ParameterError(msg)
         from steer_monitor.params import load_params_file
         from steer_monitor.resources import default_config
         path = default_config()

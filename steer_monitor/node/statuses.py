@@ -4,7 +4,8 @@ what the bus handle, the reader and the recorder report)."""
 from __future__ import annotations
 
 from steer_monitor.can.busclock import BusClock
-from steer_monitor.monitor.diagnostics import ERROR, OK, WARN, Status
+from steer_monitor.monitor.diagnostics import ERROR, OK, WARN, Status, status_name
+from steer_monitor.params import NODE_NAME
 from steer_monitor.record.recorder import RecorderStatus
 
 __all__ = ['bus_status', 'clock_words', 'recording_status']
@@ -28,7 +29,7 @@ def clock_words(clock: BusClock | None) -> str:
 
 
 def bus_status(interface: str, silent: bool | None, how: str, frame_times: str, went_back: int, last_error: str,
-               hardware_id: str) -> Status:
+               hardware_id: str, node_name: str = NODE_NAME) -> Status:
     """The node's status of its bus ``interface`` ('kind:channel'): whether the controller is
     silent (listen-only; ``how`` says how it is known), what the frames' times are, how often
     they went back, the last bus error. WARN when the controller is known to acknowledge frames."""
@@ -39,13 +40,13 @@ def bus_status(interface: str, silent: bool | None, how: str, frame_times: str, 
               ('last_bus_error', last_error or 'none'))
     level = WARN if silent is False else OK
     message = how if silent is not None else f'listen-only cannot be confirmed: {how}'
-    return Status('steer_monitor: CAN bus', level, message, hardware_id, values)
+    return Status(status_name(node_name, 'CAN bus'), level, message, hardware_id, values)
 
 
-def recording_status(st: RecorderStatus, hardware_id: str) -> Status:
+def recording_status(st: RecorderStatus, hardware_id: str, node_name: str = NODE_NAME) -> Status:
     """The node's status of its recording: the file, how many, messages written, failed,
     dropped and files removed; ERROR while it cannot record."""
     values = (('recording_file', st.current_file or 'n/a'), ('recording_files', str(st.files)),
               ('recording_messages', str(st.messages)), ('recording_failed', str(st.failed)),
               ('recording_dropped', str(st.dropped)), ('recording_removed', str(st.removed)))
-    return Status('steer_monitor: recording', OK if st.ok else ERROR, st.message, hardware_id, values)
+    return Status(status_name(node_name, 'recording'), OK if st.ok else ERROR, st.message, hardware_id, values)
