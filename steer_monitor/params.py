@@ -49,6 +49,7 @@ __all__ = [
     'recorded_params',
     'unknown_parameter_message',
     'validate_params',
+    'WRITABLE',
 ]
 
 NODE_NAME = 'steer_monitor'
@@ -72,6 +73,13 @@ class ParamSpec:
     maximum: float | None = None
     exclusive_minimum: bool = False
 
+
+#: the parameters a running node lets be set (``ros2 param set``): thresholds that judge what
+#: it sees, read again at the next status; the rest shape what it reads and keeps, and are
+#: read only (set them in the parameters file and start the node again)
+WRITABLE = frozenset({'diagnostics.stale_after_s', 'diagnostics.clearance_warn_share',
+                      'diagnostics.guide_idle_warn_deg', 'diagnostics.solas_hard_over_s', 'clearances.limit_2z_mm',
+                      'clearances.limit_zgb_mm'})
 
 PARAMETERS: tuple[ParamSpec, ...] = (
     # Gear geometry and material (docs/physics.md).

@@ -18,7 +18,7 @@ from test.conftest import PKG, ROOT, SHARED
 ROSDEP = SHARED / 'rosdep'
 #: ROS packages (resolved by rosdistro's distribution file, not by the rosdep key files)
 ROS_PACKAGES = {'rclpy', 'rcl_interfaces', 'ament_index_python', 'diagnostic_msgs', 'std_msgs', 'sensor_msgs',
-                'launch', 'launch_ros', 'ros2launch', 'diagnostic_aggregator'}
+                'std_srvs', 'launch', 'launch_ros', 'ros2launch', 'diagnostic_aggregator'}
 #: the package of this repository (rosdep skips it)
 WORKSPACE = {'steer_monitor'}
 MANIFESTS = [PKG / 'package.xml']
@@ -30,6 +30,7 @@ MODULE_KEYS = {'numpy': 'python3-numpy', 'numba': 'python3-numba', 'scipy': 'pyt
                'zstandard': 'mcap-ros2-support', 'lz4': 'mcap-ros2-support',   # mcap's own requirements
                'rclpy': 'rclpy', 'rcl_interfaces': 'rcl_interfaces', 'ament_index_python': 'ament_index_python',
                'diagnostic_msgs': 'diagnostic_msgs', 'std_msgs': 'std_msgs', 'sensor_msgs': 'sensor_msgs',
+               'std_srvs': 'std_srvs',
                'builtin_interfaces': 'rclpy', 'launch': 'launch', 'launch_ros': 'launch_ros'}
 #: imported, deliberately without a key (none exists): optional at run time
 OPTIONAL = {'threadpoolctl'}

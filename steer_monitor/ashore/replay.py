@@ -47,11 +47,12 @@ from steer_monitor.logfiles.mcapio import (
     leading_metadata,
     pack_messages,
 )
+from steer_monitor.logfiles.rosbag2meta import offered_qos_profiles
 from steer_monitor.model.gear import GearParams
 from steer_monitor.monitor.analyst import Analyst, SyncJobs
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig
 from steer_monitor.monitor.live import LiveMonitor
-from steer_monitor.monitor.messages import TOPICS, diag_messages, topic_name
+from steer_monitor.monitor.messages import TOPICS, diag_messages, topic_name, topic_qos
 from steer_monitor.monitor.pipeline import DiagOut, Output, Pipeline, StateOut, analyst_from_params
 from steer_monitor.monitor.runfeed import StateRun
 from steer_monitor.params import (
@@ -208,7 +209,7 @@ def _replay(run: Runner, paths: list[Path], output: str | Path, config_path: Pat
     encoders = {key: FAST_ENCODERS[dt] for key, (_, dt) in TOPICS.items()}     # every topic has its CDR encoder
     with atomic_path(output) as tmp:
         try:
-            writer = McapWriter(tmp)
+            writer = McapWriter(tmp, name=Path(output).name)
         except OSError as exc:
             msg = f'cannot write {output}: {os_reason(exc)}'
             raise ReplayError(msg) from exc
@@ -239,7 +240,7 @@ def add_channels(writer: McapWriter, topics: dict[str, str], frames: bool) -> No
     """The schemas and channels of the node's topics (and of the frames, with ``frames``)."""
     for key, (_, datatype) in TOPICS.items():
         writer.add_schema(datatype, msgdef(datatype))
-        writer.add_channel(topics[key], datatype)
+        writer.add_channel(topics[key], datatype, offered_qos_profiles(*topic_qos(key)))
     if frames:
         writer.add_schema(FRAME_DATATYPE, FRAME_MSGDEF)
         writer.add_channel(FRAME_TOPIC, FRAME_DATATYPE)

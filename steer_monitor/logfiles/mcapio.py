@@ -3,6 +3,7 @@ cdr encoding, ros2msg schema), as the node records them and ``replay`` reads the
 
 from __future__ import annotations
 
+import os
 import struct
 from collections.abc import Sequence
 from pathlib import Path
@@ -14,6 +15,8 @@ from mcap.records import MessageIndex
 from numpy.typing import NDArray
 
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, Frame, FrameArrays
+from steer_monitor.logfiles.rosbag2meta import METADATA_NAME, TopicCount, offered_qos_profiles, serialized_metadata
+from steer_monitor.logfiles.typehash import type_hash
 from steer_monitor.rostime import SEC_MAX, ros_time
 
 __all__ = ['DEFAULT_QOS', 'FRAME_DATATYPE', 'FRAME_MSGDEF', 'FRAME_TOPIC', 'MESSAGE_HEAD', 'Counted', 'McapWriter',
@@ -40,12 +43,9 @@ int32 sec
 uint32 nanosec
 """
 
-# offered_qos_profiles as rosbag2 writes them for a reliable, volatile publisher (history unknown).
-DEFAULT_QOS = ('- history: 3\n  depth: 0\n  reliability: 1\n  durability: 2\n'
-                   '  deadline:\n    sec: 9223372036\n    nsec: 854775807\n'
-                   '  lifespan:\n    sec: 9223372036\n    nsec: 854775807\n'
-                   '  liveliness: 1\n  liveliness_lease_duration:\n    sec: 9223372036\n'
-                   '    nsec: 854775807\n  avoid_ros_namespace_conventions: false\n')
+#: offered_qos_profiles of a topic whose publisher's QoS is not given: a reliable, volatile
+#: keep-last publisher of depth 10 (rclpy's default)
+DEFAULT_QOS = offered_qos_profiles(10, False)
 
 
 _CDR_HEADER = b'\x00\x01\x00\x00'  # CDR, little-endian
@@ -197,13 +197,16 @@ class Counted:
 
 
 class McapWriter:
-    """A ROS 2 MCAP writer (zstd chunks, CRCs) with per-channel QoS metadata.
+    """A ROS 2 MCAP writer (zstd chunks, CRCs) as rosbag2's MCAP storage writes: each channel
+    with its offered QoS and its type hash, and at the end the ``rosbag2`` metadata record
+    (:mod:`~steer_monitor.logfiles.rosbag2meta`; ``name``: the file's name in it, by default
+    the output's; ``ros_distro`` by default ``$ROS_DISTRO``).
 
     Context manager; :meth:`close` finishes the file and is idempotent.
     """
 
     def __init__(self, output: str | Path | IO[bytes], chunk_size: int = 1024 * 1024,
-                 library: str = 'steer_monitor') -> None:
+                 library: str = 'steer_monitor', name: str | None = None, ros_distro: str | None = None) -> None:
         from mcap.writer import CompressionType
         from mcap.writer import Writer as _Writer
 
@@ -218,6 +221,13 @@ class McapWriter:
         self._channels: dict[str, tuple[int, str]] = {}    # topic -> (channel id, datatype)
         self._encoders: dict[str, Any] = {}
         self._closed = False
+        # for the rosbag2 metadata record: each channel's QoS, type hash and messages, the span
+        self.name = name if name is not None else (Path(output).name if self._own else '')  # type: ignore[arg-type]
+        self.ros_distro = ros_distro if ros_distro is not None else os.environ.get('ROS_DISTRO', '')
+        self._hashes: dict[str, str] = {}                  # datatype -> type hash
+        self._qos: dict[int, str] = {}
+        self._counts: dict[int, int] = {}                  # channel id -> messages
+        self._span: list[int] = []                         # [first, last] log time [ns]
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
         """Write an MCAP metadata record (``mcap info`` and the readers list them)."""
@@ -228,16 +238,33 @@ class McapWriter:
         if datatype not in self._schemas:
             sid = self._writer.register_schema(datatype, 'ros2msg', msgdef.encode())
             self._schemas[datatype] = (sid, msgdef)
+            self._hashes[datatype] = type_hash(datatype, msgdef)
 
     def add_channel(self, topic: str, datatype: str, qos: str = DEFAULT_QOS) -> None:
-        """Register a cdr channel for a registered datatype, with its offered QoS."""
+        """Register a cdr channel for a registered datatype, with its offered QoS
+        (:func:`~steer_monitor.logfiles.rosbag2meta.offered_qos_profiles`) and type hash."""
         if topic not in self._channels:
             sid, _ = self._schemas[datatype]
-            cid = self._writer.register_channel(topic, 'cdr', sid, {'offered_qos_profiles': qos})
+            cid = self._writer.register_channel(topic, 'cdr', sid, {'offered_qos_profiles': qos,
+                                                                    'topic_type_hash': self._hashes[datatype]})
             self._channels[topic] = (cid, datatype)
+            self._qos[cid] = qos
+            self._counts[cid] = 0
+
+    def _counted(self, channels: NDArray[np.uint16] | int, t_first: int, t_last: int) -> None:
+        if isinstance(channels, int):
+            self._counts[channels] += 1
+        else:
+            for cid, k in zip(*np.unique(channels, return_counts=True), strict=True):
+                self._counts[int(cid)] += int(k)
+        if self._span:
+            self._span[0], self._span[1] = min(self._span[0], t_first), max(self._span[1], t_last)
+        else:
+            self._span[:] = [t_first, t_last]
 
     def write_cdr(self, topic: str, data: bytes, log_time_ns: int, publish_time_ns: int | None = None) -> None:
         """Write one already-serialized message."""
+        self._counted(self._channels[topic][0], log_time_ns, log_time_ns)
         self._writer.add_message(self._channels[topic][0], log_time=log_time_ns,
                                  publish_time=log_time_ns if publish_time_ns is None else publish_time_ns,
                                  data=data)
@@ -306,6 +333,7 @@ class McapWriter:
         n = int(log_times.shape[0])
         if n == 0:
             return
+        self._counted(channels, int(log_times.min()), int(log_times.max()))
         w = self._writer
         chunk = getattr(w, '_Writer__chunk_builder', None)
         stats = getattr(w, '_Writer__statistics', None)
@@ -352,12 +380,22 @@ class McapWriter:
         """Close the chunk in progress and write everything out (not fsync)."""
         self._writer.flush()
 
+    def bag_metadata(self) -> str:
+        """The ``serialized_metadata`` of the file as written so far."""
+        topics = [TopicCount(topic, datatype, self._qos[cid], self._hashes[datatype], self._counts[cid])
+                  for topic, (cid, datatype) in self._channels.items()]
+        first, last = self._span if self._span else (0, 0)
+        return serialized_metadata(self.name, topics, first, last, self.ros_distro)
+
     def close(self) -> None:
         if self._closed:
             return
         self._closed = True
         try:
-            self._writer.finish()
+            try:
+                self._writer.add_metadata(METADATA_NAME, {'serialized_metadata': self.bag_metadata()})
+            finally:
+                self._writer.finish()
         finally:
             if self._own:
                 self._stream.close()

@@ -169,6 +169,7 @@ class Analyst:
         #: model that explains the data): (value, lo, hi [m], data time [ns])
         self.assessed: dict[str, tuple[float, float, float, int]] = {}
         self.jobs_made = 0
+        self.requested = False                      # an analysis asked for now (:meth:`request`)
 
     def add(self, name: str, t_ns: int, value: float) -> None:
         self.buffer.add(name, t_ns, value)
@@ -182,10 +183,18 @@ class Analyst:
         this run: compact the window when due, and the job due now, if any."""
         self.buffer.tick(t_ns)
         kind = self.schedule.due(self.motion_base_s + motion_s)
+        if kind is None and self.requested:
+            kind = 'loop'
+        self.requested = False
         if kind is None:
             return None
         self.jobs_made += 1
         return Job(self.jobs_made, t_ns, kind, self.buffer.signals())
+
+    def request(self) -> None:
+        """Ask for an analysis (with its residual loop) of the window as it is, at the next whole
+        second of data, whatever the schedule says (the schedule goes on as it was)."""
+        self.requested = True
 
     def take(self, outcome: Outcome) -> Finding | None:
         """An outcome whose time has come: its finding (None: keep the last one, and say why)."""

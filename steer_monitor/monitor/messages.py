@@ -42,8 +42,8 @@ from steer_monitor.monitor.live import LiveState
 from steer_monitor.monitor.pipeline import DiagOut, StateOut
 from steer_monitor.rostime import ros_time
 
-__all__ = ['CLEARANCE_NAMES', 'LATCHED', 'LOAD_SHARING_NAMES', 'TOPICS', 'diag_messages', 'state_messages', 'stamp',
-           'topic_name']
+__all__ = ['CLEARANCE_NAMES', 'DEPTH', 'LATCHED', 'LOAD_SHARING_NAMES', 'TOPICS', 'diag_messages', 'stamp',
+           'state_messages', 'topic_name', 'topic_qos']
 
 #: the named values of ``~/clearances`` (and of older recordings' labelled Float64MultiArray):
 #: 2Z and the ends of its 95 % interval, Z_gb and the ends of its [m]; NaN where not known
@@ -69,6 +69,14 @@ TOPICS = {
 #: the estimate in use and its source, which change seldom; a dashboard started after the node
 #: should not wait for the next analysis)
 LATCHED = frozenset({'clearances', 'clearance_source'})
+#: the history depth of the other outputs' publishers
+DEPTH = 10
+
+
+def topic_qos(key: str) -> tuple[int, bool]:
+    """An output's publisher QoS: (history depth, transient_local), reliable: what the node
+    offers and what its recordings and replays say it offered."""
+    return (1, True) if key in LATCHED else (DEPTH, False)
 
 
 def topic_name(key: str, node_name: str = 'steer_monitor', namespace: str = '/') -> str:

@@ -34,25 +34,36 @@ from typing import Any
 
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from std_srvs.srv import Trigger
 
 from steer_monitor.can.bus import BusReader, ListenOnlyBus
 from steer_monitor.can.busclock import BusClock
 from steer_monitor.can.busconfig import can_setup
+from steer_monitor.can.buserrors import BusErrors
 from steer_monitor.can.decoder import Decoder
+from steer_monitor.can.frames import Frame
 from steer_monitor.can.rejects import RejectCounter
 from steer_monitor.errors import ParameterError, SteerMonitorError
 from steer_monitor.estimate.observe import EstimateError
+from steer_monitor.logfiles.rosbag2meta import offered_qos_profiles
 from steer_monitor.monitor.analyst import Analyst, Outcome, describe
 from steer_monitor.monitor.diagnostics import DiagnosticsBuilder, DiagnosticsConfig, Status
 from steer_monitor.monitor.live import LiveMonitor
-from steer_monitor.monitor.messages import LATCHED, TOPICS, diag_messages, state_messages
+from steer_monitor.monitor.messages import TOPICS, diag_messages, state_messages, topic_qos
 from steer_monitor.monitor.pipeline import DiagOut, Output, Pipeline, StateOut, ThreadedJobs, analyst_from_params
 from steer_monitor.node.params_ros import declare_parameters
 from steer_monitor.node.recordbatch import RecordBatches
 from steer_monitor.node.rosmsg import message_class
 from steer_monitor.node.statefile import StateFile
 from steer_monitor.node.statuses import bus_status, clock_words, recording_status
-from steer_monitor.params import friction_from_params, gaps_from_params, gear_from_params, ram_share_warn_from_params
+from steer_monitor.params import (
+    WRITABLE,
+    friction_from_params,
+    gaps_from_params,
+    gear_from_params,
+    ram_share_warn_from_params,
+    validate_params,
+)
 from steer_monitor.record.cdr import FAST_ENCODERS
 from steer_monitor.record.msgdefs import msgdef
 from steer_monitor.record.provenance import run_metadata
@@ -123,6 +134,7 @@ class MonitorNode(Node):
         self._bus_mode: tuple[bool | None, str] = (None, 'bus not opened yet')
         self._bus_clock: BusClock | None = None
         self._clock_told: tuple[bool | None, int] = (None, 0)
+        self.bus_errors = BusErrors()          # the controller's error state, from its error frames
         self.state_file = StateFile.from_params(p['estimator.state_file'], p['recording.directory'],
                                                 lambda text: self._log().error(text),
                                                 lambda text: self._log().info(text))
@@ -142,6 +154,10 @@ class MonitorNode(Node):
                                 on_open=self._bus_opened, on_error=self._bus_failed)
         self._reader_thread = threading.Thread(target=self._read, name='steer_monitor-can', daemon=True)
         self.create_timer(1.0, self._silent_diagnostics)
+        self.add_on_set_parameters_callback(self._set_parameters)
+        for service, handler in (('~/analyse_now', self._analyse_now), ('~/split_recording', self._split_recording),
+                                 ('~/save_state', self._save_state)):
+            self.create_service(Trigger, service, handler)
         self._reader_thread.start()
         self.get_logger().info(
             f'opening {interface}:{channel} (listen-only); {len(smap.specs)} inputs mapped; '
@@ -211,7 +227,7 @@ class MonitorNode(Node):
         silent, how = self._bus_mode
         p = self.params
         return bus_status(f"{p['can.interface']}:{p['can.channel']}", silent, how, self._clock_text(), self.restarts,
-                          self.reader.last_error, p['node.hardware_id'], self._node_name_kept)
+                          self.reader.last_error, p['node.hardware_id'], self._node_name_kept, self.bus_errors)
 
     # --- analyses ----------------------------------------------------------------------------
     def _start_analyst(self) -> ThreadedJobs:
@@ -297,13 +313,15 @@ class MonitorNode(Node):
     # --- set-up ------------------------------------------------------------------------------
     def _make_publishers(self) -> None:
         self._pubs: dict[str, tuple[Any, str]] = {}
-        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
-                             reliability=ReliabilityPolicy.RELIABLE)
         for key, (topic, datatype) in TOPICS.items():
-            pub = self.create_publisher(self._classes[key], topic, latched if key in LATCHED else 10)
+            depth, latched = topic_qos(key)
+            qos = QoSProfile(depth=depth, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
+            pub = self.create_publisher(self._classes[key], topic, qos)
             self._pubs[key] = (pub, datatype)
             if self.recorder is not None:
-                self.recorder.add_topic(pub.topic_name, datatype, msgdef(datatype))
+                self.recorder.add_topic(pub.topic_name, datatype, msgdef(datatype),
+                                        offered_qos_profiles(depth, latched))
 
     def _publish(self, key: str, fields: dict[str, Any], t_ns: int, held: RecordBatches | None = None,
                  now_ns: int = 0) -> None:
@@ -389,6 +407,9 @@ class MonitorNode(Node):
                 for frames in reader.batches(stop):
                     received = time.monotonic_ns()
                     self.frames_received += len(frames)
+                    for f in frames:
+                        if f.is_error:
+                            self._error_frame(f)
                     cut = batches.add(frames, received) if batches is not None else 0
                     taken, later = len(frames), []
                     try:
@@ -425,6 +446,72 @@ class MonitorNode(Node):
         finally:
             if batches is not None:
                 batches.close()
+
+    def _error_frame(self, f: Frame) -> None:
+        """An error frame: the controller's state followed; a change to error-passive or bus-off,
+        or back, in the log."""
+        before = self.bus_errors.state
+        self.bus_errors.feed(f.t_ns, f.can_id, f.data)
+        if self.bus_errors.state != before:
+            self.get_logger().warning(f'CAN controller {before} -> {self.bus_errors.state} at {utc_text(f.t_ns)}')
+
+    # --- acting on the monitor: writable parameters and services ---------------------------
+    def _set_parameters(self, params: list[Any]) -> Any:
+        """``ros2 param set``: only :data:`~steer_monitor.params.WRITABLE` ones, checked as the
+        parameters file is; the statuses are judged by them from the next one on."""
+        from rcl_interfaces.msg import SetParametersResult
+
+        changed = {q.name: q.value for q in params}
+        refused = sorted(set(changed) - WRITABLE)
+        if refused:
+            reason = (f'read only while the node runs: {", ".join(refused)} (set it in the parameters file and start '
+                      'the node again)')
+            return SetParametersResult(successful=False, reason=reason)
+        try:
+            values = validate_params({**self.params, **changed})
+        except ParameterError as exc:
+            return SetParametersResult(successful=False, reason=str(exc))
+        with self._lock:
+            self.params = values
+            self.diag = DiagnosticsBuilder(DiagnosticsConfig.from_params(values, self._node_name_kept), self.smap,
+                                           self.gear)
+            self.pipeline.diag = self.diag
+        self.get_logger().info('parameters set: ' + ', '.join(f'{k} = {v}' for k, v in sorted(changed.items())))
+        return SetParametersResult(successful=True)
+
+    def _analyse_now(self, request: Any, response: Any) -> Any:
+        """``~/analyse_now`` (std_srvs/Trigger): an analysis of the data so far at the next second."""
+        if self.analyst is None:
+            response.success, response.message = False, 'the analyses are off (estimator.enabled: false)'
+            return response
+        with self._lock:
+            self.analyst.request()
+        response.success = True
+        response.message = 'an analysis of the data so far starts at the next second of data'
+        return response
+
+    def _split_recording(self, request: Any, response: Any) -> Any:
+        """``~/split_recording`` (std_srvs/Trigger): finish the recording and go on in a new file."""
+        if self.recorder is None:
+            response.success, response.message = False, 'not recording (recording.enabled: false)'
+            return response
+        self.recorder.split()
+        response.success = True
+        response.message = 'the recording is finished at the next message and goes on in a new file'
+        return response
+
+    def _save_state(self, request: Any, response: Any) -> Any:
+        """``~/save_state`` (std_srvs/Trigger): save the analyses' state now."""
+        if self.analyst is None or self.state_file.path is None:
+            response.success = False
+            response.message = ('the analyses are off (estimator.enabled: false)' if self.analyst is None else
+                                'no state file (estimator.state_file is empty)')
+            return response
+        self.save_analyses()
+        error = self.save_error
+        response.success = error is None
+        response.message = f'saved to {self.state_file.path}' if error is None else error
+        return response
 
     def _recording_status(self) -> Status | None:
         if self.recorder is None:

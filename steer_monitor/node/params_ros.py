@@ -6,7 +6,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from steer_monitor.errors import ParameterError
-from steer_monitor.params import PARAMETERS, ParamSpec, validate_params
+from steer_monitor.params import PARAMETERS, WRITABLE, ParamSpec, validate_params
 
 __all__ = ['declare_parameters', 'overrides_from_file', 'why_refused']
 
@@ -17,7 +17,8 @@ def _descriptor(spec: ParamSpec) -> Any:
     kind = {'double': ParameterType.PARAMETER_DOUBLE, 'integer': ParameterType.PARAMETER_INTEGER,
             'bool': ParameterType.PARAMETER_BOOL, 'string': ParameterType.PARAMETER_STRING,
             'double_array': ParameterType.PARAMETER_DOUBLE_ARRAY}[spec.kind]
-    d = ParameterDescriptor(name=spec.name, type=kind, description=spec.description, read_only=True)
+    d = ParameterDescriptor(name=spec.name, type=kind, description=spec.description,
+                            read_only=spec.name not in WRITABLE)
     if spec.kind == 'double' and spec.minimum is not None and spec.maximum is not None:
         d.floating_point_range = [FloatingPointRange(from_value=float(spec.minimum),
                                                      to_value=float(spec.maximum), step=0.0)]

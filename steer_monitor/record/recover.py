@@ -19,6 +19,7 @@ from steer_monitor.atomic import atomic_path, check_target, os_reason
 from steer_monitor.errors import SteerMonitorError
 from steer_monitor.logfiles.mcapcols import decompress_chunk, summary_section
 from steer_monitor.logfiles.mcapio import Counted
+from steer_monitor.logfiles.rosbag2meta import METADATA_NAME
 
 __all__ = ['RecoverError', 'RecoverResult', 'recover', 'summary_definitions']
 
@@ -116,8 +117,10 @@ def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult
         elif isinstance(record, Channel) and record.id not in channels:
             channels[record.id] = writer.register_channel(
                 record.topic, record.message_encoding, schemas.get(record.schema_id, 0), dict(record.metadata))
-        elif isinstance(record, Metadata) and record.name not in metadata:
-            metadata.add(record.name)          # what the recording was made with: kept
+        elif isinstance(record, Metadata) and record.name not in metadata and record.name != METADATA_NAME:
+            # what the recording was made with: kept (not rosbag2's record, which counts the
+            # messages of the file it ends, not of this one)
+            metadata.add(record.name)
             writer.add_metadata(record.name, dict(record.metadata))
         elif isinstance(record, Message) and record.channel_id in channels:
             writer.add_message(channels[record.channel_id], log_time=record.log_time,

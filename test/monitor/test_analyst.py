@@ -282,3 +282,17 @@ def test_analyze_of_the_log_until_a_findings_time_gives_what_the_node_published(
             shown = shown[1:]
         for x, v in zip(q['ci95'] if not q['bounded'] else [q['value'], *q['ci95']], shown):
             assert (x is None and v == 'n/a') or abs(x - float(v)) <= 0.00055, (key, q, shown)
+
+
+def test_an_analysis_asked_for_comes_at_the_next_second(r18_params):
+    """Before the schedule has one due (no motion yet), :meth:`Analyst.request` gives a loop at
+    the next whole second, once; the schedule is left as it was."""
+    from steer_monitor.monitor.pipeline import analyst_from_params
+    from steer_monitor.params import gear_from_params
+    a = analyst_from_params(gear_from_params(r18_params), r18_params)
+    t = 1_767_225_600_000_000_000
+    assert a.due(t, 0.0) is None
+    a.request()
+    job = a.due(t + 1_000_000_000, 0.0)
+    assert job is not None and job.kind == 'loop' and job.t_ns == t + 1_000_000_000
+    assert a.due(t + 2_000_000_000, 0.0) is None

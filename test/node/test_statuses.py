@@ -42,3 +42,25 @@ def test_a_recording_that_cannot_write_is_an_error():
     assert recording_status(good, 'gear').level == OK
     st = recording_status(bad, 'gear')
     assert st.level == ERROR and st.message == 'cannot record: disk full' and dict(st.values)['recording_failed'] == '5'
+
+
+def test_the_controller_error_state_in_the_bus_status():
+    """Error-passive is WARN, bus-off ERROR, each with its UTC time; back to error-active it is
+    OK again and the episodes stay counted."""
+    from steer_monitor.can.buserrors import BusErrors
+    e = BusErrors()
+    st = bus_status('socketcan:can0', True, 'can0 is listen-only (set on the link)', 'host', 0, '', 'gear', errors=e)
+    assert st.level == OK and st.value('controller_state') == 'error-active' and st.value('error_frames') == '0'
+    e.feed(T, 0x004 | 0x200, bytes([0, 0x10, 0, 0, 0, 0, 0, 128]))        # receiver error-passive
+    st = bus_status('socketcan:can0', True, 'can0 is listen-only (set on the link)', 'host', 0, '', 'gear', errors=e)
+    assert st.level == WARN and st.message.startswith('controller error-passive since 2026-01-01T00:00:00')
+    assert st.value('rx_error_counter') == '128' and st.value('error_passive_times') == '1'
+    e.feed(T + 10**9, 0x040, bytes(8))
+    st = bus_status('socketcan:can0', True, 'can0 is listen-only (set on the link)', 'host', 0, '', 'gear', errors=e)
+    assert st.level == ERROR and st.message.startswith('controller BUS-OFF since 2026-01-01T00:00:01')
+    assert st.value('last_bus_off_utc').startswith('2026-01-01T00:00:01')
+    e.feed(T + 2 * 10**9, 0x100, bytes(8))
+    st = bus_status('socketcan:can0', True, 'can0 is listen-only (set on the link)', 'host', 0, '', 'gear', errors=e)
+    assert st.level == OK and st.value('controller_restarts') == '1'
+    assert st.message.endswith('controller error-active; error-passive 1 and bus-off 1 time(s), the last at '
+                               '2026-01-01T00:00:01Z'), st.message
