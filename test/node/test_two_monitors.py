@@ -38,7 +38,8 @@ def _params_file(tmp: Path, channels: dict[str, str]) -> Path:
         params['can'].update({'interface': 'virtual', 'channel': channels[name], 'timestamps': 'bus'})
         params['recording']['directory'] = str(tmp / name)
         params['node']['hardware_id'] = f'{name} R-18'
-        params['estimator']['enabled'] = False
+        params['estimator']['enabled'] = name == 'stbd_gear'      # the port gear's analyses off
+        params['estimator']['state_file'] = str(tmp / name / 'estimator.npz')
         out[name] = {'ros__parameters': params}
     path = tmp / 'vessel.yaml'
     path.write_text(yaml.safe_dump(out), encoding='utf-8')
@@ -73,6 +74,15 @@ def test_two_monitors_side_by_side(tmp_path, r18_params, can_db):
             executor.add_node(n)
         spin = threading.Thread(target=executor.spin, daemon=True)
         spin.start()
+        # an analysis asked for before any data: it runs at the first second of data
+        from std_srvs.srv import Trigger
+        client = listener.create_client(Trigger, '/stbd_gear/analyse_now')
+        assert client.wait_for_service(timeout_sec=10.0)
+        future = client.call_async(Trigger.Request())
+        deadline = time.time() + 10
+        while not future.done() and time.time() < deadline:
+            time.sleep(0.02)
+        assert future.result().success, future.result().message
         start = (time.time_ns() // 1_000_000_000 + 2) * 1_000_000_000
         frames = {}
         for k, name in enumerate(NAMES):      # the port gear on one pump, the starboard on two
@@ -106,7 +116,6 @@ def test_two_monitors_side_by_side(tmp_path, r18_params, can_db):
         # shapes what it reads refused with a reason, the recording split, the analyses off here
         from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
         from rcl_interfaces.srv import SetParameters
-        from std_srvs.srv import Trigger
 
         def call(srv_type, name, request):
             client = listener.create_client(srv_type, name)
@@ -137,6 +146,10 @@ def test_two_monitors_side_by_side(tmp_path, r18_params, can_db):
         assert split.success and 'new file' in split.message
         off = call(Trigger, '/port_gear/analyse_now', Trigger.Request())
         assert not off.success and off.message == 'the analyses are off (estimator.enabled: false)'
+        assert nodes['stbd_gear'].analyst.jobs_made >= 1       # the one asked for, at the first second
+        saved = call(Trigger, '/stbd_gear/save_state', Trigger.Request())
+        assert saved.success and saved.message == f'saved to {tmp_path / "stbd_gear" / "estimator.npz"}'
+        assert (tmp_path / 'stbd_gear' / 'estimator.npz').is_file()
         # the type hashes the graph gives for the monitor's publishers (rmw's, from the type support)
         hashes = {topic: next(str(i.topic_type_hash) for i in listener.get_publishers_info_by_topic(topic))
                   for topic in ('/port_gear/clearances', '/diagnostics')}
