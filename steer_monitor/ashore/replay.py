@@ -209,7 +209,7 @@ def _replay(run: Runner, paths: list[Path], output: str | Path, config_path: Pat
     encoders = {key: FAST_ENCODERS[dt] for key, (_, dt) in TOPICS.items()}     # every topic has its CDR encoder
     with atomic_path(output) as tmp:
         try:
-            writer = McapWriter(tmp, name=Path(output).name)
+            writer = McapWriter(tmp)
         except OSError as exc:
             msg = f'cannot write {output}: {os_reason(exc)}'
             raise ReplayError(msg) from exc

@@ -199,14 +199,13 @@ class Counted:
 class McapWriter:
     """A ROS 2 MCAP writer (zstd chunks, CRCs) as rosbag2's MCAP storage writes: each channel
     with its offered QoS and its type hash, and at the end the ``rosbag2`` metadata record
-    (:mod:`~steer_monitor.logfiles.rosbag2meta`; ``name``: the file's name in it, by default
-    the output's; ``ros_distro`` by default ``$ROS_DISTRO``).
+    (:mod:`~steer_monitor.logfiles.rosbag2meta`; ``ros_distro`` by default ``$ROS_DISTRO``).
 
     Context manager; :meth:`close` finishes the file and is idempotent.
     """
 
     def __init__(self, output: str | Path | IO[bytes], chunk_size: int = 1024 * 1024,
-                 library: str = 'steer_monitor', name: str | None = None, ros_distro: str | None = None) -> None:
+                 library: str = 'steer_monitor', ros_distro: str | None = None) -> None:
         from mcap.writer import CompressionType
         from mcap.writer import Writer as _Writer
 
@@ -222,7 +221,6 @@ class McapWriter:
         self._encoders: dict[str, Any] = {}
         self._closed = False
         # for the rosbag2 metadata record: each channel's QoS, type hash and messages, the span
-        self.name = name if name is not None else (Path(output).name if self._own else '')  # type: ignore[arg-type]
         self.ros_distro = ros_distro if ros_distro is not None else os.environ.get('ROS_DISTRO', '')
         self._hashes: dict[str, str] = {}                  # datatype -> type hash
         self._qos: dict[int, str] = {}
@@ -385,7 +383,7 @@ class McapWriter:
         topics = [TopicCount(topic, datatype, self._qos[cid], self._hashes[datatype], self._counts[cid])
                   for topic, (cid, datatype) in self._channels.items()]
         first, last = self._span if self._span else (0, 0)
-        return serialized_metadata(self.name, topics, first, last, self.ros_distro)
+        return serialized_metadata(topics, first, last, self.ros_distro)
 
     def close(self) -> None:
         if self._closed:

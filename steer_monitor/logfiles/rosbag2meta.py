@@ -44,10 +44,12 @@ class TopicCount:
     messages: int
 
 
-def serialized_metadata(file_name: str, topics: Sequence[TopicCount], start_ns: int, end_ns: int,
-                        ros_distro: str = '') -> str:
-    """The ``serialized_metadata`` of a one-file bag ``file_name`` holding ``topics`` from
-    ``start_ns`` to ``end_ns`` (log times, [ns]; both 0 for an empty file)."""
+def serialized_metadata(topics: Sequence[TopicCount], start_ns: int, end_ns: int, ros_distro: str = '') -> str:
+    """The ``serialized_metadata`` of a one-file bag holding ``topics`` from ``start_ns`` to
+    ``end_ns`` (log times, [ns]; both 0 for an empty file). The file is not named in it
+    (``relative_file_paths`` and ``files`` empty): rosbag2 names it from the path it opens, and
+    a recording's bytes do not depend on its name (a replay written twice under two names is
+    the same file)."""
     count = sum(t.messages for t in topics)
     span = max(0, end_ns - start_ns)
     meta = {
@@ -60,9 +62,7 @@ def serialized_metadata(file_name: str, topics: Sequence[TopicCount], start_ns: 
                                 'type_description_hash': t.type_hash},
              'message_count': t.messages} for t in topics],
         'compression_format': '', 'compression_mode': '',
-        'relative_file_paths': [file_name],
-        'files': [{'path': file_name, 'starting_time': {'nanoseconds_since_epoch': start_ns},
-                   'duration': {'nanoseconds': span}, 'message_count': count}],
+        'relative_file_paths': [], 'files': [],
         'custom_data': {}, 'ros_distro': ros_distro,
     }
     return yaml.safe_dump(meta, sort_keys=False)

@@ -469,7 +469,7 @@ class Recorder:
             except FileExistsError:
                 continue
         try:
-            writer = McapWriter(stream, chunk_size=self.chunk_size, name=path.name)
+            writer = McapWriter(stream, chunk_size=self.chunk_size)
             for name, data in self.metadata.items():
                 writer.add_metadata(name, data)
         except BaseException:

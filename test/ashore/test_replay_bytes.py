@@ -19,10 +19,8 @@ def test_a_short_voyage_replays_to_the_reference_bytes(tmp_path, r18_params, can
     with LogWriter(log) as w:
         for f in s.frames.frames():
             w.write(f)
-    (tmp_path / 'fast').mkdir()
-    (tmp_path / 'ref').mkdir()      # one file name: the bag's metadata names it
-    fast = replay([log], tmp_path / 'fast' / 'out.mcap', busy)
-    ref = reference_replay([log], tmp_path / 'ref' / 'out.mcap', busy)
+    fast = replay([log], tmp_path / 'fast.mcap', busy)
+    ref = reference_replay([log], tmp_path / 'ref.mcap', busy)
     assert fast.states == ref.states > 1000 and fast.analyses == ref.analyses >= 2
     assert fast.finding == ref.finding and fast.motion_s == ref.motion_s
-    assert (tmp_path / 'fast' / 'out.mcap').read_bytes() == (tmp_path / 'ref' / 'out.mcap').read_bytes()
+    assert (tmp_path / 'fast.mcap').read_bytes() == (tmp_path / 'ref.mcap').read_bytes()

@@ -265,9 +265,8 @@ def test_a_replay_of_the_nodes_recording_publishes_what_the_node_published(fast_
         for topic in ('/steer_monitor/clearances', '/steer_monitor/clearance_source'):
             assert _same(live[topic][t], again[topic][t]), (topic, t)
     assert any(m.data == 'estimated' for m in again['/steer_monitor/clearance_source'].values())
-    (tmp_path / 'reference').mkdir()      # the file's name as the replay's: the bag's metadata names it
-    reference_replay([fast_run.recording], tmp_path / 'reference' / 'replay.mcap', config)
-    assert (tmp_path / 'reference' / 'replay.mcap').read_bytes() == (tmp_path / 'replay.mcap').read_bytes()
+    reference_replay([fast_run.recording], tmp_path / 'reference.mcap', config)
+    assert (tmp_path / 'reference.mcap').read_bytes() == (tmp_path / 'replay.mcap').read_bytes()
 
 
 def test_a_silent_bus_shows_stale_and_a_live_one_ok_again(tmp_path, r18_params, can_db):

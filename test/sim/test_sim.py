@@ -250,13 +250,12 @@ def test_bad_programs(text, msg):
 def test_seed_reproduces_files_byte_for_byte(tmp_path, suffix):
     outs = []
     for k, seed in enumerate((7, 7, 8)):
-        (tmp_path / str(k)).mkdir()
-        path = tmp_path / str(k) / f'run{suffix}'     # one name: an MCAP's rosbag2 metadata names its file
+        path = tmp_path / f'run{k}{suffix}'
         assert simulate_cli.run(None, 'hard_over_2,zigzag_10', path, seed=seed, max_duration_s=60.0,
                                 effects=['viscous']) == 0
         outs.append(path.read_bytes())
     assert outs[0] == outs[1]
     assert outs[0] != outs[2]
-    truth = json.loads((tmp_path / '0' / 'run.truth.json').read_text())
+    truth = json.loads((tmp_path / 'run0.truth.json').read_text())
     assert truth['seed'] == 7 and truth['effects'][0]['name'] == 'viscous'
     assert truth['clearance_2z_mm'] == pytest.approx(0.6)
