@@ -357,7 +357,7 @@ class DiagnosticsBuilder:
 
         def carries(at: float | None) -> str:
             return ('carries nothing over the whole range' if at is None else
-                    f'idle up to {at:.2f} deg (warn above {warn:g} deg)' if at > warn else
+                    f'is idle up to {at:.2f} deg (warn above {warn:g} deg)' if at > warn else
                     f'carries load from {at:.2f} deg')
 
         # judged on the estimate, not the configured values, and on its interval: WARN only
@@ -377,7 +377,7 @@ class DiagnosticsBuilder:
                 level = WARN
             else:
                 level = NOT_ASSESSED
-                message = (f'NOT ASSESSED: on the estimate the guide beam is {carries(onset)}, but from '
+                message = (f'NOT ASSESSED: on the estimate the guide beam {carries(onset)}, but from '
                            f'{onset_lo:.2f} deg at the low end of the Z_gb interval: the interval reaches either side '
                            'of the warning')
         else:

@@ -368,7 +368,7 @@ def test_guide_idle_judged_on_the_estimate_and_its_interval(builder, mon):
     st = builder.guide_beam(mon)
     assert (st.level, st.label) == (OK, NA)
     assert st.message.startswith(
-        'NOT ASSESSED: the clearances are not estimated yet; at the configured ones the guide beam idle up to 10.01 '
+        'NOT ASSESSED: the clearances are not estimated yet; at the configured ones the guide beam is idle up to 10.01 '
         'deg (warn above 10 deg)')
     mon.set_gaps(Clearances(0.4 * MM, 0.26 * MM), 'estimated',
                  {'2z': (0.3 * MM, 0.5 * MM), 'zgb': (0.1 * MM, 0.4 * MM)})
