@@ -220,12 +220,11 @@ class McapWriter:
         self._channels: dict[str, tuple[int, str]] = {}    # topic -> (channel id, datatype)
         self._encoders: dict[str, Any] = {}
         self._closed = False
-        # for the rosbag2 metadata record: each channel's QoS, type hash and messages, the span
+        # for the rosbag2 metadata record: each channel's QoS and type hash (the messages and the
+        # span are the writer's own statistics)
         self.ros_distro = ros_distro if ros_distro is not None else os.environ.get('ROS_DISTRO', '')
         self._hashes: dict[str, str] = {}                  # datatype -> type hash
         self._qos: dict[int, str] = {}
-        self._counts: dict[int, int] = {}                  # channel id -> messages
-        self._span: list[int] = []                         # [first, last] log time [ns]
 
     def add_metadata(self, name: str, data: dict[str, str]) -> None:
         """Write an MCAP metadata record (``mcap info`` and the readers list them)."""
@@ -247,22 +246,9 @@ class McapWriter:
                                                                     'topic_type_hash': self._hashes[datatype]})
             self._channels[topic] = (cid, datatype)
             self._qos[cid] = qos
-            self._counts[cid] = 0
-
-    def _counted(self, channels: NDArray[np.uint16] | int, t_first: int, t_last: int) -> None:
-        if isinstance(channels, int):
-            self._counts[channels] += 1
-        else:
-            for cid, k in zip(*np.unique(channels, return_counts=True), strict=True):
-                self._counts[int(cid)] += int(k)
-        if self._span:
-            self._span[0], self._span[1] = min(self._span[0], t_first), max(self._span[1], t_last)
-        else:
-            self._span[:] = [t_first, t_last]
 
     def write_cdr(self, topic: str, data: bytes, log_time_ns: int, publish_time_ns: int | None = None) -> None:
         """Write one already-serialized message."""
-        self._counted(self._channels[topic][0], log_time_ns, log_time_ns)
         self._writer.add_message(self._channels[topic][0], log_time=log_time_ns,
                                  publish_time=log_time_ns if publish_time_ns is None else publish_time_ns,
                                  data=data)
@@ -331,7 +317,6 @@ class McapWriter:
         n = int(log_times.shape[0])
         if n == 0:
             return
-        self._counted(channels, int(log_times.min()), int(log_times.max()))
         w = self._writer
         chunk = getattr(w, '_Writer__chunk_builder', None)
         stats = getattr(w, '_Writer__statistics', None)
@@ -380,9 +365,13 @@ class McapWriter:
 
     def bag_metadata(self) -> str:
         """The ``serialized_metadata`` of the file as written so far."""
-        topics = [TopicCount(topic, datatype, self._qos[cid], self._hashes[datatype], self._counts[cid])
+        # the Statistics record mcap's writer keeps for the summary (mcap 1.x; write_records
+        # keeps it as add_message does): messages per channel, first and last log time
+        stats = self._writer._Writer__statistics  # type: ignore[attr-defined]
+        counts = stats.channel_message_counts
+        topics = [TopicCount(topic, datatype, self._qos[cid], self._hashes[datatype], counts.get(cid, 0))
                   for topic, (cid, datatype) in self._channels.items()]
-        first, last = self._span if self._span else (0, 0)
+        first, last = (stats.message_start_time, stats.message_end_time) if stats.message_count else (0, 0)
         return serialized_metadata(topics, first, last, self.ros_distro)
 
     def close(self) -> None:
