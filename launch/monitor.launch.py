@@ -17,8 +17,9 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 from launch import LaunchDescription
-from steer_monitor.node.analyzers import DEFAULT_NODE_NAME, analyzer_parameters
+from steer_monitor.node.analyzers import analyzer_parameters
 from steer_monitor.node.launchargs import monitor_parameters, truthy
+from steer_monitor.params import NODE_NAME
 
 
 def _nodes(context, *args, **kwargs):
@@ -40,7 +41,7 @@ def _nodes(context, *args, **kwargs):
 def generate_launch_description() -> LaunchDescription:
     share = get_package_share_directory('steer_monitor')
     return LaunchDescription([
-        DeclareLaunchArgument('name', default_value=DEFAULT_NODE_NAME,
+        DeclareLaunchArgument('name', default_value=NODE_NAME,
                               description="the monitor node's name (a second gear: another name)"),
         DeclareLaunchArgument('params_file', default_value=os.path.join(share, 'config', 'r18.yaml'),
                               description='ROS 2 parameters file of the gear (geometry, DBC, signal map)'),

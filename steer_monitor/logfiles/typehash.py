@@ -17,7 +17,7 @@ from typing import Any
 #: the line between the types of a concatenated definition
 SEPARATOR = '=' * 80
 
-__all__ = ['type_hash']
+__all__ = ['SEPARATOR', 'type_hash']
 
 # type_description_interfaces/msg/FieldType
 _IDS = {'int8': 2, 'uint8': 3, 'int16': 4, 'uint16': 5, 'int32': 6, 'uint32': 7, 'int64': 8, 'uint64': 9,
@@ -49,10 +49,10 @@ def _fields(text: str, pkg: str) -> list[dict[str, Any]]:
         line = raw.split('#', 1)[0].strip()
         if not line:
             continue
-        typ, rest = line.split(None, 1)
-        name = rest.split()[0]
-        if '=' in name or (len(rest.split()) > 1 and rest.split()[1].startswith('=')) or '=' in rest.split()[0]:
-            continue            # a constant: TYPE NAME=VALUE
+        typ, *after = line.split()
+        if '=' in after[0] or after[1:2] and after[1].startswith('='):
+            continue            # a constant: TYPE NAME=VALUE (or NAME = VALUE)
+        name = after[0]
         m = _FIELD.match(typ)
         if m is None:
             raise ValueError(f'cannot read the field type {typ!r}')

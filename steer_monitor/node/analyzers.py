@@ -19,23 +19,21 @@ from typing import Any
 from steer_monitor.monitor.diagnostics import status_name
 from steer_monitor.params import NODE_NAME
 
-__all__ = ['AGGREGATOR_NODE', 'ALWAYS', 'DEFAULT_NODE_NAME', 'analyzer_file', 'analyzer_parameters']
+__all__ = ['AGGREGATOR_NODE', 'ALWAYS', 'analyzer_file', 'analyzer_parameters']
 
 #: the node name diagnostic_aggregator's aggregator_node takes (its Aggregator's constructor)
 AGGREGATOR_NODE = 'analyzers'
-#: the monitor's node name unless it is started under another
-DEFAULT_NODE_NAME = NODE_NAME
 #: the statuses a monitor publishes every time (the recording's only while it records)
 ALWAYS = ('CAN input', 'CAN bus', 'clearances', 'guide beam', 'steering performance', 'model health', 'rams')
 #: an item not heard for this long reads STALE (the monitor publishes once a second)
 TIMEOUT_S = 5.0
 
 
-def analyzer_parameters(node_name: str = DEFAULT_NODE_NAME) -> dict[str, Any]:
+def analyzer_parameters(node_name: str = NODE_NAME) -> dict[str, Any]:
     """The aggregator's ``ros__parameters`` for the monitor named ``node_name``: base path
     ``Vessel``, and one analyzer keyed by the node's name under ``Steering gear`` (with the
     node's name in brackets for a name other than the default: two gears on one ship)."""
-    path = 'Steering gear' if node_name == DEFAULT_NODE_NAME else f'Steering gear ({node_name})'
+    path = 'Steering gear' if node_name == NODE_NAME else f'Steering gear ({node_name})'
     return {'path': 'Vessel',
             node_name: {'type': 'diagnostic_aggregator/GenericAnalyzer', 'path': path,
                         'startswith': [status_name(node_name, '').rstrip()],
@@ -43,6 +41,6 @@ def analyzer_parameters(node_name: str = DEFAULT_NODE_NAME) -> dict[str, Any]:
                         'timeout': TIMEOUT_S}}
 
 
-def analyzer_file(node_name: str = DEFAULT_NODE_NAME) -> dict[str, Any]:
+def analyzer_file(node_name: str = NODE_NAME) -> dict[str, Any]:
     """A parameters file's document for ``aggregator_node``, keyed by its own node name."""
     return {AGGREGATOR_NODE: {'ros__parameters': analyzer_parameters(node_name)}}

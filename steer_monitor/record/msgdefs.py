@@ -10,10 +10,10 @@ import sys
 from pathlib import Path
 
 from steer_monitor.errors import SteerMonitorError
+from steer_monitor.logfiles.typehash import SEPARATOR
 
 __all__ = ['MsgdefError', 'msgdef']
 
-SEPARATOR = '=' * 80
 PRIMITIVES = {'bool', 'byte', 'char', 'float32', 'float64', 'int8', 'uint8', 'int16', 'uint16',
               'int32', 'uint32', 'int64', 'uint64', 'string', 'wstring'}
 
