@@ -28,7 +28,6 @@ setup(
         'ruamel.yaml>=0.17',
         'matplotlib>=3.7',
         'tqdm>=4.60',
-        'cantools>=39',
         'python-can>=4.3',
         'mcap>=1.6',
         'mcap-ros2-support>=0.5',
@@ -42,7 +41,7 @@ setup(
     license='Apache-2.0',
     # ashore only (steer-monitor fleet), not the node's: Dask distributed and Parquet
     extras_require={
-        'test': ['pytest', 'hypothesis', 'rosbags'],
+        'test': ['pytest', 'hypothesis', 'rosbags', 'cantools>=39'],
         'ashore': ['dask[distributed]>=2024.1', 'pyarrow>=14'],
     },
     entry_points={

@@ -23,17 +23,19 @@ ROS_PACKAGES = {'rclpy', 'rcl_interfaces', 'ament_index_python', 'diagnostic_msg
 WORKSPACE = {'steer_monitor'}
 MANIFESTS = [PKG / 'package.xml']
 #: imported top-level module -> the rosdep key that installs it
-MODULE_KEYS = {'numpy': 'python3-numpy', 'numba': 'python3-numba', 'scipy': 'python3-scipy', 'yaml': 'python3-yaml',
+MODULE_KEYS = {'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'yaml': 'python3-yaml',
                'ruamel': 'python3-ruamel.yaml',
-               'matplotlib': 'python3-matplotlib', 'can': 'python3-can', 'cantools': 'python3-cantools-pip',
+               'matplotlib': 'python3-matplotlib', 'can': 'python3-can',
                'tqdm': 'python3-tqdm', 'mcap': 'mcap-ros2-support', 'mcap_ros2': 'mcap-ros2-support',
                'zstandard': 'mcap-ros2-support', 'lz4': 'mcap-ros2-support',   # mcap's own requirements
                'rclpy': 'rclpy', 'rcl_interfaces': 'rcl_interfaces', 'ament_index_python': 'ament_index_python',
                'diagnostic_msgs': 'diagnostic_msgs', 'std_msgs': 'std_msgs', 'sensor_msgs': 'sensor_msgs',
                'std_srvs': 'std_srvs',
                'builtin_interfaces': 'rclpy', 'launch': 'launch', 'launch_ros': 'launch_ros'}
-#: imported, deliberately without a key (none exists): optional at run time
-OPTIONAL = {'threadpoolctl'}
+#: imported, deliberately not declared, optional at run time (each says so where it is missed):
+#: threadpoolctl has no rosdep key; numba's key names python3-numba, which Ubuntu 24.04 (ROS 2
+#: Jazzy's and Kilted's) does not package (steer_monitor.compiled runs its loops interpreted)
+OPTIONAL = {'threadpoolctl', 'numba'}
 #: ashore only (steer-monitor fleet; setup.py's 'ashore' extra), never imported by the vessel side
 ASHORE = {'dask', 'distributed', 'pyarrow'}
 

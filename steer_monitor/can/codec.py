@@ -1,10 +1,7 @@
-"""The DBC: cantools reads it and decodes single frames; a numpy codec built from the same
-signal layouts decodes and encodes whole arrays of frames.
-
-Why a numpy path beside cantools: cantools decodes one frame per call (tens of
-microseconds); logs hold millions of frames. Both paths read their bit positions, sizes,
-signedness and scales from the one cantools database, and the tests check that they agree
-frame by frame (and against random payloads).
+"""The DBC's messages as the codec's layouts: one frame decoded with Python integers, whole
+arrays of frames decoded and encoded with numpy, both from the same bit positions, sizes,
+signedness and scales (:mod:`~steer_monitor.can.dbcfile` reads them from the file). The tests
+check the two against each other and against cantools, frame by frame and on random payloads.
 
 NMEA 2000 sentinels: the all-ones value of a field means "not available" and all ones
 minus one means "error". For a signed field "all ones" is the largest positive value
@@ -13,21 +10,17 @@ minus one means "error". For a signed field "all ones" is the largest positive v
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from steer_monitor.can.dbcfile import DbcError, DbcMessage, read_dbc
 from steer_monitor.can.frames import MAX_DLC, pgn_of
-from steer_monitor.errors import SteerMonitorError
 
 __all__ = ['CanDatabase', 'DbcError', 'FieldLayout', 'MessageLayout', 'load_dbc']
-
-
-class DbcError(SteerMonitorError):
-    """The DBC cannot be read or holds what the codec does not support."""
 
 
 @dataclass(frozen=True)
@@ -68,34 +61,38 @@ class MessageLayout:
     pgn: int
     length: int
     fields: dict[str, FieldLayout]
-    message: Any = field(repr=False, compare=False)  # the cantools Message
 
 
-def _layout_of(message: Any) -> MessageLayout:
+def _layout_of(message: DbcMessage) -> MessageLayout:
     fields = {}
     for sig in message.signals:
-        if sig.byte_order != 'little_endian':
+        if not sig.little_endian:
             msg = (f'signal {message.name}.{sig.name} is big-endian; NMEA 2000 fields are '
                    f'little-endian and the codec supports only those')
+            raise DbcError(msg)
+        if sig.is_float:
+            msg = f'signal {message.name}.{sig.name} is an IEEE float; the codec supports integer fields only'
+            raise DbcError(msg)
+        if sig.multiplex is not None:
+            msg = f'signal {message.name}.{sig.name} is multiplexed; the codec supports plain fields only'
             raise DbcError(msg)
         if sig.start + sig.length > 8 * MAX_DLC:
             msg = f'signal {message.name}.{sig.name} reaches beyond 8 bytes'
             raise DbcError(msg)
-        fields[sig.name] = FieldLayout(sig.name, sig.start, sig.length, bool(sig.is_signed),
-                                       float(sig.scale), float(sig.offset), sig.unit or '')
-    if not message.is_extended_frame:
+        fields[sig.name] = FieldLayout(sig.name, sig.start, sig.length, sig.signed, sig.scale, sig.offset, sig.unit)
+    if not message.extended:
         msg = f'message {message.name} has an 11-bit identifier; NMEA 2000 PGNs need 29-bit ones'
         raise DbcError(msg)
     if message.length > MAX_DLC:
         msg = f'message {message.name} is {message.length} bytes; only single-frame PGNs are supported'
         raise DbcError(msg)
-    return MessageLayout(message.name, int(pgn_of(message.frame_id)), int(message.length), fields, message)
+    return MessageLayout(message.name, int(pgn_of(message.frame_id)), int(message.length), fields)
 
 
 class CanDatabase:
     """The messages of a DBC, looked up by PGN whatever the priority and source address."""
 
-    def __init__(self, messages: list[Any], path: str = '') -> None:
+    def __init__(self, messages: list[DbcMessage], path: str = '') -> None:
         self.path = path
         self.by_pgn: dict[int, MessageLayout] = {}
         for m in messages:
@@ -108,11 +105,17 @@ class CanDatabase:
     def message(self, pgn: int) -> MessageLayout | None:
         return self.by_pgn.get(pgn)
 
-    # --- one frame (cantools) ------------------------------------------------------------
+    # --- one frame (Python integers) -----------------------------------------------------
     @staticmethod
     def decode_raw(layout: MessageLayout, data: bytes) -> dict[str, int]:
-        """Raw (unscaled) field values of one frame, through cantools."""
-        return layout.message.decode(bytes(data), decode_choices=False, scaling=False)
+        """Raw (unscaled) field values of one frame of the layout's length (the decoder
+        refuses frames of another before asking), sign-extended."""
+        word = int.from_bytes(bytes(data), 'little')
+        out = {}
+        for name, f in layout.fields.items():
+            raw = (word >> f.start) & f.mask
+            out[name] = raw - (1 << f.length) if f.signed and raw >> (f.length - 1) else raw
+        return out
 
     # --- many frames (numpy) -------------------------------------------------------------
     @staticmethod
@@ -152,19 +155,6 @@ class CanDatabase:
 
 
 def load_dbc(path: str | Path) -> CanDatabase:
-    """Read a DBC through cantools; cantools' errors become :class:`DbcError`."""
-    import cantools
-
-    path = Path(path)
-    try:
-        db = cantools.database.load_file(str(path), database_format='dbc', frame_id_mask=0x3FFFF00)
-    except FileNotFoundError as exc:
-        msg = f'cannot read DBC file {path}: no such file'
-        raise DbcError(msg) from exc
-    except OSError as exc:
-        msg = f'cannot read DBC file {path}: {exc.strerror or exc}'
-        raise DbcError(msg) from exc
-    except Exception as exc:  # cantools raises its own parse errors
-        msg = f'DBC file {path} cannot be parsed: {exc}'
-        raise DbcError(msg) from exc
-    return CanDatabase(list(db.messages), str(path))
+    """The codec of the DBC file at ``path`` (:func:`~steer_monitor.can.dbcfile.read_dbc`);
+    what it cannot read or the codec does not support: :class:`DbcError`."""
+    return CanDatabase(read_dbc(path), str(path))

@@ -274,7 +274,7 @@ class Decoder:
 
     # --- one frame -----------------------------------------------------------------------
     def decode(self, frame: Frame) -> list[Sample]:
-        """Samples of one frame (cantools decode); rejects are counted, never raised.
+        """Samples of one frame; rejects are counted, never raised.
 
         A frame after a time jump is held until its chain is confirmed (see
         :mod:`~steer_monitor.can.timejump`), so a call may return the samples of frames

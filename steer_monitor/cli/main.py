@@ -11,6 +11,7 @@ from collections.abc import Sequence
 
 from steer_monitor import __version__
 from steer_monitor.atomic import command_scope
+from steer_monitor.compiled import interpreted_note
 from steer_monitor.errors import SteerMonitorError
 from steer_monitor.runtime import single_blas_thread
 
@@ -53,6 +54,10 @@ def _terminate(signum: int, frame: object) -> None:
     raise Terminated
 
 
+#: commands that run the model or the estimator's compiled loops (the others never wait on them;
+#: the node says for itself what it does without numba)
+COMPUTING = frozenset({'loadshare', 'analyze', 'accuracy', 'replay', 'report', 'fleet', 'study'})
+
 #: commands that handle SIGTERM themselves (rclpy's handlers stop the node, which finishes
 #: its recording)
 OWN_SIGTERM = frozenset({'run', 'demo'})
@@ -66,6 +71,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(words)
     single_blas_thread()
     where = f'steer-monitor {args.command}'
+    if args.command in COMPUTING and (note := interpreted_note()) is not None:
+        print(f'{where}: note: {note}', file=sys.stderr)
     ours = args.command not in OWN_SIGTERM and threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminate) if ours else None
     try:

@@ -46,10 +46,10 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from steer_monitor.compiled import njit
 from steer_monitor.errors import SteerMonitorError
 from steer_monitor.estimate.sampling import (
     DESIGN_ANGLE_PERIOD_NS,
@@ -202,7 +202,7 @@ def fresh_readings(series: Series, within_ns: int = DESIGN_ANGLE_PERIOD_NS) -> S
     return Series(series.t_ns[keep], series.value[keep])
 
 
-@numba.njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def _fresh(t: NDArray[np.int64], v: NDArray[np.float64], within: np.int64
            ) -> NDArray[np.bool_]:   # pragma: no cover - compiled
     """:func:`fresh_readings`' walk: which samples to keep."""
@@ -225,7 +225,7 @@ def _fresh(t: NDArray[np.int64], v: NDArray[np.float64], within: np.int64
     return keep
 
 
-@numba.njit(cache=True, nogil=True, inline='always')
+@njit(cache=True, nogil=True, inline='always')
 def _next_position(ts: NDArray[np.int64], ti: np.int64, j: int, in_order: bool, right: bool
                    ) -> int:   # pragma: no cover - compiled
     """``searchsorted(ts, ti, side='right' if right else 'left')``: walking on from ``j``, the
@@ -250,7 +250,7 @@ def _next_position(ts: NDArray[np.int64], ti: np.int64, j: int, in_order: bool, 
     return lo
 
 
-@numba.njit(cache=True, nogil=True, error_model='numpy')
+@njit(cache=True, nogil=True, error_model='numpy')
 def _interp_into(ts: NDArray[np.int64], v: NDArray[np.float64], t: NDArray[np.int64], max_gap: np.int64,
                  out: NDArray[np.float64]) -> None:   # pragma: no cover - compiled
     """:func:`interp_held`'s loop, compiled: per point the first sample after it (walking on from
@@ -286,7 +286,7 @@ def sorted_positions(ts: NDArray[np.int64], t: NDArray[np.int64], *, right: bool
     return out
 
 
-@numba.njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def _positions_into(ts: NDArray[np.int64], t: NDArray[np.int64], right: bool,
                     out: NDArray[np.intp]) -> None:   # pragma: no cover - compiled
     j = 0

@@ -23,8 +23,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+from steer_monitor.compiled import njit
 
 __all__ = ['AT_EDGE', 'EVEN', 'IDLE', 'IDLE_RAM_SHARE', 'JOINED_SHARE', 'MARGIN_SE', 'MIN_SHARE_INSTANTS',
            'MIN_SHARE_SPREAD_PA', 'OPPOSED', 'OPPOSED_CORRELATION', 'STUCK_SHARE', 'UNEVEN', 'UNEVEN_CAUSE',

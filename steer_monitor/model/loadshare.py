@@ -38,10 +38,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from steer_monitor.compiled import njit
 from steer_monitor.errors import ModelError
 from steer_monitor.model import beams
 from steer_monitor.model.friction import FrictionParams, friction_law, normal_forces
@@ -88,8 +88,8 @@ _FIELDS = ('lateral', 'axial', 'ram_force', 'guide_force', 'k_gl', 'deflection',
            'f_z', 'case', 'stages')
 _NF = len(_FIELDS)
 
-_jit = numba.njit(cache=True, nogil=True, error_model='numpy')
-_inline = numba.njit(cache=True, nogil=True, error_model='numpy', inline='always')
+_jit = njit(cache=True, nogil=True, error_model='numpy')
+_inline = njit(cache=True, nogil=True, error_model='numpy', inline='always')
 # the beams' closed forms, compiled from their one definition
 _pp_compliance = _inline(beams.pinned_pinned_compliance)
 _pp_slope = _inline(beams.pinned_pinned_slope_at_a)

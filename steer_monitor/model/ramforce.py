@@ -13,8 +13,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+from steer_monitor.compiled import njit
 
 __all__ = ['ram_force', 'ram_force_compiled', 'ram_forces']
 

@@ -205,9 +205,9 @@ _LOOP: list[Callable[..., None]] = []
 
 
 def _compiled_loop() -> Callable[..., None]:
-    """:func:`_lookup_loop` compiled by numba, once."""
+    """:func:`_lookup_loop` compiled (:mod:`steer_monitor.compiled`), once."""
     if not _LOOP:
-        import numba
-        _LOOP.append(numba.njit(cache=True, nogil=True, error_model='numpy')(_lookup_loop))
+        from steer_monitor.compiled import njit
+        _LOOP.append(njit(cache=True, nogil=True, error_model='numpy')(_lookup_loop))
     return _LOOP[0]
 

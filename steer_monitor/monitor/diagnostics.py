@@ -206,11 +206,11 @@ class DiagnosticsBuilder:
         return self._onset_cache[gaps]
 
     def build(self, mon: LiveMonitor, rejects: RejectSnapshot, now_ns: int,
-              recording: Status | None = None, why: str | None = None) -> list[Status]:
+              recording: Status | None = None, why: str | None = None, off: str | None = None) -> list[Status]:
         """The statuses at ``now_ns``; ``why``: why the last analysis gave no finding (None: it
-        did, or none ran yet)."""
+        did, or none ran yet); ``off``: why no analysis runs at all (None: they run)."""
         out = [self.can_input(mon, rejects, now_ns), self.clearances(mon), self.guide_beam(mon),
-               self.performance(mon), self.model_health(mon, why), self.rams(mon)]
+               self.performance(mon), self.model_health(mon, why, off), self.rams(mon)]
         if recording is not None:
             out.append(recording)
         return out
@@ -461,18 +461,18 @@ class DiagnosticsBuilder:
             parts.append(f'responds to orders in {r.delay_s:.2f} s')
         return self._status('steering performance', level, '; '.join(parts), values)
 
-    def model_health(self, mon: LiveMonitor, why: str | None = None) -> Status:
+    def model_health(self, mon: LiveMonitor, why: str | None = None, off: str | None = None) -> Status:
         """Judged as ``analyze`` judges: the last analysis's verdict on the model in use (its
         residual's systematic part against the sensor noise, over the window it analysed):
         OK when the model explains the pressures, WARN when it does not (the message says what
         is left and where). The residual of the last minute of motion under that model is
         shown beside it, not judged. Before any analysis: not judged yet."""
         summary, motion_ns = mon.residual_summary(), mon.motion_ns
-        return self._memo('model health', (summary, motion_ns, why), (mon.finding,),
-                          lambda: self._model_health(mon, why, summary, motion_ns))
+        return self._memo('model health', (summary, motion_ns, why, off), (mon.finding,),
+                          lambda: self._model_health(mon, why, off, summary, motion_ns))
 
-    def _model_health(self, mon: LiveMonitor, why: str | None, summary: tuple[int, int, float | None],
-                      motion_ns: int) -> Status:
+    def _model_health(self, mon: LiveMonitor, why: str | None, off: str | None,
+                      summary: tuple[int, int, float | None], motion_ns: int) -> Status:
         """:meth:`model_health` from the residual's (count, instants not judged, RMS [bar]) and
         the steady motion counted [ns]."""
         count, skipped, rms = summary
@@ -482,7 +482,8 @@ class DiagnosticsBuilder:
                   ('motion_s', f'{motion_ns / 1e9:.0f}')]
         live = '' if rms is None else f'; last minute of motion: residual {rms:.2f} bar RMS under that model'
         if f is None:
-            head = ('not judged yet: no analysis of the data yet' if why is None else
+            head = (f'not judged: {off}' if off is not None else
+                    'not judged yet: no analysis of the data yet' if why is None else
                     f'not judged yet: the last analysis could not be made: {why}')
             if rms is not None:
                 head += f'; declared model residual {rms:.2f} bar RMS over the last {count} samples'

@@ -10,8 +10,9 @@ exact as residuals come and go (:func:`push_counting_squares`).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
+
+from steer_monitor.compiled import njit
 
 __all__ = ['MAX_PARTIALS', 'add_exact', 'partials_total', 'push_counting_squares', 'total_exact']
 

@@ -20,9 +20,9 @@ Times are integer ns; values SI.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from steer_monitor.compiled import njit
 from steer_monitor.model.ramforce import ram_force_compiled
 from steer_monitor.monitor.exactsum import MAX_PARTIALS
 from steer_monitor.monitor.slopes import NONE, SLOPE, SPECIAL, slope_of

@@ -172,10 +172,12 @@ class Pipeline:
 
     def __init__(self, decoder: Decoder, rejects: RejectCounter, monitor: LiveMonitor, diag: DiagnosticsBuilder,
                  analyst: Analyst | None = None, jobs: JobRunner | None = None,
-                 on_failed: Callable[[str], None] | None = None) -> None:
+                 on_failed: Callable[[str], None] | None = None, off: str | None = None) -> None:
         """``on_failed`` hears an analysis that failed (a defect), when its finding would have
-        been applied."""
+        been applied; ``off``: why there are no analyses (no ``analyst``), which the statuses
+        that wait on one say."""
         self.decoder = decoder
+        self.off = off
         self.on_failed = on_failed
         self.rejects = rejects
         self.monitor = monitor
@@ -561,6 +563,6 @@ class Pipeline:
         comes; STALE shows here). Does not touch the schedule."""
         mon = self.monitor
         statuses = self.diag.build(mon, self.rejects.snapshot(), now_ns,
-                                   why=None if self.analyst is None else self.analyst.why)
+                                   why=None if self.analyst is None else self.analyst.why, off=self.off)
         interval = dict(mon.gaps_interval) if mon.gaps_interval else None
         return DiagOut(now_ns, tuple(statuses), mon.gaps, interval, mon.gaps_source)

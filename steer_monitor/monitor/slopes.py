@@ -16,9 +16,9 @@ windows in one call (:func:`window_slopes`).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from steer_monitor.compiled import njit
 from steer_monitor.monitor.exactsum import MAX_PARTIALS, add_exact, total_exact
 
 __all__ = ['NONE', 'SLOPE', 'SPECIAL', 'slope', 'slope_of', 'window_slopes']

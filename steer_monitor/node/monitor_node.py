@@ -43,6 +43,7 @@ from steer_monitor.can.buserrors import BusErrors
 from steer_monitor.can.decoder import Decoder
 from steer_monitor.can.frames import Frame
 from steer_monitor.can.rejects import RejectCounter
+from steer_monitor.compiled import COMPILED
 from steer_monitor.errors import ParameterError, SteerMonitorError
 from steer_monitor.estimate.observe import EstimateError
 from steer_monitor.logfiles.rosbag2meta import offered_qos_profiles
@@ -71,7 +72,18 @@ from steer_monitor.record.recorder import Recorder
 from steer_monitor.runtime import single_blas_thread
 from steer_monitor.utc import utc_text
 
-__all__ = ['MonitorNode', 'main']
+__all__ = ['ANALYSES_OFF_BY_PARAMETER', 'ANALYSES_OFF_WITHOUT_NUMBA', 'MonitorNode', 'main']
+
+#: why the node runs no analysis: the parameter says so
+ANALYSES_OFF_BY_PARAMETER = 'the analyses are off (estimator.enabled: false)'
+#: why the node runs no analysis: numba is missing. Interpreted, an analysis holds the
+#: interpreter for tens of seconds to minutes, while the bus reader waits for it: measured on
+#: a 10-minute voyage at the full bus rate, 39,221 frames dropped and states published up to
+#: 114 s late (python -m bench.bench_node voyage with numba hidden, docs/vessel.md)
+ANALYSES_OFF_WITHOUT_NUMBA = ('the analyses are off: numba is not installed on this host, and an analysis '
+                              'interpreted would hold up the bus reader; the live model, the statuses and the '
+                              'recording go on: analyse the recordings ashore (steer-monitor analyze), or install '
+                              'python3-numba where the OS packages it, or numba in the environment the node runs in')
 
 LATENCY_WINDOW = 200_000
 POLL_S = 0.01
@@ -143,7 +155,12 @@ class MonitorNode(Node):
         self._closing = False
         self._bus_listening_told = False
         self.analyst: Analyst | None = None
-        jobs = self._start_analyst() if p['estimator.enabled'] else None
+        #: why no analysis runs (None: they run)
+        self.analyses_off = (ANALYSES_OFF_BY_PARAMETER if not p['estimator.enabled'] else
+                             ANALYSES_OFF_WITHOUT_NUMBA if not COMPILED else None)
+        if self.analyses_off == ANALYSES_OFF_WITHOUT_NUMBA:
+            self.get_logger().warning(ANALYSES_OFF_WITHOUT_NUMBA)
+        jobs = self._start_analyst() if self.analyses_off is None else None
         self.pipeline = self._new_pipeline(jobs)
         self.restarts = 0                      # times the monitor started again after the data time went back
         interface, channel = p['can.interface'], p['can.channel']
@@ -281,7 +298,7 @@ class MonitorNode(Node):
     def _new_pipeline(self, jobs: ThreadedJobs | None) -> Pipeline:
         """The pipeline over a new decoder, on the live model, diagnostics and analyst in use."""
         return Pipeline(Decoder(self._db, self.smap, self.rejects), self.rejects, self.monitor, self.diag,
-                        self.analyst if jobs is not None else None, jobs)
+                        self.analyst if jobs is not None else None, jobs, off=self.analyses_off)
 
     def _log(self) -> Any:
         """The node's logger while ROS runs; once a signal has shut the context down (the node
@@ -482,7 +499,7 @@ class MonitorNode(Node):
     def _analyse_now(self, request: Any, response: Any) -> Any:
         """``~/analyse_now`` (std_srvs/Trigger): an analysis of the data so far at the next second."""
         if self.analyst is None:
-            response.success, response.message = False, 'the analyses are off (estimator.enabled: false)'
+            response.success, response.message = False, self.analyses_off
             return response
         with self._lock:
             self.analyst.request()
@@ -504,7 +521,7 @@ class MonitorNode(Node):
         """``~/save_state`` (std_srvs/Trigger): save the analyses' state now."""
         if self.analyst is None or self.state_file.path is None:
             response.success = False
-            response.message = ('the analyses are off (estimator.enabled: false)' if self.analyst is None else
+            response.message = (self.analyses_off if self.analyst is None else
                                 'no state file (estimator.state_file is empty)')
             return response
         self.save_analyses()

@@ -264,6 +264,18 @@ def test_nothing_fed_nothing_out(r18_params, can_db):
     assert d.statuses[0].level == 3 and math.isclose(d.gaps.two_z, 0.6e-3)
 
 
+def test_a_pipeline_without_analyses_says_why_in_its_model_health(r18_params, can_db):
+    """No analyst, and the reason given: the model health says it (not 'not judged yet', which
+    waits for an analysis that will never come)."""
+    p = _pipeline(r18_params, can_db)
+    p.off = 'the analyses are off for a reason'
+    [health] = [st for st in p.diagnostics_now(10**18).statuses if st.name.endswith(': model health')]
+    assert health.message == 'not judged: the analyses are off for a reason'
+    p.off = None
+    [health] = [st for st in p.diagnostics_now(10**18).statuses if st.name.endswith(': model health')]
+    assert health.message == 'not judged yet: no analysis of the data yet'
+
+
 @pytest.mark.parametrize('part', [1, 7, 600])
 def test_a_part_stops_where_the_time_goes_back_and_the_rest_goes_on_anew(r18_params, can_db, part):
     """The stream's time set back an hour half-way: fed in parts that stop at the frame that

@@ -718,3 +718,19 @@ def test_a_signal_that_races_the_executors_wait_set_is_a_clean_stop(tmp_path, mo
     monkeypatch.setattr(SingleThreadedExecutor, 'spin', spin)
     assert main(['monitor', *_node_cmd(tmp_path)[3:]]) == 0
     assert not rclpy.ok()
+
+
+def test_without_numba_the_node_runs_no_analysis_and_says_why(tmp_path):
+    """numba hidden: the node starts, says once in its log that its analyses are off and why,
+    records, and its model health says the same; nothing interpreted holds up its bus reader."""
+    from steer_monitor.node.monitor_node import ANALYSES_OFF_WITHOUT_NUMBA
+    cmd = _node_cmd(tmp_path)
+    hidden = ("import sys; sys.modules['numba'] = None; "
+              "from steer_monitor.node.monitor_node import main; sys.exit(main(sys.argv))")
+    err = _node_stderr([sys.executable, '-c', hidden, *cmd[3:]], 2.5, mcap_in=tmp_path)
+    said = [ln for ln in err.splitlines() if 'numba is not installed' in ln]
+    assert len(said) == 1 and said[0].startswith('[WARN]') and said[0].endswith(ANALYSES_OFF_WITHOUT_NUMBA)
+    [recording] = list(tmp_path.glob('*.mcap'))
+    health = [st for msg in _by_topic(recording)['/diagnostics'].values() for st in msg.status
+              if st.name == 'steer_monitor: model health']
+    assert health and {st.message for st in health} == {f'not judged: {ANALYSES_OFF_WITHOUT_NUMBA}'}
