@@ -10,6 +10,7 @@ setup(
     name=PACKAGE,
     version='0.1.0',
     packages=find_packages(include=[PACKAGE, f'{PACKAGE}.*']),
+    package_data={f'{PACKAGE}._vendor.mcap': ['LICENSE', 'py.typed']},
     data_files=[
         ('share/ament_index/resource_index/packages', [f'resource/{PACKAGE}']),
         (f'share/{PACKAGE}', ['package.xml', 'LICENSE']),
@@ -29,9 +30,8 @@ setup(
         'matplotlib>=3.7',
         'tqdm>=4.60',
         'python-can>=4.3',
-        'mcap>=1.6',
-        'mcap-ros2-support>=0.5',
         'zstandard>=0.21',
+        'lz4>=4',
         'threadpoolctl>=3.1',
     ],
     zip_safe=True,
@@ -41,8 +41,8 @@ setup(
     license='Apache-2.0',
     # ashore only (steer-monitor fleet), not the node's: Dask distributed and Parquet
     extras_require={
-        'test': ['pytest', 'hypothesis', 'rosbags', 'cantools>=39'],
-        'ashore': ['dask[distributed]>=2024.1', 'pyarrow>=14'],
+        'test': ['pytest', 'hypothesis', 'rosbags', 'cantools>=39', 'mcap>=1.6'],
+        'ashore': ['dask[distributed]>=2024.1', 'pyarrow>=14', 'mcap-ros2-support>=0.5'],
     },
     entry_points={
         'console_scripts': [

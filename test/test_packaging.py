@@ -16,6 +16,8 @@ import yaml
 from test.conftest import PKG, ROOT, SHARED
 
 ROSDEP = SHARED / 'rosdep'
+#: the rosdep keys this package ships (rosdistro's files lack them)
+OWN_ROSDEP = PKG / 'rosdep' / 'steer_monitor.yaml'
 #: ROS packages (resolved by rosdistro's distribution file, not by the rosdep key files)
 ROS_PACKAGES = {'rclpy', 'rcl_interfaces', 'ament_index_python', 'diagnostic_msgs', 'std_msgs', 'sensor_msgs',
                 'std_srvs', 'launch', 'launch_ros', 'ros2launch', 'diagnostic_aggregator'}
@@ -26,8 +28,7 @@ MANIFESTS = [PKG / 'package.xml']
 MODULE_KEYS = {'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'yaml': 'python3-yaml',
                'ruamel': 'python3-ruamel.yaml',
                'matplotlib': 'python3-matplotlib', 'can': 'python3-can',
-               'tqdm': 'python3-tqdm', 'mcap': 'mcap-ros2-support', 'mcap_ros2': 'mcap-ros2-support',
-               'zstandard': 'mcap-ros2-support', 'lz4': 'mcap-ros2-support',   # mcap's own requirements
+               'tqdm': 'python3-tqdm', 'zstandard': 'python3-zstandard', 'lz4': 'python3-lz4',
                'rclpy': 'rclpy', 'rcl_interfaces': 'rcl_interfaces', 'ament_index_python': 'ament_index_python',
                'diagnostic_msgs': 'diagnostic_msgs', 'std_msgs': 'std_msgs', 'sensor_msgs': 'sensor_msgs',
                'std_srvs': 'std_srvs',
@@ -36,6 +37,9 @@ MODULE_KEYS = {'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'yaml': 'pyth
 #: threadpoolctl has no rosdep key; numba's key names python3-numba, which Ubuntu 24.04 (ROS 2
 #: Jazzy's and Kilted's) does not package (steer_monitor.compiled runs its loops interpreted)
 OPTIONAL = {'threadpoolctl', 'numba'}
+#: pip only, for what ashore commands do (the report's published clearances; setup.py's ashore
+#: extra): a vessel's install has it not, and the command says so
+OPTIONAL_ASHORE = {'mcap_ros2'}
 #: ashore only (steer-monitor fleet; setup.py's 'ashore' extra), never imported by the vessel side
 ASHORE = {'dask', 'distributed', 'pyarrow'}
 
@@ -45,14 +49,75 @@ def _depends(kind: str, manifest: Path = PKG / 'package.xml') -> list[str]:
     return [e.text.strip() for e in root.findall(kind) if e.text]
 
 
-@pytest.fixture(scope='module')
-def rosdep_keys() -> dict[str, dict]:
-    if not ROSDEP.is_dir():
-        pytest.skip(f'{ROSDEP} is not here (../shared beside the repository holds it in CI)')
+def rosdistro_keys() -> dict[str, dict]:
+    """rosdistro's rosdep keys (its base and python files)."""
     keys: dict[str, dict] = {}
     for name in ('base.yaml', 'python.yaml'):
         keys.update(yaml.safe_load((ROSDEP / name).read_text(encoding='utf-8')))
     return keys
+
+
+def own_keys() -> dict[str, dict]:
+    return yaml.safe_load(OWN_ROSDEP.read_text(encoding='utf-8'))
+
+
+def all_keys() -> dict[str, dict]:
+    """The keys rosdep resolves once the package's own file is among its sources."""
+    return {**rosdistro_keys(), **own_keys()}
+
+
+def declared_keys() -> list[str]:
+    """Every rosdep key package.xml names that is not a ROS package or this one."""
+    kinds = ('exec_depend', 'test_depend', 'depend', 'build_depend', 'buildtool_depend')
+    return [k for kind in kinds for k in _depends(kind) if k not in ROS_PACKAGES and k not in WORKSPACE]
+
+
+@pytest.fixture(scope='module')
+def rosdep_keys() -> dict[str, dict]:
+    if not ROSDEP.is_dir():
+        pytest.skip(f'{ROSDEP} is not here (../shared beside the repository holds it in CI)')
+    return all_keys()
+
+
+def test_the_packages_own_keys_are_not_rosdistros():
+    """A key the package ships that rosdistro has come to hold is dropped from ours (two
+    definitions of one key: rosdep takes the first source's)."""
+    if not ROSDEP.is_dir():
+        pytest.skip(f'{ROSDEP} is not here (../shared beside the repository holds it in CI)')
+    assert set(own_keys()) & set(rosdistro_keys()) == set()
+
+
+@pytest.mark.parametrize('distribution', ['ubuntu noble'])
+def test_every_key_installs_an_os_package_the_distribution_has(rosdep_keys, distribution):
+    """On Ubuntu 24.04, ROS 2 Jazzy's and Kilted's platform, every key package.xml names installs
+    OS packages (never pip: PEP 668 refuses it, and a vessel takes nothing from pip into the
+    system Python), and each is in the archive (test/data/apt-packages.yaml, read from the
+    archives by ``python -m test.support.aptindex``). Debian, their tier 3, is not held to it:
+    rosdistro gives python3-ruamel.yaml no rule for Debian 12 or 13 (docs/vessel.md)."""
+    from test.support.aptindex import load_snapshot, resolve
+    os_name, codename = distribution.split()
+    there = load_snapshot()[distribution]
+    bad = {}
+    for key in declared_keys():
+        got = resolve(rosdep_keys[key].get(os_name), codename)
+        if got == 'pip' or got is None:
+            bad[key] = 'pip' if got == 'pip' else 'no rule'
+            continue
+        for name in got:
+            if name not in there:
+                bad[key] = f'{name} not in the snapshot: run python -m test.support.aptindex'
+            elif there[name] is None:
+                bad[key] = f'{name} is not in {distribution}'
+    assert bad == {}
+
+
+def test_the_snapshot_knows_what_ubuntu_lacks():
+    """The snapshot is the archives' word, not ours: Ubuntu 24.04 lacks numba, cantools and
+    mcap (which is why the package runs without the first and carries its own of the others)."""
+    from test.support.aptindex import load_snapshot
+    noble = load_snapshot()['ubuntu noble']
+    assert (noble['python3-numba'], noble['python3-cantools'], noble['python3-mcap']) == (None, None, None)
+    assert noble['python3-numpy'] is not None and noble['python3-zstandard'] is not None
 
 
 @pytest.mark.parametrize('manifest', MANIFESTS, ids=lambda p: p.parent.name)
@@ -86,7 +151,8 @@ def test_every_imported_package_is_declared():
     sources = sorted((PKG / 'steer_monitor').rglob('*.py')) + sorted((PKG / 'launch').glob('*.py'))
     third_party = _imports(sources) - set(sys.stdlib_module_names) - {'steer_monitor', '__future__'}
     declared = set(_depends('exec_depend'))
-    missing = {m: MODULE_KEYS.get(m) for m in third_party - OPTIONAL - ASHORE if MODULE_KEYS.get(m) not in declared}
+    missing = {m: MODULE_KEYS.get(m) for m in third_party - OPTIONAL - OPTIONAL_ASHORE - ASHORE
+               if MODULE_KEYS.get(m) not in declared}
     assert missing == {}
 
 

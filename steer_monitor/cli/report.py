@@ -64,6 +64,9 @@ def run(logs: list[str], out_dir: str | Path, config: str | Path | None = None, 
     paths, same = distinct_logs(paths)
     for note in same:
         err.write(f'steer-monitor report: note: {note}\n')
+    from steer_monitor.ashore.report.reviewpage import NOT_READABLE_NOTE, PUBLISHED_READABLE
+    if any(p.suffix.lower() == '.mcap' for p in paths) and not PUBLISHED_READABLE:
+        err.write(f'steer-monitor report: note: {NOT_READABLE_NOTE}\n')
     check_json_target(json_out, [*paths, config])
     config_path, params = load_config(config)
     # made before the review (a directory that cannot be made fails now, not after minutes of

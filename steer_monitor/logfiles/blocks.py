@@ -67,7 +67,7 @@ def log_end_ns(path: str | Path) -> int | None:
                     if m is not None:
                         return int(m.group(1)) * 1_000_000_000 + int(m.group(2).ljust(9, b'0'))
         elif fmt == 'mcap':
-            from mcap.reader import make_reader
+            from steer_monitor._vendor.mcap.reader import make_reader
             with open(path, 'rb') as fh:
                 summary = make_reader(fh).get_summary()
                 if summary is not None and summary.statistics is not None and summary.statistics.message_count:

@@ -10,10 +10,10 @@ from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
-from mcap.opcode import Opcode
-from mcap.records import MessageIndex
 from numpy.typing import NDArray
 
+from steer_monitor._vendor.mcap.opcode import Opcode
+from steer_monitor._vendor.mcap.records import MessageIndex
 from steer_monitor.can.frames import FLAG_ERROR, FLAG_EXTENDED, FLAG_REMOTE, MAX_DLC, Frame, FrameArrays
 from steer_monitor.logfiles.rosbag2meta import METADATA_NAME, TopicCount, offered_qos_profiles, serialized_metadata
 from steer_monitor.logfiles.typehash import type_hash
@@ -206,8 +206,8 @@ class McapWriter:
 
     def __init__(self, output: str | Path | IO[bytes], chunk_size: int = 1024 * 1024,
                  library: str = 'steer_monitor', ros_distro: str | None = None) -> None:
-        from mcap.writer import CompressionType
-        from mcap.writer import Writer as _Writer
+        from steer_monitor._vendor.mcap.writer import CompressionType
+        from steer_monitor._vendor.mcap.writer import Writer as _Writer
 
         self._own = not hasattr(output, 'write')
         self._stream: IO[bytes] = open(output, 'wb') if self._own else output  # type: ignore[assignment]
@@ -400,9 +400,9 @@ def leading_metadata(path: str | Path, limit_bytes: int = 1 << 20) -> dict[str, 
     by name. Reads the file's head only (records up to ``limit_bytes`` each), so a file cut
     short or damaged further on is read as far as that; {} when the head is not MCAP or holds
     none. Never raises for the file's content."""
-    from mcap.exceptions import McapError
-    from mcap.records import Chunk, Message, Metadata
-    from mcap.stream_reader import StreamReader
+    from steer_monitor._vendor.mcap.exceptions import McapError
+    from steer_monitor._vendor.mcap.records import Chunk, Message, Metadata
+    from steer_monitor._vendor.mcap.stream_reader import StreamReader
 
     out: dict[str, dict[str, str]] = {}
     try:

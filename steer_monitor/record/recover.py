@@ -49,9 +49,9 @@ def summary_definitions(fin: Any) -> list[Any]:
     """The schemas, then the channels, of the MCAP ``fin``'s summary section when it checks
     out (:func:`~steer_monitor.logfiles.mcapcols.summary_section`: footer, bounds, CRC, which
     mcap's reader does not check) and reads whole; none otherwise. Leaves ``fin`` at the start."""
-    from mcap.exceptions import EndOfFile
-    from mcap.records import Channel, Schema
-    from mcap.stream_reader import StreamReader
+    from steer_monitor._vendor.mcap.exceptions import EndOfFile
+    from steer_monitor._vendor.mcap.records import Channel, Schema
+    from steer_monitor._vendor.mcap.stream_reader import StreamReader
 
     section = summary_section(fin)
     if section is None:
@@ -78,10 +78,10 @@ MCAP_MAGIC = b'\x89MCAP0\r\n'
 
 def recover(path: str | Path, output: str | Path | None = None) -> RecoverResult:
     """Copy what is readable of ``path`` into ``output`` (default ``<name>.recovered.mcap``)."""
-    from mcap.exceptions import EndOfFile
-    from mcap.records import Channel, Chunk, Footer, Message, Metadata, Schema
-    from mcap.stream_reader import StreamReader
-    from mcap.writer import CompressionType, Writer
+    from steer_monitor._vendor.mcap.exceptions import EndOfFile
+    from steer_monitor._vendor.mcap.records import Channel, Chunk, Footer, Message, Metadata, Schema
+    from steer_monitor._vendor.mcap.stream_reader import StreamReader
+    from steer_monitor._vendor.mcap.writer import CompressionType, Writer
 
     src = Path(path)
     dst = Path(output) if output is not None else src.with_name(src.stem + '.recovered.mcap')

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import base64
 import html
+import importlib.util
 import io
 import math
 import os
@@ -41,9 +42,16 @@ from steer_monitor.model.loadshare import load_sharing_at
 from steer_monitor.monitor.messages import CLEARANCE_NAMES
 from steer_monitor.monitor.performance import hard_over_words, solas_judgement
 
-__all__ = ['PLOTS', 'PublishedTrack', 'ReportInput', 'clearances_words', 'page_estimate', 'published_track',
-           'remove_report_debris', 'report_input', 'timeline_caveat', 'write_report_dir', 'write_review_report']
+__all__ = ['NOT_READABLE_NOTE', 'PLOTS', 'PUBLISHED_READABLE', 'PublishedTrack', 'ReportInput', 'clearances_words',
+           'page_estimate', 'published_track', 'remove_report_debris', 'report_input', 'timeline_caveat',
+           'write_report_dir', 'write_review_report']
 
+#: whether the messages a node recorded can be decoded here (mcap-ros2-support: pip only, an
+#: ashore dependency; a vessel's install has it not)
+PUBLISHED_READABLE = importlib.util.find_spec('mcap_ros2') is not None
+#: what ``report`` says of MCAP inputs when they cannot
+NOT_READABLE_NOTE = ('the clearances the node published are not drawn: mcap-ros2-support, which decodes them, '
+                     'is not installed (pip install mcap-ros2-support, or the package\'s ashore extra)')
 
 #: file stem -> heading, in page order
 PLOTS = {
@@ -468,11 +476,14 @@ paper 000 (backlash from the fits).</p>
 
 def published_track(paths: Sequence[Path]) -> Any:
     """The clearances a node published (``*/clearances``) in MCAP inputs, as an
-    :class:`~steer_monitor.ashore.report.reviewpage.PublishedTrack`, or None."""
+    :class:`~steer_monitor.ashore.report.reviewpage.PublishedTrack`, or None (none published,
+    or mcap-ros2-support, which decodes them, not installed: :data:`PUBLISHED_READABLE`)."""
+    if not PUBLISHED_READABLE:
+        return None
     import numpy as np
-    from mcap.reader import make_reader
     from mcap_ros2.decoder import DecoderFactory
 
+    from steer_monitor._vendor.mcap.reader import make_reader
     from steer_monitor.logfiles.mcapcols import mcap_chunks_within_limits
 
     rows: list[tuple[int, list[float]]] = []

@@ -238,3 +238,24 @@ def test_the_timeline_says_which_model_its_windows_fit():
     assert '(stribeck)' in said and 'does not explain' in said and 'the term it located taken out' in said
     said = timeline_caveat(SimpleNamespace(verdict='unexplained', steps=(), located=None))
     assert 'adopted' not in said and 'counted as noise' in said and 'incomplete model' in said
+
+
+def test_without_mcap_ros2_the_published_clearances_are_left_out_and_report_says_so(tmp_path):
+    """mcap-ros2-support (pip, ashore) decodes what a node published; without it the page goes
+    without that track, and ``report`` of an MCAP says why first."""
+    import subprocess
+    import sys
+
+    from test.conftest import ROOT
+    code = ("import sys; sys.modules['mcap_ros2'] = None\n"
+            "from steer_monitor.ashore.report import reviewpage as r\n"
+            "print(r.PUBLISHED_READABLE, r.published_track([sys.argv[1]]))\n"
+            "from steer_monitor.cli.main import main\n"
+            "raise SystemExit(main(['report', sys.argv[1], '--out', sys.argv[2]]))\n")
+    mcap = tmp_path / 'nothing.mcap'
+    mcap.write_bytes(b'')
+    p = subprocess.run([sys.executable, '-c', code, str(mcap), str(tmp_path / 'out')], capture_output=True,
+                       text=True, cwd=ROOT, timeout=120, check=False)
+    from steer_monitor.ashore.report.reviewpage import NOT_READABLE_NOTE
+    assert p.stdout.splitlines()[0] == 'False None'
+    assert p.stderr.splitlines()[0] == f'steer-monitor report: note: {NOT_READABLE_NOTE}'
