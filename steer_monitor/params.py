@@ -35,6 +35,7 @@ from steer_monitor.yamlfile import load_yaml
 __all__ = [
     'MAX_LIMIT_MULTIPLE',
     'NODE_NAME',
+    'ParamsFile',
     'TIMESTAMP_MODES',
     'load_config',
     'PARAMETERS',
@@ -381,24 +382,42 @@ def recorded_params(values: Mapping[str, str]) -> tuple[dict[str, Any], list[str
     return validate_params(decoded), sorted(dropped)
 
 
+class ParamsFile(str):
+    """A parameters file's path as given on a command line, with the node whose entry to read
+    (``--node``; None: :func:`load_params_file`'s rule)."""
+
+    node: str | None = None
+
+    def __new__(cls, path: str, node: str | None = None) -> ParamsFile:
+        out = super().__new__(cls, path)
+        out.node = node
+        return out
+
+
 def load_config(config: str | Path | None) -> tuple[Path, dict[str, Any]]:
-    """(path, validated parameters) of the parameters file ``config``, or of the packaged
-    R-18 one when it is None or empty."""
+    """(path, validated parameters) of the parameters file ``config`` (a :class:`ParamsFile`
+    says which node's entry), or of the packaged R-18 one when it is None or empty."""
     path = Path(config) if config else default_config()
-    return path, load_params_file(path)
+    return path, load_params_file(path, getattr(config, 'node', None))
 
 
-def load_params_file(path: str | Path, node_name: str = NODE_NAME) -> dict[str, Any]:
+def load_params_file(path: str | Path, node_name: str | None = NODE_NAME) -> dict[str, Any]:
     """Read and validate a ROS 2 parameters file; returns flat dotted parameters.
 
     The file holds ``<node_name>: ros__parameters: {...}`` (``/**`` is accepted too, and
-    merged under the node's own entry as ROS 2 does).
+    merged under the node's own entry as ROS 2 does). ``node_name`` None (a command ashore,
+    which runs no node): the entry of :data:`NODE_NAME`, else the file's only node entry (a
+    vessel's file for ``port_gear``), else the file's ``/**`` alone; a file of several other
+    nodes is refused, naming them (``--node`` says which).
     """
     path = Path(path)
     doc = load_yaml(path, 'parameters file')
+    shown = node_name or NODE_NAME
     if not isinstance(doc, Mapping):
-        msg = f'parameters file {path}: expected "{node_name}: ros__parameters:" at the top'
+        msg = f'parameters file {path}: expected "{shown}: ros__parameters:" at the top'
         raise ParameterError(msg)
+    if node_name is None:
+        node_name = _the_node(path, doc)
     merged: dict[str, Any] = {}
     found = False
     for key in ('/**', node_name, f'/{node_name}'):
@@ -418,6 +437,17 @@ def load_params_file(path: str | Path, node_name: str = NODE_NAME) -> dict[str, 
     except ParameterError as exc:
         msg = f'{path}: {exc}'
         raise ParameterError(msg) from exc
+
+
+def _the_node(path: Path, doc: Mapping[str, Any]) -> str:
+    """Whose entry a command reads when not told: :data:`NODE_NAME`'s, else the only node's."""
+    nodes = sorted(str(k).lstrip('/') for k in doc if k != '/**')
+    if NODE_NAME in nodes or not nodes:
+        return NODE_NAME
+    if len(nodes) == 1:
+        return nodes[0]
+    msg = (f'parameters file {path} holds the parameters of nodes {", ".join(nodes)}: say whose with --node NAME')
+    raise ParameterError(msg)
 
 
 def gear_from_params(p: Mapping[str, Any]) -> GearParams:

@@ -36,7 +36,7 @@ _WORKER: dict[str, Any] = {}
 
 
 def _init_worker(config: str) -> None:
-    params = load_params_file(config)
+    params = load_params_file(config, getattr(config, 'node', None))
     db, smap = can_setup(params, config)
     _WORKER.update(params=params, db=db, smap=smap)
 
@@ -324,8 +324,8 @@ def run(config: str | Path | None = None, programmes: Sequence[str] = tuple(A.PR
         todo += sens_todo + long_effects + long_clean
     except (ValueError, SteerMonitorError) as exc:
         raise ParameterError(str(exc)) from None
-    config_path = str(config or default_config())
-    params = load_params_file(config_path)
+    config_path = config or str(default_config())
+    params = load_params_file(config_path, getattr(config, 'node', None))
     can_setup(params, config_path)   # a bad config fails here, not in every worker
     if out_md is not None and str(out_md) != '-':     # before an hour of work, not after
         check_target(out_md, [config_path])

@@ -23,7 +23,7 @@ def run(config: str | Path | None = None, gap_2z_mm: float | None = None,
     out = out or sys.stdout
     out = text_stream([json_out, plot], out, sys.stderr)
     check_json_target(json_out, [config, plot])
-    params = load_params_file(config or default_config())
+    params = load_params_file(config or default_config(), getattr(config, 'node', None))
     gear = gear_from_params(params)
     gaps = given_gaps(params, gap_2z_mm, gap_zgb_mm)
     s, (alpha, res, marks) = loadshare_rows(gear, gaps, speed_kn, step_deg)

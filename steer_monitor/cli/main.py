@@ -13,6 +13,7 @@ from steer_monitor import __version__
 from steer_monitor.atomic import command_scope
 from steer_monitor.compiled import interpreted_note
 from steer_monitor.errors import SteerMonitorError
+from steer_monitor.params import ParamsFile
 from steer_monitor.runtime import single_blas_thread
 
 __all__ = ['Terminated', 'build_parser', 'main']
@@ -69,6 +70,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     words = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser(_command_of(words))
     args = parser.parse_args(words)
+    if getattr(args, 'node', None) is not None:
+        if not args.config:
+            parser.error('--node NAME names an entry of the file --config gives')
+        args.config = ParamsFile(args.config, args.node)
     single_blas_thread()
     where = f'steer-monitor {args.command}'
     if args.command in COMPUTING and (note := interpreted_note()) is not None:

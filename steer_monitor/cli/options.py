@@ -24,6 +24,9 @@ def add_config_option(parser: argparse.ArgumentParser, default: str | None = Non
     if role:
         text = f'{text}; {role}'
     parser.add_argument('--config', metavar='FILE', help=text)
+    parser.add_argument('--node', metavar='NAME',
+                        help="whose entry of the parameters file to read (default: steer_monitor's, else the file's "
+                             'only node: a vessel file for port_gear reads as it is)')
 
 
 def add_force_option(parser: argparse.ArgumentParser) -> None:

@@ -40,7 +40,7 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None,
         out: TextIO | None = None) -> int:
     out = out or sys.stdout
     out_dir = ensure_dir(out_dir)
-    params = load_params_file(config or default_config())
+    params = load_params_file(config or default_config(), getattr(config, 'node', None))
     gear = gear_from_params(params)
     summary: dict[str, Any] = {'gear': params['gear.name']}
 

@@ -130,3 +130,43 @@ def test_a_command_loads_only_what_it_needs():
              'print("numba" in sys.modules, "steer_monitor.cli.fit" in sys.modules)\n')
     out = subprocess.run([sys.executable, '-c', probe], capture_output=True, text=True, check=True).stdout.split()
     assert out == ['False', 'False'], out
+
+
+def _vessel_files(tmp_path):
+    """The packaged gear's parameters as a vessel keys them: one file for ``port_gear`` alone,
+    one for two gears (what both share under ``/**``, each its own channel)."""
+    import yaml
+    base = yaml.safe_load((PKG / 'config' / 'r18.yaml').read_text())['steer_monitor']['ros__parameters']
+    shared = {'/**': {'ros__parameters': base}}
+    one, two = tmp_path / 'one.yaml', tmp_path / 'two.yaml'
+    one.write_text(yaml.safe_dump({**shared, 'port_gear': {'ros__parameters': {'can': {'channel': 'can2'}}}}))
+    two.write_text(yaml.safe_dump({**shared, 'port_gear': {'ros__parameters': {'can': {'channel': 'can2'}}},
+                                   '/stbd_gear': {'ros__parameters': {'can': {'channel': 'can1'}}}}))
+    return one, two
+
+
+def test_a_command_reads_a_vessel_file_keyed_by_its_nodes_name(tmp_path, capsys):
+    """A file of one node (``port_gear:``) reads as it is; a file of two says whose with
+    ``--node``; without it, one line naming them; ``--node`` without a file is a usage error."""
+    one, two = _vessel_files(tmp_path)
+    assert main(['loadshare', '--config', str(one), '--step-deg', '5']) == 0
+    assert main(['loadshare', '--config', str(two), '--node', 'stbd_gear', '--step-deg', '5']) == 0
+    capsys.readouterr()
+    assert main(['loadshare', '--config', str(two), '--step-deg', '5']) == 1
+    assert capsys.readouterr().err == (f'steer-monitor loadshare: error: parameters file {two} holds the parameters of '
+                                       'nodes port_gear, stbd_gear: say whose with --node NAME\n')
+    assert main(['loadshare', '--config', str(one.with_name('none.yaml')), '--node', 'aft_gear']) == 1
+    assert 'none.yaml' in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        main(['loadshare', '--node', 'port_gear'])
+    assert exc.value.code == 2 and '--node NAME names an entry of the file --config gives' in capsys.readouterr().err
+
+
+def test_the_node_named_is_the_one_a_command_reads(tmp_path):
+    """Which entry is read: the channel each gear's entry sets over what ``/**`` shares."""
+    from steer_monitor.params import ParamsFile, load_config
+    _, two = _vessel_files(tmp_path)
+    assert load_config(ParamsFile(str(two), 'port_gear'))[1]['can.channel'] == 'can2'
+    assert load_config(ParamsFile(str(two), 'stbd_gear'))[1]['can.channel'] == 'can1'
+    # a node of no entry of its own gets what /** gives every node, as ROS 2 gives it
+    assert load_config(ParamsFile(str(two), 'aft_gear'))[1]['can.channel'] == 'can0'
