@@ -18,12 +18,20 @@ from steer_monitor.can.signals import SignalMap
 from steer_monitor.params import gear_from_params
 from steer_monitor.sim.encode import SensorStreams, encode_frames, sensor_streams
 from steer_monitor.sim.plant import DEFAULT_START_NS, SimConfig, SimResult, simulate
-from steer_monitor.sim.plant_effects import EFFECTS, FAULTS, OUTSIDE_LIBRARY, Effect, parse_effect, split_effects
+from steer_monitor.sim.plant_effects import (
+    EFFECTS,
+    FAULTS,
+    OUTSIDE_LIBRARY,
+    SENSOR_FAULTS,
+    Effect,
+    parse_effect,
+    split_effects,
+)
 from steer_monitor.sim.programs import PROGRAMS, parse_program
 from steer_monitor.utc import time_json
 
-__all__ = ['DEFAULT_START_NS', 'EFFECTS', 'FAULTS', 'OUTSIDE_LIBRARY', 'PROGRAMS', 'Effect', 'SimConfig', 'SimResult',
-           'Simulation', 'parse_effect', 'parse_program', 'run', 'split_effects', 'truth']
+__all__ = ['DEFAULT_START_NS', 'EFFECTS', 'FAULTS', 'OUTSIDE_LIBRARY', 'PROGRAMS', 'SENSOR_FAULTS', 'Effect',
+           'SimConfig', 'SimResult', 'Simulation', 'parse_effect', 'parse_program', 'run', 'split_effects', 'truth']
 
 
 @dataclass(frozen=True)

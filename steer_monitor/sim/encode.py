@@ -73,11 +73,20 @@ def sensor_streams(res: SimResult, cfg: SimConfig, rng: np.random.Generator) -> 
 
     delay = cfg.effect('angle_delay')
     tau = float(delay['tau_s']) if delay is not None else 0.0
-    exact['rudder_angle'] = np.interp(ts['rudder'] - tau, plant_t, res.alpha)
+    angle = np.interp(ts['rudder'] - tau, plant_t, res.alpha)
+    zero, span = cfg.effect('angle_zero'), cfg.effect('angle_span')
+    if span is not None:           # the transmitter's span, then its zero, as it reads
+        angle = angle * (1.0 + float(span['span_pct']) / 100.0)
+    if zero is not None:
+        angle = angle + np.radians(float(zero['offset_deg']))
+    exact['rudder_angle'] = angle
     exact['rudder_order'] = np.interp(ts['rudder'], plant_t, res.order)
-    offset = cfg.effect('pressure_offset')
+    offset, p_span, p_delay = cfg.effect('pressure_offset'), cfg.effect('pressure_span'), cfg.effect('pressure_delay')
     for name in PRESSURE_INPUTS:
-        value = np.interp(ts[name], plant_t, res.pressures[name])
+        late = float(p_delay['tau_s']) if p_delay is not None and p_delay['input'] == name else 0.0
+        value = np.interp(ts[name] - late, plant_t, res.pressures[name])
+        if p_span is not None and p_span['input'] == name:
+            value = value * (1.0 + float(p_span['span_pct']) / 100.0)
         if offset is not None and offset['input'] == name:
             value = value + float(offset['offset_bar']) * 1e5
         exact[name] = value

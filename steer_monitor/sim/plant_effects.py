@@ -41,6 +41,20 @@ angle_stuck           *a fault, not a model effect*: the rudder angle sensor sen
                       the last bit (a frozen sensor or gateway; the rudder itself moves
                       as ordered). The steering performance status names it, once an
                       order step finds the rudder standing (start_s = 0)
+angle_zero            *a sensor fault*: the rudder angle transmitter's zero is off: it
+                      reads offset_deg more to starboard than the rudder is, at every
+                      angle (offset_deg = 0.6; negative: to port)
+angle_span            *a sensor fault*: the transmitter's span is off: it reads the
+                      angle span_pct per cent too large (negative: too small), so the
+                      rudder's rate by as much (span_pct = 3.0)
+pressure_span         *a sensor fault*: one pressure transducer's span is off: it reads
+                      span_pct per cent high (negative: low), the error growing with the
+                      pressure (input = pressure_r1_stbd, span_pct = 4.0); its zero is
+                      pressure_offset
+pressure_delay        *a sensor fault*: one pressure transducer's readings reach the bus
+                      tau_s late (a slow converter or gateway stage): it reports
+                      p(t - tau) (input = pressure_r1_stbd, tau_s = 0.2); the angle's is
+                      angle_delay
 ===================== ================================================================
 
 Sizes may be negative: a plant that departs from the declared law the other way (friction
@@ -48,7 +62,8 @@ Sizes may be negative: a plant that departs from the declared law the other way 
 unphysical fit. Several effects may be given at once (each name once); they add as listed in the plant
 (:func:`~steer_monitor.sim.plant.simulate`): the friction terms, then temp_friction scales
 the friction, then pressure_friction and ram_inertia act on the ram force; angle_delay and
-pressure_offset act on the sensors.
+pressure_offset act on the sensors, as do the sensor faults (a transmitter or transducer
+reading otherwise than it should: the plant, and the gear's own follow-up, are untouched).
 """
 
 from __future__ import annotations
@@ -59,7 +74,7 @@ from dataclasses import dataclass, field
 
 from steer_monitor.errors import ParameterError
 
-__all__ = ['EFFECTS', 'FAULTS', 'OUTSIDE_LIBRARY', 'Effect', 'parse_effect', 'split_effects']
+__all__ = ['EFFECTS', 'FAULTS', 'OUTSIDE_LIBRARY', 'SENSOR_FAULTS', 'Effect', 'parse_effect', 'split_effects']
 
 EFFECTS: dict[str, dict[str, float | str]] = {
     'viscous': {'c_ns_per_m': 1.0e6},
@@ -72,6 +87,10 @@ EFFECTS: dict[str, dict[str, float | str]] = {
     'band_friction': {'f_n': 12e3, 'lo_deg': 12.0, 'hi_deg': 18.0},
     'ram_bypass': {'ram': 1.0, 'carries': 0.0, 'start_s': 0.0, 'end_s': 1e9},
     'angle_stuck': {'start_s': 0.0},
+    'angle_zero': {'offset_deg': 0.6},
+    'angle_span': {'span_pct': 3.0},
+    'pressure_span': {'input': 'pressure_r1_stbd', 'span_pct': 4.0},
+    'pressure_delay': {'input': 'pressure_r1_stbd', 'tau_s': 0.2},
 }
 
 # The ones the analysis library has no candidate for (a test of the "unexplained" verdict).
@@ -79,6 +98,9 @@ OUTSIDE_LIBRARY = ('band_friction',)
 # Faults of the gear rather than effects on its friction or sensors: not the residual loop's
 # to name (another status does).
 FAULTS = ('ram_bypass', 'angle_stuck')
+# A sensor that reads otherwise than it should (zero, span, lag): the plant is right, the
+# reading is not. The analysis library has no term of its own for these yet.
+SENSOR_FAULTS = ('angle_zero', 'angle_span', 'pressure_span', 'pressure_delay')
 
 _PRESSURES = ('pressure_r1_stbd', 'pressure_r1_port', 'pressure_r2_stbd', 'pressure_r2_port')
 
@@ -133,8 +155,17 @@ def parse_effect(text: str) -> Effect:
     if name == 'stribeck' and not float(params['v_s_mm_s']) > 0:
         msg = f'effect stribeck: v_s_mm_s must be more than 0, got {params["v_s_mm_s"]:g}'
         raise ParameterError(msg)
-    if name == 'pressure_offset' and params['input'] not in _PRESSURES:
-        msg = f'effect pressure_offset: input must be one of {", ".join(_PRESSURES)}, got {params["input"]!r}'
+    if name in ('pressure_offset', 'pressure_span', 'pressure_delay') and params['input'] not in _PRESSURES:
+        msg = f'effect {name}: input must be one of {", ".join(_PRESSURES)}, got {params["input"]!r}'
+        raise ParameterError(msg)
+    if name == 'pressure_delay' and not 0 <= float(params['tau_s']) <= 5:
+        msg = f'effect pressure_delay: tau_s must lie in 0..5 s, got {params["tau_s"]}'
+        raise ParameterError(msg)
+    if name in ('angle_span', 'pressure_span') and not -50 < float(params['span_pct']) < 100:
+        msg = f'effect {name}: span_pct must lie between -50 and 100 per cent, got {params["span_pct"]}'
+        raise ParameterError(msg)
+    if name == 'angle_zero' and not abs(float(params['offset_deg'])) <= 10:
+        msg = f'effect angle_zero: offset_deg must lie in -10..10 deg, got {params["offset_deg"]}'
         raise ParameterError(msg)
     if name == 'angle_delay' and not 0 <= float(params['tau_s']) <= 5:
         msg = f'effect angle_delay: tau_s must lie in 0..5 s, got {params["tau_s"]}'

@@ -415,7 +415,7 @@ def summarize_sensitivity(results: Sequence[CaseResult], clean: Sequence[CaseRes
     rows = []
     for spec, rs in groups.items():
         names = {_effect_name(e) for e in spec}
-        outside = names & set(sim.OUTSIDE_LIBRARY)
+        outside = names & (set(sim.OUTSIDE_LIBRARY) | set(sim.SENSOR_FAULTS))   # no term of the library's
         inside = names - outside
         fraction = None
         if len(spec) == 1 and not outside:

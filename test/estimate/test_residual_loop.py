@@ -26,7 +26,7 @@ def _bar(est) -> float:
 
 
 def test_every_library_effect_has_a_magnitude_and_the_simulator_has_them_all():
-    assert set(MAGNITUDE) | set(sim.OUTSIDE_LIBRARY) | set(sim.FAULTS) == set(sim.EFFECTS)
+    assert set(MAGNITUDE) | set(sim.OUTSIDE_LIBRARY) | set(sim.FAULTS) | set(sim.SENSOR_FAULTS) == set(sim.EFFECTS)
     assert scaled_effect('viscous', 0.2) == 'viscous:c_ns_per_m=200000'
 
 

@@ -190,8 +190,50 @@ def test_angle_stuck_sends_the_last_reading_on(r18_params, can_db):
     assert np.array_equal(with_e.plant.alpha, base.plant.alpha)         # the rudder itself moves on
 
 
+@pytest.mark.parametrize('effect', [
+    'angle_zero:offset_deg=-1.2', 'angle_span:span_pct=5', 'angle_zero:offset_deg=0.6,angle_span:span_pct=-2'])
+def test_an_angle_transmitter_reads_with_its_zero_and_span_the_rudder_untouched(r18_params, can_db, effect):
+    """The transmitter reads (1 + span) alpha + zero of the rudder's true angle; the order, the
+    pressures and the plant are as without it."""
+    effects = tuple(sim.parse_effect(e) for e in sim.split_effects(effect))
+    base = _run(r18_params, can_db, 'hard_over_2', seed=4, noise=False)
+    with_e = _run(r18_params, can_db, 'hard_over_2', seed=4, noise=False, effects=effects)
+    by = {e.name: e for e in effects}
+    span = float(by['angle_span']['span_pct']) / 100 if 'angle_span' in by else 0.0
+    zero = np.radians(float(by['angle_zero']['offset_deg'])) if 'angle_zero' in by else 0.0
+    np.testing.assert_allclose(with_e.sensors.exact['rudder_angle'],
+                               (1 + span) * base.sensors.exact['rudder_angle'] + zero, rtol=0, atol=1e-12)
+    assert np.array_equal(with_e.plant.alpha, base.plant.alpha)
+    for name in ('rudder_order', 'pressure_r1_stbd', 'pressure_r2_port'):
+        assert np.array_equal(with_e.sensors.exact[name], base.sensors.exact[name]), name
+
+
+@pytest.mark.parametrize('input_', ['pressure_r1_port', 'pressure_r2_stbd'])
+def test_a_transducer_reads_with_its_span_and_lag_the_others_untouched(r18_params, can_db, input_):
+    """One transducer's span scales its reading with the pressure (zero at zero gauge), its
+    lag reports the pressure tau_s before; every other input reads as without them."""
+    base = _run(r18_params, can_db, 'hard_over_2', seed=4, noise=False)
+    span = _run(r18_params, can_db, 'hard_over_2', seed=4, noise=False,
+                effects=(sim.parse_effect(f'pressure_span:input={input_},span_pct=-6'),))
+    np.testing.assert_allclose(span.sensors.exact[input_], 0.94 * base.sensors.exact[input_], rtol=1e-12, atol=0)
+    late = _run(r18_params, can_db, 'hard_over_2', seed=4, noise=False,
+                effects=(sim.parse_effect(f'pressure_delay:input={input_},tau_s=0.3'),))
+    t = (late.sensors.t_ns[input_] - late.plant.start_ns) / 1e9
+    expected = np.interp(t - 0.3, base.plant.t, base.plant.pressures[input_])
+    np.testing.assert_allclose(late.sensors.exact[input_], expected, rtol=1e-12, atol=0)
+    assert np.abs(late.sensors.exact[input_] - base.sensors.exact[input_]).max() > 1e5   # it does move
+    for run in (span, late):
+        for name in ('rudder_angle', 'pressure_r1_stbd', 'pressure_r2_port'):
+            if name != input_:
+                assert np.array_equal(run.sensors.exact[name], base.sensors.exact[name]), name
+
+
 @pytest.mark.parametrize('text,msg', [
     ('nonsense', "unknown effect 'nonsense'"),
+    ('pressure_span:input=rudder_angle', 'effect pressure_span: input must be one of'),
+    ('pressure_delay:tau_s=9', r'effect pressure_delay: tau_s must lie in 0..5 s, got 9'),
+    ('angle_span:span_pct=-60', 'effect angle_span: span_pct must lie between -50 and 100 per cent, got -60'),
+    ('angle_zero:offset_deg=12', r'effect angle_zero: offset_deg must lie in -10..10 deg, got 12'),
     ('ram_bypass:ram=3', 'effect ram_bypass: need ram 1 or 2, 0 <= carries <= 2 and start_s < end_s, got ram 3'),
     ('ram_bypass:carries=-0.1', 'effect ram_bypass: need .* got ram 1, carries -0.1'),
     ('ram_bypass:start_s=50,end_s=10', 'effect ram_bypass: need .* start_s 50 and end_s 10'),
