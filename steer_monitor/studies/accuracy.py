@@ -90,8 +90,9 @@ LONG_CLEAN_PER_SEED = 4     # clean hour-long logs per seed of the effects
 # the parameter that sets each library effect's size, scaled by the sensitivity fractions
 MAGNITUDE = {'viscous': 'c_ns_per_m', 'angle_delay': 'tau_s', 'pressure_offset': 'offset_bar',
              'temp_friction': 'k_per_k', 'pressure_friction': 'k', 'stribeck': 'f_st_n', 'ram_inertia': 'mass_kg'}
-# ... and of the effects outside the library (set to 0 in a case's clean twin)
-SIZE = {**MAGNITUDE, 'band_friction': 'f_n'}
+# ... and of the effects outside the library and the sensor faults (set to 0 in a case's clean twin)
+SIZE = {**MAGNITUDE, 'band_friction': 'f_n', 'angle_zero': 'offset_deg', 'angle_span': 'span_pct',
+        'pressure_span': 'span_pct', 'pressure_delay': 'tau_s'}
 FRACTIONS = (0.2, 0.5, 1.0)
 PAIRS = (('viscous', 'pressure_offset'), ('angle_delay', 'temp_friction'),
          ('pressure_friction:k=0.006', 'viscous:c_ns_per_m=2e5'))

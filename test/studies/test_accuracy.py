@@ -107,6 +107,16 @@ def test_the_study_runs_the_realistic_voyages_and_reports_the_systematic_part():
     assert set(summary) == {'realistic', 'voyage', 'all'}
 
 
+def test_every_effect_of_the_simulator_has_a_size_its_clean_twin_sets_to_nothing():
+    """A study of any effect makes its clean twin (the same seed, the effect at size 0): the
+    faults of the gear aside, every effect says which parameter is its size, and at 0 it is none."""
+    from steer_monitor import sim
+    from steer_monitor.studies.accuracy import SIZE
+    assert set(SIZE) == set(sim.EFFECTS) - set(sim.FAULTS)
+    for name, key in SIZE.items():
+        assert key in sim.EFFECTS[name], name
+
+
 def test_sensitivity_cases_cover_every_library_effect_pairs_and_the_outside_one():
     cs = A.sensitivity_cases(seeds=2)
     specs = {c.effects for c in cs}
