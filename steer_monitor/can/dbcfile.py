@@ -7,7 +7,8 @@ What the codec reads of a DBC is small and fixed by the format: each message (``
 its identifier, name and length, each of its signals (``SG_``) with its bit position, size,
 byte order, signedness, scale, offset and unit; and which signals are IEEE floats
 (``SIG_VALTYPE_``) or multiplexed (``M``/``m<n>``), which the codec refuses. Everything else
-(comments, attributes, value tables, nodes) is passed over. cantools stays the oracle: the
+(comments, attributes, value tables, nodes, Vector's message of independent signals) is passed
+over. cantools stays the oracle: the
 tests read the packaged DBC and generated ones with both and compare every field, and
 compare the codec's decoding of random payloads with cantools' own.
 """
@@ -20,7 +21,11 @@ from pathlib import Path
 
 from steer_monitor.errors import SteerMonitorError
 
-__all__ = ['DbcError', 'DbcMessage', 'DbcSignal', 'parse_dbc', 'read_dbc']
+__all__ = ['INDEPENDENT_SIGNALS', 'DbcError', 'DbcMessage', 'DbcSignal', 'parse_dbc', 'read_dbc']
+
+#: the pseudo-message Vector's tools keep signals of no message in: not a frame (cantools
+#: passes it over too)
+INDEPENDENT_SIGNALS = 'VECTOR__INDEPENDENT_SIG_MSG'
 
 
 class DbcError(SteerMonitorError):
@@ -135,6 +140,8 @@ def parse_dbc(text: str, source: str = 'DBC') -> list[DbcMessage]:
         raise DbcError(msg)
     out = []
     for raw_id, name, length, extended, signals in messages:
+        if name == INDEPENDENT_SIGNALS:
+            continue
         sigs = tuple(DbcSignal(**{**s.__dict__, 'is_float': floats.get((raw_id, s.name), False)}) for s in signals)
         out.append(DbcMessage(raw_id & 0x1FFFFFFF if extended else raw_id, name, length, extended, sigs))
     return out

@@ -180,3 +180,16 @@ def test_a_dbc_cantools_writes_reads_as_cantools_reads_it(database):
     from steer_monitor.can.dbcfile import parse_dbc
     text = database.as_dbc_string()
     assert _fields(parse_dbc(text)) == _fields(cantools.database.load_string(text, database_format='dbc').messages)
+
+
+def test_the_message_of_independent_signals_is_no_message():
+    """Vector's tools keep signals of no message in a pseudo-message; it is no frame, for cantools
+    as for the reader."""
+    import cantools
+
+    from steer_monitor.can.dbcfile import parse_dbc
+    text = (DBC.read_text() + '\nBO_ 3221225472 VECTOR__INDEPENDENT_SIG_MSG: 0 Vector__XXX\n'
+            ' SG_ Spare : 0|8@1+ (1,0) [0|0] "" Vector__XXX\n')
+    ours = parse_dbc(text)
+    assert [m.name for m in ours] == ['Rudder', 'ActualPressure', 'SpeedWaterReferenced', 'TemperatureExtendedRange']
+    assert _fields(ours) == _fields(cantools.database.load_string(text, database_format='dbc').messages)
