@@ -30,9 +30,9 @@ from steer_monitor.estimate.observe import MOVING_RATE
 from steer_monitor.model.hardover import HARD_OVER_FROM_DEG, HARD_OVER_TO_DEG
 from steer_monitor.monitor.steady import SLOPE_WINDOW_NS
 
-__all__ = ['HARD_OVER_DEG', 'MOVING_RATE', 'NO_RESPONSE_ERR', 'NO_RESPONSE_NS', 'ORDER_STEP', 'OTHER_SIDE_DEG',
-           'REVERSAL_NS', 'REVERSAL_TURN_NS', 'TRACKED_FROM_DEG', 'HardOver', 'HardOverTracker', 'Response',
-           'ResponseTracker', 'SteeringPerformance', 'hard_over_words', 'solas_judgement']
+__all__ = ['DIRECTION_DEADBAND', 'HARD_OVER_DEG', 'MOVING_RATE', 'NO_RESPONSE_ERR', 'NO_RESPONSE_NS', 'ORDER_STEP',
+           'OTHER_SIDE_DEG', 'REVERSAL_NS', 'REVERSAL_TURN_NS', 'TRACKED_FROM_DEG', 'HardOver', 'HardOverTracker',
+           'Response', 'ResponseTracker', 'SteeringPerformance', 'hard_over_words', 'solas_judgement']
 
 DEG = math.pi / 180.0
 HARD_OVER_DEG = HARD_OVER_FROM_DEG   # "at 35 deg", allowing for sensor noise and the valve dead band
@@ -52,6 +52,11 @@ REVERSAL_NS = SLOPE_WINDOW_NS + REVERSAL_TURN_NS
 NO_RESPONSE_NS = 5_000_000_000
 NO_RESPONSE_ERR = 1.0 * DEG
 SETTLED_NS = 2_000_000_000     # the accuracy is read once the rudder stands this long after the step
+#: an order nearer than this to where the monitor's transmitter reads the rudder says no way for
+#: it to move: the gear stops where its own follow-up unit says, and the two units' zeros may
+#: disagree by this much (0.2-1.5 deg in service). Nearer, a rudder reading 1.7 deg that the gear
+#: moves from 0.2 to an order of 1.1 deg would read as moving against it
+DIRECTION_DEADBAND = 1.5 * DEG
 
 
 @dataclass(frozen=True)
@@ -218,7 +223,7 @@ class ResponseTracker:
             r.stalled_s = r.stalled_at = None
         if r.direction_ok is None and moving:
             start = alpha if r.from_alpha is None else r.from_alpha
-            wanted = math.copysign(1.0, r.order - start) if abs(r.order - start) > 0.2 * DEG else 0.0
+            wanted = math.copysign(1.0, r.order - start) if abs(r.order - start) > DIRECTION_DEADBAND else 0.0
             ok = wanted == 0.0 or math.copysign(1.0, rate) == wanted
             if not ok and t_ns - r.t_step_ns < span_ns + REVERSAL_TURN_NS:
                 return        # still stopping and turning from before the order: judged later

@@ -257,3 +257,24 @@ def test_a_frozen_sensor_after_lost_frames_is_still_found():
         responses.order(int(t * S) + 1, math.radians(order))
     r = responses.response
     assert r.t_step_ns == 8 * S + 1 and r.stalled_s == pytest.approx(6.0, abs=1e-6)
+
+
+def test_an_order_within_the_transmitters_zero_error_says_no_way_to_move():
+    """The monitor's transmitter reads 1.5 deg more than the gear's own unit (a zero error): the
+    rudder stands at 0.2 deg reading 1.7, the order steps to 1.4 and the gear moves it up: no
+    fault (it would read as against the order); an order beyond the dead band still judged."""
+    from steer_monitor.monitor.performance import DIRECTION_DEADBAND
+    zero = math.radians(1.5)
+    responses = ResponseTracker()
+    responses.order(0, math.radians(0.2))
+    responses.angle(S // 2, math.radians(0.2) + zero, 0.0)
+    responses.order(S, math.radians(1.4))
+    responses.angle(S + 1_500_000_000, math.radians(0.5) + zero, math.radians(1.0))
+    assert responses.response.direction_ok is True
+    assert DIRECTION_DEADBAND == pytest.approx(zero)
+    far = ResponseTracker()
+    far.order(0, math.radians(0.2))
+    far.angle(S // 2, math.radians(0.2) + zero, 0.0)
+    far.order(S, math.radians(-3.0))       # 4.9 deg below the reading: the way is clear
+    far.angle(S + 1_500_000_000, math.radians(0.5) + zero, math.radians(1.0))
+    assert far.response.direction_ok is False
