@@ -569,3 +569,26 @@ def test_clearances_of_a_model_that_does_not_explain_the_data_are_not_assessed(b
     assert health.level == WARN and health.value('analysis_verdict') == 'unexplained'
     mon.set_finding(_finding(Interval(0.4 * MM, 0.3 * MM, 0.5 * MM), Interval(0.3 * MM, 0.28 * MM, 0.32 * MM)))
     assert builder.clearances(mon).level == ERROR and builder.model_health(mon).level == OK
+
+
+@pytest.mark.slow
+def test_a_transmitters_zero_error_is_no_rudder_moving_against_its_order(r18_params, can_db):
+    """A realistic voyage whose angle transmitter reads 1.5 deg to starboard (seed 93006, where
+    it was found: 59 s of ERROR 'against the order' before the dead band): the steering
+    performance never says the rudder moved against the order."""
+    db, smap = can_db
+    gear = gear_from_params(r18_params)
+    s = sim.run(r18_params, sim.SimConfig(program='realistic:1500', gaps=Clearances.from_mm(0.3, 0.15),
+                                          effects=(sim.parse_effect('angle_zero:offset_deg=1.5'),)), db, smap, 93006)
+    rejects = RejectCounter()
+    mon = LiveMonitor(gear, gaps_from_params(r18_params), 'configured', friction_from_params(r18_params))
+    p = Pipeline(Decoder(db, smap, rejects), rejects, mon,
+                 DiagnosticsBuilder(DiagnosticsConfig.from_params(r18_params), smap, gear))
+    judged = against = 0
+    for f in s.frames.frames():
+        for o in p.feed(f):
+            if isinstance(o, DiagOut):
+                st = next(st for st in o.statuses if st.name.endswith('steering performance'))
+                judged += st.value('response_direction_ok') == 'true'
+                against += 'AGAINST' in st.message
+    assert against == 0 and judged > 0
