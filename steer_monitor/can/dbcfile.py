@@ -16,9 +16,10 @@ compare the codec's decoding of random payloads with cantools' own.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
+from steer_monitor.atomic import os_reason
 from steer_monitor.errors import SteerMonitorError
 
 __all__ = ['INDEPENDENT_SIGNALS', 'DbcError', 'DbcMessage', 'DbcSignal', 'parse_dbc', 'read_dbc']
@@ -130,8 +131,8 @@ def parse_dbc(text: str, source: str = 'DBC') -> list[DbcMessage]:
                 floats[(int(m.group(1)), m.group(2))] = m.group(3) in ('1', '2')
         elif word in ('CM_', 'BA_', 'BA_DEF_', 'BA_DEF_DEF_', 'VAL_', 'VAL_TABLE_', 'BO_TX_BU_', 'SG_MUL_VAL_',
                       'SIG_GROUP_', 'EV_', 'ENVVAR_DATA_', 'SGTYPE_', 'SIG_TYPE_REF_', 'BA_DEF_REL_', 'BA_REL_',
-                      'BA_DEF_DEF_REL_', 'BU_SG_REL_', 'BU_EV_REL_', 'BU_BO_REL_', 'CAT_DEF_', 'CAT_', 'FILTER',
-                      'SIG_VALTYPE_') and not stripped.endswith(';'):
+                      'BA_DEF_DEF_REL_', 'BU_SG_REL_', 'BU_EV_REL_', 'BU_BO_REL_', 'CAT_DEF_', 'CAT_',
+                      'FILTER') and not stripped.endswith(';'):
             continuing = True
         elif word == 'NS_':
             symbols = True
@@ -142,7 +143,7 @@ def parse_dbc(text: str, source: str = 'DBC') -> list[DbcMessage]:
     for raw_id, name, length, extended, signals in messages:
         if name == INDEPENDENT_SIGNALS:
             continue
-        sigs = tuple(DbcSignal(**{**s.__dict__, 'is_float': floats.get((raw_id, s.name), False)}) for s in signals)
+        sigs = tuple(replace(s, is_float=floats.get((raw_id, s.name), False)) for s in signals)
         out.append(DbcMessage(raw_id & 0x1FFFFFFF if extended else raw_id, name, length, extended, sigs))
     return out
 
@@ -171,7 +172,7 @@ def read_dbc(path: str | Path) -> list[DbcMessage]:
         msg = f'cannot read DBC file {path}: no such file'
         raise DbcError(msg) from exc
     except OSError as exc:
-        msg = f'cannot read DBC file {path}: {exc.strerror or exc}'
+        msg = f'cannot read DBC file {path}: {os_reason(exc)}'
         raise DbcError(msg) from exc
     try:
         text = data.decode('utf-8')

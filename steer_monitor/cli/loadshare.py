@@ -10,8 +10,7 @@ from typing import TextIO
 from steer_monitor.cli.options import add_config_option, add_force_option, add_json_option
 from steer_monitor.cli.output import check_json_target, emit_json, json_to_stdout, table, text_stream
 from steer_monitor.model.loadshare import case_words
-from steer_monitor.params import gear_from_params, given_gaps, load_params_file
-from steer_monitor.resources import default_config
+from steer_monitor.params import gear_from_params, given_gaps, load_config
 from steer_monitor.studies.tables import loadshare_rows
 
 __all__ = ['register', 'run']
@@ -23,7 +22,7 @@ def run(config: str | Path | None = None, gap_2z_mm: float | None = None,
     out = out or sys.stdout
     out = text_stream([json_out, plot], out, sys.stderr)
     check_json_target(json_out, [config, plot])
-    params = load_params_file(config or default_config(), getattr(config, 'node', None))
+    _, params = load_config(config)
     gear = gear_from_params(params)
     gaps = given_gaps(params, gap_2z_mm, gap_zgb_mm)
     s, (alpha, res, marks) = loadshare_rows(gear, gaps, speed_kn, step_deg)

@@ -13,7 +13,6 @@ from steer_monitor import __version__
 from steer_monitor.atomic import command_scope
 from steer_monitor.compiled import interpreted_note
 from steer_monitor.errors import SteerMonitorError
-from steer_monitor.params import ParamsFile
 from steer_monitor.runtime import single_blas_thread
 
 __all__ = ['Terminated', 'build_parser', 'main']
@@ -73,6 +72,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if getattr(args, 'node', None) is not None:
         if not args.config:
             parser.error('--node NAME names an entry of the file --config gives')
+        from steer_monitor.params import ParamsFile  # here: numpy and the model load with it
         args.config = ParamsFile(args.config, args.node)
     single_blas_thread()
     where = f'steer-monitor {args.command}'

@@ -23,7 +23,7 @@ from steer_monitor.cli.output import dump_json, table
 from steer_monitor.model.gear import Clearances
 from steer_monitor.model.landmarks import gap_sensitivity
 from steer_monitor.model.loadshare import case_words
-from steer_monitor.params import gear_from_params, load_params_file
+from steer_monitor.params import gear_from_params, load_config
 from steer_monitor.resources import default_config
 from steer_monitor.studies.chain import backlash_summary, write_backlash
 from steer_monitor.studies.plots import gap_sensitivity_png, load_sharing_png
@@ -40,7 +40,7 @@ def run(out_dir: str | Path = 'out', config: str | Path | None = None,
         out: TextIO | None = None) -> int:
     out = out or sys.stdout
     out_dir = ensure_dir(out_dir)
-    params = load_params_file(config or default_config(), getattr(config, 'node', None))
+    _, params = load_config(config)
     gear = gear_from_params(params)
     summary: dict[str, Any] = {'gear': params['gear.name']}
 
